@@ -1,0 +1,6 @@
+//! caoen: Cao En surfaces (a two-layer network mapping a sphere onto a freeform
+//! surface), their renderers, and an image codec and texture tools built on them.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod surface;

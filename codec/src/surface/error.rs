@@ -1,0 +1,67 @@
+//! Errors of the surface core, carrying the offending values.
+
+use thiserror::Error;
+
+/// What went wrong when building, loading or evaluating a surface model.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SurfaceError {
+    /// A model with no key points has no surface.
+    #[error("empty model: a network needs at least one key point")]
+    Empty,
+    /// A vector has the wrong length for its role.
+    #[error("{what}: expected {expected} components, got {got}")]
+    Dimension {
+        /// Which vector.
+        what: String,
+        /// Length it must have.
+        expected: usize,
+        /// Length it has.
+        got: usize,
+    },
+    /// A value that must be finite is NaN or infinite.
+    #[error("{what} is not finite ({value})")]
+    NonFinite {
+        /// Which value.
+        what: String,
+        /// The offending value.
+        value: f64,
+    },
+    /// A parameter is outside its valid range.
+    #[error("{what} = {value}: {reason}")]
+    Parameter {
+        /// Which parameter.
+        what: String,
+        /// The offending value.
+        value: f64,
+        /// What the valid range is.
+        reason: &'static str,
+    },
+    /// A surface description file could not be read or is malformed.
+    #[error("surface file: {0}")]
+    File(String),
+}
+
+/// Result alias of the surface core.
+pub type Result<T, E = SurfaceError> = std::result::Result<T, E>;
+
+pub(crate) fn check_finite(what: impl FnOnce() -> String, values: &[f64]) -> Result<()> {
+    match values.iter().find(|v| !v.is_finite()) {
+        Some(&value) => Err(SurfaceError::NonFinite {
+            what: what(),
+            value,
+        }),
+        None => Ok(()),
+    }
+}
+
+pub(crate) fn check_len(what: impl FnOnce() -> String, expected: usize, got: usize) -> Result<()> {
+    if expected == got {
+        Ok(())
+    } else {
+        Err(SurfaceError::Dimension {
+            what: what(),
+            expected,
+            got,
+        })
+    }
+}

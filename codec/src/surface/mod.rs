@@ -1,0 +1,22 @@
+//! The Cao En surface core: the network, its blending functions, domains, exact and
+//! interpolated normals, projections, the implicit form for convex solids, morphing,
+//! and the surface description file.
+
+pub mod blend;
+pub mod domain;
+pub mod error;
+pub mod gallery;
+pub mod implicit;
+pub mod model_file;
+pub mod morph;
+pub mod network;
+pub mod normals;
+pub mod projection;
+mod support_index;
+
+pub use blend::Blend;
+pub use domain::{Domain, ParamGrid};
+pub use error::SurfaceError;
+pub use implicit::{ConvexSolid, Plane};
+pub use model_file::SurfaceModel;
+pub use network::{KeyPoint, Network};

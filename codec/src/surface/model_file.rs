@@ -1,0 +1,209 @@
+//! The surface description file: a model (domain, blending, key points) as JSON.
+//!
+//! The format is specified in `docs/surface-format.md`. Loading checks every field
+//! and names the offending one in its error (`key_points[3].q: ...`).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::blend::Blend;
+use super::domain::Domain;
+use super::error::{Result, SurfaceError};
+use super::network::{KeyPoint, Network};
+
+/// The format tag every surface file starts with.
+pub const FORMAT_TAG: &str = "caoen-surface/1";
+
+/// A surface model: a network over a domain.
+#[derive(Debug, Clone)]
+pub struct SurfaceModel {
+    /// Free-form name.
+    pub name: String,
+    /// The domain the network's input lives on.
+    pub domain: Domain,
+    /// The network.
+    pub network: Network,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileKeyPoint {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    source: Option<Vec<f64>>,
+    /// Domain parameters instead of a source vector (angles in radians, or a ball point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    param: Option<Vec<f64>>,
+    shape: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    blend: Option<Blend>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    q: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    weight: Option<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileModel {
+    format: String,
+    #[serde(default)]
+    name: String,
+    domain: Domain,
+    #[serde(default)]
+    normalised: bool,
+    /// Blending function of key points that do not name one.
+    #[serde(default = "default_blend")]
+    blend: Blend,
+    /// Sharpness of key points that do not give one.
+    #[serde(default = "default_q")]
+    q: f64,
+    key_points: Vec<FileKeyPoint>,
+}
+
+fn default_blend() -> Blend {
+    Blend::Exponential
+}
+
+fn default_q() -> f64 {
+    4.0
+}
+
+impl SurfaceModel {
+    /// Builds a model, checking the network against the domain.
+    pub fn new(name: impl Into<String>, domain: Domain, network: Network) -> Result<Self> {
+        domain.validate()?;
+        super::error::check_len(
+            || "network input dimension vs domain".into(),
+            domain.ambient_dim(),
+            network.input_dim(),
+        )?;
+        Ok(SurfaceModel {
+            name: name.into(),
+            domain,
+            network,
+        })
+    }
+
+    /// Parses a model from JSON text.
+    pub fn from_json(text: &str) -> Result<Self> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let file: FileModel = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            SurfaceError::File(if path == "." {
+                e.inner().to_string()
+            } else {
+                format!("{path}: {}", e.inner())
+            })
+        })?;
+        if file.format != FORMAT_TAG {
+            return Err(SurfaceError::File(format!(
+                "format: expected \"{FORMAT_TAG}\", found \"{}\"",
+                file.format
+            )));
+        }
+        file.domain
+            .validate()
+            .map_err(|e| SurfaceError::File(e.to_string()))?;
+        let domain = file.domain;
+        let mut kps = Vec::with_capacity(file.key_points.len());
+        let mut p = None;
+        for (i, k) in file.key_points.into_iter().enumerate() {
+            let field = |what: &str, msg: String| {
+                SurfaceError::File(format!("key_points[{i}].{what}: {msg}"))
+            };
+            let source = match (k.source, k.param) {
+                (Some(s), None) => s,
+                (None, Some(a)) => domain
+                    .point(&a)
+                    .map_err(|e| field("param", e.to_string()))?,
+                _ => {
+                    return Err(field(
+                        "source",
+                        "give exactly one of `source` or `param`".into(),
+                    ))
+                }
+            };
+            if source.len() != domain.ambient_dim() {
+                return Err(field(
+                    "source",
+                    format!(
+                        "expected {} components for domain {:?}, got {}",
+                        domain.ambient_dim(),
+                        domain,
+                        source.len()
+                    ),
+                ));
+            }
+            let pk = *p.get_or_insert(k.shape.len());
+            if k.shape.len() != pk {
+                return Err(field(
+                    "shape",
+                    format!(
+                        "expected {pk} components like key_points[0], got {}",
+                        k.shape.len()
+                    ),
+                ));
+            }
+            kps.push(KeyPoint {
+                source,
+                shape: k.shape,
+                blend: k.blend.unwrap_or(file.blend),
+                q: k.q.unwrap_or(file.q),
+                weight: k.weight.unwrap_or(1.0),
+            });
+        }
+        let p = p.ok_or_else(|| {
+            SurfaceError::File("key_points: empty model, need at least one key point".into())
+        })?;
+        let network = Network::new(domain.ambient_dim(), p, &kps, file.normalised)
+            .map_err(|e| SurfaceError::File(e.to_string()))?;
+        Ok(SurfaceModel {
+            name: file.name,
+            domain,
+            network,
+        })
+    }
+
+    /// Serialises the model as pretty JSON (every key point explicit).
+    pub fn to_json(&self) -> String {
+        let net = &self.network;
+        let file = FileModel {
+            format: FORMAT_TAG.into(),
+            name: self.name.clone(),
+            domain: self.domain,
+            normalised: net.is_normalised(),
+            blend: default_blend(),
+            q: default_q(),
+            key_points: net
+                .key_points()
+                .into_iter()
+                .map(|k| FileKeyPoint {
+                    source: Some(k.source),
+                    param: None,
+                    shape: k.shape,
+                    blend: Some(k.blend),
+                    q: Some(k.q),
+                    weight: (k.weight != 1.0).then_some(k.weight),
+                })
+                .collect(),
+        };
+        serde_json::to_string_pretty(&file).expect("a model of finite numbers always serialises")
+    }
+
+    /// Loads a model from a file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())))?;
+        Self::from_json(&text).map_err(|e| match e {
+            SurfaceError::File(msg) => SurfaceError::File(format!("{}: {msg}", path.display())),
+            other => other,
+        })
+    }
+
+    /// Saves the model to a file.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, self.to_json() + "\n")
+            .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())))
+    }
+}

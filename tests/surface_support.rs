@@ -1,0 +1,127 @@
+//! Compact-support evaluation through the spatial index equals brute force, and batch
+//! evaluation is independent of the thread count.
+
+use caoen::surface::{Blend, Domain, KeyPoint, Network};
+use proptest::prelude::*;
+
+/// Deterministic pseudo-random numbers (SplitMix64) for large fixed test models.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn unit(&mut self, m: usize) -> Vec<f64> {
+        loop {
+            let v: Vec<f64> = (0..m).map(|_| 2.0 * self.next() - 1.0).collect();
+            let n = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if n > 0.1 && n <= 1.0 {
+                return v.into_iter().map(|a| a / n).collect();
+            }
+        }
+    }
+}
+
+fn random_model(
+    rng: &mut Rng,
+    m: usize,
+    p: usize,
+    n: usize,
+    q_lo: f64,
+    q_hi: f64,
+    mixed: bool,
+) -> Network {
+    let kps: Vec<KeyPoint> = (0..n)
+        .map(|i| {
+            let blend = if mixed && i % 7 == 0 {
+                Blend::Exponential
+            } else {
+                Blend::Compact
+            };
+            let q = q_lo + (q_hi - q_lo) * rng.next();
+            KeyPoint::new(rng.unit(m), (0..p).map(|_| rng.next()).collect(), blend, q)
+        })
+        .collect();
+    Network::new(m, p, &kps, true).unwrap()
+}
+
+fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn indexed_evaluation_equals_brute_force(seed in any::<u64>(), m in 2usize..=6, p in 1usize..=6,
+                                            n in 1usize..400, mixed in any::<bool>(), ordered in any::<bool>()) {
+        let mut rng = Rng(seed);
+        let net = random_model(&mut rng, m, p, n, 4.0, 400.0, mixed);
+        prop_assert!(net.uses_support_index());
+        // Either spatially coherent (a walk with small steps) or random order.
+        let mut xs = Vec::new();
+        let mut x = rng.unit(m);
+        for _ in 0..300 {
+            if ordered {
+                let step: Vec<f64> = (0..m).map(|_| 0.05 * (rng.next() - 0.5)).collect();
+                let v: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a + b).collect();
+                let nrm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+                x = v.into_iter().map(|a| a / nrm).collect();
+            } else {
+                x = rng.unit(m);
+            }
+            xs.extend_from_slice(&x);
+        }
+        let batch = net.eval_batch(&xs).unwrap();
+        for (j, x) in xs.chunks_exact(m).enumerate() {
+            let brute = net.eval_brute_force(x).unwrap();
+            let single = net.eval(x).unwrap();
+            prop_assert!(max_abs_diff(&brute, &single) <= 1e-12, "single {:?} vs {:?}", single, brute);
+            prop_assert!(max_abs_diff(&brute, &batch[j * p..(j + 1) * p]) <= 1e-12);
+        }
+    }
+}
+
+#[test]
+fn off_sphere_inputs_and_sources_are_still_exact() {
+    // The index must stay a superset for points and sources of any length.
+    let mut rng = Rng(7);
+    let kps: Vec<KeyPoint> = (0..300)
+        .map(|_| {
+            let s = 0.5 + rng.next();
+            let w: Vec<f64> = rng.unit(3).into_iter().map(|a| a * s).collect();
+            KeyPoint::new(w, vec![rng.next()], Blend::Compact, 5.0 + 50.0 * rng.next())
+        })
+        .collect();
+    let net = Network::new(3, 1, &kps, false).unwrap();
+    let xs: Vec<f64> = (0..3000).map(|_| 3.0 * (rng.next() - 0.5)).collect();
+    let batch = net.eval_batch(&xs).unwrap();
+    for (j, x) in xs.chunks_exact(3).enumerate() {
+        let brute = net.eval_brute_force(x).unwrap();
+        assert!(
+            (brute[0] - batch[j]).abs() <= 1e-12 * brute[0].abs().max(1.0),
+            "{x:?}"
+        );
+    }
+}
+
+#[test]
+fn batch_output_is_identical_for_one_and_two_threads() {
+    let mut rng = Rng(11);
+    let net = random_model(&mut rng, 3, 5, 5000, 300.0, 3000.0, false);
+    let grid = Domain::SPHERE.grid(300, 200).unwrap();
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| net.eval_batch(&grid.points).unwrap())
+    };
+    let (a, b) = (run(1), run(2));
+    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+}
