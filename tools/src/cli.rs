@@ -1,0 +1,129 @@
+//! Argument definitions (clap).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// caoen: Cao En surfaces, an image codec built on them, and texture tools.
+#[derive(Debug, Parser)]
+#[command(name = "caoen", version, about, propagate_version = true)]
+pub struct Cli {
+    /// Options shared by every command.
+    #[command(flatten)]
+    pub global: GlobalArgs,
+    /// The command to run.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Options shared by every command.
+#[derive(Debug, Args, Clone)]
+pub struct GlobalArgs {
+    /// No progress or informational messages on stderr.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// Worker threads (default: all cores). Output never depends on it.
+    #[arg(short = 'j', long, global = true, value_parser = clap::value_parser!(u16).range(1..=256))]
+    pub threads: Option<u16>,
+}
+
+/// Top-level commands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the main job on built-in data, no input files needed.
+    Demo(DemoArgs),
+    /// Cao En surface models: inspect, evaluate, mesh.
+    #[command(subcommand)]
+    Surface(SurfaceCommand),
+}
+
+/// `caoen demo`.
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Directory to write into.
+    #[arg(short, long, default_value = "caoen-demo")]
+    pub out_dir: PathBuf,
+}
+
+/// `caoen surface ...`.
+#[derive(Debug, Subcommand)]
+pub enum SurfaceCommand {
+    /// Describe a model: domain, dimensions, blending, key points.
+    Info(SurfaceInfoArgs),
+    /// Evaluate a model at points, domain parameters or a grid.
+    Eval(SurfaceEvalArgs),
+    /// Tessellate a model and write a mesh (OBJ or PLY by extension).
+    Mesh(SurfaceMeshArgs),
+    /// Write a model (e.g. a built-in one) as a surface file.
+    Export(SurfaceExportArgs),
+}
+
+/// `caoen surface info`.
+#[derive(Debug, Args)]
+pub struct SurfaceInfoArgs {
+    /// Surface file (JSON, see docs/surface-format.md) or builtin:NAME (six-point, octahedron, blob, ring).
+    pub model: String,
+    /// Print JSON on stdout instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `caoen surface eval`.
+#[derive(Debug, Args)]
+pub struct SurfaceEvalArgs {
+    /// Surface file (JSON, see docs/surface-format.md) or builtin:NAME (six-point, octahedron, blob, ring).
+    pub model: String,
+    /// Domain point(s) as comma-separated coordinates (repeatable).
+    #[arg(long, value_name = "X,Y,..", allow_hyphen_values = true)]
+    pub at: Vec<String>,
+    /// Domain parameters (angles in radians; a ball point for the ball), repeatable.
+    #[arg(long, value_name = "A,B,..", allow_hyphen_values = true)]
+    pub param: Vec<String>,
+    /// A parameter grid COLSxROWS over the whole domain.
+    #[arg(long, value_name = "COLSxROWS")]
+    pub grid: Option<String>,
+    /// Also print the Jacobian dy/dx (p x m, row-major).
+    #[arg(long)]
+    pub jacobian: bool,
+    /// Also print the exact unit normal (3-D surfaces on 2-parameter domains).
+    #[arg(long)]
+    pub normal: bool,
+    /// Print JSON instead of whitespace-separated columns.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Normal computation for meshes.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum NormalsArg {
+    /// Exact, from the Jacobian.
+    Exact,
+    /// Interpolated by a second network from the key points' exact normals.
+    Interpolated,
+}
+
+/// `caoen surface mesh`.
+#[derive(Debug, Args)]
+pub struct SurfaceMeshArgs {
+    /// Surface file (JSON, see docs/surface-format.md) or builtin:NAME (six-point, octahedron, blob, ring).
+    pub model: String,
+    /// Output file: .obj or .ply.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Tessellation level (sphere: icosahedron subdivisions, 20*4^N triangles).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=9))]
+    pub detail: u32,
+    /// How vertex normals are computed.
+    #[arg(long, value_enum, default_value_t = NormalsArg::Exact)]
+    pub normals: NormalsArg,
+}
+
+/// `caoen surface export`.
+#[derive(Debug, Args)]
+pub struct SurfaceExportArgs {
+    /// Surface file (JSON, see docs/surface-format.md) or builtin:NAME (six-point, octahedron, blob, ring).
+    pub model: String,
+    /// Output surface file (`-` for stdout).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}

@@ -1,0 +1,31 @@
+//! Command implementations, one module per command group.
+
+pub mod demo;
+pub mod surface;
+
+use crate::cli::{Cli, Command};
+use crate::failure::{CliError, CliResult};
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> CliResult {
+    let global = cli.global.clone();
+    let job = move || match cli.command {
+        Command::Demo(args) => demo::run(&global, &args),
+        Command::Surface(cmd) => surface::run(&global, cmd),
+    };
+    match cli.global.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build()
+            .map_err(|e| CliError::Failed(format!("thread pool: {e}")))?
+            .install(job),
+        None => job(),
+    }
+}
+
+/// Prints an informational line on stderr unless quiet.
+pub(crate) fn note(global: &crate::cli::GlobalArgs, msg: impl std::fmt::Display) {
+    if !global.quiet {
+        eprintln!("{msg}");
+    }
+}

@@ -1,0 +1,225 @@
+//! `caoen surface info|eval|mesh|export`.
+
+use std::path::Path;
+
+use caoen::render::mesh::{tessellate, NormalMode};
+use caoen::render::mesh_io::{write_obj, write_ply};
+use caoen::surface::normals::exact_normal;
+use caoen::surface::{gallery, SurfaceModel};
+use serde_json::json;
+
+use crate::cli::{GlobalArgs, NormalsArg, SurfaceCommand, SurfaceEvalArgs, SurfaceMeshArgs};
+use crate::commands::note;
+use crate::failure::{CliError, CliResult};
+use crate::output::{write_file, Target};
+
+/// Loads a model from a file or `builtin:NAME`.
+pub fn load_model(spec: &str) -> CliResult<SurfaceModel> {
+    if let Some(name) = spec.strip_prefix("builtin:") {
+        return gallery::by_name(name)
+            .ok_or_else(|| {
+                CliError::Usage(format!(
+                    "unknown built-in model `{name}`; known: {}",
+                    gallery::NAMES.join(", ")
+                ))
+            })?
+            .map_err(Into::into);
+    }
+    Ok(SurfaceModel::load(Path::new(spec))?)
+}
+
+/// Runs a surface subcommand.
+pub fn run(global: &GlobalArgs, cmd: SurfaceCommand) -> CliResult {
+    match cmd {
+        SurfaceCommand::Info(a) => info(&load_model(&a.model)?, a.json),
+        SurfaceCommand::Eval(a) => eval(&a),
+        SurfaceCommand::Mesh(a) => mesh(global, &a),
+        SurfaceCommand::Export(a) => {
+            let model = load_model(&a.model)?;
+            Target::from_arg(Some(&a.output), || unreachable!())
+                .write((model.to_json() + "\n").as_bytes(), false)
+        }
+    }
+}
+
+fn info(model: &SurfaceModel, as_json: bool) -> CliResult {
+    let net = &model.network;
+    let mut blends: Vec<(&str, usize)> = Vec::new();
+    for b in net.blends() {
+        match blends.iter_mut().find(|(n, _)| *n == b.name()) {
+            Some(e) => e.1 += 1,
+            None => blends.push((b.name(), 1)),
+        }
+    }
+    let q = net.sharpness();
+    let (qmin, qmax) = q
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+    let empty = net.weights().iter().filter(|&&w| w == 0.0).count();
+    if as_json {
+        let v = json!({
+            "name": model.name, "domain": model.domain, "input_dim": net.input_dim(),
+            "output_dim": net.output_dim(), "key_points": net.len(), "empty_key_points": empty,
+            "normalised": net.is_normalised(), "blends": blends.iter().map(|(n, c)| json!({"blend": n, "count": c})).collect::<Vec<_>>(),
+            "q_min": qmin, "q_max": qmax, "spatial_index": net.uses_support_index(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+    } else {
+        println!("name:        {}", model.name);
+        println!("domain:      {:?} (m = {})", model.domain, net.input_dim());
+        println!("outputs:     p = {}", net.output_dim());
+        println!("key points:  {} ({} empty)", net.len(), empty);
+        println!("normalised:  {}", net.is_normalised());
+        let b: Vec<String> = blends.iter().map(|(n, c)| format!("{n} x{c}")).collect();
+        println!("blends:      {}", b.join(", "));
+        println!("sharpness:   q in [{qmin}, {qmax}]");
+        println!(
+            "index:       {}",
+            if net.uses_support_index() {
+                "compact support (k-d trees)"
+            } else {
+                "dense"
+            }
+        );
+    }
+    Ok(())
+}
+
+fn parse_list(s: &str) -> CliResult<Vec<f64>> {
+    s.split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .map_err(|_| CliError::Usage(format!("`{t}` in `{s}` is not a number")))
+        })
+        .collect()
+}
+
+fn parse_size(s: &str) -> CliResult<(usize, usize)> {
+    let bad = || CliError::Usage(format!("`{s}`: expected COLSxROWS like 64x32"));
+    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (a, b) = (a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?);
+    if a == 0 || b == 0 || a * b > 16_000_000 {
+        return Err(CliError::Usage(format!(
+            "`{s}`: grid must be non-empty and at most 16M points"
+        )));
+    }
+    Ok((a, b))
+}
+
+fn eval(a: &SurfaceEvalArgs) -> CliResult {
+    let model = load_model(&a.model)?;
+    let mut points: Vec<Vec<f64>> = Vec::new();
+    for s in &a.at {
+        points.push(parse_list(s)?);
+    }
+    for s in &a.param {
+        points.push(model.domain.point(&parse_list(s)?)?);
+    }
+    if let Some(g) = &a.grid {
+        let (c, r) = parse_size(g)?;
+        let grid = model.domain.grid(c, r)?;
+        points.extend(
+            grid.points
+                .chunks_exact(model.domain.ambient_dim())
+                .map(<[f64]>::to_vec),
+        );
+    }
+    if points.is_empty() {
+        return Err(CliError::Usage(
+            "give at least one of --at, --param or --grid".into(),
+        ));
+    }
+    let net = &model.network;
+    let mut rows = Vec::with_capacity(points.len());
+    for x in &points {
+        let (y, jac) = net.eval_with_jacobian(x)?;
+        let normal = if a.normal {
+            Some(exact_normal(net, &model.domain, x)?)
+        } else {
+            None
+        };
+        rows.push((x, y, jac, normal));
+    }
+    if a.json {
+        let v: Vec<_> = rows
+            .iter()
+            .map(|(x, y, j, n)| {
+                let mut o = json!({"x": x, "y": y});
+                if a.jacobian {
+                    o["jacobian"] = json!(j);
+                }
+                if let Some(n) = n {
+                    o["normal"] = json!(n);
+                }
+                o
+            })
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+    } else {
+        let fmt = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x:.12}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        for (_, y, j, n) in &rows {
+            let mut line = fmt(y);
+            if a.jacobian {
+                line += "  ";
+                line += &fmt(j);
+            }
+            if let Some(n) = n {
+                line += "  ";
+                line += &fmt(n);
+            }
+            println!("{line}");
+        }
+    }
+    Ok(())
+}
+
+/// Writes the mesh of `model` to `path` (format by extension) and returns a summary.
+pub fn write_mesh(
+    model: &SurfaceModel,
+    path: &Path,
+    detail: u32,
+    normals: NormalMode,
+) -> CliResult<String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("obj" | "ply")) {
+        return Err(CliError::Usage(format!(
+            "{}: mesh output must end in .obj or .ply",
+            path.display()
+        )));
+    }
+    let mesh = tessellate(model, detail, normals)?;
+    let mut bytes = Vec::new();
+    match ext.as_deref() {
+        Some("obj") => write_obj(&mesh, &mut bytes, None),
+        _ => write_ply(&mesh, &mut bytes),
+    }
+    .map_err(|e| CliError::io(path, e))?;
+    write_file(path, &bytes)?;
+    Ok(format!(
+        "{}: {} vertices, {} triangles, Euler characteristic {}",
+        path.display(),
+        mesh.positions.len(),
+        mesh.triangles.len(),
+        mesh.euler_characteristic()
+    ))
+}
+
+fn mesh(global: &GlobalArgs, a: &SurfaceMeshArgs) -> CliResult {
+    let model = load_model(&a.model)?;
+    let normals = match a.normals {
+        NormalsArg::Exact => NormalMode::Exact,
+        NormalsArg::Interpolated => NormalMode::Interpolated,
+    };
+    let summary = write_mesh(&model, &a.output, a.detail, normals)?;
+    note(global, format!("wrote {summary}"));
+    Ok(())
+}
