@@ -24,6 +24,10 @@ pub struct SurfaceModel {
     pub domain: Domain,
     /// The network.
     pub network: Network,
+    /// Optional texture image on the domain (equirectangular for the sphere, `(t, f)`
+    /// for the torus), as written in the file: relative paths are relative to the
+    /// model file's directory (see [`SurfaceModel::texture_path`]).
+    pub texture: Option<String>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -59,6 +63,9 @@ struct FileModel {
     #[serde(default = "default_q")]
     q: f64,
     key_points: Vec<FileKeyPoint>,
+    /// Texture image file (PNG or JPEG) on the domain.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    texture: Option<String>,
 }
 
 fn default_blend() -> Blend {
@@ -82,6 +89,7 @@ impl SurfaceModel {
             name: name.into(),
             domain,
             network,
+            texture: None,
         })
     }
 
@@ -158,10 +166,18 @@ impl SurfaceModel {
         })?;
         let network = Network::new(domain.ambient_dim(), p, &kps, file.normalised)
             .map_err(|e| SurfaceError::File(e.to_string()))?;
+        if let Some(t) = &file.texture {
+            if t.trim().is_empty() {
+                return Err(SurfaceError::File(
+                    "texture: empty file name (omit the field for no texture)".into(),
+                ));
+            }
+        }
         Ok(SurfaceModel {
             name: file.name,
             domain,
             network,
+            texture: file.texture,
         })
     }
 
@@ -187,8 +203,25 @@ impl SurfaceModel {
                     weight: (k.weight != 1.0).then_some(k.weight),
                 })
                 .collect(),
+            texture: self.texture.clone(),
         };
         serde_json::to_string_pretty(&file).expect("a model of finite numbers always serialises")
+    }
+
+    /// The same model with a texture reference (see [`SurfaceModel::texture`]).
+    pub fn with_texture(mut self, texture: impl Into<String>) -> Self {
+        self.texture = Some(texture.into());
+        self
+    }
+
+    /// The texture file resolved against the directory of the model file it came from
+    /// (`model_file`; None for a model that was not loaded from a file).
+    pub fn texture_path(&self, model_file: Option<&Path>) -> Option<std::path::PathBuf> {
+        let t = Path::new(self.texture.as_deref()?);
+        Some(match model_file.and_then(Path::parent) {
+            Some(dir) if t.is_relative() => dir.join(t),
+            _ => t.to_path_buf(),
+        })
     }
 
     /// Loads a model from a file.

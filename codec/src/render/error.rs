@@ -1,0 +1,53 @@
+//! Errors of the renderers and the scene file.
+
+use thiserror::Error;
+
+use crate::surface::SurfaceError;
+
+/// What went wrong when loading a scene or rendering it.
+#[derive(Debug, Error)]
+pub enum RenderError {
+    /// A surface model or solid is invalid.
+    #[error(transparent)]
+    Surface(#[from] SurfaceError),
+    /// A scene file (or a file it references) is malformed; the message names the field.
+    #[error("scene file: {0}")]
+    Scene(String),
+    /// A render parameter is out of range.
+    #[error("{what}: {reason}")]
+    Parameter {
+        /// Which parameter.
+        what: String,
+        /// What the valid range is.
+        reason: String,
+    },
+    /// Reading or writing a file or an image failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file involved.
+        path: String,
+        /// What failed.
+        message: String,
+    },
+}
+
+impl RenderError {
+    /// A parameter error.
+    pub fn parameter(what: impl Into<String>, reason: impl Into<String>) -> Self {
+        RenderError::Parameter {
+            what: what.into(),
+            reason: reason.into(),
+        }
+    }
+
+    /// An I/O or image-codec error on `path`.
+    pub fn io(path: impl AsRef<std::path::Path>, message: impl std::fmt::Display) -> Self {
+        RenderError::Io {
+            path: path.as_ref().display().to_string(),
+            message: message.to_string(),
+        }
+    }
+}
+
+/// Result alias of the renderers.
+pub type Result<T, E = RenderError> = std::result::Result<T, E>;

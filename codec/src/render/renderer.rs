@@ -1,0 +1,420 @@
+//! Rendering a scene: each object is drawn by the chosen method into a shared
+//! nearest-hit buffer at the supersampled resolution, the buffer is shaded in linear
+//! light, and `n x n` blocks are averaged into the final pixels.
+//!
+//! | object  | `mesh`                           | `depth`        | `ray`          |
+//! |---------|----------------------------------|----------------|----------------|
+//! | surface | tessellated mesh, z-buffered     | depth buffer   | depth buffer   |
+//! | solid   | marching-tetrahedra mesh         | ray traced     | ray traced     |
+//!
+//! A parametric Cao En surface has no implicit form to ray trace, and an implicit solid
+//! has no domain to sample, so each falls back to the method that exists for it.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use rayon::prelude::*;
+
+use super::camera::Camera;
+use super::csg::{Boundary, CsgNode, Span};
+use super::depth_buffer::{depth_buffer, DepthBufferOptions};
+use super::error::{RenderError, Result};
+use super::framebuffer::{DepthMap, GBuffer, Hit, RgbImage};
+use super::mesh::{tessellate, Mesh, NormalMode};
+use super::polygonise::polygonise;
+use super::raster::rasterise;
+use super::raytrace::{ImplicitTracer, RayMethod};
+use super::scene::{Scene, Shape};
+use super::shading::shade;
+use super::texture::domain_uv;
+use super::transform::Affine;
+use super::vec3::scale;
+use crate::surface::normals::{point_and_normal, NormalNetwork};
+use crate::surface::{ConvexSolid, SurfaceModel};
+
+/// The rendering method (paper section 7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Method {
+    /// Tessellate and rasterise (solids: polygonise and rasterise).
+    #[default]
+    Mesh,
+    /// Sample the domain into a depth buffer (solids: ray traced).
+    Depth,
+    /// Ray trace implicit solids (surfaces: depth buffer).
+    Ray,
+}
+
+/// Render parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderOptions {
+    /// Output width in pixels.
+    pub width: u32,
+    /// Output height in pixels.
+    pub height: u32,
+    /// Supersampling: `samples x samples` per pixel.
+    pub samples: u32,
+    /// Method.
+    pub method: Method,
+    /// Tessellation level for the mesh method (objects may override).
+    pub mesh_detail: u32,
+    /// Exact or interpolated normals for surfaces.
+    pub normals: NormalMode,
+    /// Depth-buffer parameters.
+    pub depth: DepthBufferOptions,
+    /// Crossing search for implicit solids.
+    pub ray_method: RayMethod,
+    /// Marching-tetrahedra cells along the longest side of a solid's box (mesh method).
+    pub polygonise_cells: usize,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            width: 512,
+            height: 384,
+            samples: 2,
+            method: Method::Mesh,
+            mesh_detail: 6,
+            normals: NormalMode::Exact,
+            depth: DepthBufferOptions::default(),
+            ray_method: RayMethod::Fast,
+            polygonise_cells: 128,
+        }
+    }
+}
+
+/// Counters of one render.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RenderStats {
+    /// Triangles rasterised.
+    pub triangles: usize,
+    /// Depth-buffer surface samples.
+    pub depth_samples: usize,
+    /// Depth-buffer triangles left above the size threshold.
+    pub unresolved: usize,
+    /// Rays traced against solids.
+    pub rays: usize,
+}
+
+/// A finished render.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    /// The image, linear light, `width x height`.
+    pub image: RgbImage,
+    /// Nearest depth per output pixel.
+    pub depth: DepthMap,
+    /// Counters.
+    pub stats: RenderStats,
+}
+
+/// Work units of progress per stage (objects, then shading).
+const UNITS: u64 = 1000;
+
+/// Reports progress as `(done, total)`; shared by the stages of one render.
+struct Progress<'a> {
+    total: u64,
+    stage: AtomicU64,
+    report: &'a (dyn Fn(u64, u64) + Sync),
+}
+
+impl Progress<'_> {
+    fn within(&self, done: u64, of: u64) {
+        let base = self.stage.load(Ordering::Relaxed) * UNITS;
+        (self.report)(base + done * UNITS / of.max(1), self.total);
+    }
+    fn next(&self) {
+        let s = self.stage.fetch_add(1, Ordering::Relaxed) + 1;
+        (self.report)(s * UNITS, self.total);
+    }
+}
+
+fn check(opts: &RenderOptions) -> Result<()> {
+    if !(1..=8).contains(&opts.samples) {
+        return Err(RenderError::parameter("samples", format!("{} is not in 1..=8", opts.samples)));
+    }
+    let px = opts.width as u64 * opts.height as u64 * (opts.samples as u64).pow(2);
+    if opts.width == 0 || opts.height == 0 || px > 1 << 26 {
+        return Err(RenderError::parameter(
+            "size",
+            format!(
+                "{}x{} with {}x{} samples: must be non-empty and at most 2^26 subpixels",
+                opts.width, opts.height, opts.samples, opts.samples
+            ),
+        ));
+    }
+    if opts.mesh_detail > 9 {
+        return Err(RenderError::parameter("mesh detail", "must be at most 9"));
+    }
+    if !(4..=1024).contains(&opts.polygonise_cells) {
+        return Err(RenderError::parameter("polygonise cells", "must be in 4..=1024"));
+    }
+    Ok(())
+}
+
+/// Renders `scene`; `progress` receives `(done, total)` work units.
+pub fn render(
+    scene: &Scene,
+    opts: &RenderOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<Rendered> {
+    check(opts)?;
+    let n = opts.samples;
+    let camera = scene.camera(opts.width, opts.height)?.with_size(opts.width * n, opts.height * n);
+    let prog = Progress {
+        total: (scene.objects.len() as u64 + 1) * UNITS,
+        stage: AtomicU64::new(0),
+        report: progress,
+    };
+    let (buf, stats) = draw(scene, &camera, opts, &prog)?;
+    let image = shade_buffer(scene, &camera, &buf).downsample(n);
+    prog.next();
+    Ok(Rendered {
+        image,
+        depth: buf.depth_map(n),
+        stats,
+    })
+}
+
+/// Draws every object of `scene` through `camera` (at the camera's own size) into a
+/// nearest-hit buffer, without shading: the common ground the methods are compared on.
+pub fn render_gbuffer(scene: &Scene, camera: &Camera, opts: &RenderOptions) -> Result<(GBuffer, RenderStats)> {
+    check(&RenderOptions { samples: 1, ..*opts })?;
+    let prog = Progress {
+        total: 1,
+        stage: AtomicU64::new(0),
+        report: &|_, _| {},
+    };
+    draw(scene, camera, opts, &prog)
+}
+
+fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -> Result<(GBuffer, RenderStats)> {
+    let mut buf = GBuffer::new(camera.width, camera.height);
+    let mut stats = RenderStats::default();
+    for (oi, obj) in scene.objects.iter().enumerate() {
+        let id = oi as u32;
+        match (&obj.shape, opts.method) {
+            (Shape::Surface { model, place, detail }, Method::Mesh) => {
+                let mut mesh = tessellate(model, detail.unwrap_or(opts.mesh_detail), opts.normals)?;
+                place_mesh(&mut mesh, place);
+                prog.within(1, 2);
+                stats.triangles += rasterise(&mesh, camera, id, &mut buf);
+            }
+            (Shape::Surface { model, place, .. }, _) => {
+                let img = depth_buffer(model, place, camera, &opts.depth, &|d, t| prog.within(d, t))?;
+                stats.depth_samples += img.stats.samples;
+                stats.unresolved += img.stats.unresolved;
+                let hits = surface_hits(model, place, opts.normals, &img.pixels, id)?;
+                for (i, h) in hits.into_iter().enumerate() {
+                    if let Some(h) = h {
+                        buf.offer(i, h);
+                    }
+                }
+            }
+            (Shape::Solid { solids, csg }, Method::Mesh) => {
+                let mesh = polygonise_solids(solids, csg, opts.polygonise_cells);
+                prog.within(1, 2);
+                stats.triangles += rasterise(&mesh, camera, id, &mut buf);
+            }
+            (Shape::Solid { solids, csg }, _) => {
+                let (hits, rays) = trace_solids(solids, csg, camera, opts.ray_method, id, &|d, t| prog.within(d, t));
+                stats.rays += rays;
+                for (i, h) in hits.into_iter().enumerate() {
+                    if let Some(h) = h {
+                        buf.offer(i, h);
+                    }
+                }
+            }
+        }
+        prog.next();
+    }
+    Ok((buf, stats))
+}
+
+/// Moves a mesh into the scene.
+pub fn place_mesh(mesh: &mut Mesh, place: &Affine) {
+    if place.is_identity() {
+        return;
+    }
+    for p in &mut mesh.positions {
+        *p = place.point(*p);
+    }
+    for nrm in &mut mesh.normals {
+        *nrm = place.normal(*nrm);
+    }
+}
+
+/// Turns depth-buffer samples into hits: normal (exact or interpolated) and texture
+/// coordinates at each pixel's nearest domain point.
+fn surface_hits(
+    model: &SurfaceModel,
+    place: &Affine,
+    normals: NormalMode,
+    pixels: &[Option<(f64, [f64; 4])>],
+    object: u32,
+) -> Result<Vec<Option<Hit>>> {
+    let m = model.domain.ambient_dim();
+    let nn = match normals {
+        NormalMode::Interpolated => Some(NormalNetwork::new(&model.network, &model.domain)?),
+        NormalMode::Exact => None,
+    };
+    pixels
+        .par_iter()
+        .map(|p| {
+            let Some((depth, x)) = p else {
+                return Ok(None);
+            };
+            let x = &x[..m];
+            let n = match &nn {
+                Some(nn) => nn.normal(x)?,
+                None => point_and_normal(&model.network, &model.domain, x)?.1,
+            };
+            let n = place.normal(n);
+            let uv = domain_uv(&model.domain, x).map_or([f32::NAN; 2], |uv| uv.map(|v| v as f32));
+            Ok(Some(Hit {
+                depth: *depth,
+                normal: n.map(|v| v as f32),
+                uv,
+                object,
+            }))
+        })
+        .collect()
+}
+
+/// The signed field of a CSG expression: `ln(f_i / s_i)` per solid (negative inside;
+/// the logarithm of a sum of exponentials is nearly piecewise linear, which suits the
+/// linear interpolation of marching tetrahedra), min for union, max for intersection,
+/// `max(a, -b)` for difference.
+pub fn csg_field(tracers: &[ImplicitTracer], levels: &[f64], node: &CsgNode, x: [f64; 3]) -> f64 {
+    match node {
+        CsgNode::Solid(i) => {
+            let i = *i as usize;
+            (tracers[i].value(x).max(1e-300) / levels[i]).ln()
+        }
+        CsgNode::Union(c) => c.iter().map(|n| csg_field(tracers, levels, n, x)).fold(f64::INFINITY, f64::min),
+        CsgNode::Intersection(c) => {
+            c.iter().map(|n| csg_field(tracers, levels, n, x)).fold(f64::NEG_INFINITY, f64::max)
+        }
+        CsgNode::Difference(c) => {
+            let mut it = c.iter();
+            let first = it.next().map_or(f64::INFINITY, |n| csg_field(tracers, levels, n, x));
+            it.fold(first, |acc, n| acc.max(-csg_field(tracers, levels, n, x)))
+        }
+    }
+}
+
+/// The marching-tetrahedra mesh of a CSG expression over convex solids.
+pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) -> Mesh {
+    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
+    let levels: Vec<f64> = solids.iter().map(|s| s.level()).collect();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for i in csg.solids() {
+        let (c, r) = (solids[i as usize].centre(), solids[i as usize].bounding_radius());
+        for k in 0..3 {
+            lo[k] = lo[k].min(c[k] - r);
+            hi[k] = hi[k].max(c[k] + r);
+        }
+    }
+    // One cell of margin so the surface never touches the box.
+    let pad = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
+    let lo = lo.map(|v| v - pad);
+    let hi = hi.map(|v| v + pad);
+    polygonise(&|x| csg_field(&tracers, &levels, csg, x), lo, hi, cells)
+}
+
+/// Ray traces a CSG expression of convex solids through every pixel of `camera`;
+/// returns the hits and the number of rays.
+pub fn trace_solids(
+    solids: &[ConvexSolid],
+    csg: &CsgNode,
+    camera: &Camera,
+    method: RayMethod,
+    object: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> (Vec<Option<Hit>>, usize) {
+    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let done = AtomicU64::new(0);
+    let rows: Vec<Vec<Option<Hit>>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut scratch = Vec::new();
+            let row = (0..w)
+                .map(|x| {
+                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                    let span = first_span(&tracers, csg, &ray, method, &mut scratch)?;
+                    let (bd, t) = if span.enter.t > 0.0 {
+                        (span.enter, span.enter.t)
+                    } else {
+                        (span.exit, span.exit.t)
+                    };
+                    let p = ray.at(t);
+                    let mut n = tracers[bd.solid as usize].normal(p);
+                    if bd.flip {
+                        n = scale(n, -1.0);
+                    }
+                    Some(Hit {
+                        depth: camera.depth(p),
+                        normal: n.map(|v| v as f32),
+                        uv: [f32::NAN; 2],
+                        object,
+                    })
+                })
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
+            row
+        })
+        .collect();
+    (rows.into_iter().flatten().collect(), w * h)
+}
+
+/// The first CSG interval along `ray` that is not entirely behind its origin.
+pub fn first_span(
+    tracers: &[ImplicitTracer],
+    csg: &CsgNode,
+    ray: &super::camera::Ray,
+    method: RayMethod,
+    scratch: &mut Vec<[f64; 2]>,
+) -> Option<Span> {
+    let leaves: Vec<Option<Span>> = tracers
+        .iter()
+        .enumerate()
+        .map(|(i, tr)| {
+            tr.crossings(ray, method, scratch).map(|c| Span {
+                enter: Boundary { t: c.t_in, solid: i as u32, flip: false },
+                exit: Boundary { t: c.t_out, solid: i as u32, flip: false },
+            })
+        })
+        .collect();
+    csg.spans(&|i| leaves.get(i as usize).copied().flatten())
+        .into_iter()
+        .find(|s| s.exit.t > 0.0)
+}
+
+/// Shades every subpixel of `buf`.
+fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer) -> RgbImage {
+    let w = buf.width as usize;
+    let pixels = buf
+        .hits
+        .par_iter()
+        .enumerate()
+        .map(|(i, h)| match h {
+            None => scene.background,
+            Some(h) => {
+                let obj = &scene.objects[h.object as usize];
+                let ray = camera.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
+                let albedo = obj.material.albedo(h.uv);
+                shade(
+                    &scene.lighting,
+                    &obj.material,
+                    albedo,
+                    h.normal.map(|v| v as f64),
+                    scale(ray.dir, -1.0),
+                )
+            }
+        })
+        .collect();
+    RgbImage {
+        width: buf.width,
+        height: buf.height,
+        pixels,
+    }
+}

@@ -1,0 +1,827 @@
+//! Scenes: a camera, lights and a list of objects with materials, and the scene file.
+//!
+//! The file is JSON in the style of surface model files (a `format` tag, snake_case
+//! fields, unknown fields rejected, errors naming the offending field such as
+//! `objects[2].solid.q`). The format is specified in `docs/rendering.md`.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use serde::Deserialize;
+
+use super::camera::{Camera, Projection};
+use super::csg::CsgNode;
+use super::error::{RenderError, Result};
+use super::framebuffer::srgb_to_linear;
+use super::shading::{Light, Lighting, Material};
+use super::texture::{Texture, Wrap};
+use super::transform::Affine;
+use crate::surface::{gallery, Blend, ConvexSolid, Plane, SurfaceModel};
+
+/// The format tag every scene file starts with.
+pub const SCENE_FORMAT_TAG: &str = "caoen-scene/1";
+
+/// Where the camera is, or how to place it automatically.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSpec {
+    /// Eye position; None frames the whole scene from `view_from`.
+    pub eye: Option<[f64; 3]>,
+    /// Point looked at; None looks at the scene's centre.
+    pub target: Option<[f64; 3]>,
+    /// Approximate up direction.
+    pub up: [f64; 3],
+    /// Direction from the scene centre towards the eye, for automatic framing.
+    pub view_from: [f64; 3],
+    /// Projection.
+    pub projection: Projection,
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        CameraSpec {
+            eye: None,
+            target: None,
+            up: [0.0, 0.0, 1.0],
+            view_from: [1.0, -1.6, 0.9],
+            projection: Projection::Perspective { fov_y_deg: 30.0 },
+        }
+    }
+}
+
+/// What an object is.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    /// A Cao En surface placed by an affine map.
+    Surface {
+        /// The model.
+        model: SurfaceModel,
+        /// Placement in the scene.
+        place: Affine,
+        /// Mesh tessellation level override for the mesh method.
+        detail: Option<u32>,
+    },
+    /// Convex implicit solids combined by a CSG expression (a single solid is
+    /// `CsgNode::Solid(0)`).
+    Solid {
+        /// The solids the expression refers to by index.
+        solids: Vec<ConvexSolid>,
+        /// The expression.
+        csg: CsgNode,
+    },
+}
+
+/// One object of a scene.
+#[derive(Debug, Clone)]
+pub struct SceneObject {
+    /// Name (for messages).
+    pub name: String,
+    /// Geometry.
+    pub shape: Shape,
+    /// Surface appearance.
+    pub material: Material,
+}
+
+/// A scene to render.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// Free-form name.
+    pub name: String,
+    /// Camera placement.
+    pub camera: CameraSpec,
+    /// Linear background colour.
+    pub background: [f32; 3],
+    /// Lights.
+    pub lighting: Lighting,
+    /// Objects, drawn in this order (ties in depth keep the earlier object).
+    pub objects: Vec<SceneObject>,
+}
+
+impl Scene {
+    /// A scene of one surface with the default camera, lights and material; the model's
+    /// texture (resolved against `model_file`'s directory) is loaded if it has one.
+    pub fn from_model(model: SurfaceModel, model_file: Option<&Path>) -> Result<Scene> {
+        let mut material = Material::default();
+        if let Some(path) = model.texture_path(model_file) {
+            material.texture = Some((Arc::new(Texture::load(&path)?), texture_wrap(&model)?));
+            material.colour = [1.0; 3];
+        }
+        Ok(Scene {
+            name: model.name.clone(),
+            camera: CameraSpec::default(),
+            background: srgb_to_linear([1.0, 1.0, 1.0]),
+            lighting: Lighting::default(),
+            objects: vec![SceneObject {
+                name: model.name.clone(),
+                shape: Shape::Surface {
+                    model,
+                    place: Affine::IDENTITY,
+                    detail: None,
+                },
+                material,
+            }],
+        })
+    }
+
+    /// Whether `text` looks like a scene file (its format tag), as opposed to a model.
+    pub fn is_scene_json(text: &str) -> bool {
+        #[derive(Deserialize)]
+        struct Tag {
+            format: Option<String>,
+        }
+        serde_json::from_str::<Tag>(text)
+            .ok()
+            .and_then(|t| t.format)
+            .is_some_and(|f| f.starts_with("caoen-scene/"))
+    }
+
+    /// Loads a scene file; files it names are resolved against its directory.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Scene::from_json(&text, &base).map_err(|e| match e {
+            RenderError::Scene(msg) => RenderError::Scene(format!("{}: {msg}", path.display())),
+            other => other,
+        })
+    }
+
+    /// Parses a scene; relative file names are resolved against `base_dir`.
+    pub fn from_json(text: &str, base_dir: &Path) -> Result<Scene> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let file: FileScene = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            RenderError::Scene(if path == "." {
+                e.inner().to_string()
+            } else {
+                format!("{path}: {}", e.inner())
+            })
+        })?;
+        if file.format != SCENE_FORMAT_TAG {
+            return Err(RenderError::Scene(format!(
+                "format: expected \"{SCENE_FORMAT_TAG}\", found \"{}\"",
+                file.format
+            )));
+        }
+        let camera = file.camera.unwrap_or_default().resolve()?;
+        let lighting = match (file.ambient, file.lights) {
+            (None, None) => Lighting::default(),
+            (ambient, lights) => {
+                let mut l = Lighting::default();
+                if let Some(a) = ambient {
+                    l.ambient = check_colour("ambient", a)?;
+                }
+                if let Some(lights) = lights {
+                    l.lights = lights
+                        .iter()
+                        .enumerate()
+                        .map(|(i, fl)| fl.resolve(&format!("lights[{i}]")))
+                        .collect::<Result<_>>()?;
+                }
+                l
+            }
+        };
+        if file.objects.is_empty() {
+            return Err(RenderError::Scene("objects: a scene needs at least one object".into()));
+        }
+        let objects = file
+            .objects
+            .into_iter()
+            .enumerate()
+            .map(|(i, o)| o.resolve(&format!("objects[{i}]"), base_dir))
+            .collect::<Result<_>>()?;
+        Ok(Scene {
+            name: file.name,
+            camera,
+            background: check_colour("background", file.background)?,
+            lighting,
+            objects,
+        })
+    }
+
+    /// The scene's bounding sphere `(centre, radius)`, for automatic framing.
+    pub fn bounds(&self) -> Result<([f64; 3], f64)> {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        let mut add = |p: [f64; 3]| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        };
+        for o in &self.objects {
+            match &o.shape {
+                Shape::Surface { model, place, .. } => {
+                    let mesh = super::mesh::tessellate(model, 2, super::mesh::NormalMode::Exact)?;
+                    mesh.positions.iter().for_each(|p| add(place.point(*p)));
+                }
+                Shape::Solid { solids, csg } => {
+                    for i in csg.solids() {
+                        let s = &solids[i as usize];
+                        let (c, r) = (s.centre(), s.bounding_radius());
+                        add([c[0] - r, c[1] - r, c[2] - r]);
+                        add([c[0] + r, c[1] + r, c[2] + r]);
+                    }
+                }
+            }
+        }
+        if !lo[0].is_finite() {
+            return Err(RenderError::Scene("the scene has no bounded geometry".into()));
+        }
+        let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
+        let r = 0.5 * ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+        Ok((c, r))
+    }
+
+    /// The camera for an image of `width x height` pixels.
+    pub fn camera(&self, width: u32, height: u32) -> Result<Camera> {
+        let spec = &self.camera;
+        match spec.eye {
+            Some(eye) => {
+                let target = match spec.target {
+                    Some(t) => t,
+                    None => self.bounds()?.0,
+                };
+                let projection = match spec.projection {
+                    Projection::Orthographic { height } if height == 0.0 => {
+                        Projection::Orthographic { height: 2.2 * self.bounds()?.1 }
+                    }
+                    p => p,
+                };
+                Camera::look_at(eye, target, spec.up, projection, width, height)
+            }
+            None => {
+                let (c, r) = self.bounds()?;
+                let mut cam = Camera::framing(c, r, spec.view_from, spec.projection, width, height)?;
+                if matches!(spec.projection, Projection::Orthographic { height } if height > 0.0) {
+                    cam.projection = spec.projection;
+                }
+                if let Some(t) = spec.target {
+                    cam = Camera::look_at(cam.eye, t, spec.up, cam.projection, width, height)?;
+                } else if spec.up != [0.0, 0.0, 1.0] {
+                    cam = Camera::look_at(cam.eye, c, spec.up, cam.projection, width, height)?;
+                }
+                Ok(cam)
+            }
+        }
+    }
+}
+
+/// The texture wrap mode of a model's domain, or an error if it has no texture space.
+pub fn texture_wrap(model: &SurfaceModel) -> Result<Wrap> {
+    Wrap::of(&model.domain).ok_or_else(|| {
+        RenderError::parameter(
+            "texture",
+            format!("domain {:?} has no texture coordinates (sphere S^2 and torus do)", model.domain),
+        )
+    })
+}
+
+/// Face normals of the built-in polyhedra (unit length; every face at distance 1).
+pub fn polyhedron_normals(name: &str) -> Option<Vec<[f64; 3]>> {
+    let phi = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut n: Vec<[f64; 3]> = Vec::new();
+    let signs = [-1.0, 1.0];
+    let cyclic = |v: [f64; 3]| [v, [v[2], v[0], v[1]], [v[1], v[2], v[0]]];
+    match name {
+        "tetrahedron" => n.extend([[1., 1., 1.], [1., -1., -1.], [-1., 1., -1.], [-1., -1., 1.]]),
+        "cube" => n.extend([[1., 0., 0.], [-1., 0., 0.], [0., 1., 0.], [0., -1., 0.], [0., 0., 1.], [0., 0., -1.]]),
+        "octahedron" => {
+            for a in signs {
+                for b in signs {
+                    for c in signs {
+                        n.push([a, b, c]);
+                    }
+                }
+            }
+        }
+        "dodecahedron" => {
+            for a in signs {
+                for b in signs {
+                    n.extend(cyclic([0.0, a, b * phi]));
+                }
+            }
+        }
+        "icosahedron" => {
+            for a in signs {
+                for b in signs {
+                    for c in signs {
+                        n.push([a, b, c]);
+                    }
+                    n.extend(cyclic([0.0, a / phi, b * phi]));
+                }
+            }
+        }
+        _ => return None,
+    }
+    Some(
+        n.into_iter()
+            .map(|v| {
+                let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                [v[0] / l, v[1] / l, v[2] / l]
+            })
+            .collect(),
+    )
+}
+
+/// Names accepted by [`polyhedron_normals`].
+pub const POLYHEDRA: [&str; 5] = ["tetrahedron", "cube", "octahedron", "dodecahedron", "icosahedron"];
+
+/// A convex implicit solid from a built-in polyhedron with inradius `radius` around
+/// `centre`, stretched by `scale` and turned by `rotate_deg` about the centre.
+#[allow(clippy::too_many_arguments)]
+pub fn polyhedron_solid(
+    name: &str,
+    radius: f64,
+    centre: [f64; 3],
+    scale: [f64; 3],
+    rotate_deg: [f64; 3],
+    blend: Blend,
+    q: f64,
+    level: f64,
+) -> Result<ConvexSolid> {
+    let normals = polyhedron_normals(name).ok_or_else(|| {
+        RenderError::parameter("polyhedron", format!("unknown `{name}`; known: {}", POLYHEDRA.join(", ")))
+    })?;
+    if !(radius > 0.0 && radius.is_finite()) {
+        return Err(RenderError::parameter("radius", format!("{radius} must be finite and > 0")));
+    }
+    let a = Affine::from_parts(scale, rotate_deg, [0.0; 3]);
+    let mut planes = Vec::with_capacity(normals.len());
+    for n in normals {
+        let m = a
+            .plane_normal(n)
+            .ok_or_else(|| RenderError::parameter("scale", "must be non-zero on every axis"))?;
+        let off = radius + m[0] * centre[0] + m[1] * centre[1] + m[2] * centre[2];
+        planes.push(Plane { normal: m, offset: off });
+    }
+    Ok(ConvexSolid::from_planes(&planes, centre, blend, q, level)?)
+}
+
+// ---- the file format -------------------------------------------------------------
+
+fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
+    if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+        Ok(srgb_to_linear(c))
+    } else {
+        Err(RenderError::Scene(format!("{what}: colour components must be finite and >= 0, got {c:?}")))
+    }
+}
+
+fn check_vec(what: &str, v: [f64; 3]) -> Result<[f64; 3]> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(v)
+    } else {
+        Err(RenderError::Scene(format!("{what}: components must be finite, got {v:?}")))
+    }
+}
+
+fn field<E: std::fmt::Display>(path: &str) -> impl Fn(E) -> RenderError + '_ {
+    move |e| RenderError::Scene(format!("{path}: {e}"))
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileScene {
+    format: String,
+    #[serde(default)]
+    name: String,
+    #[serde(default)]
+    camera: Option<FileCamera>,
+    #[serde(default = "white")]
+    background: [f64; 3],
+    #[serde(default)]
+    ambient: Option<[f64; 3]>,
+    #[serde(default)]
+    lights: Option<Vec<FileLight>>,
+    objects: Vec<FileObject>,
+}
+
+fn white() -> [f64; 3] {
+    [1.0; 3]
+}
+
+#[derive(Deserialize, Default, Clone, Copy, PartialEq)]
+#[serde(rename_all = "snake_case")]
+enum FileProjection {
+    #[default]
+    Perspective,
+    Orthographic,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileCamera {
+    #[serde(default)]
+    projection: FileProjection,
+    #[serde(default)]
+    eye: Option<[f64; 3]>,
+    #[serde(default)]
+    target: Option<[f64; 3]>,
+    #[serde(default)]
+    up: Option<[f64; 3]>,
+    #[serde(default)]
+    view_from: Option<[f64; 3]>,
+    #[serde(default)]
+    fov_deg: Option<f64>,
+    #[serde(default)]
+    height: Option<f64>,
+}
+
+impl FileCamera {
+    fn resolve(self) -> Result<CameraSpec> {
+        let d = CameraSpec::default();
+        let projection = match self.projection {
+            FileProjection::Perspective => {
+                if self.height.is_some() {
+                    return Err(RenderError::Scene("camera.height: only for orthographic cameras".into()));
+                }
+                let fov = self.fov_deg.unwrap_or(30.0);
+                if !(fov > 0.0 && fov < 179.0) {
+                    return Err(RenderError::Scene(format!("camera.fov_deg: {fov} is not in (0, 179)")));
+                }
+                Projection::Perspective { fov_y_deg: fov }
+            }
+            FileProjection::Orthographic => {
+                if self.fov_deg.is_some() {
+                    return Err(RenderError::Scene("camera.fov_deg: only for perspective cameras".into()));
+                }
+                let h = self.height.unwrap_or(0.0);
+                if self.height.is_some() && !(h > 0.0 && h.is_finite()) {
+                    return Err(RenderError::Scene(format!("camera.height: {h} must be finite and > 0")));
+                }
+                // Height 0 means "fit the scene" (see `Scene::camera`).
+                Projection::Orthographic { height: h }
+            }
+        };
+        Ok(CameraSpec {
+            eye: self.eye.map(|v| check_vec("camera.eye", v)).transpose()?,
+            target: self.target.map(|v| check_vec("camera.target", v)).transpose()?,
+            up: check_vec("camera.up", self.up.unwrap_or(d.up))?,
+            view_from: check_vec("camera.view_from", self.view_from.unwrap_or(d.view_from))?,
+            projection,
+        })
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileLight {
+    direction: [f64; 3],
+    #[serde(default = "white")]
+    colour: [f64; 3],
+    #[serde(default = "one")]
+    intensity: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl FileLight {
+    fn resolve(&self, path: &str) -> Result<Light> {
+        let d = check_vec(&format!("{path}.direction"), self.direction)?;
+        if d == [0.0; 3] {
+            return Err(RenderError::Scene(format!("{path}.direction: must be non-zero")));
+        }
+        if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
+            return Err(RenderError::Scene(format!(
+                "{path}.intensity: {} must be finite and >= 0",
+                self.intensity
+            )));
+        }
+        Ok(Light::new(
+            d,
+            check_colour(&format!("{path}.colour"), self.colour)?,
+            self.intensity as f32,
+        ))
+    }
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileMaterial {
+    #[serde(default)]
+    colour: Option<[f64; 3]>,
+    #[serde(default)]
+    ambient: Option<f64>,
+    #[serde(default)]
+    diffuse: Option<f64>,
+    #[serde(default)]
+    specular: Option<f64>,
+    #[serde(default)]
+    shininess: Option<f64>,
+    #[serde(default)]
+    texture: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum ScaleSpec {
+    Uniform(f64),
+    PerAxis([f64; 3]),
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct FileTransform {
+    #[serde(default)]
+    scale: Option<ScaleSpec>,
+    #[serde(default)]
+    rotate_deg: Option<[f64; 3]>,
+    #[serde(default)]
+    translate: Option<[f64; 3]>,
+}
+
+fn scale_of(path: &str, s: &Option<ScaleSpec>) -> Result<[f64; 3]> {
+    let v = match s {
+        None => [1.0; 3],
+        Some(ScaleSpec::Uniform(k)) => [*k; 3],
+        Some(ScaleSpec::PerAxis(v)) => *v,
+    };
+    if v.iter().all(|x| x.is_finite() && *x != 0.0) {
+        Ok(v)
+    } else {
+        Err(RenderError::Scene(format!("{path}.scale: must be finite and non-zero, got {v:?}")))
+    }
+}
+
+impl FileTransform {
+    fn resolve(&self, path: &str) -> Result<Affine> {
+        Ok(Affine::from_parts(
+            scale_of(path, &self.scale)?,
+            check_vec(&format!("{path}.rotate_deg"), self.rotate_deg.unwrap_or([0.0; 3]))?,
+            check_vec(&format!("{path}.translate"), self.translate.unwrap_or([0.0; 3]))?,
+        ))
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePlane {
+    normal: [f64; 3],
+    offset: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileSolid {
+    #[serde(default)]
+    polyhedron: Option<String>,
+    #[serde(default)]
+    planes: Option<Vec<FilePlane>>,
+    #[serde(default)]
+    radius: Option<f64>,
+    #[serde(default)]
+    centre: Option<[f64; 3]>,
+    #[serde(default)]
+    scale: Option<ScaleSpec>,
+    #[serde(default)]
+    rotate_deg: Option<[f64; 3]>,
+    #[serde(default = "default_blend")]
+    blend: Blend,
+    #[serde(default = "default_solid_q")]
+    q: f64,
+    #[serde(default = "default_level")]
+    level: f64,
+}
+
+fn default_blend() -> Blend {
+    Blend::Exponential
+}
+fn default_solid_q() -> f64 {
+    8.0
+}
+fn default_level() -> f64 {
+    2.0
+}
+
+impl FileSolid {
+    fn resolve(&self, path: &str) -> Result<ConvexSolid> {
+        let centre = check_vec(&format!("{path}.centre"), self.centre.unwrap_or([0.0; 3]))?;
+        if !(self.q.is_finite() && self.q > 0.0) {
+            return Err(RenderError::Scene(format!("{path}.q: {} must be finite and > 0", self.q)));
+        }
+        if !(self.level.is_finite() && self.level > 1.0) {
+            return Err(RenderError::Scene(format!("{path}.level: {} must be finite and > 1", self.level)));
+        }
+        match (&self.polyhedron, &self.planes) {
+            (Some(name), None) => {
+                let radius = self.radius.unwrap_or(1.0);
+                polyhedron_solid(
+                    name,
+                    radius,
+                    centre,
+                    scale_of(path, &self.scale)?,
+                    check_vec(&format!("{path}.rotate_deg"), self.rotate_deg.unwrap_or([0.0; 3]))?,
+                    self.blend,
+                    self.q,
+                    self.level,
+                )
+                .map_err(|e| match e {
+                    RenderError::Parameter { what, reason } => {
+                        RenderError::Scene(format!("{path}.{what}: {reason}"))
+                    }
+                    other => RenderError::Scene(format!("{path}: {other}")),
+                })
+            }
+            (None, Some(planes)) => {
+                if self.radius.is_some() || self.scale.is_some() || self.rotate_deg.is_some() {
+                    return Err(RenderError::Scene(format!(
+                        "{path}: radius, scale and rotate_deg apply to a `polyhedron`, not to `planes`"
+                    )));
+                }
+                let planes: Vec<Plane> = planes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let n = check_vec(&format!("{path}.planes[{i}].normal"), p.normal)?;
+                        Ok(Plane { normal: n, offset: p.offset })
+                    })
+                    .collect::<Result<_>>()?;
+                ConvexSolid::from_planes(&planes, centre, self.blend, self.q, self.level)
+                    .map_err(field(path))
+            }
+            _ => Err(RenderError::Scene(format!(
+                "{path}: give exactly one of `polyhedron` ({}) or `planes`",
+                POLYHEDRA.join(", ")
+            ))),
+        }
+    }
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+enum FileOp {
+    Union,
+    Intersection,
+    Difference,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileCsg {
+    op: FileOp,
+    operands: Vec<FileOperand>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileOperand {
+    #[serde(default)]
+    solid: Option<FileSolid>,
+    #[serde(default)]
+    csg: Option<FileCsg>,
+}
+
+impl FileCsg {
+    fn resolve(&self, path: &str, solids: &mut Vec<ConvexSolid>) -> Result<CsgNode> {
+        if self.operands.len() < 2 {
+            return Err(RenderError::Scene(format!("{path}.operands: need at least two")));
+        }
+        let mut nodes = Vec::with_capacity(self.operands.len());
+        for (i, o) in self.operands.iter().enumerate() {
+            let p = format!("{path}.operands[{i}]");
+            nodes.push(match (&o.solid, &o.csg) {
+                (Some(s), None) => {
+                    solids.push(s.resolve(&format!("{p}.solid"))?);
+                    CsgNode::Solid(solids.len() as u32 - 1)
+                }
+                (None, Some(c)) => c.resolve(&format!("{p}.csg"), solids)?,
+                _ => {
+                    return Err(RenderError::Scene(format!(
+                        "{p}: give exactly one of `solid` or `csg`"
+                    )))
+                }
+            });
+        }
+        Ok(match self.op {
+            FileOp::Union => CsgNode::Union(nodes),
+            FileOp::Intersection => CsgNode::Intersection(nodes),
+            FileOp::Difference => CsgNode::Difference(nodes),
+        })
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileObject {
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    surface: Option<String>,
+    #[serde(default)]
+    transform: Option<FileTransform>,
+    #[serde(default)]
+    detail: Option<u32>,
+    #[serde(default)]
+    solid: Option<FileSolid>,
+    #[serde(default)]
+    csg: Option<FileCsg>,
+    #[serde(default)]
+    material: FileMaterial,
+}
+
+/// Loads a surface model by file name (relative to `base`) or `builtin:NAME`; returns
+/// the model and the file it came from.
+pub fn load_surface(spec: &str, base: &Path) -> Result<(SurfaceModel, Option<PathBuf>)> {
+    if let Some(name) = spec.strip_prefix("builtin:") {
+        let model = gallery::by_name(name).ok_or_else(|| {
+            RenderError::Scene(format!("unknown built-in model `{name}`; known: {}", gallery::NAMES.join(", ")))
+        })??;
+        return Ok((model, None));
+    }
+    let path = base.join(spec);
+    Ok((SurfaceModel::load(&path)?, Some(path)))
+}
+
+impl FileObject {
+    fn resolve(self, path: &str, base: &Path) -> Result<SceneObject> {
+        let name = self.name.clone().unwrap_or_else(|| path.to_string());
+        let mut material = Material::default();
+        let fm = &self.material;
+        let mp = format!("{path}.material");
+        if let Some(c) = fm.colour {
+            material.colour = check_colour(&format!("{mp}.colour"), c)?;
+        }
+        for (what, v, dst) in [
+            ("ambient", fm.ambient, &mut material.ambient),
+            ("diffuse", fm.diffuse, &mut material.diffuse),
+            ("specular", fm.specular, &mut material.specular),
+            ("shininess", fm.shininess, &mut material.shininess),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(RenderError::Scene(format!("{mp}.{what}: {v} must be finite and >= 0")));
+                }
+                *dst = v as f32;
+            }
+        }
+        let kinds = [self.surface.is_some(), self.solid.is_some(), self.csg.is_some()];
+        if kinds.iter().filter(|k| **k).count() != 1 {
+            return Err(RenderError::Scene(format!(
+                "{path}: give exactly one of `surface`, `solid` or `csg`"
+            )));
+        }
+        if self.surface.is_none() && (self.transform.is_some() || self.detail.is_some()) {
+            return Err(RenderError::Scene(format!(
+                "{path}: `transform` and `detail` apply to surfaces (solids take centre, scale, rotate_deg)"
+            )));
+        }
+        let shape = if let Some(spec) = &self.surface {
+            let (model, file) = load_surface(spec, base).map_err(|e| match e {
+                RenderError::Scene(m) => RenderError::Scene(format!("{path}.surface: {m}")),
+                other => RenderError::Scene(format!("{path}.surface: {other}")),
+            })?;
+            let texture = match &fm.texture {
+                Some(t) => Some(base.join(t)),
+                None => model.texture_path(file.as_deref()),
+            };
+            if let Some(t) = texture {
+                let wrap = texture_wrap(&model).map_err(field(&format!("{mp}.texture")))?;
+                let tex = Texture::load(&t).map_err(field(&format!("{mp}.texture")))?;
+                material.texture = Some((Arc::new(tex), wrap));
+                if fm.colour.is_none() {
+                    material.colour = [1.0; 3];
+                }
+            }
+            if let Some(d) = self.detail {
+                if d > 9 {
+                    return Err(RenderError::Scene(format!("{path}.detail: {d} must be at most 9")));
+                }
+            }
+            let place = match &self.transform {
+                Some(t) => t.resolve(&format!("{path}.transform"))?,
+                None => Affine::IDENTITY,
+            };
+            if place.det().abs() < 1e-300 {
+                return Err(RenderError::Scene(format!("{path}.transform: singular")));
+            }
+            Shape::Surface {
+                model,
+                place,
+                detail: self.detail,
+            }
+        } else {
+            if fm.texture.is_some() {
+                return Err(RenderError::Scene(format!(
+                    "{mp}.texture: solids have no domain to carry a texture"
+                )));
+            }
+            let mut solids = Vec::new();
+            let csg = if let Some(s) = &self.solid {
+                solids.push(s.resolve(&format!("{path}.solid"))?);
+                CsgNode::Solid(0)
+            } else {
+                self.csg
+                    .as_ref()
+                    .expect("checked above")
+                    .resolve(&format!("{path}.csg"), &mut solids)?
+            };
+            Shape::Solid { solids, csg }
+        };
+        Ok(SceneObject {
+            name,
+            shape,
+            material,
+        })
+    }
+}

@@ -1,0 +1,49 @@
+//! Small 3-vector helpers shared by the renderers (plain arrays keep the hot loops
+//! free of any abstraction the optimiser would have to see through).
+
+pub(crate) type V3 = [f64; 3];
+
+#[inline]
+pub(crate) fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[inline]
+pub(crate) fn sub(a: V3, b: V3) -> V3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline]
+pub(crate) fn scale(a: V3, s: f64) -> V3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+#[inline]
+pub(crate) fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+pub(crate) fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[inline]
+pub(crate) fn norm(a: V3) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// `a / |a|`, or the zero vector for a zero (or non-finite) input.
+#[inline]
+pub(crate) fn unit(a: V3) -> V3 {
+    let n = norm(a);
+    if n > 0.0 && n.is_finite() {
+        scale(a, 1.0 / n)
+    } else {
+        [0.0; 3]
+    }
+}
