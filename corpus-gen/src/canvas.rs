@@ -538,3 +538,18 @@ pub fn sample_field(f: &[f64], w: usize, h: usize, x: f64, y: f64) -> f64 {
     let b = f[y1 * w + x0] + (f[y1 * w + x1] - f[y1 * w + x0]) * tx;
     a + (b - a) * ty
 }
+
+impl Canvas {
+    /// Like [`Canvas::shade`], but only for rows `y0..`.
+    pub fn shade_rows_from<F: Fn(f64, f64) -> Col + Sync>(&mut self, y0: usize, f: F) {
+        let w = self.w.max(1);
+        let y0 = y0.min(self.h);
+        self.px[y0 * self.w..].par_chunks_mut(w).enumerate().for_each(|(j, row)| {
+            let y = (y0 + j) as f64 + 0.5;
+            for (i, p) in row.iter_mut().enumerate() {
+                let c = f(i as f64 + 0.5, y);
+                *p = [c.0 as f32, c.1 as f32, c.2 as f32, 1.0];
+            }
+        });
+    }
+}

@@ -114,14 +114,14 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 .map(|k| (wf * (k as f64 + rng.range(0.3, 0.7)) / nlamps as f64, horizon - s * rng.range(0.15, 0.25)))
                 .collect();
             let lamps2 = lamps.clone();
-            let star_cell = (s * 0.02).max(2.0);
+            let star_cell = (s * 0.035).max(3.0);
             c.shade(|x, y| {
                 let mut col = if y < horizon {
                     let g = Col(0.001, 0.0015, 0.004).mix(Col(0.008, 0.007, 0.01), clamp01(y / horizon));
                     let (ci, cj) = ((x / star_cell).floor() as i64, (y / star_cell).floor() as i64);
                     let hsh = hash2(star_seed, ci, cj);
                     let (px, py) = ((ci as f64 + 0.2 + 0.6 * unit_f64(hsh)) * star_cell, (cj as f64 + 0.2 + 0.6 * unit_f64(hsh >> 20)) * star_cell);
-                    let st = if unit_f64(hsh >> 40) < 0.15 { exp(-((x - px) * (x - px) + (y - py) * (y - py)) * 2.0) * 3.0 } else { 0.0 };
+                    let st = if unit_f64(hsh >> 40) < 0.12 { exp(-((x - px) * (x - px) + (y - py) * (y - py)) * 3.0) * 0.2 * (1.0 + 4.0 * unit_f64(hsh >> 50)) } else { 0.0 };
                     g + Col(st, st, st * 1.1)
                 } else {
                     // Wet asphalt.

@@ -129,15 +129,15 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             };
             let f0 = rng.range(2.0, 4.0) / s;
             let ang = rng.range(0.0, PI);
-            let (ka, kb) = (cos(ang) * rng.range(3.0, 6.0) * TAU / s, sin(ang) * rng.range(3.0, 6.0) * TAU / s);
-            let strength = rng.range(4.0, 7.0);
+            let (ka, kb) = (cos(ang) * rng.range(1.5, 3.0) * TAU / s, sin(ang) * rng.range(1.5, 3.0) * TAU / s);
+            let strength = rng.range(5.0, 9.0);
             let hx = rng.range(0.2, 0.8) * wf;
             let hy = rng.range(0.1, 0.5) * hf;
             let hr = s * rng.range(0.3, 0.6);
             c.shade(|x, y| {
                 let t = n1.turbulence(x * f0, y * f0, 7);
                 let v = sin(x * ka + y * kb + strength * t);
-                let veins = exp(-v.abs() * 9.0);
+                let veins = exp(-v.abs() * 5.0);
                 let fine = exp(-sin(x * kb * 3.1 - y * ka * 3.1 + 9.0 * n2.turbulence(x * f0 * 2.0, y * f0 * 2.0, 5)).abs() * 14.0);
                 let cloudy = 0.5 + 0.5 * n2.fbm(x * f0 * 0.7, y * f0 * 0.7, 5, 2.0, 0.5);
                 let col = base.mix(vein2, 0.35 * cloudy).mix(vein, 0.85 * veins).mix(vein, 0.35 * fine);

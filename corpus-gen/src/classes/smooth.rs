@@ -51,13 +51,13 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
         1 => {
             // Gaussian-profile radial gradients (smooth everywhere, no cusp at the centre).
             let bg = random_colour(&mut rng);
-            let k = 1 + rng.below(3) as usize;
+            let k = 2 + rng.below(2) as usize;
             let spots: Vec<(f64, f64, f64, Col, f64)> = (0..k)
                 .map(|_| {
                     let cx = rng.range(-0.2, 1.2) * wf;
                     let cy = rng.range(-0.2, 1.2) * hf;
                     let r = rng.range(0.35, 0.9) * s;
-                    (cx, cy, r, random_colour(&mut rng), rng.range(0.6, 1.0))
+                    (cx, cy, r, hsv(rng.f64(), rng.range(0.5, 0.9), rng.range(0.5, 1.0)), rng.range(0.8, 1.0))
                 })
                 .collect();
             c.shade(|x, y| {
