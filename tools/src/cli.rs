@@ -35,6 +35,19 @@ pub enum Command {
     /// Cao En surface models: inspect, evaluate, mesh.
     #[command(subcommand)]
     Surface(SurfaceCommand),
+    /// Regenerate the example models, scenes and pictures (examples/).
+    Examples(ExamplesArgs),
+}
+
+/// `caoen examples`.
+#[derive(Debug, Args)]
+pub struct ExamplesArgs {
+    /// Directory to write into.
+    #[arg(short, long, default_value = "examples")]
+    pub out: PathBuf,
+    /// Supersampling per pixel side for the pictures.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
 }
 
 /// `caoen demo`.
@@ -56,6 +69,74 @@ pub enum SurfaceCommand {
     Mesh(SurfaceMeshArgs),
     /// Write a model (e.g. a built-in one) as a surface file.
     Export(SurfaceExportArgs),
+    /// Render a model or a scene to a PNG (mesh, depth-buffer or ray-traced).
+    Render(SurfaceRenderArgs),
+}
+
+/// Render method.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum MethodArg {
+    /// Tessellate and z-buffer the triangles (solids: marching tetrahedra).
+    Mesh,
+    /// Sample the domain into a depth buffer (solids: ray traced).
+    Depth,
+    /// Ray trace implicit solids with CSG (surfaces: depth buffer).
+    Ray,
+}
+
+/// Camera projection override.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum ProjectionArg {
+    /// Pinhole camera, 30 degree vertical field of view.
+    Perspective,
+    /// Parallel projection framing the scene.
+    Orthographic,
+}
+
+/// Crossing search for implicit solids.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum RayMethodArg {
+    /// The paper's: bounding sphere, halving search, bisection.
+    Paper,
+    /// Polyhedron clipping and convex Newton steps (same crossings, faster).
+    Fast,
+}
+
+/// `caoen surface render`.
+#[derive(Debug, Args)]
+pub struct SurfaceRenderArgs {
+    /// Surface file, builtin:NAME, or scene file (format "caoen-scene/1", see docs/rendering.md).
+    pub model: String,
+    /// Output image (.png).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Rendering method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Mesh)]
+    pub method: MethodArg,
+    /// Image size WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x384")]
+    pub size: String,
+    /// Supersampling: N x N samples per pixel.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
+    /// Also write the depth map: 16-bit PNG (near bright, background 0) or .exr (raw depths).
+    #[arg(long, value_name = "FILE")]
+    pub depth_out: Option<PathBuf>,
+    /// Mesh tessellation level for --method mesh.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=9))]
+    pub detail: u32,
+    /// How surface normals are computed.
+    #[arg(long, value_enum, default_value_t = NormalsArg::Exact)]
+    pub normals: NormalsArg,
+    /// Override the camera projection.
+    #[arg(long, value_enum)]
+    pub projection: Option<ProjectionArg>,
+    /// Crossing search for implicit solids.
+    #[arg(long, value_enum, default_value_t = RayMethodArg::Fast)]
+    pub ray_method: RayMethodArg,
+    /// Texture image (PNG/JPEG) on the domain of a model (overrides the model's own).
+    #[arg(long, value_name = "FILE")]
+    pub texture: Option<PathBuf>,
 }
 
 /// `caoen surface info`.
@@ -116,6 +197,10 @@ pub struct SurfaceMeshArgs {
     /// How vertex normals are computed.
     #[arg(long, value_enum, default_value_t = NormalsArg::Exact)]
     pub normals: NormalsArg,
+    /// Texture image on the domain (overrides the model's own); an OBJ output then also
+    /// gets a material library (.mtl) and the texture as <stem>-texture.png.
+    #[arg(long, value_name = "FILE")]
+    pub texture: Option<PathBuf>,
 }
 
 /// `caoen surface export`.

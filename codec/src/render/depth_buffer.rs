@@ -5,10 +5,11 @@
 //! every triangle whose projected edges are longer than `max_edge_px` is split at its
 //! domain edge midpoints, which are mapped and projected in turn. This is the paper's
 //! "insert intermediate samples where neighbours land on non-adjacent pixels", with a
-//! threshold chosen so coverage is guaranteed: a pixel centre inside a projected
-//! triangle whose edges are all at most half a pixel lies within half a pixel of each
-//! corner, so some corner sample lands in that very pixel. No pixel inside the
-//! silhouette can stay empty.
+//! threshold chosen so coverage is guaranteed: every point of a triangle whose longest
+//! edge is `e` lies within `e / sqrt(3)` of one of its corners (the equilateral
+//! triangle's centre is the worst case), so with `e <= sqrt(3)/2` a pixel centre inside
+//! a projected triangle has a corner sample within half a pixel, i.e. in that very
+//! pixel. No pixel whose centre lies inside the silhouette can stay empty.
 //!
 //! Root triangles are refined independently and in parallel; their samples are then
 //! splatted in root order with ties keeping the first, so the image is independent of
@@ -31,8 +32,8 @@ pub struct DepthBufferOptions {
     /// Icosphere subdivisions of the starting triangulation (torus: `8 * 2^n` by
     /// `4 * 2^n` cells). Must be fine enough that no feature hides between its vertices.
     pub base_detail: u32,
-    /// Split triangles with a projected edge longer than this (pixels); 0.5 guarantees
-    /// full coverage, larger values are faster but may leave holes.
+    /// Split triangles with a projected edge longer than this (pixels); up to
+    /// `sqrt(3)/2` guarantees full coverage, larger values are faster but may leave holes.
     pub max_edge_px: f64,
     /// Most subdivision levels below the starting triangulation.
     pub max_levels: u32,
@@ -44,7 +45,7 @@ impl Default for DepthBufferOptions {
     fn default() -> Self {
         DepthBufferOptions {
             base_detail: 3,
-            max_edge_px: 0.5,
+            max_edge_px: 0.86,
             max_levels: 16,
             max_samples: 200_000_000,
         }

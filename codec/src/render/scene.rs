@@ -108,7 +108,7 @@ impl Scene {
         Ok(Scene {
             name: model.name.clone(),
             camera: CameraSpec::default(),
-            background: srgb_to_linear([1.0, 1.0, 1.0]),
+            background: srgb_to_linear(DEFAULT_BACKGROUND),
             lighting: Lighting::default(),
             objects: vec![SceneObject {
                 name: model.name.clone(),
@@ -227,7 +227,25 @@ impl Scene {
             return Err(RenderError::Scene("the scene has no bounded geometry".into()));
         }
         let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
-        let r = 0.5 * ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+        // The radius is the farthest sampled point (or solid's bounding sphere) from the
+        // box centre: tighter than the box's half-diagonal.
+        let dist = |p: [f64; 3]| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
+        let mut r: f64 = 0.0;
+        for o in &self.objects {
+            match &o.shape {
+                Shape::Surface { model, place, .. } => {
+                    let mesh = super::mesh::tessellate(model, 2, super::mesh::NormalMode::Exact)?;
+                    for p in &mesh.positions {
+                        r = r.max(dist(place.point(*p)));
+                    }
+                }
+                Shape::Solid { solids, csg } => {
+                    for i in csg.solids() {
+                        r = r.max(solid_extent(&solids[i as usize], c));
+                    }
+                }
+            }
+        }
         Ok((c, r))
     }
 
@@ -263,6 +281,25 @@ impl Scene {
             }
         }
     }
+}
+
+/// Farthest distance from `c` of the solid's surface, estimated along 162 directions
+/// from its centre (plus 2% for the surface between them).
+fn solid_extent(solid: &ConvexSolid, c: [f64; 3]) -> f64 {
+    let tracer = super::raytrace::ImplicitTracer::new(solid);
+    let centre = solid.centre();
+    let (dirs, _) = super::mesh::icosphere(2);
+    let mut scratch = Vec::new();
+    let mut r: f64 = 0.0;
+    for d in dirs {
+        let ray = super::camera::Ray { origin: centre, dir: d };
+        let t = tracer
+            .crossings(&ray, super::raytrace::RayMethod::Paper, &mut scratch)
+            .map_or(solid.bounding_radius(), |x| x.t_out);
+        let p = ray.at(t);
+        r = r.max(((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt());
+    }
+    1.02 * r
 }
 
 /// The texture wrap mode of a model's domain, or an error if it has no texture space.
@@ -386,7 +423,7 @@ struct FileScene {
     name: String,
     #[serde(default)]
     camera: Option<FileCamera>,
-    #[serde(default = "white")]
+    #[serde(default = "default_background")]
     background: [f64; 3],
     #[serde(default)]
     ambient: Option<[f64; 3]>,
@@ -397,6 +434,13 @@ struct FileScene {
 
 fn white() -> [f64; 3] {
     [1.0; 3]
+}
+
+/// Background colour (sRGB) when a scene gives none.
+pub const DEFAULT_BACKGROUND: [f64; 3] = [0.96, 0.96, 0.96];
+
+fn default_background() -> [f64; 3] {
+    DEFAULT_BACKGROUND
 }
 
 #[derive(Deserialize, Default, Clone, Copy, PartialEq)]

@@ -39,10 +39,10 @@ impl Default for Lighting {
     /// A key light from the upper left front, a dimmer fill from the right, soft ambient.
     fn default() -> Self {
         Lighting {
-            ambient: [0.12; 3],
+            ambient: [0.06; 3],
             lights: vec![
-                Light::new([-0.4, -0.6, 0.7], [1.0, 0.97, 0.92], 0.9),
-                Light::new([0.8, -0.2, 0.1], [0.75, 0.82, 1.0], 0.3),
+                Light::new([-1.0, -0.5, 1.0], [1.0, 0.96, 0.9], 1.0),
+                Light::new([1.0, -0.3, 0.2], [0.7, 0.8, 1.0], 0.25),
             ],
         }
     }
@@ -68,7 +68,7 @@ pub struct Material {
 impl Default for Material {
     fn default() -> Self {
         Material {
-            colour: [0.55, 0.62, 0.78],
+            colour: [0.30, 0.38, 0.62],
             ambient: 1.0,
             diffuse: 1.0,
             specular: 0.25,

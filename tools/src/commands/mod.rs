@@ -1,6 +1,8 @@
 //! Command implementations, one module per command group.
 
 pub mod demo;
+pub mod examples;
+pub mod render;
 pub mod surface;
 
 use crate::cli::{Cli, Command};
@@ -12,6 +14,7 @@ pub fn run(cli: Cli) -> CliResult {
     let job = move || match cli.command {
         Command::Demo(args) => demo::run(&global, &args),
         Command::Surface(cmd) => surface::run(&global, cmd),
+        Command::Examples(args) => examples::run(&global, &args),
     };
     match cli.global.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()

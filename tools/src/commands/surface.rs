@@ -34,6 +34,7 @@ pub fn run(global: &GlobalArgs, cmd: SurfaceCommand) -> CliResult {
         SurfaceCommand::Info(a) => info(&load_model(&a.model)?, a.json),
         SurfaceCommand::Eval(a) => eval(&a),
         SurfaceCommand::Mesh(a) => mesh(global, &a),
+        SurfaceCommand::Render(a) => crate::commands::render::run(global, &a),
         SurfaceCommand::Export(a) => {
             let model = load_model(&a.model)?;
             Target::from_arg(Some(&a.output), || unreachable!())
@@ -186,6 +187,18 @@ pub fn write_mesh(
     detail: u32,
     normals: NormalMode,
 ) -> CliResult<String> {
+    write_mesh_textured(model, path, detail, normals, None)
+}
+
+/// Like [`write_mesh`]; with a `texture` file an OBJ also gets `<stem>.mtl` and the
+/// texture as `<stem>-texture.png`, referenced by its material.
+pub fn write_mesh_textured(
+    model: &SurfaceModel,
+    path: &Path,
+    detail: u32,
+    normals: NormalMode,
+    texture: Option<&Path>,
+) -> CliResult<String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -198,14 +211,20 @@ pub fn write_mesh(
     }
     let mesh = tessellate(model, detail, normals)?;
     let mut bytes = Vec::new();
-    match ext.as_deref() {
-        Some("obj") => write_obj(&mesh, &mut bytes, None),
+    let mut extra = String::new();
+    match (ext.as_deref(), texture) {
+        (Some("obj"), Some(tex)) => {
+            let (mtl, png) = crate::commands::render::write_obj_material(path, tex)?;
+            extra = format!(" (+ {mtl}, {png})");
+            write_obj(&mesh, &mut bytes, Some((&mtl, "caoen_surface")))
+        }
+        (Some("obj"), None) => write_obj(&mesh, &mut bytes, None),
         _ => write_ply(&mesh, &mut bytes),
     }
     .map_err(|e| CliError::io(path, e))?;
     write_file(path, &bytes)?;
     Ok(format!(
-        "{}: {} vertices, {} triangles, Euler characteristic {}",
+        "{}{extra}: {} vertices, {} triangles, Euler characteristic {}",
         path.display(),
         mesh.positions.len(),
         mesh.triangles.len(),
@@ -219,7 +238,12 @@ fn mesh(global: &GlobalArgs, a: &SurfaceMeshArgs) -> CliResult {
         NormalsArg::Exact => NormalMode::Exact,
         NormalsArg::Interpolated => NormalMode::Interpolated,
     };
-    let summary = write_mesh(&model, &a.output, a.detail, normals)?;
+    let texture = match &a.texture {
+        Some(t) => Some(t.clone()),
+        None if !a.model.starts_with("builtin:") => model.texture_path(Some(Path::new(&a.model))),
+        None => None,
+    };
+    let summary = write_mesh_textured(&model, &a.output, a.detail, normals, texture.as_deref())?;
     note(global, format!("wrote {summary}"));
     Ok(())
 }

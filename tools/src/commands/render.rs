@@ -1,0 +1,221 @@
+//! `caoen surface render`: draw a model or a scene to a PNG by one of the paper's
+//! three methods, with progress on stderr.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use caoen::render::mesh::NormalMode;
+use caoen::render::raytrace::RayMethod;
+use caoen::render::scene::texture_wrap;
+use caoen::render::texture::Texture;
+use caoen::render::{render, Method, Projection, RenderError, RenderOptions, Rendered, Scene};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::cli::{GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg, SurfaceRenderArgs};
+use crate::commands::note;
+use crate::commands::surface::load_model;
+use crate::failure::{CliError, CliResult};
+use crate::output::write_file;
+
+impl From<RenderError> for CliError {
+    fn from(e: RenderError) -> Self {
+        match e {
+            RenderError::Surface(s) => CliError::Surface(s),
+            other => CliError::Failed(other.to_string()),
+        }
+    }
+}
+
+/// Parses `WxH` into a render size.
+pub fn parse_size(s: &str) -> CliResult<(u32, u32)> {
+    let bad = || CliError::Usage(format!("`{s}`: expected WIDTHxHEIGHT like 512x384"));
+    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(CliError::Usage(format!("`{s}`: width and height must be in 1..=16384")));
+    }
+    Ok((w, h))
+}
+
+/// Loads a scene file, or wraps a model file / `builtin:NAME` into a one-object scene.
+pub fn load_scene(spec: &str, texture: Option<&Path>) -> CliResult<Scene> {
+    let is_file = !spec.starts_with("builtin:");
+    if is_file {
+        let path = Path::new(spec);
+        let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+        if Scene::is_scene_json(&text) {
+            if texture.is_some() {
+                return Err(CliError::Usage(
+                    "--texture applies to a surface model; give textures in the scene's materials".into(),
+                ));
+            }
+            return Ok(Scene::load(path)?);
+        }
+    }
+    let model = load_model(spec)?;
+    let file = is_file.then(|| Path::new(spec));
+    let mut scene = Scene::from_model(model, file)?;
+    if let Some(t) = texture {
+        let Some(caoen::render::scene::SceneObject {
+            shape: caoen::render::scene::Shape::Surface { model, .. },
+            material,
+            ..
+        }) = scene.objects.first_mut()
+        else {
+            unreachable!("from_model makes one surface object");
+        };
+        material.texture = Some((Arc::new(Texture::load(t)?), texture_wrap(model)?));
+        material.colour = [1.0; 3];
+    }
+    Ok(scene)
+}
+
+/// A progress bar on stderr for renders (hidden when quiet or not a terminal).
+pub fn progress_bar(global: &GlobalArgs, what: &str) -> ProgressBar {
+    if global.quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(1), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {percent:>3}% {elapsed_precise} eta {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(what.to_string());
+    bar
+}
+
+/// Renders with a progress bar.
+pub fn render_with_progress(global: &GlobalArgs, scene: &Scene, opts: &RenderOptions, what: &str) -> CliResult<Rendered> {
+    let bar = progress_bar(global, what);
+    let result = render(scene, opts, &|done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    Ok(result?)
+}
+
+/// Writes a depth map: 16-bit PNG, or OpenEXR (raw depths) for `.exr`.
+pub fn write_depth(r: &Rendered, path: &Path) -> CliResult {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let bytes = match ext.as_deref() {
+        Some("png") => r.depth.encode_png16()?,
+        Some("exr") => r.depth.encode_exr()?,
+        _ => {
+            return Err(CliError::Usage(format!(
+                "{}: depth output must end in .png (16-bit) or .exr",
+                path.display()
+            )))
+        }
+    };
+    write_file(path, &bytes)
+}
+
+/// Render options from the command line.
+pub fn options(a: &SurfaceRenderArgs) -> CliResult<RenderOptions> {
+    let (width, height) = parse_size(&a.size)?;
+    Ok(RenderOptions {
+        width,
+        height,
+        samples: a.samples,
+        method: match a.method {
+            MethodArg::Mesh => Method::Mesh,
+            MethodArg::Depth => Method::Depth,
+            MethodArg::Ray => Method::Ray,
+        },
+        mesh_detail: a.detail,
+        normals: match a.normals {
+            NormalsArg::Exact => NormalMode::Exact,
+            NormalsArg::Interpolated => NormalMode::Interpolated,
+        },
+        ray_method: match a.ray_method {
+            RayMethodArg::Paper => RayMethod::Paper,
+            RayMethodArg::Fast => RayMethod::Fast,
+        },
+        ..RenderOptions::default()
+    })
+}
+
+/// `caoen surface render`.
+pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
+    let opts = options(a)?;
+    let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if ext.as_deref() != Some("png") {
+        return Err(CliError::Usage(format!("{}: render output must end in .png", a.output.display())));
+    }
+    if let Some(d) = &a.depth_out {
+        let e = d.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if !matches!(e.as_deref(), Some("png" | "exr")) {
+            return Err(CliError::Usage(format!(
+                "{}: depth output must end in .png (16-bit) or .exr",
+                d.display()
+            )));
+        }
+    }
+    let mut scene = load_scene(&a.model, a.texture.as_deref())?;
+    if let Some(p) = a.projection {
+        scene.camera.projection = match p {
+            ProjectionArg::Perspective => Projection::Perspective { fov_y_deg: 30.0 },
+            ProjectionArg::Orthographic => Projection::Orthographic { height: 0.0 },
+        };
+    }
+    let start = std::time::Instant::now();
+    let r = render_with_progress(global, &scene, &opts, "rendering")?;
+    write_file(&a.output, &r.image.encode_png()?)?;
+    if let Some(d) = &a.depth_out {
+        write_depth(&r, d)?;
+    }
+    let s = r.stats;
+    note(
+        global,
+        format!(
+            "wrote {} ({}x{}, {}x{} samples, {:.2} s; {} triangles, {} depth samples, {} rays)",
+            a.output.display(),
+            opts.width,
+            opts.height,
+            opts.samples,
+            opts.samples,
+            start.elapsed().as_secs_f64(),
+            s.triangles,
+            s.depth_samples,
+            s.rays
+        ),
+    );
+    if s.unresolved > 0 {
+        note(
+            global,
+            format!("warning: {} depth-buffer triangles hit the subdivision limit; small holes are possible", s.unresolved),
+        );
+    }
+    Ok(())
+}
+
+/// The texture written beside an OBJ: `<stem>-texture.png`.
+pub fn texture_sibling(obj: &Path) -> PathBuf {
+    let stem = obj.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
+    obj.with_file_name(format!("{stem}-texture.png"))
+}
+
+/// Writes `<stem>.mtl` and `<stem>-texture.png` beside the OBJ `obj`, the texture
+/// copied from `texture` (re-encoded as PNG if it is not one); returns their file names
+/// as the OBJ refers to them.
+pub fn write_obj_material(obj: &Path, texture: &Path) -> CliResult<(String, String)> {
+    let png = texture_sibling(obj);
+    let bytes = std::fs::read(texture).map_err(|e| CliError::io(texture, e))?;
+    let is_png = bytes.starts_with(b"\x89PNG\r\n\x1a\n");
+    let png_bytes = if is_png {
+        bytes
+    } else {
+        Texture::load(texture)?.image().encode_png()?
+    };
+    write_file(&png, &png_bytes)?;
+    let stem = obj.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
+    let mtl = obj.with_file_name(format!("{stem}.mtl"));
+    let png_name = png.file_name().and_then(|s| s.to_str()).unwrap_or("texture.png").to_string();
+    let mut text = Vec::new();
+    caoen::render::mesh_io::write_mtl(&mut text, "caoen_surface", &png_name).map_err(|e| CliError::io(&mtl, e))?;
+    write_file(&mtl, &text)?;
+    let mtl_name = mtl.file_name().and_then(|s| s.to_str()).unwrap_or("mesh.mtl").to_string();
+    Ok((mtl_name, png_name))
+}
