@@ -154,7 +154,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     }
                     let end = if l + 1 == lines { wf * rng.range(0.3, 0.8) } else { wf - margin };
                     draw_line(&mut c, &mut rng, &body, margin, end, y);
-                    y += xh * 2.3;
+                    y += xh * 2.6;
                 }
                 y += xh * 1.5;
                 if para == fig_at {

@@ -173,7 +173,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     + 2.2 * n1.fbm((lx + shift) * 0.004 * grain_f, (ly + shift) * 0.02 * grain_f, 4, 2.0, 0.5);
                 let r = fract(d);
                 let ringv = smoothstep(0.0, 0.75, r) * (1.0 - smoothstep(0.85, 1.0, r));
-                let grain = 0.5 + 0.5 * n2.perlin((lx + shift) * 0.015 * grain_f, (ly + shift) * 0.9 * grain_f);
+                let grain = 0.5 + 0.5 * n2.perlin((lx + shift) * 0.015 * grain_f, (ly + shift) * 0.25 * grain_f);
                 let mut col = dark.mix(light, 0.25 + 0.6 * ringv) * (tone * (0.9 + 0.15 * grain));
                 // Seams: dark grooves between planks and at the butt joints.
                 let seam = (ly.min(ph - ly)).min(lx.min(plen - lx));

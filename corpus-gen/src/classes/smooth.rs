@@ -50,14 +50,14 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
         }
         1 => {
             // Gaussian-profile radial gradients (smooth everywhere, no cusp at the centre).
-            let bg = random_colour(&mut rng);
+            let bg = hsv(rng.f64(), rng.range(0.3, 0.8), rng.range(0.15, 0.4));
             let k = 2 + rng.below(2) as usize;
             let spots: Vec<(f64, f64, f64, Col, f64)> = (0..k)
                 .map(|_| {
-                    let cx = rng.range(-0.2, 1.2) * wf;
-                    let cy = rng.range(-0.2, 1.2) * hf;
-                    let r = rng.range(0.35, 0.9) * s;
-                    (cx, cy, r, hsv(rng.f64(), rng.range(0.5, 0.9), rng.range(0.5, 1.0)), rng.range(0.8, 1.0))
+                    let cx = rng.range(0.05, 0.95) * wf;
+                    let cy = rng.range(0.05, 0.95) * hf;
+                    let r = rng.range(0.3, 0.6) * s;
+                    (cx, cy, r, hsv(rng.f64(), rng.range(0.4, 0.9), rng.range(0.7, 1.0)), rng.range(0.85, 1.0))
                 })
                 .collect();
             c.shade(|x, y| {
