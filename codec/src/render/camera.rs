@@ -127,9 +127,7 @@ impl Camera {
     pub fn pixel_scale(&self) -> f64 {
         let h = self.height as f64;
         match self.projection {
-            Projection::Perspective { fov_y_deg } => {
-                0.5 * h / (0.5 * fov_y_deg.to_radians()).tan()
-            }
+            Projection::Perspective { fov_y_deg } => 0.5 * h / (0.5 * fov_y_deg.to_radians()).tan(),
             Projection::Orthographic { height } => h / height,
         }
     }
@@ -236,9 +234,15 @@ mod tests {
             Projection::Perspective { fov_y_deg: 40.0 },
             Projection::Orthographic { height: 3.0 },
         ] {
-            let cam =
-                Camera::look_at([3., -4., 2.], [0., 0., 0.], [0., 0., 1.], projection, 64, 48)
-                    .unwrap();
+            let cam = Camera::look_at(
+                [3., -4., 2.],
+                [0., 0., 0.],
+                [0., 0., 1.],
+                projection,
+                64,
+                48,
+            )
+            .unwrap();
             let p = [0.3, -0.2, 0.5];
             let [x, y, z] = cam.project(p).unwrap();
             let ray = cam.ray(x, y);

@@ -93,7 +93,9 @@ fn fold(c: &[CsgNode], leaf: &dyn Fn(u32) -> Option<Span>, op: Op) -> Vec<Span> 
     let Some(first) = it.next() else {
         return Vec::new();
     };
-    it.fold(first.spans(leaf), |acc, n| combine(&acc, &n.spans(leaf), op))
+    it.fold(first.spans(leaf), |acc, n| {
+        combine(&acc, &n.spans(leaf), op)
+    })
 }
 
 /// Combines two sorted, disjoint span lists.

@@ -96,7 +96,10 @@ pub fn depth_buffer(
     if model.network.output_dim() != 3 {
         return Err(RenderError::parameter(
             "shape dimension p",
-            format!("{}: the depth buffer needs a surface in 3-D", model.network.output_dim()),
+            format!(
+                "{}: the depth buffer needs a surface in 3-D",
+                model.network.output_dim()
+            ),
         ));
     }
     if !(opts.max_edge_px > 0.0) {
@@ -111,7 +114,11 @@ pub fn depth_buffer(
             let d = opts.base_detail.min(6);
             let grid = domain.grid(8 << d, 4 << d)?;
             let tris = grid.wrapped_triangles()?;
-            let pts = grid.points.chunks_exact(4).map(|p| [p[0], p[1], p[2], p[3]]).collect();
+            let pts = grid
+                .points
+                .chunks_exact(4)
+                .map(|p| [p[0], p[1], p[2], p[3]])
+                .collect();
             (pts, tris)
         }
         other => {
@@ -140,7 +147,14 @@ pub fn depth_buffer(
     let refined: Vec<Result<(Vec<Vert>, usize)>> = root_tris
         .par_iter()
         .map(|t| {
-            let r = refine(t.map(|i| roots[i as usize]), &domain, &eval, camera, opts, &budget);
+            let r = refine(
+                t.map(|i| roots[i as usize]),
+                &domain,
+                &eval,
+                camera,
+                opts,
+                &budget,
+            );
             progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
             r
         })
@@ -198,10 +212,16 @@ fn refine(
             }
             if front.len() == 3 {
                 let d = |a: [f64; 3], b: [f64; 3]| (a[0] - b[0]).hypot(a[1] - b[1]);
-                let e = d(front[0], front[1]).max(d(front[1], front[2])).max(d(front[2], front[0]));
+                let e = d(front[0], front[1])
+                    .max(d(front[1], front[2]))
+                    .max(d(front[2], front[0]));
                 let (xs, ys) = (front.iter().map(|p| p[0]), front.iter().map(|p| p[1]));
-                let (x0, x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
-                let (y0, y1) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+                let (x0, x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(v), b.max(v))
+                });
+                let (y0, y1) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(v), b.max(v))
+                });
                 // Off screen, even allowing the surface to bulge by an edge length.
                 if x1 + e < 0.0 || y1 + e < 0.0 || x0 - e > w || y0 - e > h {
                     continue;
@@ -225,7 +245,11 @@ fn refine(
         let base = verts.len() as u32;
         let mut midpoint = |a: u32, b: u32| -> u32 {
             *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                new_pts.push(domain_midpoint(domain, &verts[a as usize].x, &verts[b as usize].x));
+                new_pts.push(domain_midpoint(
+                    domain,
+                    &verts[a as usize].x,
+                    &verts[b as usize].x,
+                ));
                 base + new_pts.len() as u32 - 1
             })
         };

@@ -185,7 +185,13 @@ impl RgbImage {
 
 /// Linear RGB to gamma-encoded 8-bit sRGB (palette's transfer function), clamped.
 pub fn linear_to_srgb8(p: [f32; 3]) -> [u8; 3] {
-    let c = p.map(|v| if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 });
+    let c = p.map(|v| {
+        if v.is_finite() {
+            v.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    });
     let s: Srgb<u8> = Srgb::from_linear(LinSrgb::new(c[0], c[1], c[2]));
     [s.red, s.green, s.blue]
 }

@@ -51,9 +51,7 @@ pub fn polygonise(
     // Field values at grid points, one z-slab per task.
     let values: Vec<f64> = (0..=n[2])
         .into_par_iter()
-        .flat_map_iter(|k| {
-            (0..sy).flat_map(move |j| (0..sx).map(move |i| field(corner(i, j, k))))
-        })
+        .flat_map_iter(|k| (0..sy).flat_map(move |j| (0..sx).map(move |i| field(corner(i, j, k)))))
         .collect();
     let id = |i: usize, j: usize, k: usize| (k * sy + j) * sx + i;
     let mut positions: Vec<[f64; 3]> = Vec::new();
@@ -62,9 +60,8 @@ pub fn polygonise(
     for k in 0..n[2] {
         for j in 0..n[1] {
             for i in 0..n[0] {
-                let ids: [usize; 8] = std::array::from_fn(|c| {
-                    id(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1))
-                });
+                let ids: [usize; 8] =
+                    std::array::from_fn(|c| id(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)));
                 let vals = ids.map(|g| values[g]);
                 let inside = vals.iter().filter(|v| **v < 0.0).count();
                 if inside == 0 || inside == 8 {

@@ -99,7 +99,11 @@ pub fn rasterise(mesh: &Mesh, camera: &Camera, object: u32, buf: &mut GBuffer) -
                         }
                         let a = area.abs();
                         // Perspective-correct weights: screen barycentrics over z.
-                        let wgt = [l[0] / a * inv_z[0], l[1] / a * inv_z[1], l[2] / a * inv_z[2]];
+                        let wgt = [
+                            l[0] / a * inv_z[0],
+                            l[1] / a * inv_z[1],
+                            l[2] / a * inv_z[2],
+                        ];
                         let sum = wgt[0] + wgt[1] + wgt[2];
                         if !(sum > 0.0) {
                             continue;
@@ -110,7 +114,8 @@ pub fn rasterise(mesh: &Mesh, camera: &Camera, object: u32, buf: &mut GBuffer) -
                         if matches!(&rows[i], Some(hh) if hh.depth <= depth) {
                             continue;
                         }
-                        let n = t.map(|v| mesh.normals.get(v as usize).copied().unwrap_or([0.0; 3]));
+                        let n =
+                            t.map(|v| mesh.normals.get(v as usize).copied().unwrap_or([0.0; 3]));
                         let normal: [f32; 3] = std::array::from_fn(|k| {
                             (b[0] * n[0][k] + b[1] * n[1][k] + b[2] * n[2][k]) as f32
                         });

@@ -137,7 +137,12 @@ impl ImplicitTracer {
 
     /// Where `ray` crosses the surface, or None if it misses (rays whose inside chord
     /// is shorter than the search tolerance count as misses under the paper's method).
-    pub fn crossings(&self, ray: &Ray, method: RayMethod, scratch: &mut Vec<[f64; 2]>) -> Option<Crossings> {
+    pub fn crossings(
+        &self,
+        ray: &Ray,
+        method: RayMethod,
+        scratch: &mut Vec<[f64; 2]>,
+    ) -> Option<Crossings> {
         let oc = sub(ray.origin, self.centre);
         scratch.clear();
         scratch.extend(self.w.iter().map(|w| [dot(*w, oc), dot(*w, ray.dir)]));

@@ -129,7 +129,10 @@ impl Progress<'_> {
 
 fn check(opts: &RenderOptions) -> Result<()> {
     if !(1..=8).contains(&opts.samples) {
-        return Err(RenderError::parameter("samples", format!("{} is not in 1..=8", opts.samples)));
+        return Err(RenderError::parameter(
+            "samples",
+            format!("{} is not in 1..=8", opts.samples),
+        ));
     }
     let px = opts.width as u64 * opts.height as u64 * (opts.samples as u64).pow(2);
     if opts.width == 0 || opts.height == 0 || px > 1 << 26 {
@@ -145,7 +148,10 @@ fn check(opts: &RenderOptions) -> Result<()> {
         return Err(RenderError::parameter("mesh detail", "must be at most 9"));
     }
     if !(4..=1024).contains(&opts.polygonise_cells) {
-        return Err(RenderError::parameter("polygonise cells", "must be in 4..=1024"));
+        return Err(RenderError::parameter(
+            "polygonise cells",
+            "must be in 4..=1024",
+        ));
     }
     Ok(())
 }
@@ -158,7 +164,9 @@ pub fn render(
 ) -> Result<Rendered> {
     check(opts)?;
     let n = opts.samples;
-    let camera = scene.camera(opts.width, opts.height)?.with_size(opts.width * n, opts.height * n);
+    let camera = scene
+        .camera(opts.width, opts.height)?
+        .with_size(opts.width * n, opts.height * n);
     let prog = Progress {
         total: (scene.objects.len() as u64 + 1) * UNITS,
         stage: AtomicU64::new(0),
@@ -176,8 +184,15 @@ pub fn render(
 
 /// Draws every object of `scene` through `camera` (at the camera's own size) into a
 /// nearest-hit buffer, without shading: the common ground the methods are compared on.
-pub fn render_gbuffer(scene: &Scene, camera: &Camera, opts: &RenderOptions) -> Result<(GBuffer, RenderStats)> {
-    check(&RenderOptions { samples: 1, ..*opts })?;
+pub fn render_gbuffer(
+    scene: &Scene,
+    camera: &Camera,
+    opts: &RenderOptions,
+) -> Result<(GBuffer, RenderStats)> {
+    check(&RenderOptions {
+        samples: 1,
+        ..*opts
+    })?;
     let prog = Progress {
         total: 1,
         stage: AtomicU64::new(0),
@@ -186,20 +201,33 @@ pub fn render_gbuffer(scene: &Scene, camera: &Camera, opts: &RenderOptions) -> R
     draw(scene, camera, opts, &prog)
 }
 
-fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -> Result<(GBuffer, RenderStats)> {
+fn draw(
+    scene: &Scene,
+    camera: &Camera,
+    opts: &RenderOptions,
+    prog: &Progress,
+) -> Result<(GBuffer, RenderStats)> {
     let mut buf = GBuffer::new(camera.width, camera.height);
     let mut stats = RenderStats::default();
     for (oi, obj) in scene.objects.iter().enumerate() {
         let id = oi as u32;
         match (&obj.shape, opts.method) {
-            (Shape::Surface { model, place, detail }, Method::Mesh) => {
+            (
+                Shape::Surface {
+                    model,
+                    place,
+                    detail,
+                },
+                Method::Mesh,
+            ) => {
                 let mut mesh = tessellate(model, detail.unwrap_or(opts.mesh_detail), opts.normals)?;
                 place_mesh(&mut mesh, place);
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
             }
             (Shape::Surface { model, place, .. }, _) => {
-                let img = depth_buffer(model, place, camera, &opts.depth, &|d, t| prog.within(d, t))?;
+                let img =
+                    depth_buffer(model, place, camera, &opts.depth, &|d, t| prog.within(d, t))?;
                 stats.depth_samples += img.stats.samples;
                 stats.unresolved += img.stats.unresolved;
                 let hits = surface_hits(model, place, opts.normals, &img.pixels, id)?;
@@ -215,7 +243,10 @@ fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
             }
             (Shape::Solid { solids, csg }, _) => {
-                let (hits, rays) = trace_solids(solids, csg, camera, opts.ray_method, id, &|d, t| prog.within(d, t));
+                let (hits, rays) =
+                    trace_solids(solids, csg, camera, opts.ray_method, id, &|d, t| {
+                        prog.within(d, t)
+                    });
                 stats.rays += rays;
                 for (i, h) in hits.into_iter().enumerate() {
                     if let Some(h) = h {
@@ -289,13 +320,19 @@ pub fn csg_field(tracers: &[ImplicitTracer], levels: &[f64], node: &CsgNode, x: 
             let i = *i as usize;
             (tracers[i].value(x).max(1e-300) / levels[i]).ln()
         }
-        CsgNode::Union(c) => c.iter().map(|n| csg_field(tracers, levels, n, x)).fold(f64::INFINITY, f64::min),
-        CsgNode::Intersection(c) => {
-            c.iter().map(|n| csg_field(tracers, levels, n, x)).fold(f64::NEG_INFINITY, f64::max)
-        }
+        CsgNode::Union(c) => c
+            .iter()
+            .map(|n| csg_field(tracers, levels, n, x))
+            .fold(f64::INFINITY, f64::min),
+        CsgNode::Intersection(c) => c
+            .iter()
+            .map(|n| csg_field(tracers, levels, n, x))
+            .fold(f64::NEG_INFINITY, f64::max),
         CsgNode::Difference(c) => {
             let mut it = c.iter();
-            let first = it.next().map_or(f64::INFINITY, |n| csg_field(tracers, levels, n, x));
+            let first = it
+                .next()
+                .map_or(f64::INFINITY, |n| csg_field(tracers, levels, n, x));
             it.fold(first, |acc, n| acc.max(-csg_field(tracers, levels, n, x)))
         }
     }
@@ -307,7 +344,10 @@ pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) ->
     let levels: Vec<f64> = solids.iter().map(|s| s.level()).collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for i in csg.solids() {
-        let (c, r) = (solids[i as usize].centre(), solids[i as usize].bounding_radius());
+        let (c, r) = (
+            solids[i as usize].centre(),
+            solids[i as usize].bounding_radius(),
+        );
         for k in 0..3 {
             lo[k] = lo[k].min(c[k] - r);
             hi[k] = hi[k].max(c[k] + r);
@@ -379,8 +419,16 @@ pub fn first_span(
         .enumerate()
         .map(|(i, tr)| {
             tr.crossings(ray, method, scratch).map(|c| Span {
-                enter: Boundary { t: c.t_in, solid: i as u32, flip: false },
-                exit: Boundary { t: c.t_out, solid: i as u32, flip: false },
+                enter: Boundary {
+                    t: c.t_in,
+                    solid: i as u32,
+                    flip: false,
+                },
+                exit: Boundary {
+                    t: c.t_out,
+                    solid: i as u32,
+                    flip: false,
+                },
             })
         })
         .collect();

@@ -180,7 +180,9 @@ impl Scene {
             }
         };
         if file.objects.is_empty() {
-            return Err(RenderError::Scene("objects: a scene needs at least one object".into()));
+            return Err(RenderError::Scene(
+                "objects: a scene needs at least one object".into(),
+            ));
         }
         let objects = file
             .objects
@@ -224,12 +226,20 @@ impl Scene {
             }
         }
         if !lo[0].is_finite() {
-            return Err(RenderError::Scene("the scene has no bounded geometry".into()));
+            return Err(RenderError::Scene(
+                "the scene has no bounded geometry".into(),
+            ));
         }
-        let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])];
+        let c = [
+            0.5 * (lo[0] + hi[0]),
+            0.5 * (lo[1] + hi[1]),
+            0.5 * (lo[2] + hi[2]),
+        ];
         // The radius is the farthest sampled point (or solid's bounding sphere) from the
         // box centre: tighter than the box's half-diagonal.
-        let dist = |p: [f64; 3]| ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
+        let dist = |p: [f64; 3]| {
+            ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt()
+        };
         let mut r: f64 = 0.0;
         for o in &self.objects {
             match &o.shape {
@@ -260,7 +270,9 @@ impl Scene {
                 };
                 let projection = match spec.projection {
                     Projection::Orthographic { height } if height == 0.0 => {
-                        Projection::Orthographic { height: 2.2 * self.bounds()?.1 }
+                        Projection::Orthographic {
+                            height: 2.2 * self.bounds()?.1,
+                        }
                     }
                     p => p,
                 };
@@ -268,7 +280,8 @@ impl Scene {
             }
             None => {
                 let (c, r) = self.bounds()?;
-                let mut cam = Camera::framing(c, r, spec.view_from, spec.projection, width, height)?;
+                let mut cam =
+                    Camera::framing(c, r, spec.view_from, spec.projection, width, height)?;
                 if matches!(spec.projection, Projection::Orthographic { height } if height > 0.0) {
                     cam.projection = spec.projection;
                 }
@@ -292,7 +305,10 @@ fn solid_extent(solid: &ConvexSolid, c: [f64; 3]) -> f64 {
     let mut scratch = Vec::new();
     let mut r: f64 = 0.0;
     for d in dirs {
-        let ray = super::camera::Ray { origin: centre, dir: d };
+        let ray = super::camera::Ray {
+            origin: centre,
+            dir: d,
+        };
         let t = tracer
             .crossings(&ray, super::raytrace::RayMethod::Paper, &mut scratch)
             .map_or(solid.bounding_radius(), |x| x.t_out);
@@ -307,7 +323,10 @@ pub fn texture_wrap(model: &SurfaceModel) -> Result<Wrap> {
     Wrap::of(&model.domain).ok_or_else(|| {
         RenderError::parameter(
             "texture",
-            format!("domain {:?} has no texture coordinates (sphere S^2 and torus do)", model.domain),
+            format!(
+                "domain {:?} has no texture coordinates (sphere S^2 and torus do)",
+                model.domain
+            ),
         )
     })
 }
@@ -320,7 +339,14 @@ pub fn polyhedron_normals(name: &str) -> Option<Vec<[f64; 3]>> {
     let cyclic = |v: [f64; 3]| [v, [v[2], v[0], v[1]], [v[1], v[2], v[0]]];
     match name {
         "tetrahedron" => n.extend([[1., 1., 1.], [1., -1., -1.], [-1., 1., -1.], [-1., -1., 1.]]),
-        "cube" => n.extend([[1., 0., 0.], [-1., 0., 0.], [0., 1., 0.], [0., -1., 0.], [0., 0., 1.], [0., 0., -1.]]),
+        "cube" => n.extend([
+            [1., 0., 0.],
+            [-1., 0., 0.],
+            [0., 1., 0.],
+            [0., -1., 0.],
+            [0., 0., 1.],
+            [0., 0., -1.],
+        ]),
         "octahedron" => {
             for a in signs {
                 for b in signs {
@@ -360,7 +386,13 @@ pub fn polyhedron_normals(name: &str) -> Option<Vec<[f64; 3]>> {
 }
 
 /// Names accepted by [`polyhedron_normals`].
-pub const POLYHEDRA: [&str; 5] = ["tetrahedron", "cube", "octahedron", "dodecahedron", "icosahedron"];
+pub const POLYHEDRA: [&str; 5] = [
+    "tetrahedron",
+    "cube",
+    "octahedron",
+    "dodecahedron",
+    "icosahedron",
+];
 
 /// A convex implicit solid from a built-in polyhedron with inradius `radius` around
 /// `centre`, stretched by `scale` and turned by `rotate_deg` about the centre.
@@ -376,10 +408,16 @@ pub fn polyhedron_solid(
     level: f64,
 ) -> Result<ConvexSolid> {
     let normals = polyhedron_normals(name).ok_or_else(|| {
-        RenderError::parameter("polyhedron", format!("unknown `{name}`; known: {}", POLYHEDRA.join(", ")))
+        RenderError::parameter(
+            "polyhedron",
+            format!("unknown `{name}`; known: {}", POLYHEDRA.join(", ")),
+        )
     })?;
     if !(radius > 0.0 && radius.is_finite()) {
-        return Err(RenderError::parameter("radius", format!("{radius} must be finite and > 0")));
+        return Err(RenderError::parameter(
+            "radius",
+            format!("{radius} must be finite and > 0"),
+        ));
     }
     let a = Affine::from_parts(scale, rotate_deg, [0.0; 3]);
     let mut planes = Vec::with_capacity(normals.len());
@@ -388,7 +426,10 @@ pub fn polyhedron_solid(
             .plane_normal(n)
             .ok_or_else(|| RenderError::parameter("scale", "must be non-zero on every axis"))?;
         let off = radius + m[0] * centre[0] + m[1] * centre[1] + m[2] * centre[2];
-        planes.push(Plane { normal: m, offset: off });
+        planes.push(Plane {
+            normal: m,
+            offset: off,
+        });
     }
     Ok(ConvexSolid::from_planes(&planes, centre, blend, q, level)?)
 }
@@ -399,7 +440,9 @@ fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
     if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
         Ok(srgb_to_linear(c))
     } else {
-        Err(RenderError::Scene(format!("{what}: colour components must be finite and >= 0, got {c:?}")))
+        Err(RenderError::Scene(format!(
+            "{what}: colour components must be finite and >= 0, got {c:?}"
+        )))
     }
 }
 
@@ -407,7 +450,9 @@ fn check_vec(what: &str, v: [f64; 3]) -> Result<[f64; 3]> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
     } else {
-        Err(RenderError::Scene(format!("{what}: components must be finite, got {v:?}")))
+        Err(RenderError::Scene(format!(
+            "{what}: components must be finite, got {v:?}"
+        )))
     }
 }
 
@@ -476,21 +521,29 @@ impl FileCamera {
         let projection = match self.projection {
             FileProjection::Perspective => {
                 if self.height.is_some() {
-                    return Err(RenderError::Scene("camera.height: only for orthographic cameras".into()));
+                    return Err(RenderError::Scene(
+                        "camera.height: only for orthographic cameras".into(),
+                    ));
                 }
                 let fov = self.fov_deg.unwrap_or(30.0);
                 if !(fov > 0.0 && fov < 179.0) {
-                    return Err(RenderError::Scene(format!("camera.fov_deg: {fov} is not in (0, 179)")));
+                    return Err(RenderError::Scene(format!(
+                        "camera.fov_deg: {fov} is not in (0, 179)"
+                    )));
                 }
                 Projection::Perspective { fov_y_deg: fov }
             }
             FileProjection::Orthographic => {
                 if self.fov_deg.is_some() {
-                    return Err(RenderError::Scene("camera.fov_deg: only for perspective cameras".into()));
+                    return Err(RenderError::Scene(
+                        "camera.fov_deg: only for perspective cameras".into(),
+                    ));
                 }
                 let h = self.height.unwrap_or(0.0);
                 if self.height.is_some() && !(h > 0.0 && h.is_finite()) {
-                    return Err(RenderError::Scene(format!("camera.height: {h} must be finite and > 0")));
+                    return Err(RenderError::Scene(format!(
+                        "camera.height: {h} must be finite and > 0"
+                    )));
                 }
                 // Height 0 means "fit the scene" (see `Scene::camera`).
                 Projection::Orthographic { height: h }
@@ -498,7 +551,10 @@ impl FileCamera {
         };
         Ok(CameraSpec {
             eye: self.eye.map(|v| check_vec("camera.eye", v)).transpose()?,
-            target: self.target.map(|v| check_vec("camera.target", v)).transpose()?,
+            target: self
+                .target
+                .map(|v| check_vec("camera.target", v))
+                .transpose()?,
             up: check_vec("camera.up", self.up.unwrap_or(d.up))?,
             view_from: check_vec("camera.view_from", self.view_from.unwrap_or(d.view_from))?,
             projection,
@@ -524,7 +580,9 @@ impl FileLight {
     fn resolve(&self, path: &str) -> Result<Light> {
         let d = check_vec(&format!("{path}.direction"), self.direction)?;
         if d == [0.0; 3] {
-            return Err(RenderError::Scene(format!("{path}.direction: must be non-zero")));
+            return Err(RenderError::Scene(format!(
+                "{path}.direction: must be non-zero"
+            )));
         }
         if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
             return Err(RenderError::Scene(format!(
@@ -584,7 +642,9 @@ fn scale_of(path: &str, s: &Option<ScaleSpec>) -> Result<[f64; 3]> {
     if v.iter().all(|x| x.is_finite() && *x != 0.0) {
         Ok(v)
     } else {
-        Err(RenderError::Scene(format!("{path}.scale: must be finite and non-zero, got {v:?}")))
+        Err(RenderError::Scene(format!(
+            "{path}.scale: must be finite and non-zero, got {v:?}"
+        )))
     }
 }
 
@@ -592,8 +652,14 @@ impl FileTransform {
     fn resolve(&self, path: &str) -> Result<Affine> {
         Ok(Affine::from_parts(
             scale_of(path, &self.scale)?,
-            check_vec(&format!("{path}.rotate_deg"), self.rotate_deg.unwrap_or([0.0; 3]))?,
-            check_vec(&format!("{path}.translate"), self.translate.unwrap_or([0.0; 3]))?,
+            check_vec(
+                &format!("{path}.rotate_deg"),
+                self.rotate_deg.unwrap_or([0.0; 3]),
+            )?,
+            check_vec(
+                &format!("{path}.translate"),
+                self.translate.unwrap_or([0.0; 3]),
+            )?,
         ))
     }
 }
@@ -642,10 +708,16 @@ impl FileSolid {
     fn resolve(&self, path: &str) -> Result<ConvexSolid> {
         let centre = check_vec(&format!("{path}.centre"), self.centre.unwrap_or([0.0; 3]))?;
         if !(self.q.is_finite() && self.q > 0.0) {
-            return Err(RenderError::Scene(format!("{path}.q: {} must be finite and > 0", self.q)));
+            return Err(RenderError::Scene(format!(
+                "{path}.q: {} must be finite and > 0",
+                self.q
+            )));
         }
         if !(self.level.is_finite() && self.level > 1.0) {
-            return Err(RenderError::Scene(format!("{path}.level: {} must be finite and > 1", self.level)));
+            return Err(RenderError::Scene(format!(
+                "{path}.level: {} must be finite and > 1",
+                self.level
+            )));
         }
         match (&self.polyhedron, &self.planes) {
             (Some(name), None) => {
@@ -655,7 +727,10 @@ impl FileSolid {
                     radius,
                     centre,
                     scale_of(path, &self.scale)?,
-                    check_vec(&format!("{path}.rotate_deg"), self.rotate_deg.unwrap_or([0.0; 3]))?,
+                    check_vec(
+                        &format!("{path}.rotate_deg"),
+                        self.rotate_deg.unwrap_or([0.0; 3]),
+                    )?,
                     self.blend,
                     self.q,
                     self.level,
@@ -678,7 +753,10 @@ impl FileSolid {
                     .enumerate()
                     .map(|(i, p)| {
                         let n = check_vec(&format!("{path}.planes[{i}].normal"), p.normal)?;
-                        Ok(Plane { normal: n, offset: p.offset })
+                        Ok(Plane {
+                            normal: n,
+                            offset: p.offset,
+                        })
                     })
                     .collect::<Result<_>>()?;
                 ConvexSolid::from_planes(&planes, centre, self.blend, self.q, self.level)
@@ -719,7 +797,9 @@ struct FileOperand {
 impl FileCsg {
     fn resolve(&self, path: &str, solids: &mut Vec<ConvexSolid>) -> Result<CsgNode> {
         if self.operands.len() < 2 {
-            return Err(RenderError::Scene(format!("{path}.operands: need at least two")));
+            return Err(RenderError::Scene(format!(
+                "{path}.operands: need at least two"
+            )));
         }
         let mut nodes = Vec::with_capacity(self.operands.len());
         for (i, o) in self.operands.iter().enumerate() {
@@ -769,7 +849,10 @@ struct FileObject {
 pub fn load_surface(spec: &str, base: &Path) -> Result<(SurfaceModel, Option<PathBuf>)> {
     if let Some(name) = spec.strip_prefix("builtin:") {
         let model = gallery::by_name(name).ok_or_else(|| {
-            RenderError::Scene(format!("unknown built-in model `{name}`; known: {}", gallery::NAMES.join(", ")))
+            RenderError::Scene(format!(
+                "unknown built-in model `{name}`; known: {}",
+                gallery::NAMES.join(", ")
+            ))
         })??;
         return Ok((model, None));
     }
@@ -794,12 +877,18 @@ impl FileObject {
         ] {
             if let Some(v) = v {
                 if !(v.is_finite() && v >= 0.0) {
-                    return Err(RenderError::Scene(format!("{mp}.{what}: {v} must be finite and >= 0")));
+                    return Err(RenderError::Scene(format!(
+                        "{mp}.{what}: {v} must be finite and >= 0"
+                    )));
                 }
                 *dst = v as f32;
             }
         }
-        let kinds = [self.surface.is_some(), self.solid.is_some(), self.csg.is_some()];
+        let kinds = [
+            self.surface.is_some(),
+            self.solid.is_some(),
+            self.csg.is_some(),
+        ];
         if kinds.iter().filter(|k| **k).count() != 1 {
             return Err(RenderError::Scene(format!(
                 "{path}: give exactly one of `surface`, `solid` or `csg`"
@@ -829,7 +918,9 @@ impl FileObject {
             }
             if let Some(d) = self.detail {
                 if d > 9 {
-                    return Err(RenderError::Scene(format!("{path}.detail: {d} must be at most 9")));
+                    return Err(RenderError::Scene(format!(
+                        "{path}.detail: {d} must be at most 9"
+                    )));
                 }
             }
             let place = match &self.transform {

@@ -84,7 +84,11 @@ impl Material {
         match &self.texture {
             Some((tex, wrap)) if uv[0].is_finite() => {
                 let t = tex.sample([uv[0] as f64, uv[1] as f64], *wrap);
-                [t[0] * self.colour[0], t[1] * self.colour[1], t[2] * self.colour[2]]
+                [
+                    t[0] * self.colour[0],
+                    t[1] * self.colour[1],
+                    t[2] * self.colour[2],
+                ]
             }
             _ => self.colour,
         }

@@ -90,7 +90,12 @@ impl Texture {
             Wrap::Torus => j.rem_euclid(h) as usize,
         };
         let px = |i: i64, j: i64| self.image.pixels[row(j) * w as usize + col(i)];
-        let (a, b, c, d) = (px(x0, y0), px(x0 + 1, y0), px(x0, y0 + 1), px(x0 + 1, y0 + 1));
+        let (a, b, c, d) = (
+            px(x0, y0),
+            px(x0 + 1, y0),
+            px(x0, y0 + 1),
+            px(x0 + 1, y0 + 1),
+        );
         let mut out = [0.0f32; 3];
         for k in 0..3 {
             let top = a[k] + (b[k] - a[k]) * fx;

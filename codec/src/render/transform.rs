@@ -32,9 +32,21 @@ impl Affine {
     /// then z, in degrees), then translate by `t`.
     pub fn from_parts(s: [f64; 3], rotate_deg: [f64; 3], t: [f64; 3]) -> Self {
         let [ax, ay, az] = rotate_deg.map(f64::to_radians);
-        let rx = [[1.0, 0.0, 0.0], [0.0, ax.cos(), -ax.sin()], [0.0, ax.sin(), ax.cos()]];
-        let ry = [[ay.cos(), 0.0, ay.sin()], [0.0, 1.0, 0.0], [-ay.sin(), 0.0, ay.cos()]];
-        let rz = [[az.cos(), -az.sin(), 0.0], [az.sin(), az.cos(), 0.0], [0.0, 0.0, 1.0]];
+        let rx = [
+            [1.0, 0.0, 0.0],
+            [0.0, ax.cos(), -ax.sin()],
+            [0.0, ax.sin(), ax.cos()],
+        ];
+        let ry = [
+            [ay.cos(), 0.0, ay.sin()],
+            [0.0, 1.0, 0.0],
+            [-ay.sin(), 0.0, ay.cos()],
+        ];
+        let rz = [
+            [az.cos(), -az.sin(), 0.0],
+            [az.sin(), az.cos(), 0.0],
+            [0.0, 0.0, 1.0],
+        ];
         let r = matmul(rz, matmul(ry, rx));
         let mut m = r;
         for row in &mut m {

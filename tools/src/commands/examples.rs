@@ -1,1 +1,374 @@
-pub fn run(_g: &crate::cli::GlobalArgs, _a: &crate::cli::ExamplesArgs) -> crate::failure::CliResult { Ok(()) }
+//! `caoen examples`: regenerates every example model, scene and picture in examples/.
+//!
+//! The models are built here in code and written as surface files, the scenes as scene
+//! files, and every picture is rendered from those files, so the committed JSON is
+//! exactly what produced the committed PNGs.
+
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use caoen::render::framebuffer::RgbImage;
+use caoen::render::renderer::{render, Method, RenderOptions};
+use caoen::render::texture::Texture;
+use caoen::render::Scene;
+use caoen::surface::morph::morph;
+use caoen::surface::{gallery, Blend, Domain, KeyPoint, Network, SurfaceModel};
+use serde_json::{json, Value};
+
+use crate::cli::{ExamplesArgs, GlobalArgs};
+use crate::commands::note;
+use crate::commands::render::render_with_progress;
+use crate::failure::{CliError, CliResult};
+use crate::output::write_file;
+
+fn save_json(dir: &Path, name: &str, v: &Value) -> CliResult {
+    let text = serde_json::to_string_pretty(v).expect("json values serialise") + "\n";
+    write_file(&dir.join(name), text.as_bytes())
+}
+
+fn save_model(dir: &Path, name: &str, model: &SurfaceModel) -> CliResult {
+    write_file(&dir.join(name), (model.to_json() + "\n").as_bytes())
+}
+
+fn save_png(global: &GlobalArgs, dir: &Path, name: &str, img: &RgbImage) -> CliResult {
+    write_file(&dir.join(name), &img.encode_png()?)?;
+    note(global, format!("wrote {}", dir.join(name).display()));
+    Ok(())
+}
+
+fn opts(width: u32, height: u32, samples: u32, method: Method) -> RenderOptions {
+    RenderOptions {
+        width,
+        height,
+        samples,
+        method,
+        ..RenderOptions::default()
+    }
+}
+
+/// Renders the scene file `scene` to `dir/png`.
+fn render_scene_file(
+    global: &GlobalArgs,
+    dir: &Path,
+    scene: &Path,
+    png: &str,
+    o: &RenderOptions,
+) -> CliResult {
+    let scene = Scene::load(scene)?;
+    let r = render_with_progress(global, &scene, o, png)?;
+    save_png(global, dir, png, &r.image)
+}
+
+fn kp(source: [f64; 3], shape: [f64; 3], q: f64) -> KeyPoint {
+    KeyPoint::new(source.to_vec(), shape.to_vec(), Blend::Exponential, q)
+}
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [v[0] / n, v[1] / n, v[2] / n]
+}
+
+/// Six axis points and eight cube diagonals, each pulled to `shape(direction)`.
+fn fourteen_point(
+    name: &str,
+    q: f64,
+    shape: impl Fn([f64; 3]) -> [f64; 3],
+) -> CliResult<SurfaceModel> {
+    let mut kps: Vec<KeyPoint> = gallery::axis_points()
+        .iter()
+        .map(|a| kp(*a, shape(*a), q))
+        .collect();
+    for sx in [-1.0, 1.0] {
+        for sy in [-1.0, 1.0] {
+            for sz in [-1.0, 1.0] {
+                let d = unit([sx, sy, sz]);
+                kps.push(kp(d, shape(d), q));
+            }
+        }
+    }
+    Ok(SurfaceModel::new(
+        name,
+        Domain::SPHERE,
+        Network::new(3, 3, &kps, true)?,
+    )?)
+}
+
+/// A torus-domain model: a grid of key points on the torus pulled to `shape(t, f)`.
+fn torus_model(
+    name: &str,
+    q: f64,
+    nt: usize,
+    nf: usize,
+    shape: impl Fn(f64, f64) -> [f64; 3],
+) -> CliResult<SurfaceModel> {
+    let mut kps = Vec::new();
+    for i in 0..nt {
+        for j in 0..nf {
+            let (t, f) = (TAU * i as f64 / nt as f64, TAU * j as f64 / nf as f64);
+            let x = Domain::Torus.point(&[t, f])?;
+            kps.push(KeyPoint::new(
+                x,
+                shape(t, f).to_vec(),
+                Blend::Exponential,
+                q,
+            ));
+        }
+    }
+    Ok(SurfaceModel::new(
+        name,
+        Domain::Torus,
+        Network::new(4, 3, &kps, true)?,
+    )?)
+}
+
+fn camera_json(view_from: [f64; 3]) -> Value {
+    json!({"projection": "perspective", "fov_deg": 30.0, "view_from": view_from})
+}
+
+/// Renders one model per tile with a fixed orthographic camera and lays the tiles out
+/// in a grid (row-major).
+fn tile_grid(
+    models: &[SurfaceModel],
+    cols: u32,
+    tile: u32,
+    samples: u32,
+    height: f64,
+) -> CliResult<RgbImage> {
+    let rows = (models.len() as u32).div_ceil(cols);
+    let mut out: Option<RgbImage> = None;
+    for (i, m) in models.iter().enumerate() {
+        let mut scene = Scene::from_model(m.clone(), None)?;
+        scene.camera.eye = Some([3.0, -3.9, 2.4]);
+        scene.camera.target = Some([0.0; 3]);
+        scene.camera.projection = caoen::render::Projection::Orthographic { height };
+        let r = render(&scene, &opts(tile, tile, samples, Method::Mesh), &|_, _| {})?;
+        let img =
+            out.get_or_insert_with(|| RgbImage::filled(cols * tile, rows * tile, scene.background));
+        img.blit(&r.image, (i as u32 % cols) * tile, (i as u32 / cols) * tile);
+    }
+    out.ok_or_else(|| CliError::Failed("no tiles".into()))
+}
+
+/// `caoen examples`.
+pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
+    let dir = a.out.as_path();
+    let n = a.samples;
+    std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, e))?;
+    let start = std::time::Instant::now();
+
+    // 1. The six-point family (figures 2 and 3): q = 1..6, exponential on top, the
+    //    normalised exponential below.
+    let sub = dir.join("six-point");
+    let mut family = Vec::new();
+    for normalised in [false, true] {
+        for q in 1..=6 {
+            let m = gallery::six_point(Blend::Exponential, q as f64, normalised)?;
+            let kind = if normalised {
+                "normalised"
+            } else {
+                "exponential"
+            };
+            save_model(&sub, &format!("{kind}-q{q}.json"), &m)?;
+            family.push(m);
+        }
+    }
+    save_png(
+        global,
+        dir,
+        "six-point-family.png",
+        &tile_grid(&family, 6, 80, n, 2.6)?,
+    )?;
+
+    // 2. A freeform surface on the torus domain: a ring that twists its cross-section
+    //    into a rounded triangle and swells on one side.
+    let torus = torus_model("twisted ring", 10.0, 12, 8, |t, f| {
+        let swell = 1.0 + 0.35 * t.cos();
+        let minor = 0.32 * swell * (1.0 + 0.25 * (3.0 * f + 2.0 * t).cos());
+        let r = 1.0 + minor * f.cos();
+        [r * t.cos(), r * t.sin(), minor * f.sin()]
+    })?;
+    save_model(dir, "torus-freeform.json", &torus)?;
+    save_json(
+        dir,
+        "torus-freeform.scene.json",
+        &json!({
+            "format": "caoen-scene/1", "name": "torus-domain freeform surface",
+            "camera": camera_json([0.9, -1.5, 1.1]),
+            "objects": [{"surface": "torus-freeform.json", "material": {"colour": [0.85, 0.55, 0.3], "specular": 0.3}}]
+        }),
+    )?;
+    render_scene_file(
+        global,
+        dir,
+        &dir.join("torus-freeform.scene.json"),
+        "torus-freeform.png",
+        &opts(384, 288, n, Method::Depth),
+    )?;
+    let scene = Scene::load(&dir.join("torus-freeform.scene.json"))?;
+    let r = render(&scene, &opts(384, 288, 1, Method::Depth), &|_, _| {})?;
+    write_file(
+        &dir.join("torus-freeform-depth.png"),
+        &r.depth.encode_png16()?,
+    )?;
+
+    // 3. A morph between models of 6 and 14 key points (the smaller is padded with
+    //    empty key points), five frames.
+    let a_model = gallery::six_point(Blend::Exponential, 5.0, true)?;
+    let b_model = fourteen_point("star", 5.0, |d| {
+        let diag = d.iter().all(|v| v.abs() > 0.1);
+        let s = if diag { 1.35 } else { 0.55 };
+        [d[0] * s, d[1] * s, d[2] * s]
+    })?;
+    save_model(dir, "morph-a.json", &a_model)?;
+    save_model(dir, "morph-b.json", &b_model)?;
+    let frames: Vec<SurfaceModel> = (0..5)
+        .map(|k| {
+            let net = morph(&a_model.network, &b_model.network, k as f64 / 4.0)?;
+            Ok(SurfaceModel::new(
+                format!("morph u={}", k as f64 / 4.0),
+                Domain::SPHERE,
+                net,
+            )?)
+        })
+        .collect::<CliResult<_>>()?;
+    save_png(
+        global,
+        dir,
+        "morph.png",
+        &tile_grid(&frames, 5, 96, n, 3.0)?,
+    )?;
+
+    // 4. Convex implicit solids from polyhedra, ray traced: one alone, and a CSG of two.
+    save_json(
+        dir,
+        "solid.scene.json",
+        &json!({
+            "format": "caoen-scene/1", "name": "implicit dodecahedron",
+            "camera": camera_json([1.0, -1.7, 1.0]),
+            "objects": [{"name": "dodecahedron", "solid": {"polyhedron": "dodecahedron", "radius": 1.0, "q": 12.0, "level": 2.0},
+                         "material": {"colour": [0.3, 0.6, 0.4], "specular": 0.4}}]
+        }),
+    )?;
+    render_scene_file(
+        global,
+        dir,
+        &dir.join("solid.scene.json"),
+        "solid.png",
+        &opts(320, 240, n, Method::Ray),
+    )?;
+    save_json(
+        dir,
+        "csg.scene.json",
+        &json!({
+            "format": "caoen-scene/1", "name": "cube minus icosahedron",
+            "camera": camera_json([1.0, -1.5, 1.1]),
+            "objects": [{"name": "carved cube", "csg": {"op": "difference", "operands": [
+                {"solid": {"polyhedron": "cube", "radius": 1.0, "q": 16.0}},
+                {"solid": {"polyhedron": "icosahedron", "radius": 1.2, "q": 6.0}}
+            ]}, "material": {"colour": [0.75, 0.42, 0.35], "specular": 0.35}}]
+        }),
+    )?;
+    render_scene_file(
+        global,
+        dir,
+        &dir.join("csg.scene.json"),
+        "csg.png",
+        &opts(320, 240, n, Method::Ray),
+    )?;
+
+    // 5. A compound teapot-like model: body, lid with knob, spout (sphere domains) and
+    //    handle (torus domain), placed by transforms.
+    let tea = dir.join("teapot");
+    let body = fourteen_point("teapot body", 3.0, |d| {
+        let z = if d[2] > 0.0 { 0.75 } else { 0.62 };
+        [d[0] * 1.05, d[1] * 1.05, d[2] * z]
+    })?;
+    let lid = {
+        let base = fourteen_point("teapot lid", 3.0, |d| {
+            [
+                d[0] * 0.62,
+                d[1] * 0.62,
+                if d[2] > 0.0 { d[2] * 0.2 } else { d[2] * 0.04 },
+            ]
+        })?;
+        // A sharp extra key point at the pole pulls up the knob.
+        let mut kps = base.network.key_points();
+        kps.push(kp([0.0, 0.0, 1.0], [0.0, 0.0, 0.5], 40.0));
+        SurfaceModel::new(
+            "teapot lid",
+            Domain::SPHERE,
+            Network::new(3, 3, &kps, true)?,
+        )?
+    };
+    let spout = fourteen_point("teapot spout", 2.5, |d| {
+        let x = if d[0] > 0.0 { 1.0 * d[0] } else { 0.25 * d[0] };
+        let r = 0.2 - 0.06 * d[0];
+        [x, d[1] * r, d[2] * r]
+    })?;
+    let handle = torus_model("teapot handle", 12.0, 12, 6, |t, f| {
+        let (big, small) = (0.42, 0.075);
+        let r = big + small * f.cos();
+        [r * t.cos(), r * t.sin(), small * f.sin()]
+    })?;
+    for (name, m) in [
+        ("body.json", &body),
+        ("lid.json", &lid),
+        ("spout.json", &spout),
+        ("handle.json", &handle),
+    ] {
+        save_model(&tea, name, m)?;
+    }
+    let glaze = json!({"colour": [0.82, 0.84, 0.9], "specular": 0.6, "shininess": 60.0});
+    save_json(
+        &tea,
+        "teapot.scene.json",
+        &json!({
+            "format": "caoen-scene/1", "name": "teapot-like compound model",
+            "camera": camera_json([0.35, -1.6, 0.75]),
+            "objects": [
+                {"name": "body", "surface": "body.json", "material": glaze},
+                {"name": "lid", "surface": "lid.json", "transform": {"translate": [0.0, 0.0, 0.62]}, "material": glaze},
+                {"name": "spout", "surface": "spout.json", "transform": {"rotate_deg": [0.0, -40.0, 0.0], "translate": [0.75, 0.0, 0.05]}, "material": glaze},
+                {"name": "handle", "surface": "handle.json", "transform": {"rotate_deg": [90.0, 0.0, 0.0], "translate": [-1.05, 0.0, 0.1]}, "material": glaze}
+            ]
+        }),
+    )?;
+    render_scene_file(
+        global,
+        dir,
+        &tea.join("teapot.scene.json"),
+        "teapot.png",
+        &opts(384, 288, n, Method::Mesh),
+    )?;
+
+    // 6. A textured surface: a checker texture on the sphere domain of the blob.
+    let tex = Texture::checker(256, 128, 16, 8, [0.9, 0.85, 0.7], [0.08, 0.25, 0.5])?;
+    write_file(&dir.join("checker.png"), &tex.image().encode_png()?)?;
+    let textured = gallery::blob()?.with_texture("checker.png");
+    save_model(dir, "textured-blob.json", &textured)?;
+    save_json(
+        dir,
+        "textured.scene.json",
+        &json!({
+            "format": "caoen-scene/1", "name": "textured blob",
+            "camera": camera_json([1.0, -1.6, 0.7]),
+            "objects": [{"surface": "textured-blob.json", "material": {"specular": 0.2}}]
+        }),
+    )?;
+    render_scene_file(
+        global,
+        dir,
+        &dir.join("textured.scene.json"),
+        "textured.png",
+        &opts(320, 240, n, Method::Depth),
+    )?;
+
+    note(
+        global,
+        format!(
+            "examples regenerated in {:.1} s",
+            start.elapsed().as_secs_f64()
+        ),
+    );
+    Ok(())
+}

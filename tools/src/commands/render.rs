@@ -11,7 +11,9 @@ use caoen::render::texture::Texture;
 use caoen::render::{render, Method, Projection, RenderError, RenderOptions, Rendered, Scene};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::cli::{GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg, SurfaceRenderArgs};
+use crate::cli::{
+    GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg, SurfaceRenderArgs,
+};
 use crate::commands::note;
 use crate::commands::surface::load_model;
 use crate::failure::{CliError, CliResult};
@@ -30,9 +32,14 @@ impl From<RenderError> for CliError {
 pub fn parse_size(s: &str) -> CliResult<(u32, u32)> {
     let bad = || CliError::Usage(format!("`{s}`: expected WIDTHxHEIGHT like 512x384"));
     let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let (w, h): (u32, u32) = (a.trim().parse().map_err(|_| bad())?, b.trim().parse().map_err(|_| bad())?);
+    let (w, h): (u32, u32) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(CliError::Usage(format!("`{s}`: width and height must be in 1..=16384")));
+        return Err(CliError::Usage(format!(
+            "`{s}`: width and height must be in 1..=16384"
+        )));
     }
     Ok((w, h))
 }
@@ -46,7 +53,8 @@ pub fn load_scene(spec: &str, texture: Option<&Path>) -> CliResult<Scene> {
         if Scene::is_scene_json(&text) {
             if texture.is_some() {
                 return Err(CliError::Usage(
-                    "--texture applies to a surface model; give textures in the scene's materials".into(),
+                    "--texture applies to a surface model; give textures in the scene's materials"
+                        .into(),
                 ));
             }
             return Ok(Scene::load(path)?);
@@ -86,7 +94,12 @@ pub fn progress_bar(global: &GlobalArgs, what: &str) -> ProgressBar {
 }
 
 /// Renders with a progress bar.
-pub fn render_with_progress(global: &GlobalArgs, scene: &Scene, opts: &RenderOptions, what: &str) -> CliResult<Rendered> {
+pub fn render_with_progress(
+    global: &GlobalArgs,
+    scene: &Scene,
+    opts: &RenderOptions,
+    what: &str,
+) -> CliResult<Rendered> {
     let bar = progress_bar(global, what);
     let result = render(scene, opts, &|done, total| {
         bar.set_length(total);
@@ -98,7 +111,10 @@ pub fn render_with_progress(global: &GlobalArgs, scene: &Scene, opts: &RenderOpt
 
 /// Writes a depth map: 16-bit PNG, or OpenEXR (raw depths) for `.exr`.
 pub fn write_depth(r: &Rendered, path: &Path) -> CliResult {
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     let bytes = match ext.as_deref() {
         Some("png") => r.depth.encode_png16()?,
         Some("exr") => r.depth.encode_exr()?,
@@ -140,12 +156,22 @@ pub fn options(a: &SurfaceRenderArgs) -> CliResult<RenderOptions> {
 /// `caoen surface render`.
 pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     let opts = options(a)?;
-    let ext = a.output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     if ext.as_deref() != Some("png") {
-        return Err(CliError::Usage(format!("{}: render output must end in .png", a.output.display())));
+        return Err(CliError::Usage(format!(
+            "{}: render output must end in .png",
+            a.output.display()
+        )));
     }
     if let Some(d) = &a.depth_out {
-        let e = d.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let e = d
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
         if !matches!(e.as_deref(), Some("png" | "exr")) {
             return Err(CliError::Usage(format!(
                 "{}: depth output must end in .png (16-bit) or .exr",
@@ -212,10 +238,19 @@ pub fn write_obj_material(obj: &Path, texture: &Path) -> CliResult<(String, Stri
     write_file(&png, &png_bytes)?;
     let stem = obj.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
     let mtl = obj.with_file_name(format!("{stem}.mtl"));
-    let png_name = png.file_name().and_then(|s| s.to_str()).unwrap_or("texture.png").to_string();
+    let png_name = png
+        .file_name()
+        .and_then(|s| s.to_str())
+        .unwrap_or("texture.png")
+        .to_string();
     let mut text = Vec::new();
-    caoen::render::mesh_io::write_mtl(&mut text, "caoen_surface", &png_name).map_err(|e| CliError::io(&mtl, e))?;
+    caoen::render::mesh_io::write_mtl(&mut text, "caoen_surface", &png_name)
+        .map_err(|e| CliError::io(&mtl, e))?;
     write_file(&mtl, &text)?;
-    let mtl_name = mtl.file_name().and_then(|s| s.to_str()).unwrap_or("mesh.mtl").to_string();
+    let mtl_name = mtl
+        .file_name()
+        .and_then(|s| s.to_str())
+        .unwrap_or("mesh.mtl")
+        .to_string();
     Ok((mtl_name, png_name))
 }
