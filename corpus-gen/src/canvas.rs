@@ -15,7 +15,7 @@
 use rayon::prelude::*;
 
 use crate::image::{CorpusImage, PixelData};
-use crate::math::{clamp01, quantize, srgb_encode, sqrt, Col};
+use crate::math::{clamp01, quantize, sqrt, srgb_encode, Col};
 
 /// How canvas values map to output samples.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,11 +44,19 @@ pub trait Shape: Sync {
 
 impl Canvas {
     pub fn new(w: usize, h: usize, fill: Col) -> Canvas {
-        Canvas { w, h, px: vec![[fill.0 as f32, fill.1 as f32, fill.2 as f32, 1.0]; w * h] }
+        Canvas {
+            w,
+            h,
+            px: vec![[fill.0 as f32, fill.1 as f32, fill.2 as f32, 1.0]; w * h],
+        }
     }
 
     pub fn transparent(w: usize, h: usize) -> Canvas {
-        Canvas { w, h, px: vec![[0.0; 4]; w * h] }
+        Canvas {
+            w,
+            h,
+            px: vec![[0.0; 4]; w * h],
+        }
     }
 
     #[inline]
@@ -87,7 +95,11 @@ impl Canvas {
         self.px.par_chunks_mut(w).enumerate().for_each(|(j, row)| {
             let y = j as f64 + 0.5;
             for (i, p) in row.iter_mut().enumerate() {
-                let c = f(i as f64 + 0.5, y, Col(p[0] as f64, p[1] as f64, p[2] as f64));
+                let c = f(
+                    i as f64 + 0.5,
+                    y,
+                    Col(p[0] as f64, p[1] as f64, p[2] as f64),
+                );
                 p[0] = c.0 as f32;
                 p[1] = c.1 as f32;
                 p[2] = c.2 as f32;
@@ -107,38 +119,48 @@ impl Canvas {
     }
 
     /// Composite `shape` painted with `paint(x, y)` at opacity `alpha`.
-    pub fn draw<S: Shape + ?Sized, P: Fn(f64, f64) -> Col + Sync>(&mut self, shape: &S, alpha: f64, paint: P) {
-        let Some((x0, y0, x1, y1)) = self.rows_of(shape.bbox()) else { return };
+    pub fn draw<S: Shape + ?Sized, P: Fn(f64, f64) -> Col + Sync>(
+        &mut self,
+        shape: &S,
+        alpha: f64,
+        paint: P,
+    ) {
+        let Some((x0, y0, x1, y1)) = self.rows_of(shape.bbox()) else {
+            return;
+        };
         let w = self.w;
-        self.px[y0 * w..y1 * w].par_chunks_mut(w).enumerate().for_each(|(jj, row)| {
-            let y = (y0 + jj) as f64 + 0.5;
-            for (i, p) in row.iter_mut().enumerate().take(x1).skip(x0) {
-                let x = i as f64 + 0.5;
-                let cov = shape.coverage(x, y);
-                if cov <= 0.0 {
-                    continue;
-                }
-                let a = (cov * alpha) as f32;
-                let c = paint(x, y);
-                let c = [c.0 as f32, c.1 as f32, c.2 as f32];
-                if a >= 1.0 {
-                    p[0] = c[0];
-                    p[1] = c[1];
-                    p[2] = c[2];
-                    p[3] = 1.0;
-                } else {
-                    // Straight-alpha "over".
-                    let ab = p[3];
-                    let ao = a + ab * (1.0 - a);
-                    if ao > 0.0 {
-                        for k in 0..3 {
-                            p[k] = (c[k] * a + p[k] * ab * (1.0 - a)) / ao;
-                        }
+        self.px[y0 * w..y1 * w]
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(jj, row)| {
+                let y = (y0 + jj) as f64 + 0.5;
+                for (i, p) in row.iter_mut().enumerate().take(x1).skip(x0) {
+                    let x = i as f64 + 0.5;
+                    let cov = shape.coverage(x, y);
+                    if cov <= 0.0 {
+                        continue;
                     }
-                    p[3] = ao;
+                    let a = (cov * alpha) as f32;
+                    let c = paint(x, y);
+                    let c = [c.0 as f32, c.1 as f32, c.2 as f32];
+                    if a >= 1.0 {
+                        p[0] = c[0];
+                        p[1] = c[1];
+                        p[2] = c[2];
+                        p[3] = 1.0;
+                    } else {
+                        // Straight-alpha "over".
+                        let ab = p[3];
+                        let ao = a + ab * (1.0 - a);
+                        if ao > 0.0 {
+                            for k in 0..3 {
+                                p[k] = (c[k] * a + p[k] * ab * (1.0 - a)) / ao;
+                            }
+                        }
+                        p[3] = ao;
+                    }
                 }
-            }
-        });
+            });
     }
 
     /// Fill `shape` with a solid colour.
@@ -220,7 +242,12 @@ pub struct Disc {
 
 impl Shape for Disc {
     fn bbox(&self) -> [f64; 4] {
-        [self.cx - self.r - 1.0, self.cy - self.r - 1.0, self.cx + self.r + 1.0, self.cy + self.r + 1.0]
+        [
+            self.cx - self.r - 1.0,
+            self.cy - self.r - 1.0,
+            self.cx + self.r + 1.0,
+            self.cy + self.r + 1.0,
+        ]
     }
     fn coverage(&self, x: f64, y: f64) -> f64 {
         let dx = x - self.cx;
@@ -285,7 +312,10 @@ impl Polygon {
             bb[2] = bb[2].max(x);
             bb[3] = bb[3].max(y);
         }
-        Polygon { pts, bb: [bb[0] - 1.0, bb[1] - 1.0, bb[2] + 1.0, bb[3] + 1.0] }
+        Polygon {
+            pts,
+            bb: [bb[0] - 1.0, bb[1] - 1.0, bb[2] + 1.0, bb[3] + 1.0],
+        }
     }
 
     /// Axis-aligned rectangle.
@@ -297,7 +327,12 @@ impl Polygon {
     pub fn rotated_rect(cx: f64, cy: f64, hw: f64, hh: f64, rot: (f64, f64)) -> Polygon {
         let (c, s) = rot;
         let corner = |u: f64, v: f64| (cx + u * c - v * s, cy + u * s + v * c);
-        Polygon::new(vec![corner(-hw, -hh), corner(hw, -hh), corner(hw, hh), corner(-hw, hh)])
+        Polygon::new(vec![
+            corner(-hw, -hh),
+            corner(hw, -hh),
+            corner(hw, hh),
+            corner(-hw, hh),
+        ])
     }
 
     /// Signed distance, negative inside.
@@ -313,7 +348,11 @@ impl Polygon {
             let wx = x - v[i].0;
             let wy = y - v[i].1;
             let ee = ex * ex + ey * ey;
-            let t = if ee > 0.0 { ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if ee > 0.0 {
+                ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let bx = wx - ex * t;
             let by = wy - ey * t;
             d = d.min(bx * bx + by * by);
@@ -361,7 +400,11 @@ impl Stroke {
             bb[3] = bb[3].max(y);
         }
         let m = hw + 1.0;
-        Stroke { pts, half_width: hw, bb: [bb[0] - m, bb[1] - m, bb[2] + m, bb[3] + m] }
+        Stroke {
+            pts,
+            half_width: hw,
+            bb: [bb[0] - m, bb[1] - m, bb[2] + m, bb[3] + m],
+        }
     }
 
     pub fn line(a: (f64, f64), b: (f64, f64), width: f64) -> Stroke {
@@ -385,7 +428,11 @@ impl Stroke {
             let wx = x - ax;
             let wy = y - ay;
             let ee = ex * ex + ey * ey;
-            let t = if ee > 0.0 { ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if ee > 0.0 {
+                ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let dx = wx - ex * t;
             let dy = wy - ey * t;
             best = best.min(dx * dx + dy * dy);
@@ -424,7 +471,13 @@ impl<F: Fn(f64, f64) -> f64 + Sync> Shape for SdfShape<F> {
 }
 
 /// Flatten a cubic Bézier into `n + 1` points.
-pub fn cubic(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64), p3: (f64, f64), n: usize) -> Vec<(f64, f64)> {
+pub fn cubic(
+    p0: (f64, f64),
+    p1: (f64, f64),
+    p2: (f64, f64),
+    p3: (f64, f64),
+    n: usize,
+) -> Vec<(f64, f64)> {
     (0..=n)
         .map(|k| {
             let t = k as f64 / n as f64;
@@ -433,7 +486,10 @@ pub fn cubic(p0: (f64, f64), p1: (f64, f64), p2: (f64, f64), p3: (f64, f64), n: 
             let b = 3.0 * u * u * t;
             let c = 3.0 * u * t * t;
             let d = t * t * t;
-            (a * p0.0 + b * p1.0 + c * p2.0 + d * p3.0, a * p0.1 + b * p1.1 + c * p2.1 + d * p3.1)
+            (
+                a * p0.0 + b * p1.0 + c * p2.0 + d * p3.0,
+                a * p0.1 + b * p1.1 + c * p2.1 + d * p3.1,
+            )
         })
         .collect()
 }
@@ -452,7 +508,10 @@ pub fn closed_spline(ctrl: &[(f64, f64)], per_seg: usize) -> Vec<(f64, f64)> {
             let t2 = t * t;
             let t3 = t2 * t;
             let f = |a: f64, b: f64, c: f64, d: f64| {
-                0.5 * (2.0 * b + (-a + c) * t + (2.0 * a - 5.0 * b + 4.0 * c - d) * t2 + (-a + 3.0 * b - 3.0 * c + d) * t3)
+                0.5 * (2.0 * b
+                    + (-a + c) * t
+                    + (2.0 * a - 5.0 * b + 4.0 * c - d) * t2
+                    + (-a + 3.0 * b - 3.0 * c + d) * t3)
             };
             out.push((f(p0.0, p1.0, p2.0, p3.0), f(p0.1, p1.1, p2.1, p3.1)));
         }
@@ -460,30 +519,14 @@ pub fn closed_spline(ctrl: &[(f64, f64)], per_seg: usize) -> Vec<(f64, f64)> {
     out
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn interiors_are_exact_and_edges_antialiased() {
-        let mut c = Canvas::new(40, 40, Col::gray(0.0));
-        c.fill(&Polygon::rect(10.0, 10.0, 30.5, 30.0), Col::gray(1.0));
-        assert_eq!(c.get(20, 20).0, 1.0);
-        assert_eq!(c.get(5, 5).0, 0.0);
-        // Column 30 is half covered.
-        assert!((c.get(30, 20).0 - 0.5).abs() < 1e-6);
-    }
-
-    #[test]
-    fn hairline_keeps_weight() {
-        let s = Stroke::line((0.0, 10.5), (100.0, 10.5), 0.5);
-        assert!((s.coverage(50.5, 10.5) - 0.5).abs() < 1e-12);
-        assert_eq!(s.coverage(50.5, 12.5), 0.0);
-    }
-}
-
 /// Axis-aligned rectangle with rounded corners of radius `r`.
-pub fn rounded_rect(x0: f64, y0: f64, x1: f64, y1: f64, r: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
+pub fn rounded_rect(
+    x0: f64,
+    y0: f64,
+    x1: f64,
+    y1: f64,
+    r: f64,
+) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
     let cx = 0.5 * (x0 + x1);
     let cy = 0.5 * (y0 + y1);
     let hx = 0.5 * (x1 - x0);
@@ -516,11 +559,13 @@ pub fn ring(cx: f64, cy: f64, r: f64, t: f64) -> SdfShape<impl Fn(f64, f64) -> f
 /// Evaluate a scalar field at pixel centres, `w x h`, row-major (parallel over rows).
 pub fn field<F: Fn(f64, f64) -> f64 + Sync>(w: usize, h: usize, f: F) -> Vec<f64> {
     let mut out = vec![0.0; w * h];
-    out.par_chunks_mut(w.max(1)).enumerate().for_each(|(j, row)| {
-        for (i, v) in row.iter_mut().enumerate() {
-            *v = f(i as f64 + 0.5, j as f64 + 0.5);
-        }
-    });
+    out.par_chunks_mut(w.max(1))
+        .enumerate()
+        .for_each(|(j, row)| {
+            for (i, v) in row.iter_mut().enumerate() {
+                *v = f(i as f64 + 0.5, j as f64 + 0.5);
+            }
+        });
     out
 }
 
@@ -544,12 +589,37 @@ impl Canvas {
     pub fn shade_rows_from<F: Fn(f64, f64) -> Col + Sync>(&mut self, y0: usize, f: F) {
         let w = self.w.max(1);
         let y0 = y0.min(self.h);
-        self.px[y0 * self.w..].par_chunks_mut(w).enumerate().for_each(|(j, row)| {
-            let y = (y0 + j) as f64 + 0.5;
-            for (i, p) in row.iter_mut().enumerate() {
-                let c = f(i as f64 + 0.5, y);
-                *p = [c.0 as f32, c.1 as f32, c.2 as f32, 1.0];
-            }
-        });
+        self.px[y0 * self.w..]
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each(|(j, row)| {
+                let y = (y0 + j) as f64 + 0.5;
+                for (i, p) in row.iter_mut().enumerate() {
+                    let c = f(i as f64 + 0.5, y);
+                    *p = [c.0 as f32, c.1 as f32, c.2 as f32, 1.0];
+                }
+            });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interiors_are_exact_and_edges_antialiased() {
+        let mut c = Canvas::new(40, 40, Col::gray(0.0));
+        c.fill(&Polygon::rect(10.0, 10.0, 30.5, 30.0), Col::gray(1.0));
+        assert_eq!(c.get(20, 20).0, 1.0);
+        assert_eq!(c.get(5, 5).0, 0.0);
+        // Column 30 is half covered.
+        assert!((c.get(30, 20).0 - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn hairline_keeps_weight() {
+        let s = Stroke::line((0.0, 10.5), (100.0, 10.5), 0.5);
+        assert!((s.coverage(50.5, 10.5) - 0.5).abs() < 1e-12);
+        assert_eq!(s.coverage(50.5, 12.5), 0.0);
     }
 }

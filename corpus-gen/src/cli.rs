@@ -86,14 +86,22 @@ impl CorpusArgs {
         }
         if let Some(n) = self.seeds {
             if n == 0 || n > MAX_SEEDS {
-                return Err(CorpusError::InvalidArgument(format!("--seeds {n} out of range (1 to {MAX_SEEDS})")));
+                return Err(CorpusError::InvalidArgument(format!(
+                    "--seeds {n} out of range (1 to {MAX_SEEDS})"
+                )));
             }
         }
         if self.threads == Some(0) {
-            return Err(CorpusError::InvalidArgument("--threads must be at least 1".into()));
+            return Err(CorpusError::InvalidArgument(
+                "--threads must be at least 1".into(),
+            ));
         }
         let mut classes: Vec<Class> = Vec::new();
-        for c in if self.classes.is_empty() { Class::ALL.to_vec() } else { self.classes.clone() } {
+        for c in if self.classes.is_empty() {
+            Class::ALL.to_vec()
+        } else {
+            self.classes.clone()
+        } {
             if !classes.contains(&c) {
                 classes.push(c);
             }
@@ -111,8 +119,16 @@ pub fn run(args: &CorpusArgs) -> Result<(), CorpusError> {
         }
         return Ok(());
     }
-    let out = args.out.as_deref().ok_or_else(|| CorpusError::InvalidArgument("--out DIR is required".into()))?;
-    let opts = WriteOptions { force: args.force, quiet: args.quiet, contact_sheet: args.contact_sheet.clone(), size: args.size };
+    let out = args
+        .out
+        .as_deref()
+        .ok_or_else(|| CorpusError::InvalidArgument("--out DIR is required".into()))?;
+    let opts = WriteOptions {
+        force: args.force,
+        quiet: args.quiet,
+        contact_sheet: args.contact_sheet.clone(),
+        size: args.size,
+    };
     let job = || write_corpus(out, &specs, &opts);
     let start = Instant::now();
     let manifest = match args.threads {
@@ -153,8 +169,14 @@ pub struct WriteOptions {
 }
 
 fn is_inside(dir: &Path, file: &Path) -> Option<String> {
-    let parent = file.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let (a, b) = (std::fs::canonicalize(parent).ok()?, std::fs::canonicalize(dir).ok()?);
+    let parent = file
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let (a, b) = (
+        std::fs::canonicalize(parent).ok()?,
+        std::fs::canonicalize(dir).ok()?,
+    );
     if a == b {
         file.file_name().map(|n| n.to_string_lossy().into_owned())
     } else {
@@ -166,10 +188,17 @@ fn is_inside(dir: &Path, file: &Path) -> Option<String> {
 /// `manifest.json`. Refuses, before writing anything, to touch a non-empty
 /// directory that has no manifest of ours, or any existing file our manifest does
 /// not list, unless `force`.
-pub fn write_corpus(dir: &Path, specs: &[Spec], opts: &WriteOptions) -> Result<Manifest, CorpusError> {
+pub fn write_corpus(
+    dir: &Path,
+    specs: &[Spec],
+    opts: &WriteOptions,
+) -> Result<Manifest, CorpusError> {
     // --- Checks, before anything is written.
     if dir.exists() && !dir.is_dir() {
-        return Err(CorpusError::InvalidArgument(format!("--out {} exists and is not a directory", dir.display())));
+        return Err(CorpusError::InvalidArgument(format!(
+            "--out {} exists and is not a directory",
+            dir.display()
+        )));
     }
     std::fs::create_dir_all(dir).map_err(|e| CorpusError::io(dir, e))?;
     let old = Manifest::read_from_dir(dir)?;
@@ -184,7 +213,9 @@ pub fn write_corpus(dir: &Path, specs: &[Spec], opts: &WriteOptions) -> Result<M
     for s in specs {
         let name = s.file_name();
         if !names.insert(name.clone()) {
-            return Err(CorpusError::InvalidArgument(format!("duplicate output file {name}")));
+            return Err(CorpusError::InvalidArgument(format!(
+                "duplicate output file {name}"
+            )));
         }
         let path = dir.join(&name);
         if !opts.force && path.exists() && !owned(&name) {
@@ -198,15 +229,29 @@ pub fn write_corpus(dir: &Path, specs: &[Spec], opts: &WriteOptions) -> Result<M
         is_inside(dir, p)
     });
     if let Some(sheet) = &opts.contact_sheet {
-        if sheet.extension().and_then(|e| e.to_str()).map(|e| e.eq_ignore_ascii_case("png")) != Some(true) {
-            return Err(CorpusError::InvalidArgument(format!("--contact-sheet {} must end in .png", sheet.display())));
+        if sheet
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.eq_ignore_ascii_case("png"))
+            != Some(true)
+        {
+            return Err(CorpusError::InvalidArgument(format!(
+                "--contact-sheet {} must end in .png",
+                sheet.display()
+            )));
         }
         let ours = sheet_in_dir.as_deref().is_some_and(owned);
         if !opts.force && sheet.exists() && !ours {
             return Err(CorpusError::WouldOverwrite(sheet.clone()));
         }
-        if sheet_in_dir.as_deref().is_some_and(|n| names.contains(n) || n == MANIFEST_NAME) {
-            return Err(CorpusError::InvalidArgument(format!("--contact-sheet {} collides with a corpus file", sheet.display())));
+        if sheet_in_dir
+            .as_deref()
+            .is_some_and(|n| names.contains(n) || n == MANIFEST_NAME)
+        {
+            return Err(CorpusError::InvalidArgument(format!(
+                "--contact-sheet {} collides with a corpus file",
+                sheet.display()
+            )));
         }
     }
 
@@ -214,10 +259,13 @@ pub fn write_corpus(dir: &Path, specs: &[Spec], opts: &WriteOptions) -> Result<M
     let pb = if opts.quiet {
         ProgressBar::hidden()
     } else {
-        let pb = ProgressBar::with_draw_target(Some(specs.len() as u64), ProgressDrawTarget::stderr());
+        let pb =
+            ProgressBar::with_draw_target(Some(specs.len() as u64), ProgressDrawTarget::stderr());
         pb.set_style(
-            ProgressStyle::with_template("{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} {msg}")
-                .expect("valid progress template"),
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} {msg}",
+            )
+            .expect("valid progress template"),
         );
         pb
     };
@@ -262,7 +310,10 @@ pub fn write_corpus(dir: &Path, specs: &[Spec], opts: &WriteOptions) -> Result<M
     }
     if let Some(sheet) = &opts.contact_sheet {
         let img = contact::compose(&thumbs);
-        img.save(sheet).map_err(|source| CorpusError::Png { path: sheet.clone(), source })?;
+        img.save(sheet).map_err(|source| CorpusError::Png {
+            path: sheet.clone(),
+            source,
+        })?;
         if sheet_in_dir.is_some() {
             manifest.contact_sheet = sheet_in_dir;
         }

@@ -24,7 +24,12 @@ pub fn layout(n: usize) -> (u32, u32, u32, u32) {
     let n = n.max(1) as u32;
     let cols = n.min(MAX_COLS);
     let rows = n.div_ceil(cols);
-    (cols, rows, PAD + cols * (CELL + PAD), PAD + rows * (CELL + LABEL_H + PAD))
+    (
+        cols,
+        rows,
+        PAD + cols * (CELL + PAD),
+        PAD + rows * (CELL + LABEL_H + PAD),
+    )
 }
 
 /// Thumbnail of an image fitting in `CELL x CELL` (area-averaged when shrinking,

@@ -62,12 +62,21 @@ pub struct CorpusImage {
 
 impl CorpusImage {
     /// Build an image from its parts, checking the invariants.
-    pub fn new(width: u32, height: u32, channels: u8, data: PixelData) -> Result<CorpusImage, CorpusError> {
+    pub fn new(
+        width: u32,
+        height: u32,
+        channels: u8,
+        data: PixelData,
+    ) -> Result<CorpusImage, CorpusError> {
         if width == 0 || height == 0 {
-            return Err(CorpusError::InvalidArgument(format!("image size {width}x{height} has a zero side")));
+            return Err(CorpusError::InvalidArgument(format!(
+                "image size {width}x{height} has a zero side"
+            )));
         }
         if !(1..=4).contains(&channels) {
-            return Err(CorpusError::InvalidArgument(format!("{channels} channels (must be 1 to 4)")));
+            return Err(CorpusError::InvalidArgument(format!(
+                "{channels} channels (must be 1 to 4)"
+            )));
         }
         let n = width as usize * height as usize * channels as usize;
         let len = match &data {
@@ -81,13 +90,26 @@ impl CorpusImage {
             )));
         }
         if matches!(data, PixelData::F32(_)) && channels < 3 {
-            return Err(CorpusError::InvalidArgument("float images must have 3 or 4 channels".into()));
+            return Err(CorpusError::InvalidArgument(
+                "float images must have 3 or 4 channels".into(),
+            ));
         }
-        Ok(CorpusImage { width, height, channels, data })
+        Ok(CorpusImage {
+            width,
+            height,
+            channels,
+            data,
+        })
     }
 
-    pub(crate) fn from_parts(width: u32, height: u32, channels: u8, data: PixelData) -> CorpusImage {
-        CorpusImage::new(width, height, channels, data).expect("generator produced an inconsistent image")
+    pub(crate) fn from_parts(
+        width: u32,
+        height: u32,
+        channels: u8,
+        data: PixelData,
+    ) -> CorpusImage {
+        CorpusImage::new(width, height, channels, data)
+            .expect("generator produced an inconsistent image")
     }
 
     pub fn width(&self) -> u32 {
@@ -125,7 +147,8 @@ impl CorpusImage {
     /// Sample `c` of pixel `(x, y)`: integer formats are normalised to `[0, 1]`,
     /// floats are returned as stored.
     pub fn sample(&self, x: u32, y: u32, c: u8) -> f32 {
-        let i = (y as usize * self.width as usize + x as usize) * self.channels as usize + c as usize;
+        let i =
+            (y as usize * self.width as usize + x as usize) * self.channels as usize + c as usize;
         match &self.data {
             PixelData::U8(v) => v[i] as f32 / 255.0,
             PixelData::U16(v) => v[i] as f32 / 65535.0,
@@ -151,7 +174,11 @@ impl CorpusImage {
             return self.plane(0);
         }
         let (r, g, b) = (self.plane(0), self.plane(1), self.plane(2));
-        r.iter().zip(&g).zip(&b).map(|((r, g), b)| 0.2126 * r + 0.7152 * g + 0.0722 * b).collect()
+        r.iter()
+            .zip(&g)
+            .zip(&b)
+            .map(|((r, g), b)| 0.2126 * r + 0.7152 * g + 0.0722 * b)
+            .collect()
     }
 
     /// The canonical byte serialisation of the samples that the content hash covers:
@@ -177,16 +204,36 @@ impl CorpusImage {
         let (w, h) = (self.width, self.height);
         const MSG: &str = "buffer length checked in CorpusImage::new";
         match (&self.data, self.channels) {
-            (PixelData::U8(v), 1) => DynamicImage::ImageLuma8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U8(v), 2) => DynamicImage::ImageLumaA8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U8(v), 3) => DynamicImage::ImageRgb8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U8(v), _) => DynamicImage::ImageRgba8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U16(v), 1) => DynamicImage::ImageLuma16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U16(v), 2) => DynamicImage::ImageLumaA16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U16(v), 3) => DynamicImage::ImageRgb16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::U16(v), _) => DynamicImage::ImageRgba16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::F32(v), 3) => DynamicImage::ImageRgb32F(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
-            (PixelData::F32(v), _) => DynamicImage::ImageRgba32F(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG)),
+            (PixelData::U8(v), 1) => {
+                DynamicImage::ImageLuma8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U8(v), 2) => {
+                DynamicImage::ImageLumaA8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U8(v), 3) => {
+                DynamicImage::ImageRgb8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U8(v), _) => {
+                DynamicImage::ImageRgba8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U16(v), 1) => {
+                DynamicImage::ImageLuma16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U16(v), 2) => {
+                DynamicImage::ImageLumaA16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U16(v), 3) => {
+                DynamicImage::ImageRgb16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::U16(v), _) => {
+                DynamicImage::ImageRgba16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::F32(v), 3) => {
+                DynamicImage::ImageRgb32F(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
+            (PixelData::F32(v), _) => {
+                DynamicImage::ImageRgba32F(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
+            }
         }
     }
 
@@ -196,14 +243,21 @@ impl CorpusImage {
     pub fn preview_rgb8(&self) -> RgbImage {
         let (w, h) = (self.width, self.height);
         let mut out = RgbImage::new(w, h);
-        let key = if self.sample_format() == SampleFormat::F32 { self.log_average_luminance() } else { 1.0 };
+        let key = if self.sample_format() == SampleFormat::F32 {
+            self.log_average_luminance()
+        } else {
+            1.0
+        };
         let scale = 0.18 / key.max(1e-9);
         for y in 0..h {
             for x in 0..w {
                 let px = match self.sample_format() {
                     SampleFormat::F32 => {
-                        let (r, g, b) =
-                            (self.sample(x, y, 0) as f64, self.sample(x, y, 1) as f64, self.sample(x, y, 2) as f64);
+                        let (r, g, b) = (
+                            self.sample(x, y, 0) as f64,
+                            self.sample(x, y, 1) as f64,
+                            self.sample(x, y, 2) as f64,
+                        );
                         let l = (0.2126 * r + 0.7152 * g + 0.0722 * b).max(1e-12);
                         let ls = l * scale;
                         let m = ls / (1.0 + ls) / l;
@@ -211,10 +265,18 @@ impl CorpusImage {
                     }
                     _ => {
                         let c = |k: u8| self.sample(x, y, k) as f64;
-                        let (mut r, mut g, mut b) = if self.channels < 3 { (c(0), c(0), c(0)) } else { (c(0), c(1), c(2)) };
+                        let (mut r, mut g, mut b) = if self.channels < 3 {
+                            (c(0), c(0), c(0))
+                        } else {
+                            (c(0), c(1), c(2))
+                        };
                         if self.has_alpha() {
                             let a = c(self.channels - 1);
-                            let bg = if ((x / 8) + (y / 8)) % 2 == 0 { 0.8 } else { 0.55 };
+                            let bg = if ((x / 8) + (y / 8)) % 2 == 0 {
+                                0.8
+                            } else {
+                                0.55
+                            };
                             r = r * a + bg * (1.0 - a);
                             g = g * a + bg * (1.0 - a);
                             b = b * a + bg * (1.0 - a);
@@ -248,10 +310,17 @@ impl CorpusImage {
             _ => {
                 let file = std::fs::File::create(path).map_err(|e| CorpusError::io(path, e))?;
                 let mut wr = BufWriter::new(file);
-                let enc = PngEncoder::new_with_quality(&mut wr, CompressionType::Default, FilterType::Adaptive);
+                let enc = PngEncoder::new_with_quality(
+                    &mut wr,
+                    CompressionType::Default,
+                    FilterType::Adaptive,
+                );
                 self.to_dynamic_image()
                     .write_with_encoder(enc)
-                    .map_err(|source| CorpusError::Png { path: path.to_path_buf(), source })?;
+                    .map_err(|source| CorpusError::Png {
+                        path: path.to_path_buf(),
+                        source,
+                    })?;
                 wr.flush().map_err(|e| CorpusError::io(path, e))
             }
         }
@@ -261,27 +330,38 @@ impl CorpusImage {
         use exr::prelude::*;
         let w = self.width as usize;
         let ch = self.channels as usize;
-        let err = |source| CorpusError::Exr { path: path.to_path_buf(), source };
+        let err = |source| CorpusError::Exr {
+            path: path.to_path_buf(),
+            source,
+        };
         if ch == 3 {
             let pixels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
                 let i = (y * w + x) * 3;
                 (v[i], v[i + 1], v[i + 2])
             });
-            Image::from_encoded_channels((w, self.height as usize), Encoding::SMALL_LOSSLESS, pixels)
-                .write()
-                .non_parallel()
-                .to_file(path)
-                .map_err(err)
+            Image::from_encoded_channels(
+                (w, self.height as usize),
+                Encoding::SMALL_LOSSLESS,
+                pixels,
+            )
+            .write()
+            .non_parallel()
+            .to_file(path)
+            .map_err(err)
         } else {
             let pixels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
                 let i = (y * w + x) * 4;
                 (v[i], v[i + 1], v[i + 2], v[i + 3])
             });
-            Image::from_encoded_channels((w, self.height as usize), Encoding::SMALL_LOSSLESS, pixels)
-                .write()
-                .non_parallel()
-                .to_file(path)
-                .map_err(err)
+            Image::from_encoded_channels(
+                (w, self.height as usize),
+                Encoding::SMALL_LOSSLESS,
+                pixels,
+            )
+            .write()
+            .non_parallel()
+            .to_file(path)
+            .map_err(err)
         }
     }
 }

@@ -32,7 +32,19 @@ pub use crate::image::{CorpusImage, PixelData, SampleFormat};
 
 /// Image classes of the corpus. The seed selects a variant within the class
 /// (`seed % class.variant_count()`) and randomises its parameters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "kebab-case")]
 pub enum Class {
     /// Linear/radial gradients, smooth blobs, low-frequency fields only.
@@ -56,8 +68,15 @@ pub enum Class {
 
 impl Class {
     /// All classes, in corpus order.
-    pub const ALL: [Class; 7] =
-        [Class::Smooth, Class::FlatEdges, Class::Texture, Class::Natural, Class::Scene, Class::Hdr, Class::EdgeCases];
+    pub const ALL: [Class; 7] = [
+        Class::Smooth,
+        Class::FlatEdges,
+        Class::Texture,
+        Class::Natural,
+        Class::Scene,
+        Class::Hdr,
+        Class::EdgeCases,
+    ];
 
     /// The name used on the command line, in file names and in the manifest.
     pub fn name(self) -> &'static str {
@@ -132,7 +151,10 @@ impl FromStr for Class {
     fn from_str(s: &str) -> Result<Class, CorpusError> {
         <Class as clap::ValueEnum>::from_str(s, true).map_err(|_| {
             let names: Vec<&str> = Class::ALL.iter().map(|c| c.name()).collect();
-            CorpusError::InvalidArgument(format!("unknown class {s:?} (expected one of {})", names.join(", ")))
+            CorpusError::InvalidArgument(format!(
+                "unknown class {s:?} (expected one of {})",
+                names.join(", ")
+            ))
         })
     }
 }
@@ -148,7 +170,12 @@ pub struct Spec {
 
 impl Spec {
     pub fn new(class: Class, width: u32, height: u32, seed: u64) -> Spec {
-        Spec { class, width, height, seed }
+        Spec {
+            class,
+            width,
+            height,
+            seed,
+        }
     }
 
     /// Generate the image (see [`generate`]).
@@ -163,7 +190,13 @@ impl Spec {
 
     /// `"{class}-{seed:02}-{width}x{height}"`.
     pub fn stem(&self) -> String {
-        format!("{}-{:02}-{}x{}", self.class.name(), self.seed, self.width, self.height)
+        format!(
+            "{}-{:02}-{}x{}",
+            self.class.name(),
+            self.seed,
+            self.width,
+            self.height
+        )
     }
 
     /// File name: the stem plus `.png` (8/16-bit) or `.exr` (float).
@@ -174,7 +207,11 @@ impl Spec {
 
 impl fmt::Display for Spec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} seed {} {}x{}", self.class, self.seed, self.width, self.height)
+        write!(
+            f,
+            "{} seed {} {}x{}",
+            self.class, self.seed, self.width, self.height
+        )
     }
 }
 
@@ -194,7 +231,12 @@ pub fn generate(class: Class, width: u32, height: u32, seed: u64) -> CorpusImage
 pub const MAX_SIDE: u32 = 16384;
 
 /// Like [`generate`], but rejects zero or oversized (> [`MAX_SIDE`]) sides with an error.
-pub fn try_generate(class: Class, width: u32, height: u32, seed: u64) -> Result<CorpusImage, CorpusError> {
+pub fn try_generate(
+    class: Class,
+    width: u32,
+    height: u32,
+    seed: u64,
+) -> Result<CorpusImage, CorpusError> {
     if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
         return Err(CorpusError::InvalidArgument(format!(
             "image size {width}x{height} out of range (each side must be 1 to {MAX_SIDE})"

@@ -26,7 +26,8 @@ pub const MANIFEST_NAME: &str = "manifest.json";
 /// Value of the `generator` field: identifies directories we wrote.
 pub const GENERATOR: &str = "caoen-corpus";
 /// Value of the `hash` field: what `sha256` is computed over.
-pub const HASH_DESCRIPTION: &str = "sha256 of the canonical pixel bytes: row-major interleaved samples; \
+pub const HASH_DESCRIPTION: &str =
+    "sha256 of the canonical pixel bytes: row-major interleaved samples; \
     8-bit as is, 16-bit big-endian, float32 little-endian IEEE-754 (not of the file bytes)";
 
 /// The manifest of a corpus directory.
@@ -109,8 +110,11 @@ impl Manifest {
     pub fn write_to_dir(&self, dir: &Path) -> Result<(), CorpusError> {
         let path = dir.join(MANIFEST_NAME);
         let tmp = dir.join(format!(".{MANIFEST_NAME}.tmp"));
-        let mut text = serde_json::to_string_pretty(self)
-            .map_err(|source| CorpusError::Manifest { path: path.clone(), source })?;
+        let mut text =
+            serde_json::to_string_pretty(self).map_err(|source| CorpusError::Manifest {
+                path: path.clone(),
+                source,
+            })?;
         text.push('\n');
         std::fs::write(&tmp, text).map_err(|e| CorpusError::io(&tmp, e))?;
         std::fs::rename(&tmp, &path).map_err(|e| CorpusError::io(&path, e))

@@ -127,7 +127,11 @@ impl Col {
     }
     #[inline]
     pub fn mix(self, o: Col, t: f64) -> Col {
-        Col(lerp(self.0, o.0, t), lerp(self.1, o.1, t), lerp(self.2, o.2, t))
+        Col(
+            lerp(self.0, o.0, t),
+            lerp(self.1, o.1, t),
+            lerp(self.2, o.2, t),
+        )
     }
     #[inline]
     pub fn luma(self) -> f64 {
@@ -187,6 +191,12 @@ pub fn hsv(h: f64, s: f64, v: f64) -> Col {
     }
 }
 
+/// `x * x` (spelled out: `powi` is not guaranteed bit-identical across targets).
+#[inline]
+pub fn sq(x: f64) -> f64 {
+    x * x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,10 +208,4 @@ mod tests {
             assert_eq!(quantize(srgb_encode(srgb_decode(v)), 255), i);
         }
     }
-}
-
-/// `x * x` (spelled out: `powi` is not guaranteed bit-identical across targets).
-#[inline]
-pub fn sq(x: f64) -> f64 {
-    x * x
 }

@@ -5,6 +5,8 @@
 
 #![allow(dead_code)]
 
+use std::f64::consts::{FRAC_1_SQRT_2, SQRT_2};
+
 use crate::rng::{hash2, mix64};
 
 /// 16 unit gradient directions, `(cos, sin)` of `k * 22.5°`, written out as
@@ -12,19 +14,19 @@ use crate::rng::{hash2, mix64};
 const GRAD: [(f64, f64); 16] = [
     (1.0, 0.0),
     (0.923_879_532_511_286_7, 0.382_683_432_365_089_8),
-    (0.707_106_781_186_547_6, 0.707_106_781_186_547_6),
+    (FRAC_1_SQRT_2, FRAC_1_SQRT_2),
     (0.382_683_432_365_089_8, 0.923_879_532_511_286_7),
     (0.0, 1.0),
     (-0.382_683_432_365_089_8, 0.923_879_532_511_286_7),
-    (-0.707_106_781_186_547_6, 0.707_106_781_186_547_6),
+    (-FRAC_1_SQRT_2, FRAC_1_SQRT_2),
     (-0.923_879_532_511_286_7, 0.382_683_432_365_089_8),
     (-1.0, 0.0),
     (-0.923_879_532_511_286_7, -0.382_683_432_365_089_8),
-    (-0.707_106_781_186_547_6, -0.707_106_781_186_547_6),
+    (-FRAC_1_SQRT_2, -FRAC_1_SQRT_2),
     (-0.382_683_432_365_089_8, -0.923_879_532_511_286_7),
     (0.0, -1.0),
     (0.382_683_432_365_089_8, -0.923_879_532_511_286_7),
-    (0.707_106_781_186_547_6, -0.707_106_781_186_547_6),
+    (FRAC_1_SQRT_2, -FRAC_1_SQRT_2),
     (0.923_879_532_511_286_7, -0.382_683_432_365_089_8),
 ];
 
@@ -41,7 +43,9 @@ pub struct Noise {
 
 impl Noise {
     pub fn new(seed: u64) -> Self {
-        Noise { seed: mix64(seed ^ 0x5EED_0F_4015E) }
+        Noise {
+            seed: mix64(seed ^ 0x05EE_D0F4_015E),
+        }
     }
 
     /// Single-octave gradient noise, roughly in `[-1, 1]`, zero on lattice points.
@@ -70,7 +74,7 @@ impl Noise {
         let v = fade(fy);
         let a = n00 + (n10 - n00) * u;
         let b = n01 + (n11 - n01) * u;
-        (a + (b - a) * v) * 1.414_213_562_373_095
+        (a + (b - a) * v) * SQRT_2
     }
 
     /// Fractal Brownian motion: `octaves` octaves of noise, each rotated and
@@ -82,7 +86,9 @@ impl Noise {
         let mut sum = 0.0;
         let mut norm = 0.0;
         for o in 0..octaves {
-            let s = self.seed.wrapping_add((o as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+            let s = self
+                .seed
+                .wrapping_add((o as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
             sum += amp * Self::perlin_seeded(s, x, y);
             norm += amp;
             amp *= gain;
@@ -108,7 +114,9 @@ impl Noise {
         let mut norm = 0.0;
         let mut weight = 1.0;
         for o in 0..octaves {
-            let s = self.seed.wrapping_add((o as u64 + 101).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+            let s = self
+                .seed
+                .wrapping_add((o as u64 + 101).wrapping_mul(0x9E37_79B9_7F4A_7C15));
             let mut n = 1.0 - Self::perlin_seeded(s, x, y).abs();
             n *= n;
             n *= weight;
@@ -131,7 +139,9 @@ impl Noise {
         let mut sum = 0.0;
         let mut norm = 0.0;
         for o in 0..octaves {
-            let s = self.seed.wrapping_add((o as u64 + 201).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+            let s = self
+                .seed
+                .wrapping_add((o as u64 + 201).wrapping_mul(0x9E37_79B9_7F4A_7C15));
             sum += amp * Self::perlin_seeded(s, x, y).abs();
             norm += amp;
             amp *= 0.5;

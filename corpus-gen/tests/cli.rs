@@ -14,7 +14,11 @@ fn args(out: &Path) -> CorpusArgs {
     CorpusArgs {
         out: Some(out.to_path_buf()),
         size: 32,
-        classes: vec![caoen_corpus::Class::Smooth, caoen_corpus::Class::Hdr, caoen_corpus::Class::EdgeCases],
+        classes: vec![
+            caoen_corpus::Class::Smooth,
+            caoen_corpus::Class::Hdr,
+            caoen_corpus::Class::EdgeCases,
+        ],
         seeds: Some(3),
         quiet: true,
         ..CorpusArgs::default()
@@ -44,7 +48,9 @@ fn writes_files_matching_the_manifest_and_a_contact_sheet() {
     let sheet = dir.path().join("sheet.png");
     a.contact_sheet = Some(sheet.clone());
     run(&a).unwrap();
-    let m = Manifest::read_from_dir(dir.path()).unwrap().expect("our manifest");
+    let m = Manifest::read_from_dir(dir.path())
+        .unwrap()
+        .expect("our manifest");
     assert_eq!(m.images.len(), 9);
     assert_eq!(m.contact_sheet.as_deref(), Some("sheet.png"));
     for e in &m.images {
@@ -92,7 +98,12 @@ fn output_does_not_depend_on_thread_count() {
     run(&a2).unwrap();
     let m = Manifest::read_from_dir(d1.path()).unwrap().unwrap();
     assert_eq!(m.images.len(), 28);
-    for name in m.images.iter().map(|e| e.file.clone()).chain([MANIFEST_NAME.to_string()]) {
+    for name in m
+        .images
+        .iter()
+        .map(|e| e.file.clone())
+        .chain([MANIFEST_NAME.to_string()])
+    {
         let b1 = std::fs::read(d1.path().join(&name)).unwrap();
         let b2 = std::fs::read(d2.path().join(&name)).unwrap();
         assert!(b1 == b2, "{name} differs between 1 and 2 threads");
@@ -109,49 +120,98 @@ fn refuses_to_overwrite_foreign_files() {
     // A foreign manifest.json does not count as ours.
     std::fs::write(dir.path().join(MANIFEST_NAME), "{\"something\": 1}").unwrap();
     assert!(matches!(run(&a), Err(CorpusError::ForeignDirectory(_))));
-    assert_eq!(std::fs::read_to_string(dir.path().join(MANIFEST_NAME)).unwrap(), "{\"something\": 1}");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join(MANIFEST_NAME)).unwrap(),
+        "{\"something\": 1}"
+    );
     // --force writes anyway.
-    let forced = CorpusArgs { force: true, ..a.clone() };
+    let forced = CorpusArgs {
+        force: true,
+        ..a.clone()
+    };
     run(&forced).unwrap();
     assert!(Manifest::read_from_dir(dir.path()).unwrap().is_some());
-    assert_eq!(std::fs::read_to_string(dir.path().join("notes.txt")).unwrap(), "mine");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("notes.txt")).unwrap(),
+        "mine"
+    );
 
     // Our directory, but a file we would write is not in our manifest.
     let dir = TempDir::new("unowned");
-    let small = CorpusArgs { seeds: Some(1), ..args(dir.path()) };
+    let small = CorpusArgs {
+        seeds: Some(1),
+        ..args(dir.path())
+    };
     run(&small).unwrap();
     let next = Spec::new(caoen_corpus::Class::Smooth, 32, 32, 1).file_name();
     std::fs::write(dir.path().join(&next), "not a png").unwrap();
-    let more = CorpusArgs { seeds: Some(2), ..args(dir.path()) };
+    let more = CorpusArgs {
+        seeds: Some(2),
+        ..args(dir.path())
+    };
     match run(&more) {
         Err(CorpusError::WouldOverwrite(p)) => assert!(p.ends_with(&next)),
         other => panic!("expected WouldOverwrite, got {other:?}"),
     }
-    assert_eq!(std::fs::read_to_string(dir.path().join(&next)).unwrap(), "not a png");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join(&next)).unwrap(),
+        "not a png"
+    );
     // Existing contact sheet outside the directory.
     let other = TempDir::new("sheet");
     let sheet = other.path().join("s.png");
     std::fs::write(&sheet, "x").unwrap();
-    let with_sheet = CorpusArgs { contact_sheet: Some(sheet.clone()), ..small.clone() };
-    assert!(matches!(run(&with_sheet), Err(CorpusError::WouldOverwrite(_))));
+    let with_sheet = CorpusArgs {
+        contact_sheet: Some(sheet.clone()),
+        ..small.clone()
+    };
+    assert!(matches!(
+        run(&with_sheet),
+        Err(CorpusError::WouldOverwrite(_))
+    ));
 }
 
 #[test]
 fn bad_arguments_are_errors_not_panics() {
     let dir = TempDir::new("bad");
     for a in [
-        CorpusArgs { seeds: Some(0), ..args(dir.path()) },
-        CorpusArgs { size: 0, ..args(dir.path()) },
-        CorpusArgs { size: 100_000, ..args(dir.path()) },
-        CorpusArgs { threads: Some(0), ..args(dir.path()) },
-        CorpusArgs { contact_sheet: Some(dir.path().join("sheet.jpg")), ..args(dir.path()) },
-        CorpusArgs { out: None, ..args(dir.path()) },
+        CorpusArgs {
+            seeds: Some(0),
+            ..args(dir.path())
+        },
+        CorpusArgs {
+            size: 0,
+            ..args(dir.path())
+        },
+        CorpusArgs {
+            size: 100_000,
+            ..args(dir.path())
+        },
+        CorpusArgs {
+            threads: Some(0),
+            ..args(dir.path())
+        },
+        CorpusArgs {
+            contact_sheet: Some(dir.path().join("sheet.jpg")),
+            ..args(dir.path())
+        },
+        CorpusArgs {
+            out: None,
+            ..args(dir.path())
+        },
     ] {
-        assert!(matches!(run(&a), Err(CorpusError::InvalidArgument(_))), "{a:?}");
+        assert!(
+            matches!(run(&a), Err(CorpusError::InvalidArgument(_))),
+            "{a:?}"
+        );
     }
     let file = dir.path().join("file");
     std::fs::write(&file, "x").unwrap();
-    assert!(run(&CorpusArgs { out: Some(file), ..args(dir.path()) }).is_err());
+    assert!(run(&CorpusArgs {
+        out: Some(file),
+        ..args(dir.path())
+    })
+    .is_err());
 }
 
 #[test]
@@ -174,7 +234,20 @@ fn binary_exit_codes() {
         assert!(!err.is_empty(), "{bad:?}: no message");
     }
     // A good run, quiet: nothing on stderr.
-    let o = Command::new(bin).args(["--out", out_s, "--size", "16", "--classes", "flat,edge", "--seeds", "2", "-q"]).output().unwrap();
+    let o = Command::new(bin)
+        .args([
+            "--out",
+            out_s,
+            "--size",
+            "16",
+            "--classes",
+            "flat,edge",
+            "--seeds",
+            "2",
+            "-q",
+        ])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(o.stderr.is_empty());
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 5);
@@ -182,6 +255,11 @@ fn binary_exit_codes() {
     let o = Command::new(bin).arg("--list").output().unwrap();
     assert!(o.status.success());
     let listing = String::from_utf8_lossy(&o.stdout);
-    assert_eq!(listing.lines().count(), caoen_corpus::default_corpus().len());
-    assert!(listing.contains("scene-04-768x512.png") && listing.contains("edge-cases-02-1023x7.png"));
+    assert_eq!(
+        listing.lines().count(),
+        caoen_corpus::default_corpus().len()
+    );
+    assert!(
+        listing.contains("scene-04-768x512.png") && listing.contains("edge-cases-02-1023x7.png")
+    );
 }

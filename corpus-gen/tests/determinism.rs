@@ -6,7 +6,10 @@ mod common;
 use caoen_corpus::{generate, test_subset, Class, Spec};
 
 fn pool(n: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .unwrap()
 }
 
 fn specs() -> Vec<Spec> {
@@ -23,12 +26,17 @@ fn specs() -> Vec<Spec> {
 #[test]
 fn identical_hashes_with_one_and_two_threads() {
     let specs = specs();
-    let one: Vec<String> = pool(1).install(|| specs.iter().map(|s| s.generate().sha256()).collect());
+    let one: Vec<String> =
+        pool(1).install(|| specs.iter().map(|s| s.generate().sha256()).collect());
     // Two threads, and images generated concurrently in a different order.
     let two: Vec<String> = pool(2).install(|| {
         use rayon::prelude::*;
-        let mut v: Vec<(usize, String)> =
-            specs.par_iter().enumerate().rev().map(|(i, s)| (i, s.generate().sha256())).collect();
+        let mut v: Vec<(usize, String)> = specs
+            .par_iter()
+            .enumerate()
+            .rev()
+            .map(|(i, s)| (i, s.generate().sha256()))
+            .collect();
         v.sort();
         v.into_iter().map(|(_, h)| h).collect()
     });
@@ -51,7 +59,12 @@ fn different_seeds_differ() {
     for class in Class::ALL {
         let a = generate(class, 64, 48, 0).sha256();
         let b = generate(class, 64, 48, class.variant_count()).sha256();
-        assert_ne!(a, b, "{class}: seed 0 and seed {} are identical", class.variant_count());
+        assert_ne!(
+            a,
+            b,
+            "{class}: seed 0 and seed {} are identical",
+            class.variant_count()
+        );
     }
 }
 
@@ -60,8 +73,12 @@ fn different_seeds_differ() {
 /// change is intended, re-record with `CAOEN_CORPUS_BLESS=1 cargo test -p caoen-corpus --test determinism`.
 #[test]
 fn golden_hashes_of_the_test_subset() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden_test_subset.txt");
-    let actual: Vec<String> = test_subset().iter().map(|s| format!("{} {}", s.stem(), s.generate().sha256())).collect();
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden_test_subset.txt");
+    let actual: Vec<String> = test_subset()
+        .iter()
+        .map(|s| format!("{} {}", s.stem(), s.generate().sha256()))
+        .collect();
     if std::env::var_os("CAOEN_CORPUS_BLESS").is_some() {
         std::fs::write(&path, actual.join("\n") + "\n").unwrap();
         return;
@@ -74,5 +91,9 @@ fn golden_hashes_of_the_test_subset() {
         .filter(|(a, e)| a.as_str() != **e)
         .map(|(a, e)| format!("  got {a}\n  expected {e}"))
         .collect();
-    assert!(diff.is_empty() && actual.len() == expected.len(), "golden hashes differ:\n{}", diff.join("\n"));
+    assert!(
+        diff.is_empty() && actual.len() == expected.len(),
+        "golden hashes differ:\n{}",
+        diff.join("\n")
+    );
 }

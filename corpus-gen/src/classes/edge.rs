@@ -29,7 +29,9 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             CorpusImage::from_parts(w as u32, h as u32, 3, PixelData::U8(v))
         }
         4 => {
-            let v: Vec<u16> = (0..w * h).map(|p| (hash3(nseed, (p % w) as i64, (p / w) as i64, 0) >> 48) as u16).collect();
+            let v: Vec<u16> = (0..w * h)
+                .map(|p| (hash3(nseed, (p % w) as i64, (p / w) as i64, 0) >> 48) as u16)
+                .collect();
             CorpusImage::from_parts(w as u32, h as u32, 1, PixelData::U16(v))
         }
         6 => {
@@ -40,15 +42,29 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let mut c = Canvas::new(w, h, Col::gray(0.5));
             let (a, b) = (rng.range(0.0, 0.4), rng.range(0.6, 1.0));
             c.shade(|x, y| Col::gray(a + (b - a) * clamp01((x + y) / (wf + hf))));
-            c.fill(&Disc { cx: wf * rng.range(0.2, 0.8), cy: hf * rng.range(0.2, 0.8), r: s * 0.2 }, Col::gray(0.05));
-            c.fill(&Polygon::rect(wf * 0.55, hf * 0.1, wf * 0.9, hf * 0.6), Col::gray(0.95));
+            c.fill(
+                &Disc {
+                    cx: wf * rng.range(0.2, 0.8),
+                    cy: hf * rng.range(0.2, 0.8),
+                    r: s * 0.2,
+                },
+                Col::gray(0.05),
+            );
+            c.fill(
+                &Polygon::rect(wf * 0.55, hf * 0.1, wf * 0.9, hf * 0.6),
+                Col::gray(0.95),
+            );
             c.to_image(ch, 8, Encoding::Display)
         }
         3 => {
             let mut c = Canvas::transparent(w, h);
             for _ in 0..3 + rng.below(4) {
                 let col = hsv(rng.f64(), 0.8, 0.9);
-                let d = Disc { cx: wf * rng.range(0.0, 1.0), cy: hf * rng.range(0.0, 1.0), r: s * rng.range(0.1, 0.4) };
+                let d = Disc {
+                    cx: wf * rng.range(0.0, 1.0),
+                    cy: hf * rng.range(0.0, 1.0),
+                    r: s * rng.range(0.1, 0.4),
+                };
                 let a = rng.range(0.4, 1.0);
                 c.draw(&d, a, move |_, _| col);
             }

@@ -4,7 +4,9 @@
 
 use super::text::{draw_line, draw_word, word_width, TextStyle};
 use super::{format, rng_for};
-use crate::canvas::{closed_spline, cubic, ring, rounded_rect, Canvas, Disc, Ellipse, Encoding, Polygon, Stroke};
+use crate::canvas::{
+    closed_spline, cubic, ring, rounded_rect, Canvas, Disc, Ellipse, Encoding, Polygon, Stroke,
+};
 use crate::image::CorpusImage;
 use crate::math::{cos, hsv, sin, Col, PI, TAU};
 use crate::rng::Rng;
@@ -47,26 +49,54 @@ fn random_shape(c: &mut Canvas, rng: &mut Rng, s: f64, wf: f64, hf: f64, col: Co
         0 => c.fill(&Disc { cx, cy, r }, col),
         1 => {
             let a = rng.range(0.0, PI);
-            c.fill(&Ellipse { cx, cy, rx: r, ry: r * rng.range(0.3, 0.9), rot: (cos(a), sin(a)) }, col)
+            c.fill(
+                &Ellipse {
+                    cx,
+                    cy,
+                    rx: r,
+                    ry: r * rng.range(0.3, 0.9),
+                    rot: (cos(a), sin(a)),
+                },
+                col,
+            )
         }
         2 => {
             let n = 3 + rng.below(6) as usize;
-            c.fill(&regular_polygon(cx, cy, r, n, rng.range(0.0, TAU), None), col)
+            c.fill(
+                &regular_polygon(cx, cy, r, n, rng.range(0.0, TAU), None),
+                col,
+            )
         }
         3 => {
             let n = 5 + rng.below(3) as usize;
-            c.fill(&regular_polygon(cx, cy, r, n, rng.range(0.0, TAU), Some(rng.range(0.35, 0.6))), col)
+            c.fill(
+                &regular_polygon(
+                    cx,
+                    cy,
+                    r,
+                    n,
+                    rng.range(0.0, TAU),
+                    Some(rng.range(0.35, 0.6)),
+                ),
+                col,
+            )
         }
         4 => {
             let a = rng.range(0.0, PI);
-            c.fill(&Polygon::rotated_rect(cx, cy, r, r * rng.range(0.2, 1.0), (cos(a), sin(a))), col)
+            c.fill(
+                &Polygon::rotated_rect(cx, cy, r, r * rng.range(0.2, 1.0), (cos(a), sin(a))),
+                col,
+            )
         }
         5 => c.fill(&ring(cx, cy, r, r * rng.range(0.15, 0.5)), col),
         _ => {
             // Axis-aligned rectangle (pixel-aligned on one side, fractional on the other).
             let x0 = cx.floor();
             let y0 = cy + 0.3;
-            c.fill(&Polygon::rect(x0, y0, x0 + 2.0 * r, y0 + r * rng.range(0.5, 1.5)), col)
+            c.fill(
+                &Polygon::rect(x0, y0, x0 + 2.0 * r, y0 + r * rng.range(0.5, 1.5)),
+                col,
+            )
         }
     }
 }
@@ -116,7 +146,11 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let a = (rng.range(0.0, wf), rng.range(0.0, hf));
                 let b = (rng.range(0.0, wf), rng.range(0.0, hf));
                 let width = *rng.pick(&[0.35, 0.5, 0.75, 1.0, 1.0, 1.5, 2.0]);
-                let col = if rng.chance(0.5) { dark } else { pal[1 + rng.below(6) as usize] };
+                let col = if rng.chance(0.5) {
+                    dark
+                } else {
+                    pal[1 + rng.below(6) as usize]
+                };
                 c.fill(&Stroke::line(a, b, width), col);
             }
             // A hairline grid in one corner.
@@ -126,8 +160,14 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let gw = (s * 0.3).floor();
             let mut k = 0.0;
             while k <= gw {
-                c.fill(&Stroke::line((gx0 + k + 0.5, gy0), (gx0 + k + 0.5, gy0 + gw), 1.0), dark);
-                c.fill(&Stroke::line((gx0, gy0 + k + 0.5), (gx0 + gw, gy0 + k + 0.5), 1.0), dark);
+                c.fill(
+                    &Stroke::line((gx0 + k + 0.5, gy0), (gx0 + k + 0.5, gy0 + gw), 1.0),
+                    dark,
+                );
+                c.fill(
+                    &Stroke::line((gx0, gy0 + k + 0.5), (gx0 + gw, gy0 + k + 0.5), 1.0),
+                    dark,
+                );
                 k += step;
             }
         }
@@ -137,12 +177,25 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let ink = Col::gray(0.1);
             let margin = (s * 0.07).floor();
             let xh = (s / 75.0).max(2.5);
-            let body = TextStyle { xh, weight: (xh * 0.16).max(0.7), colour: ink, slant: 0.0 };
-            let title = TextStyle { xh: xh * 2.2, weight: xh * 0.5, colour: ink, slant: 0.0 };
+            let body = TextStyle {
+                xh,
+                weight: (xh * 0.16).max(0.7),
+                colour: ink,
+                slant: 0.0,
+            };
+            let title = TextStyle {
+                xh: xh * 2.2,
+                weight: xh * 0.5,
+                colour: ink,
+                slant: 0.0,
+            };
             let mut y = margin + title.xh * 1.6;
             draw_line(&mut c, &mut rng, &title, margin, wf * 0.75, y);
             y += title.xh * 1.5;
-            c.fill(&Stroke::line((margin, y), (wf - margin, y), 1.0), Col::gray(0.4));
+            c.fill(
+                &Stroke::line((margin, y), (wf - margin, y), 1.0),
+                Col::gray(0.4),
+            );
             y += xh * 3.0;
             let fig_at = rng.below(3);
             let mut para = 0;
@@ -152,7 +205,11 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     if y > hf - margin {
                         break;
                     }
-                    let end = if l + 1 == lines { wf * rng.range(0.3, 0.8) } else { wf - margin };
+                    let end = if l + 1 == lines {
+                        wf * rng.range(0.3, 0.8)
+                    } else {
+                        wf - margin
+                    };
                     draw_line(&mut c, &mut rng, &body, margin, end, y);
                     y += xh * 2.6;
                 }
@@ -163,14 +220,29 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     let fx0 = margin + 0.5;
                     let fx1 = wf - margin - 0.5;
                     let fy0 = y.floor() + 0.5;
-                    c.fill(&Stroke::new(vec![(fx0, fy0), (fx1, fy0), (fx1, fy0 + fh), (fx0, fy0 + fh), (fx0, fy0)], 1.0), ink);
+                    c.fill(
+                        &Stroke::new(
+                            vec![
+                                (fx0, fy0),
+                                (fx1, fy0),
+                                (fx1, fy0 + fh),
+                                (fx0, fy0 + fh),
+                                (fx0, fy0),
+                            ],
+                            1.0,
+                        ),
+                        ink,
+                    );
                     let nb = 5 + rng.below(6);
                     let bw = (fx1 - fx0) / (nb as f64 * 1.6 + 0.6);
                     for b in 0..nb {
                         let bx = fx0 + bw * (0.6 + 1.6 * b as f64);
                         let bh = fh * rng.range(0.15, 0.85);
                         let g = Col::gray(*rng.pick(&[0.25, 0.5, 0.7]));
-                        c.fill(&Polygon::rect(bx, fy0 + fh - bh, bx + bw, fy0 + fh - 1.0), g);
+                        c.fill(
+                            &Polygon::rect(bx, fy0 + fh - bh, bx + bw, fy0 + fh - 1.0),
+                            g,
+                        );
                     }
                     for t in 1..4 {
                         let ty = fy0 + fh * t as f64 / 4.0;
@@ -189,28 +261,52 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let accent2 = pal[2];
             let text_col = Col::gray(0.13);
             let xh = (s / 90.0).max(2.0);
-            let style = TextStyle { xh, weight: (xh * 0.18).max(0.7), colour: text_col, slant: 0.0 };
-            let white = TextStyle { colour: Col::gray(1.0), ..style };
+            let style = TextStyle {
+                xh,
+                weight: (xh * 0.18).max(0.7),
+                colour: text_col,
+                slant: 0.0,
+            };
+            let white = TextStyle {
+                colour: Col::gray(1.0),
+                ..style
+            };
             let bar = (s * 0.07).floor();
             c.fill(&Polygon::rect(0.0, 0.0, wf, bar), accent);
             draw_word(&mut c, &mut rng, &white, bar * 0.4, bar * 0.65, 7);
             for k in 0..3 {
                 let cx = wf - bar * (0.5 + 0.8 * k as f64);
-                c.fill(&Disc { cx, cy: bar * 0.5, r: bar * 0.2 }, Col::gray(1.0).mix(accent, 0.3 * k as f64));
+                c.fill(
+                    &Disc {
+                        cx,
+                        cy: bar * 0.5,
+                        r: bar * 0.2,
+                    },
+                    Col::gray(1.0).mix(accent, 0.3 * k as f64),
+                );
             }
             // Sidebar with items.
             let sw = (wf * 0.22).floor();
             c.fill(&Polygon::rect(0.0, bar, sw, hf), Col::gray(0.85));
-            c.fill(&Stroke::line((sw + 0.5, bar), (sw + 0.5, hf), 1.0), Col::gray(0.7));
+            c.fill(
+                &Stroke::line((sw + 0.5, bar), (sw + 0.5, hf), 1.0),
+                Col::gray(0.7),
+            );
             let item_h = (xh * 4.0).floor();
             let mut y = bar + item_h;
             let selected = rng.below(6);
             let mut k = 0;
             while y < hf - item_h * 0.5 {
                 if k == selected {
-                    c.fill(&Polygon::rect(0.0, y - item_h * 0.7, sw, y + item_h * 0.3), accent2);
+                    c.fill(
+                        &Polygon::rect(0.0, y - item_h * 0.7, sw, y + item_h * 0.3),
+                        accent2,
+                    );
                 }
-                c.fill(&rounded_rect(xh, y - xh * 1.6, xh * 2.6, y, xh * 0.3), accent.mix(Col::gray(0.5), 0.3));
+                c.fill(
+                    &rounded_rect(xh, y - xh * 1.6, xh * 2.6, y, xh * 0.3),
+                    accent.mix(Col::gray(0.5), 0.3),
+                );
                 draw_line(&mut c, &mut rng, &style, xh * 4.0, sw - xh, y);
                 y += item_h;
                 k += 1;
@@ -222,7 +318,10 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             while y < hf - xh * 16.0 {
                 let card_h = (xh * rng.range(12.0, 22.0)).floor();
                 let y1 = (y + card_h).min(hf - xh * 2.0);
-                c.fill(&rounded_rect(cx0 + 2.0, y + 2.0, cx1 + 2.0, y1 + 2.0, xh), Col::gray(0.8));
+                c.fill(
+                    &rounded_rect(cx0 + 2.0, y + 2.0, cx1 + 2.0, y1 + 2.0, xh),
+                    Col::gray(0.8),
+                );
                 c.fill(&rounded_rect(cx0, y, cx1, y1, xh), Col::gray(1.0));
                 let mut ty = y + xh * 3.0;
                 while ty < y1 - xh * 7.0 {
@@ -232,23 +331,64 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 // Button, checkbox and slider along the bottom of the card.
                 let by = y1 - xh * 4.5;
                 let bw = word_width(xh, 6) + xh * 3.0;
-                c.fill(&rounded_rect(cx0 + xh * 2.0, by, cx0 + xh * 2.0 + bw, by + xh * 3.0, xh * 0.8), accent);
+                c.fill(
+                    &rounded_rect(
+                        cx0 + xh * 2.0,
+                        by,
+                        cx0 + xh * 2.0 + bw,
+                        by + xh * 3.0,
+                        xh * 0.8,
+                    ),
+                    accent,
+                );
                 draw_word(&mut c, &mut rng, &white, cx0 + xh * 3.5, by + xh * 2.0, 6);
                 let kx = cx0 + xh * 4.0 + bw;
-                c.fill(&rounded_rect(kx, by + xh * 0.5, kx + xh * 2.0, by + xh * 2.5, xh * 0.3), Col::gray(0.55));
-                c.fill(&rounded_rect(kx + 1.0, by + xh * 0.5 + 1.0, kx + xh * 2.0 - 1.0, by + xh * 2.5 - 1.0, xh * 0.2), Col::gray(1.0));
+                c.fill(
+                    &rounded_rect(kx, by + xh * 0.5, kx + xh * 2.0, by + xh * 2.5, xh * 0.3),
+                    Col::gray(0.55),
+                );
+                c.fill(
+                    &rounded_rect(
+                        kx + 1.0,
+                        by + xh * 0.5 + 1.0,
+                        kx + xh * 2.0 - 1.0,
+                        by + xh * 2.5 - 1.0,
+                        xh * 0.2,
+                    ),
+                    Col::gray(1.0),
+                );
                 if rng.chance(0.6) {
-                    c.fill(&Stroke::new(vec![(kx + xh * 0.5, by + xh * 1.5), (kx + xh * 0.9, by + xh * 2.0), (kx + xh * 1.6, by + xh)], xh * 0.35), accent2);
+                    c.fill(
+                        &Stroke::new(
+                            vec![
+                                (kx + xh * 0.5, by + xh * 1.5),
+                                (kx + xh * 0.9, by + xh * 2.0),
+                                (kx + xh * 1.6, by + xh),
+                            ],
+                            xh * 0.35,
+                        ),
+                        accent2,
+                    );
                 }
                 let sx0 = kx + xh * 4.0;
                 let sx1 = cx1 - xh * 2.0;
                 if sx1 > sx0 + xh * 4.0 {
                     let sy = by + xh * 1.5;
-                    c.fill(&Stroke::line((sx0, sy), (sx1, sy), xh * 0.4), Col::gray(0.75));
+                    c.fill(
+                        &Stroke::line((sx0, sy), (sx1, sy), xh * 0.4),
+                        Col::gray(0.75),
+                    );
                     let t = rng.range(0.1, 0.9);
                     let kxx = sx0 + (sx1 - sx0) * t;
                     c.fill(&Stroke::line((sx0, sy), (kxx, sy), xh * 0.4), accent);
-                    c.fill(&Disc { cx: kxx, cy: sy, r: xh * 0.9 }, accent);
+                    c.fill(
+                        &Disc {
+                            cx: kxx,
+                            cy: sy,
+                            r: xh * 0.9,
+                        },
+                        accent,
+                    );
                 }
                 y = y1 + xh * 3.0;
             }

@@ -28,7 +28,9 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let t = clamp01(y / horizon);
                 let mut sky = Col(0.35, 0.6, 1.4).mix(Col(2.0, 2.3, 2.8), t * t);
                 let d = sqrt((x - sx) * (x - sx) + (y - sy) * (y - sy)) / s;
-                sky = sky + Col(60.0, 50.0, 35.0) * exp(-d * 40.0) + Col(3.0, 2.6, 2.0) * exp(-d * 5.0);
+                sky = sky
+                    + Col(60.0, 50.0, 35.0) * exp(-d * 40.0)
+                    + Col(3.0, 2.6, 2.0) * exp(-d * 5.0);
                 let ridge = horizon - s * (0.05 + 0.12 * (0.5 + 0.5 * n1.fbm1(x * f0, 6)));
                 if y < ridge {
                     return sky;
@@ -39,7 +41,14 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let cov = clamp01(y - ridge + 0.5);
                 sky.mix(lit.mix(Col(1.6, 1.9, 2.4), 0.5 * haze), cov)
             });
-            c.fill(&Disc { cx: sx, cy: sy, r: sr }, Col(22000.0, 20000.0, 17000.0));
+            c.fill(
+                &Disc {
+                    cx: sx,
+                    cy: sy,
+                    r: sr,
+                },
+                Col(22000.0, 20000.0, 17000.0),
+            );
             // A cliff face in shade with a dark cave mouth.
             let cx = wf * rng.range(0.05, 0.3);
             let cliff = Polygon::new(vec![
@@ -48,7 +57,10 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 (cx + s * 0.1, horizon - s * 0.3),
                 (cx + s * 0.25, hf + 1.0),
             ]);
-            c.draw(&cliff, 1.0, |x, y| Col(0.25, 0.22, 0.2) * (0.6 + 0.5 * (0.5 + 0.5 * n1.fbm(x * 0.05, y * 0.05, 5, 2.0, 0.5))));
+            c.draw(&cliff, 1.0, |x, y| {
+                Col(0.25, 0.22, 0.2)
+                    * (0.6 + 0.5 * (0.5 + 0.5 * n1.fbm(x * 0.05, y * 0.05, 5, 2.0, 0.5)))
+            });
             let cave = SdfShape {
                 bb: [cx - s * 0.1, horizon - s * 0.1, cx + s * 0.12, hf],
                 f: move |x: f64, y: f64| {
@@ -57,7 +69,9 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     (sqrt(dx * dx + dy * dy) - 1.0) * s * 0.08
                 },
             };
-            c.draw(&cave, 1.0, |x, y| Col(0.004, 0.0035, 0.003) * (1.0 + 0.2 * unit_f64(hash2(7, x as i64, y as i64))));
+            c.draw(&cave, 1.0, |x, y| {
+                Col(0.004, 0.0035, 0.003) * (1.0 + 0.2 * unit_f64(hash2(7, x as i64, y as i64)))
+            });
         }
         1 => {
             // Interior: dim walls ~ 0.02..0.3, a window onto a bright exterior ~ 30,
@@ -71,7 +85,10 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 if y < floor_y {
                     wall
                 } else {
-                    let fd = sqrt((x - lx) * (x - lx) + (y - floor_y - s * 0.2) * (y - floor_y - s * 0.2) * 4.0) / s;
+                    let fd = sqrt(
+                        (x - lx) * (x - lx)
+                            + (y - floor_y - s * 0.2) * (y - floor_y - s * 0.2) * 4.0,
+                    ) / s;
                     let plank = 0.8 + 0.2 * unit_f64(hash2(3, (x / (s * 0.12)).floor() as i64, 0));
                     (Col(0.03, 0.02, 0.012) + Col(0.45, 0.3, 0.15) * exp(-fd * 3.0)) * plank
                 }
@@ -85,24 +102,60 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 if y < hz {
                     Col(8.0, 12.0, 25.0).mix(Col(30.0, 32.0, 35.0), (y - wy0) / (hz - wy0))
                 } else {
-                    Col(6.0, 9.0, 3.0) * (0.7 + 0.6 * unit_f64(hash2(11, (x / 3.0) as i64, (y / 3.0) as i64)))
+                    Col(6.0, 9.0, 3.0)
+                        * (0.7 + 0.6 * unit_f64(hash2(11, (x / 3.0) as i64, (y / 3.0) as i64)))
                 }
             });
             let frame = Col(0.05, 0.04, 0.03);
             let mw = (s * 0.012).max(1.0);
-            c.fill(&Polygon::rect((wx0 + wx1) * 0.5 - mw, wy0, (wx0 + wx1) * 0.5 + mw, wy1), frame);
-            c.fill(&Polygon::rect(wx0, (wy0 + wy1) * 0.5 - mw, wx1, (wy0 + wy1) * 0.5 + mw), frame);
+            c.fill(
+                &Polygon::rect((wx0 + wx1) * 0.5 - mw, wy0, (wx0 + wx1) * 0.5 + mw, wy1),
+                frame,
+            );
+            c.fill(
+                &Polygon::rect(wx0, (wy0 + wy1) * 0.5 - mw, wx1, (wy0 + wy1) * 0.5 + mw),
+                frame,
+            );
             // Light patch from the window on the floor.
-            let patch = Polygon::new(vec![(wx0, floor_y + s * 0.05), (wx1, floor_y + s * 0.05), (wx1 + s * 0.25, hf), (wx0 + s * 0.05, hf)]);
-            c.draw(&patch, 1.0, |x, y| Col(3.0, 2.6, 2.0) * (0.8 + 0.2 * unit_f64(hash2(3, (x / (s * 0.12)).floor() as i64, 0))) * (1.0 - 0.3 * (y - floor_y) / hf));
-            // Lamp: cord, shade, bulb.
-            c.fill(&Stroke::line((lx, 0.0), (lx, ly - s * 0.04), (s * 0.004).max(0.7)), Col(0.01, 0.01, 0.01));
-            c.fill(&Polygon::new(vec![(lx - s * 0.03, ly - s * 0.05), (lx + s * 0.03, ly - s * 0.05), (lx + s * 0.07, ly), (lx - s * 0.07, ly)]), Col(0.02, 0.015, 0.01));
-            c.fill(&Disc { cx: lx, cy: ly + s * 0.01, r: (s * 0.025).max(2.5) }, Col(3500.0, 3000.0, 2000.0));
-            // A dark cabinet in the corner (deep shadow).
-            c.draw(&rounded_rect(wf * 0.02, floor_y - s * 0.3, wf * 0.25, hf * 0.98, 2.0), 1.0, |_, y| {
-                Col(0.003, 0.0025, 0.002) * (1.0 + 0.5 * smoothstep(0.0, hf, y))
+            let patch = Polygon::new(vec![
+                (wx0, floor_y + s * 0.05),
+                (wx1, floor_y + s * 0.05),
+                (wx1 + s * 0.25, hf),
+                (wx0 + s * 0.05, hf),
+            ]);
+            c.draw(&patch, 1.0, |x, y| {
+                Col(3.0, 2.6, 2.0)
+                    * (0.8 + 0.2 * unit_f64(hash2(3, (x / (s * 0.12)).floor() as i64, 0)))
+                    * (1.0 - 0.3 * (y - floor_y) / hf)
             });
+            // Lamp: cord, shade, bulb.
+            c.fill(
+                &Stroke::line((lx, 0.0), (lx, ly - s * 0.04), (s * 0.004).max(0.7)),
+                Col(0.01, 0.01, 0.01),
+            );
+            c.fill(
+                &Polygon::new(vec![
+                    (lx - s * 0.03, ly - s * 0.05),
+                    (lx + s * 0.03, ly - s * 0.05),
+                    (lx + s * 0.07, ly),
+                    (lx - s * 0.07, ly),
+                ]),
+                Col(0.02, 0.015, 0.01),
+            );
+            c.fill(
+                &Disc {
+                    cx: lx,
+                    cy: ly + s * 0.01,
+                    r: (s * 0.025).max(2.5),
+                },
+                Col(3500.0, 3000.0, 2000.0),
+            );
+            // A dark cabinet in the corner (deep shadow).
+            c.draw(
+                &rounded_rect(wf * 0.02, floor_y - s * 0.3, wf * 0.25, hf * 0.98, 2.0),
+                1.0,
+                |_, y| Col(0.003, 0.0025, 0.002) * (1.0 + 0.5 * smoothstep(0.0, hf, y)),
+            );
         }
         _ => {
             // Night street: sky ~ 0.002, stars, moon ~ 80, street lamps ~ 2000 with
@@ -111,17 +164,35 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let star_seed = rng.next_u64();
             let nlamps = 2 + rng.below(3) as usize;
             let lamps: Vec<(f64, f64)> = (0..nlamps)
-                .map(|k| (wf * (k as f64 + rng.range(0.3, 0.7)) / nlamps as f64, horizon - s * rng.range(0.15, 0.25)))
+                .map(|k| {
+                    (
+                        wf * (k as f64 + rng.range(0.3, 0.7)) / nlamps as f64,
+                        horizon - s * rng.range(0.15, 0.25),
+                    )
+                })
                 .collect();
             let lamps2 = lamps.clone();
             let star_cell = (s * 0.035).max(3.0);
             c.shade(|x, y| {
                 let mut col = if y < horizon {
-                    let g = Col(0.001, 0.0015, 0.004).mix(Col(0.008, 0.007, 0.01), clamp01(y / horizon));
-                    let (ci, cj) = ((x / star_cell).floor() as i64, (y / star_cell).floor() as i64);
+                    let g = Col(0.001, 0.0015, 0.004)
+                        .mix(Col(0.008, 0.007, 0.01), clamp01(y / horizon));
+                    let (ci, cj) = (
+                        (x / star_cell).floor() as i64,
+                        (y / star_cell).floor() as i64,
+                    );
                     let hsh = hash2(star_seed, ci, cj);
-                    let (px, py) = ((ci as f64 + 0.2 + 0.6 * unit_f64(hsh)) * star_cell, (cj as f64 + 0.2 + 0.6 * unit_f64(hsh >> 20)) * star_cell);
-                    let st = if unit_f64(hsh >> 40) < 0.12 { exp(-((x - px) * (x - px) + (y - py) * (y - py)) * 3.0) * 0.2 * (1.0 + 4.0 * unit_f64(hsh >> 50)) } else { 0.0 };
+                    let (px, py) = (
+                        (ci as f64 + 0.2 + 0.6 * unit_f64(hsh)) * star_cell,
+                        (cj as f64 + 0.2 + 0.6 * unit_f64(hsh >> 20)) * star_cell,
+                    );
+                    let st = if unit_f64(hsh >> 40) < 0.12 {
+                        exp(-((x - px) * (x - px) + (y - py) * (y - py)) * 3.0)
+                            * 0.2
+                            * (1.0 + 4.0 * unit_f64(hsh >> 50))
+                    } else {
+                        0.0
+                    };
                     g + Col(st, st, st * 1.1)
                 } else {
                     // Wet asphalt.
@@ -130,7 +201,9 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 };
                 for &(lx, ly) in &lamps2 {
                     let d = sqrt((x - lx) * (x - lx) + (y - ly) * (y - ly)) / s;
-                    col = col + Col(30.0, 20.0, 8.0) * exp(-d * 60.0) + Col(0.3, 0.2, 0.08) * exp(-d * 8.0);
+                    col = col
+                        + Col(30.0, 20.0, 8.0) * exp(-d * 60.0)
+                        + Col(0.3, 0.2, 0.08) * exp(-d * 8.0);
                     if y > horizon {
                         // Streaky reflection below the lamp.
                         let rx = (x - lx) / s;
@@ -142,7 +215,14 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             });
             // Moon.
             let (mx, my) = (wf * rng.range(0.6, 0.9), horizon * rng.range(0.15, 0.35));
-            c.fill(&Disc { cx: mx, cy: my, r: (s * 0.035).max(2.5) }, Col(80.0, 80.0, 75.0));
+            c.fill(
+                &Disc {
+                    cx: mx,
+                    cy: my,
+                    r: (s * 0.035).max(2.5),
+                },
+                Col(80.0, 80.0, 75.0),
+            );
             // Buildings with lit windows.
             let mut bx = 0.0;
             let mut k = 0;
@@ -152,19 +232,30 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let top = horizon - bh;
                 let wseed = rng.next_u64();
                 let x0 = bx;
-                c.draw(&Polygon::rect(bx, top, bx + bw, horizon + 0.5), 1.0, move |x, y| {
-                    let cw = (s * 0.03).max(2.0);
-                    let (i, j) = (((x - x0) / cw).floor() as i64, ((y - top) / cw).floor() as i64);
-                    let lx = (x - x0) - i as f64 * cw;
-                    let ly = (y - top) - j as f64 * cw;
-                    let inside = lx > cw * 0.25 && lx < cw * 0.75 && ly > cw * 0.3 && ly < cw * 0.8 && j > 0;
-                    let hsh = hash2(wseed, i, j);
-                    if inside && unit_f64(hsh) < 0.35 {
-                        Col(2.5, 1.8, 0.9) * (0.5 + unit_f64(hsh >> 16))
-                    } else {
-                        Col(0.0012, 0.0012, 0.0016)
-                    }
-                });
+                c.draw(
+                    &Polygon::rect(bx, top, bx + bw, horizon + 0.5),
+                    1.0,
+                    move |x, y| {
+                        let cw = (s * 0.03).max(2.0);
+                        let (i, j) = (
+                            ((x - x0) / cw).floor() as i64,
+                            ((y - top) / cw).floor() as i64,
+                        );
+                        let lx = (x - x0) - i as f64 * cw;
+                        let ly = (y - top) - j as f64 * cw;
+                        let inside = lx > cw * 0.25
+                            && lx < cw * 0.75
+                            && ly > cw * 0.3
+                            && ly < cw * 0.8
+                            && j > 0;
+                        let hsh = hash2(wseed, i, j);
+                        if inside && unit_f64(hsh) < 0.35 {
+                            Col(2.5, 1.8, 0.9) * (0.5 + unit_f64(hsh >> 16))
+                        } else {
+                            Col(0.0012, 0.0012, 0.0016)
+                        }
+                    },
+                );
                 bx += bw + s * rng.range(0.0, 0.05);
                 k += 1;
                 if k > 64 {
@@ -173,8 +264,18 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             }
             // Lamp posts and bulbs.
             for &(lx, ly) in &lamps {
-                c.fill(&Stroke::line((lx, ly), (lx, horizon + s * 0.03), (s * 0.008).max(1.0)), Col(0.002, 0.002, 0.002));
-                c.fill(&Disc { cx: lx, cy: ly, r: (s * 0.012).max(2.0) }, Col(2500.0, 1900.0, 900.0));
+                c.fill(
+                    &Stroke::line((lx, ly), (lx, horizon + s * 0.03), (s * 0.008).max(1.0)),
+                    Col(0.002, 0.002, 0.002),
+                );
+                c.fill(
+                    &Disc {
+                        cx: lx,
+                        cy: ly,
+                        r: (s * 0.012).max(2.0),
+                    },
+                    Col(2500.0, 1900.0, 900.0),
+                );
             }
         }
     }

@@ -15,8 +15,8 @@ mod hdr;
 mod natural;
 mod scene;
 mod smooth;
-mod texture;
 mod text;
+mod texture;
 
 pub(crate) fn render(class: Class, w: usize, h: usize, seed: u64) -> CorpusImage {
     match class {
@@ -63,12 +63,36 @@ pub(crate) fn format(class: Class, seed: u64) -> (u8, SampleFormat) {
 pub(crate) fn variant_name(class: Class, seed: u64) -> &'static str {
     let v = seed % class.variant_count();
     match class {
-        Class::Smooth => ["linear gradient", "radial gradients", "gaussian blobs", "low-frequency waves"][v as usize],
-        Class::FlatEdges => ["geometric shapes", "curves and thin lines", "text page (gray)", "user interface"][v as usize],
-        Class::Texture => ["zone plate (gray)", "stripes", "checkerboards (gray)", "bricks, dots, plaid, hexagons"][v as usize],
+        Class::Smooth => [
+            "linear gradient",
+            "radial gradients",
+            "gaussian blobs",
+            "low-frequency waves",
+        ][v as usize],
+        Class::FlatEdges => [
+            "geometric shapes",
+            "curves and thin lines",
+            "text page (gray)",
+            "user interface",
+        ][v as usize],
+        Class::Texture => [
+            "zone plate (gray)",
+            "stripes",
+            "checkerboards (gray)",
+            "bricks, dots, plaid, hexagons",
+        ][v as usize],
         Class::Natural => ["shaded terrain", "clouds", "marble", "wood planks"][v as usize],
-        Class::Scene => ["countryside", "mountain lake at sunset", "still life", "coast with lighthouse"][v as usize],
-        Class::Hdr => ["sunlit landscape", "interior with window and lamp", "night street"][v as usize],
+        Class::Scene => [
+            "countryside",
+            "mountain lake at sunset",
+            "still life",
+            "coast with lighthouse",
+        ][v as usize],
+        Class::Hdr => [
+            "sunlit landscape",
+            "interior with window and lamp",
+            "night street",
+        ][v as usize],
         Class::EdgeCases => [
             "flat RGB",
             "pure noise RGB",

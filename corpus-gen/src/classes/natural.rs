@@ -47,7 +47,8 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let height = |x: f64, y: f64| {
                 let u = x * f0 + ox;
                 let v = y * f0 + oy;
-                (1.0 - ridge_amt) * n1.fbm(u, v, 8, 2.0, 0.5) + ridge_amt * (n2.ridged(u * 0.7, v * 0.7, 7) * 1.4 - 0.6)
+                (1.0 - ridge_amt) * n1.fbm(u, v, 8, 2.0, 0.5)
+                    + ridge_amt * (n2.ridged(u * 0.7, v * 0.7, 7) * 1.4 - 0.6)
             };
             // Height field with a one-pixel border for the gradient.
             let (bw, bh) = (w + 2, h + 2);
@@ -82,7 +83,10 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let nrm = normalize3(-dx, -dy, 1.0);
                 let slope = 1.0 - nrm.2;
                 let rock = Col::hex_linear(0x6b6258);
-                let base = base.mix(rock, smoothstep(0.25, 0.5, slope) * (1.0 - smoothstep(sea + 0.55, sea + 0.62, hv)));
+                let base = base.mix(
+                    rock,
+                    smoothstep(0.25, 0.5, slope) * (1.0 - smoothstep(sea + 0.55, sea + 0.62, hv)),
+                );
                 let diff = (nrm.0 * light.0 + nrm.1 * light.1 + nrm.2 * light.2).max(0.0);
                 let sky = 0.25 + 0.1 * nrm.2;
                 base * (sky + 0.95 * diff)
@@ -123,13 +127,24 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             // Polished marble slab: turbulent veins, soft reflection highlight.
             let warm = rng.chance(0.7);
             let (base, vein, vein2) = if warm {
-                (Col::hex_linear(0xefe9e0), Col::hex_linear(0x4a4440), Col::hex_linear(0xb59a7a))
+                (
+                    Col::hex_linear(0xefe9e0),
+                    Col::hex_linear(0x4a4440),
+                    Col::hex_linear(0xb59a7a),
+                )
             } else {
-                (Col::hex_linear(0x1f4a3a), Col::hex_linear(0xe8efe8), Col::hex_linear(0x0c1a14))
+                (
+                    Col::hex_linear(0x1f4a3a),
+                    Col::hex_linear(0xe8efe8),
+                    Col::hex_linear(0x0c1a14),
+                )
             };
             let f0 = rng.range(2.0, 4.0) / s;
             let ang = rng.range(0.0, PI);
-            let (ka, kb) = (cos(ang) * rng.range(1.5, 3.0) * TAU / s, sin(ang) * rng.range(1.5, 3.0) * TAU / s);
+            let (ka, kb) = (
+                cos(ang) * rng.range(1.5, 3.0) * TAU / s,
+                sin(ang) * rng.range(1.5, 3.0) * TAU / s,
+            );
             let strength = rng.range(5.0, 9.0);
             let hx = rng.range(0.2, 0.8) * wf;
             let hy = rng.range(0.1, 0.5) * hf;
@@ -138,9 +153,15 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let t = n1.turbulence(x * f0, y * f0, 7);
                 let v = sin(x * ka + y * kb + strength * t);
                 let veins = exp(-v.abs() * 5.0);
-                let fine = exp(-sin(x * kb * 3.1 - y * ka * 3.1 + 9.0 * n2.turbulence(x * f0 * 2.0, y * f0 * 2.0, 5)).abs() * 14.0);
+                let fine = exp(-sin(x * kb * 3.1 - y * ka * 3.1
+                    + 9.0 * n2.turbulence(x * f0 * 2.0, y * f0 * 2.0, 5))
+                .abs()
+                    * 14.0);
                 let cloudy = 0.5 + 0.5 * n2.fbm(x * f0 * 0.7, y * f0 * 0.7, 5, 2.0, 0.5);
-                let col = base.mix(vein2, 0.35 * cloudy).mix(vein, 0.85 * veins).mix(vein, 0.35 * fine);
+                let col = base
+                    .mix(vein2, 0.35 * cloudy)
+                    .mix(vein, 0.85 * veins)
+                    .mix(vein, 0.35 * fine);
                 // Lighting: a broad reflected window highlight plus falloff.
                 let d2 = ((x - hx) * (x - hx) + (y - hy) * (y - hy)) / (hr * hr);
                 let spec = 0.18 * exp(-d2);
@@ -170,17 +191,31 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let tone = 0.85 + 0.3 * unit_f64(pid >> 13);
                 // Rings: distance from the log's centre line, bent by noise.
                 let d = (ly + r0) * ring_f * 0.35
-                    + 2.2 * n1.fbm((lx + shift) * 0.004 * grain_f, (ly + shift) * 0.02 * grain_f, 4, 2.0, 0.5);
+                    + 2.2
+                        * n1.fbm(
+                            (lx + shift) * 0.004 * grain_f,
+                            (ly + shift) * 0.02 * grain_f,
+                            4,
+                            2.0,
+                            0.5,
+                        );
                 let r = fract(d);
                 let ringv = smoothstep(0.0, 0.75, r) * (1.0 - smoothstep(0.85, 1.0, r));
-                let grain = 0.5 + 0.5 * n2.perlin((lx + shift) * 0.015 * grain_f, (ly + shift) * 0.25 * grain_f);
+                let grain = 0.5
+                    + 0.5
+                        * n2.perlin(
+                            (lx + shift) * 0.015 * grain_f,
+                            (ly + shift) * 0.25 * grain_f,
+                        );
                 let mut col = dark.mix(light, 0.25 + 0.6 * ringv) * (tone * (0.9 + 0.15 * grain));
                 // Seams: dark grooves between planks and at the butt joints.
                 let seam = (ly.min(ph - ly)).min(lx.min(plen - lx));
                 let groove = clamp01(1.2 - seam);
                 col = col * (1.0 - 0.75 * groove);
                 // Raking light from the left with a varnish sheen.
-                let sheen = 0.08 * exp(-((x / wf - 0.3) * (x / wf - 0.3) * 8.0 + (y / hf - 0.4) * (y / hf - 0.4) * 3.0));
+                let sheen = 0.08
+                    * exp(-((x / wf - 0.3) * (x / wf - 0.3) * 8.0
+                        + (y / hf - 0.4) * (y / hf - 0.4) * 3.0));
                 col * (0.85 + 0.25 * (1.0 - x / wf)) + Col::gray(sheen)
             });
         }

@@ -8,7 +8,9 @@
 
 use super::text::{draw_line, TextStyle};
 use super::{format, noise_seed, rng_for};
-use crate::canvas::{closed_spline, rounded_rect, Canvas, Disc, Ellipse, Encoding, Polygon, SdfShape, Shape, Stroke};
+use crate::canvas::{
+    closed_spline, rounded_rect, Canvas, Disc, Ellipse, Encoding, Polygon, SdfShape, Shape, Stroke,
+};
 use crate::image::CorpusImage;
 use crate::math::{clamp01, cos, exp, fract, pow, sin, smoothstep, sq, sqrt, Col, PI, TAU};
 use crate::noise::Noise;
@@ -16,7 +18,10 @@ use crate::rng::{hash2, hash3, unit_f64, Rng};
 use crate::Class;
 
 /// Region below a curve `y = f(x)`, with the distance corrected for the slope.
-fn below<F: Fn(f64) -> f64 + Sync>(f: F, bb: [f64; 4]) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
+fn below<F: Fn(f64) -> f64 + Sync>(
+    f: F,
+    bb: [f64; 4],
+) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
     SdfShape {
         bb,
         f: move |x: f64, y: f64| {
@@ -30,12 +35,18 @@ fn below<F: Fn(f64) -> f64 + Sync>(f: F, bb: [f64; 4]) -> SdfShape<impl Fn(f64, 
 /// A soft-edged version of a polygon (blur radius in pixels), for shadows.
 fn soft_poly(p: Polygon, blur: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
     let bb = p.bbox();
-    SdfShape { bb: [bb[0] - blur, bb[1] - blur, bb[2] + blur, bb[3] + blur], f: move |x: f64, y: f64| p.sdf(x, y) / blur }
+    SdfShape {
+        bb: [bb[0] - blur, bb[1] - blur, bb[2] + blur, bb[3] + blur],
+        f: move |x: f64, y: f64| p.sdf(x, y) / blur,
+    }
 }
 
 fn soft_ellipse(e: Ellipse, blur: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
     let bb = e.bbox();
-    SdfShape { bb: [bb[0] - blur, bb[1] - blur, bb[2] + blur, bb[3] + blur], f: move |x: f64, y: f64| e.sdf(x, y) / blur }
+    SdfShape {
+        bb: [bb[0] - blur, bb[1] - blur, bb[2] + blur, bb[3] + blur],
+        f: move |x: f64, y: f64| e.sdf(x, y) / blur,
+    }
 }
 
 /// A union of discs with a noisy boundary: tree crowns, bushes, rocks.
@@ -57,7 +68,13 @@ impl Blob {
             bb[3] = bb[3].max(y + r);
         }
         let m = amp + 1.0;
-        Blob { discs, noise, amp, freq, bb: [bb[0] - m, bb[1] - m, bb[2] + m, bb[3] + m] }
+        Blob {
+            discs,
+            noise,
+            amp,
+            freq,
+            bb: [bb[0] - m, bb[1] - m, bb[2] + m, bb[3] + m],
+        }
     }
     fn sdf(&self, x: f64, y: f64) -> f64 {
         let mut d = f64::MAX;
@@ -73,7 +90,11 @@ impl Blob {
     fn centre(&self) -> (f64, f64, f64) {
         let cx = 0.5 * (self.bb[0] + self.bb[2]);
         let cy = 0.5 * (self.bb[1] + self.bb[3]);
-        (cx, cy, 0.5 * (self.bb[2] - self.bb[0]).max(self.bb[3] - self.bb[1]))
+        (
+            cx,
+            cy,
+            0.5 * (self.bb[2] - self.bb[0]).max(self.bb[3] - self.bb[1]),
+        )
     }
 }
 
@@ -92,7 +113,14 @@ fn normalize3(v: (f64, f64, f64)) -> (f64, f64, f64) {
 }
 
 /// Sphere-like shading of a point inside a blob-ish shape of centre (cx, cy), radius r.
-fn sphere_light(x: f64, y: f64, cx: f64, cy: f64, r: f64, l: (f64, f64, f64)) -> (f64, (f64, f64, f64)) {
+fn sphere_light(
+    x: f64,
+    y: f64,
+    cx: f64,
+    cy: f64,
+    r: f64,
+    l: (f64, f64, f64),
+) -> (f64, (f64, f64, f64)) {
     let nx = ((x - cx) / r).clamp(-1.0, 1.0);
     let ny = ((y - cy) / r).clamp(-1.0, 1.0);
     let nz = sqrt((1.0 - nx * nx - ny * ny).max(0.0));
@@ -152,12 +180,19 @@ fn noises(seed: u64) -> [Noise; 6] {
     core::array::from_fn(|k| Noise::new(noise_seed(Class::Scene, seed, k as u64)))
 }
 
+#[allow(clippy::too_many_arguments)]
 fn birds(c: &mut Canvas, rng: &mut Rng, x0: f64, x1: f64, y0: f64, y1: f64, size: f64, col: Col) {
     for _ in 0..rng.int(0, 5) {
         let (x, y) = (rng.range(x0, x1), rng.range(y0, y1));
         let s = size * rng.range(0.6, 1.2);
         let flap = rng.range(-0.3, 0.3);
-        let pts = vec![(x - s, y - s * (0.3 + flap)), (x - s * 0.4, y - s * 0.35), (x, y), (x + s * 0.4, y - s * 0.35), (x + s, y - s * (0.3 - flap))];
+        let pts = vec![
+            (x - s, y - s * (0.3 + flap)),
+            (x - s * 0.4, y - s * 0.35),
+            (x, y),
+            (x + s * 0.4, y - s * 0.35),
+            (x + s, y - s * (0.3 - flap)),
+        ];
         c.fill(&Stroke::new(pts, (s * 0.18).max(0.7)), col);
     }
 }
@@ -191,7 +226,15 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
             let fade = 1.0 - smoothstep(0.55, 1.0, y / horizon);
             let d = cloud_density(&n0, &n1, x, y, f0, cover, 2.2) * fade;
             if d > 0.0 {
-                let toward = cloud_density(&n0, &n1, x + (sun.0 - x) * 0.02, y + (sun.1 - y) * 0.02 - s * 0.004, f0, cover, 2.2);
+                let toward = cloud_density(
+                    &n0,
+                    &n1,
+                    x + (sun.0 - x) * 0.02,
+                    y + (sun.1 - y) * 0.02 - s * 0.004,
+                    f0,
+                    cover,
+                    2.2,
+                );
                 let lit = clamp01(1.0 - 1.8 * (toward - d).max(0.0) - 0.3 * d);
                 let cloud = Col(0.45, 0.5, 0.6).mix(Col(1.05, 1.02, 0.98), lit);
                 col = col.mix(cloud, d);
@@ -204,11 +247,18 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let mh = s * rng.range(0.06, 0.12);
     let mf = rng.range(3.0, 6.0) / s;
     let haze = hor.mix(zen, 0.15);
-    c.draw(&below(|x| mtop + mh * (1.0 - n2.ridged(x * mf, 0.5, 6)), [0.0, mtop - 2.0, wf, hf]), 1.0, |x, y| {
-        let shade = 0.5 + 0.5 * n2.fbm(x * mf * 4.0, y * mf * 4.0, 5, 2.0, 0.5);
-        let rock = Col(0.12, 0.14, 0.18) * (0.7 + 0.6 * shade);
-        rock.mix(haze, 0.62)
-    });
+    c.draw(
+        &below(
+            |x| mtop + mh * (1.0 - n2.ridged(x * mf, 0.5, 6)),
+            [0.0, mtop - 2.0, wf, hf],
+        ),
+        1.0,
+        |x, y| {
+            let shade = 0.5 + 0.5 * n2.fbm(x * mf * 4.0, y * mf * 4.0, 5, 2.0, 0.5);
+            let rock = Col(0.12, 0.14, 0.18) * (0.7 + 0.6 * shade);
+            rock.mix(haze, 0.62)
+        },
+    );
     // Rolling hills with a farmland patchwork.
     let h1 = horizon - s * 0.02;
     let hf1 = 2.0 / s;
@@ -216,7 +266,14 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let field_seed = rng.next_u64();
     let cw = s * rng.range(0.08, 0.14);
     let skew = rng.range(-0.8, 0.8);
-    let greens = [Col::hex_linear(0x5f8a2c), Col::hex_linear(0x7a9a38), Col::hex_linear(0xa8a050), Col::hex_linear(0x4d7a2a), Col::hex_linear(0x8aa040), Col::hex_linear(0xc0b060)];
+    let greens = [
+        Col::hex_linear(0x5f8a2c),
+        Col::hex_linear(0x7a9a38),
+        Col::hex_linear(0xa8a050),
+        Col::hex_linear(0x4d7a2a),
+        Col::hex_linear(0x8aa040),
+        Col::hex_linear(0xc0b060),
+    ];
     c.draw(&below(hill1, [0.0, h1 - s * 0.06, wf, hf]), 1.0, |x, y| {
         let depth = clamp01((y - h1) / (hf - h1)); // 0 far .. 1 near
         let z = 0.08 + depth;
@@ -240,7 +297,16 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let tx = rng.range(0.0, wf);
         let ty = hill1(tx) + s * 0.003;
         let r = s * rng.range(0.008, 0.016);
-        let blob = Blob::new(vec![(tx, ty - r, r), (tx - r * 0.7, ty - r * 0.6, r * 0.7), (tx + r * 0.7, ty - r * 0.6, r * 0.7)], n5, r * 0.25, 0.5 / r.max(1.0));
+        let blob = Blob::new(
+            vec![
+                (tx, ty - r, r),
+                (tx - r * 0.7, ty - r * 0.6, r * 0.7),
+                (tx + r * 0.7, ty - r * 0.6, r * 0.7),
+            ],
+            n5,
+            r * 0.25,
+            0.5 / r.max(1.0),
+        );
         let base = Col::hex_linear(0x2c4a22).mix(haze, 0.3);
         c.draw(&blob, 1.0, |x, y| {
             let (lit, _) = sphere_light(x, y, tx, ty - r, r * 1.4, light);
@@ -267,8 +333,19 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let roof = Col::hex_linear(0x8a3a28).mix(Col::hex_linear(0x4a4a50), rng.f64());
     let side_w = hs * 1.6;
     let depth_dy = hs * 0.18;
-    let front = Polygon::new(vec![(hx, gy), (hx + hs, gy), (hx + hs, gy - hs * 0.7), (hx + hs * 0.5, gy - hs * 1.15), (hx, gy - hs * 0.7)]);
-    let side = Polygon::new(vec![(hx + hs, gy), (hx + hs + side_w, gy - depth_dy), (hx + hs + side_w, gy - hs * 0.7 - depth_dy), (hx + hs, gy - hs * 0.7)]);
+    let front = Polygon::new(vec![
+        (hx, gy),
+        (hx + hs, gy),
+        (hx + hs, gy - hs * 0.7),
+        (hx + hs * 0.5, gy - hs * 1.15),
+        (hx, gy - hs * 0.7),
+    ]);
+    let side = Polygon::new(vec![
+        (hx + hs, gy),
+        (hx + hs + side_w, gy - depth_dy),
+        (hx + hs + side_w, gy - hs * 0.7 - depth_dy),
+        (hx + hs, gy - hs * 0.7),
+    ]);
     let roof_side = Polygon::new(vec![
         (hx + hs * 0.5, gy - hs * 1.15),
         (hx + hs * 0.5 + side_w, gy - hs * 1.15 - depth_dy),
@@ -277,7 +354,18 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     ]);
     let lit_front = 0.4 + 0.8 * (-light.0).max(0.0) + 0.3 * light.2;
     let lit_side = 0.4 + 0.8 * light.0.max(0.0) + 0.3 * light.2;
-    c.fill(&soft_poly(Polygon::new(vec![(hx - hs * 0.1, gy + 1.0), (hx + hs + side_w + hs * 0.3, gy - depth_dy + 1.0), (hx + hs + side_w + hs * 0.6, gy + hs * 0.1), (hx, gy + hs * 0.12)]), hs * 0.08), Col(0.05, 0.07, 0.03));
+    c.fill(
+        &soft_poly(
+            Polygon::new(vec![
+                (hx - hs * 0.1, gy + 1.0),
+                (hx + hs + side_w + hs * 0.3, gy - depth_dy + 1.0),
+                (hx + hs + side_w + hs * 0.6, gy + hs * 0.1),
+                (hx, gy + hs * 0.12),
+            ]),
+            hs * 0.08,
+        ),
+        Col(0.05, 0.07, 0.03),
+    );
     c.fill(&front, wall * lit_front);
     c.fill(&side, wall * lit_side * 0.85);
     c.draw(&roof_side, 1.0, |x, y| {
@@ -293,16 +381,46 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let wy = gy - hs * 0.5 - depth_dy * (0.15 + 0.3 * k as f64);
         let ww = hs * 0.18;
         let wh = hs * 0.22;
-        c.fill(&Polygon::new(vec![(wx, wy), (wx + ww, wy - ww * depth_dy / side_w), (wx + ww, wy + wh - ww * depth_dy / side_w), (wx, wy + wh)]), Col(0.9, 0.9, 0.88));
+        c.fill(
+            &Polygon::new(vec![
+                (wx, wy),
+                (wx + ww, wy - ww * depth_dy / side_w),
+                (wx + ww, wy + wh - ww * depth_dy / side_w),
+                (wx, wy + wh),
+            ]),
+            Col(0.9, 0.9, 0.88),
+        );
         let fr = (hs * 0.02).max(0.8);
         c.fill(
-            &Polygon::new(vec![(wx + fr, wy + fr), (wx + ww - fr, wy + fr - ww * depth_dy / side_w), (wx + ww - fr, wy + wh - fr - ww * depth_dy / side_w), (wx + fr, wy + wh - fr)]),
+            &Polygon::new(vec![
+                (wx + fr, wy + fr),
+                (wx + ww - fr, wy + fr - ww * depth_dy / side_w),
+                (wx + ww - fr, wy + wh - fr - ww * depth_dy / side_w),
+                (wx + fr, wy + wh - fr),
+            ]),
             Col(0.03, 0.04, 0.06),
         );
-        c.fill(&Stroke::line((wx + ww * 0.5, wy), (wx + ww * 0.5, wy + wh - ww * 0.5 * depth_dy / side_w), fr), Col(0.9, 0.9, 0.88));
+        c.fill(
+            &Stroke::line(
+                (wx + ww * 0.5, wy),
+                (wx + ww * 0.5, wy + wh - ww * 0.5 * depth_dy / side_w),
+                fr,
+            ),
+            Col(0.9, 0.9, 0.88),
+        );
     }
-    c.fill(&Polygon::rect(hx + hs * 0.38, gy - hs * 0.4, hx + hs * 0.62, gy), Col::hex_linear(0x3a2418));
-    c.fill(&Disc { cx: hx + hs * 0.5, cy: gy - hs * 0.85, r: hs * 0.07 }, Col(0.03, 0.03, 0.04));
+    c.fill(
+        &Polygon::rect(hx + hs * 0.38, gy - hs * 0.4, hx + hs * 0.62, gy),
+        Col::hex_linear(0x3a2418),
+    );
+    c.fill(
+        &Disc {
+            cx: hx + hs * 0.5,
+            cy: gy - hs * 0.85,
+            r: hs * 0.07,
+        },
+        Col(0.03, 0.03, 0.04),
+    );
     // Trees in front of the meadow ridge.
     let ntrees = rng.int(2, 5);
     for _ in 0..ntrees {
@@ -316,8 +434,29 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let cr = th * rng.range(0.3, 0.42);
         // Ground shadow away from the sun.
         let sd = if light.0 > 0.0 { -1.0 } else { 1.0 };
-        c.draw(&soft_ellipse(Ellipse { cx: tx + sd * cr * 0.8, cy: ty + cr * 0.08, rx: cr * 1.3, ry: cr * 0.18, rot: (1.0, 0.0) }, cr * 0.15), 0.55, |_, _| Col(0.02, 0.04, 0.01));
-        c.fill(&Polygon::new(vec![(tx - tw, ty), (tx + tw, ty), (tx + tw * 0.5, ty - th * 0.7), (tx - tw * 0.5, ty - th * 0.7)]), Col::hex_linear(0x3a2a1c));
+        c.draw(
+            &soft_ellipse(
+                Ellipse {
+                    cx: tx + sd * cr * 0.8,
+                    cy: ty + cr * 0.08,
+                    rx: cr * 1.3,
+                    ry: cr * 0.18,
+                    rot: (1.0, 0.0),
+                },
+                cr * 0.15,
+            ),
+            0.55,
+            |_, _| Col(0.02, 0.04, 0.01),
+        );
+        c.fill(
+            &Polygon::new(vec![
+                (tx - tw, ty),
+                (tx + tw, ty),
+                (tx + tw * 0.5, ty - th * 0.7),
+                (tx - tw * 0.5, ty - th * 0.7),
+            ]),
+            Col::hex_linear(0x3a2a1c),
+        );
         let ccy = ty - th + cr;
         let mut discs = vec![(tx, ccy, cr)];
         for _ in 0..rng.int(4, 8) {
@@ -343,12 +482,22 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let rail = |x: f64| fy - post_h * 0.8 + x * 0.02;
     while px < wf {
         let pw = (s * 0.006).max(1.2);
-        c.fill(&Polygon::rect(px - pw, rail(px) - post_h * 0.3, px + pw, fy + px * 0.02), wood * 0.8);
+        c.fill(
+            &Polygon::rect(px - pw, rail(px) - post_h * 0.3, px + pw, fy + px * 0.02),
+            wood * 0.8,
+        );
         px += post_gap;
     }
     for k in 0..2 {
         let off = post_h * 0.45 * k as f64;
-        c.fill(&Stroke::line((0.0, rail(0.0) + off), (wf, rail(wf) + off), (s * 0.005).max(1.0)), wood);
+        c.fill(
+            &Stroke::line(
+                (0.0, rail(0.0) + off),
+                (wf, rail(wf) + off),
+                (s * 0.005).max(1.0),
+            ),
+            wood,
+        );
     }
     // Power line sagging across the sky, and birds.
     let py0 = horizon * rng.range(0.15, 0.5);
@@ -361,7 +510,16 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         })
         .collect();
     c.fill(&Stroke::new(pts, 0.8), Col(0.03, 0.03, 0.035));
-    birds(c, rng, 0.0, wf, horizon * 0.1, horizon * 0.6, s * 0.01, Col(0.02, 0.02, 0.025));
+    birds(
+        c,
+        rng,
+        0.0,
+        wf,
+        horizon * 0.1,
+        horizon * 0.6,
+        s * 0.01,
+        Col(0.02, 0.02, 0.025),
+    );
 }
 
 fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
@@ -369,7 +527,10 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let (wf, hf) = (c.w as f64, c.h as f64);
     let s = hf.max(wf * 0.25);
     let water = hf * rng.range(0.55, 0.65);
-    let sun = (wf * rng.range(0.25, 0.75), water - s * rng.range(0.12, 0.25));
+    let sun = (
+        wf * rng.range(0.25, 0.75),
+        water - s * rng.range(0.12, 0.25),
+    );
     let sun_r = s * 0.035;
     let top = Col::hex_linear(0x121a3a);
     let mid = Col::hex_linear(0x8a4a5a).mix(Col::hex_linear(0x6a4a7a), rng.f64());
@@ -378,7 +539,11 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let cover = rng.range(0.0, 0.2);
     c.shade(|x, y| {
         let t = clamp01(y / water);
-        let mut col = if t < 0.55 { top.mix(mid, smoothstep(0.0, 0.55, t)) } else { mid.mix(low, smoothstep(0.55, 1.0, t)) };
+        let mut col = if t < 0.55 {
+            top.mix(mid, smoothstep(0.0, 0.55, t))
+        } else {
+            mid.mix(low, smoothstep(0.55, 1.0, t))
+        };
         let d = sqrt(sq(x - sun.0) + sq((y - sun.1) * 1.3)) / s;
         col = col + Col(1.0, 0.6, 0.25) * (1.2 * exp(-d * 10.0) + 0.3 * exp(-d * 3.0));
         let ds = sqrt(sq(x - sun.0) + sq(y - sun.1));
@@ -394,7 +559,10 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         col
     });
     // Two mountain ranges, with rim light and snow on the sunny side.
-    for (k, (hgt, dark, haze)) in [(0.3, 0.1, 0.55), (0.18, 0.04, 0.25)].into_iter().enumerate() {
+    for (k, (hgt, dark, haze)) in [(0.3, 0.1, 0.55), (0.18, 0.04, 0.25)]
+        .into_iter()
+        .enumerate()
+    {
         let nn = if k == 0 { n2 } else { n3 };
         let base_y = water - s * 0.01;
         let mf = rng.range(2.5, 4.5) / s;
@@ -402,23 +570,28 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let ridge = move |x: f64| base_y - amp * nn.ridged(x * mf + k as f64 * 10.0, 0.3, 5);
         let col_m = Col(0.09, 0.07, 0.12) * (dark * 10.0);
         let to_sun = if k == 0 { 1.0 } else { 0.7 };
-        c.draw(&below(ridge, [0.0, base_y - amp - 2.0, wf, hf]), 1.0, |x, y| {
-            let r = ridge(x);
-            let below_crest = (y - r) / amp;
-            // Facets: lighting from the gradient of a 2-D height field.
-            let hf2 = |x: f64, y: f64| nn.fbm(x * mf * 3.0, y * mf * 3.0, 6, 2.0, 0.5);
-            let e = 2.0;
-            let gx = (hf2(x + e, y) - hf2(x - e, y)) / (2.0 * e) * s * 0.05;
-            let dir = if x < sun.0 { 1.0 } else { -1.0 };
-            let lit = clamp01(0.45 + 2.0 * gx * dir * to_sun - 0.6 * below_crest);
-            let tex = 0.5 + 0.5 * hf2(x * 3.0, y * 3.0);
-            let snow = smoothstep(0.6, 0.75, tex + 0.5 - below_crest * 3.0) * (k == 0) as u8 as f64;
-            let rock = col_m * (0.7 + 0.5 * tex) * (0.5 + 0.9 * lit);
-            let snowc = Col(0.85, 0.5, 0.42) * (0.3 + 0.8 * lit);
-            let rim = Col(0.8, 0.4, 0.2) * exp(-below_crest * 40.0) * lit * 0.6;
-            let col = rock.mix(snowc, snow) + rim;
-            col.mix(low * 0.5, haze * (1.0 - below_crest).max(0.0) * 0.5)
-        });
+        c.draw(
+            &below(ridge, [0.0, base_y - amp - 2.0, wf, hf]),
+            1.0,
+            |x, y| {
+                let r = ridge(x);
+                let below_crest = (y - r) / amp;
+                // Facets: lighting from the gradient of a 2-D height field.
+                let hf2 = |x: f64, y: f64| nn.fbm(x * mf * 3.0, y * mf * 3.0, 6, 2.0, 0.5);
+                let e = 2.0;
+                let gx = (hf2(x + e, y) - hf2(x - e, y)) / (2.0 * e) * s * 0.05;
+                let dir = if x < sun.0 { 1.0 } else { -1.0 };
+                let lit = clamp01(0.45 + 2.0 * gx * dir * to_sun - 0.6 * below_crest);
+                let tex = 0.5 + 0.5 * hf2(x * 3.0, y * 3.0);
+                let snow =
+                    smoothstep(0.6, 0.75, tex + 0.5 - below_crest * 3.0) * (k == 0) as u8 as f64;
+                let rock = col_m * (0.7 + 0.5 * tex) * (0.5 + 0.9 * lit);
+                let snowc = Col(0.85, 0.5, 0.42) * (0.3 + 0.8 * lit);
+                let rim = Col(0.8, 0.4, 0.2) * exp(-below_crest * 40.0) * lit * 0.6;
+                let col = rock.mix(snowc, snow) + rim;
+                col.mix(low * 0.5, haze * (1.0 - below_crest).max(0.0) * 0.5)
+            },
+        );
     }
     // Pine forest along the shore.
     let pine_seed = rng.next_u64();
@@ -437,9 +610,11 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         }
         best.min(water - s * 0.006 + s * 0.004 * n4.perlin(x * 0.02, 0.5))
     };
-    c.draw(&below(pines, [0.0, water - s * 0.1, wf, water + 1.0]), 1.0, |x, y| {
-        Col(0.012, 0.016, 0.018) * (0.8 + 0.4 * n5.perlin(x * 0.3, y * 0.3))
-    });
+    c.draw(
+        &below(pines, [0.0, water - s * 0.1, wf, water + 1.0]),
+        1.0,
+        |x, y| Col(0.012, 0.016, 0.018) * (0.8 + 0.4 * n5.perlin(x * 0.3, y * 0.3)),
+    );
     // Water: rippled reflection of everything above the waterline, sun glitter.
     let snap = c.clone();
     let (w, h) = (c.w, c.h);
@@ -456,7 +631,11 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let fresnel = 0.55 + 0.35 * (1.0 - depth);
         let mut col = refl * fresnel + Col(0.005, 0.01, 0.015);
         let band = exp(-sq((x - sun.0) / (s * (0.02 + 0.12 * depth))));
-        let spark = smoothstep(0.25, 0.6, n5.fbm(x * 0.08, y * 0.8 / (0.05 + depth), 3, 2.0, 0.5));
+        let spark = smoothstep(
+            0.25,
+            0.6,
+            n5.fbm(x * 0.08, y * 0.8 / (0.05 + depth), 3, 2.0, 0.5),
+        );
         col = col + Col(3.0, 1.8, 0.8) * band * spark * 0.8;
         col
     });
@@ -464,11 +643,55 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let bx = wf * rng.range(0.1, 0.8);
     let by = water + (hf - water) * rng.range(0.3, 0.6);
     let bl = s * rng.range(0.05, 0.08);
-    c.fill(&Polygon::new(vec![(bx - bl, by - bl * 0.12), (bx + bl, by - bl * 0.12), (bx + bl * 0.75, by + bl * 0.05), (bx - bl * 0.8, by + bl * 0.05)]), Col(0.01, 0.008, 0.008));
-    c.fill(&Stroke::line((bx, by - bl * 0.12), (bx, by - bl * 1.2), (s * 0.003).max(0.8)), Col(0.01, 0.008, 0.008));
-    c.fill(&Polygon::new(vec![(bx + bl * 0.05, by - bl * 1.15), (bx + bl * 0.7, by - bl * 0.2), (bx + bl * 0.05, by - bl * 0.2)]), Col(0.5, 0.32, 0.22));
-    c.draw(&soft_ellipse(Ellipse { cx: bx, cy: by + bl * 0.3, rx: bl * 0.9, ry: bl * 0.15, rot: (1.0, 0.0) }, bl * 0.1), 0.6, |_, _| Col(0.005, 0.005, 0.008));
-    birds(c, rng, 0.0, wf, water * 0.2, water * 0.6, s * 0.009, Col(0.01, 0.008, 0.01));
+    c.fill(
+        &Polygon::new(vec![
+            (bx - bl, by - bl * 0.12),
+            (bx + bl, by - bl * 0.12),
+            (bx + bl * 0.75, by + bl * 0.05),
+            (bx - bl * 0.8, by + bl * 0.05),
+        ]),
+        Col(0.01, 0.008, 0.008),
+    );
+    c.fill(
+        &Stroke::line(
+            (bx, by - bl * 0.12),
+            (bx, by - bl * 1.2),
+            (s * 0.003).max(0.8),
+        ),
+        Col(0.01, 0.008, 0.008),
+    );
+    c.fill(
+        &Polygon::new(vec![
+            (bx + bl * 0.05, by - bl * 1.15),
+            (bx + bl * 0.7, by - bl * 0.2),
+            (bx + bl * 0.05, by - bl * 0.2),
+        ]),
+        Col(0.5, 0.32, 0.22),
+    );
+    c.draw(
+        &soft_ellipse(
+            Ellipse {
+                cx: bx,
+                cy: by + bl * 0.3,
+                rx: bl * 0.9,
+                ry: bl * 0.15,
+                rot: (1.0, 0.0),
+            },
+            bl * 0.1,
+        ),
+        0.6,
+        |_, _| Col(0.005, 0.005, 0.008),
+    );
+    birds(
+        c,
+        rng,
+        0.0,
+        wf,
+        water * 0.2,
+        water * 0.6,
+        s * 0.009,
+        Col(0.01, 0.008, 0.01),
+    );
 }
 
 fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
@@ -493,11 +716,35 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let fx = wf * rng.range(0.4, 0.6);
     let fy = table_y * 0.45;
     let border = fw * 0.07;
-    c.draw(&soft_poly(Polygon::rect(fx - fw * 0.5 + border * 0.6, fy - fh * 0.5 + border * 0.9, fx + fw * 0.5 + border * 0.6, fy + fh * 0.5 + border * 0.9), border * 0.6), 0.5, |_, _| Col(0.02, 0.015, 0.01));
-    c.draw(&Polygon::rect(fx - fw * 0.5, fy - fh * 0.5, fx + fw * 0.5, fy + fh * 0.5), 1.0, |x, y| {
-        Col::hex_linear(0x5a3a20) * (0.7 + 0.3 * n1.perlin(x * 0.2, y * 0.01) + 0.2 * (1.0 - (y - fy + fh * 0.5) / fh))
-    });
-    let (px0, py0, px1, py1) = (fx - fw * 0.5 + border, fy - fh * 0.5 + border, fx + fw * 0.5 - border, fy + fh * 0.5 - border);
+    c.draw(
+        &soft_poly(
+            Polygon::rect(
+                fx - fw * 0.5 + border * 0.6,
+                fy - fh * 0.5 + border * 0.9,
+                fx + fw * 0.5 + border * 0.6,
+                fy + fh * 0.5 + border * 0.9,
+            ),
+            border * 0.6,
+        ),
+        0.5,
+        |_, _| Col(0.02, 0.015, 0.01),
+    );
+    c.draw(
+        &Polygon::rect(fx - fw * 0.5, fy - fh * 0.5, fx + fw * 0.5, fy + fh * 0.5),
+        1.0,
+        |x, y| {
+            Col::hex_linear(0x5a3a20)
+                * (0.7
+                    + 0.3 * n1.perlin(x * 0.2, y * 0.01)
+                    + 0.2 * (1.0 - (y - fy + fh * 0.5) / fh))
+        },
+    );
+    let (px0, py0, px1, py1) = (
+        fx - fw * 0.5 + border,
+        fy - fh * 0.5 + border,
+        fx + fw * 0.5 - border,
+        fy + fh * 0.5 - border,
+    );
     c.fill(&Polygon::rect(px0, py0, px1, py1), Col(0.85, 0.83, 0.78));
     let m = border * 0.8;
     let (qx0, qy0, qx1, qy1) = (px0 + m, py0 + m, px1 - m, py1 - m);
@@ -516,21 +763,29 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     });
     // Table top (wood in perspective) and front edge.
     let grain_seed = n2;
-    c.draw(&Polygon::rect(-1.0, table_y, wf + 1.0, hf + 1.0), 1.0, |x, y| {
-        let z = (y - table_y) / (front_y - table_y);
-        let persp = 0.35 + 0.65 * z;
-        let u = (x - wf * 0.5) / persp;
-        let v = z * s * 0.6;
-        let rings = fract(v * 0.06 + 1.5 * grain_seed.fbm(u * 0.004, v * 0.03, 4, 2.0, 0.5));
-        let wood = Col::hex_linear(0x7a4a24).mix(Col::hex_linear(0x4a2812), smoothstep(0.3, 0.9, rings));
-        let spec = 0.25 * exp(-sq((x - wf * 0.35) / (s * 0.3)) - sq(z - 0.3) * 6.0);
-        if y < front_y {
-            wood * (0.45 + 0.55 * z) + Col::gray(spec * 0.5)
-        } else {
-            wood * 0.22
-        }
-    });
-    c.fill(&Stroke::line((0.0, front_y), (wf, front_y), (s * 0.004).max(1.0)), Col::hex_linear(0xa0764a));
+    c.draw(
+        &Polygon::rect(-1.0, table_y, wf + 1.0, hf + 1.0),
+        1.0,
+        |x, y| {
+            let z = (y - table_y) / (front_y - table_y);
+            let persp = 0.35 + 0.65 * z;
+            let u = (x - wf * 0.5) / persp;
+            let v = z * s * 0.6;
+            let rings = fract(v * 0.06 + 1.5 * grain_seed.fbm(u * 0.004, v * 0.03, 4, 2.0, 0.5));
+            let wood = Col::hex_linear(0x7a4a24)
+                .mix(Col::hex_linear(0x4a2812), smoothstep(0.3, 0.9, rings));
+            let spec = 0.25 * exp(-sq((x - wf * 0.35) / (s * 0.3)) - sq(z - 0.3) * 6.0);
+            if y < front_y {
+                wood * (0.45 + 0.55 * z) + Col::gray(spec * 0.5)
+            } else {
+                wood * 0.22
+            }
+        },
+    );
+    c.fill(
+        &Stroke::line((0.0, front_y), (wf, front_y), (s * 0.004).max(1.0)),
+        Col::hex_linear(0xa0764a),
+    );
     // Objects, back to front: books, vase, fruit.
     let shadow = Col(0.015, 0.01, 0.005);
     let bx = wf * rng.range(0.05, 0.2);
@@ -543,15 +798,42 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let x0 = bx + rng.range(-0.02, 0.02) * s;
         let cover = Col::hex_linear(*rng.pick(&[0x7a1e1e, 0x1e3a6a, 0x2a5a3a, 0x6a5a2a, 0x3a2a4a]));
         if k == 0 {
-            c.draw(&soft_poly(Polygon::rect(x0 + s * 0.02, by - s * 0.01, x0 + bw + s * 0.06, by + s * 0.02), s * 0.015), 0.7, move |_, _| shadow);
+            c.draw(
+                &soft_poly(
+                    Polygon::rect(
+                        x0 + s * 0.02,
+                        by - s * 0.01,
+                        x0 + bw + s * 0.06,
+                        by + s * 0.02,
+                    ),
+                    s * 0.015,
+                ),
+                0.7,
+                move |_, _| shadow,
+            );
         }
         // Top face (pages visible on the top book only as a thin band), spine face.
-        c.fill(&Polygon::new(vec![(x0, yb - bh), (x0 + bw, yb - bh), (x0 + bw + s * 0.02, yb - bh - s * 0.012), (x0 + s * 0.02, yb - bh - s * 0.012)]), cover * 0.9);
+        c.fill(
+            &Polygon::new(vec![
+                (x0, yb - bh),
+                (x0 + bw, yb - bh),
+                (x0 + bw + s * 0.02, yb - bh - s * 0.012),
+                (x0 + s * 0.02, yb - bh - s * 0.012),
+            ]),
+            cover * 0.9,
+        );
         c.fill(&Polygon::rect(x0, yb - bh, x0 + bw, yb), cover * 0.55);
-        c.draw(&Polygon::rect(x0 + bw, yb - bh, x0 + bw + s * 0.02, yb - s * 0.012 * 0.0), 1.0, |_, y| {
-            Col(0.75, 0.7, 0.6) * (0.6 + 0.4 * fract(y * 1.3))
-        });
-        let style = TextStyle { xh: (bh * 0.22).max(1.5), weight: (bh * 0.05).max(0.6), colour: Col(0.85, 0.75, 0.45), slant: 0.0 };
+        c.draw(
+            &Polygon::rect(x0 + bw, yb - bh, x0 + bw + s * 0.02, yb - s * 0.012 * 0.0),
+            1.0,
+            |_, y| Col(0.75, 0.7, 0.6) * (0.6 + 0.4 * fract(y * 1.3)),
+        );
+        let style = TextStyle {
+            xh: (bh * 0.22).max(1.5),
+            weight: (bh * 0.05).max(0.6),
+            colour: Col(0.85, 0.75, 0.45),
+            slant: 0.0,
+        };
         draw_line(c, rng, &style, x0 + bw * 0.1, x0 + bw * 0.7, yb - bh * 0.35);
         yb -= bh;
     }
@@ -561,7 +843,20 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let vh = s * rng.range(0.22, 0.32);
     let vb = table_y + (front_y - table_y) * 0.25;
     let glaze = Col::hex_linear(*rng.pick(&[0x2a4a8a, 0xd8d4cc, 0x3a6a5a, 0x9a3a2a]));
-    c.draw(&soft_ellipse(Ellipse { cx: vx + vr * 1.3, cy: vb, rx: vr * 2.2, ry: vr * 0.35, rot: (1.0, 0.0) }, vr * 0.3), 0.8, move |_, _| shadow);
+    c.draw(
+        &soft_ellipse(
+            Ellipse {
+                cx: vx + vr * 1.3,
+                cy: vb,
+                rx: vr * 2.2,
+                ry: vr * 0.35,
+                rot: (1.0, 0.0),
+            },
+            vr * 0.3,
+        ),
+        0.8,
+        move |_, _| shadow,
+    );
     let body = Polygon::new(
         (0..=24)
             .map(|k| {
@@ -585,8 +880,26 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let hl = exp(-sq((nx + 0.45) * 9.0)) * 0.8;
         glaze * (0.15 + 0.85 * diff) + Col::gray(hl)
     });
-    c.fill(&Ellipse { cx: vx, cy: vb - vh, rx: vr * 0.75 * 1.0 + vr * 0.35 * sin(1.2 * PI), ry: vr * 0.18, rot: (1.0, 0.0) }, glaze * 0.6);
-    c.fill(&Ellipse { cx: vx, cy: vb - vh, rx: vr * 0.55, ry: vr * 0.12, rot: (1.0, 0.0) }, Col(0.01, 0.01, 0.01));
+    c.fill(
+        &Ellipse {
+            cx: vx,
+            cy: vb - vh,
+            rx: vr * 0.75 * 1.0 + vr * 0.35 * sin(1.2 * PI),
+            ry: vr * 0.18,
+            rot: (1.0, 0.0),
+        },
+        glaze * 0.6,
+    );
+    c.fill(
+        &Ellipse {
+            cx: vx,
+            cy: vb - vh,
+            rx: vr * 0.55,
+            ry: vr * 0.12,
+            rot: (1.0, 0.0),
+        },
+        Col(0.01, 0.01, 0.01),
+    );
     // Fruit: shaded spheres with specular highlights and contact shadows.
     let nf = rng.int(2, 4);
     for k in 0..nf {
@@ -594,17 +907,50 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let fx = wf * (0.6 + 0.12 * k as f64) + rng.range(-0.03, 0.03) * s;
         let fy = table_y + (front_y - table_y) * rng.range(0.45, 0.8) - fr;
         let base = Col::hex_linear(*rng.pick(&[0xe07010, 0xb01818, 0x6a9a20, 0xd0b020]));
-        c.draw(&soft_ellipse(Ellipse { cx: fx + fr * 0.5, cy: fy + fr * 0.9, rx: fr * 1.4, ry: fr * 0.3, rot: (1.0, 0.0) }, fr * 0.3), 0.85, move |_, _| shadow);
+        c.draw(
+            &soft_ellipse(
+                Ellipse {
+                    cx: fx + fr * 0.5,
+                    cy: fy + fr * 0.9,
+                    rx: fr * 1.4,
+                    ry: fr * 0.3,
+                    rot: (1.0, 0.0),
+                },
+                fr * 0.3,
+            ),
+            0.85,
+            move |_, _| shadow,
+        );
         let spot = n3;
-        c.draw(&Disc { cx: fx, cy: fy, r: fr }, 1.0, |x, y| {
-            let (lit, n) = sphere_light(x, y, fx, fy, fr, light);
-            let hv = normalize3((light.0, light.1, light.2 + 1.0));
-            let spec = pow((n.0 * hv.0 + n.1 * hv.1 + n.2 * hv.2).max(0.0), 60.0);
-            let bounce = clamp01(n.1) * 0.15;
-            let pores = 1.0 + 0.06 * spot.perlin(x * 0.6, y * 0.6);
-            base * (0.06 + 0.94 * lit) * pores + Col(0.25, 0.15, 0.08) * bounce + Col::gray(spec * 0.9)
-        });
-        c.fill(&Stroke::new(vec![(fx, fy - fr * 0.85), (fx + fr * 0.1, fy - fr * 1.15), (fx + fr * 0.25, fy - fr * 1.25)], (fr * 0.08).max(0.8)), Col(0.06, 0.04, 0.02));
+        c.draw(
+            &Disc {
+                cx: fx,
+                cy: fy,
+                r: fr,
+            },
+            1.0,
+            |x, y| {
+                let (lit, n) = sphere_light(x, y, fx, fy, fr, light);
+                let hv = normalize3((light.0, light.1, light.2 + 1.0));
+                let spec = pow((n.0 * hv.0 + n.1 * hv.1 + n.2 * hv.2).max(0.0), 60.0);
+                let bounce = clamp01(n.1) * 0.15;
+                let pores = 1.0 + 0.06 * spot.perlin(x * 0.6, y * 0.6);
+                base * (0.06 + 0.94 * lit) * pores
+                    + Col(0.25, 0.15, 0.08) * bounce
+                    + Col::gray(spec * 0.9)
+            },
+        );
+        c.fill(
+            &Stroke::new(
+                vec![
+                    (fx, fy - fr * 0.85),
+                    (fx + fr * 0.1, fy - fr * 1.15),
+                    (fx + fr * 0.25, fy - fr * 1.25),
+                ],
+                (fr * 0.08).max(0.8),
+            ),
+            Col(0.06, 0.04, 0.02),
+        );
     }
 }
 
@@ -626,7 +972,8 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
             let mut col = zen.mix(hor, pow(t, 2.0));
             let d = sqrt(sq(x - sun.0) + sq(y - sun.1)) / s;
             col = col + Col(0.8, 0.7, 0.5) * 0.6 * exp(-d * 3.0);
-            let dn = cloud_density(&n0, &n1, x, y, f0, cover, 2.5) * (1.0 - smoothstep(0.6, 1.0, t));
+            let dn =
+                cloud_density(&n0, &n1, x, y, f0, cover, 2.5) * (1.0 - smoothstep(0.6, 1.0, t));
             if dn > 0.0 {
                 let tw = cloud_density(&n0, &n1, x + s * 0.006, y - s * 0.006, f0, cover, 2.5);
                 let lit = clamp01(1.0 - 1.8 * (tw - dn).max(0.0) - 0.25 * dn);
@@ -642,7 +989,8 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
             let base = sea_far.mix(sea_near, smoothstep(0.0, 0.8, z));
             let skyref = hor * 0.8;
             let mut col = base.mix(skyref, fres) * (0.8 + 0.3 * waves + 0.1 * fine);
-            let glint = smoothstep(0.55, 0.8, fine * 0.5 + waves * 0.7) * exp(-sq((x - sun.0) / (s * 0.5)));
+            let glint =
+                smoothstep(0.55, 0.8, fine * 0.5 + waves * 0.7) * exp(-sq((x - sun.0) / (s * 0.5)));
             col = col + Col::gray(glint * 0.8);
             col
         }
@@ -652,7 +1000,9 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let hl_top = horizon - s * rng.range(0.08, 0.14);
     let cliff_top = move |x: f64| {
         let t = clamp01(x / hl_end);
-        hl_top + (horizon + s * 0.01 - hl_top) * smoothstep(0.55, 1.0, t) + s * 0.012 * n4.fbm1(x * 0.02, 4)
+        hl_top
+            + (horizon + s * 0.01 - hl_top) * smoothstep(0.55, 1.0, t)
+            + s * 0.012 * n4.fbm1(x * 0.02, 4)
     };
     let grass = Col::hex_linear(0x5a7a2a);
     let rock = Col::hex_linear(0x7a6e62);
@@ -679,11 +1029,21 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     });
     // Foam where the cliff meets the sea.
     let foam_band = SdfShape {
-        bb: [0.0, waterline - s * 0.01, hl_end + s * 0.1, waterline + s * 0.03],
+        bb: [
+            0.0,
+            waterline - s * 0.01,
+            hl_end + s * 0.1,
+            waterline + s * 0.03,
+        ],
         f: move |x: f64, y: f64| {
             let end = cliff_top(x) > waterline - s * 0.002;
-            let t = (y - waterline - s * 0.006 * (1.0 + n3.perlin(x * 0.05, 1.0))).abs() - s * 0.006;
-            if end { t.max(x - hl_end - s * 0.02) } else { t }
+            let t =
+                (y - waterline - s * 0.006 * (1.0 + n3.perlin(x * 0.05, 1.0))).abs() - s * 0.006;
+            if end {
+                t.max(x - hl_end - s * 0.02)
+            } else {
+                t
+            }
         },
     };
     c.draw(&foam_band, 0.9, |x, y| {
@@ -699,7 +1059,12 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let red = Col::hex_linear(0xb8202a);
     let white = Col::hex_linear(0xf0eee8);
     let bands = 4.0;
-    let tower = Polygon::new(vec![(lx - rb, base_y), (lx + rb, base_y), (lx + rt, base_y - th), (lx - rt, base_y - th)]);
+    let tower = Polygon::new(vec![
+        (lx - rb, base_y),
+        (lx + rb, base_y),
+        (lx + rt, base_y - th),
+        (lx - rt, base_y - th),
+    ]);
     c.draw(&tower, 1.0, |x, y| {
         let t = (base_y - y) / th;
         let r = rb + (rt - rb) * t;
@@ -709,23 +1074,62 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         (if band { white } else { red }) * lit
     });
     let gy = base_y - th;
-    c.fill(&Polygon::rect(lx - rt * 1.5, gy - th * 0.02, lx + rt * 1.5, gy + th * 0.015), Col(0.05, 0.05, 0.05));
+    c.fill(
+        &Polygon::rect(
+            lx - rt * 1.5,
+            gy - th * 0.02,
+            lx + rt * 1.5,
+            gy + th * 0.015,
+        ),
+        Col(0.05, 0.05, 0.05),
+    );
     let lh = th * 0.14;
-    c.draw(&Polygon::rect(lx - rt * 0.8, gy - th * 0.02 - lh, lx + rt * 0.8, gy - th * 0.02), 1.0, |x, _| {
-        Col(0.9, 0.85, 0.55) * (0.6 + 0.4 * (x - lx + rt) / (2.0 * rt))
-    });
+    c.draw(
+        &Polygon::rect(
+            lx - rt * 0.8,
+            gy - th * 0.02 - lh,
+            lx + rt * 0.8,
+            gy - th * 0.02,
+        ),
+        1.0,
+        |x, _| Col(0.9, 0.85, 0.55) * (0.6 + 0.4 * (x - lx + rt) / (2.0 * rt)),
+    );
     let post_w = (s * 0.0025).max(0.6);
     let nposts = 7;
     for k in 0..=nposts {
         let px = lx - rt * 1.4 + rt * 2.8 * k as f64 / nposts as f64;
-        c.fill(&Stroke::line((px, gy - th * 0.02), (px, gy - th * 0.02 - th * 0.05), post_w), Col(0.04, 0.04, 0.04));
+        c.fill(
+            &Stroke::line(
+                (px, gy - th * 0.02),
+                (px, gy - th * 0.02 - th * 0.05),
+                post_w,
+            ),
+            Col(0.04, 0.04, 0.04),
+        );
     }
-    c.fill(&Stroke::line((lx - rt * 1.45, gy - th * 0.07), (lx + rt * 1.45, gy - th * 0.07), post_w), Col(0.04, 0.04, 0.04));
+    c.fill(
+        &Stroke::line(
+            (lx - rt * 1.45, gy - th * 0.07),
+            (lx + rt * 1.45, gy - th * 0.07),
+            post_w,
+        ),
+        Col(0.04, 0.04, 0.04),
+    );
     for k in 0..3 {
         let px = lx - rt * 0.8 + rt * 1.6 * (k as f64 + 0.5) / 3.0;
-        c.fill(&Stroke::line((px, gy - th * 0.02), (px, gy - th * 0.02 - lh), post_w), Col(0.05, 0.05, 0.05));
+        c.fill(
+            &Stroke::line((px, gy - th * 0.02), (px, gy - th * 0.02 - lh), post_w),
+            Col(0.05, 0.05, 0.05),
+        );
     }
-    let cap = Polygon::new(closed_spline(&[(lx - rt * 0.95, gy - th * 0.02 - lh), (lx, gy - th * 0.02 - lh - rt * 0.9), (lx + rt * 0.95, gy - th * 0.02 - lh)], 8));
+    let cap = Polygon::new(closed_spline(
+        &[
+            (lx - rt * 0.95, gy - th * 0.02 - lh),
+            (lx, gy - th * 0.02 - lh - rt * 0.9),
+            (lx + rt * 0.95, gy - th * 0.02 - lh),
+        ],
+        8,
+    ));
     c.fill(&cap, Col::hex_linear(0x301010));
     // Keeper's cottage.
     let kx = lx + rb * 1.6;
@@ -733,10 +1137,21 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let kh = th * 0.2;
     let ky = cliff_top(kx + kw * 0.5) + s * 0.012;
     c.fill(&Polygon::rect(kx, ky - kh, kx + kw, ky), white * 0.8);
-    c.fill(&Polygon::new(vec![(kx - kw * 0.05, ky - kh), (kx + kw * 1.05, ky - kh), (kx + kw * 0.85, ky - kh * 1.6), (kx + kw * 0.15, ky - kh * 1.6)]), Col::hex_linear(0x3a3a40));
+    c.fill(
+        &Polygon::new(vec![
+            (kx - kw * 0.05, ky - kh),
+            (kx + kw * 1.05, ky - kh),
+            (kx + kw * 0.85, ky - kh * 1.6),
+            (kx + kw * 0.15, ky - kh * 1.6),
+        ]),
+        Col::hex_linear(0x3a3a40),
+    );
     for k in 0..2 {
         let wx = kx + kw * (0.2 + 0.45 * k as f64);
-        c.fill(&rounded_rect(wx, ky - kh * 0.75, wx + kw * 0.18, ky - kh * 0.35, 0.5), Col(0.05, 0.07, 0.1));
+        c.fill(
+            &rounded_rect(wx, ky - kh * 0.75, wx + kw * 0.18, ky - kh * 0.35, 0.5),
+            Col(0.05, 0.07, 0.1),
+        );
     }
     // Beach in the lower right with wet sand and a foam line.
     let shore = {
@@ -747,10 +1162,15 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     c.draw(&below(shore, [0.0, hf * 0.6, wf, hf]), 1.0, |x, y| {
         let d = (y - shore(x)) / s;
         let fine = unit_f64(hash2(77, x as i64, y as i64));
-        let ripples = 0.5 + 0.5 * sin((x * 0.3 + y * 0.9) / (s * 0.004) + 3.0 * n5.perlin(x * 0.02, y * 0.02));
+        let ripples = 0.5
+            + 0.5 * sin((x * 0.3 + y * 0.9) / (s * 0.004) + 3.0 * n5.perlin(x * 0.02, y * 0.02));
         let wet = 1.0 - smoothstep(0.0, 0.05, d);
         let col = sand * (0.82 + 0.1 * fine + 0.08 * ripples) * (1.0 - 0.45 * wet);
-        let foam = smoothstep(0.45, 0.8, 0.5 + 0.5 * n2.fbm(x * 0.05, y * 0.2, 4, 2.0, 0.5)) * (1.0 - smoothstep(0.0, 0.012, d));
+        let foam = smoothstep(
+            0.45,
+            0.8,
+            0.5 + 0.5 * n2.fbm(x * 0.05, y * 0.2, 4, 2.0, 0.5),
+        ) * (1.0 - smoothstep(0.0, 0.012, d));
         col.mix(Col(0.9, 0.92, 0.95), foam)
     });
     // Rocks in the surf.
@@ -759,16 +1179,45 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let rx = wf * rng.range(0.4, 0.95);
         let ry = shore(rx) - s * rng.range(0.0, 0.08);
         let rr = s * rng.range(0.025, 0.05);
-        let blob = Blob::new(vec![(rx, ry, rr), (rx + rr * 0.6, ry + rr * 0.2, rr * 0.7)], n1, rr * 0.25, 1.5 / rr);
+        let blob = Blob::new(
+            vec![(rx, ry, rr), (rx + rr * 0.6, ry + rr * 0.2, rr * 0.7)],
+            n1,
+            rr * 0.25,
+            1.5 / rr,
+        );
         let (bcx, bcy, brad) = blob.centre();
         c.draw(&blob, 1.0, |x, y| {
             let (lit, _) = sphere_light(x, y, bcx, bcy, brad, normalize3((0.5, -0.6, 0.6)));
             let tex = 0.6 + 0.6 * n3.ridged(x * 0.08, y * 0.08, 4);
             Col(0.09, 0.08, 0.075) * tex * (0.35 + 1.1 * lit)
         });
-        let foam = Blob::new((0..6).map(|k| (rx - rr * 0.9 + rr * 0.45 * k as f64, ry + rr * 0.85, rr * 0.18)).collect(), n2, rr * 0.12, 4.0 / rr);
-        c.draw(&foam, 0.6, |x, y| Col(0.8, 0.84, 0.88) * (0.8 + 0.2 * n4.perlin(x * 0.3, y * 0.3)));
+        let foam = Blob::new(
+            (0..6)
+                .map(|k| {
+                    (
+                        rx - rr * 0.9 + rr * 0.45 * k as f64,
+                        ry + rr * 0.85,
+                        rr * 0.18,
+                    )
+                })
+                .collect(),
+            n2,
+            rr * 0.12,
+            4.0 / rr,
+        );
+        c.draw(&foam, 0.6, |x, y| {
+            Col(0.8, 0.84, 0.88) * (0.8 + 0.2 * n4.perlin(x * 0.3, y * 0.3))
+        });
     }
-    birds(c, rng, wf * 0.3, wf, horizon * 0.15, horizon * 0.7, s * 0.008, Col(0.03, 0.03, 0.035));
+    birds(
+        c,
+        rng,
+        wf * 0.3,
+        wf,
+        horizon * 0.15,
+        horizon * 0.7,
+        s * 0.008,
+        Col(0.03, 0.03, 0.035),
+    );
     let _ = n0;
 }

@@ -57,7 +57,13 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     let cx = rng.range(0.05, 0.95) * wf;
                     let cy = rng.range(0.05, 0.95) * hf;
                     let r = rng.range(0.3, 0.6) * s;
-                    (cx, cy, r, hsv(rng.f64(), rng.range(0.4, 0.9), rng.range(0.7, 1.0)), rng.range(0.85, 1.0))
+                    (
+                        cx,
+                        cy,
+                        r,
+                        hsv(rng.f64(), rng.range(0.4, 0.9), rng.range(0.7, 1.0)),
+                        rng.range(0.85, 1.0),
+                    )
                 })
                 .collect();
             c.shade(|x, y| {
@@ -99,13 +105,30 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 .map(|_| {
                     let a = rng.range(0.0, PI);
                     let cycles = rng.range(0.3, 1.5);
-                    (cos(a) * cycles / s, sin(a) * cycles / s, rng.range(0.0, TAU), rng.range(0.5, 1.0))
+                    (
+                        cos(a) * cycles / s,
+                        sin(a) * cycles / s,
+                        rng.range(0.0, TAU),
+                        rng.range(0.5, 1.0),
+                    )
                 })
                 .collect();
             let norm: f64 = waves.iter().map(|w| w.3).sum();
-            let base = Col(rng.range(0.35, 0.65), rng.range(0.35, 0.65), rng.range(0.35, 0.65));
-            let amp = Col(rng.range(0.15, 0.35), rng.range(0.15, 0.35), rng.range(0.15, 0.35));
-            let phase = Col(rng.range(0.0, TAU), rng.range(0.0, TAU), rng.range(0.0, TAU));
+            let base = Col(
+                rng.range(0.35, 0.65),
+                rng.range(0.35, 0.65),
+                rng.range(0.35, 0.65),
+            );
+            let amp = Col(
+                rng.range(0.15, 0.35),
+                rng.range(0.15, 0.35),
+                rng.range(0.15, 0.35),
+            );
+            let phase = Col(
+                rng.range(0.0, TAU),
+                rng.range(0.0, TAU),
+                rng.range(0.0, TAU),
+            );
             c.shade(|x, y| {
                 let mut v = 0.0;
                 for &(fx, fy, ph, a) in &waves {

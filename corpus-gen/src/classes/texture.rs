@@ -48,18 +48,54 @@ fn checker_filtered(u: f64, v: f64, fu: f64, fv: f64) -> f64 {
 fn colour_pair(rng: &mut Rng) -> (Col, Col) {
     let h = rng.f64();
     let a = hsv(h, rng.range(0.3, 0.9), rng.range(0.15, 0.45));
-    let b = hsv(h + rng.range(0.1, 0.5), rng.range(0.1, 0.6), rng.range(0.75, 1.0));
+    let b = hsv(
+        h + rng.range(0.1, 0.5),
+        rng.range(0.1, 0.6),
+        rng.range(0.75, 1.0),
+    );
     (a, b)
 }
 
 #[derive(Clone, Copy)]
 enum Tile {
-    Square { ca: f64, sa: f64, p: f64, a: Col, b: Col },
-    Sine { ca: f64, sa: f64, p: f64, a: Col, b: Col },
-    Bricks { bw: f64, bh: f64, mortar: f64, seed: u64, base: Col, grout: Col },
-    Dots { g: f64, ink: Col, paper: Col, angle: (f64, f64) },
-    Plaid { p: f64, cols: [Col; 3] },
-    Hex { scale: f64, line: f64, a: Col, b: Col },
+    Square {
+        ca: f64,
+        sa: f64,
+        p: f64,
+        a: Col,
+        b: Col,
+    },
+    Sine {
+        ca: f64,
+        sa: f64,
+        p: f64,
+        a: Col,
+        b: Col,
+    },
+    Bricks {
+        bw: f64,
+        bh: f64,
+        mortar: f64,
+        seed: u64,
+        base: Col,
+        grout: Col,
+    },
+    Dots {
+        g: f64,
+        ink: Col,
+        paper: Col,
+        angle: (f64, f64),
+    },
+    Plaid {
+        p: f64,
+        cols: [Col; 3],
+    },
+    Hex {
+        scale: f64,
+        line: f64,
+        a: Col,
+        b: Col,
+    },
 }
 
 fn eval_tile(t: &Tile, x: f64, y: f64, tw: f64, th: f64) -> Col {
@@ -73,7 +109,14 @@ fn eval_tile(t: &Tile, x: f64, y: f64, tw: f64, th: f64) -> Col {
             let u = x * ca + y * sa;
             a.mix(b, 0.5 + 0.5 * sin(TAU * u / p))
         }
-        Tile::Bricks { bw, bh, mortar, seed, base, grout } => {
+        Tile::Bricks {
+            bw,
+            bh,
+            mortar,
+            seed,
+            base,
+            grout,
+        } => {
             let row = (y / bh).floor();
             let off = if (row as i64) % 2 == 0 { 0.0 } else { bw * 0.5 };
             let col = ((x + off) / bw).floor();
@@ -85,7 +128,12 @@ fn eval_tile(t: &Tile, x: f64, y: f64, tw: f64, th: f64) -> Col {
             let brick = base * (0.75 + 0.4 * shade);
             grout.mix(brick, clamp01(d + 0.5))
         }
-        Tile::Dots { g, ink, paper, angle } => {
+        Tile::Dots {
+            g,
+            ink,
+            paper,
+            angle,
+        } => {
             let u = x * angle.0 + y * angle.1;
             let v = -x * angle.1 + y * angle.0;
             let cu = (u / g).floor() * g + 0.5 * g;
@@ -114,7 +162,11 @@ fn eval_tile(t: &Tile, x: f64, y: f64, tw: f64, th: f64) -> Col {
             let c2y = ((py - 1.0) / sy).floor() + 0.5;
             let h1 = (px - c1x, py - c1y * sy);
             let h2 = (px - (c2x + 0.5), py - (c2y + 0.5) * sy);
-            let h = if h1.0 * h1.0 + h1.1 * h1.1 < h2.0 * h2.0 + h2.1 * h2.1 { h1 } else { h2 };
+            let h = if h1.0 * h1.0 + h1.1 * h1.1 < h2.0 * h2.0 + h2.1 * h2.1 {
+                h1
+            } else {
+                h2
+            };
             let hx = h.0.abs();
             let hy = h.1.abs();
             let hd = (hx * 0.5 + hy * 0.866_025_403_784_438_6).max(hx);
@@ -143,7 +195,11 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             });
         }
         1 | 3 => {
-            let (nx, ny) = if seed % 4 == 1 { (3usize, 2usize) } else { (2, 2) };
+            let (nx, ny) = if seed % 4 == 1 {
+                (3usize, 2usize)
+            } else {
+                (2, 2)
+            };
             let mut tiles = Vec::new();
             for k in 0..nx * ny {
                 let (a, b) = colour_pair(&mut rng);
@@ -152,12 +208,27 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     let (ang, p): (f64, f64) = match k {
                         0 => (0.0, 2.0),
                         1 => (PI / 2.0, 3.0),
-                        _ => (rng.range(0.0, PI), *rng.pick(&[2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0])),
+                        _ => (
+                            rng.range(0.0, PI),
+                            *rng.pick(&[2.5, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0]),
+                        ),
                     };
                     if k >= 2 && rng.chance(0.35) {
-                        Tile::Sine { ca: cos(ang), sa: sin(ang), p: p.max(3.0), a, b }
+                        Tile::Sine {
+                            ca: cos(ang),
+                            sa: sin(ang),
+                            p: p.max(3.0),
+                            a,
+                            b,
+                        }
                     } else {
-                        Tile::Square { ca: cos(ang), sa: sin(ang), p, a, b }
+                        Tile::Square {
+                            ca: cos(ang),
+                            sa: sin(ang),
+                            p,
+                            a,
+                            b,
+                        }
                     }
                 } else {
                     match (k as u64 + seed / 4) % 4 {
@@ -166,18 +237,32 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                             bh: (s * rng.range(0.025, 0.05)).max(2.0),
                             mortar: (s * 0.006).max(1.0),
                             seed: rng.next_u64(),
-                            base: hsv(rng.range(0.0, 0.08), rng.range(0.5, 0.8), rng.range(0.5, 0.8)),
+                            base: hsv(
+                                rng.range(0.0, 0.08),
+                                rng.range(0.5, 0.8),
+                                rng.range(0.5, 0.8),
+                            ),
                             grout: Col::gray(rng.range(0.6, 0.85)),
                         },
                         1 => {
                             let an = rng.range(0.0, PI / 2.0);
-                            Tile::Dots { g: (s * rng.range(0.015, 0.03)).max(3.0), ink: a, paper: b, angle: (cos(an), sin(an)) }
+                            Tile::Dots {
+                                g: (s * rng.range(0.015, 0.03)).max(3.0),
+                                ink: a,
+                                paper: b,
+                                angle: (cos(an), sin(an)),
+                            }
                         }
                         2 => Tile::Plaid {
                             p: (s * rng.range(0.04, 0.1)).max(8.0),
                             cols: [a, b, hsv(rng.f64(), 0.7, 0.8)],
                         },
-                        _ => Tile::Hex { scale: (s * rng.range(0.03, 0.07)).max(4.0), line: rng.range(1.0, 2.5), a: b, b: a },
+                        _ => Tile::Hex {
+                            scale: (s * rng.range(0.03, 0.07)).max(4.0),
+                            line: rng.range(1.0, 2.5),
+                            a: b,
+                            b: a,
+                        },
                     }
                 };
                 tiles.push(t);
@@ -187,7 +272,13 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             c.shade(|x, y| {
                 let i = ((x / tw).floor() as usize).min(nx - 1);
                 let j = ((y / th).floor() as usize).min(ny - 1);
-                eval_tile(&tiles[j * nx + i], x - i as f64 * tw, y - j as f64 * th, tw, th)
+                eval_tile(
+                    &tiles[j * nx + i],
+                    x - i as f64 * tw,
+                    y - j as f64 * th,
+                    tw,
+                    th,
+                )
             });
         }
         _ => {
@@ -223,7 +314,11 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     let i = ((x / tw).floor() as usize).min(3);
                     let cell = pick[i];
                     let u = (x / cell).floor() as i64 + (y / cell).floor() as i64;
-                    if u % 2 == 0 { 1.0 } else { 0.0 }
+                    if u % 2 == 0 {
+                        1.0
+                    } else {
+                        0.0
+                    }
                 } else if x < split {
                     let u = (x * ca + y * sa) / rcell;
                     let v = (-x * sa + y * ca) / rcell;

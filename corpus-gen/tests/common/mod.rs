@@ -44,7 +44,14 @@ pub fn spectrum(x: &[f64], hann: bool) -> Vec<f64> {
     let xw: Vec<f64> = x
         .iter()
         .enumerate()
-        .map(|(i, v)| (v - mean) * if hann { 0.5 - 0.5 * (tau * i as f64 / n as f64).cos() } else { 1.0 })
+        .map(|(i, v)| {
+            (v - mean)
+                * if hann {
+                    0.5 - 0.5 * (tau * i as f64 / n as f64).cos()
+                } else {
+                    1.0
+                }
+        })
         .collect();
     (0..=n / 2)
         .map(|k| {
@@ -110,13 +117,19 @@ pub fn local_frequency(s: &[f64]) -> f64 {
 /// (interior pixels only).
 pub fn flat_share(img: &caoen_corpus::CorpusImage) -> f64 {
     let (w, h, ch) = (img.width(), img.height(), img.channels());
-    let same = |x: u32, y: u32, x2: u32, y2: u32| (0..ch).all(|c| img.sample(x, y, c) == img.sample(x2, y2, c));
+    let same = |x: u32, y: u32, x2: u32, y2: u32| {
+        (0..ch).all(|c| img.sample(x, y, c) == img.sample(x2, y2, c))
+    };
     let mut flat = 0usize;
     let mut n = 0usize;
     for y in 1..h - 1 {
         for x in 1..w - 1 {
             n += 1;
-            if same(x, y, x - 1, y) && same(x, y, x + 1, y) && same(x, y, x, y - 1) && same(x, y, x, y + 1) {
+            if same(x, y, x - 1, y)
+                && same(x, y, x + 1, y)
+                && same(x, y, x, y - 1)
+                && same(x, y, x, y + 1)
+            {
                 flat += 1;
             }
         }
