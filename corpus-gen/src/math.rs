@@ -173,7 +173,7 @@ impl Mul<f64> for Col {
     }
 }
 
-/// HSV (all in [0,1]) to RGB, display values.
+/// HSV (all in `[0, 1]`) to RGB, display values.
 pub fn hsv(h: f64, s: f64, v: f64) -> Col {
     let h6 = fract(h) * 6.0;
     let i = h6.floor();
