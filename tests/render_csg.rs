@@ -12,7 +12,17 @@ const Q: f64 = 8.0;
 const LEVEL: f64 = 2.0;
 
 fn cube(centre: [f64; 3]) -> ConvexSolid {
-    polyhedron_solid("cube", 1.0, centre, [1.0; 3], [0.0; 3], Blend::Exponential, Q, LEVEL).unwrap()
+    polyhedron_solid(
+        "cube",
+        1.0,
+        centre,
+        [1.0; 3],
+        [0.0; 3],
+        Blend::Exponential,
+        Q,
+        LEVEL,
+    )
+    .unwrap()
 }
 
 /// Solves `e^-q (u + 1/u) = rest` for the crossing `x = ln(u) / q` (unit inradius):
@@ -33,10 +43,22 @@ fn ray(origin: [f64; 3], dir: [f64; 3]) -> Ray {
     Ray { origin, dir }
 }
 
-fn spans(solids: &[ConvexSolid], csg: &CsgNode, r: &Ray, m: RayMethod) -> Option<(f64, u32, bool, f64, u32, bool)> {
+fn spans(
+    solids: &[ConvexSolid],
+    csg: &CsgNode,
+    r: &Ray,
+    m: RayMethod,
+) -> Option<(f64, u32, bool, f64, u32, bool)> {
     let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
     let s = first_span(&tracers, csg, r, m, &mut Vec::new())?;
-    Some((s.enter.t, s.enter.solid, s.enter.flip, s.exit.t, s.exit.solid, s.exit.flip))
+    Some((
+        s.enter.t,
+        s.enter.solid,
+        s.enter.flip,
+        s.exit.t,
+        s.exit.solid,
+        s.exit.flip,
+    ))
 }
 
 fn close(a: f64, b: f64) -> bool {
@@ -49,13 +71,21 @@ fn single_cube_crossings_match_the_closed_form() {
     assert!(x > 1.0 && x < 1.2, "{x}");
     let t = ImplicitTracer::new(&cube([0.0; 3]));
     for m in [RayMethod::Paper, RayMethod::Fast] {
-        for (o, d) in [([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]), ([0.0, 0.0, 7.0], [0.0, 0.0, -1.0])] {
+        for (o, d) in [
+            ([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+            ([0.0, 0.0, 7.0], [0.0, 0.0, -1.0]),
+        ] {
             let c = t.crossings(&ray(o, d), m, &mut Vec::new()).unwrap();
             let start = o.iter().map(|v| v.abs()).sum::<f64>();
-            assert!(close(c.t_in, start - x) && close(c.t_out, start + x), "{m:?}: {c:?}");
+            assert!(
+                close(c.t_in, start - x) && close(c.t_out, start + x),
+                "{m:?}: {c:?}"
+            );
         }
         // A ray that passes beside the solid misses it.
-        assert!(t.crossings(&ray([-5.0, 1.5, 0.0], [1.0, 0.0, 0.0]), m, &mut Vec::new()).is_none());
+        assert!(t
+            .crossings(&ray([-5.0, 1.5, 0.0], [1.0, 0.0, 0.0]), m, &mut Vec::new())
+            .is_none());
     }
 }
 
@@ -68,26 +98,75 @@ fn csg_of_two_overlapping_cubes_hits_the_expected_crossings() {
     let along_x = ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
     let from = |v: f64| 5.0 + v;
     for m in [RayMethod::Paper, RayMethod::Fast] {
-        let u = spans(&solids, &CsgNode::Union(vec![s0.clone(), s1.clone()]), &along_x, m).unwrap();
-        assert!(close(u.0, from(-x)) && u.1 == 0 && close(u.3, from(a + x)) && u.4 == 1, "union {u:?}");
-        let i = spans(&solids, &CsgNode::Intersection(vec![s0.clone(), s1.clone()]), &along_x, m).unwrap();
-        assert!(close(i.0, from(a - x)) && i.1 == 1 && close(i.3, from(x)) && i.4 == 0, "intersection {i:?}");
-        let d = spans(&solids, &CsgNode::Difference(vec![s0.clone(), s1.clone()]), &along_x, m).unwrap();
+        let u = spans(
+            &solids,
+            &CsgNode::Union(vec![s0.clone(), s1.clone()]),
+            &along_x,
+            m,
+        )
+        .unwrap();
+        assert!(
+            close(u.0, from(-x)) && u.1 == 0 && close(u.3, from(a + x)) && u.4 == 1,
+            "union {u:?}"
+        );
+        let i = spans(
+            &solids,
+            &CsgNode::Intersection(vec![s0.clone(), s1.clone()]),
+            &along_x,
+            m,
+        )
+        .unwrap();
+        assert!(
+            close(i.0, from(a - x)) && i.1 == 1 && close(i.3, from(x)) && i.4 == 0,
+            "intersection {i:?}"
+        );
+        let d = spans(
+            &solids,
+            &CsgNode::Difference(vec![s0.clone(), s1.clone()]),
+            &along_x,
+            m,
+        )
+        .unwrap();
         // The exit is on the subtracted cube, whose normal faces into the result.
-        assert!(close(d.0, from(-x)) && !d.2 && close(d.3, from(a - x)) && d.4 == 1 && d.5, "A-B {d:?}");
-        let e = spans(&solids, &CsgNode::Difference(vec![s1.clone(), s0.clone()]), &along_x, m).unwrap();
-        assert!(close(e.0, from(x)) && e.1 == 0 && e.2 && close(e.3, from(a + x)) && e.4 == 1, "B-A {e:?}");
+        assert!(
+            close(d.0, from(-x)) && !d.2 && close(d.3, from(a - x)) && d.4 == 1 && d.5,
+            "A-B {d:?}"
+        );
+        let e = spans(
+            &solids,
+            &CsgNode::Difference(vec![s1.clone(), s0.clone()]),
+            &along_x,
+            m,
+        )
+        .unwrap();
+        assert!(
+            close(e.0, from(x)) && e.1 == 0 && e.2 && close(e.3, from(a + x)) && e.4 == 1,
+            "B-A {e:?}"
+        );
 
         // Parallel to y through the middle of the overlap: both cubes give the same chord
         // +-y0, so union = intersection = that chord and A - B is empty.
-        let rest = LEVEL - (Q * (a / 2.0 - 1.0)).exp() - (Q * (-a / 2.0 - 1.0)).exp() - 2.0 * (-Q).exp();
+        let rest =
+            LEVEL - (Q * (a / 2.0 - 1.0)).exp() - (Q * (-a / 2.0 - 1.0)).exp() - 2.0 * (-Q).exp();
         let y0 = closed_form(rest);
         let along_y = ray([a / 2.0, -4.0, 0.0], [0.0, 1.0, 0.0]);
-        for node in [CsgNode::Union(vec![s0.clone(), s1.clone()]), CsgNode::Intersection(vec![s0.clone(), s1.clone()])] {
+        for node in [
+            CsgNode::Union(vec![s0.clone(), s1.clone()]),
+            CsgNode::Intersection(vec![s0.clone(), s1.clone()]),
+        ] {
             let s = spans(&solids, &node, &along_y, m).unwrap();
-            assert!(close(s.0, 4.0 - y0) && close(s.3, 4.0 + y0), "{node:?}: {s:?} vs {y0}");
+            assert!(
+                close(s.0, 4.0 - y0) && close(s.3, 4.0 + y0),
+                "{node:?}: {s:?} vs {y0}"
+            );
         }
-        assert!(spans(&solids, &CsgNode::Difference(vec![s0.clone(), s1.clone()]), &along_y, m).is_none());
+        assert!(spans(
+            &solids,
+            &CsgNode::Difference(vec![s0.clone(), s1.clone()]),
+            &along_y,
+            m
+        )
+        .is_none());
     }
 }
 
@@ -95,18 +174,44 @@ fn csg_of_two_overlapping_cubes_hits_the_expected_crossings() {
 fn csg_takes_any_number_of_solids() {
     let a = 0.8;
     let x = axis_half_chord();
-    let solids = [cube([0.0; 3]), cube([a, 0.0, 0.0]), cube([2.0 * a, 0.0, 0.0])];
+    let solids = [
+        cube([0.0; 3]),
+        cube([a, 0.0, 0.0]),
+        cube([2.0 * a, 0.0, 0.0]),
+    ];
     let all = || (0..3).map(CsgNode::Solid).collect::<Vec<_>>();
     let r = ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
     let u = spans(&solids, &CsgNode::Union(all()), &r, RayMethod::Fast).unwrap();
-    assert!(close(u.0, 5.0 - x) && close(u.3, 5.0 + 2.0 * a + x) && u.4 == 2, "{u:?}");
+    assert!(
+        close(u.0, 5.0 - x) && close(u.3, 5.0 + 2.0 * a + x) && u.4 == 2,
+        "{u:?}"
+    );
     let i = spans(&solids, &CsgNode::Intersection(all()), &r, RayMethod::Fast).unwrap();
-    assert!(close(i.0, 5.0 + 2.0 * a - x) && i.1 == 2 && close(i.3, 5.0 + x) && i.4 == 0, "{i:?}");
+    assert!(
+        close(i.0, 5.0 + 2.0 * a - x) && i.1 == 2 && close(i.3, 5.0 + x) && i.4 == 0,
+        "{i:?}"
+    );
     // (A - C) - B: A minus everything from a - x on.
-    let d = spans(&solids, &CsgNode::Difference(vec![CsgNode::Solid(0), CsgNode::Solid(2), CsgNode::Solid(1)]), &r, RayMethod::Fast).unwrap();
-    assert!(close(d.0, 5.0 - x) && close(d.3, 5.0 + a - x) && d.4 == 1, "{d:?}");
+    let d = spans(
+        &solids,
+        &CsgNode::Difference(vec![
+            CsgNode::Solid(0),
+            CsgNode::Solid(2),
+            CsgNode::Solid(1),
+        ]),
+        &r,
+        RayMethod::Fast,
+    )
+    .unwrap();
+    assert!(
+        close(d.0, 5.0 - x) && close(d.3, 5.0 + a - x) && d.4 == 1,
+        "{d:?}"
+    );
     // Nested: (A u C) n B.
-    let n = CsgNode::Intersection(vec![CsgNode::Union(vec![CsgNode::Solid(0), CsgNode::Solid(2)]), CsgNode::Solid(1)]);
+    let n = CsgNode::Intersection(vec![
+        CsgNode::Union(vec![CsgNode::Solid(0), CsgNode::Solid(2)]),
+        CsgNode::Solid(1),
+    ]);
     let s = spans(&solids, &n, &r, RayMethod::Fast).unwrap();
     assert!(close(s.0, 5.0 + a - x) && close(s.3, 5.0 + a + x), "{s:?}");
 }
@@ -114,12 +219,19 @@ fn csg_takes_any_number_of_solids() {
 struct Rng(u64);
 impl Rng {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
     fn unit(&mut self) -> [f64; 3] {
         loop {
-            let v = [2.0 * self.next() - 1.0, 2.0 * self.next() - 1.0, 2.0 * self.next() - 1.0];
+            let v = [
+                2.0 * self.next() - 1.0,
+                2.0 * self.next() - 1.0,
+                2.0 * self.next() - 1.0,
+            ];
             let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
             if n > 0.1 && n <= 1.0 {
                 return v.map(|c| c / n);
@@ -131,10 +243,50 @@ impl Rng {
 #[test]
 fn the_fast_search_finds_the_papers_crossings() {
     let solids = [
-        polyhedron_solid("icosahedron", 1.0, [0.2, -0.1, 0.3], [1.0; 3], [0.0; 3], Blend::Exponential, 8.0, 2.0).unwrap(),
-        polyhedron_solid("cube", 0.7, [0.0; 3], [1.5, 1.0, 0.6], [20.0, 10.0, 0.0], Blend::Exponential, 16.0, 1.5).unwrap(),
-        polyhedron_solid("dodecahedron", 1.0, [0.0; 3], [1.0; 3], [0.0; 3], Blend::Power, 6.0, 2.0).unwrap(),
-        polyhedron_solid("octahedron", 1.0, [0.0; 3], [1.0; 3], [0.0; 3], Blend::Compact, 4.0, 1.5).unwrap(),
+        polyhedron_solid(
+            "icosahedron",
+            1.0,
+            [0.2, -0.1, 0.3],
+            [1.0; 3],
+            [0.0; 3],
+            Blend::Exponential,
+            8.0,
+            2.0,
+        )
+        .unwrap(),
+        polyhedron_solid(
+            "cube",
+            0.7,
+            [0.0; 3],
+            [1.5, 1.0, 0.6],
+            [20.0, 10.0, 0.0],
+            Blend::Exponential,
+            16.0,
+            1.5,
+        )
+        .unwrap(),
+        polyhedron_solid(
+            "dodecahedron",
+            1.0,
+            [0.0; 3],
+            [1.0; 3],
+            [0.0; 3],
+            Blend::Power,
+            6.0,
+            2.0,
+        )
+        .unwrap(),
+        polyhedron_solid(
+            "octahedron",
+            1.0,
+            [0.0; 3],
+            [1.0; 3],
+            [0.0; 3],
+            Blend::Compact,
+            4.0,
+            1.5,
+        )
+        .unwrap(),
     ];
     let mut rng = Rng(7);
     for s in &solids {
@@ -147,19 +299,33 @@ fn the_fast_search_finds_the_papers_crossings() {
             let aim = rng.unit().map(|v| v * r);
             let d = [aim[0] - o[0], aim[1] - o[1], aim[2] - o[2]];
             let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let ray = Ray { origin: [o[0] + s.centre()[0], o[1] + s.centre()[1], o[2] + s.centre()[2]], dir: d.map(|v| v / n) };
+            let ray = Ray {
+                origin: [
+                    o[0] + s.centre()[0],
+                    o[1] + s.centre()[1],
+                    o[2] + s.centre()[2],
+                ],
+                dir: d.map(|v| v / n),
+            };
             let p = t.crossings(&ray, RayMethod::Paper, &mut Vec::new());
             let f = t.crossings(&ray, RayMethod::Fast, &mut Vec::new());
             match (p, f) {
                 (Some(p), Some(f)) => {
                     hits += 1;
-                    assert!((p.t_in - f.t_in).abs() < 1e-6 * r && (p.t_out - f.t_out).abs() < 1e-6 * r, "{p:?} vs {f:?}");
+                    assert!(
+                        (p.t_in - f.t_in).abs() < 1e-6 * r && (p.t_out - f.t_out).abs() < 1e-6 * r,
+                        "{p:?} vs {f:?}"
+                    );
                 }
                 (None, None) => {}
                 // The paper's halving search may miss an inside chord shorter than its
                 // tolerance; the fast search, which proves misses, may then still hit.
                 (None, Some(f)) => {
-                    assert!(f.t_out - f.t_in < t.search_tolerance, "missed a chord of {}", f.t_out - f.t_in);
+                    assert!(
+                        f.t_out - f.t_in < t.search_tolerance,
+                        "missed a chord of {}",
+                        f.t_out - f.t_in
+                    );
                     grazing += 1;
                 }
                 (Some(p), None) => panic!("fast search missed a hit {p:?}"),

@@ -98,11 +98,16 @@ struct Obj {
 
 fn parse_floats(args: &[&str], min: usize, max: usize, line: usize) -> Result<Vec<f64>, String> {
     if args.len() < min || args.len() > max {
-        return Err(format!("line {line}: expected {min}..={max} numbers, got {}", args.len()));
+        return Err(format!(
+            "line {line}: expected {min}..={max} numbers, got {}",
+            args.len()
+        ));
     }
     args.iter()
         .map(|a| {
-            let v: f64 = a.parse().map_err(|_| format!("line {line}: `{a}` is not a number"))?;
+            let v: f64 = a
+                .parse()
+                .map_err(|_| format!("line {line}: `{a}` is not a number"))?;
             if v.is_finite() {
                 Ok(v)
             } else {
@@ -114,10 +119,20 @@ fn parse_floats(args: &[&str], min: usize, max: usize, line: usize) -> Result<Ve
 
 /// Resolves a 1-based (or negative, relative) OBJ index against `count` elements so far.
 fn obj_index(s: &str, count: usize, line: usize) -> Result<usize, String> {
-    let i: i64 = s.parse().map_err(|_| format!("line {line}: bad index `{s}`"))?;
-    let r = if i > 0 { i - 1 } else if i < 0 { count as i64 + i } else { -1 };
+    let i: i64 = s
+        .parse()
+        .map_err(|_| format!("line {line}: bad index `{s}`"))?;
+    let r = if i > 0 {
+        i - 1
+    } else if i < 0 {
+        count as i64 + i
+    } else {
+        -1
+    };
     if r < 0 || r as usize >= count {
-        return Err(format!("line {line}: index {i} out of range (have {count})"));
+        return Err(format!(
+            "line {line}: index {i} out of range (have {count})"
+        ));
     }
     Ok(r as usize)
 }
@@ -148,7 +163,10 @@ fn read_obj(text: &str) -> Result<Obj, String> {
             }
             "f" => {
                 if args.len() != 3 {
-                    return Err(format!("line {line}: expected a triangle, got {} corners", args.len()));
+                    return Err(format!(
+                        "line {line}: expected a triangle, got {} corners",
+                        args.len()
+                    ));
                 }
                 let mut corners = [(0, None, None); 3];
                 let mut shape = None;
@@ -178,7 +196,11 @@ fn read_obj(text: &str) -> Result<Obj, String> {
             "mtllib" if !args.is_empty() => o.mtllib.extend(args.iter().map(|s| s.to_string())),
             "usemtl" if args.len() == 1 => o.usemtl.push(args[0].to_string()),
             "o" | "g" | "s" => {}
-            other => return Err(format!("line {line}: unknown or malformed statement `{other}`")),
+            other => {
+                return Err(format!(
+                    "line {line}: unknown or malformed statement `{other}`"
+                ))
+            }
         }
     }
     Ok(o)
@@ -252,11 +274,15 @@ fn read_ply(bytes: &[u8]) -> Result<Vec<PlyElement>, String> {
             ["property", "list", ct, it, name] => {
                 ply_size(ct)?;
                 ply_size(it)?;
-                elements.last_mut().ok_or("property before element")?.props.push(PlyProp::List(
-                    ct.to_string(),
-                    it.to_string(),
-                    name.to_string(),
-                ));
+                elements
+                    .last_mut()
+                    .ok_or("property before element")?
+                    .props
+                    .push(PlyProp::List(
+                        ct.to_string(),
+                        it.to_string(),
+                        name.to_string(),
+                    ));
             }
             ["property", t, name] => {
                 ply_size(t)?;
@@ -284,12 +310,16 @@ fn read_ply(bytes: &[u8]) -> Result<Vec<PlyElement>, String> {
                     }
                     PlyProp::List(ct, it, _) => {
                         let s = ply_size(ct)?;
-                        let n = ply_read(ct, bytes.get(pos..pos + s).ok_or("truncated body")?) as usize;
+                        let n =
+                            ply_read(ct, bytes.get(pos..pos + s).ok_or("truncated body")?) as usize;
                         pos += s;
                         let is = ply_size(it)?;
                         let mut vals = Vec::with_capacity(n);
                         for _ in 0..n {
-                            vals.push(ply_read(it, bytes.get(pos..pos + is).ok_or("truncated body")?));
+                            vals.push(ply_read(
+                                it,
+                                bytes.get(pos..pos + is).ok_or("truncated body")?,
+                            ));
                             pos += is;
                         }
                         row.push(vals);
@@ -300,7 +330,10 @@ fn read_ply(bytes: &[u8]) -> Result<Vec<PlyElement>, String> {
         }
     }
     if pos != bytes.len() {
-        return Err(format!("{} trailing bytes after the last element", bytes.len() - pos));
+        return Err(format!(
+            "{} trailing bytes after the last element",
+            bytes.len() - pos
+        ));
     }
     Ok(elements)
 }
@@ -357,7 +390,8 @@ fn ply_files_reread_strictly_with_the_same_mesh() {
         let mut bytes = Vec::new();
         write_ply(&mesh, &mut bytes).unwrap();
         let els = read_ply(&bytes).unwrap();
-        let by_name: HashMap<&str, &PlyElement> = els.iter().map(|e| (e.name.as_str(), e)).collect();
+        let by_name: HashMap<&str, &PlyElement> =
+            els.iter().map(|e| (e.name.as_str(), e)).collect();
         let v = by_name["vertex"];
         let f = by_name["face"];
         assert_eq!(v.count, mesh.positions.len(), "{}", m.name);
@@ -397,18 +431,35 @@ fn cli_mesh_writes_obj_with_material_and_texture() {
     std::fs::create_dir_all(&dir).unwrap();
     let obj = dir.join("tex.obj");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(["-q", "surface", "mesh", "examples/textured-blob.json", "--detail", "3", "-o"])
+        .args([
+            "-q",
+            "surface",
+            "mesh",
+            "examples/textured-blob.json",
+            "--detail",
+            "3",
+            "-o",
+        ])
         .arg(&obj)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let text = std::fs::read_to_string(&obj).unwrap();
     let parsed = read_obj(&text).unwrap();
     assert_eq!(parsed.v.len(), 10 * 4usize.pow(3) + 2);
     assert_eq!(parsed.mtllib, vec!["tex.mtl".to_string()]);
     let mtl = std::fs::read_to_string(dir.join("tex.mtl")).unwrap();
-    assert!(mtl.lines().any(|l| l.trim() == "map_Kd tex-texture.png"), "{mtl}");
-    assert!(mtl.lines().any(|l| l.trim() == format!("newmtl {}", parsed.usemtl[0])));
+    assert!(
+        mtl.lines().any(|l| l.trim() == "map_Kd tex-texture.png"),
+        "{mtl}"
+    );
+    assert!(mtl
+        .lines()
+        .any(|l| l.trim() == format!("newmtl {}", parsed.usemtl[0])));
     let png = image::open(dir.join("tex-texture.png")).unwrap();
     assert_eq!((png.width(), png.height()), (256, 128));
     std::fs::remove_dir_all(&dir).ok();

@@ -36,7 +36,7 @@ fn random_model(
 ) -> Network {
     let kps: Vec<KeyPoint> = (0..n)
         .map(|i| {
-            let blend = if mixed && i % 7 == 0 {
+            let blend = if mixed && i % 7 == 3 {
                 Blend::Exponential
             } else {
                 Blend::Compact

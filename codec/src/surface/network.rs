@@ -46,8 +46,8 @@ impl KeyPoint {
 
 /// Inputs per parallel task in batch evaluation (fixed, so output never depends on threads).
 const BATCH_BLOCK: usize = 4096;
-/// Longest run of inputs that share one spatial query.
-const MAX_RUN: usize = 256;
+/// Highest input dimension binned into cells; larger ones fall back to one query each.
+const MAX_BIN_DIM: usize = 6;
 
 /// The two-layer network mapping R^m (usually a domain manifold) to R^p.
 #[derive(Clone)]
@@ -289,9 +289,9 @@ impl Network {
         out.clear();
         out.extend_from_slice(&self.global);
         if let Some(index) = &self.index {
+            // Tree order, not index order: deterministic for a given query, and the sums
+            // only need to match a plain loop to rounding.
             index.candidates(centre, spread, max_norm2, out);
-            // Ascending order makes the sum's order that of a plain loop over all key points.
-            out.sort_unstable();
         }
     }
 
@@ -375,10 +375,10 @@ impl Network {
         Ok(out)
     }
 
-    /// Evaluates one block sequentially, grouping nearby consecutive inputs per query.
+    /// Evaluates one block sequentially: inputs are binned into spatial cells, each cell
+    /// makes one spatial query, and its inputs are evaluated against those candidates.
     fn eval_block(&self, xs: &[f64], ys: &mut [f64]) {
         let (m, p) = (self.m, self.p);
-        let count = xs.len() / m;
         let mut cand = Vec::new();
         let Some(index) = &self.index else {
             self.candidates(&[], 0.0, 0.0, &mut cand);
@@ -387,30 +387,25 @@ impl Network {
             }
             return;
         };
-        // Runs stay within half the finest support radius of their first input, so the
-        // candidate superset stays within ~(1.5)^d of the true neighbour count.
-        let reach = 0.5 * index.finest_radius;
-        let mut start = 0;
-        while start < count {
-            let c = &xs[start * m..(start + 1) * m];
-            let mut end = start;
-            let mut spread2: f64 = 0.0;
-            let mut max_norm2: f64 = 0.0;
-            while end < count && end - start < MAX_RUN {
-                let x = &xs[end * m..(end + 1) * m];
-                let d2: f64 = x.iter().zip(c).map(|(a, b)| (a - b) * (a - b)).sum();
-                if end > start && d2 > reach * reach {
-                    break;
+        let mut gathered = Gathered::default();
+        for group in bin_by_cell(xs, m, 0.5 * index.finest_radius) {
+            let (centre, spread, max_norm2) = bounding_ball(xs, m, &group);
+            self.candidates(&centre, spread, max_norm2, &mut cand);
+            if m == 3 && gathered.load(self, &cand) {
+                for &j in &group {
+                    let j = j as usize;
+                    gathered.eval_compact3(
+                        &xs[j * 3..j * 3 + 3],
+                        self.normalised,
+                        &mut ys[j * p..(j + 1) * p],
+                    );
                 }
-                spread2 = spread2.max(d2);
-                max_norm2 = max_norm2.max(x.iter().map(|v| v * v).sum());
-                end += 1;
+            } else {
+                for &j in &group {
+                    let j = j as usize;
+                    self.accumulate(&xs[j * m..(j + 1) * m], &cand, &mut ys[j * p..(j + 1) * p]);
+                }
             }
-            self.candidates(c, spread2.sqrt(), max_norm2, &mut cand);
-            for j in start..end {
-                self.accumulate(&xs[j * m..(j + 1) * m], &cand, &mut ys[j * p..(j + 1) * p]);
-            }
-            start = end;
         }
     }
 
@@ -460,5 +455,200 @@ impl Network {
             }
         }
         Ok((y, jac))
+    }
+}
+
+/// Groups the inputs of a block (indices into `xs`) by the cubic cell of side `cell`
+/// they fall in, in a deterministic order.
+fn bin_by_cell(xs: &[f64], m: usize, cell: f64) -> Vec<Vec<u32>> {
+    let count = xs.len() / m;
+    if m > MAX_BIN_DIM || !(cell > 0.0) {
+        return (0..count as u32).map(|j| vec![j]).collect();
+    }
+    let inv = 1.0 / cell;
+    // Cell coordinates packed into one integer, `bits` per axis; coordinates beyond the
+    // range clamp into the edge cell, which only widens that group's query (still exact).
+    let bits = 63 / m as u32;
+    let half = 1i64 << (bits - 1);
+    let mut keyed: Vec<(u64, u32)> = (0..count)
+        .map(|j| {
+            let mut key = 0u64;
+            for v in &xs[j * m..(j + 1) * m] {
+                let c = ((v * inv).floor() as i64).clamp(-half, half - 1) + half;
+                key = (key << bits) | c as u64;
+            }
+            (key, j as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    let mut last = None;
+    for (key, j) in keyed {
+        if last != Some(key) {
+            groups.push(Vec::new());
+            last = Some(key);
+        }
+        groups.last_mut().expect("pushed above").push(j);
+    }
+    groups
+}
+
+/// Centre (the centroid), radius and largest squared norm of a group of inputs.
+fn bounding_ball(xs: &[f64], m: usize, group: &[u32]) -> (Vec<f64>, f64, f64) {
+    let mut centre = vec![0.0; m];
+    let mut max_norm2 = 0.0f64;
+    for &j in group {
+        let x = &xs[j as usize * m..(j as usize + 1) * m];
+        centre.iter_mut().zip(x).for_each(|(c, v)| *c += v);
+        max_norm2 = max_norm2.max(x.iter().map(|v| v * v).sum());
+    }
+    let inv = 1.0 / group.len() as f64;
+    centre.iter_mut().for_each(|c| *c *= inv);
+    let spread2 = group
+        .iter()
+        .map(|&j| {
+            xs[j as usize * m..(j as usize + 1) * m]
+                .iter()
+                .zip(&centre)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum()
+        })
+        .fold(0.0f64, f64::max);
+    // Pad for the rounding of the centroid, so the query stays a superset.
+    (centre, spread2.sqrt() * (1.0 + 1e-12) + 1e-15, max_norm2)
+}
+
+/// Candidate key points of one cell in contiguous arrays (structure of arrays), so the
+/// per-input loop is branch-free and vectorisable: the fast path for m = 3 with compact
+/// support only; [`Network::accumulate`] is its scalar reference, tested equal to 1e-12.
+///
+/// The compact kernel is folded into an affine form per key point:
+/// `a (1 - q (1 - s)/3)^3 = (alpha + w' . x)^3` with `c = a^(1/3)`, `alpha = c (1 - q/3)`,
+/// `w' = c q w / 3`, clamped at 0 outside the support.
+#[derive(Default)]
+struct Gathered {
+    alpha: Vec<f64>,
+    wx: Vec<f64>,
+    wy: Vec<f64>,
+    wz: Vec<f64>,
+    /// Shape vectors output-major: `t[j * len + c]`.
+    t: Vec<f64>,
+    p: usize,
+}
+
+/// Accumulator lanes of the fast path's sums (breaks the add dependency chain).
+const LANES: usize = 4;
+
+impl Gathered {
+    /// Loads the candidates; false if any is not compact (the caller then falls back).
+    fn load(&mut self, net: &Network, cand: &[u32]) -> bool {
+        if cand
+            .iter()
+            .any(|&i| net.blend[i as usize] != Blend::Compact)
+        {
+            return false;
+        }
+        let p = net.p;
+        // Padding entries have alpha = 0 and w' = 0: k = 0 exactly.
+        let len = cand.len().div_ceil(LANES) * LANES;
+        for v in [&mut self.alpha, &mut self.wx, &mut self.wy, &mut self.wz] {
+            v.clear();
+            v.resize(len, 0.0);
+        }
+        self.t.clear();
+        self.t.resize(len * p, 0.0);
+        self.p = p;
+        let third = 1.0 / super::blend::COMPACT_SUPPORT_U;
+        for (c, &i) in cand.iter().enumerate() {
+            let i = i as usize;
+            let a = net.weight[i];
+            let cube_root = if a == 1.0 { 1.0 } else { a.cbrt() };
+            let b = cube_root * net.q[i] * third;
+            self.alpha[c] = cube_root - b;
+            self.wx[c] = b * net.sources[i * 3];
+            self.wy[c] = b * net.sources[i * 3 + 1];
+            self.wz[c] = b * net.sources[i * 3 + 2];
+            for j in 0..p {
+                self.t[j * len + c] = net.shapes[i * p + j];
+            }
+        }
+        true
+    }
+
+    fn eval_compact3(&self, x: &[f64], normalised: bool, y: &mut [f64]) {
+        let denom = match self.p {
+            1 => self.sums::<1>(x, y),
+            2 => self.sums::<2>(x, y),
+            3 => self.sums::<3>(x, y),
+            4 => self.sums::<4>(x, y),
+            5 => self.sums::<5>(x, y),
+            _ => self.sums_any(x, y),
+        };
+        if normalised {
+            if denom > 0.0 {
+                let inv = 1.0 / denom;
+                y.iter_mut().for_each(|v| *v *= inv);
+            } else {
+                y.fill(0.0);
+            }
+        }
+    }
+
+    /// `y_j = sum_c k_c t_cj` for P outputs and the returned `sum_c k_c`, in one pass.
+    #[inline]
+    fn sums<const P: usize>(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        let (x0, x1, x2) = (x[0], x[1], x[2]);
+        let len = self.alpha.len();
+        let mut den = [0.0; LANES];
+        let mut acc = [[0.0; LANES]; P];
+        let t: [&[f64]; P] = std::array::from_fn(|j| &self.t[j * len..(j + 1) * len]);
+        let groups = self
+            .alpha
+            .chunks_exact(LANES)
+            .zip(self.wx.chunks_exact(LANES))
+            .zip(self.wy.chunks_exact(LANES).zip(self.wz.chunks_exact(LANES)));
+        for (g, ((al, wx), (wy, wz))) in groups.enumerate() {
+            let (al, wx, wy, wz): (&[f64; LANES], &[f64; LANES], &[f64; LANES], &[f64; LANES]) = (
+                al.try_into().expect("exact chunk"),
+                wx.try_into().expect("exact chunk"),
+                wy.try_into().expect("exact chunk"),
+                wz.try_into().expect("exact chunk"),
+            );
+            let mut k = [0.0; LANES];
+            for l in 0..LANES {
+                let v = (al[l] + x0 * wx[l] + x1 * wy[l] + x2 * wz[l]).max(0.0);
+                k[l] = v * v * v;
+                den[l] += k[l];
+            }
+            for j in 0..P {
+                let tj: &[f64; LANES] = t[j][g * LANES..(g + 1) * LANES]
+                    .try_into()
+                    .expect("exact chunk");
+                for l in 0..LANES {
+                    acc[j][l] += k[l] * tj[l];
+                }
+            }
+        }
+        for j in 0..P {
+            y[j] = (acc[j][0] + acc[j][1]) + (acc[j][2] + acc[j][3]);
+        }
+        (den[0] + den[1]) + (den[2] + den[3])
+    }
+
+    /// [`Self::sums`] for any number of outputs.
+    fn sums_any(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        let len = self.alpha.len();
+        y.fill(0.0);
+        let mut den = 0.0;
+        for c in 0..len {
+            let v = (self.alpha[c] + x[0] * self.wx[c] + x[1] * self.wy[c] + x[2] * self.wz[c])
+                .max(0.0);
+            let k = v * v * v;
+            den += k;
+            for (j, yj) in y.iter_mut().enumerate() {
+                *yj += k * self.t[j * len + c];
+            }
+        }
+        den
     }
 }
