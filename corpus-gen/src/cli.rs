@@ -45,16 +45,17 @@ pub struct CorpusArgs {
     #[arg(long)]
     pub force: bool,
 
-    /// Worker threads [default: all cores]. Does not change any output.
-    #[arg(long, value_name = "N")]
+    /// Worker threads [default: all cores]. Does not change any output. Set by the
+    /// front end's own `-j/--threads` (skipped here so `caoen`'s global flag owns it).
+    #[arg(skip)]
     pub threads: Option<usize>,
 
     /// Print the images that would be generated, then exit.
     #[arg(long)]
     pub list: bool,
 
-    /// No progress bar or summary on stderr.
-    #[arg(short, long)]
+    /// No progress bar or summary on stderr. Set by the front end's own `-q/--quiet`.
+    #[arg(skip)]
     pub quiet: bool,
 }
 

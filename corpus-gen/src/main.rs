@@ -11,11 +11,22 @@ use clap::Parser;
 struct Cli {
     #[command(flatten)]
     args: CorpusArgs,
+    /// No progress bar or summary on stderr.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Worker threads [default: all cores]. Does not change any output.
+    #[arg(short = 'j', long, value_name = "N")]
+    threads: Option<usize>,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(&cli.args) {
+    let args = CorpusArgs {
+        quiet: cli.quiet,
+        threads: cli.threads,
+        ..cli.args
+    };
+    match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("caoen-corpus: error: {e}");

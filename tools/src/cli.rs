@@ -32,6 +32,8 @@ pub struct GlobalArgs {
 pub enum Command {
     /// Run the main job on built-in data, no input files needed.
     Demo(DemoArgs),
+    /// Generate the procedural test corpus (same as the caoen-corpus binary).
+    Corpus(caoen_corpus::cli::CorpusArgs),
     /// Cao En surface models: inspect, evaluate, mesh.
     #[command(subcommand)]
     Surface(SurfaceCommand),

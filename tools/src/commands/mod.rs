@@ -14,6 +14,13 @@ pub fn run(cli: Cli) -> CliResult {
     let job = move || match cli.command {
         Command::Demo(args) => demo::run(&global, &args),
         Command::Surface(cmd) => surface::run(&global, cmd),
+        Command::Corpus(args) => {
+            let args = caoen_corpus::cli::CorpusArgs {
+                quiet: global.quiet,
+                ..args
+            };
+            caoen_corpus::cli::run(&args).map_err(|e| CliError::Failed(e.to_string()))
+        }
         Command::Examples(args) => examples::run(&global, &args),
     };
     match cli.global.threads {

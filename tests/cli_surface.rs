@@ -1,0 +1,155 @@
+//! End-to-end tests of `caoen surface ...` and `caoen demo`.
+
+use std::process::Command;
+
+fn caoen(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_caoen"))
+        .args(args)
+        .output()
+        .expect("run caoen")
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("caoen-test-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn eval_prints_the_golden_diagonal_point() {
+    let s = 1.0 / 3f64.sqrt();
+    let out = caoen(&[
+        "surface",
+        "eval",
+        "builtin:six-point",
+        "--at",
+        &format!("{s},{s},{s}"),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // Exponential, q = 3: y = (e^{3(s-1)} - e^{3(-s-1)}) (1, 1, 1).
+    let want = (3.0 * (s - 1.0)).exp() - (3.0 * (-s - 1.0)).exp();
+    let y = v[0]["y"].as_array().unwrap();
+    assert!(
+        y.iter().all(|c| (c.as_f64().unwrap() - want).abs() < 1e-14),
+        "{y:?}"
+    );
+}
+
+#[test]
+fn export_then_info_round_trips_a_model_file() {
+    let d = tmpdir("export");
+    let f = d.join("ring.json");
+    assert!(caoen(&[
+        "surface",
+        "export",
+        "builtin:ring",
+        "-o",
+        f.to_str().unwrap()
+    ])
+    .status
+    .success());
+    let out = caoen(&["surface", "info", f.to_str().unwrap(), "--json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["key_points"], 48);
+    assert_eq!(v["input_dim"], 4);
+}
+
+#[test]
+fn mesh_writes_a_closed_obj() {
+    let d = tmpdir("mesh");
+    let f = d.join("blob.obj");
+    let out = caoen(&[
+        "surface",
+        "mesh",
+        "builtin:blob",
+        "-o",
+        f.to_str().unwrap(),
+        "--detail",
+        "3",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&f).unwrap();
+    let verts = text.lines().filter(|l| l.starts_with("v ")).count();
+    let faces = text.lines().filter(|l| l.starts_with("f ")).count();
+    // Icosphere level 3: 642 vertices, 1280 triangles; V - E + F = 2 with E = 3F/2.
+    assert_eq!((verts, faces), (642, 1280));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("Euler characteristic 2"));
+}
+
+#[test]
+fn bad_input_fails_cleanly_with_the_right_exit_code() {
+    let d = tmpdir("bad");
+    let bad = d.join("bad.json");
+    std::fs::write(&bad, r#"{"format":"caoen-surface/1","domain":{"kind":"sphere","dim":3},"key_points":[{"source":[1,0,0],"shape":[1],"q":-1}]}"#).unwrap();
+    let out = caoen(&["surface", "info", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("key_points[0].q"), "{err}");
+    assert!(!err.contains("panicked"));
+    // Missing file, unknown built-in, bad numbers, unknown options, NaN input.
+    assert_eq!(
+        caoen(&["surface", "info", d.join("missing.json").to_str().unwrap()])
+            .status
+            .code(),
+        Some(1)
+    );
+    assert_eq!(
+        caoen(&["surface", "info", "builtin:nope"]).status.code(),
+        Some(2)
+    );
+    assert_eq!(
+        caoen(&["surface", "eval", "builtin:blob", "--at", "1,x,0"])
+            .status
+            .code(),
+        Some(2)
+    );
+    assert_eq!(
+        caoen(&["surface", "eval", "builtin:blob", "--at", "NaN,0,1"])
+            .status
+            .code(),
+        Some(1)
+    );
+    assert_eq!(
+        caoen(&["surface", "info", "builtin:blob", "--frobnicate"])
+            .status
+            .code(),
+        Some(2)
+    );
+    assert_eq!(
+        caoen(&[
+            "surface",
+            "mesh",
+            "builtin:blob",
+            "-o",
+            d.join("x.stl").to_str().unwrap()
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+}
+
+#[test]
+fn every_command_has_help() {
+    for args in [
+        vec!["--help"],
+        vec!["surface", "--help"],
+        vec!["surface", "eval", "--help"],
+        vec!["demo", "--help"],
+    ] {
+        let out = caoen(&args);
+        assert!(out.status.success() && !out.stdout.is_empty(), "{args:?}");
+    }
+}
