@@ -178,6 +178,27 @@ impl Camera {
         }
     }
 
+    /// Derivatives of the image position `(x, y)` with respect to the world point `p`
+    /// (two rows of three), where `p` is in front of the camera.
+    pub fn screen_jacobian(&self, p: [f64; 3]) -> [[f64; 3]; 2] {
+        let s = self.pixel_scale();
+        match self.projection {
+            Projection::Orthographic { .. } => [scale(self.right, s), scale(self.up, -s)],
+            Projection::Perspective { .. } => {
+                let r = sub(p, self.eye);
+                let z = dot(r, self.forward);
+                let k = s / (z * z);
+                let row = |axis: [f64; 3], sign: f64| {
+                    scale(
+                        sub(scale(axis, z), scale(self.forward, dot(r, axis))),
+                        sign * k,
+                    )
+                };
+                [row(self.right, 1.0), row(self.up, -1.0)]
+            }
+        }
+    }
+
     /// Depth of a world point (distance along the viewing direction from the eye).
     #[inline]
     pub fn depth(&self, p: [f64; 3]) -> f64 {

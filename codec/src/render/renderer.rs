@@ -230,7 +230,7 @@ fn draw(
                     depth_buffer(model, place, camera, &opts.depth, &|d, t| prog.within(d, t))?;
                 stats.depth_samples += img.stats.samples;
                 stats.unresolved += img.stats.unresolved;
-                let hits = surface_hits(model, place, opts.normals, &img.pixels, id)?;
+                let hits = surface_hits(model, place, camera, opts.normals, &img.pixels, id)?;
                 for (i, h) in hits.into_iter().enumerate() {
                     if let Some(h) = h {
                         buf.offer(i, h);
@@ -273,11 +273,14 @@ pub fn place_mesh(mesh: &mut Mesh, place: &Affine) {
     }
 }
 
-/// Turns depth-buffer samples into hits: normal (exact or interpolated) and texture
-/// coordinates at each pixel's nearest domain point.
+/// Turns depth-buffer samples into hits: each pixel's nearest sample is first moved
+/// onto the ray through the pixel centre (a few Newton steps on the domain), so the
+/// depth, normal and texture coordinates are those at the centre, as the rasteriser
+/// and the ray tracer report them, rather than anywhere inside the pixel.
 fn surface_hits(
     model: &SurfaceModel,
     place: &Affine,
+    camera: &Camera,
     normals: NormalMode,
     pixels: &[Option<(f64, [f64; 4])>],
     object: u32,
@@ -287,27 +290,93 @@ fn surface_hits(
         NormalMode::Interpolated => Some(NormalNetwork::new(&model.network, &model.domain)?),
         NormalMode::Exact => None,
     };
+    let w = camera.width as usize;
     pixels
         .par_iter()
-        .map(|p| {
+        .enumerate()
+        .map(|(i, p)| {
             let Some((depth, x)) = p else {
                 return Ok(None);
             };
-            let x = &x[..m];
+            let centre = [(i % w) as f64 + 0.5, (i / w) as f64 + 0.5];
+            let (x, depth) = centre_sample(model, place, camera, &x[..m], *depth, centre)?;
             let n = match &nn {
-                Some(nn) => nn.normal(x)?,
-                None => point_and_normal(&model.network, &model.domain, x)?.1,
+                Some(nn) => nn.normal(&x)?,
+                None => point_and_normal(&model.network, &model.domain, &x)?.1,
             };
             let n = place.normal(n);
-            let uv = domain_uv(&model.domain, x).map_or([f32::NAN; 2], |uv| uv.map(|v| v as f32));
+            let uv = domain_uv(&model.domain, &x).map_or([f32::NAN; 2], |uv| uv.map(|v| v as f32));
             Ok(Some(Hit {
-                depth: *depth,
+                depth,
                 normal: n.map(|v| v as f32),
                 uv,
                 object,
             }))
         })
         .collect()
+}
+
+/// Moves the domain point `x` (whose image lies inside a pixel) so that its image lands
+/// on the pixel centre; keeps `x` where the map is singular or a step would not help.
+fn centre_sample(
+    model: &SurfaceModel,
+    place: &Affine,
+    camera: &Camera,
+    x: &[f64],
+    depth: f64,
+    centre: [f64; 2],
+) -> Result<(Vec<f64>, f64)> {
+    let (net, domain) = (&model.network, &model.domain);
+    let mut best = (x.to_vec(), depth);
+    let mut best_err = f64::INFINITY;
+    let mut x = x.to_vec();
+    for _ in 0..3 {
+        let (y, jac) = net.eval_with_jacobian(&x)?;
+        let p = place.point([y[0], y[1], y[2]]);
+        let Some(s) = camera.project(p) else { break };
+        let err = (s[0] - centre[0]).hypot(s[1] - centre[1]);
+        if err >= best_err {
+            break;
+        }
+        (best, best_err) = ((x.clone(), s[2]), err);
+        if err < 1e-6 {
+            break;
+        }
+        // Image-space derivatives along the domain's two tangents.
+        let (ta, tb) = domain.tangents(&x)?;
+        let sj = camera.screen_jacobian(p);
+        let push = |t: &[f64; 4]| -> [f64; 2] {
+            let mut d = [0.0; 3];
+            for (g, dg) in d.iter_mut().enumerate() {
+                *dg = (0..x.len()).map(|h| jac[g * x.len() + h] * t[h]).sum();
+            }
+            let d = place.point(d);
+            let d = [d[0] - place.t[0], d[1] - place.t[1], d[2] - place.t[2]];
+            [dot3(sj[0], d), dot3(sj[1], d)]
+        };
+        let (a, b) = (push(&ta), push(&tb));
+        let det = a[0] * b[1] - b[0] * a[1];
+        if !(det.abs() > 1e-12) {
+            break;
+        }
+        let (ex, ey) = (centre[0] - s[0], centre[1] - s[1]);
+        let da = (ex * b[1] - b[0] * ey) / det;
+        let db = (a[0] * ey - ex * a[1]) / det;
+        let step: Vec<f64> = (0..x.len())
+            .map(|h| x[h] + da * ta[h] + db * tb[h])
+            .collect();
+        x = match domain.project(&step) {
+            Ok(v) => v,
+            Err(_) => break,
+        };
+    }
+    // `best` starts as the original sample, so refinement never makes a pixel worse; a
+    // step that slid onto another sheet of the surface would not get closer.
+    Ok(best)
+}
+
+fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The signed field of a CSG expression: `ln(f_i / s_i)` per solid (negative inside;
