@@ -1,0 +1,245 @@
+//! Scene files (errors name the field) and the render command end to end.
+
+use std::path::Path;
+use std::process::Command;
+
+use caoen::render::{RenderError, Scene};
+
+fn scene_err(json: &str) -> String {
+    match Scene::from_json(json, Path::new("examples")) {
+        Ok(_) => panic!("accepted {json}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn bad_scene_files_name_the_field() {
+    let head = r#"{"format": "caoen-scene/1", "objects": ["#;
+    let cases = [
+        (
+            r#"{"solid": {"polyhedron": "cube", "q": -1}}"#,
+            "objects[0].solid.q",
+        ),
+        (
+            r#"{"solid": {"polyhedron": "cube", "level": 0.5}}"#,
+            "objects[0].solid.level",
+        ),
+        (
+            r#"{"solid": {"polyhedron": "hexagon"}}"#,
+            "objects[0].solid.polyhedron",
+        ),
+        (
+            r#"{"solid": {"polyhedron": "cube", "colour": [1, 0, 0]}}"#,
+            "objects[0].solid",
+        ),
+        (
+            r#"{"surface": "builtin:blob", "material": {"colour": [1, "x", 0]}}"#,
+            "objects[0].material.colour",
+        ),
+        (
+            r#"{"surface": "builtin:blob", "material": {"specular": -2}}"#,
+            "objects[0].material.specular",
+        ),
+        (r#"{"surface": "builtin:nothing"}"#, "objects[0].surface"),
+        (r#"{"surface": "missing-file.json"}"#, "objects[0].surface"),
+        (
+            r#"{"surface": "builtin:blob", "transform": {"scale": 0}}"#,
+            "objects[0].transform.scale",
+        ),
+        (
+            r#"{"surface": "builtin:blob", "solid": {"polyhedron": "cube"}}"#,
+            "objects[0]",
+        ),
+        (
+            r#"{"csg": {"op": "union", "operands": [{"solid": {"polyhedron": "cube"}}]}}"#,
+            "objects[0].csg.operands",
+        ),
+        (
+            r#"{"csg": {"op": "union", "operands": [{"solid": {"polyhedron": "cube"}}, {"solid": {"polyhedron": "cube", "q": 0}}]}}"#,
+            "objects[0].csg.operands[1].solid.q",
+        ),
+        (
+            r#"{"csg": {"op": "xor", "operands": []}}"#,
+            "objects[0].csg.op",
+        ),
+        (
+            r#"{"solid": {"planes": [{"normal": [1, 0, 0], "offset": 1}]}}"#,
+            "objects[0].solid",
+        ),
+        (
+            r#"{"surface": "builtin:ring", "material": {"texture": "nope.png"}}"#,
+            "objects[0].material.texture",
+        ),
+    ];
+    for (obj, field) in cases {
+        let e = scene_err(&format!("{head}{obj}]}}"));
+        assert!(e.contains(field), "expected `{field}` in: {e}");
+    }
+    assert!(scene_err(r#"{"format": "caoen-scene/9", "objects": []}"#).contains("format"));
+    assert!(scene_err(r#"{"format": "caoen-scene/1", "objects": []}"#).contains("objects"));
+    assert!(scene_err(r#"{"format": "caoen-scene/1", "camera": {"fov_deg": 200}, "objects": [{"surface": "builtin:blob"}]}"#)
+        .contains("camera.fov_deg"));
+    assert!(scene_err(r#"{"format": "caoen-scene/1", "lights": [{"direction": [0, 0, 0]}], "objects": [{"surface": "builtin:blob"}]}"#)
+        .contains("lights[0].direction"));
+    assert!(matches!(
+        Scene::from_json("{", Path::new(".")),
+        Err(RenderError::Scene(_))
+    ));
+}
+
+#[test]
+fn every_example_scene_loads() {
+    for f in ["solid", "csg", "textured", "torus-freeform"] {
+        Scene::load(format!("examples/{f}.scene.json").as_ref()).unwrap();
+    }
+    let s = Scene::load("examples/teapot/teapot.scene.json".as_ref()).unwrap();
+    assert!(s.objects.len() >= 3);
+}
+
+fn caoen(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_caoen"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn cli_renders_every_method_and_writes_depth_maps() {
+    let dir = std::env::temp_dir().join(format!("caoen-render-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |n: &str| dir.join(n).to_string_lossy().into_owned();
+    for (input, method) in [
+        ("builtin:blob", "mesh"),
+        ("builtin:ring", "depth"),
+        ("examples/csg.scene.json", "ray"),
+        ("examples/textured-blob.json", "depth"),
+    ] {
+        let out = p(&format!("{method}.png"));
+        let depth = p(&format!("{method}-depth.png"));
+        let o = caoen(&[
+            "-q",
+            "surface",
+            "render",
+            input,
+            "-o",
+            &out,
+            "--method",
+            method,
+            "--size",
+            "80x60",
+            "--samples",
+            "2",
+            "--depth-out",
+            &depth,
+        ]);
+        assert!(
+            o.status.success(),
+            "{input} {method}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(o.stderr.is_empty(), "-q must silence stderr");
+        let img = image::open(&out).unwrap();
+        assert_eq!((img.width(), img.height()), (80, 60));
+        let d = image::open(&depth).unwrap();
+        assert!(
+            matches!(d, image::DynamicImage::ImageLuma16(_)),
+            "depth map must be 16-bit grey"
+        );
+        let d = d.to_luma16();
+        assert!(d.pixels().any(|v| v[0] == 0) && d.pixels().any(|v| v[0] == 65535));
+    }
+    let exr = p("d.exr");
+    let o = caoen(&[
+        "-q",
+        "surface",
+        "render",
+        "builtin:blob",
+        "-o",
+        &p("e.png"),
+        "--size",
+        "40x30",
+        "--depth-out",
+        &exr,
+    ]);
+    assert!(o.status.success());
+    assert_eq!(
+        &std::fs::read(&exr).unwrap()[..4],
+        &[0x76, 0x2f, 0x31, 0x01],
+        "OpenEXR magic"
+    );
+    // Output does not depend on the number of threads.
+    let a = p("j1.png");
+    let b = p("j2.png");
+    for (j, f) in [("1", &a), ("2", &b)] {
+        assert!(caoen(&[
+            "-q",
+            "-j",
+            j,
+            "surface",
+            "render",
+            "builtin:blob",
+            "-o",
+            f,
+            "--method",
+            "depth",
+            "--size",
+            "64x48"
+        ])
+        .status
+        .success());
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn cli_render_rejects_bad_usage_with_exit_code_2() {
+    let out = std::env::temp_dir().join("caoen-never-written.png");
+    let o = out.to_string_lossy();
+    for args in [
+        vec![
+            "surface",
+            "render",
+            "builtin:blob",
+            "-o",
+            &o,
+            "--size",
+            "12",
+        ],
+        vec!["surface", "render", "builtin:blob", "-o", "x.jpg"],
+        vec![
+            "surface",
+            "render",
+            "builtin:blob",
+            "-o",
+            &o,
+            "--depth-out",
+            "d.tiff",
+        ],
+        vec![
+            "surface",
+            "render",
+            "builtin:blob",
+            "-o",
+            &o,
+            "--samples",
+            "0",
+        ],
+        vec!["surface", "render", "builtin:nope", "-o", &o],
+    ] {
+        let r = caoen(&args);
+        assert_eq!(
+            r.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+    }
+    // A broken scene file is a failure (1) whose message names the field.
+    let bad = std::env::temp_dir().join(format!("caoen-bad-scene-{}.json", std::process::id()));
+    std::fs::write(&bad, r#"{"format": "caoen-scene/1", "objects": [{"solid": {"polyhedron": "cube", "q": "sharp"}}]}"#).unwrap();
+    let r = caoen(&["surface", "render", &bad.to_string_lossy(), "-o", &o]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("objects[0].solid.q"));
+    std::fs::remove_file(&bad).ok();
+}
