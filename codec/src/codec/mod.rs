@@ -4,7 +4,13 @@
 //!
 //! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
 
+pub mod colour;
 mod error;
+pub mod fit;
+pub mod geometry;
+pub mod keyset;
+pub mod quadtree;
+
 pub use error::CodecError;
 
 use crate::raster::Raster;

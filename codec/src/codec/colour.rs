@@ -1,0 +1,137 @@
+//! Colour decorrelation and the HDR transfer curve.
+//!
+//! RGB goes to an orthonormal opponent space (`Y = (R+G+B)/sqrt 3`,
+//! `C1 = (R-B)/sqrt 2`, `C2 = (R-2G+B)/sqrt 6`): squared errors are the same in both
+//! spaces, so the fit and the split decisions measure RGB error directly, while most
+//! energy lands in Y and the chroma channels can be coded coarser. Float images are
+//! first mapped by `asinh(v / v0)`, linear near 0 and logarithmic above, so a uniform
+//! quantiser spends bits evenly across a high dynamic range.
+
+use crate::raster::{ChannelLayout, Raster, SampleFormat};
+
+const S3: f64 = 1.732_050_807_568_877_2;
+const S2: f64 = std::f64::consts::SQRT_2;
+const S6: f64 = 2.449_489_742_783_178;
+
+/// Linear scale below which the HDR curve is linear.
+pub const HDR_V0: f64 = 1.0 / 64.0;
+
+/// Image planes in coding space: colour channels (1 or 3) and optional alpha.
+#[derive(Debug, Clone)]
+pub struct CodingPlanes {
+    /// Y, or Y, C1, C2.
+    pub colour: Vec<Vec<f64>>,
+    /// Alpha in [0, 1], if present.
+    pub alpha: Option<Vec<f64>>,
+}
+
+fn to_coding(v: f32, format: SampleFormat) -> f64 {
+    match format {
+        SampleFormat::F32 => (v as f64 / HDR_V0).asinh(),
+        _ => v as f64,
+    }
+}
+
+fn from_coding(v: f64, format: SampleFormat) -> f32 {
+    match format {
+        SampleFormat::F32 => (HDR_V0 * v.sinh()) as f32,
+        _ => v as f32,
+    }
+}
+
+/// Splits a raster into coding planes.
+pub fn forward(img: &Raster) -> CodingPlanes {
+    let f = img.format();
+    let plane = |c: usize| {
+        img.plane(c)
+            .iter()
+            .map(|&v| to_coding(v, f))
+            .collect::<Vec<f64>>()
+    };
+    let layout = img.layout();
+    let colour = if layout.colour_channels() == 3 {
+        let (r, g, b) = (plane(0), plane(1), plane(2));
+        let mut y = vec![0.0; r.len()];
+        let mut c1 = vec![0.0; r.len()];
+        let mut c2 = vec![0.0; r.len()];
+        for i in 0..r.len() {
+            y[i] = (r[i] + g[i] + b[i]) / S3;
+            c1[i] = (r[i] - b[i]) / S2;
+            c2[i] = (r[i] - 2.0 * g[i] + b[i]) / S6;
+        }
+        vec![y, c1, c2]
+    } else {
+        vec![plane(0)]
+    };
+    let alpha = layout.has_alpha().then(|| {
+        img.plane(layout.channels() - 1)
+            .iter()
+            .map(|&v| v as f64)
+            .collect()
+    });
+    CodingPlanes { colour, alpha }
+}
+
+/// Reassembles a raster from coding planes (values are not clamped here).
+pub fn inverse(planes: &CodingPlanes, width: u32, height: u32, format: SampleFormat) -> Vec<f32> {
+    let n = width as usize * height as usize;
+    let mut out =
+        Vec::with_capacity(n * (planes.colour.len() + usize::from(planes.alpha.is_some())));
+    if planes.colour.len() == 3 {
+        let (y, c1, c2) = (&planes.colour[0], &planes.colour[1], &planes.colour[2]);
+        let mut r = Vec::with_capacity(n);
+        let mut g = Vec::with_capacity(n);
+        let mut b = Vec::with_capacity(n);
+        for i in 0..n {
+            r.push(from_coding(y[i] / S3 + c1[i] / S2 + c2[i] / S6, format));
+            g.push(from_coding(y[i] / S3 - 2.0 * c2[i] / S6, format));
+            b.push(from_coding(y[i] / S3 - c1[i] / S2 + c2[i] / S6, format));
+        }
+        out.extend(r);
+        out.extend(g);
+        out.extend(b);
+    } else {
+        out.extend(planes.colour[0].iter().map(|&v| from_coding(v, format)));
+    }
+    if let Some(a) = &planes.alpha {
+        out.extend(a.iter().map(|&v| v as f32));
+    }
+    out
+}
+
+/// The layout with `colour` colour channels and optional alpha.
+pub fn layout_of(colour: usize, alpha: bool) -> ChannelLayout {
+    match (colour, alpha) {
+        (3, false) => ChannelLayout::Rgb,
+        (3, true) => ChannelLayout::Rgba,
+        (_, false) => ChannelLayout::Grey,
+        (_, true) => ChannelLayout::GreyAlpha,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn opponent_transform_is_orthonormal_and_inverts() {
+        let px = vec![0.1f32, 0.9, 0.5, 0.3, 0.7, 0.2, 0.6, 0.8, 0.4];
+        let img = Raster::new(3, 1, ChannelLayout::Rgb, SampleFormat::U8, px.clone()).unwrap();
+        let cp = forward(&img);
+        for i in 0..3 {
+            let rgb2: f64 = (0..3).map(|c| (px[c * 3 + i] as f64).powi(2)).sum();
+            let opp2: f64 = (0..3).map(|c| cp.colour[c][i].powi(2)).sum();
+            assert!((rgb2 - opp2).abs() < 1e-12);
+        }
+        let back = inverse(&cp, 3, 1, SampleFormat::U8);
+        assert!(back.iter().zip(&px).all(|(a, b)| (a - b).abs() < 1e-6));
+    }
+
+    #[test]
+    fn hdr_curve_inverts_over_a_wide_range() {
+        for v in [0.0f32, 1e-4, 0.5, 3.0, 1000.0, 6e4, -0.25] {
+            let back = from_coding(to_coding(v, SampleFormat::F32), SampleFormat::F32);
+            assert!((back - v).abs() <= 1e-6 * v.abs().max(1.0), "{v} -> {back}");
+        }
+    }
+}

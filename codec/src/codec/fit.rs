@@ -1,0 +1,248 @@
+//! Shape-vector colours by regularised least squares over all pixels.
+//!
+//! With `A` the normalised kernel weights (pixels x key points), the colours `c` of one
+//! channel minimise `|A c - b|^2 + ridge * sum_i n_i (c_i - prior_i)^2`, where
+//! `n_i = sum_p A_pi` is a key point's pixel mass and `prior_i = (A^T b)_i / n_i` its
+//! locally averaged colour. The ridge keeps isolated or weakly constrained key points
+//! near what they cover. The normal equations are solved by Jacobi-preconditioned
+//! conjugate gradients, matrix-free, for several channels at once, warm-started.
+//!
+//! Every reduction runs over fixed-size chunks in a fixed order, so the result does not
+//! depend on the thread count (the encoder's output must not).
+
+use rayon::prelude::*;
+
+use super::keyset::Weights;
+
+/// Reductions are split into chunks of this many values, summed in order.
+const CHUNK: usize = 4096;
+
+/// The problem for one key-point set: its weights and their transpose.
+pub struct LeastSquares<'a> {
+    a: &'a Weights,
+    at: Weights,
+    n: usize,
+    mass: Vec<f64>,
+    diag: Vec<f64>,
+}
+
+/// Fixed-order sum of `f(i)` over `0..len`.
+fn det_sum(len: usize, f: impl Fn(usize) -> f64 + Sync) -> f64 {
+    let parts: Vec<f64> = (0..len.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| (c * CHUNK..((c + 1) * CHUNK).min(len)).map(&f).sum())
+        .collect();
+    parts.iter().sum()
+}
+
+impl<'a> LeastSquares<'a> {
+    /// Prepares the system for `n` key points.
+    pub fn new(a: &'a Weights, n: usize) -> Self {
+        let at = a.transpose(n);
+        let mut mass = vec![0.0; n];
+        let mut diag = vec![0.0; n];
+        mass.par_iter_mut()
+            .zip(diag.par_iter_mut())
+            .enumerate()
+            .for_each(|(i, (m, d))| {
+                let vals = &at.val[at.row_start[i]..at.row_start[i + 1]];
+                *m = vals.iter().sum();
+                *d = vals.iter().map(|v| v * v).sum();
+            });
+        LeastSquares {
+            a,
+            at,
+            n,
+            mass,
+            diag,
+        }
+    }
+
+    /// `A^T u` for `k` interleaved channels.
+    fn apply_t(&self, u: &[f64], k: usize, out: &mut [f64]) {
+        self.at.apply(u, k, out);
+    }
+
+    /// Locally averaged colours `(A^T b) / n` per channel: the prior and the warm start.
+    pub fn prior(&self, targets: &[&[f64]]) -> Vec<Vec<f64>> {
+        let k = targets.len();
+        let b = interleave(targets);
+        let mut atb = vec![0.0; self.n * k];
+        self.apply_t(&b, k, &mut atb);
+        (0..k)
+            .map(|c| {
+                (0..self.n)
+                    .map(|i| {
+                        if self.mass[i] > 0.0 {
+                            atb[i * k + c] / self.mass[i]
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Solves for `targets` (pixel planes), starting from `start` (one vector per
+    /// channel), for at most `iterations` CG steps or until the relative residual is
+    /// below `tolerance`.
+    pub fn solve(
+        &self,
+        targets: &[&[f64]],
+        prior: &[Vec<f64>],
+        start: &[Vec<f64>],
+        ridge: f64,
+        iterations: usize,
+        tolerance: f64,
+    ) -> Vec<Vec<f64>> {
+        let (n, k) = (self.n, targets.len());
+        let pixels = self.a.row_start.len() - 1;
+        let b = interleave(targets);
+        // rhs = A^T b + ridge * n .* prior
+        let mut rhs = vec![0.0; n * k];
+        self.apply_t(&b, k, &mut rhs);
+        for i in 0..n {
+            for c in 0..k {
+                rhs[i * k + c] += ridge * self.mass[i] * prior[c][i];
+            }
+        }
+        let precond: Vec<f64> = (0..n)
+            .map(|i| 1.0 / (self.diag[i] + ridge * self.mass[i]).max(1e-12))
+            .collect();
+        let mut x = interleave(&start.iter().map(Vec::as_slice).collect::<Vec<_>>());
+        let mut ax = vec![0.0; pixels * k];
+        let mut scratch = vec![0.0; n * k];
+        let apply_m = |v: &[f64], ax: &mut Vec<f64>, out: &mut Vec<f64>| {
+            self.a.apply(v, k, ax);
+            self.apply_t(ax, k, out);
+            out.par_chunks_mut(k)
+                .zip(v.par_chunks(k))
+                .enumerate()
+                .for_each(|(i, (o, vi))| {
+                    for c in 0..k {
+                        o[c] += ridge * self.mass[i] * vi[c];
+                    }
+                });
+        };
+        apply_m(&x, &mut ax, &mut scratch);
+        let mut r: Vec<f64> = rhs.iter().zip(&scratch).map(|(a, b)| a - b).collect();
+        let mut z: Vec<f64> = r
+            .iter()
+            .enumerate()
+            .map(|(j, v)| v * precond[j / k])
+            .collect();
+        let mut p = z.clone();
+        let dot_c = |a: &[f64], b: &[f64], c: usize| det_sum(n, |i| a[i * k + c] * b[i * k + c]);
+        let mut rz: Vec<f64> = (0..k).map(|c| dot_c(&r, &z, c)).collect();
+        let rhs_norm: Vec<f64> = (0..k)
+            .map(|c| dot_c(&rhs, &rhs, c).sqrt().max(1e-300))
+            .collect();
+        let mut active = vec![true; k];
+        for _ in 0..iterations {
+            apply_m(&p, &mut ax, &mut scratch);
+            for c in 0..k {
+                if !active[c] {
+                    continue;
+                }
+                let pap = dot_c(&p, &scratch, c);
+                if !(pap > 0.0) {
+                    active[c] = false;
+                    continue;
+                }
+                let alpha = rz[c] / pap;
+                for i in 0..n {
+                    x[i * k + c] += alpha * p[i * k + c];
+                    r[i * k + c] -= alpha * scratch[i * k + c];
+                }
+            }
+            for c in 0..k {
+                if active[c] && dot_c(&r, &r, c).sqrt() < tolerance * rhs_norm[c] {
+                    active[c] = false;
+                }
+            }
+            if !active.iter().any(|&a| a) {
+                break;
+            }
+            for (j, zj) in z.iter_mut().enumerate() {
+                *zj = r[j] * precond[j / k];
+            }
+            for c in 0..k {
+                if !active[c] {
+                    continue;
+                }
+                let rz_new = dot_c(&r, &z, c);
+                let beta = rz_new / rz[c];
+                rz[c] = rz_new;
+                for i in 0..n {
+                    p[i * k + c] = z[i * k + c] + beta * p[i * k + c];
+                }
+            }
+            // Finished channels stop moving.
+            for c in 0..k {
+                if !active[c] {
+                    for i in 0..n {
+                        p[i * k + c] = 0.0;
+                    }
+                }
+            }
+        }
+        (0..k)
+            .map(|c| (0..n).map(|i| x[i * k + c]).collect())
+            .collect()
+    }
+}
+
+fn interleave(planes: &[&[f64]]) -> Vec<f64> {
+    let k = planes.len();
+    let len = planes.first().map_or(0, |p| p.len());
+    let mut out = vec![0.0; len * k];
+    for (c, p) in planes.iter().enumerate() {
+        for (i, v) in p.iter().enumerate() {
+            out[i * k + c] = *v;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::geometry::Frame;
+    use crate::codec::keyset::{KernelParams, KeySet};
+    use crate::codec::quadtree::TreeShape;
+
+    #[test]
+    fn fit_reproduces_an_image_the_model_can_represent() {
+        let (w, h) = (40u32, 24u32);
+        let shape = TreeShape {
+            width: w,
+            height: h,
+            block_log2: 3,
+            min_log2: 2,
+        };
+        let cells = shape.walk(|c| c.log2 > 2);
+        let ks = KeySet::new(
+            Frame::new(w, h),
+            &cells,
+            KernelParams {
+                sigma_factor: 0.45,
+                weight_exponent: 1.0,
+            },
+        );
+        let truth: Vec<f64> = (0..ks.len())
+            .map(|i| ((i * 7919) % 13) as f64 / 13.0)
+            .collect();
+        let img = ks.render(&[truth.clone()], w, h).remove(0);
+        let a = ks.pixel_weights();
+        let ls = LeastSquares::new(&a, ks.len());
+        let prior = ls.prior(&[&img]);
+        let got = ls.solve(&[&img], &prior, &prior, 0.0, 500, 1e-13).remove(0);
+        let err = got
+            .iter()
+            .zip(&truth)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-6, "max colour error {err}");
+    }
+}

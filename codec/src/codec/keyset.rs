@@ -1,0 +1,388 @@
+//! A set of key points over the image (the luma or the chroma set) and the fast path
+//! that evaluates its normalised compact kernels at pixel positions.
+//!
+//! The canonical model is a core [`Network`]: sources on the sphere ([`Frame::embed`]),
+//! [`Blend::Compact`], normalised, one weight and sharpness per key point. The fast path
+//! reads the same parameters and evaluates exactly the same formula per key point, but
+//! finds a pixel's key points through a grid of pixel buckets instead of the network's
+//! k-d trees; `tests` check it against [`Network::eval`].
+
+use rayon::prelude::*;
+
+use super::geometry::Frame;
+use super::quadtree::Cell;
+use crate::surface::{Blend, Network, SurfaceError};
+
+/// How a cell of side `s` becomes a key point: footprint `sigma = sigma_factor * s`,
+/// weight `s^-weight_exponent`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KernelParams {
+    /// Footprint per cell side; at least [`MIN_SIGMA_FACTOR`] so cells are covered.
+    pub sigma_factor: f64,
+    /// Finer key points outweigh coarser ones where they overlap.
+    pub weight_exponent: f64,
+}
+
+/// Smallest footprint factor that still covers every pixel of a cell by its own key
+/// point: the cell corner is `s/sqrt(2)` away, the support reaches `sqrt(6) sigma`.
+pub const MIN_SIGMA_FACTOR: f64 = 0.3;
+
+/// Side of the pixel buckets that index key points by their support rectangles.
+const BUCKET: u32 = 4;
+
+/// Key points in coding order with everything evaluation needs.
+#[derive(Debug, Clone)]
+pub struct KeySet {
+    frame: Frame,
+    /// Key point centres in pixels.
+    pub centres: Vec<(f64, f64)>,
+    /// Footprints in pixels.
+    pub sigma: Vec<f64>,
+    sources: Vec<[f64; 3]>,
+    q: Vec<f64>,
+    weight: Vec<f64>,
+    bucket_cols: u32,
+    bucket_start: Vec<u32>,
+    bucket_items: Vec<u32>,
+}
+
+/// Normalised weights of every pixel (rows, row-major pixels) on the key points
+/// (columns), in compressed sparse row form.
+#[derive(Debug, Clone, Default)]
+pub struct Weights {
+    /// Row `p` spans `row_start[p]..row_start[p + 1]`.
+    pub row_start: Vec<usize>,
+    /// Key point index of each entry.
+    pub col: Vec<u32>,
+    /// Normalised weight of each entry.
+    pub val: Vec<f64>,
+}
+
+impl KeySet {
+    /// Key points at the centres of `cells` (clipped to the image).
+    pub fn new(frame: Frame, cells: &[Cell], params: KernelParams) -> Self {
+        let (w, h) = (frame.width, frame.height);
+        let n = cells.len();
+        let mut ks = KeySet {
+            frame,
+            centres: Vec::with_capacity(n),
+            sigma: Vec::with_capacity(n),
+            sources: Vec::with_capacity(n),
+            q: Vec::with_capacity(n),
+            weight: Vec::with_capacity(n),
+            bucket_cols: w.div_ceil(BUCKET),
+            bucket_start: Vec::new(),
+            bucket_items: Vec::new(),
+        };
+        for c in cells {
+            let (x, y) = c.centre(w, h);
+            let s = c.size() as f64;
+            let sigma = params.sigma_factor.max(MIN_SIGMA_FACTOR) * s;
+            ks.centres.push((x, y));
+            ks.sigma.push(sigma);
+            ks.sources.push(frame.embed(x, y));
+            ks.q.push(frame.sharpness(x, y, sigma));
+            ks.weight.push(s.powf(-params.weight_exponent));
+        }
+        ks.build_buckets();
+        ks
+    }
+
+    fn build_buckets(&mut self) {
+        let (w, h) = (self.frame.width, self.frame.height);
+        let (bc, br) = (w.div_ceil(BUCKET) as usize, h.div_ceil(BUCKET) as usize);
+        let ranges: Vec<(usize, usize, usize, usize)> = self
+            .centres
+            .iter()
+            .zip(&self.sigma)
+            .map(|(&(x, y), &s)| {
+                let r = self.frame.support_radius(x, y, s);
+                let b = BUCKET as f64;
+                let clamp =
+                    |v: f64, hi: usize| (v / b).floor().clamp(0.0, hi as f64 - 1.0) as usize;
+                (
+                    clamp(x - r, bc),
+                    clamp(y - r, br),
+                    clamp(x + r, bc),
+                    clamp(y + r, br),
+                )
+            })
+            .collect();
+        // Counting sort into buckets; items stay in key point order within each bucket.
+        let mut count = vec![0u32; bc * br + 1];
+        for &(x0, y0, x1, y1) in &ranges {
+            for by in y0..=y1 {
+                for bx in x0..=x1 {
+                    count[by * bc + bx + 1] += 1;
+                }
+            }
+        }
+        for i in 1..count.len() {
+            count[i] += count[i - 1];
+        }
+        let mut fill = count.clone();
+        let mut items = vec![0u32; *count.last().unwrap_or(&0) as usize];
+        for (i, &(x0, y0, x1, y1)) in ranges.iter().enumerate() {
+            for by in y0..=y1 {
+                for bx in x0..=x1 {
+                    let b = by * bc + bx;
+                    items[fill[b] as usize] = i as u32;
+                    fill[b] += 1;
+                }
+            }
+        }
+        self.bucket_start = count;
+        self.bucket_items = items;
+    }
+
+    /// Number of key points.
+    pub fn len(&self) -> usize {
+        self.q.len()
+    }
+
+    /// Whether there are no key points.
+    pub fn is_empty(&self) -> bool {
+        self.q.is_empty()
+    }
+
+    /// The image frame.
+    pub fn frame(&self) -> &Frame {
+        &self.frame
+    }
+
+    /// The canonical core network with the given shape vectors (n x p).
+    pub fn network(&self, p: usize, shapes: Vec<f64>) -> Result<Network, SurfaceError> {
+        let n = self.len();
+        Network::from_parts(
+            3,
+            p,
+            self.sources.iter().flatten().copied().collect(),
+            shapes,
+            self.q.clone(),
+            self.weight.clone(),
+            vec![Blend::Compact; n],
+            true,
+        )
+    }
+
+    /// The kernel weights (unnormalised) at pixel position `(x, y)` into `out`; returns
+    /// their sum. Identical per key point to the core's `Blend::Compact` evaluation.
+    #[inline]
+    pub fn kernels_at(&self, x: f64, y: f64, out: &mut Vec<(u32, f64)>) -> f64 {
+        out.clear();
+        let p = self.frame.embed(x, y);
+        let (bx, by) = ((x / BUCKET as f64).floor(), (y / BUCKET as f64).floor());
+        let (w, h) = (self.frame.width, self.frame.height);
+        if !(bx >= 0.0
+            && by >= 0.0
+            && bx < w.div_ceil(BUCKET) as f64
+            && by < h.div_ceil(BUCKET) as f64)
+        {
+            return self.kernels_brute(&p, out);
+        }
+        let b = by as usize * self.bucket_cols as usize + bx as usize;
+        let mut sum = 0.0;
+        for &i in
+            &self.bucket_items[self.bucket_start[b] as usize..self.bucket_start[b + 1] as usize]
+        {
+            let k = self.kernel(i as usize, &p);
+            if k != 0.0 {
+                sum += k;
+                out.push((i, k));
+            }
+        }
+        sum
+    }
+
+    #[inline]
+    fn kernel(&self, i: usize, p: &[f64; 3]) -> f64 {
+        let w = &self.sources[i];
+        let s = p[0] * w[0] + p[1] * w[1] + p[2] * w[2];
+        self.weight[i] * Blend::Compact.value(s, self.q[i])
+    }
+
+    /// Positions outside the image (forward mapping, resampling) scan all key points.
+    fn kernels_brute(&self, p: &[f64; 3], out: &mut Vec<(u32, f64)>) -> f64 {
+        let mut sum = 0.0;
+        for i in 0..self.len() {
+            let k = self.kernel(i, p);
+            if k != 0.0 {
+                sum += k;
+                out.push((i as u32, k));
+            }
+        }
+        sum
+    }
+
+    /// Normalised weights of every pixel centre (the fit's design matrix).
+    pub fn pixel_weights(&self) -> Weights {
+        let (w, h) = (self.frame.width as usize, self.frame.height as usize);
+        let rows: Vec<(Vec<u32>, Vec<f64>, Vec<usize>)> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut cols = Vec::new();
+                let mut vals = Vec::new();
+                let mut lens = Vec::with_capacity(w);
+                let mut buf = Vec::new();
+                for x in 0..w {
+                    let sum = self.kernels_at(x as f64 + 0.5, y as f64 + 0.5, &mut buf);
+                    let inv = if sum > 0.0 { 1.0 / sum } else { 0.0 };
+                    for &(i, k) in &buf {
+                        cols.push(i);
+                        vals.push(k * inv);
+                    }
+                    lens.push(buf.len());
+                }
+                (cols, vals, lens)
+            })
+            .collect();
+        let nnz: usize = rows.iter().map(|r| r.0.len()).sum();
+        let mut out = Weights {
+            row_start: Vec::with_capacity(w * h + 1),
+            col: Vec::with_capacity(nnz),
+            val: Vec::with_capacity(nnz),
+        };
+        out.row_start.push(0);
+        for (cols, vals, lens) in rows {
+            out.col.extend(cols);
+            out.val.extend(vals);
+            for l in lens {
+                let last = *out.row_start.last().expect("starts with 0");
+                out.row_start.push(last + l);
+            }
+        }
+        out
+    }
+
+    /// Evaluates `channels` planes (each n values, one per key point) at the pixel
+    /// centres of a `out_w x out_h` grid covering the image (the identity fast path,
+    /// resampled when the size differs from the coded one).
+    pub fn render(&self, colours: &[Vec<f64>], out_w: u32, out_h: u32) -> Vec<Vec<f64>> {
+        let (sx, sy) = (
+            self.frame.width as f64 / out_w as f64,
+            self.frame.height as f64 / out_h as f64,
+        );
+        let nc = colours.len();
+        let (ow, oh) = (out_w as usize, out_h as usize);
+        let rows: Vec<Vec<f64>> = (0..oh)
+            .into_par_iter()
+            .map(|y| {
+                let mut buf = Vec::new();
+                let mut row = vec![0.0; nc * ow];
+                for x in 0..ow {
+                    let sum =
+                        self.kernels_at((x as f64 + 0.5) * sx, (y as f64 + 0.5) * sy, &mut buf);
+                    if sum > 0.0 {
+                        let inv = 1.0 / sum;
+                        for (c, plane) in colours.iter().enumerate() {
+                            let v: f64 = buf.iter().map(|&(i, k)| k * plane[i as usize]).sum();
+                            row[c * ow + x] = v * inv;
+                        }
+                    }
+                }
+                row
+            })
+            .collect();
+        let mut planes = vec![vec![0.0; ow * oh]; nc];
+        for (y, row) in rows.iter().enumerate() {
+            for (c, plane) in planes.iter_mut().enumerate() {
+                plane[y * ow..(y + 1) * ow].copy_from_slice(&row[c * ow..(c + 1) * ow]);
+            }
+        }
+        planes
+    }
+}
+
+impl Weights {
+    /// `A v` for `k` interleaved right-hand sides (`v[i * k + c]`), into `out[p * k + c]`.
+    pub fn apply(&self, v: &[f64], k: usize, out: &mut [f64]) {
+        out.par_chunks_mut(k * 1024)
+            .enumerate()
+            .for_each(|(chunk, o)| {
+                let p0 = chunk * 1024;
+                for (dp, op) in o.chunks_exact_mut(k).enumerate() {
+                    let p = p0 + dp;
+                    op.fill(0.0);
+                    for e in self.row_start[p]..self.row_start[p + 1] {
+                        let (i, a) = (self.col[e] as usize, self.val[e]);
+                        for c in 0..k {
+                            op[c] += a * v[i * k + c];
+                        }
+                    }
+                }
+            });
+    }
+
+    /// The transpose in CSR form (rows = key points), for `A^T u`.
+    pub fn transpose(&self, n: usize) -> Weights {
+        let mut count = vec![0usize; n + 1];
+        for &c in &self.col {
+            count[c as usize + 1] += 1;
+        }
+        for i in 1..=n {
+            count[i] += count[i - 1];
+        }
+        let mut fill = count.clone();
+        let mut col = vec![0u32; self.col.len()];
+        let mut val = vec![0.0; self.val.len()];
+        for p in 0..self.row_start.len() - 1 {
+            for e in self.row_start[p]..self.row_start[p + 1] {
+                let i = self.col[e] as usize;
+                col[fill[i]] = p as u32;
+                val[fill[i]] = self.val[e];
+                fill[i] += 1;
+            }
+        }
+        Weights {
+            row_start: count,
+            col,
+            val,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::quadtree::TreeShape;
+
+    #[test]
+    fn fast_path_equals_the_core_network() {
+        let frame = Frame::new(53, 37);
+        let shape = TreeShape {
+            width: 53,
+            height: 37,
+            block_log2: 4,
+            min_log2: 0,
+        };
+        let mut k = 7u32;
+        let cells = shape.walk(|_| {
+            k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            (k >> 16) % 2 == 0
+        });
+        let ks = KeySet::new(
+            frame,
+            &cells,
+            KernelParams {
+                sigma_factor: 0.4,
+                weight_exponent: 1.0,
+            },
+        );
+        let colours: Vec<f64> = (0..ks.len()).map(|i| (i as f64 * 0.37).sin()).collect();
+        let net = ks.network(1, colours.clone()).unwrap();
+        let fast = ks.render(&[colours], 53, 37);
+        let mut worst: f64 = 0.0;
+        for y in 0..37 {
+            for x in 0..53 {
+                let p = frame.embed(x as f64 + 0.5, y as f64 + 0.5);
+                let (v, cover) = net.eval_with_coverage(&p).unwrap();
+                assert!(cover > 0.0, "pixel {x},{y} uncovered");
+                worst = worst.max((v[0] - fast[0][y * 53 + x]).abs());
+            }
+        }
+        assert!(
+            worst < 1e-12,
+            "fast path differs from the core network by {worst}"
+        );
+    }
+}
