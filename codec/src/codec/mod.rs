@@ -4,11 +4,14 @@
 //!
 //! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
 
+pub mod analysis;
 pub mod colour;
+pub mod entropy;
 mod error;
 pub mod fit;
 pub mod geometry;
 pub mod keyset;
+pub mod model;
 pub mod quadtree;
 
 pub use error::CodecError;

@@ -1,0 +1,222 @@
+//! Choosing and fitting the key points of one image: the encoder's modelling stage.
+//!
+//! The quadtree starts from the analysis (cells split while their predicted error is
+//! above the threshold), then grows greedily: fit, measure each leaf's squared error
+//! over its pixels, split the worst leaves above the threshold (at most a fraction per
+//! round so the refit can redistribute), and repeat. Chroma uses the luma tree pruned
+//! one level. Colours come from the regularised least-squares fit.
+
+use std::collections::{HashMap, HashSet};
+
+use super::analysis::Analysis;
+use super::colour::CodingPlanes;
+use super::fit::LeastSquares;
+use super::geometry::Frame;
+use super::keyset::{KernelParams, KeySet};
+use super::quadtree::{pruned_one_level, Cell, TreeShape};
+
+/// Modelling settings (derived from quality and effort by rate control).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelSettings {
+    /// Root block side, log2.
+    pub block_log2: u8,
+    /// Smallest cell side, log2.
+    pub min_log2: u8,
+    /// Key point footprint and weights.
+    pub kernel: KernelParams,
+    /// A leaf whose squared error (summed over its pixels and channels, coding space)
+    /// exceeds this is split.
+    pub split_threshold: f64,
+    /// Grow to this many luma key points instead of using the threshold.
+    pub target_keypoints: Option<usize>,
+    /// Greedy refinement rounds after the analysis-driven start.
+    pub rounds: usize,
+    /// Fraction of leaves that may split per round.
+    pub growth: f64,
+    /// Conjugate-gradient iterations in refinement rounds and in the final fit.
+    pub cg_iterations: (usize, usize),
+    /// Ridge weight toward locally averaged colours.
+    pub ridge: f64,
+    /// Chroma on the luma tree pruned one level (else on the luma tree itself).
+    pub chroma_pruned: bool,
+}
+
+impl Default for ModelSettings {
+    fn default() -> Self {
+        ModelSettings {
+            block_log2: 4,
+            min_log2: 0,
+            kernel: KernelParams { sigma_factor: 0.4, weight_exponent: 1.0 },
+            split_threshold: 0.05,
+            target_keypoints: None,
+            rounds: 4,
+            growth: 0.35,
+            cg_iterations: (12, 40),
+            ridge: 0.05,
+            chroma_pruned: true,
+        }
+    }
+}
+
+/// The fitted model of one image.
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// Tree geometry.
+    pub shape: TreeShape,
+    /// Kernel parameters.
+    pub kernel: KernelParams,
+    /// Luma leaves in coding order.
+    pub luma_cells: Vec<Cell>,
+    /// Chroma leaves in coding order (empty for grey images).
+    pub chroma_cells: Vec<Cell>,
+    /// Per luma key point: Y (or grey), then alpha if present.
+    pub luma_colours: Vec<Vec<f64>>,
+    /// Per chroma key point: C1, C2 (empty for grey images).
+    pub chroma_colours: Vec<Vec<f64>>,
+}
+
+/// The chroma cells for a luma tree.
+pub fn chroma_cells(shape: &TreeShape, luma: &[Cell], pruned: bool) -> Vec<Cell> {
+    if pruned {
+        pruned_one_level(shape, luma)
+    } else {
+        luma.to_vec()
+    }
+}
+
+struct Fitted {
+    luma: KeySet,
+    chroma: Option<KeySet>,
+    luma_colours: Vec<Vec<f64>>,
+    chroma_colours: Vec<Vec<f64>>,
+    /// Per luma leaf: squared error over its pixels, all channels.
+    leaf_error: Vec<f64>,
+}
+
+fn luma_targets(planes: &CodingPlanes) -> Vec<&[f64]> {
+    let mut t = vec![planes.colour[0].as_slice()];
+    if let Some(a) = &planes.alpha {
+        t.push(a);
+    }
+    t
+}
+
+fn fit_set(ks: &KeySet, targets: &[&[f64]], ridge: f64, iterations: usize) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let a = ks.pixel_weights();
+    let ls = LeastSquares::new(&a, ks.len());
+    let prior = ls.prior(targets);
+    let colours = ls.solve(targets, &prior, &prior, ridge, iterations, 1e-5);
+    let mut recon = vec![0.0; a.row_start.len() - 1];
+    let recons = colours
+        .iter()
+        .map(|c| {
+            a.apply(c, 1, &mut recon);
+            recon.clone()
+        })
+        .collect();
+    (colours, recons)
+}
+
+fn fit(frame: Frame, shape: &TreeShape, s: &ModelSettings, planes: &CodingPlanes, cells: &[Cell], iters: usize) -> Fitted {
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let luma = KeySet::new(frame, cells, s.kernel);
+    let targets = luma_targets(planes);
+    let (luma_colours, luma_recon) = fit_set(&luma, &targets, s.ridge, iters);
+    let mut err = vec![0.0; w * h];
+    for (t, r) in targets.iter().zip(&luma_recon) {
+        for i in 0..w * h {
+            err[i] += (t[i] - r[i]).powi(2);
+        }
+    }
+    let (chroma, chroma_colours) = if planes.colour.len() == 3 {
+        let cc = chroma_cells(shape, cells, s.chroma_pruned);
+        let ks = KeySet::new(frame, &cc, s.kernel);
+        let t = [planes.colour[1].as_slice(), planes.colour[2].as_slice()];
+        let (colours, recons) = fit_set(&ks, &t, s.ridge, iters);
+        for (t, r) in t.iter().zip(&recons) {
+            for i in 0..w * h {
+                err[i] += (t[i] - r[i]).powi(2);
+            }
+        }
+        (Some(ks), colours)
+    } else {
+        (None, Vec::new())
+    };
+    let leaf_error = cells
+        .iter()
+        .map(|c| {
+            let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
+            (y0..y1).map(|y| (x0..x1).map(|x| err[y as usize * w + x as usize]).sum::<f64>()).sum()
+        })
+        .collect();
+    Fitted { luma, chroma, luma_colours, chroma_colours, leaf_error }
+}
+
+/// Chooses the tree and fits the colours. `progress(round, rounds)` reports progress.
+pub fn build(planes: &CodingPlanes, width: u32, height: u32, s: &ModelSettings, mut progress: impl FnMut(usize, usize)) -> Model {
+    let frame = Frame::new(width, height);
+    let shape = TreeShape { width, height, block_log2: s.block_log2, min_log2: s.min_log2 };
+    let analysis = Analysis::new(&planes.colour, width as usize, height as usize, s.block_log2);
+    let mut split: HashSet<Cell> = HashSet::new();
+    // Analysis-driven start: split while the predicted leaf error is above threshold.
+    let start_threshold = match s.target_keypoints {
+        // With a key-point budget, start coarse and let the greedy rounds spend it.
+        Some(_) => f64::INFINITY,
+        None => s.split_threshold,
+    };
+    shape.walk(|c| {
+        let (x0, y0, x1, y1) = c.clip(width, height);
+        let e = analysis.predicted_error(c.log2, x0, y0, x1, y1);
+        let yes = e > start_threshold;
+        if yes {
+            split.insert(*c);
+        }
+        yes
+    });
+    let rounds = match s.target_keypoints {
+        Some(_) => s.rounds.max(12),
+        None => s.rounds,
+    };
+    for round in 0..rounds {
+        progress(round, rounds + 1);
+        let cells = shape.walk(|c| split.contains(c));
+        if let Some(n) = s.target_keypoints {
+            if cells.len() >= n {
+                break;
+            }
+        }
+        let fitted = fit(frame, &shape, s, planes, &cells, s.cg_iterations.0);
+        let mut order: Vec<usize> =
+            (0..cells.len()).filter(|&i| cells[i].log2 > s.min_log2 && fitted.leaf_error[i] > 0.0).collect();
+        // Worst first; ties by coding order, so the choice is deterministic.
+        order.sort_by(|&a, &b| fitted.leaf_error[b].total_cmp(&fitted.leaf_error[a]).then(a.cmp(&b)));
+        let budget = match s.target_keypoints {
+            Some(n) => n.saturating_sub(cells.len()).div_ceil(3).min(((cells.len() as f64 * s.growth) as usize).max(1)),
+            None => ((cells.len() as f64 * s.growth) as usize).max(1),
+        };
+        let mut added = 0;
+        for i in order {
+            if added >= budget || (s.target_keypoints.is_none() && fitted.leaf_error[i] <= s.split_threshold) {
+                break;
+            }
+            split.insert(cells[i]);
+            added += 1;
+        }
+        if added == 0 {
+            break;
+        }
+    }
+    progress(rounds, rounds + 1);
+    let cells = shape.walk(|c| split.contains(c));
+    let fitted = fit(frame, &shape, s, planes, &cells, s.cg_iterations.1);
+    let chroma_cells = fitted.chroma.as_ref().map_or_else(Vec::new, |_| chroma_cells(&shape, &cells, s.chroma_pruned));
+    let _ = (&fitted.luma, HashMap::<u8, u8>::new());
+    Model {
+        shape,
+        kernel: s.kernel,
+        luma_cells: cells,
+        chroma_cells,
+        luma_colours: fitted.luma_colours,
+        chroma_colours: fitted.chroma_colours,
+    }
+}
