@@ -4,6 +4,8 @@
 #![warn(missing_docs)]
 
 pub mod codec;
+pub mod image_io;
+pub mod metrics;
 pub mod raster;
 pub mod render;
 pub mod surface;
