@@ -74,6 +74,9 @@ pub struct DepthImage {
     pub stats: DepthStats,
 }
 
+/// Maps a batch of domain points to projected samples.
+type Evaluator<'a> = dyn Fn(&[[f64; 4]]) -> Result<Vec<Vert>> + Sync + 'a;
+
 #[derive(Clone, Copy)]
 struct Vert {
     x: [f64; 4],
@@ -193,7 +196,7 @@ pub fn depth_buffer(
 fn refine(
     corners: [Vert; 3],
     domain: &Domain,
-    eval: &(dyn Fn(&[[f64; 4]]) -> Result<Vec<Vert>> + Sync),
+    eval: &Evaluator,
     camera: &Camera,
     opts: &DepthBufferOptions,
     budget: &AtomicU64,

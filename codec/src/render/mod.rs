@@ -1,6 +1,9 @@
 //! Renderers of Cao En surfaces (paper section 7): polygon meshes, the depth buffer,
 //! ray tracing of implicit solids with CSG, shading and textures, and scenes.
 
+// `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod camera;
 pub mod csg;
 pub mod depth_buffer;

@@ -50,6 +50,8 @@ impl Default for CameraSpec {
 
 /// What an object is.
 #[derive(Debug, Clone)]
+// Scenes hold a handful of objects; boxing the larger variant would buy nothing.
+#[allow(clippy::large_enum_variant)]
 pub enum Shape {
     /// A Cao En surface placed by an affine map.
     Surface {
@@ -269,11 +271,9 @@ impl Scene {
                     None => self.bounds()?.0,
                 };
                 let projection = match spec.projection {
-                    Projection::Orthographic { height } if height == 0.0 => {
-                        Projection::Orthographic {
-                            height: 2.2 * self.bounds()?.1,
-                        }
-                    }
+                    Projection::Orthographic { height: 0.0 } => Projection::Orthographic {
+                        height: 2.2 * self.bounds()?.1,
+                    },
                     p => p,
                 };
                 Camera::look_at(eye, target, spec.up, projection, width, height)

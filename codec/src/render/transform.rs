@@ -123,6 +123,19 @@ fn matmul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
     out
 }
 
+impl Affine {
+    /// `m^-T n` exactly (not renormalised): how a plane normal transforms so that
+    /// `n . x <= d` becomes `(m^-T n) . (m x) <= d`. None if `m` is singular.
+    pub fn plane_normal(&self, n: [f64; 3]) -> Option<[f64; 3]> {
+        let det = self.det();
+        if det.abs() < 1e-300 || !det.is_finite() {
+            return None;
+        }
+        let c = self.cofactor();
+        Some([dot(c[0], n) / det, dot(c[1], n) / det, dot(c[2], n) / det])
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,18 +153,5 @@ mod tests {
         let tn = a.normal(n);
         assert!(dot(tn, tu).abs() < 1e-12 && dot(tn, tv).abs() < 1e-12);
         assert!(dot(tn, cross(tu, tv)) > 0.0);
-    }
-}
-
-impl Affine {
-    /// `m^-T n` exactly (not renormalised): how a plane normal transforms so that
-    /// `n . x <= d` becomes `(m^-T n) . (m x) <= d`. None if `m` is singular.
-    pub fn plane_normal(&self, n: [f64; 3]) -> Option<[f64; 3]> {
-        let det = self.det();
-        if det.abs() < 1e-300 || !det.is_finite() {
-            return None;
-        }
-        let c = self.cofactor();
-        Some([dot(c[0], n) / det, dot(c[1], n) / det, dot(c[2], n) / det])
     }
 }
