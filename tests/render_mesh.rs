@@ -86,12 +86,15 @@ fn the_checks_catch_broken_meshes() {
 
 // ---- a strict OBJ reader (Wavefront OBJ spec: v, vt, vn, f, mtllib, usemtl, o, g, s) ----
 
+/// One face corner: vertex, texture-coordinate and normal indices (0-based).
+type Corner = (usize, Option<usize>, Option<usize>);
+
 #[derive(Debug, Default)]
 struct Obj {
     v: Vec<[f64; 3]>,
     vt: Vec<[f64; 2]>,
     vn: Vec<[f64; 3]>,
-    faces: Vec<[(usize, Option<usize>, Option<usize>); 3]>,
+    faces: Vec<[Corner; 3]>,
     mtllib: Vec<String>,
     usemtl: Vec<String>,
 }

@@ -136,6 +136,9 @@ fn sphere_corner_uvs(pts: [&[f64]; 3]) -> [[f64; 2]; 3] {
     uv
 }
 
+/// Domain points, triangles and per-corner texture coordinates of a tessellation.
+type DomainTriangulation = (Vec<Vec<f64>>, Vec<[u32; 3]>, Vec<[[f64; 2]; 3]>);
+
 /// Tessellates `model`'s domain at `detail` (icosphere subdivisions for the sphere,
 /// `8 * 2^detail` by `4 * 2^detail` cells for the torus) and maps it onto the surface.
 pub fn tessellate(
@@ -150,47 +153,45 @@ pub fn tessellate(
             reason: "must be at most 9 (5 million triangles)",
         });
     }
-    let (domain_points, triangles, corner_uvs): (Vec<Vec<f64>>, Vec<[u32; 3]>, Vec<[[f64; 2]; 3]>) =
-        match model.domain {
-            Domain::Sphere { dim: 3 } => {
-                let (v, t) = icosphere(detail);
-                let pts: Vec<Vec<f64>> = v.iter().map(|p| p.to_vec()).collect();
-                let uvs = t
-                    .iter()
-                    .map(|tri| sphere_corner_uvs(tri.map(|i| pts[i as usize].as_slice())))
-                    .collect();
-                (pts, t, uvs)
-            }
-            Domain::Torus => {
-                let cols = 8usize << detail;
-                let rows = 4usize << detail;
-                let grid = model.domain.grid(cols, rows)?;
-                let tris = grid.wrapped_triangles()?;
-                let uvs = tris
-                    .iter()
-                    .map(|tri| {
-                        // Unwrap the corners that wrapped around to index 0.
-                        let ij =
-                            tri.map(|i| ((i as usize % cols) as f64, (i as usize / cols) as f64));
-                        let (i0, j0) = ij[0];
-                        ij.map(|(i, j)| {
-                            let i = if i < i0 { i + cols as f64 } else { i };
-                            let j = if j < j0 { j + rows as f64 } else { j };
-                            [i / cols as f64, j / rows as f64]
-                        })
+    let (domain_points, triangles, corner_uvs): DomainTriangulation = match model.domain {
+        Domain::Sphere { dim: 3 } => {
+            let (v, t) = icosphere(detail);
+            let pts: Vec<Vec<f64>> = v.iter().map(|p| p.to_vec()).collect();
+            let uvs = t
+                .iter()
+                .map(|tri| sphere_corner_uvs(tri.map(|i| pts[i as usize].as_slice())))
+                .collect();
+            (pts, t, uvs)
+        }
+        Domain::Torus => {
+            let cols = 8usize << detail;
+            let rows = 4usize << detail;
+            let grid = model.domain.grid(cols, rows)?;
+            let tris = grid.wrapped_triangles()?;
+            let uvs = tris
+                .iter()
+                .map(|tri| {
+                    // Unwrap the corners that wrapped around to index 0.
+                    let ij = tri.map(|i| ((i as usize % cols) as f64, (i as usize / cols) as f64));
+                    let (i0, j0) = ij[0];
+                    ij.map(|(i, j)| {
+                        let i = if i < i0 { i + cols as f64 } else { i };
+                        let j = if j < j0 { j + rows as f64 } else { j };
+                        [i / cols as f64, j / rows as f64]
                     })
-                    .collect();
-                let pts = grid.points.chunks_exact(4).map(|p| p.to_vec()).collect();
-                (pts, tris, uvs)
-            }
-            other => {
-                return Err(SurfaceError::Parameter {
-                    what: format!("domain {other:?}"),
-                    value: other.param_dim() as f64,
-                    reason: "meshes exist for the sphere S^2 and the torus",
                 })
-            }
-        };
+                .collect();
+            let pts = grid.points.chunks_exact(4).map(|p| p.to_vec()).collect();
+            (pts, tris, uvs)
+        }
+        other => {
+            return Err(SurfaceError::Parameter {
+                what: format!("domain {other:?}"),
+                value: other.param_dim() as f64,
+                reason: "meshes exist for the sphere S^2 and the torus",
+            })
+        }
+    };
     if model.network.output_dim() != 3 {
         return Err(SurfaceError::Parameter {
             what: "shape dimension p".into(),
