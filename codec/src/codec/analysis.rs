@@ -48,7 +48,9 @@ impl Analysis {
     /// `2^max_log2`.
     pub fn new(planes: &[Vec<f64>], w: usize, h: usize, max_log2: u8) -> Self {
         let luma = &planes[0];
-        let at = |x: isize, y: isize| luma[(y.clamp(0, h as isize - 1) as usize) * w + x.clamp(0, w as isize - 1) as usize];
+        let at = |x: isize, y: isize| {
+            luma[(y.clamp(0, h as isize - 1) as usize) * w + x.clamp(0, w as isize - 1) as usize]
+        };
         let mut edges = vec![0.0; w * h];
         for y in 0..h as isize {
             for x in 0..w as isize {
@@ -69,7 +71,8 @@ impl Analysis {
                         let (y0, y1) = (y.saturating_sub(s / 2), (y + s - s / 2).min(h));
                         for x in 0..w {
                             let (x0, x1) = (x.saturating_sub(s / 2), (x + s - s / 2).min(w));
-                            let mean = integral.rect(x0, y0, x1, y1) / ((x1 - x0) * (y1 - y0)) as f64;
+                            let mean =
+                                integral.rect(x0, y0, x1, y1) / ((x1 - x0) * (y1 - y0)) as f64;
                             let d = plane[y * w + x] - mean;
                             energy[y * w + x] += d * d;
                         }
@@ -78,13 +81,23 @@ impl Analysis {
                 Integral::new(&energy, w, h)
             })
             .collect();
-        Analysis { w, h, edges, residual }
+        Analysis {
+            w,
+            h,
+            edges,
+            residual,
+        }
     }
 
     /// Predicted squared error of one leaf of side `2^log2` over `[x0,x1) x [y0,y1)`.
     pub fn predicted_error(&self, log2: u8, x0: u32, y0: u32, x1: u32, y1: u32) -> f64 {
         let l = (log2 as usize).min(self.residual.len() - 1);
-        self.residual[l].rect(x0 as usize, y0 as usize, (x1 as usize).min(self.w), (y1 as usize).min(self.h))
+        self.residual[l].rect(
+            x0 as usize,
+            y0 as usize,
+            (x1 as usize).min(self.w),
+            (y1 as usize).min(self.h),
+        )
     }
 
     /// Per-pixel target cell size (log2): the largest scale whose predicted per-pixel

@@ -52,14 +52,24 @@ impl BinModel {
     }
 }
 
-/// `-log2(p / 2^16) * 256`, from the bit length and a linear fit of the mantissa
-/// (within 0.1% of a bit; only used to steer the encoder, never for decoding).
+/// `-log2(p / 2^16) * 256`, rounded, by the integer binary-logarithm algorithm
+/// (repeated squaring of the mantissa), so rate estimates are the same on every machine.
 fn cost_of(p: u32) -> u32 {
-    let lz = p.leading_zeros(); // p < 2^16 so lz >= 16
-    let e = 31 - lz; // floor(log2 p)
-    let frac = ((p << lz) >> 15) & 0xFFFF; // next 16 bits of the mantissa
-    let log2p_256 = e * 256 + (frac * 256 >> 16);
-    (PRECISION as u32 * 256).saturating_sub(log2p_256).max(1)
+    let e = 31 - p.leading_zeros(); // floor(log2 p)
+                                    // Mantissa in [1, 2) as Q30.
+    let mut m: u64 = ((p as u64) << 30) >> e;
+    let mut frac = 0u32;
+    for bit in (0..10).rev() {
+        m = (m * m) >> 30;
+        if m >= 2 << 30 {
+            m >>= 1;
+            frac |= 1 << bit;
+        }
+    }
+    // log2 p in 1/1024 bits, then to 1/256 bits with rounding.
+    let log2p = (e << 10) | frac;
+    let cost = ((PRECISION as u32) << 10).saturating_sub(log2p);
+    ((cost + 2) >> 2).max(1)
 }
 
 /// The fixed two-symbol distribution handed to the range coder.
@@ -73,7 +83,10 @@ impl EntropyModel<PRECISION> for Bernoulli {
 
 impl EncoderModel<PRECISION> for Bernoulli {
     #[inline]
-    fn left_cumulative_and_probability(&self, symbol: impl Borrow<bool>) -> Option<(u32, NonZeroU32)> {
+    fn left_cumulative_and_probability(
+        &self,
+        symbol: impl Borrow<bool>,
+    ) -> Option<(u32, NonZeroU32)> {
         let p0 = self.0;
         if *symbol.borrow() {
             Some((p0, NonZeroU32::new(ONE - p0)?))
@@ -90,7 +103,11 @@ impl DecoderModel<PRECISION> for Bernoulli {
         if quantile < p0 {
             (false, 0, NonZeroU32::new(p0).expect("p0 >= LIMIT"))
         } else {
-            (true, p0, NonZeroU32::new(ONE - p0).expect("p0 <= ONE - LIMIT"))
+            (
+                true,
+                p0,
+                NonZeroU32::new(ONE - p0).expect("p0 <= ONE - LIMIT"),
+            )
         }
     }
 }
@@ -112,7 +129,9 @@ pub struct RangeSink {
 impl RangeSink {
     /// An empty encoder.
     pub fn new() -> Self {
-        RangeSink { enc: DefaultRangeEncoder::new() }
+        RangeSink {
+            enc: DefaultRangeEncoder::new(),
+        }
     }
 
     /// Finishes and returns the bytes (little-endian 32-bit words).
@@ -125,13 +144,17 @@ impl RangeSink {
 impl BinSink for RangeSink {
     #[inline]
     fn bin(&mut self, m: &mut BinModel, bit: bool) {
-        self.enc.encode_symbol(bit, Bernoulli(m.p0)).expect("probabilities are valid");
+        self.enc
+            .encode_symbol(bit, Bernoulli(m.p0))
+            .expect("probabilities are valid");
         m.update(bit);
     }
 
     #[inline]
     fn bypass(&mut self, bit: bool) {
-        self.enc.encode_symbol(bit, Bernoulli(ONE / 2)).expect("probabilities are valid");
+        self.enc
+            .encode_symbol(bit, Bernoulli(ONE / 2))
+            .expect("probabilities are valid");
     }
 }
 
@@ -167,18 +190,30 @@ impl RangeSource {
     /// A decoder over `bytes` (a whole section payload), reading at most `max_bins` bins.
     pub fn new(bytes: &[u8], max_bins: u64) -> Result<Self, CodecError> {
         if bytes.len() % 4 != 0 {
-            return Err(CodecError::Format(format!("entropy-coded payload of {} bytes is not whole words", bytes.len())));
+            return Err(CodecError::Format(format!(
+                "entropy-coded payload of {} bytes is not whole words",
+                bytes.len()
+            )));
         }
-        let words: Vec<u32> = bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let words: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
         let dec = DefaultRangeDecoder::from_compressed(words)
             .map_err(|_| CodecError::Format("entropy-coded payload is malformed".into()))?;
-        Ok(RangeSource { dec, bins: 0, max_bins })
+        Ok(RangeSource {
+            dec,
+            bins: 0,
+            max_bins,
+        })
     }
 
     fn count(&mut self) -> Result<(), CodecError> {
         self.bins += 1;
         if self.bins > self.max_bins {
-            return Err(CodecError::Format("entropy-coded payload runs past its syntax".into()));
+            return Err(CodecError::Format(
+                "entropy-coded payload runs past its syntax".into(),
+            ));
         }
         Ok(())
     }
@@ -199,7 +234,9 @@ impl RangeSource {
     #[inline]
     pub fn bypass(&mut self) -> Result<bool, CodecError> {
         self.count()?;
-        self.dec.decode_symbol(Bernoulli(ONE / 2)).map_err(|_| CodecError::Format("entropy-coded payload is corrupt".into()))
+        self.dec
+            .decode_symbol(Bernoulli(ONE / 2))
+            .map_err(|_| CodecError::Format("entropy-coded payload is corrupt".into()))
     }
 
     /// Whether the decoder consumed exactly what the encoder wrote (the end-state check).
@@ -215,7 +252,14 @@ mod tests {
     #[test]
     fn bins_round_trip_and_costs_track_the_real_size() {
         let mut models = [BinModel::default(); 4];
-        let bits: Vec<(usize, bool)> = (0..20000u32).map(|i| ((i % 4) as usize, (i * 2654435761) % 97 < (10 + 20 * (i % 4)))).collect();
+        let bits: Vec<(usize, bool)> = (0..20000u32)
+            .map(|i| {
+                (
+                    (i % 4) as usize,
+                    i.wrapping_mul(2654435761) % 97 < (10 + 20 * (i % 4)),
+                )
+            })
+            .collect();
         let mut sink = RangeSink::new();
         let mut cost = CostSink::default();
         let mut cm = models;
@@ -227,7 +271,11 @@ mod tests {
         }
         let bytes = sink.finish();
         let est = cost.cost as f64 / 256.0 / 8.0;
-        assert!((bytes.len() as f64 - est).abs() < 0.01 * est + 8.0, "real {} estimated {est}", bytes.len());
+        assert!(
+            (bytes.len() as f64 - est).abs() < 0.01 * est + 8.0,
+            "real {} estimated {est}",
+            bytes.len()
+        );
         let mut src = RangeSource::new(&bytes, u64::MAX).unwrap();
         let mut models = [BinModel::default(); 4];
         for &(c, b) in &bits {
@@ -241,7 +289,11 @@ mod tests {
     fn cost_table_matches_log2() {
         for p in [LIMIT, 100, 1000, 32768, 50000, ONE - LIMIT] {
             let want = -((p as f64) / ONE as f64).log2() * 256.0;
-            assert!((cost_of(p) as f64 - want).abs() < 0.01 * 256.0, "{p}: {} vs {want}", cost_of(p));
+            assert!(
+                (cost_of(p) as f64 - want).abs() < 0.01 * 256.0,
+                "{p}: {} vs {want}",
+                cost_of(p)
+            );
         }
     }
 }

@@ -5,7 +5,10 @@
 //! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
 
 pub mod analysis;
+pub mod bitstream;
 pub mod colour;
+pub mod decoder;
+pub mod encoder;
 pub mod entropy;
 mod error;
 pub mod fit;
@@ -13,6 +16,8 @@ pub mod geometry;
 pub mod keyset;
 pub mod model;
 pub mod quadtree;
+pub mod rate_control;
+pub mod syntax;
 
 pub use error::CodecError;
 
@@ -80,16 +85,70 @@ impl Default for DecodeOptions {
 
 /// Encodes `image` into a caoen file.
 pub fn encode(image: &Raster, opts: &EncodeOptions) -> Result<Vec<u8>, CodecError> {
-    let _ = (image, opts);
-    Err(CodecError::Unsupported(
-        "the encoder is being built (issue 5)".into(),
-    ))
+    encode_with_progress(image, opts, |_, _| {}).map(|(bytes, _)| bytes)
+}
+
+/// Encodes, reporting progress as `(done, total)` steps; also returns statistics.
+pub fn encode_with_progress(
+    image: &Raster,
+    opts: &EncodeOptions,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<(Vec<u8>, encoder::EncodeStats), CodecError> {
+    if !(0.0..=100.0).contains(&opts.quality) {
+        return Err(CodecError::Parameter {
+            name: "quality",
+            value: opts.quality.to_string(),
+            reason: "0..=100",
+        });
+    }
+    if !(1..=9).contains(&opts.effort) {
+        return Err(CodecError::Parameter {
+            name: "effort",
+            value: opts.effort.to_string(),
+            reason: "1..=9",
+        });
+    }
+    if opts.keypoints == Some(0) {
+        return Err(CodecError::Parameter {
+            name: "keypoints",
+            value: "0".into(),
+            reason: "at least 1",
+        });
+    }
+    let planes = encoder::prepare(image)?;
+    let target = match opts.target {
+        None => None,
+        Some(RateTarget::BitsPerPixel(b)) if b.is_finite() && b > 0.0 => {
+            Some(b * image.pixel_count() as f64 / 8.0)
+        }
+        Some(RateTarget::Bytes(n)) if n > 0 => Some(n as f64),
+        Some(t) => {
+            return Err(CodecError::Parameter {
+                name: "target",
+                value: format!("{t:?}"),
+                reason: "must be positive",
+            });
+        }
+    };
+    let Some(target) = target else {
+        let s = rate_control::settings(opts.quality, opts.effort, opts.keypoints);
+        return encoder::encode_with(image, &planes, &s, progress);
+    };
+    let steps = 6 + opts.effort as usize;
+    let mut done = 0;
+    let (q, _) = rate_control::search_quality(target, 0.02, steps, |q| {
+        done += 1;
+        progress(done, steps + 1);
+        let s = rate_control::settings(q, opts.effort, opts.keypoints);
+        Ok(encoder::encode_with(image, &planes, &s, |_, _| {})?.0.len())
+    })?;
+    let s = rate_control::settings(q, opts.effort, opts.keypoints);
+    let out = encoder::encode_with(image, &planes, &s, |_, _| {})?;
+    progress(steps + 1, steps + 1);
+    Ok(out)
 }
 
 /// Decodes a caoen file.
 pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
-    let _ = (bytes, opts);
-    Err(CodecError::Unsupported(
-        "the decoder is being built (issue 5)".into(),
-    ))
+    decoder::decode(bytes, opts)
 }

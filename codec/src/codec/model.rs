@@ -46,7 +46,10 @@ impl Default for ModelSettings {
         ModelSettings {
             block_log2: 4,
             min_log2: 0,
-            kernel: KernelParams { sigma_factor: 0.4, weight_exponent: 1.0 },
+            kernel: KernelParams {
+                sigma_factor: 0.4,
+                weight_exponent: 1.0,
+            },
             split_threshold: 0.05,
             target_keypoints: None,
             rounds: 4,
@@ -101,7 +104,12 @@ fn luma_targets(planes: &CodingPlanes) -> Vec<&[f64]> {
     t
 }
 
-fn fit_set(ks: &KeySet, targets: &[&[f64]], ridge: f64, iterations: usize) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+fn fit_set(
+    ks: &KeySet,
+    targets: &[&[f64]],
+    ridge: f64,
+    iterations: usize,
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let a = ks.pixel_weights();
     let ls = LeastSquares::new(&a, ks.len());
     let prior = ls.prior(targets);
@@ -117,7 +125,14 @@ fn fit_set(ks: &KeySet, targets: &[&[f64]], ridge: f64, iterations: usize) -> (V
     (colours, recons)
 }
 
-fn fit(frame: Frame, shape: &TreeShape, s: &ModelSettings, planes: &CodingPlanes, cells: &[Cell], iters: usize) -> Fitted {
+fn fit(
+    frame: Frame,
+    shape: &TreeShape,
+    s: &ModelSettings,
+    planes: &CodingPlanes,
+    cells: &[Cell],
+    iters: usize,
+) -> Fitted {
     let (w, h) = (frame.width as usize, frame.height as usize);
     let luma = KeySet::new(frame, cells, s.kernel);
     let targets = luma_targets(planes);
@@ -146,17 +161,45 @@ fn fit(frame: Frame, shape: &TreeShape, s: &ModelSettings, planes: &CodingPlanes
         .iter()
         .map(|c| {
             let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
-            (y0..y1).map(|y| (x0..x1).map(|x| err[y as usize * w + x as usize]).sum::<f64>()).sum()
+            (y0..y1)
+                .map(|y| {
+                    (x0..x1)
+                        .map(|x| err[y as usize * w + x as usize])
+                        .sum::<f64>()
+                })
+                .sum()
         })
         .collect();
-    Fitted { luma, chroma, luma_colours, chroma_colours, leaf_error }
+    Fitted {
+        luma,
+        chroma,
+        luma_colours,
+        chroma_colours,
+        leaf_error,
+    }
 }
 
 /// Chooses the tree and fits the colours. `progress(round, rounds)` reports progress.
-pub fn build(planes: &CodingPlanes, width: u32, height: u32, s: &ModelSettings, mut progress: impl FnMut(usize, usize)) -> Model {
+pub fn build(
+    planes: &CodingPlanes,
+    width: u32,
+    height: u32,
+    s: &ModelSettings,
+    mut progress: impl FnMut(usize, usize),
+) -> Model {
     let frame = Frame::new(width, height);
-    let shape = TreeShape { width, height, block_log2: s.block_log2, min_log2: s.min_log2 };
-    let analysis = Analysis::new(&planes.colour, width as usize, height as usize, s.block_log2);
+    let shape = TreeShape {
+        width,
+        height,
+        block_log2: s.block_log2,
+        min_log2: s.min_log2,
+    };
+    let analysis = Analysis::new(
+        &planes.colour,
+        width as usize,
+        height as usize,
+        s.block_log2,
+    );
     let mut split: HashSet<Cell> = HashSet::new();
     // Analysis-driven start: split while the predicted leaf error is above threshold.
     let start_threshold = match s.target_keypoints {
@@ -186,17 +229,27 @@ pub fn build(planes: &CodingPlanes, width: u32, height: u32, s: &ModelSettings, 
             }
         }
         let fitted = fit(frame, &shape, s, planes, &cells, s.cg_iterations.0);
-        let mut order: Vec<usize> =
-            (0..cells.len()).filter(|&i| cells[i].log2 > s.min_log2 && fitted.leaf_error[i] > 0.0).collect();
+        let mut order: Vec<usize> = (0..cells.len())
+            .filter(|&i| cells[i].log2 > s.min_log2 && fitted.leaf_error[i] > 0.0)
+            .collect();
         // Worst first; ties by coding order, so the choice is deterministic.
-        order.sort_by(|&a, &b| fitted.leaf_error[b].total_cmp(&fitted.leaf_error[a]).then(a.cmp(&b)));
+        order.sort_by(|&a, &b| {
+            fitted.leaf_error[b]
+                .total_cmp(&fitted.leaf_error[a])
+                .then(a.cmp(&b))
+        });
         let budget = match s.target_keypoints {
-            Some(n) => n.saturating_sub(cells.len()).div_ceil(3).min(((cells.len() as f64 * s.growth) as usize).max(1)),
+            Some(n) => n
+                .saturating_sub(cells.len())
+                .div_ceil(3)
+                .min(((cells.len() as f64 * s.growth) as usize).max(1)),
             None => ((cells.len() as f64 * s.growth) as usize).max(1),
         };
         let mut added = 0;
         for i in order {
-            if added >= budget || (s.target_keypoints.is_none() && fitted.leaf_error[i] <= s.split_threshold) {
+            if added >= budget
+                || (s.target_keypoints.is_none() && fitted.leaf_error[i] <= s.split_threshold)
+            {
                 break;
             }
             split.insert(cells[i]);
@@ -209,7 +262,10 @@ pub fn build(planes: &CodingPlanes, width: u32, height: u32, s: &ModelSettings, 
     progress(rounds, rounds + 1);
     let cells = shape.walk(|c| split.contains(c));
     let fitted = fit(frame, &shape, s, planes, &cells, s.cg_iterations.1);
-    let chroma_cells = fitted.chroma.as_ref().map_or_else(Vec::new, |_| chroma_cells(&shape, &cells, s.chroma_pruned));
+    let chroma_cells = fitted
+        .chroma
+        .as_ref()
+        .map_or_else(Vec::new, |_| chroma_cells(&shape, &cells, s.chroma_pruned));
     let _ = (&fitted.luma, HashMap::<u8, u8>::new());
     Model {
         shape,

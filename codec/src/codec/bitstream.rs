@@ -1,0 +1,342 @@
+//! The container: magic, version, then CRC-checked sections (see `docs/format.md`).
+
+use super::keyset::KernelParams;
+use super::quadtree::TreeShape;
+use super::{CodecError, MAX_SIDE};
+use crate::raster::{ChannelLayout, SampleFormat};
+
+/// File signature.
+pub const MAGIC: [u8; 4] = *b"CAOE";
+/// Format version this code writes and reads.
+pub const VERSION: u8 = 1;
+
+/// Section tags, in the order they must appear.
+pub mod tag {
+    /// Header.
+    pub const HEADER: u8 = b'H';
+    /// Quadtree split flags.
+    pub const TREE: u8 = b'T';
+    /// Luma-set values: Y (or grey), then alpha.
+    pub const LUMA: u8 = b'Y';
+    /// Chroma-set values: C1, C2.
+    pub const CHROMA: u8 = b'C';
+    /// End of file.
+    pub const END: u8 = b'E';
+}
+
+/// Everything the header records.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Header {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Channel layout.
+    pub layout: ChannelLayout,
+    /// Source sample format (decides the output format and the HDR curve).
+    pub format: SampleFormat,
+    /// Root block side, log2.
+    pub block_log2: u8,
+    /// Smallest cell side, log2.
+    pub min_log2: u8,
+    /// Kernel parameters (stored quantised: sigma in 1/1024, exponent in 1/16).
+    pub kernel: KernelParams,
+    /// Whether chroma uses the luma tree pruned one level.
+    pub chroma_pruned: bool,
+    /// Quantiser step of the luma-set colour channel.
+    pub step_luma: f32,
+    /// Quantiser step of the chroma channels.
+    pub step_chroma: f32,
+    /// Quantiser step of alpha.
+    pub step_alpha: f32,
+    /// Number of luma key points.
+    pub luma_count: u32,
+    /// Number of chroma key points.
+    pub chroma_count: u32,
+}
+
+const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4;
+
+impl Header {
+    /// The tree geometry.
+    pub fn shape(&self) -> TreeShape {
+        TreeShape {
+            width: self.width,
+            height: self.height,
+            block_log2: self.block_log2,
+            min_log2: self.min_log2,
+        }
+    }
+
+    /// Rounds the kernel parameters to what the header can store.
+    pub fn quantise_kernel(k: KernelParams) -> KernelParams {
+        KernelParams {
+            sigma_factor: (k.sigma_factor * 1024.0).round().clamp(0.0, 65535.0) / 1024.0,
+            weight_exponent: (k.weight_exponent * 16.0).round().clamp(0.0, 255.0) / 16.0,
+        }
+    }
+
+    fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(HEADER_LEN);
+        b.extend(self.width.to_le_bytes());
+        b.extend(self.height.to_le_bytes());
+        b.push(self.layout.channels() as u8);
+        b.push(match self.format {
+            SampleFormat::U8 => 0,
+            SampleFormat::U16 => 1,
+            SampleFormat::F32 => 2,
+        });
+        b.push(self.block_log2);
+        b.push(self.min_log2);
+        b.extend(((self.kernel.sigma_factor * 1024.0).round() as u16).to_le_bytes());
+        b.push((self.kernel.weight_exponent * 16.0).round() as u8);
+        b.push(u8::from(self.chroma_pruned));
+        for s in [self.step_luma, self.step_chroma, self.step_alpha] {
+            b.extend(s.to_le_bytes());
+        }
+        b.extend(self.luma_count.to_le_bytes());
+        b.extend(self.chroma_count.to_le_bytes());
+        b
+    }
+
+    fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
+        if p.len() != HEADER_LEN {
+            return Err(CodecError::Format(format!(
+                "header is {} bytes, expected {HEADER_LEN}",
+                p.len()
+            )));
+        }
+        let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+        let f32_at = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+        let (width, height) = (u32_at(0), u32_at(4));
+        if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+            return Err(CodecError::Format(format!(
+                "image size {width}x{height} outside 1..={MAX_SIDE} per side"
+            )));
+        }
+        let pixels = width as u64 * height as u64;
+        if pixels > max_pixels {
+            return Err(CodecError::Limit {
+                what: "pixels",
+                value: pixels,
+                limit: max_pixels,
+            });
+        }
+        let layout = ChannelLayout::from_channels(p[8] as usize)
+            .ok_or_else(|| CodecError::Format(format!("channel count {} not in 1..=4", p[8])))?;
+        let format = match p[9] {
+            0 => SampleFormat::U8,
+            1 => SampleFormat::U16,
+            2 => SampleFormat::F32,
+            v => return Err(CodecError::Format(format!("sample format {v} unknown"))),
+        };
+        let (block_log2, min_log2) = (p[10], p[11]);
+        if !(1..=7).contains(&block_log2) || min_log2 > block_log2 || min_log2 > 4 {
+            return Err(CodecError::Format(format!(
+                "tree levels {min_log2}..{block_log2} invalid"
+            )));
+        }
+        let kernel = KernelParams {
+            sigma_factor: u16::from_le_bytes([p[12], p[13]]) as f64 / 1024.0,
+            weight_exponent: p[14] as f64 / 16.0,
+        };
+        if !(0.3..=4.0).contains(&kernel.sigma_factor) {
+            return Err(CodecError::Format(format!(
+                "kernel footprint {} outside 0.3..=4",
+                kernel.sigma_factor
+            )));
+        }
+        if p[15] > 1 {
+            return Err(CodecError::Format(format!("flags {:#x} unknown", p[15])));
+        }
+        let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
+        for (name, s) in [
+            ("luma", step_luma),
+            ("chroma", step_chroma),
+            ("alpha", step_alpha),
+        ] {
+            if !(s.is_finite() && s >= 1e-7 && s <= 1e4) {
+                return Err(CodecError::Format(format!(
+                    "{name} quantiser step {s} invalid"
+                )));
+            }
+        }
+        let header = Header {
+            width,
+            height,
+            layout,
+            format,
+            block_log2,
+            min_log2,
+            kernel,
+            chroma_pruned: p[15] == 1,
+            step_luma,
+            step_chroma,
+            step_alpha,
+            luma_count: u32_at(28),
+            chroma_count: u32_at(32),
+        };
+        let max = header.shape().max_leaves();
+        if header.luma_count as u64 > max
+            || header.chroma_count as u64 > max
+            || header.luma_count == 0
+        {
+            return Err(CodecError::Format(format!(
+                "key point counts {}/{} impossible for a {width}x{height} tree (1..={max})",
+                header.luma_count, header.chroma_count
+            )));
+        }
+        if (header.layout.colour_channels() == 3) != (header.chroma_count > 0) {
+            return Err(CodecError::Format(
+                "chroma key points present iff the image has colour".into(),
+            ));
+        }
+        Ok(header)
+    }
+}
+
+/// Appends a section: tag, payload length (u32 LE), payload, CRC-32 of all three.
+fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
+    let start = out.len();
+    out.push(tag);
+    out.extend((payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(payload);
+    let crc = crc32fast::hash(&out[start..]);
+    out.extend(crc.to_le_bytes());
+}
+
+/// Assembles a file from the header and the coded payloads.
+pub fn write(header: &Header, tree: &[u8], luma: &[u8], chroma: Option<&[u8]>) -> Vec<u8> {
+    let mut out = Vec::with_capacity(64 + tree.len() + luma.len() + chroma.map_or(0, <[u8]>::len));
+    out.extend(MAGIC);
+    out.push(VERSION);
+    push_section(&mut out, tag::HEADER, &header.to_bytes());
+    push_section(&mut out, tag::TREE, tree);
+    push_section(&mut out, tag::LUMA, luma);
+    if let Some(c) = chroma {
+        push_section(&mut out, tag::CHROMA, c);
+    }
+    push_section(&mut out, tag::END, &[]);
+    out
+}
+
+/// One section as found in a file.
+#[derive(Debug, Clone, Copy)]
+pub struct Section<'a> {
+    /// Tag byte.
+    pub tag: u8,
+    /// Offset of the tag in the file.
+    pub offset: usize,
+    /// Payload.
+    pub payload: &'a [u8],
+}
+
+/// A parsed file: header and section payloads (borrowed).
+#[derive(Debug)]
+pub struct Parsed<'a> {
+    /// The header.
+    pub header: Header,
+    /// All sections in file order, the header and end included.
+    pub sections: Vec<Section<'a>>,
+}
+
+impl<'a> Parsed<'a> {
+    /// The payload of the section with `tag`.
+    pub fn payload(&self, tag: u8) -> Option<&'a [u8]> {
+        self.sections
+            .iter()
+            .find(|s| s.tag == tag)
+            .map(|s| s.payload)
+    }
+}
+
+/// Parses and checks the container: magic, version, section order, lengths, CRCs,
+/// and the header's limits, before anything is allocated for the image.
+pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
+    if bytes.len() < 5 {
+        return Err(CodecError::Format(format!(
+            "file of {} bytes is too short for a caoen file",
+            bytes.len()
+        )));
+    }
+    if bytes[..4] != MAGIC {
+        return Err(CodecError::Format(format!(
+            "wrong magic {:02x?}, expected \"CAOE\"",
+            &bytes[..4]
+        )));
+    }
+    if bytes[4] != VERSION {
+        return Err(CodecError::Unsupported(format!(
+            "format version {} (this decoder reads version {VERSION})",
+            bytes[4]
+        )));
+    }
+    let mut sections = Vec::new();
+    let mut pos = 5;
+    loop {
+        if bytes.len() - pos < 9 {
+            return Err(CodecError::Format(format!(
+                "truncated: section header at byte {pos} runs past the end"
+            )));
+        }
+        let tag = bytes[pos];
+        let len = u32::from_le_bytes([
+            bytes[pos + 1],
+            bytes[pos + 2],
+            bytes[pos + 3],
+            bytes[pos + 4],
+        ]) as usize;
+        let end = pos + 5 + len;
+        if len > bytes.len() - pos - 9 {
+            return Err(CodecError::Format(format!(
+                "truncated: section '{}' at byte {pos} claims {len} bytes, {} remain",
+                tag as char,
+                bytes.len() - pos - 9
+            )));
+        }
+        let crc = u32::from_le_bytes([bytes[end], bytes[end + 1], bytes[end + 2], bytes[end + 3]]);
+        if crc32fast::hash(&bytes[pos..end]) != crc {
+            return Err(CodecError::Format(format!(
+                "CRC mismatch in section '{}' at byte {pos}",
+                tag as char
+            )));
+        }
+        sections.push(Section {
+            tag,
+            offset: pos,
+            payload: &bytes[pos + 5..end],
+        });
+        pos = end + 4;
+        if tag == tag::END {
+            break;
+        }
+    }
+    if pos != bytes.len() {
+        return Err(CodecError::Format(format!(
+            "{} bytes of trailing data after the end section",
+            bytes.len() - pos
+        )));
+    }
+    let tags: Vec<u8> = sections.iter().map(|s| s.tag).collect();
+    let header = match tags.first() {
+        Some(&tag::HEADER) => Header::parse(sections[0].payload, max_pixels)?,
+        _ => {
+            return Err(CodecError::Format(
+                "the first section must be the header".into(),
+            ))
+        }
+    };
+    let expected: &[u8] = if header.chroma_count > 0 {
+        &[tag::HEADER, tag::TREE, tag::LUMA, tag::CHROMA, tag::END]
+    } else {
+        &[tag::HEADER, tag::TREE, tag::LUMA, tag::END]
+    };
+    if tags != expected {
+        return Err(CodecError::Format(format!(
+            "sections {:?}, expected {:?}",
+            String::from_utf8_lossy(&tags),
+            String::from_utf8_lossy(expected)
+        )));
+    }
+    Ok(Parsed { header, sections })
+}

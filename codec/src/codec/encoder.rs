@@ -1,0 +1,125 @@
+//! The encoder: model, quantise, entropy-code, assemble.
+
+use super::bitstream::{self, Header};
+use super::colour::{self, CodingPlanes};
+use super::entropy::RangeSink;
+use super::model::{self, Model};
+use super::rate_control::EncodeSettings;
+use super::syntax::{self, MAX_VALUE};
+use super::CodecError;
+use crate::raster::Raster;
+
+/// Statistics of one encode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeStats {
+    /// Luma key points.
+    pub luma_keypoints: usize,
+    /// Chroma key points.
+    pub chroma_keypoints: usize,
+    /// Bytes of the whole file.
+    pub bytes: usize,
+}
+
+fn quantise(values: &[f64], step: f64) -> Vec<i64> {
+    values
+        .iter()
+        .map(|v| ((v / step).round() as i64).clamp(-MAX_VALUE, MAX_VALUE))
+        .collect()
+}
+
+/// Entropy-codes a fitted model into a file.
+pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>, EncodeStats) {
+    let (w, h) = (img.width(), img.height());
+    let shape = model.shape;
+    let leaf_set: std::collections::HashSet<_> = model.luma_cells.iter().copied().collect();
+    let mut tree = RangeSink::new();
+    let cells = syntax::write_tree(&shape, |c| !leaf_set.contains(c), &mut tree);
+    debug_assert_eq!(cells, model.luma_cells);
+    let header = Header {
+        width: w,
+        height: h,
+        layout: img.layout(),
+        format: img.format(),
+        block_log2: shape.block_log2,
+        min_log2: shape.min_log2,
+        kernel: model.kernel,
+        chroma_pruned: s.model.chroma_pruned,
+        step_luma: s.step_luma as f32,
+        step_chroma: s.step_chroma as f32,
+        step_alpha: s.step_alpha as f32,
+        luma_count: model.luma_cells.len() as u32,
+        chroma_count: model.chroma_cells.len() as u32,
+    };
+    let mut luma = RangeSink::new();
+    let nbs = syntax::neighbours(&model.luma_cells, w, h);
+    for (c, values) in model.luma_colours.iter().enumerate() {
+        let step = if c == 0 {
+            header.step_luma
+        } else {
+            header.step_alpha
+        } as f64;
+        syntax::write_values(&model.luma_cells, &nbs, &quantise(values, step), &mut luma);
+    }
+    let chroma = (!model.chroma_cells.is_empty()).then(|| {
+        let mut sink = RangeSink::new();
+        let nbs = syntax::neighbours(&model.chroma_cells, w, h);
+        for values in &model.chroma_colours {
+            syntax::write_values(
+                &model.chroma_cells,
+                &nbs,
+                &quantise(values, header.step_chroma as f64),
+                &mut sink,
+            );
+        }
+        sink.finish()
+    });
+    let bytes = bitstream::write(&header, &tree.finish(), &luma.finish(), chroma.as_deref());
+    let stats = EncodeStats {
+        luma_keypoints: model.luma_cells.len(),
+        chroma_keypoints: model.chroma_cells.len(),
+        bytes: bytes.len(),
+    };
+    (bytes, stats)
+}
+
+/// Encodes with explicit settings; `progress(done, total)` reports modelling rounds.
+pub fn encode_with(
+    img: &Raster,
+    planes: &CodingPlanes,
+    s: &EncodeSettings,
+    progress: impl FnMut(usize, usize),
+) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+    let mut s = s.clone();
+    s.model.kernel = Header::quantise_kernel(s.model.kernel);
+    for (name, v) in [
+        ("luma step", s.step_luma),
+        ("chroma step", s.step_chroma),
+        ("alpha step", s.step_alpha),
+    ] {
+        if !(v.is_finite() && (1e-7..=1e4).contains(&v)) {
+            return Err(CodecError::Parameter {
+                name: "quantiser step",
+                value: format!("{name} {v}"),
+                reason: "1e-7..=1e4",
+            });
+        }
+    }
+    // Steps are stored as f32: quantise with exactly what the decoder will read.
+    s.step_luma = s.step_luma as f32 as f64;
+    s.step_chroma = s.step_chroma as f32 as f64;
+    s.step_alpha = s.step_alpha as f32 as f64;
+    let model = model::build(planes, img.width(), img.height(), &s.model, progress);
+    Ok(write_model(img, &model, &s))
+}
+
+/// Splits an image into coding planes after checking it can be encoded.
+pub fn prepare(img: &Raster) -> Result<CodingPlanes, CodecError> {
+    if img.width() > super::MAX_SIDE || img.height() > super::MAX_SIDE {
+        return Err(CodecError::Limit {
+            what: "image side",
+            value: img.width().max(img.height()) as u64,
+            limit: super::MAX_SIDE as u64,
+        });
+    }
+    Ok(colour::forward(img))
+}

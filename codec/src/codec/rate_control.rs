@@ -1,0 +1,80 @@
+//! From user-facing knobs (quality, effort, rate targets) to encoder settings, and the
+//! search that lands a rate target.
+
+use super::model::ModelSettings;
+
+/// Everything the encoder needs besides the image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeSettings {
+    /// Tree and fit.
+    pub model: ModelSettings,
+    /// Quantiser step of the luma-set colour channel (coding space).
+    pub step_luma: f64,
+    /// Quantiser step of the chroma channels.
+    pub step_chroma: f64,
+    /// Quantiser step of alpha.
+    pub step_alpha: f64,
+}
+
+/// Settings for quality `q` (0..=100) and effort `e` (1..=9).
+///
+/// Quality sets the split threshold (the squared error a leaf may keep) on a log
+/// scale, and the quantiser steps in proportion to its square root, so the two
+/// sources of error shrink together.
+pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSettings {
+    let q = quality.clamp(0.0, 100.0) as f64;
+    let threshold = 10f64.powf(2.0 - 4.0 * q / 100.0);
+    let step = (0.012 * threshold.sqrt()).clamp(2e-4, 0.25);
+    let e = effort.clamp(1, 9) as usize;
+    let model = ModelSettings {
+        split_threshold: threshold,
+        target_keypoints: keypoints,
+        rounds: match e {
+            1 => 1,
+            2 => 2,
+            3..=5 => e - 1,
+            _ => e,
+        },
+        growth: if e >= 7 { 0.25 } else { 0.35 },
+        cg_iterations: (6 + 2 * e, 15 + 6 * e),
+        ..ModelSettings::default()
+    };
+    EncodeSettings {
+        model,
+        step_luma: step,
+        step_chroma: 1.6 * step,
+        step_alpha: step,
+    }
+}
+
+/// Finds the quality whose output size is closest to `target_bytes` by bisection on
+/// quality (size grows with quality), calling `size_at(quality)`; returns the best
+/// quality and its size. Stops once within `tolerance` (relative).
+pub fn search_quality(
+    target_bytes: f64,
+    tolerance: f64,
+    steps: usize,
+    mut size_at: impl FnMut(f32) -> Result<usize, super::CodecError>,
+) -> Result<(f32, usize), super::CodecError> {
+    let (mut lo, mut hi) = (0.0f32, 100.0f32);
+    let mut best: Option<(f32, usize)> = None;
+    let better = |s: usize, b: &Option<(f32, usize)>| {
+        b.is_none_or(|(_, bs)| (s as f64 - target_bytes).abs() < (bs as f64 - target_bytes).abs())
+    };
+    for _ in 0..steps {
+        let mid = 0.5 * (lo + hi);
+        let size = size_at(mid)?;
+        if better(size, &best) {
+            best = Some((mid, size));
+        }
+        if ((size as f64 - target_bytes) / target_bytes).abs() <= tolerance {
+            break;
+        }
+        if (size as f64) < target_bytes {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Ok(best.expect("at least one step"))
+}

@@ -1,0 +1,74 @@
+//! Development measurements (ignored by default): rate, PSNR, timings.
+use caoen::codec::{decode, encode_with_progress, DecodeOptions, EncodeOptions};
+use caoen::raster::{ChannelLayout, Raster, SampleFormat};
+
+fn corpus_raster(class: &str, seed: u64) -> Raster {
+    let img = caoen_corpus::generate(class.parse().unwrap(), 768, 512, seed);
+    let (w, h) = (img.width(), img.height());
+    let px: Vec<f32> = (0..3)
+        .flat_map(|c| (0..h).flat_map(move |y| (0..w).map(move |x| (c, x, y))))
+        .map(|(c, x, y)| img.sample(x, y, c))
+        .collect();
+    Raster::new(w, h, ChannelLayout::Rgb, SampleFormat::U8, px).unwrap()
+}
+
+fn psnr(a: &Raster, b: &Raster) -> f64 {
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as f64;
+    let mse = a
+        .samples()
+        .iter()
+        .zip(b.samples())
+        .map(|(x, y)| (q(*x) - q(*y)).powi(2))
+        .sum::<f64>()
+        / a.samples().len() as f64;
+    10.0 * (255.0f64 * 255.0 / mse).log10()
+}
+
+#[test]
+#[ignore]
+fn rate_distortion_sweep() {
+    let class = std::env::var("CLASS").unwrap_or("scene".into());
+    let img = corpus_raster(&class, 1);
+    let qs: Vec<f32> = std::env::var("QS")
+        .unwrap_or("30,50,70,85".into())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    for q in qs {
+        let t = std::time::Instant::now();
+        let (bytes, stats) = encode_with_progress(
+            &img,
+            &EncodeOptions {
+                quality: q,
+                ..Default::default()
+            },
+            |_, _| {},
+        )
+        .unwrap();
+        let te = t.elapsed();
+        let t = std::time::Instant::now();
+        let dec = decode(&bytes, &DecodeOptions::default()).unwrap();
+        let td = t.elapsed();
+        let bpp = bytes.len() as f64 * 8.0 / (768.0 * 512.0);
+        let fwd = decode(
+            &bytes,
+            &DecodeOptions {
+                supersample: Some(1),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let fwd2 = decode(
+            &bytes,
+            &DecodeOptions {
+                supersample: Some(2),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        println!(
+            "Q={q}: {} B, {bpp:.3} bpp, PSNR {:.2} dB, kp {}+{}, enc {te:?} dec {td:?}; fwd S1 vs id {:.1} dB, S2 {:.1} dB",
+            bytes.len(), psnr(&img, &dec), stats.luma_keypoints, stats.chroma_keypoints, psnr(&dec, &fwd), psnr(&dec, &fwd2)
+        );
+    }
+}
