@@ -39,6 +39,22 @@ pub enum Command {
     Surface(SurfaceCommand),
     /// Regenerate the example models, scenes and pictures (examples/).
     Examples(ExamplesArgs),
+    /// Measure B against the reference A: PSNR, Y-PSNR, SSIM, SSIMULACRA2.
+    Compare(CompareArgs),
+    /// Rate-distortion benchmark of caoen and peer codecs on a corpus (issue 6).
+    Bench(crate::bench::BenchArgs),
+}
+
+/// `caoen compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Reference image (PNG, JPEG, EXR, ...) or caoen file (.cae).
+    pub reference: PathBuf,
+    /// Image or caoen file to measure against the reference.
+    pub test: PathBuf,
+    /// Print JSON on stdout (an infinite PSNR, for identical images, is null).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `caoen examples`.

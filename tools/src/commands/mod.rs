@@ -1,5 +1,7 @@
 //! Command implementations, one module per command group.
 
+pub mod bench;
+pub mod compare;
 pub mod demo;
 pub mod examples;
 pub mod render;
@@ -22,6 +24,8 @@ pub fn run(cli: Cli) -> CliResult {
             caoen_corpus::cli::run(&args).map_err(|e| CliError::Failed(e.to_string()))
         }
         Command::Examples(args) => examples::run(&global, &args),
+        Command::Compare(args) => compare::run(&global, &args),
+        Command::Bench(args) => bench::run(&global, &args),
     };
     match cli.global.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
