@@ -49,6 +49,31 @@ pub enum Command {
     Compare(CompareArgs),
     /// Rate-distortion benchmark of caoen and peer codecs on a corpus (issue 6).
     Bench(crate::bench::BenchArgs),
+    /// Distort an image or caoen file by moving control points (a Cao En warp).
+    Distort(DistortArgs),
+}
+
+/// `caoen distort`.
+#[derive(Debug, Args)]
+pub struct DistortArgs {
+    /// Input image (PNG, EXR, ...) or caoen file (.cae).
+    pub input: PathBuf,
+    /// Output image: .png or .exr (`-` for PNG on stdout).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// A control point move `x,y:x2,y2` in pixels (repeatable).
+    #[arg(long = "move", value_name = "X,Y:X2,Y2")]
+    pub moves: Vec<String>,
+    /// A JSON file of moves: `[{"from": [x, y], "to": [x2, y2]}, ...]` or
+    /// `[[[x, y], [x2, y2]], ...]`.
+    #[arg(long = "moves", value_name = "JSON", conflicts_with = "moves")]
+    pub moves_file: Option<PathBuf>,
+    /// Samples per pixel side for the forward mapping.
+    #[arg(long, value_name = "S", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub supersample: u32,
+    /// Overlay the warped grid lines.
+    #[arg(long)]
+    pub grid: bool,
 }
 
 /// `caoen encode`.

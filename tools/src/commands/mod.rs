@@ -7,6 +7,7 @@ pub mod demo;
 pub mod examples;
 pub mod render;
 pub mod surface;
+pub mod texture;
 
 use crate::cli::{Cli, Command};
 use crate::failure::{CliError, CliResult};
@@ -46,6 +47,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Examples(args) => examples::run(&global, &args),
         Command::Compare(args) => compare::run(&global, &args),
         Command::Bench(args) => bench::run(&global, &args),
+        Command::Distort(args) => texture::distort(&global, &args),
     }
 }
 
