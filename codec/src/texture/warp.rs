@@ -49,6 +49,12 @@ pub struct WarpOptions {
     pub anchor_cells: u32,
     /// Footprint of a key point in units of the anchor spacing (default 0.6).
     pub sigma_factor: f64,
+    /// Radius of the rigid neighbourhood of a control point, in units of its local
+    /// spacing (default 0.2; 0 disables): four extra key points on a ring around each
+    /// control point carry the same displacement (the paper's texture control: several
+    /// sources, one shape), so the warp is locally a translation there and small
+    /// features at a control point move without stretching.
+    pub rigid_factor: f64,
 }
 
 impl Default for WarpOptions {
@@ -56,6 +62,7 @@ impl Default for WarpOptions {
         WarpOptions {
             anchor_cells: 6,
             sigma_factor: 0.6,
+            rigid_factor: 0.2,
         }
     }
 }
@@ -115,14 +122,17 @@ impl Warp {
                 return Err(TextureError::Invalid(format!("move {m:?} is not finite")));
             }
         }
-        if !(opts.sigma_factor > 0.0 && opts.sigma_factor.is_finite()) || opts.anchor_cells == 0 {
+        if !(opts.sigma_factor > 0.0 && opts.sigma_factor.is_finite())
+            || !(0.0..0.5).contains(&opts.rigid_factor)
+            || opts.anchor_cells == 0
+        {
             return Err(TextureError::Invalid("bad warp options".into()));
         }
-        if moves.len() > MAX_KEY_POINTS / 2 {
+        if moves.len() > MAX_KEY_POINTS / 8 {
             return Err(TextureError::Invalid(format!(
                 "{} moves: at most {}",
                 moves.len(),
-                MAX_KEY_POINTS / 2
+                MAX_KEY_POINTS / 8
             )));
         }
         // Merge near-duplicate control points.
@@ -154,8 +164,16 @@ impl Warp {
                 .filter(|&(j, _)| j != i)
                 .map(|(_, o)| dist(o.from, m.from))
                 .fold(f64::INFINITY, f64::min);
-            let sigma = (opts.sigma_factor * nearest.min(g)).max(1.0);
-            kp.push((m.from, [m.to[0] - m.from[0], m.to[1] - m.from[1]], sigma));
+            let local = nearest.min(g);
+            let sigma = (opts.sigma_factor * local).max(1.0);
+            let d = [m.to[0] - m.from[0], m.to[1] - m.from[1]];
+            kp.push((m.from, d, sigma));
+            let r = opts.rigid_factor * local;
+            if r >= 1.0 {
+                for (ox, oy) in [(r, 0.0), (0.0, r), (-r, 0.0), (0.0, -r)] {
+                    kp.push(([m.from[0] + ox, m.from[1] + oy], d, sigma));
+                }
+            }
         }
         let (nx, ny) = ((w / g).ceil() as u32, (h / g).ceil() as u32);
         let mut anchors = 0;
