@@ -88,6 +88,13 @@ fn without_peers_the_user_is_told_how_to_enable_them() {
 fn caoen_only_accounts_for_every_point() {
     let d = tmpdir("caoen-only");
     let report = d.join("report.json");
+    // A hand-written page whose generated part sits between the markers.
+    let page = d.join("page.md");
+    std::fs::write(
+        &page,
+        "# Title\n\n<!-- caoen bench: begin -->\nold table\n<!-- caoen bench: end -->\n\nAfter.\n",
+    )
+    .unwrap();
     let out = caoen(&[
         "bench",
         "--codecs",
@@ -102,6 +109,8 @@ fn caoen_only_accounts_for_every_point() {
         "q30,q80",
         "--report",
         s(&report),
+        "--markdown",
+        s(&page),
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
@@ -118,6 +127,19 @@ fn caoen_only_accounts_for_every_point() {
         out.status.code(),
         Some(if failed == 0 { 0 } else { 1 }),
         "{err}"
+    );
+    let page = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        page.starts_with("# Title\n\n<!-- caoen bench: begin -->\n"),
+        "{page}"
+    );
+    assert!(
+        page.ends_with("<!-- caoen bench: end -->\n\nAfter.\n"),
+        "{page}"
+    );
+    assert!(
+        !page.contains("old table") && page.contains("### smooth"),
+        "{page}"
     );
 }
 

@@ -2,7 +2,7 @@
 //! plotters with a bundled font (DejaVu Sans, `tools/assets/`), so no system
 //! font or fontconfig is needed and the pictures are the same on every machine.
 //!
-//! Each codec's curve is the class average: every image's PCHIP curve (in ln rate)
+//! Rates are on a log axis. Each codec's curve is the class average: every image's PCHIP curve (in ln rate)
 //! sampled on a common grid of rates that all the class's images reach, then
 //! averaged. Where the images share no range the curves of the single images are
 //! drawn instead.
@@ -178,6 +178,51 @@ pub fn write_plots(
     Ok(written)
 }
 
+/// Tick values for a log axis over `[lo, hi]`: finer steps for narrow ranges, only
+/// the decades for ranges of more than three. Built from decimal strings, so the
+/// labels print as `0.2`, not `0.20000000000000004`.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let steps: &[&str] = if hi / lo > 1000.0 {
+        &["1"]
+    } else if hi / lo > 10.0 {
+        &["1", "2", "5"]
+    } else {
+        &["1", "1.5", "2", "3", "4", "5", "7"]
+    };
+    let (first, last) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    (first..=last)
+        .flat_map(|k| steps.iter().map(move |m| format!("{m}e{k}")))
+        .filter_map(|t| t.parse::<f64>().ok())
+        .filter(|&t| t >= lo * 0.999_999 && t <= hi * 1.000_001)
+        .collect()
+}
+
+/// The 1-2-5 value at or below `v` (`below`) or at or above it.
+fn snap125(v: f64, below: bool) -> f64 {
+    let k = v.log10().floor() as i32;
+    let cands: Vec<f64> = (k - 1..=k + 1)
+        .flat_map(|e| ["1", "2", "5"].map(|m| format!("{m}e{e}")))
+        .filter_map(|t| t.parse::<f64>().ok())
+        .collect();
+    // NaN as the fold's start: `max`/`min` return the other operand.
+    let pick = if below {
+        cands
+            .into_iter()
+            .filter(|&c| c <= v)
+            .fold(f64::NAN, f64::max)
+    } else {
+        cands
+            .into_iter()
+            .filter(|&c| c >= v)
+            .fold(f64::NAN, f64::min)
+    };
+    if pick.is_nan() {
+        v
+    } else {
+        pick
+    }
+}
+
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
@@ -195,7 +240,9 @@ fn draw<DB: DrawingBackend>(
     if x0 > x1 {
         (x0, x1, y0, y1) = (0.0, 1.0, 20.0, 40.0);
     }
-    let (x0, x1) = (0.0, (x1 * 1.05).max(x0 + 0.1));
+    // Rate on a log axis: BD deltas live in log-rate, and the corpus spans tiny images
+    // whose headers cost hundreds of bits per pixel as well as 0.05 bpp photos.
+    let (x0, x1) = (snap125(x0, true), snap125(x1.max(x0 * 1.5), false));
     let pad = ((y1 - y0) * 0.05).max(0.5);
     let (y0, y1) = ((y0 - pad).floor(), (y1 + pad).ceil());
     let mut chart = ChartBuilder::on(root)
@@ -203,10 +250,14 @@ fn draw<DB: DrawingBackend>(
         .margin(14)
         .x_label_area_size(44)
         .y_label_area_size(56)
-        .build_cartesian_2d(x0..x1, y0..y1)?;
+        .build_cartesian_2d(
+            (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+            y0..y1,
+        )?;
     chart
         .configure_mesh()
-        .x_desc("bits per pixel")
+        .x_desc("bits per pixel (log scale)")
+        .x_label_formatter(&|v| format!("{v}"))
         .y_desc("RGB PSNR (dB)")
         .label_style((FAMILY, 14))
         .axis_desc_style((FAMILY, 16))

@@ -92,6 +92,11 @@ impl Report {
     /// skipped and failed points.
     pub fn to_markdown(&self) -> String {
         let mut md = String::new();
+        let _ = writeln!(md, "Corpus: {}; rates: {}.\n", self.corpus, self.rates);
+        for c in &self.codecs {
+            let _ = writeln!(md, "- `{}`: {}", c.name, c.description);
+        }
+        md.push('\n');
         let mut classes: Vec<&str> = Vec::new();
         for c in &self.classes {
             if !classes.contains(&c.class.as_str()) {

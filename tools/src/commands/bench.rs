@@ -24,6 +24,24 @@ fn default_codecs() -> Vec<String> {
     }
 }
 
+/// Markers delimiting the generated tables inside a hand-written Markdown file.
+pub const MARKDOWN_BEGIN: &str = "<!-- caoen bench: begin -->";
+/// See [`MARKDOWN_BEGIN`].
+pub const MARKDOWN_END: &str = "<!-- caoen bench: end -->";
+
+/// The new contents of a `--markdown` file: an existing file holding both markers
+/// keeps everything outside them (so `docs/benchmarks.md` is regenerated in place),
+/// any other file is replaced by the tables.
+fn splice_markdown(path: &std::path::Path, tables: &str) -> String {
+    let old = std::fs::read_to_string(path).unwrap_or_default();
+    match (old.find(MARKDOWN_BEGIN), old.find(MARKDOWN_END)) {
+        (Some(b), Some(e)) if b < e => {
+            format!("{}{MARKDOWN_BEGIN}\n\n{tables}{}", &old[..b], &old[e..])
+        }
+        _ => tables.to_string(),
+    }
+}
+
 /// Runs `caoen bench`.
 pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     let names = args.codecs.clone().unwrap_or_else(default_codecs);
@@ -183,7 +201,7 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(path) = &args.markdown {
-        write_file(path, markdown.as_bytes())?;
+        write_file(path, splice_markdown(path, &markdown).as_bytes())?;
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(base) = &args.plot {
