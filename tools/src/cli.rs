@@ -51,6 +51,34 @@ pub enum Command {
     Bench(crate::bench::BenchArgs),
     /// Distort an image or caoen file by moving control points (a Cao En warp).
     Distort(DistortArgs),
+    /// Carry a texture from one surface to another through their shared domain.
+    Transfer(TransferArgs),
+}
+
+/// `caoen transfer`.
+#[derive(Debug, Args)]
+pub struct TransferArgs {
+    /// Texture on A's domain: image (PNG, JPEG, EXR, ...) or caoen file (.cae).
+    #[arg(long)]
+    pub texture: PathBuf,
+    /// Surface A the texture is laid on (file or builtin:NAME).
+    #[arg(long)]
+    pub from: String,
+    /// Surface B to carry it to (same domain).
+    #[arg(long)]
+    pub to: String,
+    /// Output: .png (a shaded render of B) or .obj (+ .mtl and -texture.png).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Render size WIDTHxHEIGHT (.png output).
+    #[arg(long, default_value = "512x384")]
+    pub size: String,
+    /// Supersampling of the render: N x N samples per pixel.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
+    /// Tessellation level of B's mesh.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(0..=9))]
+    pub detail: u32,
 }
 
 /// `caoen distort`.

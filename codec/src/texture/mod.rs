@@ -1,7 +1,8 @@
 //! Texture tools on Cao En networks (design section 9): image distortion by moving
 //! control points ([`warp`]) and texture transfer between surfaces sharing a domain
-//! (`transfer`). See `docs/texture.md`.
+//! ([`transfer`]). See `docs/texture.md`.
 
+pub mod transfer;
 pub mod warp;
 
 use thiserror::Error;

@@ -48,6 +48,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Compare(args) => compare::run(&global, &args),
         Command::Bench(args) => bench::run(&global, &args),
         Command::Distort(args) => texture::distort(&global, &args),
+        Command::Transfer(args) => texture::transfer(&global, &args),
     }
 }
 

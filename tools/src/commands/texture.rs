@@ -1,4 +1,5 @@
-//! `caoen distort`: image distortion by moving control points (`docs/texture.md`).
+//! `caoen distort` (image distortion by moving control points) and `caoen transfer`
+//! (texture transfer between surfaces), `docs/texture.md`.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -155,4 +156,91 @@ fn check(_global: &GlobalArgs, warp: &Warp) {
             r.folded, r.samples, r.min_det
         );
     }
+}
+
+fn failed(e: impl std::fmt::Display) -> CliError {
+    CliError::Failed(e.to_string())
+}
+
+/// Loads a texture: an image file, or a caoen file decoded first.
+fn load_texture(path: &Path) -> CliResult<caoen::render::texture::Texture> {
+    use caoen::render::framebuffer::RgbImage;
+    use caoen::render::texture::Texture;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if matches!(ext.as_deref(), Some("cae" | "exr")) {
+        let r = crate::commands::compare::load_any(path)?;
+        let png = image_io::encode(
+            &r.with_format(caoen::raster::SampleFormat::U8),
+            image_io::OutputFormat::Png8,
+        )
+        .map_err(failed)?;
+        Texture::new(RgbImage::decode(&png).map_err(failed)?).map_err(failed)
+    } else {
+        Texture::load(path).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+    }
+}
+
+/// `caoen transfer`.
+pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult {
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("png" | "obj")) {
+        return Err(CliError::Usage(format!(
+            "{}: output must end in .png (render) or .obj (mesh with material)",
+            a.output.display()
+        )));
+    }
+    let size = crate::commands::render::parse_size(&a.size)?;
+    let from = crate::commands::surface::load_model(&a.from)?;
+    let to = crate::commands::surface::load_model(&a.to)?;
+    let tex = load_texture(&a.texture)?;
+    let (tw, th) = (tex.image().width, tex.image().height);
+    let start = Instant::now();
+    let moved = caoen::texture::transfer::transfer(&from, &to, &tex, tw, th).map_err(tex_err)?;
+    // The transferred texture as a PNG file, for the renderer and the OBJ writer.
+    let tmp = std::env::temp_dir().join(format!("caoen-transfer-{}.png", std::process::id()));
+    crate::output::write_file(&tmp, &moved.encode_png().map_err(failed)?)?;
+    let result = (|| -> CliResult<String> {
+        if ext.as_deref() == Some("obj") {
+            crate::commands::surface::write_mesh_textured(
+                &to,
+                &a.output,
+                a.detail,
+                caoen::render::mesh::NormalMode::Exact,
+                Some(&tmp),
+            )
+        } else {
+            let scene = crate::commands::render::load_scene(&a.to, Some(&tmp))?;
+            let opts = caoen::render::renderer::RenderOptions {
+                width: size.0,
+                height: size.1,
+                samples: a.samples,
+                mesh_detail: a.detail,
+                ..Default::default()
+            };
+            let r =
+                crate::commands::render::render_with_progress(global, &scene, &opts, "rendering")?;
+            crate::output::write_file(&a.output, &r.image.encode_png().map_err(failed)?)?;
+            Ok(format!("{} ({}x{})", a.output.display(), size.0, size.1))
+        }
+    })();
+    let _ = std::fs::remove_file(&tmp);
+    let summary = result?;
+    note(
+        global,
+        format!(
+            "{} on {} -> {}: wrote {summary} in {:.2} s",
+            a.texture.display(),
+            a.from,
+            a.to,
+            start.elapsed().as_secs_f64()
+        ),
+    );
+    Ok(())
 }
