@@ -72,3 +72,23 @@ fn rate_distortion_sweep() {
         );
     }
 }
+
+/// FILES=a.png,b.png QS=... : prints "file quality bpp psnr" lines for the RD scripts.
+#[test]
+#[ignore]
+fn rd_points_for_files() {
+    let files = std::env::var("FILES").unwrap();
+    let qs: Vec<f32> = std::env::var("QS").unwrap_or("20,35,50,60,70,80,90".into()).split(',').map(|s| s.parse().unwrap()).collect();
+    let effort: u8 = std::env::var("EFFORT").unwrap_or("5".into()).parse().unwrap();
+    for f in files.split(',') {
+        let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
+        for &q in &qs {
+            let t = std::time::Instant::now();
+            let bytes = caoen::codec::encode(&img, &EncodeOptions { quality: q, effort, ..Default::default() }).unwrap();
+            let te = t.elapsed().as_secs_f64();
+            let dec = decode(&bytes, &DecodeOptions::default()).unwrap();
+            let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
+            println!("RD {} {q} {bpp:.4} {:.3} {te:.2}", f.rsplit('/').next().unwrap(), psnr(&img, &dec));
+        }
+    }
+}
