@@ -435,7 +435,7 @@ fn cli_mesh_writes_obj_with_material_and_texture() {
     let obj = dir.join("tex.obj");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_caoen"))
         .args([
-            "-q",
+            "--quiet",
             "surface",
             "mesh",
             "examples/textured-blob.json",

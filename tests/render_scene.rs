@@ -117,7 +117,7 @@ fn cli_renders_every_method_and_writes_depth_maps() {
         let out = p(&format!("{method}.png"));
         let depth = p(&format!("{method}-depth.png"));
         let o = caoen(&[
-            "-q",
+            "--quiet",
             "surface",
             "render",
             input,
@@ -150,7 +150,7 @@ fn cli_renders_every_method_and_writes_depth_maps() {
     }
     let exr = p("d.exr");
     let o = caoen(&[
-        "-q",
+        "--quiet",
         "surface",
         "render",
         "builtin:blob",
@@ -172,7 +172,7 @@ fn cli_renders_every_method_and_writes_depth_maps() {
     let b = p("j2.png");
     for (j, f) in [("1", &a), ("2", &b)] {
         assert!(caoen(&[
-            "-q",
+            "--quiet",
             "-j",
             j,
             "surface",

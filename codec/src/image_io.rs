@@ -298,7 +298,10 @@ fn decode_reader<R: std::io::BufRead + Seek>(
                 return Err(ImageIoError::Corrupt {
                     path: path.to_path_buf(),
                     reason: format!(
-                        "named as {f:?} but does not start like one (bytes {magic:02x?})"
+                        "named as {} but does not start like one (bytes {magic:02x?})",
+                        f.extensions_str()
+                            .first()
+                            .map_or("an image".into(), |e| e.to_ascii_uppercase())
                     ),
                 })
             }
@@ -680,6 +683,11 @@ mod exr_io {
             exr::error::Error::NotSupported(what) => ImageIoError::Unsupported {
                 path,
                 reason: format!("OpenEXR feature: {what}"),
+            },
+            // The exr crate reports a short file as a chunk pointing past the end.
+            other if other.to_string().contains("missing bytes") => ImageIoError::Truncated {
+                path,
+                reason: other.to_string(),
             },
             other => ImageIoError::Corrupt {
                 path,

@@ -9,3 +9,4 @@ pub mod metrics;
 pub mod raster;
 pub mod render;
 pub mod surface;
+pub mod texture;

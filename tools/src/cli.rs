@@ -11,16 +11,16 @@ pub struct Cli {
     /// Options shared by every command.
     #[command(flatten)]
     pub global: GlobalArgs,
-    /// The command to run.
+    /// The command to run (none: the demo on built-in data).
     #[command(subcommand)]
-    pub command: Command,
+    pub command: Option<Command>,
 }
 
 /// Options shared by every command.
 #[derive(Debug, Args, Clone)]
 pub struct GlobalArgs {
-    /// No progress or informational messages on stderr.
-    #[arg(short, long, global = true)]
+    /// No progress or informational messages on stderr (`-q` is quality, as in cwebp).
+    #[arg(long, global = true)]
     pub quiet: bool,
     /// Worker threads (default: all cores). Output never depends on it.
     #[arg(short = 'j', long, global = true, value_parser = clap::value_parser!(u16).range(1..=256))]
@@ -32,6 +32,12 @@ pub struct GlobalArgs {
 pub enum Command {
     /// Run the main job on built-in data, no input files needed.
     Demo(DemoArgs),
+    /// Encode an image (PNG, JPEG, EXR, ...) into a caoen file.
+    Encode(EncodeArgs),
+    /// Decode a caoen file to PNG or EXR (without -o: validate only).
+    Decode(DecodeArgs),
+    /// Describe a caoen file: header, sections, key points.
+    Info(InfoArgs),
     /// Generate the procedural test corpus (same as the caoen-corpus binary).
     Corpus(caoen_corpus::cli::CorpusArgs),
     /// Cao En surface models: inspect, evaluate, mesh.
@@ -39,6 +45,122 @@ pub enum Command {
     Surface(SurfaceCommand),
     /// Regenerate the example models, scenes and pictures (examples/).
     Examples(ExamplesArgs),
+    /// Measure B against the reference A: PSNR, Y-PSNR, SSIM, SSIMULACRA2.
+    Compare(CompareArgs),
+    /// Rate-distortion benchmark of caoen and peer codecs on a corpus (issue 6).
+    Bench(crate::bench::BenchArgs),
+    /// Distort an image or caoen file by moving control points (a Cao En warp).
+    Distort(DistortArgs),
+}
+
+/// `caoen distort`.
+#[derive(Debug, Args)]
+pub struct DistortArgs {
+    /// Input image (PNG, EXR, ...) or caoen file (.cae).
+    pub input: PathBuf,
+    /// Output image: .png or .exr (`-` for PNG on stdout).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// A control point move `x,y:x2,y2` in pixels (repeatable).
+    #[arg(long = "move", value_name = "X,Y:X2,Y2")]
+    pub moves: Vec<String>,
+    /// A JSON file of moves: `[{"from": [x, y], "to": [x2, y2]}, ...]` or
+    /// `[[[x, y], [x2, y2]], ...]`.
+    #[arg(long = "moves", value_name = "JSON", conflicts_with = "moves")]
+    pub moves_file: Option<PathBuf>,
+    /// Samples per pixel side for the forward mapping.
+    #[arg(long, value_name = "S", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub supersample: u32,
+    /// Overlay the warped grid lines.
+    #[arg(long)]
+    pub grid: bool,
+}
+
+/// `caoen encode`.
+#[derive(Debug, Args)]
+pub struct EncodeArgs {
+    /// Input image (PNG, JPEG, OpenEXR, anything the image crate reads).
+    pub input: PathBuf,
+    /// Output file (`-` for stdout). Default: the input's name with `.cae`, never
+    /// overwritten without --force.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Quality 0..100.
+    #[arg(short = 'q', long, default_value_t = 75.0, value_parser = parse_quality)]
+    pub quality: f32,
+    /// Effort 1..9: encoder time traded for quality at the same size.
+    #[arg(short = 'e', long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=9))]
+    pub effort: u8,
+    /// Target bits per pixel (searches the quality; lands within ~3%).
+    #[arg(long, value_name = "BPP")]
+    pub target_bpp: Option<f64>,
+    /// Target file size in bytes (searches the quality).
+    #[arg(long, value_name = "BYTES")]
+    pub target_size: Option<u64>,
+    /// Number of luma key points to grow the tree to (overrides the quality's choice).
+    #[arg(long, value_name = "N")]
+    pub keypoints: Option<usize>,
+    /// Also write the analysis and the chosen key points over the image as a PNG.
+    #[arg(long, value_name = "PNG")]
+    pub keypoint_map: Option<PathBuf>,
+    /// Overwrite an existing default-named output.
+    #[arg(short, long)]
+    pub force: bool,
+    /// Print statistics as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_quality(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(q) if (0.0..=100.0).contains(&q) => Ok(q),
+        _ => Err(format!("`{s}` is not a quality in 0..100")),
+    }
+}
+
+/// `caoen decode`.
+#[derive(Debug, Args)]
+pub struct DecodeArgs {
+    /// The caoen file (`-` for stdin).
+    pub input: PathBuf,
+    /// Output image: .png (8- or 16-bit as coded) or .exr (float); `-` for PNG on stdout.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Forward-mapping reconstruction with S x S samples per pixel (1..4); default:
+    /// the identity fast path.
+    #[arg(long, value_name = "S", value_parser = clap::value_parser!(u32).range(1..=4))]
+    pub supersample: Option<u32>,
+    /// Decode at this size (the continuous network is evaluated at any size).
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Decode scaled by this factor.
+    #[arg(long, value_name = "F")]
+    pub scale: Option<f64>,
+    /// Refuse files or outputs with more pixels than this.
+    #[arg(long, default_value_t = caoen::codec::DEFAULT_MAX_PIXELS)]
+    pub max_pixels: u64,
+}
+
+/// `caoen info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// The caoen file (`-` for stdin).
+    pub input: PathBuf,
+    /// Print JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `caoen compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Reference image (PNG, JPEG, EXR, ...) or caoen file (.cae).
+    pub reference: PathBuf,
+    /// Image or caoen file to measure against the reference.
+    pub test: PathBuf,
+    /// Print JSON on stdout (an infinite PSNR, for identical images, is null).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `caoen examples`.
@@ -58,6 +180,14 @@ pub struct DemoArgs {
     /// Directory to write into.
     #[arg(short, long, default_value = "caoen-demo")]
     pub out_dir: PathBuf,
+}
+
+impl Default for DemoArgs {
+    fn default() -> Self {
+        DemoArgs {
+            out_dir: PathBuf::from("caoen-demo"),
+        }
+    }
 }
 
 /// `caoen surface ...`.

@@ -278,7 +278,7 @@ pub fn render_forward(d: &Decoded, ow: u32, oh: u32, s: u32) -> Result<CodingPla
 /// Fills pixels no sample reached by repeatedly averaging their filled neighbours
 /// (a push-pull fill at full resolution: terminates because each pass fills at least
 /// the holes next to filled pixels).
-fn fill_holes(planes: &mut [Vec<f64>], weight: &mut [f64], w: usize, h: usize) {
+pub(crate) fn fill_holes(planes: &mut [Vec<f64>], weight: &mut [f64], w: usize, h: usize) {
     if weight.iter().all(|&v| v > 0.0) || weight.iter().all(|&v| v == 0.0) {
         return;
     }
@@ -317,7 +317,7 @@ fn fill_holes(planes: &mut [Vec<f64>], weight: &mut [f64], w: usize, h: usize) {
     }
 }
 
-fn to_raster(header: &Header, planes: CodingPlanes, ow: u32, oh: u32) -> Raster {
+pub(crate) fn to_raster(header: &Header, planes: CodingPlanes, ow: u32, oh: u32) -> Raster {
     let mut samples = colour::inverse(&planes, ow, oh, header.format);
     // Output is where out-of-range values are clamped: integer formats to [0, 1],
     // alpha always.

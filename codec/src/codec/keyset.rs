@@ -28,7 +28,7 @@ pub struct KernelParams {
 pub const MIN_SIGMA_FACTOR: f64 = 0.3;
 
 /// Side of the pixel buckets that index key points by their support rectangles.
-const BUCKET: u32 = 4;
+const BUCKET: u32 = 2;
 
 /// Key points in coding order with everything evaluation needs.
 #[derive(Debug, Clone)]

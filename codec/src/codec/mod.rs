@@ -13,6 +13,7 @@ pub mod entropy;
 mod error;
 pub mod fit;
 pub mod geometry;
+pub mod keypoint_map;
 pub mod keyset;
 pub mod model;
 pub mod quadtree;

@@ -1,9 +1,13 @@
 //! Command implementations, one module per command group.
 
+pub mod bench;
+pub mod codec;
+pub mod compare;
 pub mod demo;
 pub mod examples;
 pub mod render;
 pub mod surface;
+pub mod texture;
 
 use crate::cli::{Cli, Command};
 use crate::failure::{CliError, CliResult};
@@ -12,7 +16,26 @@ use crate::failure::{CliError, CliResult};
 pub fn run(cli: Cli) -> CliResult {
     let global = cli.global.clone();
     let job = move || match cli.command {
+        None => demo::run(&global, &crate::cli::DemoArgs::default()),
+        Some(cmd) => run_command(&global, cmd),
+    };
+    match cli.global.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n as usize)
+            .build()
+            .map_err(|e| CliError::Failed(format!("thread pool: {e}")))?
+            .install(job),
+        None => job(),
+    }
+}
+
+fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
+    let global = global.clone();
+    match cmd {
         Command::Demo(args) => demo::run(&global, &args),
+        Command::Encode(args) => codec::encode(&global, &args),
+        Command::Decode(args) => codec::decode(&global, &args),
+        Command::Info(args) => codec::info(&args),
         Command::Surface(cmd) => surface::run(&global, cmd),
         Command::Corpus(args) => {
             let args = caoen_corpus::cli::CorpusArgs {
@@ -22,14 +45,9 @@ pub fn run(cli: Cli) -> CliResult {
             caoen_corpus::cli::run(&args).map_err(|e| CliError::Failed(e.to_string()))
         }
         Command::Examples(args) => examples::run(&global, &args),
-    };
-    match cli.global.threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n as usize)
-            .build()
-            .map_err(|e| CliError::Failed(format!("thread pool: {e}")))?
-            .install(job),
-        None => job(),
+        Command::Compare(args) => compare::run(&global, &args),
+        Command::Bench(args) => bench::run(&global, &args),
+        Command::Distort(args) => texture::distort(&global, &args),
     }
 }
 

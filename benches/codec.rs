@@ -1,0 +1,39 @@
+//! Codec throughput on a 768x512 corpus scene: encode at the default quality and
+//! effort, decode by the identity fast path and by forward mapping with S = 1 and
+//! S = 2, each in pixels/s, beside a JPEG decode of the same image (the `image` crate's
+//! decoder, at a similar file size) measured in the same run as a plain baseline.
+
+use std::hint::black_box;
+
+use caoen::codec::{decode, encode, DecodeOptions, EncodeOptions};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+
+fn bench(c: &mut Criterion) {
+    let corpus = caoen_corpus::generate(caoen_corpus::Class::Scene, 768, 512, 4);
+    let img = caoen::image_io::from_dynamic(corpus.to_dynamic_image()).unwrap();
+    let pixels = img.pixel_count() as u64;
+    let bytes = encode(&img, &EncodeOptions::default()).unwrap();
+    let mut jpeg = Vec::new();
+    corpus
+        .to_dynamic_image()
+        .to_rgb8()
+        .write_with_encoder(image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 80))
+        .unwrap();
+    eprintln!("caoen file {} bytes, JPEG q80 {} bytes", bytes.len(), jpeg.len());
+    let mut g = c.benchmark_group("codec_768x512");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(pixels));
+    g.bench_function("encode_default", |b| b.iter(|| black_box(encode(black_box(&img), &EncodeOptions::default()).unwrap())));
+    g.bench_function("decode_identity", |b| b.iter(|| black_box(decode(black_box(&bytes), &DecodeOptions::default()).unwrap())));
+    for s in [1, 2] {
+        let opts = DecodeOptions { supersample: Some(s), ..Default::default() };
+        g.bench_function(format!("decode_forward_s{s}"), |b| b.iter(|| black_box(decode(black_box(&bytes), &opts).unwrap())));
+    }
+    g.bench_function("baseline_jpeg_decode", |b| {
+        b.iter(|| black_box(image::load_from_memory_with_format(black_box(&jpeg), image::ImageFormat::Jpeg).unwrap()))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

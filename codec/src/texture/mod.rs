@@ -1,0 +1,21 @@
+//! Texture tools on Cao En networks (design section 9): image distortion by moving
+//! control points ([`warp`]) and texture transfer between surfaces sharing a domain
+//! (`transfer`). See `docs/texture.md`.
+
+pub mod warp;
+
+use thiserror::Error;
+
+/// Why a texture operation failed.
+#[derive(Debug, Error)]
+pub enum TextureError {
+    /// Bad input or parameters.
+    #[error("{0}")]
+    Invalid(String),
+    /// A network could not be built or evaluated.
+    #[error(transparent)]
+    Surface(#[from] crate::surface::SurfaceError),
+    /// A raster could not be built.
+    #[error(transparent)]
+    Raster(#[from] crate::raster::RasterError),
+}

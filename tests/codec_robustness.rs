@@ -1,0 +1,122 @@
+//! Bad input: every prefix and every single-bit flip of a valid file decodes to a clean
+//! error or a bounded image, never a panic, hang or huge allocation; wrong magic,
+//! future versions and absurd headers give clear messages.
+
+use caoen::codec::{decode, encode, CodecError, DecodeOptions, EncodeOptions};
+use caoen::raster::{ChannelLayout, Raster, SampleFormat};
+
+fn small_file() -> Vec<u8> {
+    let (w, h) = (21u32, 13u32);
+    let n = (w * h) as usize;
+    let samples: Vec<f32> = (0..4 * n)
+        .map(|i| ((i * 37) % 101) as f32 / 100.0)
+        .collect();
+    let img = Raster::new(w, h, ChannelLayout::Rgba, SampleFormat::U8, samples).unwrap();
+    encode(
+        &img,
+        &EncodeOptions {
+            quality: 60.0,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+}
+
+#[test]
+fn every_prefix_is_a_clean_error() {
+    let file = small_file();
+    for len in 0..file.len() {
+        let r = decode(&file[..len], &DecodeOptions::default());
+        assert!(r.is_err(), "prefix of {len}/{} bytes decoded", file.len());
+    }
+    assert!(decode(&file, &DecodeOptions::default()).is_ok());
+}
+
+#[test]
+fn every_single_bit_flip_is_caught_or_bounded() {
+    let file = small_file();
+    let mut decoded = 0;
+    for i in 0..file.len() {
+        for bit in 0..8 {
+            let mut f = file.clone();
+            f[i] ^= 1 << bit;
+            match decode(&f, &DecodeOptions::default()) {
+                Err(_) => {}
+                // A flip the CRC cannot see (none expected) must still stay bounded.
+                Ok(img) => {
+                    decoded += 1;
+                    assert!(img.pixel_count() <= 21 * 13);
+                }
+            }
+        }
+    }
+    assert_eq!(decoded, 0, "CRC-32 catches every single-bit flip");
+}
+
+#[test]
+fn bad_headers_have_clear_messages() {
+    let file = small_file();
+    let msg = |f: &[u8]| {
+        decode(f, &DecodeOptions::default())
+            .unwrap_err()
+            .to_string()
+    };
+    let mut wrong = file.clone();
+    wrong[0] = b'X';
+    assert!(msg(&wrong).contains("magic"), "{}", msg(&wrong));
+    let mut future = file.clone();
+    future[4] = 9;
+    let e = decode(&future, &DecodeOptions::default()).unwrap_err();
+    assert!(
+        matches!(e, CodecError::Unsupported(_)) && e.to_string().contains("version 9"),
+        "{e}"
+    );
+    // Absurd size with a valid CRC: width 2^31.
+    let mut absurd = file.clone();
+    absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
+    let crc = crc32fast::hash(&absurd[5..5 + 5 + 36]);
+    absurd[5 + 5 + 36..5 + 5 + 36 + 4].copy_from_slice(&crc.to_le_bytes());
+    assert!(msg(&absurd).contains("image size"), "{}", msg(&absurd));
+    // Within the format but over the caller's pixel limit.
+    let e = decode(
+        &file,
+        &DecodeOptions {
+            max_pixels: 100,
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(matches!(e, CodecError::Limit { .. }), "{e}");
+    assert!(msg(b"").contains("too short"));
+    assert!(msg(&[file.as_slice(), b"junk"].concat()).contains("trailing"));
+}
+
+#[test]
+fn empty_and_non_finite_images_are_rejected_before_encoding() {
+    assert!(Raster::new(0, 5, ChannelLayout::Grey, SampleFormat::U8, vec![]).is_err());
+    assert!(Raster::new(1, 1, ChannelLayout::Grey, SampleFormat::F32, vec![f32::NAN]).is_err());
+    let img = Raster::new(2, 2, ChannelLayout::Grey, SampleFormat::U8, vec![0.5; 4]).unwrap();
+    for bad in [
+        EncodeOptions {
+            quality: 101.0,
+            ..Default::default()
+        },
+        EncodeOptions {
+            effort: 0,
+            ..Default::default()
+        },
+        EncodeOptions {
+            keypoints: Some(0),
+            ..Default::default()
+        },
+        EncodeOptions {
+            target: Some(caoen::codec::RateTarget::BitsPerPixel(f64::NAN)),
+            ..Default::default()
+        },
+    ] {
+        assert!(
+            matches!(encode(&img, &bad), Err(CodecError::Parameter { .. })),
+            "{bad:?}"
+        );
+    }
+}

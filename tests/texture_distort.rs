@@ -1,0 +1,389 @@
+//! `caoen distort` and the warp network (issue 7): control point placement, identity,
+//! Jacobian sign, PNG vs .cae agreement, fold-over warning, CLI errors.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use caoen::codec::{self, decoder, DecodeOptions, EncodeOptions};
+use caoen::image_io;
+use caoen::metrics;
+use caoen::raster::{ChannelLayout, Raster, SampleFormat};
+use caoen::texture::warp::{self, Move, Warp};
+
+fn caoen(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_caoen"))
+        .args(args)
+        .output()
+        .expect("run caoen")
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("caoen-distort-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+const W: u32 = 160;
+const H: u32 = 120;
+
+/// A consistent set of moves: four points pushed in different directions.
+fn moves() -> Vec<Move> {
+    vec![
+        Move {
+            from: [40.5, 30.5],
+            to: [48.25, 36.0],
+        },
+        Move {
+            from: [120.5, 30.5],
+            to: [113.0, 26.5],
+        },
+        Move {
+            from: [80.5, 60.5],
+            to: [80.5, 70.0],
+        },
+        Move {
+            from: [50.5, 95.5],
+            to: [44.0, 92.75],
+        },
+    ]
+}
+
+/// A smooth colourful image with some structure.
+fn pattern() -> Raster {
+    let n = (W * H) as usize;
+    let mut v = vec![0.0f32; 3 * n];
+    for y in 0..H as usize {
+        for x in 0..W as usize {
+            let (fx, fy) = (x as f32 / W as f32, y as f32 / H as f32);
+            let i = y * W as usize + x;
+            v[i] = 0.5 + 0.4 * (fx * 12.0).sin() * (fy * 9.0).cos();
+            v[n + i] = fx;
+            v[2 * n + i] = if (x / 16 + y / 16) % 2 == 0 { 0.8 } else { 0.2 };
+        }
+    }
+    Raster::new(W, H, ChannelLayout::Rgb, SampleFormat::U8, v).unwrap()
+}
+
+#[test]
+fn control_points_land_on_their_targets_exactly() {
+    let warp = Warp::new(W, H, &moves()).unwrap();
+    let mut worst: f64 = 0.0;
+    for m in moves() {
+        let p = warp.map(m.from[0], m.from[1]);
+        worst = worst.max(((p[0] - m.to[0]).powi(2) + (p[1] - m.to[1]).powi(2)).sqrt());
+    }
+    println!("warp function placement error: max {worst:.2e} px");
+    assert!(worst < 0.5 && worst < 1e-6, "{worst}");
+    // Far corners stay put.
+    for (x, y) in [
+        (0.0, 0.0),
+        (W as f64, 0.0),
+        (0.0, H as f64),
+        (W as f64, H as f64),
+    ] {
+        let d = warp.displacement(x, y);
+        assert!(
+            d[0].abs() < 1e-6 && d[1].abs() < 1e-6,
+            "corner {x},{y}: {d:?}"
+        );
+    }
+}
+
+#[test]
+fn dots_at_control_points_move_to_their_targets() {
+    // Black image with small Gaussian dots at the control points.
+    let n = (W * H) as usize;
+    let mut v = vec![0.0f32; n];
+    for m in moves() {
+        for y in 0..H as usize {
+            for x in 0..W as usize {
+                let d2 =
+                    (x as f64 + 0.5 - m.from[0]).powi(2) + (y as f64 + 0.5 - m.from[1]).powi(2);
+                v[y * W as usize + x] += (-d2 / (2.0 * 1.2f64.powi(2))).exp() as f32;
+            }
+        }
+    }
+    let img = Raster::new(W, H, ChannelLayout::Grey, SampleFormat::F32, v).unwrap();
+    let warp = Warp::new(W, H, &moves()).unwrap();
+    let out = warp::warp_raster(&img, &warp, 4).unwrap();
+    let p = out.plane(0);
+    let mut worst: f64 = 0.0;
+    for m in moves() {
+        let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
+        for y in 0..H as i64 {
+            for x in 0..W as i64 {
+                let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+                if (cx - m.to[0]).abs() > 7.0 || (cy - m.to[1]).abs() > 7.0 {
+                    continue;
+                }
+                let v = p[(y * W as i64 + x) as usize] as f64;
+                sx += v * cx;
+                sy += v * cy;
+                sw += v;
+            }
+        }
+        let e = ((sx / sw - m.to[0]).powi(2) + (sy / sw - m.to[1]).powi(2)).sqrt();
+        worst = worst.max(e);
+    }
+    println!("dot centroid placement error: max {worst:.3} px");
+    assert!(worst < 0.5, "{worst}");
+}
+
+#[test]
+fn identity_moves_reproduce_the_input() {
+    let img = pattern();
+    let id: Vec<Move> = moves()
+        .iter()
+        .map(|m| Move {
+            from: m.from,
+            to: m.from,
+        })
+        .collect();
+    let warp = Warp::new(W, H, &id).unwrap();
+    let out = warp::warp_raster(&img, &warp, 3).unwrap();
+    let psnr = metrics::psnr(&img, &out).unwrap();
+    println!("identity PSNR {psnr} dB");
+    assert!(psnr > 45.0, "{psnr}");
+}
+
+#[test]
+fn consistent_moves_have_a_positive_jacobian_and_no_holes() {
+    let warp = Warp::new(W, H, &moves()).unwrap();
+    let r = warp.check_folds(1.0);
+    println!(
+        "Jacobian check: {} samples, {} folded, min det {:.3}",
+        r.samples, r.folded, r.min_det
+    );
+    assert!(r.is_consistent() && r.min_det > 0.0, "{r:?}");
+    // The exact Jacobian agrees with finite differences.
+    let (x, y) = (70.3, 44.1);
+    let j = warp.jacobian(x, y);
+    let h = 1e-4;
+    let (a, b) = (warp.map(x + h, y), warp.map(x - h, y));
+    assert!(((a[0] - b[0]) / (2.0 * h) - j[0][0]).abs() < 1e-5);
+    assert!(((a[1] - b[1]) / (2.0 * h) - j[1][0]).abs() < 1e-5);
+    let out = warp::warp_raster(&pattern(), &warp, 3).unwrap();
+    assert!(out.samples().iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn crossing_moves_are_detected_and_still_defined() {
+    let crossing = vec![
+        Move {
+            from: [60.5, 60.5],
+            to: [100.5, 60.5],
+        },
+        Move {
+            from: [100.5, 60.5],
+            to: [60.5, 60.5],
+        },
+    ];
+    let warp = Warp::new(W, H, &crossing).unwrap();
+    let r = warp.check_folds(2.0);
+    assert!(!r.is_consistent(), "{r:?}");
+    let out = warp::warp_raster(&pattern(), &warp, 2).unwrap();
+    assert!(out.samples().iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn png_and_cae_paths_agree() {
+    let img = pattern();
+    let bytes = codec::encode(
+        &img,
+        &EncodeOptions {
+            quality: 95.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let decoded = codec::decode(&bytes, &DecodeOptions::default()).unwrap();
+    let warp = Warp::new(W, H, &moves()).unwrap();
+    let via_png = warp::warp_raster(&decoded, &warp, 3).unwrap();
+    let d = decoder::read(&bytes, codec::DEFAULT_MAX_PIXELS).unwrap();
+    let via_cae = warp::warp_decoded(&d, &warp, 3).unwrap();
+    let agree = metrics::psnr(&via_png, &via_cae).unwrap();
+    let unwarped = metrics::psnr(&decoded, &via_cae).unwrap();
+    println!(
+        "PNG vs .cae distortion: PSNR {agree:.2} dB (vs the unwarped image: {unwarped:.2} dB)"
+    );
+    assert!(agree > 30.0, "{agree}");
+    assert!(agree > unwarped + 5.0);
+    // With identity moves the .cae path is the decoder's forward path.
+    let id: Vec<Move> = moves()
+        .iter()
+        .map(|m| Move {
+            from: m.from,
+            to: m.from,
+        })
+        .collect();
+    let idw = Warp::new(W, H, &id).unwrap();
+    let a = warp::warp_decoded(&d, &idw, 2).unwrap();
+    let b = codec::decode(
+        &bytes,
+        &DecodeOptions {
+            supersample: Some(2),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let p = metrics::psnr(&a, &b).unwrap();
+    assert!(p > 45.0, "{p}");
+}
+
+#[test]
+fn cli_distorts_png_and_cae() {
+    let dir = tmpdir("cli");
+    let png = dir.join("in.png");
+    image_io::save(&pattern(), &png).unwrap();
+    let out = dir.join("out.png");
+    let o = caoen(&[
+        "distort",
+        s(&png),
+        "-o",
+        s(&out),
+        "--move",
+        "40.5,30.5:48,36",
+        "--move",
+        "80,60:80,70",
+        "--grid",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(image_io::load(&out).unwrap().width(), W);
+    let cae = dir.join("in.cae");
+    let o = caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
+    assert!(o.status.success());
+    let json = dir.join("moves.json");
+    std::fs::write(
+        &json,
+        r#"[{"from": [40.5, 30.5], "to": [48, 36]}, [[80, 60], [80, 70]]]"#,
+    )
+    .unwrap();
+    let out2 = dir.join("out2.png");
+    let o = caoen(&[
+        "distort",
+        s(&cae),
+        "-o",
+        s(&out2),
+        "--moves",
+        s(&json),
+        "--supersample",
+        "2",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Crossing moves: a warning, still an image.
+    let out3 = dir.join("out3.png");
+    let o = caoen(&[
+        "distort",
+        s(&png),
+        "-o",
+        s(&out3),
+        "--move",
+        "60,60:100,60",
+        "--move",
+        "100,60:60,60",
+    ]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("warning"));
+    assert!(out3.exists());
+}
+
+#[test]
+fn cli_bad_arguments_and_files() {
+    let dir = tmpdir("bad");
+    let png = dir.join("in.png");
+    image_io::save(&pattern(), &png).unwrap();
+    let out = dir.join("o.png");
+    let code = |args: &[&str]| {
+        let o = caoen(args);
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(!err.contains("panicked"), "{err}");
+        o.status.code()
+    };
+    // Usage errors: exit 2.
+    assert_eq!(code(&["distort", s(&png), "-o", s(&out)]), Some(2));
+    assert_eq!(
+        code(&["distort", s(&png), "-o", s(&out), "--move", "1,2"]),
+        Some(2)
+    );
+    assert_eq!(
+        code(&["distort", s(&png), "-o", s(&out), "--move", "a,b:c,d"]),
+        Some(2)
+    );
+    assert_eq!(
+        code(&["distort", s(&png), "-o", s(&out), "--move", "nan,1:2,3"]),
+        Some(2)
+    );
+    assert_eq!(
+        code(&[
+            "distort",
+            s(&png),
+            "-o",
+            s(&dir.join("o.txt")),
+            "--move",
+            "1,2:3,4"
+        ]),
+        Some(2)
+    );
+    assert_eq!(
+        code(&[
+            "distort",
+            s(&png),
+            "-o",
+            s(&out),
+            "--move",
+            "1,2:3,4",
+            "--supersample",
+            "0"
+        ]),
+        Some(2)
+    );
+    // Bad files: exit 1.
+    assert_eq!(
+        code(&[
+            "distort",
+            s(&dir.join("missing.png")),
+            "-o",
+            s(&out),
+            "--move",
+            "1,2:3,4"
+        ]),
+        Some(1)
+    );
+    let junk = dir.join("junk.cae");
+    std::fs::write(&junk, b"not a caoen file").unwrap();
+    assert_eq!(
+        code(&["distort", s(&junk), "-o", s(&out), "--move", "1,2:3,4"]),
+        Some(1)
+    );
+    let junkpng = dir.join("junk.png");
+    std::fs::write(&junkpng, b"\x89PNG garbage").unwrap();
+    assert_eq!(
+        code(&["distort", s(&junkpng), "-o", s(&out), "--move", "1,2:3,4"]),
+        Some(1)
+    );
+    let bad_json = dir.join("bad.json");
+    std::fs::write(&bad_json, b"{\"from\": 1}").unwrap();
+    assert_eq!(
+        code(&["distort", s(&png), "-o", s(&out), "--moves", s(&bad_json)]),
+        Some(1)
+    );
+    assert_eq!(
+        code(&[
+            "distort",
+            s(&png),
+            "-o",
+            s(&out),
+            "--moves",
+            s(&dir.join("none.json"))
+        ]),
+        Some(1)
+    );
+    // Huge move coordinates: defined, no panic.
+    let c = code(&["distort", s(&png), "-o", s(&out), "--move", "1e300,1:2,3"]);
+    assert!(c == Some(0) || c == Some(1), "{c:?}");
+}

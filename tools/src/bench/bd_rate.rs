@@ -1,0 +1,294 @@
+//! Bjontegaard deltas (VCEG-M33) with piecewise cubic Hermite (PCHIP) interpolation,
+//! as in current JVET/AOM practice (the original fit one cubic polynomial through
+//! all points, which can oscillate).
+//!
+//! - **BD-rate**: the average difference of `ln(rate)` between the two curves as
+//!   functions of quality, over the quality interval both cover, reported as the
+//!   percentage `100 (exp(avg) - 1)`: negative means the test codec needs fewer
+//!   bits than the reference for the same quality.
+//! - **BD-PSNR** (BD-quality): the average quality difference as functions of
+//!   `ln(rate)` over the rate interval both cover; positive means the test is better.
+//!
+//! Each curve is first reduced to points with strictly increasing rate *and*
+//! quality ([`monotone_curve`]): a point that costs more bits than another for no
+//! more quality is not on the codec's RD frontier, and PCHIP needs a function.
+
+use std::fmt;
+
+/// One rate-distortion point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RdPoint {
+    /// Rate, e.g. bits per pixel (> 0).
+    pub rate: f64,
+    /// Quality, e.g. PSNR in dB (finite).
+    pub quality: f64,
+}
+
+/// Why a Bjontegaard delta is undefined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BdError {
+    /// A curve has fewer than two usable points.
+    TooFewPoints,
+    /// The curves' ranges do not overlap.
+    NoOverlap,
+}
+
+impl fmt::Display for BdError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            BdError::TooFewPoints => "fewer than two distinct RD points",
+            BdError::NoOverlap => "the curves do not overlap",
+        })
+    }
+}
+
+impl std::error::Error for BdError {}
+
+/// Shape-preserving piecewise cubic Hermite interpolation (Fritsch-Carlson; the
+/// derivative rules of SciPy's `PchipInterpolator`), with exact integrals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pchip {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    d: Vec<f64>,
+}
+
+impl Pchip {
+    /// Builds the interpolant through `(x[i], y[i])`; `x` must be strictly
+    /// increasing and finite, with at least two points.
+    pub fn new(x: &[f64], y: &[f64]) -> Option<Pchip> {
+        let n = x.len();
+        if n < 2 || y.len() != n || x.windows(2).any(|w| w[1] <= w[0]) {
+            return None;
+        }
+        if x.iter().chain(y).any(|v| !v.is_finite()) {
+            return None;
+        }
+        let h: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
+        let m: Vec<f64> = (0..n - 1).map(|k| (y[k + 1] - y[k]) / h[k]).collect();
+        let mut d = vec![0.0; n];
+        if n == 2 {
+            d[0] = m[0];
+            d[1] = m[0];
+        } else {
+            for k in 1..n - 1 {
+                if m[k - 1] * m[k] > 0.0 {
+                    // Weighted harmonic mean of the neighbouring slopes.
+                    let w1 = 2.0 * h[k] + h[k - 1];
+                    let w2 = h[k] + 2.0 * h[k - 1];
+                    d[k] = (w1 + w2) / (w1 / m[k - 1] + w2 / m[k]);
+                }
+            }
+            d[0] = edge(h[0], h[1], m[0], m[1]);
+            d[n - 1] = edge(h[n - 2], h[n - 3], m[n - 2], m[n - 3]);
+        }
+        Some(Pchip {
+            x: x.to_vec(),
+            y: y.to_vec(),
+            d,
+        })
+    }
+
+    /// Smallest x.
+    pub fn start(&self) -> f64 {
+        self.x[0]
+    }
+
+    /// Largest x.
+    pub fn end(&self) -> f64 {
+        self.x[self.x.len() - 1]
+    }
+
+    /// The segment holding `x` (clamped to the first or last).
+    fn segment(&self, x: f64) -> usize {
+        let k = self.x.partition_point(|&v| v <= x);
+        k.clamp(1, self.x.len() - 1) - 1
+    }
+
+    /// The interpolant at `x` (the end segments' cubics extend beyond the data).
+    pub fn eval(&self, x: f64) -> f64 {
+        let k = self.segment(x);
+        let h = self.x[k + 1] - self.x[k];
+        let t = (x - self.x[k]) / h;
+        let (t2, t3) = (t * t, t * t * t);
+        (2.0 * t3 - 3.0 * t2 + 1.0) * self.y[k]
+            + (t3 - 2.0 * t2 + t) * h * self.d[k]
+            + (-2.0 * t3 + 3.0 * t2) * self.y[k + 1]
+            + (t3 - t2) * h * self.d[k + 1]
+    }
+
+    /// Integral of segment `k` from its start to local coordinate `t`.
+    fn partial(&self, k: usize, t: f64) -> f64 {
+        let h = self.x[k + 1] - self.x[k];
+        let (t2, t3, t4) = (t * t, t * t * t, t * t * t * t);
+        h * ((t4 / 2.0 - t3 + t) * self.y[k]
+            + (t4 / 4.0 - 2.0 * t3 / 3.0 + t2 / 2.0) * h * self.d[k]
+            + (t3 - t4 / 2.0) * self.y[k + 1]
+            + (t4 / 4.0 - t3 / 3.0) * h * self.d[k + 1])
+    }
+
+    /// Integral from the first knot to `x`.
+    fn cumulative(&self, x: f64) -> f64 {
+        let k = self.segment(x);
+        let whole: f64 = (0..k).map(|j| self.partial(j, 1.0)).sum();
+        whole + self.partial(k, (x - self.x[k]) / (self.x[k + 1] - self.x[k]))
+    }
+
+    /// Exact integral of the interpolant over `[a, b]`.
+    pub fn integral(&self, a: f64, b: f64) -> f64 {
+        self.cumulative(b) - self.cumulative(a)
+    }
+}
+
+/// Sign with `sign(0) = 0` (NumPy's, unlike `f64::signum`).
+fn sign(v: f64) -> f64 {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// SciPy's one-sided, shape-preserving end derivative.
+fn edge(h0: f64, h1: f64, m0: f64, m1: f64) -> f64 {
+    let d = ((2.0 * h0 + h1) * m0 - h0 * m1) / (h0 + h1);
+    if sign(d) != sign(m0) {
+        0.0
+    } else if sign(m0) != sign(m1) && d.abs() > 3.0 * m0.abs() {
+        3.0 * m0
+    } else {
+        d
+    }
+}
+
+/// The RD frontier of a set of points: sorted by rate, keeping only points whose
+/// quality beats every cheaper point (non-finite values and non-positive rates are
+/// dropped). The result has strictly increasing rate and quality.
+pub fn monotone_curve(points: &[RdPoint]) -> Vec<RdPoint> {
+    let mut pts: Vec<RdPoint> = points
+        .iter()
+        .copied()
+        .filter(|p| p.rate > 0.0 && p.rate.is_finite() && p.quality.is_finite())
+        .collect();
+    // Ties in rate: the better quality first, so it is the one kept.
+    pts.sort_by(|a, b| {
+        a.rate
+            .total_cmp(&b.rate)
+            .then(b.quality.total_cmp(&a.quality))
+    });
+    let mut out: Vec<RdPoint> = Vec::with_capacity(pts.len());
+    for p in pts {
+        match out.last() {
+            Some(last) if p.rate <= last.rate || p.quality <= last.quality => {}
+            _ => out.push(p),
+        }
+    }
+    out
+}
+
+/// Interpolants of `ln(rate)` over quality and of quality over `ln(rate)`.
+fn interpolants(points: &[RdPoint]) -> Result<(Pchip, Pchip), BdError> {
+    let c = monotone_curve(points);
+    let q: Vec<f64> = c.iter().map(|p| p.quality).collect();
+    let lr: Vec<f64> = c.iter().map(|p| p.rate.ln()).collect();
+    match (Pchip::new(&q, &lr), Pchip::new(&lr, &q)) {
+        (Some(a), Some(b)) => Ok((a, b)),
+        _ => Err(BdError::TooFewPoints),
+    }
+}
+
+/// Average difference `test - reference` of two interpolants over their common range.
+fn average_gap(reference: &Pchip, test: &Pchip) -> Result<f64, BdError> {
+    let lo = reference.start().max(test.start());
+    let hi = reference.end().min(test.end());
+    if hi <= lo {
+        return Err(BdError::NoOverlap);
+    }
+    Ok((test.integral(lo, hi) - reference.integral(lo, hi)) / (hi - lo))
+}
+
+/// BD-rate of `test` against `reference`, in percent (negative: `test` saves bits).
+pub fn bd_rate(reference: &[RdPoint], test: &[RdPoint]) -> Result<f64, BdError> {
+    let (r, _) = interpolants(reference)?;
+    let (t, _) = interpolants(test)?;
+    Ok((average_gap(&r, &t)?.exp() - 1.0) * 100.0)
+}
+
+/// BD-PSNR (BD-quality) of `test` against `reference`, in quality units (dB).
+pub fn bd_quality(reference: &[RdPoint], test: &[RdPoint]) -> Result<f64, BdError> {
+    let (_, r) = interpolants(reference)?;
+    let (_, t) = interpolants(test)?;
+    average_gap(&r, &t)
+}
+
+/// Quality interpolated at `rate` on a curve (PCHIP in `ln(rate)`), or `None`
+/// outside the measured rates: no extrapolation.
+pub fn quality_at_rate(points: &[RdPoint], rate: f64) -> Option<f64> {
+    let (_, q) = interpolants(points).ok()?;
+    let x = rate.ln();
+    // A tiny tolerance so a target hit exactly (up to rounding) still counts.
+    let eps = 1e-9;
+    (x >= q.start() - eps && x <= q.end() + eps).then(|| q.eval(x.clamp(q.start(), q.end())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn curve(rates: &[f64], q: &[f64]) -> Vec<RdPoint> {
+        rates
+            .iter()
+            .zip(q)
+            .map(|(&rate, &quality)| RdPoint { rate, quality })
+            .collect()
+    }
+
+    #[test]
+    fn pchip_reproduces_lines_and_their_integrals() {
+        let x = [0.0, 1.0, 3.0, 4.5];
+        let y: Vec<f64> = x.iter().map(|v| 2.0 * v - 1.0).collect();
+        let p = Pchip::new(&x, &y).unwrap();
+        for v in [0.0, 0.3, 1.0, 2.2, 4.5] {
+            assert!((p.eval(v) - (2.0 * v - 1.0)).abs() < 1e-12);
+        }
+        // Integral of 2x - 1 over [0.5, 4] = [x^2 - x] = 12 - (-0.25).
+        assert!((p.integral(0.5, 4.0) - 12.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn pchip_is_monotone_and_interpolates() {
+        let x = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let y = [0.0, 0.1, 5.0, 5.1, 5.2];
+        let p = Pchip::new(&x, &y).unwrap();
+        for (a, b) in x.iter().zip(&y) {
+            assert!((p.eval(*a) - b).abs() < 1e-12);
+        }
+        let mut last = f64::NEG_INFINITY;
+        for i in 0..=400 {
+            let v = p.eval(i as f64 / 100.0);
+            assert!(v >= last - 1e-12, "not monotone at {i}");
+            last = v;
+        }
+    }
+
+    #[test]
+    fn frontier_drops_dominated_points() {
+        let c = monotone_curve(&curve(
+            &[1.0, 2.0, 2.0, 3.0, 0.5],
+            &[30.0, 29.0, 33.0, 32.0, 25.0],
+        ));
+        assert_eq!(c, curve(&[0.5, 1.0, 2.0], &[25.0, 30.0, 33.0]));
+    }
+
+    #[test]
+    fn errors() {
+        let a = curve(&[1.0, 2.0], &[30.0, 35.0]);
+        assert_eq!(bd_rate(&a, &a[..1]), Err(BdError::TooFewPoints));
+        let b = curve(&[1.0, 2.0], &[40.0, 45.0]);
+        assert_eq!(bd_rate(&a, &b), Err(BdError::NoOverlap));
+        assert_eq!(quality_at_rate(&a, 3.0), None);
+        assert!((quality_at_rate(&a, 2.0).unwrap() - 35.0).abs() < 1e-9);
+    }
+}

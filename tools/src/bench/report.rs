@@ -1,0 +1,213 @@
+//! The benchmark report: a JSON document with every measurement and the summaries,
+//! and its Markdown rendering (one table per corpus class).
+
+use std::fmt::Write as _;
+
+use serde::{Deserialize, Serialize};
+
+use super::harness::{Failure, Measurement, Skip};
+use super::summary::{ClassSummary, ImageSummary, ALL_CLASSES};
+
+/// Value of the report's `format` field.
+pub const FORMAT: &str = "caoen-bench/1";
+
+/// What the quality numbers mean, stored in every report.
+pub const METRICS_NOTE: &str = "psnr: RGB PSNR pooled over the colour channels (alpha \
+excluded), peak 1.0 on the stored 8/16-bit values; float (HDR) images on a fixed log2 \
+scale (caoen::metrics). psnr_y: BT.601 luma of the stored values (HDR: log BT.709 \
+luminance). ssim: Wang et al. on that luma, 11x11 Gaussian window, sigma 1.5. \
+ssimulacra2: the ssimulacra2 crate, 8/16-bit images of at least 8x8. A null PSNR means \
+identical images. bpp: 8 x encoded bytes / pixels. BD-rate/BD-PSNR: Bjontegaard with PCHIP \
+in ln(rate) over the overlap of the two curves, per image against the reference codec, \
+averaged arithmetically.";
+
+/// A codec in the report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CodecInfo {
+    /// Name.
+    pub name: String,
+    /// Library and settings.
+    pub description: String,
+}
+
+/// An image in the report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ImageInfo {
+    /// Name.
+    pub name: String,
+    /// Class.
+    pub class: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `grey`, `grey-alpha`, `rgb` or `rgba`.
+    pub layout: String,
+    /// `u8`, `u16` or `f32`.
+    pub sample_format: String,
+}
+
+/// The whole report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// [`FORMAT`].
+    pub format: String,
+    /// Version of the `caoen` tool that wrote it.
+    pub version: String,
+    /// Where the images came from.
+    pub corpus: String,
+    /// The rate points as requested (`auto` or the list).
+    pub rates: String,
+    /// Timed runs per encode and decode.
+    pub repeat: usize,
+    /// The reference codec of the deltas.
+    pub reference: String,
+    /// What the metrics mean.
+    pub metrics: String,
+    /// The codecs, in the order asked for.
+    pub codecs: Vec<CodecInfo>,
+    /// The images, in corpus order.
+    pub images: Vec<ImageInfo>,
+    /// Every measured point.
+    pub measurements: Vec<Measurement>,
+    /// Image/codec pairs the codec cannot represent.
+    pub skipped: Vec<Skip>,
+    /// Points that failed.
+    pub failures: Vec<Failure>,
+    /// Per image and codec: times and deltas.
+    pub per_image: Vec<ImageSummary>,
+    /// Per class and codec (and `all`): PSNR at fixed rates, mean deltas, times.
+    pub classes: Vec<ClassSummary>,
+}
+
+impl Report {
+    /// The report as pretty JSON with a final newline.
+    pub fn to_json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self).expect("the report is plain data");
+        s.push('\n');
+        s
+    }
+
+    /// Markdown: one table per class (and one for the whole corpus), then notes on
+    /// skipped and failed points.
+    pub fn to_markdown(&self) -> String {
+        let mut md = String::new();
+        let mut classes: Vec<&str> = Vec::new();
+        for c in &self.classes {
+            if !classes.contains(&c.class.as_str()) {
+                classes.push(&c.class);
+            }
+        }
+        for class in classes {
+            let rows: Vec<&ClassSummary> =
+                self.classes.iter().filter(|c| c.class == class).collect();
+            let images = rows.iter().map(|r| r.images).max().unwrap_or(0);
+            let title = if class == ALL_CLASSES {
+                "all classes".to_string()
+            } else {
+                class.to_string()
+            };
+            let _ = writeln!(md, "### {title} ({images} images)\n");
+            let rates: Vec<String> = rows[0]
+                .psnr_at
+                .iter()
+                .map(|p| format!("PSNR@{:?}", p.bpp))
+                .collect();
+            let _ = writeln!(
+                md,
+                "| codec | {} | BD-rate vs {} | BD-PSNR | encode ms | decode ms |",
+                rates.join(" | "),
+                self.reference
+            );
+            let _ = writeln!(md, "|---|{}---|---|---|---|", "---|".repeat(rates.len()));
+            for r in rows {
+                let psnr: Vec<String> = r
+                    .psnr_at
+                    .iter()
+                    .map(|p| match p.psnr {
+                        None => "–".into(),
+                        Some(v) if p.images < r.images => {
+                            format!("{v:.2} ({}/{})", p.images, r.images)
+                        }
+                        Some(v) => format!("{v:.2}"),
+                    })
+                    .collect();
+                let partial = |s: String| {
+                    if r.bd_images < r.images {
+                        format!("{s} ({}/{})", r.bd_images, r.images)
+                    } else {
+                        s
+                    }
+                };
+                let (bd_rate, bd_psnr) = if r.codec == self.reference {
+                    ("(reference)".to_string(), String::new())
+                } else {
+                    (
+                        r.bd_rate
+                            .map_or("–".into(), |v| partial(format!("{v:+.1}%"))),
+                        r.bd_psnr.map_or("–".into(), |v| format!("{v:+.2} dB")),
+                    )
+                };
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {} | {} | {} | {} |",
+                    r.codec,
+                    psnr.join(" | "),
+                    bd_rate,
+                    bd_psnr,
+                    fmt_ms(r.encode_ms),
+                    fmt_ms(r.decode_ms)
+                );
+            }
+            md.push('\n');
+        }
+        if !self.skipped.is_empty() {
+            let _ = writeln!(md, "Skipped (the codec cannot represent the image):\n");
+            for s in &self.skipped {
+                let _ = writeln!(md, "- {} on {}: {}", s.codec, s.image, s.reason);
+            }
+            md.push('\n');
+        }
+        if !self.failures.is_empty() {
+            // Grouped by codec and message: a codec that cannot encode at all fails the
+            // same way on every point, and one line says so.
+            let _ = writeln!(md, "Failed points:\n");
+            let mut groups: Vec<(&str, &str, Vec<&str>)> = Vec::new();
+            for f in &self.failures {
+                match groups
+                    .iter_mut()
+                    .find(|(c, e, _)| *c == f.codec && *e == f.error)
+                {
+                    Some((_, _, images)) => images.push(&f.image),
+                    None => groups.push((&f.codec, &f.error, vec![&f.image])),
+                }
+            }
+            for (codec, error, images) in groups {
+                let mut distinct = images.clone();
+                distinct.dedup();
+                let _ = writeln!(
+                    md,
+                    "- {codec}, {} points on {} images ({}): {error}",
+                    images.len(),
+                    distinct.len(),
+                    distinct.join(", ")
+                );
+            }
+            md.push('\n');
+        }
+        md
+    }
+}
+
+/// Times with sensible precision.
+fn fmt_ms(v: f64) -> String {
+    if !v.is_finite() {
+        "–".into()
+    } else if v < 10.0 {
+        format!("{v:.2}")
+    } else if v < 100.0 {
+        format!("{v:.1}")
+    } else {
+        format!("{v:.0}")
+    }
+}

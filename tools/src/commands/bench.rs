@@ -1,0 +1,215 @@
+//! `caoen bench`: runs the RD benchmark and writes its report, tables and plots.
+
+use std::time::{Duration, Instant};
+
+use caoen::raster::{ChannelLayout, SampleFormat};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::bench::codecs::{self, Codec};
+use crate::bench::corpus::{self, Source};
+use crate::bench::harness::{self, Config, Rates};
+use crate::bench::report::{CodecInfo, ImageInfo, Report, FORMAT, METRICS_NOTE};
+use crate::bench::{plot, summary, BenchArgs};
+use crate::cli::GlobalArgs;
+use crate::commands::note;
+use crate::failure::{CliError, CliResult};
+use crate::output::write_file;
+
+/// The codecs benchmarked when `--codecs` is not given.
+fn default_codecs() -> Vec<String> {
+    if cfg!(feature = "peers") {
+        vec!["caoen".into(), "jpeg".into(), "webp".into()]
+    } else {
+        vec!["caoen".into()]
+    }
+}
+
+/// Runs `caoen bench`.
+pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
+    let names = args.codecs.clone().unwrap_or_else(default_codecs);
+    let mut codecs: Vec<Box<dyn Codec>> = Vec::new();
+    for name in &names {
+        if codecs.iter().any(|c| c.name() == name) {
+            return Err(CliError::Usage(format!("codec `{name}` given twice")));
+        }
+        codecs.push(codecs::by_name(name, args.effort).map_err(CliError::Usage)?);
+    }
+    if !cfg!(feature = "peers") {
+        note(
+            global,
+            "note: this build has no peer codecs; for JPEG and WebP beside caoen run \
+             `cargo run --release --features peers -- bench ...`",
+        );
+    }
+    let reference = match &args.reference {
+        Some(r) if names.contains(r) => r.clone(),
+        Some(r) => {
+            return Err(CliError::Usage(format!(
+                "reference codec `{r}` is not among --codecs ({})",
+                names.join(",")
+            )))
+        }
+        None if names.iter().any(|n| n == "jpeg") => "jpeg".into(),
+        None => names[0].clone(),
+    };
+    let rates: Rates = args.rates.parse().map_err(CliError::Usage)?;
+    if let Some(p) = &args.plot {
+        let ok = p
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png") || e.eq_ignore_ascii_case("svg"));
+        if !ok {
+            return Err(CliError::Usage(format!(
+                "--plot {}: use a .png or .svg file name",
+                p.display()
+            )));
+        }
+    }
+    let source = match &args.corpus {
+        Some(dir) => Source::Dir(dir.clone()),
+        None => {
+            for c in &args.classes {
+                c.parse::<caoen_corpus::Class>()
+                    .map_err(|e| CliError::Usage(e.to_string()))?;
+            }
+            Source::Generated {
+                size: args.size,
+                seeds: args.seeds,
+            }
+        }
+    };
+    // Accept class aliases (`flat`, `edge`) by mapping them to the corpus names.
+    let classes: Vec<String> = args
+        .classes
+        .iter()
+        .map(|c| {
+            c.parse::<caoen_corpus::Class>()
+                .map(|k| k.name().to_string())
+                .unwrap_or_else(|_| c.clone())
+        })
+        .collect();
+    if let Some(dir) = &args.keep {
+        std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, e))?;
+    }
+
+    let started = Instant::now();
+    note(global, format!("loading images: {}", source.describe()));
+    let images = corpus::load(&source, &classes).map_err(CliError::Failed)?;
+    let total: u64 = images.len() as u64
+        * codecs
+            .iter()
+            .map(|c| harness::points_per_image(c.as_ref(), &rates) as u64)
+            .sum::<u64>();
+    note(
+        global,
+        format!(
+            "benchmarking {} images x {} ({total} points)",
+            images.len(),
+            names.join(", ")
+        ),
+    );
+    let bar = if global.quiet {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+        b.set_style(
+            ProgressStyle::with_template(
+                "{bar:30} {pos}/{len} points, {elapsed} elapsed, ETA {eta}  {msg}",
+            )
+            .expect("valid template"),
+        );
+        b.enable_steady_tick(Duration::from_millis(250));
+        b
+    };
+    let config = Config {
+        codecs,
+        rates,
+        repeat: args.repeat as usize,
+        keep: args.keep.clone(),
+    };
+    let outcome = harness::run(&images, &config, &bar);
+    bar.finish_and_clear();
+
+    let per_image = summary::per_image(&outcome.measurements, &names, &reference);
+    let classes = summary::per_class(&outcome.measurements, &per_image, &names);
+    let report = Report {
+        format: FORMAT.into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        corpus: source.describe(),
+        rates: args.rates.clone(),
+        repeat: config.repeat,
+        reference,
+        metrics: METRICS_NOTE.into(),
+        codecs: config
+            .codecs
+            .iter()
+            .map(|c| CodecInfo {
+                name: c.name().into(),
+                description: c.description(),
+            })
+            .collect(),
+        images: images
+            .iter()
+            .map(|i| ImageInfo {
+                name: i.name.clone(),
+                class: i.class.clone(),
+                width: i.raster.width(),
+                height: i.raster.height(),
+                layout: match i.raster.layout() {
+                    ChannelLayout::Grey => "grey",
+                    ChannelLayout::GreyAlpha => "grey-alpha",
+                    ChannelLayout::Rgb => "rgb",
+                    ChannelLayout::Rgba => "rgba",
+                }
+                .into(),
+                sample_format: match i.raster.format() {
+                    SampleFormat::U8 => "u8",
+                    SampleFormat::U16 => "u16",
+                    SampleFormat::F32 => "f32",
+                }
+                .into(),
+            })
+            .collect(),
+        measurements: outcome.measurements,
+        skipped: outcome.skipped,
+        failures: outcome.failures,
+        per_image,
+        classes,
+    };
+
+    let markdown = report.to_markdown();
+    print!("{markdown}");
+    if let Some(path) = &args.report {
+        write_file(path, report.to_json().as_bytes())?;
+        note(global, format!("wrote {}", path.display()));
+    }
+    if let Some(path) = &args.markdown {
+        write_file(path, markdown.as_bytes())?;
+        note(global, format!("wrote {}", path.display()));
+    }
+    if let Some(base) = &args.plot {
+        for p in plot::write_plots(base, &report.measurements, &names).map_err(CliError::Failed)? {
+            note(global, format!("wrote {}", p.display()));
+        }
+    }
+    note(
+        global,
+        format!(
+            "{} points measured, {} skipped pairs, {} failed, in {:.1} s",
+            report.measurements.len(),
+            report.skipped.len(),
+            report.failures.len(),
+            started.elapsed().as_secs_f64()
+        ),
+    );
+    if let Some(first) = report.failures.first() {
+        return Err(CliError::Failed(format!(
+            "{} points failed (listed in the report and the tables); the first: {} on {} at {}: {}",
+            report.failures.len(),
+            first.codec,
+            first.image,
+            first.target,
+            first.error
+        )));
+    }
+    Ok(())
+}

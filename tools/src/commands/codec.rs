@@ -1,0 +1,280 @@
+//! `caoen encode`, `caoen decode`, `caoen info`: the image codec on files.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use caoen::codec::bitstream::{self, tag};
+use caoen::codec::{decoder, keypoint_map, DecodeOptions, EncodeOptions, RateTarget};
+use caoen::image_io;
+use caoen::raster::Raster;
+use serde_json::json;
+
+use crate::cli::{DecodeArgs, EncodeArgs, GlobalArgs, InfoArgs};
+use crate::commands::note;
+use crate::failure::{CliError, CliResult};
+use crate::output::Target;
+
+fn read_input(path: &Path) -> CliResult<Vec<u8>> {
+    if path.as_os_str() == "-" {
+        let mut buf = Vec::new();
+        std::io::Read::read_to_end(&mut std::io::stdin(), &mut buf)
+            .map_err(|e| CliError::io("<stdin>", e))?;
+        return Ok(buf);
+    }
+    std::fs::read(path).map_err(|e| CliError::io(path, e))
+}
+
+/// Loads an image file into a raster, with a clear error naming the file.
+pub fn load_image(path: &Path) -> CliResult<Raster> {
+    image_io::load(path).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+}
+
+fn codec_err(path: &Path, e: caoen::codec::CodecError) -> CliError {
+    match e {
+        caoen::codec::CodecError::Parameter { .. } => CliError::Usage(e.to_string()),
+        e => CliError::Failed(format!("{}: {e}", path.display())),
+    }
+}
+
+fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBar> {
+    if global.quiet {
+        return None;
+    }
+    let pb =
+        indicatif::ProgressBar::with_draw_target(Some(1), indicatif::ProgressDrawTarget::stderr());
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    Some(pb)
+}
+
+/// Encodes an image, writing `.cae`.
+pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
+    let img = load_image(&a.input)?;
+    let target = match (a.target_bpp, a.target_size) {
+        (Some(_), Some(_)) => {
+            return Err(CliError::Usage(
+                "give --target-bpp or --target-size, not both".into(),
+            ))
+        }
+        (Some(b), None) => Some(RateTarget::BitsPerPixel(b)),
+        (None, Some(n)) => Some(RateTarget::Bytes(n)),
+        (None, None) => None,
+    };
+    let opts = EncodeOptions {
+        quality: a.quality,
+        effort: a.effort,
+        target,
+        keypoints: a.keypoints,
+    };
+    let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
+    if let Target::Default(p) = &out {
+        if p.exists() && !a.force {
+            return Err(CliError::Failed(format!(
+                "{} exists; pass -f/--force to overwrite it or -o to name the output",
+                p.display()
+            )));
+        }
+    }
+    let pb = progress_bar(global, "encoding");
+    let start = Instant::now();
+    let (bytes, stats) = caoen::codec::encode_with_progress(&img, &opts, |done, total| {
+        if let Some(pb) = &pb {
+            pb.set_length(total as u64);
+            pb.set_position(done as u64);
+        }
+    })
+    .map_err(|e| codec_err(&a.input, e))?;
+    let secs = start.elapsed().as_secs_f64();
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    out.write(&bytes, a.force)?;
+    let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
+    if let Some(map) = &a.keypoint_map {
+        let decoded = decoder::read(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
+        let picture = keypoint_map::render(&img, &decoded);
+        image_io::save(&picture, map)
+            .map_err(|e| CliError::Failed(format!("{}: {e}", map.display())))?;
+        note(global, format!("wrote key point map {}", map.display()));
+    }
+    if a.json {
+        let v = json!({"input": a.input, "output": out.display(), "bytes": bytes.len(), "bpp": bpp,
+            "width": img.width(), "height": img.height(), "luma_keypoints": stats.luma_keypoints,
+            "chroma_keypoints": stats.chroma_keypoints, "seconds": secs});
+        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+    }
+    note(
+        global,
+        format!(
+            "{} -> {}: {} bytes, {bpp:.4} bpp, {} + {} key points, {secs:.2} s",
+            a.input.display(),
+            out.display(),
+            bytes.len(),
+            stats.luma_keypoints,
+            stats.chroma_keypoints
+        ),
+    );
+    Ok(())
+}
+
+fn default_output(input: &Path, ext: &str) -> PathBuf {
+    let stem = input
+        .file_stem()
+        .map_or_else(|| "out".into(), |s| s.to_string_lossy().into_owned());
+    input.with_file_name(format!("{stem}.{ext}"))
+}
+
+fn parse_size(s: &str) -> CliResult<(u32, u32)> {
+    let bad = || CliError::Usage(format!("`{s}`: expected WxH like 1536x1024"));
+    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    Ok((a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?))
+}
+
+/// Decodes (or, without `-o`, validates) a `.cae` file.
+pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
+    let bytes = read_input(&a.input)?;
+    let parsed = bitstream::parse(&bytes, a.max_pixels).map_err(|e| codec_err(&a.input, e))?;
+    let (w, h) = (parsed.header.width, parsed.header.height);
+    let size = match (&a.size, a.scale) {
+        (Some(_), Some(_)) => {
+            return Err(CliError::Usage("give --size or --scale, not both".into()))
+        }
+        (Some(s), None) => Some(parse_size(s)?),
+        (None, Some(f)) if f.is_finite() && f > 0.0 => Some((
+            ((w as f64 * f).round() as u32).max(1),
+            ((h as f64 * f).round() as u32).max(1),
+        )),
+        (None, Some(f)) => {
+            return Err(CliError::Usage(format!(
+                "--scale {f}: must be a positive number"
+            )))
+        }
+        (None, None) => None,
+    };
+    let opts = DecodeOptions {
+        size,
+        supersample: a.supersample,
+        max_pixels: a.max_pixels,
+    };
+    let start = Instant::now();
+    let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
+    let secs = start.elapsed().as_secs_f64();
+    match &a.output {
+        None => note(
+            global,
+            format!(
+                "{}: valid, {}x{} decoded in {secs:.3} s",
+                a.input.display(),
+                img.width(),
+                img.height()
+            ),
+        ),
+        Some(out) => {
+            let encoded = if out.as_os_str() == "-" {
+                image_io::encode(&img, image_io::OutputFormat::natural(img.format()))
+            } else {
+                let fmt = image_io::OutputFormat::for_path(out, img.format()).ok_or_else(|| {
+                    CliError::Usage(format!(
+                        "{}: output must end in .png or .exr",
+                        out.display()
+                    ))
+                })?;
+                image_io::encode(&img, fmt)
+            }
+            .map_err(|e| CliError::Failed(format!("{}: {e}", out.display())))?;
+            let target = Target::from_arg(Some(out), PathBuf::new);
+            target.write(&encoded, true)?;
+            note(
+                global,
+                format!(
+                    "{} -> {}: {}x{} in {secs:.3} s",
+                    a.input.display(),
+                    target.display(),
+                    img.width(),
+                    img.height()
+                ),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Describes a `.cae` file: header, sections, key points.
+pub fn info(a: &InfoArgs) -> CliResult {
+    let bytes = read_input(&a.input)?;
+    let parsed = bitstream::parse(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
+    let h = &parsed.header;
+    let sections: Vec<_> = parsed
+        .sections
+        .iter()
+        .map(|s| {
+            let name = match s.tag {
+                tag::HEADER => "header",
+                tag::TREE => "tree",
+                tag::LUMA => "luma values",
+                tag::CHROMA => "chroma values",
+                tag::END => "end",
+                _ => "unknown",
+            };
+            (s.tag as char, name, s.offset, s.payload.len() + 9)
+        })
+        .collect();
+    let px = h.width as f64 * h.height as f64;
+    if a.json {
+        let v = json!({
+            "file": a.input, "bytes": bytes.len(), "bpp": bytes.len() as f64 * 8.0 / px,
+            "version": bitstream::VERSION, "width": h.width, "height": h.height,
+            "channels": h.layout.channels(), "alpha": h.layout.has_alpha(),
+            "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
+            "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
+            "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
+            "step_alpha": h.step_alpha, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+            "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+        return Ok(());
+    }
+    println!(
+        "file:        {} ({} bytes, {:.4} bpp)",
+        a.input.display(),
+        bytes.len(),
+        bytes.len() as f64 * 8.0 / px
+    );
+    println!("format:      caoen version {}", bitstream::VERSION);
+    println!(
+        "image:       {}x{}, {:?}, {:?} samples",
+        h.width, h.height, h.layout, h.format
+    );
+    println!(
+        "tree:        blocks of {} px, cells down to {} px",
+        1 << h.block_log2,
+        1 << h.min_log2
+    );
+    println!(
+        "kernel:      compact, sigma = {} x cell, weight = cell^-{}",
+        h.kernel.sigma_factor, h.kernel.weight_exponent
+    );
+    println!(
+        "key points:  {} luma, {} chroma{}",
+        h.luma_count,
+        h.chroma_count,
+        if h.chroma_pruned {
+            " (pruned tree)"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "quantiser:   luma {}, chroma {}, alpha {}",
+        h.step_luma, h.step_chroma, h.step_alpha
+    );
+    println!("sections:");
+    for (t, n, o, b) in &sections {
+        println!("  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
+    }
+    Ok(())
+}
