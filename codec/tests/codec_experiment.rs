@@ -72,3 +72,96 @@ fn rate_distortion_sweep() {
         );
     }
 }
+
+/// FILES=a.png,b.png QS=... : prints "file quality bpp psnr" lines for the RD scripts.
+#[test]
+#[ignore]
+fn rd_points_for_files() {
+    let files = std::env::var("FILES").unwrap();
+    let qs: Vec<f32> = std::env::var("QS").unwrap_or("20,35,50,60,70,80,90".into()).split(',').map(|s| s.parse().unwrap()).collect();
+    let effort: u8 = std::env::var("EFFORT").unwrap_or("5".into()).parse().unwrap();
+    for f in files.split(',') {
+        let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
+        for &q in &qs {
+            let t = std::time::Instant::now();
+            let bytes = caoen::codec::encode(&img, &EncodeOptions { quality: q, effort, ..Default::default() }).unwrap();
+            let te = t.elapsed().as_secs_f64();
+            let dec = decode(&bytes, &DecodeOptions::default()).unwrap();
+            let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
+            println!("RD {} {q} {bpp:.4} {:.3} {te:.2}", f.rsplit('/').next().unwrap(), psnr(&img, &dec));
+        }
+    }
+}
+
+/// Like `rd_points_for_files` but with internal settings overridden from the
+/// environment (STEPK, CSTEP, SIGMA, WEXP, RIDGE, MINLOG, GROWTH, ROUNDS), and the
+/// section sizes printed: "RD file q bpp psnr secs tree luma chroma nluma".
+#[test]
+#[ignore]
+fn rd_settings_for_files() {
+    use caoen::codec::{bitstream, encoder, rate_control};
+    let env = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
+    let files = std::env::var("FILES").unwrap();
+    let qs: Vec<f32> = std::env::var("QS").unwrap_or("20,35,50,60,70,80,90".into()).split(',').map(|s| s.parse().unwrap()).collect();
+    let effort: u8 = std::env::var("EFFORT").unwrap_or("5".into()).parse().unwrap();
+    for f in files.split(',') {
+        let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
+        for &q in &qs {
+            let t = std::time::Instant::now();
+            let mut s = rate_control::settings(q, effort, None);
+            let cratio = s.step_chroma / s.step_luma;
+            if let Some(k) = env("STEPK") {
+                let base = s.step_luma / rate_control::STEP_FACTOR;
+                s.step_luma = k * base;
+                s.step_alpha = k * base;
+                s.step_chroma = k * base * env("CSTEP").unwrap_or(cratio);
+            } else if let Some(c) = env("CSTEP") {
+                s.step_chroma = c * s.step_luma;
+            }
+            if let Some(v) = env("SIGMA") { s.model.kernel.sigma_factor = v; }
+            if let Some(v) = env("WEXP") { s.model.kernel.weight_exponent = v; }
+            if let Some(v) = env("RIDGE") { s.model.ridge = v; }
+            if let Some(v) = env("MINLOG") { s.model.min_log2 = v as u8; }
+            if let Some(v) = env("GROWTH") { s.model.growth = v; }
+            if let Some(v) = env("ROUNDS") { s.model.rounds = v as usize; }
+            if let Some(v) = env("TSCALE") { s.model.split_threshold *= v; }
+            if let Some(v) = env("DZ") { s.deadzone = v; }
+            match std::env::var("ABL").unwrap_or_default().as_str() {
+                "sampled" => s.model.least_squares = false,
+                "grid" => s.model.uniform_grid = true,
+                "rgb" => { s.decorrelate = false; s.model.chroma_pruned = false; s.step_chroma = s.step_luma; }
+                "chroma" => s.model.chroma_pruned = false,
+                "noanalysis" => s.model.analysis_start = false,
+                "" => {}
+                a => panic!("unknown ablation {a}"),
+            }
+            let planes = encoder::prepare(&img).unwrap();
+            let (bytes, stats) = encoder::encode_with(&img, &planes, &s, |_, _| {}).unwrap();
+            let te = t.elapsed().as_secs_f64();
+            let quality = if s.decorrelate {
+                psnr(&img, &decode(&bytes, &DecodeOptions::default()).unwrap())
+            } else {
+                // Raw-RGB ablation: the planes are RGB already.
+                let d = caoen::codec::decoder::read(&bytes, u64::MAX).unwrap();
+                let planes = caoen::codec::decoder::render_identity(&d, img.width(), img.height());
+                let q = |v: f64| (v.clamp(0.0, 1.0) * 255.0).round();
+                let mut se = 0.0;
+                for c in 0..3 {
+                    for (a, b) in img.plane(c).iter().zip(&planes.colour[c]) {
+                        se += (q(*a as f64) - q(*b)).powi(2);
+                    }
+                }
+                10.0 * (255.0f64 * 255.0 / (se / (3 * img.pixel_count()) as f64)).log10()
+            };
+            let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
+            let p = bitstream::parse(&bytes, u64::MAX).unwrap();
+            let sz = |t: u8| p.payload(t).map_or(0, |x| x.len());
+            println!(
+                "RD {} {q} {bpp:.4} {:.3} {te:.2} {} {} {} {}",
+                f.rsplit('/').next().unwrap(),
+                quality,
+                sz(bitstream::tag::TREE), sz(bitstream::tag::LUMA), sz(bitstream::tag::CHROMA), stats.luma_keypoints
+            );
+        }
+    }
+}

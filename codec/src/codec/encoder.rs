@@ -20,11 +20,21 @@ pub struct EncodeStats {
     pub bytes: usize,
 }
 
-fn quantise(values: &[f64], step: f64) -> Vec<i64> {
-    values
-        .iter()
-        .map(|v| ((v / step).round() as i64).clamp(-MAX_VALUE, MAX_VALUE))
-        .collect()
+/// Quantises one channel in coding order against the decoder's own prediction, with
+/// a dead zone: the residual's magnitude is rounded down unless its fraction exceeds
+/// `0.5 + deadzone`, trading a little distortion for many zero or smaller residuals.
+fn quantise(nbs: &[syntax::Neighbours], values: &[f64], step: f64, deadzone: f64) -> Vec<i64> {
+    let mut out = vec![0i64; values.len()];
+    let mut previous = 0;
+    for i in 0..values.len() {
+        let (pred, _) = syntax::predict(&out, &nbs[i], previous);
+        let r = values[i] / step - pred as f64;
+        let m = (r.abs() + 0.5 - deadzone).floor().max(0.0);
+        let v = (pred + (r.signum() * m) as i64).clamp(-MAX_VALUE, MAX_VALUE);
+        out[i] = v;
+        previous = v;
+    }
+    out
 }
 
 /// Entropy-codes a fitted model into a file.
@@ -58,7 +68,8 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
         } else {
             header.step_alpha
         } as f64;
-        syntax::write_values(&model.luma_cells, &nbs, &quantise(values, step), &mut luma);
+        let q = quantise(&nbs, values, step, s.deadzone);
+        syntax::write_values(&model.luma_cells, &nbs, &q, &mut luma);
     }
     let chroma = (!model.chroma_cells.is_empty()).then(|| {
         let mut sink = RangeSink::new();
@@ -67,7 +78,7 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
             syntax::write_values(
                 &model.chroma_cells,
                 &nbs,
-                &quantise(values, header.step_chroma as f64),
+                &quantise(&nbs, values, header.step_chroma as f64, s.deadzone),
                 &mut sink,
             );
         }
@@ -108,6 +119,18 @@ pub fn encode_with(
     s.step_luma = s.step_luma as f32 as f64;
     s.step_chroma = s.step_chroma as f32 as f64;
     s.step_alpha = s.step_alpha as f32 as f64;
+    let rgb;
+    let planes = if !s.decorrelate && planes.colour.len() == 3 {
+        rgb = CodingPlanes {
+            colour: (0..3)
+                .map(|c| img.plane(c).iter().map(|&v| v as f64).collect())
+                .collect(),
+            alpha: planes.alpha.clone(),
+        };
+        &rgb
+    } else {
+        planes
+    };
     let model = model::build(planes, img.width(), img.height(), &s.model, progress);
     Ok(write_model(img, &model, &s))
 }

@@ -14,7 +14,21 @@ pub struct EncodeSettings {
     pub step_chroma: f64,
     /// Quantiser step of alpha.
     pub step_alpha: f64,
+    /// Dead zone of the predictive quantiser (0: plain rounding of the residual).
+    pub deadzone: f64,
+    /// Code the colour channels in opponent space (else raw RGB on one tree: an
+    /// ablation switch only; such files do not decode to the right colours).
+    pub decorrelate: bool,
 }
+
+/// Luma quantiser step per square root of the split threshold (measured: 0.012 cost
+/// +30% BD-rate against 0.1; the optimum is flat between 0.07 and 0.14).
+pub const STEP_FACTOR: f64 = 0.1;
+/// Chroma step relative to luma (measured on the RD benchmark; 1.6 was 10% worse).
+pub const CHROMA_STEP_RATIO: f64 = 0.7;
+
+/// Dead zone of the predictive quantiser (measured: 0.15 saves 6% over plain rounding).
+pub const DEADZONE: f64 = 0.15;
 
 /// Settings for quality `q` (0..=100) and effort `e` (1..=9).
 ///
@@ -24,7 +38,7 @@ pub struct EncodeSettings {
 pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSettings {
     let q = quality.clamp(0.0, 100.0) as f64;
     let threshold = 10f64.powf(2.0 - 4.0 * q / 100.0);
-    let step = (0.012 * threshold.sqrt()).clamp(2e-4, 0.25);
+    let step = (STEP_FACTOR * threshold.sqrt()).clamp(2e-4, 2.0);
     let e = effort.clamp(1, 9) as usize;
     let model = ModelSettings {
         split_threshold: threshold,
@@ -42,8 +56,10 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
     EncodeSettings {
         model,
         step_luma: step,
-        step_chroma: 1.6 * step,
+        step_chroma: CHROMA_STEP_RATIO * step,
         step_alpha: step,
+        deadzone: DEADZONE,
+        decorrelate: true,
     }
 }
 
