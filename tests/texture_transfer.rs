@@ -209,3 +209,41 @@ fn cli_transfer_png_obj_and_errors() {
         Some(1)
     );
 }
+
+#[test]
+fn textured_morph_keeps_the_texture_attached() {
+    // Five frames of examples/morph-a.json -> morph-b.json: every mesh vertex keeps the
+    // texture coordinates of its domain point, whatever the shape does. With
+    // CAOEN_WRITE_EXAMPLES=1 the frames are written as textured surface files to
+    // examples/morph-textured/ (render them with `caoen surface render`).
+    use caoen::render::mesh::{tessellate, NormalMode};
+    use caoen::surface::{morph::morph, SurfaceModel};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let a = SurfaceModel::load(&root.join("examples/morph-a.json")).unwrap();
+    let b = SurfaceModel::load(&root.join("examples/morph-b.json")).unwrap();
+    let write = std::env::var_os("CAOEN_WRITE_EXAMPLES").is_some();
+    for k in 0..5 {
+        let u = k as f64 / 4.0;
+        let net = morph(&a.network, &b.network, u).unwrap();
+        let model = SurfaceModel::new(format!("morph-{k}"), a.domain, net)
+            .unwrap()
+            .with_texture("../checker.png");
+        let mesh = tessellate(&model, 3, NormalMode::Exact).unwrap();
+        for (t, uvs) in mesh.triangles.iter().zip(&mesh.corner_uvs) {
+            for c in 0..3 {
+                let x = &mesh.domain_points[t[c] as usize];
+                if x[0].hypot(x[1]) < 1e-9 {
+                    continue; // poles: u is a convention there
+                }
+                let want = domain_uv(&model.domain, x).unwrap();
+                let du = (uvs[c][0] - want[0]).rem_euclid(1.0);
+                assert!(du.min(1.0 - du) < 1e-9 && (uvs[c][1] - want[1]).abs() < 1e-9);
+            }
+        }
+        if write {
+            let dir = root.join("examples/morph-textured");
+            std::fs::create_dir_all(&dir).unwrap();
+            model.save(&dir.join(format!("frame-{k}.json"))).unwrap();
+        }
+    }
+}
