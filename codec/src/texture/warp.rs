@@ -122,10 +122,11 @@ impl Warp {
                 return Err(TextureError::Invalid(format!("move {m:?} is not finite")));
             }
         }
-        if !(opts.sigma_factor > 0.0 && opts.sigma_factor.is_finite())
-            || !(0.0..0.5).contains(&opts.rigid_factor)
-            || opts.anchor_cells == 0
-        {
+        let valid = opts.sigma_factor > 0.0
+            && opts.sigma_factor.is_finite()
+            && (0.0..0.5).contains(&opts.rigid_factor)
+            && opts.anchor_cells > 0;
+        if !valid {
             return Err(TextureError::Invalid("bad warp options".into()));
         }
         if moves.len() > MAX_KEY_POINTS / 8 {
@@ -564,7 +565,8 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
     let (w, h) = (hd.width as usize, hd.height as usize);
     let nl = d.luma_values.len();
     let nc = nl + chroma.as_ref().map_or(0, |_| 2);
-    let rows: Vec<(Vec<f64>, Vec<f64>, Option<Vec<f64>>)> = (0..h)
+    type Row = (Vec<f64>, Vec<f64>, Option<Vec<f64>>);
+    let rows: Vec<Row> = (0..h)
         .into_par_iter()
         .map(|y| -> Result<_, TextureError> {
             let pts = row_samples(w, y, s);
