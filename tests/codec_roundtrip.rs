@@ -162,33 +162,20 @@ fn identity_and_forward_mapping_paths_agree() {
     let img = corpus(caoen_corpus::Class::Scene, 192, 128, 2);
     let bytes = encode(&img, &q(70.0)).unwrap();
     let id = decode(&bytes, &DecodeOptions::default()).unwrap();
-    let s1 = decode(
-        &bytes,
-        &DecodeOptions {
-            supersample: Some(1),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    let s2 = decode(
-        &bytes,
-        &DecodeOptions {
-            supersample: Some(2),
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    assert!(
-        psnr(&id, &s1) > 90.0,
-        "S=1 forward mapping is the identity path: {:.1} dB",
-        psnr(&id, &s1)
-    );
-    assert!(psnr(&id, &s2) > 45.0, "S=2: {:.1} dB", psnr(&id, &s2));
-    eprintln!(
-        "forward mapping vs identity: S=1 {:.1} dB, S=2 {:.1} dB",
-        psnr(&id, &s1),
-        psnr(&id, &s2)
-    );
+    for s in 1..=4 {
+        let fwd = decode(
+            &bytes,
+            &DecodeOptions {
+                supersample: Some(s),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        // Same model, two evaluators (fast path vs core network): only rounding differs.
+        let p = psnr(&id, &fwd);
+        assert!(p > 50.0, "S={s}: forward mapping vs identity {p:.1} dB");
+        eprintln!("forward mapping S={s} vs identity: {p:.1} dB");
+    }
 }
 
 #[test]

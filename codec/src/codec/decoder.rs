@@ -180,6 +180,14 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes {
 }
 
 /// Forward mapping through the core network with `s x s` samples per output pixel.
+///
+/// Samples lie on the lattice refined by `1/s` that contains every output pixel centre;
+/// each mapped sample is splatted with a tent one lattice step wide (linear splatting),
+/// so a sample landing on a pixel centre decides that pixel alone and samples between
+/// centres interpolate. An unedited file therefore reproduces the identity path, and a
+/// warped one is reconstructed from `s x s` times denser samples. Along an axis where
+/// the output is smaller than the coded image, the tent widens to one output pixel (a
+/// triangle filter), so the extra samples anti-alias the downscale.
 pub fn render_forward(d: &Decoded, ow: u32, oh: u32, s: u32) -> Result<CodingPlanes, CodecError> {
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
@@ -204,64 +212,92 @@ pub fn render_forward(d: &Decoded, ow: u32, oh: u32, s: u32) -> Result<CodingPla
     let (owu, ohu) = (ow as usize, oh as usize);
     let nl = d.luma_values.len();
     let nc = nl + chroma_net.as_ref().map_or(0, |_| 2);
-    // Each output row's samples, mapped and splatted; rows are independent.
-    let rows: Vec<(Vec<f64>, Vec<f64>)> = (0..ohu)
-        .into_par_iter()
-        .map(|oy| -> Result<_, CodecError> {
-            let ss = s as usize;
-            let mut domain = Vec::with_capacity(owu * ss * ss * 3);
-            let mut pos = Vec::with_capacity(owu * ss * ss * 2);
-            for b in 0..ss {
-                for ox in 0..owu {
-                    for a in 0..ss {
-                        let x = (ox as f64 + (a as f64 + 0.5) / s as f64) * sx;
-                        let y = (oy as f64 + (b as f64 + 0.5) / s as f64) * sy;
-                        domain.extend(frame.embed(x, y));
-                        pos.extend([x, y]);
-                    }
-                }
-            }
-            let ly = luma_net.eval_batch(&domain)?;
-            let cy = chroma_net
-                .as_ref()
-                .map(|n| n.eval_batch(&domain))
-                .transpose()?;
-            let mut acc = vec![0.0; owu * nc];
-            let mut weight = vec![0.0; owu];
-            let (pl, pc) = (2 + nl, 4);
-            for k in 0..pos.len() / 2 {
-                // Output position = sample position + interpolated displacement.
-                let x = (pos[2 * k] + ly[k * pl]) / sx;
-                let y = (pos[2 * k + 1] + ly[k * pl + 1]) / sy;
-                let (px, py) = (x.floor(), y.floor());
-                if py as isize != oy as isize || px < 0.0 || px >= ow as f64 {
-                    // Splats into other rows happen only for edited files; they are
-                    // handled by the hole fill of those rows.
-                    continue;
-                }
-                let px = px as usize;
-                weight[px] += 1.0;
-                for c in 0..nl {
-                    acc[px * nc + c] += ly[k * pl + 2 + c];
-                }
-                if let Some(cy) = &cy {
-                    acc[px * nc + nl] += cy[k * pc + 2];
-                    acc[px * nc + nl + 1] += cy[k * pc + 3];
-                }
-            }
-            Ok((acc, weight))
-        })
-        .collect::<Result<_, _>>()?;
+    let ss = s as usize;
+    let step = 1.0 / s as f64;
+    let first = -((ss / 2) as f64) * step;
     let mut planes = vec![vec![0.0; owu * ohu]; nc];
     let mut weight = vec![0.0; owu * ohu];
-    for (oy, (acc, wrow)) in rows.iter().enumerate() {
-        for ox in 0..owu {
-            let wgt = wrow[ox];
-            weight[oy * owu + ox] = wgt;
-            if wgt > 0.0 {
-                for c in 0..nc {
-                    planes[c][oy * owu + ox] = acc[ox * nc + c] / wgt;
+    // Rows are sampled in parallel in bands, then splatted in a fixed order.
+    const BAND: usize = 16;
+    for band in (0..ohu).step_by(BAND) {
+        let rows: Vec<Vec<f64>> = (band..(band + BAND).min(ohu))
+            .into_par_iter()
+            .map(|oy| -> Result<Vec<f64>, CodecError> {
+                let mut domain = Vec::with_capacity(owu * ss * ss * 3);
+                let mut pos = Vec::with_capacity(owu * ss * ss * 2);
+                for b in 0..ss {
+                    let y = oy as f64 + 0.5 + first + b as f64 * step;
+                    for ox in 0..owu {
+                        for a in 0..ss {
+                            let x = ox as f64 + 0.5 + first + a as f64 * step;
+                            domain.extend(frame.embed(x * sx, y * sy));
+                            pos.extend([x, y]);
+                        }
+                    }
                 }
+                let ly = luma_net.eval_batch(&domain)?;
+                let cy = chroma_net
+                    .as_ref()
+                    .map(|n| n.eval_batch(&domain))
+                    .transpose()?;
+                // Per sample: output position (x, y) then the nc channel values.
+                let mut out = Vec::with_capacity(pos.len() / 2 * (2 + nc));
+                let (pl, pc) = (2 + nl, 4);
+                for k in 0..pos.len() / 2 {
+                    out.push(pos[2 * k] + ly[k * pl] / sx);
+                    out.push(pos[2 * k + 1] + ly[k * pl + 1] / sy);
+                    out.extend_from_slice(&ly[k * pl + 2..(k + 1) * pl]);
+                    if let Some(cy) = &cy {
+                        out.extend_from_slice(&cy[k * pc + 2..(k + 1) * pc]);
+                    }
+                }
+                Ok(out)
+            })
+            .collect::<Result<_, _>>()?;
+        let (rx, ry) = (
+            if sx > 1.0 { 1.0 } else { step },
+            if sy > 1.0 { 1.0 } else { step },
+        );
+        for row in &rows {
+            for sample in row.chunks_exact(2 + nc) {
+                let (x, y) = (sample[0], sample[1]);
+                if !(x.is_finite() && y.is_finite()) {
+                    continue;
+                }
+                // Pixel centres within the tent's reach of the sample.
+                let (i0, i1) = (
+                    (x - 0.5 - rx).ceil().max(0.0),
+                    (x - 0.5 + rx).floor().min(owu as f64 - 1.0),
+                );
+                let (j0, j1) = (
+                    (y - 0.5 - ry).ceil().max(0.0),
+                    (y - 0.5 + ry).floor().min(ohu as f64 - 1.0),
+                );
+                let mut j = j0;
+                while j <= j1 {
+                    let wy = 1.0 - (y - (j + 0.5)).abs() / ry;
+                    let mut i = i0;
+                    while i <= i1 {
+                        let wx = 1.0 - (x - (i + 0.5)).abs() / rx;
+                        let w = wx * wy;
+                        if w > 0.0 {
+                            let idx = j as usize * owu + i as usize;
+                            weight[idx] += w;
+                            for c in 0..nc {
+                                planes[c][idx] += w * sample[2 + c];
+                            }
+                        }
+                        i += 1.0;
+                    }
+                    j += 1.0;
+                }
+            }
+        }
+    }
+    for idx in 0..owu * ohu {
+        if weight[idx] > 0.0 {
+            for p in planes.iter_mut() {
+                p[idx] /= weight[idx];
             }
         }
     }
