@@ -17,20 +17,40 @@ fn bench(c: &mut Criterion) {
     corpus
         .to_dynamic_image()
         .to_rgb8()
-        .write_with_encoder(image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 80))
+        .write_with_encoder(image::codecs::jpeg::JpegEncoder::new_with_quality(
+            &mut jpeg, 80,
+        ))
         .unwrap();
-    eprintln!("caoen file {} bytes, JPEG q80 {} bytes", bytes.len(), jpeg.len());
+    eprintln!(
+        "caoen file {} bytes, JPEG q80 {} bytes",
+        bytes.len(),
+        jpeg.len()
+    );
     let mut g = c.benchmark_group("codec_768x512");
     g.sample_size(10);
     g.throughput(Throughput::Elements(pixels));
-    g.bench_function("encode_default", |b| b.iter(|| black_box(encode(black_box(&img), &EncodeOptions::default()).unwrap())));
-    g.bench_function("decode_identity", |b| b.iter(|| black_box(decode(black_box(&bytes), &DecodeOptions::default()).unwrap())));
+    g.bench_function("encode_default", |b| {
+        b.iter(|| black_box(encode(black_box(&img), &EncodeOptions::default()).unwrap()))
+    });
+    g.bench_function("decode_identity", |b| {
+        b.iter(|| black_box(decode(black_box(&bytes), &DecodeOptions::default()).unwrap()))
+    });
     for s in [1, 2] {
-        let opts = DecodeOptions { supersample: Some(s), ..Default::default() };
-        g.bench_function(format!("decode_forward_s{s}"), |b| b.iter(|| black_box(decode(black_box(&bytes), &opts).unwrap())));
+        let opts = DecodeOptions {
+            supersample: Some(s),
+            ..Default::default()
+        };
+        g.bench_function(format!("decode_forward_s{s}"), |b| {
+            b.iter(|| black_box(decode(black_box(&bytes), &opts).unwrap()))
+        });
     }
     g.bench_function("baseline_jpeg_decode", |b| {
-        b.iter(|| black_box(image::load_from_memory_with_format(black_box(&jpeg), image::ImageFormat::Jpeg).unwrap()))
+        b.iter(|| {
+            black_box(
+                image::load_from_memory_with_format(black_box(&jpeg), image::ImageFormat::Jpeg)
+                    .unwrap(),
+            )
+        })
     });
     g.finish();
 }

@@ -78,17 +78,36 @@ fn rate_distortion_sweep() {
 #[ignore]
 fn rd_points_for_files() {
     let files = std::env::var("FILES").unwrap();
-    let qs: Vec<f32> = std::env::var("QS").unwrap_or("20,35,50,60,70,80,90".into()).split(',').map(|s| s.parse().unwrap()).collect();
-    let effort: u8 = std::env::var("EFFORT").unwrap_or("5".into()).parse().unwrap();
+    let qs: Vec<f32> = std::env::var("QS")
+        .unwrap_or("20,35,50,60,70,80,90".into())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let effort: u8 = std::env::var("EFFORT")
+        .unwrap_or("5".into())
+        .parse()
+        .unwrap();
     for f in files.split(',') {
         let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
         for &q in &qs {
             let t = std::time::Instant::now();
-            let bytes = caoen::codec::encode(&img, &EncodeOptions { quality: q, effort, ..Default::default() }).unwrap();
+            let bytes = caoen::codec::encode(
+                &img,
+                &EncodeOptions {
+                    quality: q,
+                    effort,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             let te = t.elapsed().as_secs_f64();
             let dec = decode(&bytes, &DecodeOptions::default()).unwrap();
             let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
-            println!("RD {} {q} {bpp:.4} {:.3} {te:.2}", f.rsplit('/').next().unwrap(), psnr(&img, &dec));
+            println!(
+                "RD {} {q} {bpp:.4} {:.3} {te:.2}",
+                f.rsplit('/').next().unwrap(),
+                psnr(&img, &dec)
+            );
         }
     }
 }
@@ -102,8 +121,15 @@ fn rd_settings_for_files() {
     use caoen::codec::{bitstream, encoder, rate_control};
     let env = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
     let files = std::env::var("FILES").unwrap();
-    let qs: Vec<f32> = std::env::var("QS").unwrap_or("20,35,50,60,70,80,90".into()).split(',').map(|s| s.parse().unwrap()).collect();
-    let effort: u8 = std::env::var("EFFORT").unwrap_or("5".into()).parse().unwrap();
+    let qs: Vec<f32> = std::env::var("QS")
+        .unwrap_or("20,35,50,60,70,80,90".into())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let effort: u8 = std::env::var("EFFORT")
+        .unwrap_or("5".into())
+        .parse()
+        .unwrap();
     for f in files.split(',') {
         let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
         for &q in &qs {
@@ -118,18 +144,38 @@ fn rd_settings_for_files() {
             } else if let Some(c) = env("CSTEP") {
                 s.step_chroma = c * s.step_luma;
             }
-            if let Some(v) = env("SIGMA") { s.model.kernel.sigma_factor = v; }
-            if let Some(v) = env("WEXP") { s.model.kernel.weight_exponent = v; }
-            if let Some(v) = env("RIDGE") { s.model.ridge = v; }
-            if let Some(v) = env("MINLOG") { s.model.min_log2 = v as u8; }
-            if let Some(v) = env("GROWTH") { s.model.growth = v; }
-            if let Some(v) = env("ROUNDS") { s.model.rounds = v as usize; }
-            if let Some(v) = env("TSCALE") { s.model.split_threshold *= v; }
-            if let Some(v) = env("DZ") { s.deadzone = v; }
+            if let Some(v) = env("SIGMA") {
+                s.model.kernel.sigma_factor = v;
+            }
+            if let Some(v) = env("WEXP") {
+                s.model.kernel.weight_exponent = v;
+            }
+            if let Some(v) = env("RIDGE") {
+                s.model.ridge = v;
+            }
+            if let Some(v) = env("MINLOG") {
+                s.model.min_log2 = v as u8;
+            }
+            if let Some(v) = env("GROWTH") {
+                s.model.growth = v;
+            }
+            if let Some(v) = env("ROUNDS") {
+                s.model.rounds = v as usize;
+            }
+            if let Some(v) = env("TSCALE") {
+                s.model.split_threshold *= v;
+            }
+            if let Some(v) = env("DZ") {
+                s.deadzone = v;
+            }
             match std::env::var("ABL").unwrap_or_default().as_str() {
                 "sampled" => s.model.least_squares = false,
                 "grid" => s.model.uniform_grid = true,
-                "rgb" => { s.decorrelate = false; s.model.chroma_pruned = false; s.step_chroma = s.step_luma; }
+                "rgb" => {
+                    s.decorrelate = false;
+                    s.model.chroma_pruned = false;
+                    s.step_chroma = s.step_luma;
+                }
                 "chroma" => s.model.chroma_pruned = false,
                 "noanalysis" => s.model.analysis_start = false,
                 "" => {}
@@ -160,7 +206,10 @@ fn rd_settings_for_files() {
                 "RD {} {q} {bpp:.4} {:.3} {te:.2} {} {} {} {}",
                 f.rsplit('/').next().unwrap(),
                 quality,
-                sz(bitstream::tag::TREE), sz(bitstream::tag::LUMA), sz(bitstream::tag::CHROMA), stats.luma_keypoints
+                sz(bitstream::tag::TREE),
+                sz(bitstream::tag::LUMA),
+                sz(bitstream::tag::CHROMA),
+                stats.luma_keypoints
             );
         }
     }

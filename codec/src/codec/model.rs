@@ -286,7 +286,10 @@ pub fn build(
         let level = (s.min_log2..=s.block_log2)
             .min_by(|&a, &b| {
                 let count = |l: u8| shape.walk(|c| c.log2 > l).len() as f64;
-                (count(a) / n).ln().abs().total_cmp(&(count(b) / n).ln().abs())
+                (count(a) / n)
+                    .ln()
+                    .abs()
+                    .total_cmp(&(count(b) / n).ln().abs())
             })
             .expect("non-empty level range");
         cells = shape.walk(|c| c.log2 > level);

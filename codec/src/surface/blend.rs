@@ -112,13 +112,22 @@ mod tests {
         // Value, slope and second derivative all vanish at the edge: approaching it
         // from inside, each shrinks with the distance h (as h^3, h^2 and h).
         let second = |h: f64| {
-            (Blend::Compact.value_and_slope(edge + 2.0 * h, q).1 - Blend::Compact.value_and_slope(edge + h, q).1) / h
+            (Blend::Compact.value_and_slope(edge + 2.0 * h, q).1
+                - Blend::Compact.value_and_slope(edge + h, q).1)
+                / h
         };
         for h in [1e-4, 1e-5, 1e-6] {
             let (f, d) = Blend::Compact.value_and_slope(edge + h, q);
-            assert!(f < 1e3 * h * h * h && d < 1e2 * h * h, "h={h}: value {f} slope {d}");
+            assert!(
+                f < 1e3 * h * h * h && d < 1e2 * h * h,
+                "h={h}: value {f} slope {d}"
+            );
             // F'' = (2/9) q^3 h near the edge.
-            assert!(second(h).abs() < q * q * q * h, "h={h}: second derivative {}", second(h));
+            assert!(
+                second(h).abs() < q * q * q * h,
+                "h={h}: second derivative {}",
+                second(h)
+            );
         }
         assert_eq!(Blend::Compact.value_and_slope(edge - 1e-9, q), (0.0, 0.0));
     }
