@@ -382,3 +382,92 @@ fn cli_bad_arguments_and_files() {
     let c = code(&["distort", s(&png), "-o", s(&out), "--move", "1e300,1:2,3"]);
     assert!(c == Some(0) || c == Some(1), "{c:?}");
 }
+
+#[test]
+fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
+    use caoen::texture::warp3d::{Move3, Warp3};
+    let model = caoen::surface::gallery::by_name("blob").unwrap().unwrap();
+    // The blob's first key point has shape (1.3, 0, 0): move it.
+    let moves = [
+        Move3 {
+            from: [1.3, 0.0, 0.0],
+            to: [1.7, 0.3, -0.1],
+        },
+        Move3 {
+            from: [0.0, 0.0, 1.0],
+            to: [0.0, 0.0, 1.0],
+        },
+    ];
+    let warp = Warp3::new([-1.5; 3], [1.5; 3], &moves).unwrap();
+    for m in &moves {
+        let p = warp.map(m.from);
+        let e: f64 = (0..3).map(|k| (p[k] - m.to[k]).powi(2)).sum::<f64>().sqrt();
+        assert!(e < 1e-9, "{e}");
+    }
+    let out = warp.apply_to_model(&model).unwrap();
+    let sh = &out.network.shapes()[..3];
+    assert!((sh[0] - 1.7).abs() < 1e-9 && (sh[1] - 0.3).abs() < 1e-9 && (sh[2] + 0.1).abs() < 1e-9);
+    // CLI: a surface in, a surface and a mesh out; bad moves are usage errors.
+    let dir = tmpdir("surface");
+    let json = dir.join("d.json");
+    let o = caoen(&[
+        "distort",
+        "builtin:blob",
+        "-o",
+        s(&json),
+        "--move",
+        "1.3,0,0:1.7,0.3,-0.1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(caoen::surface::SurfaceModel::load(&json).is_ok());
+    let obj = dir.join("d.obj");
+    assert!(caoen(&[
+        "distort",
+        "builtin:blob",
+        "-o",
+        s(&obj),
+        "--move",
+        "1.3,0,0:1.7,0.3,-0.1"
+    ])
+    .status
+    .success());
+    assert_eq!(
+        caoen(&[
+            "distort",
+            "builtin:blob",
+            "-o",
+            s(&json),
+            "--move",
+            "1,2:3,4"
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+    assert_eq!(
+        caoen(&[
+            "distort",
+            "builtin:blob",
+            "-o",
+            s(&dir.join("x.png")),
+            "--move",
+            "1,0,0:1,1,0"
+        ])
+        .status
+        .code(),
+        Some(2)
+    );
+    assert_eq!(
+        caoen(&[
+            "distort",
+            s(&dir.join("none.json")),
+            "-o",
+            s(&json),
+            "--move",
+            "1,0,0:1,1,0"
+        ])
+        .status
+        .code(),
+        Some(1)
+    );
+}

@@ -102,6 +102,7 @@ fn placement_error(img: &Raster) -> f64 {
 
 /// Mean |Laplacian| (5-point) of a displacement field `d(x, y) -> [dx, dy]` sampled at
 /// pixel centres, away from a 3-pixel border.
+#[allow(clippy::needless_range_loop)]
 fn field_roughness(d: impl Fn(f64, f64) -> [f64; 2]) -> f64 {
     let (w, h) = (W as usize, H as usize);
     let f: Vec<[f64; 2]> = (0..w * h)

@@ -84,7 +84,8 @@ pub struct TransferArgs {
 /// `caoen distort`.
 #[derive(Debug, Args)]
 pub struct DistortArgs {
-    /// Input image (PNG, EXR, ...) or caoen file (.cae).
+    /// Input image (PNG, EXR, ...), caoen file (.cae), or surface model (.json or
+    /// builtin:NAME; moves are then x,y,z:x2,y2,z2 and the output .json, .obj or .ply).
     pub input: PathBuf,
     /// Output image: .png or .exr (`-` for PNG on stdout).
     #[arg(short, long)]

@@ -4,6 +4,7 @@
 
 pub mod transfer;
 pub mod warp;
+pub mod warp3d;
 
 use thiserror::Error;
 

@@ -349,7 +349,7 @@ fn embed_jacobian(f: &Frame, x: f64, y: f64) -> [[f64; 2]; 3] {
 
 /// Solves `A X = B` (`A` n x n row-major, `B` n x k) by Gaussian elimination with
 /// partial pivoting; `None` if `A` is numerically singular.
-fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize, k: usize) -> Option<Vec<f64>> {
+pub(crate) fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize, k: usize) -> Option<Vec<f64>> {
     for col in 0..n {
         let piv =
             (col..n).max_by(|&i, &j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs()))?;

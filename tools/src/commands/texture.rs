@@ -70,8 +70,102 @@ fn tex_err(e: TextureError) -> CliError {
     CliError::Failed(e.to_string())
 }
 
+/// Parses `x,y,z:x2,y2,z2`.
+pub fn parse_move3(s: &str) -> CliResult<caoen::texture::warp3d::Move3> {
+    let bad = || {
+        CliError::Usage(format!(
+            "--move {s:?}: expected x,y,z:x2,y2,z2 for a surface"
+        ))
+    };
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let pt = |t: &str| -> CliResult<[f64; 3]> {
+        let v: Vec<f64> = t
+            .split(',')
+            .map(|x| x.trim().parse::<f64>().map_err(|_| bad()))
+            .collect::<CliResult<_>>()?;
+        if v.len() == 3 && v.iter().all(|x| x.is_finite()) {
+            Ok([v[0], v[1], v[2]])
+        } else {
+            Err(bad())
+        }
+    };
+    Ok(caoen::texture::warp3d::Move3 {
+        from: pt(a)?,
+        to: pt(b)?,
+    })
+}
+
+/// `caoen distort` on a surface model: the 3-D warp.
+fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
+    let spec = a.input.to_string_lossy().to_string();
+    if a.moves_file.is_some() || a.grid {
+        return Err(CliError::Usage(
+            "a surface takes --move x,y,z:x2,y2,z2 (no --moves file, no --grid)".into(),
+        ));
+    }
+    let moves: Vec<_> = a
+        .moves
+        .iter()
+        .map(|s| parse_move3(s))
+        .collect::<CliResult<_>>()?;
+    if moves.is_empty() {
+        return Err(CliError::Usage(
+            "give at least one --move x,y,z:x2,y2,z2".into(),
+        ));
+    }
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("json" | "obj" | "ply")) {
+        return Err(CliError::Usage(format!(
+            "{}: a distorted surface is written as .json (model) or .obj/.ply (mesh)",
+            a.output.display()
+        )));
+    }
+    let model = crate::commands::surface::load_model(&spec)?;
+    let mesh = caoen::render::mesh::tessellate(&model, 3, caoen::render::mesh::NormalMode::Exact)?;
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in &mesh.positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let warp = caoen::texture::warp3d::Warp3::new(lo, hi, &moves).map_err(tex_err)?;
+    let out = warp.apply_to_model(&model).map_err(tex_err)?;
+    if ext.as_deref() == Some("json") {
+        crate::output::write_file(&a.output, out.to_json().as_bytes())?;
+    } else {
+        crate::commands::surface::write_mesh(
+            &out,
+            &a.output,
+            6,
+            caoen::render::mesh::NormalMode::Exact,
+        )?;
+    }
+    note(
+        global,
+        format!(
+            "{spec} -> {}: {} moves, {} anchors",
+            a.output.display(),
+            moves.len(),
+            warp.anchors()
+        ),
+    );
+    Ok(())
+}
+
 /// `caoen distort`.
 pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
+    let is_surface = a.input.to_string_lossy().starts_with("builtin:")
+        || a.input
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if is_surface {
+        return distort_surface(global, a);
+    }
     let moves = match &a.moves_file {
         Some(p) => read_moves(p)?,
         None => a

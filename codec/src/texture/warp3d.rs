@@ -1,0 +1,174 @@
+//! The 3-D distortion of the paper (section 9): a network from S^3 (R^3 embedded by
+//! inverse stereographic projection) to 3-D displacements, with control points moved
+//! exactly and identity anchors on a coarse grid around the object, applied to a
+//! surface model (its key points' position shapes are moved) or to a mesh (its
+//! vertices are moved).
+
+use super::warp::solve;
+use super::TextureError;
+use crate::surface::{Blend, Network, SurfaceModel};
+
+/// One 3-D control point move.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Move3 {
+    /// Original position.
+    pub from: [f64; 3],
+    /// Target position.
+    pub to: [f64; 3],
+}
+
+/// A warp of 3-D space around a box.
+#[derive(Debug, Clone)]
+pub struct Warp3 {
+    centre: [f64; 3],
+    inv_scale: f64,
+    net: Network,
+    anchors: usize,
+}
+
+impl Warp3 {
+    /// Builds the warp for the box `lo..hi` (anchors on a 4-cell grid over the box
+    /// grown by a quarter on each side) so every control point lands on its target.
+    pub fn new(lo: [f64; 3], hi: [f64; 3], moves: &[Move3]) -> Result<Self, TextureError> {
+        if !lo.iter().chain(&hi).all(|v| v.is_finite())
+            || moves
+                .iter()
+                .any(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
+        {
+            return Err(TextureError::Invalid("non-finite box or move".into()));
+        }
+        if moves.is_empty() || moves.len() > 256 {
+            return Err(TextureError::Invalid("1..=256 moves".into()));
+        }
+        let size = (0..3)
+            .map(|k| hi[k] - lo[k])
+            .fold(0.0f64, f64::max)
+            .max(1e-9);
+        let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
+        let inv_scale = 1.0 / size;
+        let cells = 4usize;
+        let g = 1.5 * size / cells as f64;
+        let dist =
+            |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
+        let mut kp: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
+        for (i, m) in moves.iter().enumerate() {
+            let nearest = moves
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, o)| dist(o.from, m.from))
+                .fold(f64::INFINITY, f64::min);
+            if nearest < 1e-9 * size {
+                return Err(TextureError::Invalid(
+                    "two moves start at the same point".into(),
+                ));
+            }
+            let d = [0, 1, 2].map(|k| m.to[k] - m.from[k]);
+            kp.push((m.from, d, 0.6 * nearest.min(g)));
+        }
+        let mut anchors = 0;
+        for i in 0..=cells {
+            for j in 0..=cells {
+                for k in 0..=cells {
+                    let p = [
+                        centre[0] - 0.75 * size + (i as f64) * g,
+                        centre[1] - 0.75 * size + (j as f64) * g,
+                        centre[2] - 0.75 * size + (k as f64) * g,
+                    ];
+                    if moves.iter().any(|m| dist(m.from, p) < 0.75 * g) {
+                        continue;
+                    }
+                    kp.push((p, [0.0; 3], 0.6 * g));
+                    anchors += 1;
+                }
+            }
+        }
+        let n = kp.len();
+        let embed = |p: [f64; 3]| embed(centre, inv_scale, p);
+        let sources: Vec<[f64; 4]> = kp.iter().map(|k| embed(k.0)).collect();
+        let q: Vec<f64> = kp
+            .iter()
+            .map(|k| {
+                let r2: f64 = (0..3)
+                    .map(|c| ((k.0[c] - centre[c]) * inv_scale).powi(2))
+                    .sum();
+                ((1.0 + r2) / (2.0 * k.2 * inv_scale)).powi(2)
+            })
+            .collect();
+        let mut a = vec![0.0; n * n];
+        for j in 0..n {
+            let row = &mut a[j * n..(j + 1) * n];
+            for i in 0..n {
+                let s: f64 = (0..4).map(|c| sources[i][c] * sources[j][c]).sum();
+                row[i] = Blend::Exponential.value(s, q[i]);
+            }
+            let sum: f64 = row.iter().sum();
+            row.iter_mut().for_each(|v| *v /= sum);
+        }
+        let rhs: Vec<f64> = kp.iter().flat_map(|k| k.1).collect();
+        let shapes = solve(a, rhs, n, 3)
+            .ok_or_else(|| TextureError::Invalid("control points too close to solve".into()))?;
+        let net = Network::from_parts(
+            4,
+            3,
+            sources.iter().flatten().copied().collect(),
+            shapes,
+            q,
+            vec![1.0; n],
+            vec![Blend::Exponential; n],
+            true,
+        )?;
+        Ok(Warp3 {
+            centre,
+            inv_scale,
+            net,
+            anchors,
+        })
+    }
+
+    /// Number of identity anchors.
+    pub fn anchors(&self) -> usize {
+        self.anchors
+    }
+
+    /// Where `p` goes.
+    pub fn map(&self, p: [f64; 3]) -> [f64; 3] {
+        let d = self
+            .net
+            .eval(&embed(self.centre, self.inv_scale, p))
+            .expect("4-D input");
+        [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+    }
+
+    /// The model with its key points' position shapes (first three components) moved
+    /// by the warp: the "edited output positions of the stored key points" form of the
+    /// distortion (exact at the key points' shapes, approximate between them).
+    pub fn apply_to_model(&self, model: &SurfaceModel) -> Result<SurfaceModel, TextureError> {
+        let p = model.network.output_dim();
+        if p < 3 {
+            return Err(TextureError::Invalid(format!(
+                "the model's shapes have {p} components; a 3-D warp needs positions"
+            )));
+        }
+        let mut shapes = model.network.shapes().to_vec();
+        for s in shapes.chunks_exact_mut(p) {
+            let m = self.map([s[0], s[1], s[2]]);
+            s[..3].copy_from_slice(&m);
+        }
+        let mut out = model.clone();
+        out.network = model.network.with_shapes(p, shapes)?;
+        Ok(out)
+    }
+}
+
+fn embed(centre: [f64; 3], inv_scale: f64, p: [f64; 3]) -> [f64; 4] {
+    let u = [0, 1, 2].map(|k| (p[k] - centre[k]) * inv_scale);
+    let r2: f64 = u.iter().map(|v| v * v).sum();
+    let d = 1.0 / (1.0 + r2);
+    [
+        2.0 * u[0] * d,
+        2.0 * u[1] * d,
+        2.0 * u[2] * d,
+        (1.0 - r2) * d,
+    ]
+}
