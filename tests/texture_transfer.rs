@@ -247,3 +247,59 @@ fn textured_morph_keeps_the_texture_attached() {
         }
     }
 }
+
+#[test]
+fn texture_space_carries_a_solid_texture() {
+    use caoen::texture::transfer::{bake_texture_space, solid_checker};
+    let b = gallery::by_name("blob").unwrap().unwrap();
+    // Texture space = the shape itself: the object looks carved from the solid.
+    let solid = |p: [f64; 3]| solid_checker(p, 0.3);
+    let img = bake_texture_space(&b, &b, &solid, 64, 32).unwrap();
+    for (k, px) in img.pixels.iter().enumerate().step_by(37) {
+        let uv = [
+            ((k % 64) as f64 + 0.5) / 64.0,
+            ((k / 64) as f64 + 0.5) / 32.0,
+        ];
+        let x = uv_domain(&b.domain, uv).unwrap();
+        let y = b.network.eval(&x).unwrap();
+        assert_eq!(*px, solid([y[0], y[1], y[2]]));
+    }
+    let ring = gallery::by_name("ring").unwrap().unwrap();
+    assert!(bake_texture_space(&ring, &b, &solid, 8, 8).is_err());
+    let dir = tmpdir("space");
+    let out = dir.join("s.png");
+    let o = caoen(&[
+        "transfer",
+        "--texture-space",
+        "builtin:six-point",
+        "--to",
+        "builtin:blob",
+        "-o",
+        s(&out),
+        "--size",
+        "96x72",
+        "--detail",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        caoen(&["transfer", "--to", "builtin:blob", "-o", s(&out)])
+            .status
+            .code(),
+        Some(2)
+    );
+    assert_eq!(
+        caoen(&[
+            "transfer",
+            "--texture-space",
+            "builtin:ring",
+            "--to",
+            "builtin:blob",
+            "-o",
+            s(&out)
+        ])
+        .status
+        .code(),
+        Some(1)
+    );
+}

@@ -59,11 +59,22 @@ pub enum Command {
 #[derive(Debug, Args)]
 pub struct TransferArgs {
     /// Texture on A's domain: image (PNG, JPEG, EXR, ...) or caoen file (.cae).
-    #[arg(long)]
-    pub texture: PathBuf,
+    #[arg(long, required_unless_present = "texture_space", requires = "from")]
+    pub texture: Option<PathBuf>,
     /// Surface A the texture is laid on (file or builtin:NAME).
     #[arg(long)]
-    pub from: String,
+    pub from: Option<String>,
+    /// Instead of --texture/--from: a network from the shared domain into a 3-D texture
+    /// space (a surface file); a solid checker texture (cubes of side --cell) sampled
+    /// there is carried onto B.
+    #[arg(long, value_name = "NET", conflicts_with_all = ["texture", "from"])]
+    pub texture_space: Option<String>,
+    /// Cube side of the solid checker texture (with --texture-space).
+    #[arg(long, default_value_t = 0.25)]
+    pub cell: f64,
+    /// Texture grid size WIDTHxHEIGHT baked for B (with --texture-space).
+    #[arg(long, default_value = "512x256")]
+    pub texture_size: String,
     /// Surface B to carry it to (same domain).
     #[arg(long)]
     pub to: String,

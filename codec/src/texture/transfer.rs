@@ -86,3 +86,70 @@ pub fn transfer(
         pixels,
     })
 }
+
+/// A procedural solid (3-D) texture: a checkerboard of cubes of side `cell` in two
+/// linear colours.
+pub fn solid_checker(p: [f64; 3], cell: f64) -> [f32; 3] {
+    let k: i64 = p.iter().map(|v| (v / cell).floor() as i64).sum();
+    if k.rem_euclid(2) == 0 {
+        [0.85, 0.8, 0.65]
+    } else {
+        [0.06, 0.12, 0.35]
+    }
+}
+
+/// The second method of the paper: `space` maps the shared domain into a 3-D texture
+/// space; the solid texture `solid` sampled at `space(x)` is baked onto `to`'s texture
+/// grid (`width x height` texels), so it is carried onto the shape wherever `to` puts
+/// the domain point `x`.
+pub fn bake_texture_space(
+    space: &SurfaceModel,
+    to: &SurfaceModel,
+    solid: &(dyn Fn([f64; 3]) -> [f32; 3] + Sync),
+    width: u32,
+    height: u32,
+) -> Result<RgbImage, TextureError> {
+    if space.domain != to.domain {
+        return Err(TextureError::Invalid(format!(
+            "the texture-space network's domain {:?} is not the surface's {:?}",
+            space.domain, to.domain
+        )));
+    }
+    if space.network.output_dim() < 3 {
+        return Err(TextureError::Invalid(
+            "the texture-space network must output 3-D points".into(),
+        ));
+    }
+    if Wrap::of(&to.domain).is_none() {
+        return Err(TextureError::Invalid(format!(
+            "domain {:?} has no texture coordinates",
+            to.domain
+        )));
+    }
+    if width == 0 || height == 0 || width as u64 * height as u64 > 1 << 26 {
+        return Err(TextureError::Invalid(format!(
+            "texture size {width}x{height}"
+        )));
+    }
+    let mut domain = Vec::with_capacity(width as usize * height as usize * 4);
+    for j in 0..height {
+        for i in 0..width {
+            let uv = [
+                (i as f64 + 0.5) / width as f64,
+                (j as f64 + 0.5) / height as f64,
+            ];
+            domain.extend(uv_domain(&to.domain, uv).expect("checked domain"));
+        }
+    }
+    let p = space.network.output_dim();
+    let t = space.network.eval_batch(&domain)?;
+    let pixels = t
+        .par_chunks_exact(p)
+        .map(|y| solid([y[0], y[1], y[2]]))
+        .collect();
+    Ok(RgbImage {
+        width,
+        height,
+        pixels,
+    })
+}

@@ -291,12 +291,41 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         )));
     }
     let size = crate::commands::render::parse_size(&a.size)?;
-    let from = crate::commands::surface::load_model(&a.from)?;
     let to = crate::commands::surface::load_model(&a.to)?;
-    let tex = load_texture(&a.texture)?;
-    let (tw, th) = (tex.image().width, tex.image().height);
     let start = Instant::now();
-    let moved = caoen::texture::transfer::transfer(&from, &to, &tex, tw, th).map_err(tex_err)?;
+    let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
+        (Some(space), _, _) => {
+            if !(a.cell.is_finite() && a.cell > 0.0) {
+                return Err(CliError::Usage(format!(
+                    "--cell {}: must be positive",
+                    a.cell
+                )));
+            }
+            let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
+            let net = crate::commands::surface::load_model(space)?;
+            let cell = a.cell;
+            let solid = move |p: [f64; 3]| caoen::texture::transfer::solid_checker(p, cell);
+            (
+                caoen::texture::transfer::bake_texture_space(&net, &to, &solid, tw, th)
+                    .map_err(tex_err)?,
+                format!("solid checker through {space}"),
+            )
+        }
+        (None, Some(texture), Some(from_spec)) => {
+            let from = crate::commands::surface::load_model(from_spec)?;
+            let tex = load_texture(texture)?;
+            let (tw, th) = (tex.image().width, tex.image().height);
+            (
+                caoen::texture::transfer::transfer(&from, &to, &tex, tw, th).map_err(tex_err)?,
+                format!("{} on {from_spec}", texture.display()),
+            )
+        }
+        _ => {
+            return Err(CliError::Usage(
+                "give --texture IMG --from A, or --texture-space NET".into(),
+            ))
+        }
+    };
     // The transferred texture as a PNG file, for the renderer and the OBJ writer.
     let tmp = std::env::temp_dir().join(format!("caoen-transfer-{}.png", std::process::id()));
     crate::output::write_file(&tmp, &moved.encode_png().map_err(failed)?)?;
@@ -329,9 +358,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
     note(
         global,
         format!(
-            "{} on {} -> {}: wrote {summary} in {:.2} s",
-            a.texture.display(),
-            a.from,
+            "{what} -> {}: wrote {summary} in {:.2} s",
             a.to,
             start.elapsed().as_secs_f64()
         ),
