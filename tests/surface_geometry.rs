@@ -351,3 +351,29 @@ fn nan_inputs_and_empty_models_are_errors() {
     let bad_q = KeyPoint::new(vec![1.0, 0.0, 0.0], vec![1.0], Blend::Power, f64::NAN);
     assert!(Network::new(3, 1, &[bad_q], false).is_err());
 }
+
+#[test]
+fn interpolating_networks_hit_their_targets_exactly() {
+    let mut rng = Rng(21);
+    let n = 40;
+    let sources: Vec<f64> = (0..n).flat_map(|_| rng.unit3()).collect();
+    let targets: Vec<f64> = (0..n * 2).map(|_| rng.next() - 0.5).collect();
+    let net = Network::interpolating(
+        3,
+        2,
+        sources.clone(),
+        vec![30.0; n],
+        Blend::Exponential,
+        &targets,
+    )
+    .unwrap();
+    for j in 0..n {
+        let y = net.eval(&sources[3 * j..3 * j + 3]).unwrap();
+        assert!((y[0] - targets[2 * j]).abs() < 1e-9 && (y[1] - targets[2 * j + 1]).abs() < 1e-9);
+    }
+    // Two key points at the same source cannot both be met: a clear error.
+    let dup = [sources[..3].to_vec(), sources[..3].to_vec()].concat();
+    assert!(
+        Network::interpolating(3, 1, dup, vec![30.0; 2], Blend::Exponential, &[0.0, 1.0]).is_err()
+    );
+}

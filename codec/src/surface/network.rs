@@ -187,6 +187,73 @@ impl Network {
         })
     }
 
+    /// The normalised network over `sources` (n x m) with one blend and per-key-point
+    /// sharpness `q` whose value at each key point's own source is exactly its row of
+    /// `targets` (n x p): the shape vectors solve the interpolation system
+    /// `sum_i K_ji t_i = target_j`, `K_ji` the normalised blend of key point i at source j
+    /// (by LU decomposition, nalgebra). Used for warps whose control points must land
+    /// exactly where they are told.
+    pub fn interpolating(
+        m: usize,
+        p: usize,
+        sources: Vec<f64>,
+        q: Vec<f64>,
+        blend: Blend,
+        targets: &[f64],
+    ) -> Result<Self> {
+        let n = q.len();
+        check_len(|| "sources (n x m)".into(), n * m, sources.len())?;
+        check_len(|| "targets (n x p)".into(), n * p, targets.len())?;
+        // Build with placeholder shapes first: this validates sources and sharpness.
+        let net = Self::from_parts(
+            m,
+            p,
+            sources,
+            vec![0.0; n * p],
+            q,
+            vec![1.0; n],
+            vec![blend; n],
+            true,
+        )?;
+        let mut k = nalgebra::DMatrix::<f64>::zeros(n, n);
+        for j in 0..n {
+            let x = &net.sources[j * m..(j + 1) * m];
+            let mut sum = 0.0;
+            for i in 0..n {
+                let w = &net.sources[i * m..(i + 1) * m];
+                let s: f64 = x.iter().zip(w).map(|(a, b)| a * b).sum();
+                let v = blend.value(s, net.q[i]);
+                k[(j, i)] = v;
+                sum += v;
+            }
+            if !(sum > 0.0) {
+                return Err(SurfaceError::Parameter {
+                    what: format!("key point {j} coverage"),
+                    value: sum,
+                    reason: "no key point reaches this source",
+                });
+            }
+            for i in 0..n {
+                k[(j, i)] /= sum;
+            }
+        }
+        let rhs = nalgebra::DMatrix::from_row_slice(n, p, targets);
+        let t = k
+            .lu()
+            .solve(&rhs)
+            .filter(|t| t.iter().all(|v| v.is_finite()))
+            .ok_or_else(|| SurfaceError::Parameter {
+                what: "interpolation system".into(),
+                value: n as f64,
+                reason: "singular: key points too close together for their sharpness",
+            })?;
+        let shapes: Vec<f64> = (0..n)
+            .flat_map(|i| (0..p).map(move |c| (i, c)))
+            .map(|(i, c)| t[(i, c)])
+            .collect();
+        net.with_shapes(p, shapes)
+    }
+
     /// Number of key points `n`.
     pub fn len(&self) -> usize {
         self.q.len()

@@ -200,34 +200,19 @@ impl Warp {
             .iter()
             .map(|k| frame.sharpness(k.0[0], k.0[1], k.2))
             .collect();
-        // The interpolation system: row j is the normalised blend at key point j.
-        let mut a = vec![0.0; n * n];
-        for j in 0..n {
-            let row = &mut a[j * n..(j + 1) * n];
-            for i in 0..n {
-                let s: f64 = (0..3).map(|c| sources[i][c] * sources[j][c]).sum();
-                row[i] = Blend::Exponential.value(s, q[i]);
-            }
-            let sum: f64 = row.iter().sum();
-            row.iter_mut().for_each(|v| *v /= sum);
+        let mut targets = Vec::with_capacity(n * 2);
+        for k in &kp {
+            targets.extend([k.1[0], k.1[1]]);
         }
-        let mut rhs = vec![0.0; n * 2];
-        for (j, k) in kp.iter().enumerate() {
-            rhs[2 * j] = k.1[0];
-            rhs[2 * j + 1] = k.1[1];
-        }
-        let shapes = solve(a, rhs, n, 2)
-            .ok_or_else(|| TextureError::Invalid("control points too close to solve".into()))?;
-        let net = Network::from_parts(
+        let net = Network::interpolating(
             3,
             2,
             sources.iter().flatten().copied().collect(),
-            shapes,
             q,
-            vec![1.0; n],
-            vec![Blend::Exponential; n],
-            true,
-        )?;
+            Blend::Exponential,
+            &targets,
+        )
+        .map_err(|e| TextureError::Invalid(format!("control points too close to solve: {e}")))?;
         Ok(Warp {
             frame,
             net,
@@ -345,50 +330,6 @@ fn embed_jacobian(f: &Frame, x: f64, y: f64) -> [[f64; 2]; 3] {
         ],
         [-4.0 * u / d2 * inv_s, -4.0 * v / d2 * inv_s],
     ]
-}
-
-/// Solves `A X = B` (`A` n x n row-major, `B` n x k) by Gaussian elimination with
-/// partial pivoting; `None` if `A` is numerically singular.
-pub(crate) fn solve(mut a: Vec<f64>, mut b: Vec<f64>, n: usize, k: usize) -> Option<Vec<f64>> {
-    for col in 0..n {
-        let piv =
-            (col..n).max_by(|&i, &j| a[i * n + col].abs().total_cmp(&a[j * n + col].abs()))?;
-        if a[piv * n + col].abs() < 1e-13 {
-            return None;
-        }
-        if piv != col {
-            for c in 0..n {
-                a.swap(piv * n + c, col * n + c);
-            }
-            for c in 0..k {
-                b.swap(piv * k + c, col * k + c);
-            }
-        }
-        let p = a[col * n + col];
-        for r in col + 1..n {
-            let f = a[r * n + col] / p;
-            if f == 0.0 {
-                continue;
-            }
-            for c in col..n {
-                a[r * n + c] -= f * a[col * n + c];
-            }
-            for c in 0..k {
-                b[r * k + c] -= f * b[col * k + c];
-            }
-        }
-    }
-    let mut x = vec![0.0; n * k];
-    for r in (0..n).rev() {
-        for c in 0..k {
-            let mut s = b[r * k + c];
-            for j in r + 1..n {
-                s -= a[r * n + j] * x[j * k + c];
-            }
-            x[r * k + c] = s / a[r * n + r];
-        }
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
 /// Spacing of the `--grid` overlay lines in pixels for an image.

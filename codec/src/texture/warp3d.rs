@@ -4,7 +4,6 @@
 //! surface model (its key points' position shapes are moved) or to a mesh (its
 //! vertices are moved).
 
-use super::warp::solve;
 use super::TextureError;
 use crate::surface::{Blend, Network, SurfaceModel};
 
@@ -83,7 +82,6 @@ impl Warp3 {
                 }
             }
         }
-        let n = kp.len();
         let embed = |p: [f64; 3]| embed(centre, inv_scale, p);
         let sources: Vec<[f64; 4]> = kp.iter().map(|k| embed(k.0)).collect();
         let q: Vec<f64> = kp
@@ -95,29 +93,16 @@ impl Warp3 {
                 ((1.0 + r2) / (2.0 * k.2 * inv_scale)).powi(2)
             })
             .collect();
-        let mut a = vec![0.0; n * n];
-        for j in 0..n {
-            let row = &mut a[j * n..(j + 1) * n];
-            for i in 0..n {
-                let s: f64 = (0..4).map(|c| sources[i][c] * sources[j][c]).sum();
-                row[i] = Blend::Exponential.value(s, q[i]);
-            }
-            let sum: f64 = row.iter().sum();
-            row.iter_mut().for_each(|v| *v /= sum);
-        }
-        let rhs: Vec<f64> = kp.iter().flat_map(|k| k.1).collect();
-        let shapes = solve(a, rhs, n, 3)
-            .ok_or_else(|| TextureError::Invalid("control points too close to solve".into()))?;
-        let net = Network::from_parts(
+        let targets: Vec<f64> = kp.iter().flat_map(|k| k.1).collect();
+        let net = Network::interpolating(
             4,
             3,
             sources.iter().flatten().copied().collect(),
-            shapes,
             q,
-            vec![1.0; n],
-            vec![Blend::Exponential; n],
-            true,
-        )?;
+            Blend::Exponential,
+            &targets,
+        )
+        .map_err(|e| TextureError::Invalid(format!("control points too close to solve: {e}")))?;
         Ok(Warp3 {
             centre,
             inv_scale,
