@@ -6,7 +6,7 @@
 //! round so the refit can redistribute), and repeat. Chroma uses the luma tree pruned
 //! one level. Colours come from the regularised least-squares fit.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 
 use super::analysis::Analysis;
 use super::colour::CodingPlanes;
@@ -107,8 +107,8 @@ pub fn chroma_cells(shape: &TreeShape, luma: &[Cell], pruned: bool) -> Vec<Cell>
 }
 
 struct Fitted {
-    luma: KeySet,
-    chroma: Option<KeySet>,
+    /// The chroma cells the fit used (empty for grey images).
+    chroma_cells: Vec<Cell>,
     luma_colours: Vec<Vec<f64>>,
     chroma_colours: Vec<Vec<f64>>,
     /// Per luma leaf: squared error over its pixels, all channels.
@@ -170,7 +170,7 @@ fn fit(
             err[i] += (t[i] - r[i]).powi(2);
         }
     }
-    let (chroma, chroma_colours) = if planes.colour.len() == 3 {
+    let (chroma_cells, chroma_colours) = if planes.colour.len() == 3 {
         let cc = chroma_cells(shape, cells, s.chroma_pruned);
         let ks = KeySet::new(frame, &cc, s.kernel);
         let t = [planes.colour[1].as_slice(), planes.colour[2].as_slice()];
@@ -180,9 +180,9 @@ fn fit(
                 err[i] += (t[i] - r[i]).powi(2);
             }
         }
-        (Some(ks), colours)
+        (cc, colours)
     } else {
-        (None, Vec::new())
+        (Vec::new(), Vec::new())
     };
     let leaf_error = cells
         .iter()
@@ -198,8 +198,7 @@ fn fit(
         })
         .collect();
     Fitted {
-        luma,
-        chroma,
+        chroma_cells,
         luma_colours,
         chroma_colours,
         leaf_error,
@@ -320,16 +319,11 @@ pub fn build(
         s.cg_iterations.1,
         FINAL_TOLERANCE,
     );
-    let chroma_cells = fitted
-        .chroma
-        .as_ref()
-        .map_or_else(Vec::new, |_| chroma_cells(&shape, &cells, s.chroma_pruned));
-    let _ = (&fitted.luma, HashMap::<u8, u8>::new());
     Model {
         shape,
         kernel: s.kernel,
         luma_cells: cells,
-        chroma_cells,
+        chroma_cells: fitted.chroma_cells,
         luma_colours: fitted.luma_colours,
         chroma_colours: fitted.chroma_colours,
     }

@@ -115,8 +115,8 @@ pub struct Neighbours {
 
 /// Finds the causal neighbours of every cell (Z order makes all three precede it).
 pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
-    let (w, h) = (width as usize, height as usize);
-    let mut owner = vec![u32::MAX; w * h];
+    let w = width as usize;
+    let mut owner = vec![u32::MAX; w * height as usize];
     for (i, c) in cells.iter().enumerate() {
         let (x0, y0, x1, y1) = c.clip(width, height);
         for y in y0..y1 {
@@ -124,7 +124,6 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
         }
     }
     let at = |x: u32, y: u32| Some(owner[y as usize * w + x as usize]).filter(|&o| o != u32::MAX);
-    let _ = h;
     cells
         .iter()
         .map(|c| {
