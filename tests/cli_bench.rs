@@ -5,17 +5,12 @@
 //! The peer-codec tests need the `peers` feature:
 //! `cargo test --features peers --test cli_bench` (CI runs it).
 
+mod common;
+use common::caoen;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use serde_json::Value;
-
-fn caoen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .expect("run caoen")
-}
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("caoen-bench-{name}-{}", std::process::id()));

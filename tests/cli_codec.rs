@@ -1,14 +1,9 @@
 //! End-to-end tests of `caoen encode|decode|info` and the demo.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::caoen;
 
-fn caoen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .expect("run caoen")
-}
+use std::path::{Path, PathBuf};
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("caoen-cli-codec-{name}-{}", std::process::id()));

@@ -1,20 +1,16 @@
 //! End-to-end tests of `caoen compare`: data on stdout, messages on stderr, exit codes
 //! 0 (measured), 1 (bad or mismatched inputs), 2 (usage).
 
+mod common;
+use common::caoen;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use caoen::image_io;
 use caoen::metrics;
 use caoen::raster::Raster;
 use caoen_corpus::{generate, Class};
-
-fn caoen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .expect("run caoen")
-}
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("caoen-compare-{name}-{}", std::process::id()));

@@ -1,13 +1,9 @@
 //! End-to-end tests of `caoen surface ...` and `caoen demo`.
 
-use std::process::Command;
+mod common;
+use common::caoen;
 
-fn caoen(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .expect("run caoen")
-}
+use std::process::Command;
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("caoen-test-{name}-{}", std::process::id()));

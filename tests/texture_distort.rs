@@ -1,21 +1,16 @@
 //! `caoen distort` and the warp network (issue 7): control point placement, identity,
 //! Jacobian sign, PNG vs .cae agreement, fold-over warning, CLI errors.
 
+mod common;
+use common::caoen;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use caoen::codec::{self, decoder, DecodeOptions, EncodeOptions};
 use caoen::image_io;
 use caoen::metrics;
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 use caoen::texture::warp::{self, Move, Warp};
-
-fn caoen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .expect("run caoen")
-}
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("caoen-distort-{name}-{}", std::process::id()));

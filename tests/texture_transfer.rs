@@ -1,20 +1,15 @@
 //! `caoen transfer` (issue 7): texture transfer between surfaces through their shared
 //! domain.
 
+mod common;
+use common::caoen;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use caoen::render::framebuffer::RgbImage;
 use caoen::render::texture::{domain_uv, Texture, Wrap};
 use caoen::surface::gallery;
 use caoen::texture::transfer::{transfer, uv_domain};
-
-fn caoen(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .expect("run caoen")
-}
 
 fn tmpdir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("caoen-transfer-{name}-{}", std::process::id()));
