@@ -194,7 +194,7 @@ fn rd_settings_for_files() {
                 let mut se = 0.0;
                 for c in 0..3 {
                     for (a, b) in img.plane(c).iter().zip(&planes.colour[c]) {
-                        se += (q(*a as f64) - q(*b)).powi(2);
+                        se += (q(*a as f64) - q(*b as f64)).powi(2);
                     }
                 }
                 10.0 * (255.0f64 * 255.0 / (se / (3 * img.pixel_count()) as f64)).log10()

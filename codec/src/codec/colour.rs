@@ -7,6 +7,8 @@
 //! first mapped by `asinh(v / v0)`, linear near 0 and logarithmic above, so a uniform
 //! quantiser spends bits evenly across a high dynamic range.
 
+use rayon::prelude::*;
+
 use crate::raster::{ChannelLayout, Raster, SampleFormat};
 
 const S3: f64 = 1.732_050_807_568_877_2;
@@ -16,13 +18,14 @@ const S6: f64 = 2.449_489_742_783_178;
 /// Linear scale below which the HDR curve is linear.
 pub const HDR_V0: f64 = 1.0 / 64.0;
 
-/// Image planes in coding space: colour channels (1 or 3) and optional alpha.
+/// Image planes in coding space: colour channels (1 or 3) and optional alpha. The
+/// encoder works in `f64`; the decoder's fast path produces `f32`.
 #[derive(Debug, Clone)]
-pub struct CodingPlanes {
+pub struct CodingPlanes<T = f64> {
     /// Y, or Y, C1, C2.
-    pub colour: Vec<Vec<f64>>,
+    pub colour: Vec<Vec<T>>,
     /// Alpha in [0, 1], if present.
-    pub alpha: Option<Vec<f64>>,
+    pub alpha: Option<Vec<T>>,
 }
 
 fn to_coding(v: f32, format: SampleFormat) -> f64 {
@@ -72,29 +75,70 @@ pub fn forward(img: &Raster) -> CodingPlanes {
     CodingPlanes { colour, alpha }
 }
 
-/// Reassembles a raster from coding planes (values are not clamped here).
-pub fn inverse(planes: &CodingPlanes, width: u32, height: u32, format: SampleFormat) -> Vec<f32> {
+/// Reassembles raster samples (planar) from coding planes. Integer formats are clamped
+/// to [0, 1] here, at output, and alpha always; float colour is not.
+pub fn inverse<T>(
+    planes: &CodingPlanes<T>,
+    width: u32,
+    height: u32,
+    format: SampleFormat,
+) -> Vec<f32>
+where
+    T: Copy + Into<f64> + Sync,
+{
+    /// Pixels per parallel task.
+    const CHUNK: usize = 1 << 14;
     let n = width as usize * height as usize;
-    let mut out =
-        Vec::with_capacity(n * (planes.colour.len() + usize::from(planes.alpha.is_some())));
-    if planes.colour.len() == 3 {
-        let (y, c1, c2) = (&planes.colour[0], &planes.colour[1], &planes.colour[2]);
-        let mut r = Vec::with_capacity(n);
-        let mut g = Vec::with_capacity(n);
-        let mut b = Vec::with_capacity(n);
-        for i in 0..n {
-            r.push(from_coding(y[i] / S3 + c1[i] / S2 + c2[i] / S6, format));
-            g.push(from_coding(y[i] / S3 - 2.0 * c2[i] / S6, format));
-            b.push(from_coding(y[i] / S3 - c1[i] / S2 + c2[i] / S6, format));
+    let nc = planes.colour.len();
+    let mut out = vec![0.0f32; n * (nc + usize::from(planes.alpha.is_some()))];
+    let clamp = format != SampleFormat::F32;
+    let put = move |v: f64| {
+        let v = from_coding(v, format);
+        if clamp {
+            v.clamp(0.0, 1.0)
+        } else {
+            v
         }
-        out.extend(r);
-        out.extend(g);
-        out.extend(b);
+    };
+    let (colour, alpha) = out.split_at_mut(n * nc);
+    if nc == 3 {
+        let (y, c1, c2) = (&planes.colour[0], &planes.colour[1], &planes.colour[2]);
+        let (r, gb) = colour.split_at_mut(n);
+        let (g, b) = gb.split_at_mut(n);
+        r.par_chunks_mut(CHUNK)
+            .zip(g.par_chunks_mut(CHUNK))
+            .zip(b.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(k, ((r, g), b))| {
+                let o = k * CHUNK;
+                for i in 0..r.len() {
+                    let (y, c1, c2) = (y[o + i].into(), c1[o + i].into(), c2[o + i].into());
+                    r[i] = put(y / S3 + c1 / S2 + c2 / S6);
+                    g[i] = put(y / S3 - 2.0 * c2 / S6);
+                    b[i] = put(y / S3 - c1 / S2 + c2 / S6);
+                }
+            });
     } else {
-        out.extend(planes.colour[0].iter().map(|&v| from_coding(v, format)));
+        let y = &planes.colour[0];
+        colour
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(k, out)| {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = put(y[k * CHUNK + i].into());
+                }
+            });
     }
     if let Some(a) = &planes.alpha {
-        out.extend(a.iter().map(|&v| v as f32));
+        alpha
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(k, out)| {
+                for (i, o) in out.iter_mut().enumerate() {
+                    let v: f64 = a[k * CHUNK + i].into();
+                    *o = (v as f32).clamp(0.0, 1.0);
+                }
+            });
     }
     out
 }

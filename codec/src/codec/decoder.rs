@@ -11,18 +11,16 @@
 //! Interpolating the key points' absolute positions instead would shift edges: the
 //! normalised average of cell centres is biased wherever cell sizes change.
 
-use rayon::prelude::*;
-
 use super::bitstream::{self, tag, Header};
 use super::colour::{self, CodingPlanes};
 use super::entropy::RangeSource;
 use super::geometry::Frame;
-use super::keyset::KeySet;
+use super::keyset::{Grid, KeySet};
 use super::model::chroma_cells;
 use super::quadtree::Cell;
 use super::syntax::{self, MAX_BINS_PER_VALUE};
 use super::{CodecError, DecodeOptions, MAX_SIDE};
-use crate::raster::{Raster, SampleFormat};
+use crate::raster::Raster;
 
 /// The decoded key points and their values, before evaluation.
 #[derive(Debug, Clone)]
@@ -161,11 +159,13 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
 }
 
 /// Evaluates the key points at output pixel centres (the identity fast path).
-pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes {
+pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
-    let luma = KeySet::new(frame, &d.luma_cells, h.kernel).render(&d.luma_values, ow, oh);
-    let mut colour = vec![luma[0].clone()];
+    let mut luma = KeySet::new(frame, &d.luma_cells, h.kernel)
+        .render(&d.luma_values, ow, oh)
+        .into_iter();
+    let mut colour: Vec<Vec<f32>> = luma.next().into_iter().collect();
     if !d.chroma_cells.is_empty() {
         colour.extend(KeySet::new(frame, &d.chroma_cells, h.kernel).render(
             &d.chroma_values,
@@ -175,11 +175,11 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes {
     }
     CodingPlanes {
         colour,
-        alpha: h.layout.has_alpha().then(|| luma[1].clone()),
+        alpha: luma.next().filter(|_| h.layout.has_alpha()),
     }
 }
 
-/// Forward mapping through the core network with `s x s` samples per output pixel.
+/// Forward mapping with `s x s` samples per output pixel.
 ///
 /// Samples lie on the lattice refined by `1/s` that contains every output pixel centre;
 /// each mapped sample is splatted with a tent one lattice step wide (linear splatting),
@@ -188,109 +188,79 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes {
 /// warped one is reconstructed from `s x s` times denser samples. Along an axis where
 /// the output is smaller than the coded image, the tent widens to one output pixel (a
 /// triangle filter), so the extra samples anti-alias the downscale.
-pub fn render_forward(d: &Decoded, ow: u32, oh: u32, s: u32) -> Result<CodingPlanes, CodecError> {
+///
+/// The network is evaluated on the whole lattice by [`KeySet::eval_grid`] (tested equal
+/// to the core network). Its position outputs are the sample's own position plus the
+/// interpolated key-point displacements; version 1 files carry no displacements, so
+/// those outputs are the lattice positions themselves and are not evaluated.
+pub fn render_forward(
+    d: &Decoded,
+    ow: u32,
+    oh: u32,
+    s: u32,
+) -> Result<CodingPlanes<f32>, CodecError> {
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
-    // Shape vectors: (dx, dy, values...) with zero displacement in an unedited file.
-    let network = |cells: &[Cell], values: &[Vec<f64>]| {
-        let ks = KeySet::new(frame, cells, h.kernel);
-        let p = 2 + values.len();
-        let mut shapes = Vec::with_capacity(cells.len() * p);
-        for i in 0..cells.len() {
-            shapes.extend([0.0, 0.0]);
-            shapes.extend(values.iter().map(|v| v[i]));
-        }
-        ks.network(p, shapes)
-    };
-    let luma_net = network(&d.luma_cells, &d.luma_values)?;
-    let chroma_net = if d.chroma_cells.is_empty() {
-        None
-    } else {
-        Some(network(&d.chroma_cells, &d.chroma_values)?)
-    };
     let (sx, sy) = (h.width as f64 / ow as f64, h.height as f64 / oh as f64);
     let (owu, ohu) = (ow as usize, oh as usize);
-    let nl = d.luma_values.len();
-    let nc = nl + chroma_net.as_ref().map_or(0, |_| 2);
     let ss = s as usize;
     let step = 1.0 / s as f64;
     let first = -((ss / 2) as f64) * step;
-    let mut planes = vec![vec![0.0; owu * ohu]; nc];
-    let mut weight = vec![0.0; owu * ohu];
-    // Rows are sampled in parallel in bands, then splatted in a fixed order.
-    const BAND: usize = 16;
-    for band in (0..ohu).step_by(BAND) {
-        let rows: Vec<Vec<f64>> = (band..(band + BAND).min(ohu))
-            .into_par_iter()
-            .map(|oy| -> Result<Vec<f64>, CodecError> {
-                let mut domain = Vec::with_capacity(owu * ss * ss * 3);
-                let mut pos = Vec::with_capacity(owu * ss * ss * 2);
-                for b in 0..ss {
-                    let y = oy as f64 + 0.5 + first + b as f64 * step;
-                    for ox in 0..owu {
-                        for a in 0..ss {
-                            let x = ox as f64 + 0.5 + first + a as f64 * step;
-                            domain.extend(frame.embed(x * sx, y * sy));
-                            pos.extend([x, y]);
-                        }
-                    }
-                }
-                let ly = luma_net.eval_batch(&domain)?;
-                let cy = chroma_net
-                    .as_ref()
-                    .map(|n| n.eval_batch(&domain))
-                    .transpose()?;
-                // Per sample: output position (x, y) then the nc channel values.
-                let mut out = Vec::with_capacity(pos.len() / 2 * (2 + nc));
-                let (pl, pc) = (2 + nl, 4);
-                for k in 0..pos.len() / 2 {
-                    out.push(pos[2 * k] + ly[k * pl] / sx);
-                    out.push(pos[2 * k + 1] + ly[k * pl + 1] / sy);
-                    out.extend_from_slice(&ly[k * pl + 2..(k + 1) * pl]);
-                    if let Some(cy) = &cy {
-                        out.extend_from_slice(&cy[k * pc + 2..(k + 1) * pc]);
-                    }
-                }
-                Ok(out)
-            })
-            .collect::<Result<_, _>>()?;
-        let (rx, ry) = (
-            if sx > 1.0 { 1.0 } else { step },
-            if sy > 1.0 { 1.0 } else { step },
+    // Lattice point (i, j) sits at output position (0.5 + first + i step, ...), which is
+    // coded position (that x sx, that y sy).
+    let grid = Grid {
+        x0: (0.5 + first) * sx,
+        dx: step * sx,
+        nx: owu * ss,
+        y0: (0.5 + first) * sy,
+        dy: step * sy,
+        ny: ohu * ss,
+    };
+    let mut samples = KeySet::new(frame, &d.luma_cells, h.kernel).eval_grid(&d.luma_values, &grid);
+    let nl = samples.len();
+    if !d.chroma_cells.is_empty() {
+        samples.extend(
+            KeySet::new(frame, &d.chroma_cells, h.kernel).eval_grid(&d.chroma_values, &grid),
         );
-        for row in &rows {
-            for sample in row.chunks_exact(2 + nc) {
-                let (x, y) = (sample[0], sample[1]);
-                if !(x.is_finite() && y.is_finite()) {
-                    continue;
-                }
-                // Pixel centres within the tent's reach of the sample.
-                let (i0, i1) = (
-                    (x - 0.5 - rx).ceil().max(0.0),
-                    (x - 0.5 + rx).floor().min(owu as f64 - 1.0),
-                );
-                let (j0, j1) = (
-                    (y - 0.5 - ry).ceil().max(0.0),
-                    (y - 0.5 + ry).floor().min(ohu as f64 - 1.0),
-                );
-                let mut j = j0;
-                while j <= j1 {
-                    let wy = 1.0 - (y - (j + 0.5)).abs() / ry;
-                    let mut i = i0;
-                    while i <= i1 {
-                        let wx = 1.0 - (x - (i + 0.5)).abs() / rx;
-                        let w = wx * wy;
-                        if w > 0.0 {
-                            let idx = j as usize * owu + i as usize;
-                            weight[idx] += w;
-                            for c in 0..nc {
-                                planes[c][idx] += w * sample[2 + c];
-                            }
+    }
+    let nc = samples.len();
+    let mut planes = vec![vec![0.0f64; owu * ohu]; nc];
+    let mut weight = vec![0.0; owu * ohu];
+    let (rx, ry) = (
+        if sx > 1.0 { 1.0 } else { step },
+        if sy > 1.0 { 1.0 } else { step },
+    );
+    for lj in 0..grid.ny {
+        let y = 0.5 + first + lj as f64 * step;
+        // Pixel rows within the tent's reach of the sample row.
+        let (j0, j1) = (
+            (y - 0.5 - ry).ceil().max(0.0),
+            (y - 0.5 + ry).floor().min(ohu as f64 - 1.0),
+        );
+        for li in 0..grid.nx {
+            let x = 0.5 + first + li as f64 * step;
+            let k = lj * grid.nx + li;
+            let (i0, i1) = (
+                (x - 0.5 - rx).ceil().max(0.0),
+                (x - 0.5 + rx).floor().min(owu as f64 - 1.0),
+            );
+            let mut j = j0;
+            while j <= j1 {
+                let wy = 1.0 - (y - (j + 0.5)).abs() / ry;
+                let mut i = i0;
+                while i <= i1 {
+                    let wx = 1.0 - (x - (i + 0.5)).abs() / rx;
+                    let w = wx * wy;
+                    if w > 0.0 {
+                        let idx = j as usize * owu + i as usize;
+                        weight[idx] += w;
+                        for c in 0..nc {
+                            planes[c][idx] += w * samples[c][k] as f64;
                         }
-                        i += 1.0;
                     }
-                    j += 1.0;
+                    i += 1.0;
                 }
+                j += 1.0;
             }
         }
     }
@@ -302,12 +272,12 @@ pub fn render_forward(d: &Decoded, ow: u32, oh: u32, s: u32) -> Result<CodingPla
         }
     }
     fill_holes(&mut planes, &mut weight, owu, ohu);
-    let alpha = h.layout.has_alpha().then(|| planes[1].clone());
-    let mut colour = vec![planes[0].clone()];
-    if nc > nl {
-        colour.push(planes[nl].clone());
-        colour.push(planes[nl + 1].clone());
-    }
+    let mut planes = planes
+        .into_iter()
+        .map(|p| p.into_iter().map(|v| v as f32).collect::<Vec<f32>>());
+    let mut colour: Vec<Vec<f32>> = planes.by_ref().take(1).collect();
+    let alpha = if nl > 1 { planes.next() } else { None };
+    colour.extend(planes);
     Ok(CodingPlanes { colour, alpha })
 }
 
@@ -353,18 +323,11 @@ pub(crate) fn fill_holes(planes: &mut [Vec<f64>], weight: &mut [f64], w: usize, 
     }
 }
 
-pub(crate) fn to_raster(header: &Header, planes: CodingPlanes, ow: u32, oh: u32) -> Raster {
-    let mut samples = colour::inverse(&planes, ow, oh, header.format);
-    // Output is where out-of-range values are clamped: integer formats to [0, 1],
-    // alpha always.
-    let n = ow as usize * oh as usize;
-    let channels = header.layout.channels();
-    for (c, chunk) in samples.chunks_mut(n).enumerate() {
-        let is_alpha = header.layout.has_alpha() && c == channels - 1;
-        if is_alpha || header.format != SampleFormat::F32 {
-            chunk.iter_mut().for_each(|v| *v = v.clamp(0.0, 1.0));
-        }
-    }
+pub(crate) fn to_raster<T>(header: &Header, planes: CodingPlanes<T>, ow: u32, oh: u32) -> Raster
+where
+    T: Copy + Into<f64> + Sync,
+{
+    let samples = colour::inverse(&planes, ow, oh, header.format);
     Raster::new(ow, oh, header.layout, header.format, samples)
         .expect("decoded samples are finite and sized")
 }

@@ -233,7 +233,7 @@ mod tests {
         let truth: Vec<f64> = (0..ks.len())
             .map(|i| ((i * 7919) % 13) as f64 / 13.0)
             .collect();
-        let img = ks.render(&[truth.clone()], w, h).remove(0);
+        let img = ks.render_per_pixel(&[truth.clone()], w, h).remove(0);
         let a = ks.pixel_weights();
         let ls = LeastSquares::new(&a, ks.len());
         let prior = ls.prior(&[&img]);

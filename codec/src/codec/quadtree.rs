@@ -145,25 +145,29 @@ impl TreeShape {
 /// children of a node are leaves, the node replaces them; other leaves stay. Derived
 /// from the luma tree alone, so it costs no bits.
 pub fn pruned_one_level(shape: &TreeShape, leaves: &[Cell]) -> Vec<Cell> {
-    use std::collections::HashMap;
-    let mut leaf_children: HashMap<Cell, usize> = HashMap::new();
-    for l in leaves.iter().filter(|l| l.log2 < shape.block_log2) {
-        *leaf_children.entry(l.parent()).or_insert(0) += 1;
-    }
+    // Depth-first coding order keeps a node's subtree contiguous, so a node whose
+    // existing children are all leaves shows up as a run of exactly that many leaves
+    // sharing the parent, starting at its first child.
     let mut out = Vec::with_capacity(leaves.len() / 2);
-    let mut emitted = std::collections::HashSet::new();
-    for l in leaves {
+    let mut k = 0;
+    while k < leaves.len() {
+        let l = leaves[k];
         if l.log2 < shape.block_log2 {
             let p = l.parent();
-            let existing = p.children().iter().filter(|k| shape.inside(k)).count();
-            if leaf_children.get(&p) == Some(&existing) {
-                if emitted.insert(p) {
-                    out.push(p);
-                }
+            let existing = p.children().iter().filter(|c| shape.inside(c)).count();
+            let run = leaves[k..]
+                .iter()
+                .take(existing)
+                .take_while(|c| c.log2 == l.log2 && c.parent() == p)
+                .count();
+            if run == existing {
+                out.push(p);
+                k += run;
                 continue;
             }
         }
-        out.push(*l);
+        out.push(l);
+        k += 1;
     }
     out
 }
@@ -171,6 +175,59 @@ pub fn pruned_one_level(shape: &TreeShape, leaves: &[Cell]) -> Vec<Cell> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pruning by its definition: count each parent's leaf children.
+    fn pruned_by_counting(shape: &TreeShape, leaves: &[Cell]) -> Vec<Cell> {
+        use std::collections::{HashMap, HashSet};
+        let mut leaf_children: HashMap<Cell, usize> = HashMap::new();
+        for l in leaves.iter().filter(|l| l.log2 < shape.block_log2) {
+            *leaf_children.entry(l.parent()).or_insert(0) += 1;
+        }
+        let mut out = Vec::new();
+        let mut emitted = HashSet::new();
+        for l in leaves {
+            if l.log2 < shape.block_log2 {
+                let p = l.parent();
+                let existing = p.children().iter().filter(|k| shape.inside(k)).count();
+                if leaf_children.get(&p) == Some(&existing) {
+                    if emitted.insert(p) {
+                        out.push(p);
+                    }
+                    continue;
+                }
+            }
+            out.push(*l);
+        }
+        out
+    }
+
+    #[test]
+    fn pruning_matches_its_definition() {
+        for (w, h, seed) in [
+            (37, 21, 1u32),
+            (64, 64, 2),
+            (5, 3, 3),
+            (100, 17, 4),
+            (1, 1, 5),
+        ] {
+            let shape = TreeShape {
+                width: w,
+                height: h,
+                block_log2: 4,
+                min_log2: 0,
+            };
+            let mut k = seed;
+            let leaves = shape.walk(|_| {
+                k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                (k >> 16) % 3 != 0
+            });
+            assert_eq!(
+                pruned_one_level(&shape, &leaves),
+                pruned_by_counting(&shape, &leaves),
+                "{w}x{h}"
+            );
+        }
+    }
 
     #[test]
     fn leaves_tile_the_image_exactly() {

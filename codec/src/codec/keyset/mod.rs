@@ -7,7 +7,13 @@
 //! finds a pixel's key points through a grid of pixel buckets instead of the network's
 //! k-d trees; `tests` check it against [`Network::eval`].
 
+mod grid;
+
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
+
+pub use grid::Grid;
 
 use super::geometry::Frame;
 use super::quadtree::Cell;
@@ -41,9 +47,16 @@ pub struct KeySet {
     sources: Vec<[f64; 3]>,
     q: Vec<f64>,
     weight: Vec<f64>,
-    bucket_cols: u32,
-    bucket_start: Vec<u32>,
-    bucket_items: Vec<u32>,
+    /// Built on first per-pixel use: the splatting path does not need it.
+    buckets: OnceLock<Buckets>,
+}
+
+/// Key points indexed by the pixel buckets their support rectangles touch.
+#[derive(Debug, Clone)]
+struct Buckets {
+    cols: u32,
+    start: Vec<u32>,
+    items: Vec<u32>,
 }
 
 /// Normalised weights of every pixel (rows, row-major pixels) on the key points
@@ -70,9 +83,7 @@ impl KeySet {
             sources: Vec::with_capacity(n),
             q: Vec::with_capacity(n),
             weight: Vec::with_capacity(n),
-            bucket_cols: w.div_ceil(BUCKET),
-            bucket_start: Vec::new(),
-            bucket_items: Vec::new(),
+            buckets: OnceLock::new(),
         };
         for c in cells {
             let (x, y) = c.centre(w, h);
@@ -84,11 +95,14 @@ impl KeySet {
             ks.q.push(frame.sharpness(x, y, sigma));
             ks.weight.push(s.powf(-params.weight_exponent));
         }
-        ks.build_buckets();
         ks
     }
 
-    fn build_buckets(&mut self) {
+    fn buckets(&self) -> &Buckets {
+        self.buckets.get_or_init(|| self.build_buckets())
+    }
+
+    fn build_buckets(&self) -> Buckets {
         let (w, h) = (self.frame.width, self.frame.height);
         let (bc, br) = (w.div_ceil(BUCKET) as usize, h.div_ceil(BUCKET) as usize);
         let ranges: Vec<(usize, usize, usize, usize)> = self
@@ -131,8 +145,11 @@ impl KeySet {
                 }
             }
         }
-        self.bucket_start = count;
-        self.bucket_items = items;
+        Buckets {
+            cols: bc as u32,
+            start: count,
+            items,
+        }
     }
 
     /// Number of key points.
@@ -180,11 +197,10 @@ impl KeySet {
         {
             return self.kernels_brute(&p, out);
         }
-        let b = by as usize * self.bucket_cols as usize + bx as usize;
+        let buckets = self.buckets();
+        let b = by as usize * buckets.cols as usize + bx as usize;
         let mut sum = 0.0;
-        for &i in
-            &self.bucket_items[self.bucket_start[b] as usize..self.bucket_start[b + 1] as usize]
-        {
+        for &i in &buckets.items[buckets.start[b] as usize..buckets.start[b + 1] as usize] {
             let k = self.kernel(i as usize, &p);
             if k != 0.0 {
                 sum += k;
@@ -257,7 +273,13 @@ impl KeySet {
     /// Evaluates `channels` planes (each n values, one per key point) at the pixel
     /// centres of a `out_w x out_h` grid covering the image (the identity fast path,
     /// resampled when the size differs from the coded one).
-    pub fn render(&self, colours: &[Vec<f64>], out_w: u32, out_h: u32) -> Vec<Vec<f64>> {
+    pub fn render(&self, colours: &[Vec<f64>], out_w: u32, out_h: u32) -> Vec<Vec<f32>> {
+        self.eval_grid(colours, &Grid::pixel_centres(&self.frame, out_w, out_h))
+    }
+
+    /// [`KeySet::render`] one pixel at a time through [`KeySet::kernels_at`]: the
+    /// reference the splatting path is tested against.
+    pub fn render_per_pixel(&self, colours: &[Vec<f64>], out_w: u32, out_h: u32) -> Vec<Vec<f64>> {
         let (sx, sy) = (
             self.frame.width as f64 / out_w as f64,
             self.frame.height as f64 / out_h as f64,
@@ -346,31 +368,46 @@ mod tests {
     use super::*;
     use crate::codec::quadtree::TreeShape;
 
-    #[test]
-    fn fast_path_equals_the_core_network() {
-        let frame = Frame::new(53, 37);
+    fn random_keyset(w: u32, h: u32, seed: u32, sigma_factor: f64) -> KeySet {
         let shape = TreeShape {
-            width: 53,
-            height: 37,
+            width: w,
+            height: h,
             block_log2: 4,
             min_log2: 0,
         };
-        let mut k = 7u32;
+        let mut k = seed;
         let cells = shape.walk(|_| {
             k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
             (k >> 16) % 2 == 0
         });
-        let ks = KeySet::new(
-            frame,
+        KeySet::new(
+            Frame::new(w, h),
             &cells,
             KernelParams {
-                sigma_factor: 0.4,
+                sigma_factor,
                 weight_exponent: 1.0,
             },
-        );
+        )
+    }
+
+    /// The normalised value at `(x, y)` through the per-pixel kernels.
+    fn reference_at(ks: &KeySet, values: &[f64], x: f64, y: f64) -> f64 {
+        let mut buf = Vec::new();
+        let sum = ks.kernels_at(x, y, &mut buf);
+        if sum > 0.0 {
+            buf.iter().map(|&(i, k)| k * values[i as usize]).sum::<f64>() / sum
+        } else {
+            0.0
+        }
+    }
+
+    #[test]
+    fn per_pixel_path_equals_the_core_network() {
+        let ks = random_keyset(53, 37, 7, 0.4);
+        let frame = *ks.frame();
         let colours: Vec<f64> = (0..ks.len()).map(|i| (i as f64 * 0.37).sin()).collect();
         let net = ks.network(1, colours.clone()).unwrap();
-        let fast = ks.render(&[colours], 53, 37);
+        let fast = ks.render_per_pixel(&[colours], 53, 37);
         let mut worst: f64 = 0.0;
         for y in 0..37 {
             for x in 0..53 {
@@ -382,7 +419,65 @@ mod tests {
         }
         assert!(
             worst < 1e-12,
-            "fast path differs from the core network by {worst}"
+            "per-pixel path differs from the core network by {worst}"
         );
+    }
+
+    #[test]
+    fn splatting_equals_the_per_pixel_path_on_any_grid() {
+        // Single precision: values of magnitude ~1 agree to a few 1e-7.
+        const TOL: f64 = 2e-6;
+        for (w, h, seed, sigma) in [
+            (53, 37, 7, 0.4),
+            (1, 1, 1, 0.3),
+            (1, 9, 2, 0.5),
+            (9, 1, 3, 0.5),
+            (8, 8, 4, 0.3),
+            (17, 5, 5, 0.7),
+            (130, 70, 6, 0.5),
+        ] {
+            let ks = random_keyset(w, h, seed, sigma);
+            let frame = *ks.frame();
+            let values: Vec<Vec<f64>> = (0..5)
+                .map(|c| {
+                    (0..ks.len())
+                        .map(|i| ((i * (c + 3)) as f64 * 0.37).sin() * (c + 1) as f64)
+                        .collect()
+                })
+                .collect();
+            let lattice = |s: usize| Grid {
+                x0: 0.5 - (s / 2) as f64 / s as f64,
+                dx: 1.0 / s as f64,
+                nx: w as usize * s,
+                y0: 0.5 - (s / 2) as f64 / s as f64,
+                dy: 1.0 / s as f64,
+                ny: h as usize * s,
+            };
+            let grids = [
+                Grid::pixel_centres(&frame, w, h),
+                Grid::pixel_centres(&frame, 2 * w + 1, h.div_ceil(2)),
+                Grid::pixel_centres(&frame, w.div_ceil(3), 3 * h),
+                lattice(2),
+                lattice(3),
+            ];
+            for grid in grids {
+                // 1 to 5 planes: every specialised width and a second pass.
+                for nc in 1..=5 {
+                    let got = ks.eval_grid(&values[..nc], &grid);
+                    for j in 0..grid.ny {
+                        for i in 0..grid.nx {
+                            for (c, plane) in got.iter().enumerate() {
+                                let want = reference_at(&ks, &values[c], grid.x(i), grid.y(j));
+                                let have = plane[j * grid.nx + i] as f64;
+                                assert!(
+                                    (have - want).abs() <= TOL * (c + 1) as f64,
+                                    "{w}x{h} {grid:?} plane {c} at ({i},{j}): {have} vs {want}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
