@@ -182,6 +182,7 @@ impl KeySet {
                 chunks[b].push(rows);
             }
         }
+        let arch = pulp::Arch::new();
         let ctx = Band {
             splats: &splats,
             grid,
@@ -204,11 +205,21 @@ impl KeySet {
                 for (group, vals) in out.chunks_mut(4).zip(values_f32.chunks(4)) {
                     acc.clear();
                     acc.resize((vals.len() + 1) * rows * stride, 0.0f32);
+                    // Compiled for the widest vector unit the CPU has. No fused multiply-adds
+                    // are formed (Rust never contracts), so every unit gives the same bits.
+                    let pass = Pass {
+                        band: &ctx,
+                        list,
+                        values: vals,
+                        g,
+                        j0,
+                        acc,
+                    };
                     match vals.len() {
-                        1 => ctx.splat::<1>(list, vals, g, j0, acc),
-                        2 => ctx.splat::<2>(list, vals, g, j0, acc),
-                        3 => ctx.splat::<3>(list, vals, g, j0, acc),
-                        _ => ctx.splat::<4>(list, vals, g, j0, acc),
+                        1 => arch.dispatch(Planes::<1>(pass)),
+                        2 => arch.dispatch(Planes::<2>(pass)),
+                        3 => arch.dispatch(Planes::<3>(pass)),
+                        _ => arch.dispatch(Planes::<4>(pass)),
                     }
                     let (sum, planes) = acc.split_at(rows * stride);
                     for (o, a) in group.iter_mut().zip(planes.chunks_exact(rows * stride)) {
@@ -240,6 +251,7 @@ struct Band<'a> {
 impl Band<'_> {
     /// Splats the key points `list` over the band starting at row `j0`; `acc` holds the
     /// kernel sum then the `NC` value planes, each `rows x nx`.
+    #[inline(always)]
     fn splat<const NC: usize>(
         &self,
         list: &[u32],
@@ -305,6 +317,30 @@ impl Band<'_> {
                 );
             }
         }
+    }
+}
+
+/// One band pass's arguments.
+struct Pass<'a> {
+    band: &'a Band<'a>,
+    list: &'a [u32],
+    values: &'a [Vec<f32>],
+    g: &'a [f32],
+    j0: usize,
+    acc: &'a mut [f32],
+}
+
+/// A band pass over `NC` planes as a `pulp` operation: everything it calls is inlined
+/// into the target-feature function `pulp` picks, which is what vectorises it.
+struct Planes<'a, const NC: usize>(Pass<'a>);
+
+impl<const NC: usize> pulp::WithSimd for Planes<'_, NC> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let p = self.0;
+        p.band.splat::<NC>(p.list, p.values, p.g, p.j0, p.acc);
     }
 }
 

@@ -395,7 +395,10 @@ mod tests {
         let mut buf = Vec::new();
         let sum = ks.kernels_at(x, y, &mut buf);
         if sum > 0.0 {
-            buf.iter().map(|&(i, k)| k * values[i as usize]).sum::<f64>() / sum
+            buf.iter()
+                .map(|&(i, k)| k * values[i as usize])
+                .sum::<f64>()
+                / sum
         } else {
             0.0
         }
