@@ -101,8 +101,9 @@ pub struct DistortArgs {
     /// Output image: .png or .exr (`-` for PNG on stdout).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// A control point move `x,y:x2,y2` in pixels (repeatable).
-    #[arg(long = "move", value_name = "X,Y:X2,Y2")]
+    /// A control point move `x,y:x2,y2` in pixels (repeatable); `x,y,z:x2,y2,z2` for a
+    /// surface. Values may be negative (`--move -0.5,0,0:0.5,0,0`).
+    #[arg(long = "move", value_name = "X,Y:X2,Y2", allow_hyphen_values = true)]
     pub moves: Vec<String>,
     /// A JSON file of moves: `[{"from": [x, y], "to": [x2, y2]}, ...]` or
     /// `[[[x, y], [x2, y2]], ...]`.

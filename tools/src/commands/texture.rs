@@ -134,6 +134,16 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         }
     }
     let warp = caoen::texture::warp3d::Warp3::new(lo, hi, &moves).map_err(tex_err)?;
+    // 32^3 samples over the model's box, like the 2-D check's 128 per side: a fold
+    // narrower than a cell (1/31 of the box) can slip through, a crossing cannot.
+    let r = warp.check_folds(32);
+    if !r.is_consistent() {
+        eprintln!(
+            "warning: inconsistent moves: the 3-D warp folds over at {} of {} sampled \
+             points (min Jacobian determinant {:.3}); the surface may turn inside out there",
+            r.folded, r.samples, r.min_det
+        );
+    }
     let out = warp.apply_to_model(&model).map_err(tex_err)?;
     if ext.as_deref() == Some("json") {
         crate::output::write_file(&a.output, out.to_json().as_bytes())?;
