@@ -134,9 +134,32 @@ fn cli_transfer_png_obj_and_errors() {
         "3",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // What a viewer needs: the OBJ names its MTL and material, the MTL names the PNG,
+    // every face corner indexes an existing position, texture coordinate and normal.
     let text = std::fs::read_to_string(&obj).unwrap();
-    assert!(text.contains("mtllib") && text.contains("vt "));
-    assert!(dir.join("b.mtl").exists() && dir.join("b-texture.png").exists());
+    assert!(text.contains("mtllib b.mtl") && text.contains("usemtl "));
+    let mtl = std::fs::read_to_string(dir.join("b.mtl")).unwrap();
+    assert!(mtl.contains("map_Kd b-texture.png"), "{mtl}");
+    assert!(image::open(dir.join("b-texture.png")).is_ok());
+    let count = |tag: &str| text.lines().filter(|l| l.starts_with(tag)).count();
+    let (nv, nvt, nvn) = (count("v "), count("vt "), count("vn "));
+    assert!(nvt > 0 && count("f ") > 0);
+    for l in text.lines().filter(|l| l.starts_with("f ")) {
+        for corner in l.split_whitespace().skip(1) {
+            let idx: Vec<usize> = corner.split('/').map(|v| v.parse().unwrap()).collect();
+            assert_eq!(idx.len(), 3, "{l}");
+            assert!((1..=nv).contains(&idx[0]) && (1..=nvt).contains(&idx[1]));
+            assert!((1..=nvn).contains(&idx[2]), "{l}");
+        }
+    }
+    for l in text.lines().filter(|l| l.starts_with("vt ")) {
+        let uv: Vec<f64> = l
+            .split_whitespace()
+            .skip(1)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert!(uv.iter().all(|v| v.is_finite()), "{l}");
+    }
     // A .cae texture.
     let cae = dir.join("t.cae");
     assert!(caoen(&["encode", s(&tex), "-o", s(&cae), "--quiet"])
@@ -593,4 +616,42 @@ fn cli_solid_textures_and_volume_specs() {
     ] {
         let _ = std::fs::remove_file(vdir.join(name));
     }
+}
+
+#[test]
+fn texture_control_example_steers_the_texture() {
+    // examples/texture-control.json: key points with different sources and one shape
+    // vector (the paper's texture control). More of the domain, so more of the texture,
+    // lands on the +x tip than on the plain blob.
+    use caoen::surface::SurfaceModel;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = SurfaceModel::load(&root.join("examples/texture-control.json")).unwrap();
+    assert!(model.texture.is_some());
+    let kps = model.network.key_points();
+    let tip: Vec<_> = kps.iter().filter(|k| k.shape == [1.3, 0.0, 0.0]).collect();
+    assert!(
+        tip.len() >= 2,
+        "{} key points share the tip's shape",
+        tip.len()
+    );
+    for (i, a) in tip.iter().enumerate() {
+        for b in &tip[..i] {
+            assert_ne!(a.source, b.source);
+        }
+    }
+    let blob = gallery::by_name("blob").unwrap().unwrap();
+    let on_tip = |m: &SurfaceModel| {
+        let mut n = 0;
+        for j in 0..64 {
+            for i in 0..128 {
+                let uv = [(i as f64 + 0.5) / 128.0, (j as f64 + 0.5) / 64.0];
+                let y = m.network.eval(&uv_domain(&m.domain, uv).unwrap()).unwrap();
+                n += usize::from(y[0] > 0.9);
+            }
+        }
+        n
+    };
+    let (steered, plain) = (on_tip(&model), on_tip(&blob));
+    println!("texels on the +x tip: texture control {steered}, plain blob {plain}");
+    assert!(steered as f64 > 1.3 * plain as f64, "{steered} vs {plain}");
 }
