@@ -404,3 +404,50 @@ pub fn parse_colours(s: &str) -> Result<[[f32; 3]; 2], TextureError> {
     };
     Ok([one(a)?, one(b)?])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_wave_is_periodic_and_spans_zero_to_one() {
+        assert_eq!(wave(0.0), 0.0);
+        assert_eq!(wave(0.5), 1.0);
+        assert_eq!(wave(3.0), 0.0);
+        assert_eq!(wave(0.25), 0.5);
+        for k in 0..100 {
+            let t = k as f64 * 0.0731 - 3.0;
+            assert!((wave(t) - wave(t + 1.0)).abs() < 1e-12);
+            assert!((0.0..=1.0).contains(&wave(t)));
+        }
+    }
+
+    #[test]
+    fn texture_noise_is_balanced() {
+        // Gradient noise averages to about zero: the hash does not favour a gradient.
+        let (mut sum, mut n) = (0.0, 0.0);
+        for i in 0..40 {
+            for j in 0..40 {
+                sum += perlin([i as f64 * 0.37 + 0.1, j as f64 * 0.53 + 0.2, 0.77]);
+                n += 1.0;
+            }
+        }
+        assert!((sum / n as f64).abs() < 0.05, "{}", sum / n);
+        assert!(turbulence([0.3, 0.2, 0.1], 5) >= 0.0);
+    }
+
+    #[test]
+    fn texture_colours_parse() {
+        let c = parse_colours("#ffffff,000000").unwrap();
+        assert_eq!(c, [[1.0; 3], [0.0; 3]]);
+        for bad in [
+            "",
+            "ffffff",
+            "fffff,000000",
+            "gggggg,000000",
+            "ffffff,00000é",
+        ] {
+            assert!(parse_colours(bad).is_err(), "{bad}");
+        }
+    }
+}

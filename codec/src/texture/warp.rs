@@ -473,9 +473,9 @@ impl Lattice {
 /// bilinearly in between: the resampling evaluates the network at the nodes only
 /// (`1 / spacing^2` per pixel instead of `S^2`). The field is smooth on the scale of
 /// the smallest key point footprint `sigma`, and bilinear interpolation errs by at most
-/// `spacing^2 / 8` times its curvature (about `|d| / sigma^2`), so the spacing is
-/// `sigma / 8` capped at one pixel: under 0.001 px for a 10 px move with 64 px
-/// footprints.
+/// `spacing^2 / 8` times its curvature (about `|d| / sigma^2`, somewhat more where the
+/// solved shapes exceed the displacements), so the spacing is `sigma / 8` capped at one
+/// pixel: 0.0033 px at most for 10 px moves with 48 px footprints (unit test).
 struct Field {
     spacing: f64,
     /// Node `(i, j)` is at `((i - 0.5) spacing, (j0 + j - 0.5) spacing)`.
@@ -755,4 +755,79 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
         hd.width,
         hd.height,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn warp() -> Warp {
+        let moves = [
+            Move {
+                from: [40.5, 30.5],
+                to: [48.25, 36.0],
+            },
+            Move {
+                from: [120.5, 30.5],
+                to: [113.0, 26.5],
+            },
+            Move {
+                from: [80.5, 60.5],
+                to: [80.5, 70.0],
+            },
+        ];
+        Warp::new(160, 120, &moves).unwrap()
+    }
+
+    #[test]
+    fn texture_field_interpolates_the_network_closely() {
+        // The node field stands in for the network in the resampling: its error must
+        // stay far below the 0.5 px placement budget.
+        let w = warp();
+        let spacing = Field::spacing(&w, 0.25);
+        assert_eq!(spacing, 1.0);
+        let mut worst: f64 = 0.0;
+        for y0 in [0usize, 29, 60, 119] {
+            let field = Field::band(&w, spacing, y0 as f64, y0 as f64 + 1.0);
+            for k in 0..400 {
+                let (x, y) = (k as f64 * 0.3997, y0 as f64 + (k % 7) as f64 / 7.0);
+                let (d, _) = field.at(x, y);
+                let e = w.displacement(x, y);
+                worst = worst.max((d[0] - e[0]).hypot(d[1] - e[1]));
+            }
+        }
+        // Measured 0.0033 px: bilinear error of a field bending over ~50 px.
+        assert!(worst < 5e-3, "{worst}");
+    }
+
+    #[test]
+    fn texture_field_jacobian_matches_the_exact_one() {
+        let w = warp();
+        let field = Field::band(&w, 1.0, 44.0, 45.0);
+        let (_, j) = field.at(70.3, 44.1);
+        let e = w.jacobian(70.3, 44.1);
+        for r in 0..2 {
+            for c in 0..2 {
+                assert!((j[r][c] - e[r][c]).abs() < 5e-3, "{j:?} vs {e:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn texture_tent_is_one_step_under_identity_and_widens_with_stretch() {
+        let id = [[1.0, 0.0], [0.0, 1.0]];
+        assert_eq!(tent(0.25, &id), (0.25, 0.25));
+        assert_eq!(tent(0.25, &[[3.0, 0.0], [0.5, 0.8]]), (0.75, 0.25));
+        assert_eq!(tent(0.5, &[[9.0, 0.0], [0.0, 1.0]]), (MAX_TENT, 0.5));
+    }
+
+    #[test]
+    fn texture_bilinear_hits_pixel_centres_and_clamps() {
+        let p = [0.0f32, 1.0, 2.0, 3.0];
+        assert_eq!(bilinear(&p, 2, 2, 0.5, 0.5), 0.0);
+        assert_eq!(bilinear(&p, 2, 2, 1.5, 1.5), 3.0);
+        assert_eq!(bilinear(&p, 2, 2, 1.0, 1.0), 1.5);
+        assert_eq!(bilinear(&p, 2, 2, -4.0, 9.0), 2.0);
+        assert_eq!(bilinear(&[7.0], 1, 1, 0.3, 0.9), 7.0);
+    }
 }
