@@ -432,7 +432,7 @@ mod tests {
                 n += 1.0;
             }
         }
-        assert!((sum / n as f64).abs() < 0.05, "{}", sum / n);
+        assert!((sum / n).abs() < 0.05, "{}", sum / n);
         assert!(turbulence([0.3, 0.2, 0.1], 5) >= 0.0);
     }
 
