@@ -466,3 +466,98 @@ fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
         Some(1)
     );
 }
+
+#[test]
+fn surface_3d_warp_fold_check() {
+    use caoen::texture::warp3d::{Move3, Warp3};
+    // Consistent: the blob's +x tip pulled out and a pole held: no fold anywhere on the
+    // 24^3 grid over the box.
+    let consistent = [
+        Move3 {
+            from: [1.3, 0.0, 0.0],
+            to: [1.7, 0.3, -0.1],
+        },
+        Move3 {
+            from: [0.0, 0.0, 1.0],
+            to: [0.0, 0.0, 1.0],
+        },
+    ];
+    let warp = Warp3::new([-1.5; 3], [1.5; 3], &consistent).unwrap();
+    let r = warp.check_folds(24);
+    println!(
+        "3-D consistent: {} samples, {} folded, min det {:.3}",
+        r.samples, r.folded, r.min_det
+    );
+    assert_eq!(r.samples, 24 * 24 * 24);
+    assert!(r.is_consistent() && r.min_det > 0.0, "{r:?}");
+    // The exact Jacobian agrees with central differences.
+    let p = [0.7, -0.2, 0.4];
+    let j = warp.jacobian(p);
+    let h = 1e-5;
+    for c in 0..3 {
+        let (mut a, mut b) = (p, p);
+        a[c] += h;
+        b[c] -= h;
+        let (fa, fb) = (warp.map(a), warp.map(b));
+        for r in 0..3 {
+            let fd = (fa[r] - fb[r]) / (2.0 * h);
+            assert!(
+                (fd - j[r][c]).abs() < 1e-6,
+                "J[{r}][{c}] {} vs {fd}",
+                j[r][c]
+            );
+        }
+    }
+    // Crossing: two points swap places through each other: space folds over.
+    let crossing = [
+        Move3 {
+            from: [-0.5, 0.0, 0.0],
+            to: [0.5, 0.0, 0.0],
+        },
+        Move3 {
+            from: [0.5, 0.0, 0.0],
+            to: [-0.5, 0.0, 0.0],
+        },
+    ];
+    let warp = Warp3::new([-1.5; 3], [1.5; 3], &crossing).unwrap();
+    let r = warp.check_folds(24);
+    println!(
+        "3-D crossing: {} of {} folded, min det {:.3}",
+        r.folded, r.samples, r.min_det
+    );
+    assert!(!r.is_consistent() && r.min_det < 0.0, "{r:?}");
+    // CLI: the warning on stderr for the crossing moves only, a model written in both.
+    let dir = tmpdir("fold3");
+    let out = dir.join("d.json");
+    let o = caoen(&[
+        "distort",
+        "builtin:blob",
+        "-o",
+        s(&out),
+        "--move",
+        "1.3,0,0:1.7,0.3,-0.1",
+        "--move",
+        "0,0,1:0,0,1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        !String::from_utf8_lossy(&o.stderr).contains("warning"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let o = caoen(&[
+        "distort",
+        "builtin:blob",
+        "-o",
+        s(&out),
+        "--quiet",
+        "--move",
+        "-0.5,0,0:0.5,0,0",
+        "--move",
+        "0.5,0,0:-0.5,0,0",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("warning: inconsistent moves"), "{err}");
+    assert!(caoen::surface::SurfaceModel::load(&out).is_ok());
+}

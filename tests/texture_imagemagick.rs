@@ -239,8 +239,8 @@ fn against_imagemagick_shepards() {
         let p: Vec<String> = p.iter().map(|v| format!("{v:.3}")).collect();
         println!("| {name} | {} | {r:.4} | {t:.3} |", p.join(" / "));
     }
-    // The fields themselves (the image measurement above includes each method's
-    // resampling: our forward splat of nearest samples adds sub-pixel staircases).
+    // The fields themselves (the image measurement above also includes each method's
+    // resampling and 16-bit rounding).
     let warp = caoen::texture::warp::Warp::new(
         W,
         H,
@@ -266,10 +266,13 @@ fn against_imagemagick_shepards() {
         "displacement field mean |Laplacian| (px): caoen warp network {ours_field:.4}, Shepards formula (power 2) {im_field:.4}"
     );
     let (ours, theirs) = (&rows[0].1, &rows[1].1);
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     assert!(ours.iter().all(|&e| e < 0.5), "{ours:?}");
-    assert!(
-        mean(ours) <= mean(theirs) + 1e-9,
-        "ours {ours:?} vs ImageMagick {theirs:?}"
-    );
+    // At least as exact as Shepards at every dot size.
+    for (a, b) in ours.iter().zip(theirs) {
+        assert!(a <= b, "ours {ours:?} vs ImageMagick {theirs:?}");
+    }
+    // Smoothness: the field stays within 1.5x of Shepard's global inverse-distance
+    // average although ours holds the far field still (measured 0.0052 vs 0.0049; it
+    // was 0.0234 with rigid rings and a 6-cell anchor grid).
+    assert!(ours_field < 1.5 * im_field, "{ours_field} vs {im_field}");
 }

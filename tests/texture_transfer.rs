@@ -134,9 +134,32 @@ fn cli_transfer_png_obj_and_errors() {
         "3",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // What a viewer needs: the OBJ names its MTL and material, the MTL names the PNG,
+    // every face corner indexes an existing position, texture coordinate and normal.
     let text = std::fs::read_to_string(&obj).unwrap();
-    assert!(text.contains("mtllib") && text.contains("vt "));
-    assert!(dir.join("b.mtl").exists() && dir.join("b-texture.png").exists());
+    assert!(text.contains("mtllib b.mtl") && text.contains("usemtl "));
+    let mtl = std::fs::read_to_string(dir.join("b.mtl")).unwrap();
+    assert!(mtl.contains("map_Kd b-texture.png"), "{mtl}");
+    assert!(image::open(dir.join("b-texture.png")).is_ok());
+    let count = |tag: &str| text.lines().filter(|l| l.starts_with(tag)).count();
+    let (nv, nvt, nvn) = (count("v "), count("vt "), count("vn "));
+    assert!(nvt > 0 && count("f ") > 0);
+    for l in text.lines().filter(|l| l.starts_with("f ")) {
+        for corner in l.split_whitespace().skip(1) {
+            let idx: Vec<usize> = corner.split('/').map(|v| v.parse().unwrap()).collect();
+            assert_eq!(idx.len(), 3, "{l}");
+            assert!((1..=nv).contains(&idx[0]) && (1..=nvt).contains(&idx[1]));
+            assert!((1..=nvn).contains(&idx[2]), "{l}");
+        }
+    }
+    for l in text.lines().filter(|l| l.starts_with("vt ")) {
+        let uv: Vec<f64> = l
+            .split_whitespace()
+            .skip(1)
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert!(uv.iter().all(|v| v.is_finite()), "{l}");
+    }
     // A .cae texture.
     let cae = dir.join("t.cae");
     assert!(caoen(&["encode", s(&tex), "-o", s(&cae), "--quiet"])
@@ -297,4 +320,338 @@ fn texture_space_carries_a_solid_texture() {
         .code(),
         Some(1)
     );
+}
+
+#[test]
+fn procedural_solid_textures_golden_and_properties() {
+    use caoen::texture::solid::{perlin, turbulence, Solid, DEFAULT_COLOURS, PROCEDURAL};
+    // Golden values: the textures are plain IEEE arithmetic, so these are exact on
+    // every platform.
+    let golden: [(&str, [f64; 3], [f32; 3]); 6] = [
+        ("checker", [0.1, 0.2, 0.3], [0.06, 0.12, 0.35]),
+        ("checker", [-0.71, 0.45, 1.3], [0.85, 0.8, 0.65]),
+        (
+            "stripes",
+            [0.1, 0.2, 0.3],
+            [0.26481485, 0.2962963, 0.42777777],
+        ),
+        (
+            "rings",
+            [-0.71, 0.45, 1.3],
+            [0.8381016, 0.7897584, 0.6454816],
+        ),
+        (
+            "marble",
+            [-0.71, 0.45, 1.3],
+            [0.6806402, 0.65422195, 0.58568615],
+        ),
+        (
+            "marble",
+            [1.234, -0.9, -0.05],
+            [0.8499223, 0.79993314, 0.6499705],
+        ),
+    ];
+    for (kind, p, want) in golden {
+        let s = Solid::procedural(kind, 0.3, DEFAULT_COLOURS).unwrap();
+        assert_eq!(s.sample(p), want, "{kind} at {p:?}");
+    }
+    assert_eq!(perlin([0.3, 1.7, -2.2]), -0.1851828844799999);
+    assert_eq!(turbulence([0.3, 1.7, -2.2], 5), 0.5383035766515709);
+    // Perlin noise vanishes on the integer lattice and stays within -1..1.
+    assert_eq!(perlin([3.0, -2.0, 7.0]), 0.0);
+    for i in 0..2000 {
+        let t = i as f64 * 0.0137;
+        let v = perlin([t, 0.7 * t + 0.3, 0.1 - 1.3 * t]);
+        assert!(v.abs() <= 1.0, "{v}");
+    }
+    // Every kind stays between its two colours; stripes repeat with their period.
+    let c = [[0.0, 0.5, 1.0], [1.0, 0.25, 0.0]];
+    for kind in PROCEDURAL {
+        let s = Solid::procedural(kind, 0.5, c).unwrap();
+        for i in 0..500 {
+            let p = [i as f64 * 0.031 - 7.0, (i as f64 * 0.017).fract(), 0.3];
+            let v = s.sample(p);
+            for k in 0..3 {
+                let (lo, hi) = (c[0][k].min(c[1][k]), c[0][k].max(c[1][k]));
+                assert!(v[k] >= lo && v[k] <= hi, "{kind} {p:?} {v:?}");
+            }
+        }
+    }
+    let stripes = Solid::procedural("stripes", 0.5, c).unwrap();
+    assert_eq!(
+        stripes.sample([0.125, 0.3, 0.2]),
+        stripes.sample([0.625, -4.0, 9.0])
+    );
+    // Huge and non-finite coordinates are defined.
+    for kind in PROCEDURAL {
+        let s = Solid::procedural(kind, 0.5, c).unwrap();
+        let _ = s.sample([1e300, -1e300, f64::NAN]);
+    }
+    assert!(Solid::procedural("wood", 0.5, c).is_err());
+    assert!(Solid::procedural("checker", 0.0, c).is_err());
+    assert!(Solid::procedural("checker", f64::NAN, c).is_err());
+}
+
+/// A 16^3 test volume: an RGB gradient over the box with darker spherical shells.
+fn volume_slices() -> Vec<RgbImage> {
+    let n = 16;
+    (0..n)
+        .map(|k| {
+            let mut pixels = Vec::new();
+            for j in 0..n {
+                for i in 0..n {
+                    let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
+                    let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
+                    let shell = if (r * 8.0) as u32 % 2 == 0 { 1.0 } else { 0.35 };
+                    pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
+                }
+            }
+            RgbImage {
+                width: n,
+                height: n,
+                pixels,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn volume_texture_trilinear_and_errors() {
+    use caoen::texture::solid::{Volume, VolumeWrap};
+    // 2 x 2 x 2 voxels over [0, 2]^3: voxel centres at 0.5 and 1.5.
+    let vox: Vec<[f32; 3]> = (0..8).map(|i| [i as f32, 0.0, 1.0]).collect();
+    let v = Volume::new(
+        [2, 2, 2],
+        vox.clone(),
+        [0.0; 3],
+        [2.0; 3],
+        VolumeWrap::Clamp,
+    )
+    .unwrap();
+    assert_eq!(v.sample([0.5, 0.5, 0.5]), [0.0, 0.0, 1.0]);
+    assert_eq!(v.sample([1.5, 0.5, 1.5]), [5.0, 0.0, 1.0]);
+    // The centre: the mean of all eight.
+    assert_eq!(v.sample([1.0, 1.0, 1.0]), [3.5, 0.0, 1.0]);
+    // Along x between two centres: linear; beyond the box: the edge voxel (clamp).
+    assert_eq!(v.sample([0.75, 0.5, 0.5]), [0.25, 0.0, 1.0]);
+    assert_eq!(v.sample([-5.0, 9.0, 0.5]), [2.0, 0.0, 1.0]);
+    // Repeat: one box further along every axis is the same point.
+    let r = Volume::new(
+        [2, 2, 2],
+        vox.clone(),
+        [0.0; 3],
+        [2.0; 3],
+        VolumeWrap::Repeat,
+    )
+    .unwrap();
+    assert_eq!(r.sample([0.8, 1.3, 0.6]), r.sample([2.8, -0.7, 4.6]));
+    // Between the last and the first voxel it wraps: x = 0 is halfway between them.
+    assert_eq!(r.sample([0.0, 0.5, 0.5]), [0.5, 0.0, 1.0]);
+    assert!(Volume::new(
+        [2, 2, 2],
+        vox.clone(),
+        [0.0; 3],
+        [0.0, 2.0, 2.0],
+        VolumeWrap::Clamp
+    )
+    .is_err());
+    assert!(Volume::new([2, 2, 3], vox, [0.0; 3], [2.0; 3], VolumeWrap::Clamp).is_err());
+    assert!(Volume::new([0, 2, 2], vec![], [0.0; 3], [2.0; 3], VolumeWrap::Clamp).is_err());
+    // From slices: slice k is layer z = k.
+    let slices = volume_slices();
+    let v = Volume::from_slices(&slices, [-1.0; 3], [1.0; 3], VolumeWrap::Clamp).unwrap();
+    assert_eq!(v.size(), [16, 16, 16]);
+    let c = |i: usize| -1.0 + (i as f64 + 0.5) / 8.0;
+    assert_eq!(v.sample([c(3), c(7), c(11)]), slices[11].pixels[7 * 16 + 3]);
+    assert!(Volume::from_slices(&[], [-1.0; 3], [1.0; 3], VolumeWrap::Clamp).is_err());
+}
+
+#[test]
+fn cli_solid_textures_and_volume_specs() {
+    let dir = tmpdir("solid");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    // The example volume: slices and spec written with CAOEN_WRITE_EXAMPLES=1, else
+    // in the temporary folder.
+    let vdir = if std::env::var_os("CAOEN_WRITE_EXAMPLES").is_some() {
+        root.join("examples/transfer/volume")
+    } else {
+        dir.join("volume")
+    };
+    std::fs::create_dir_all(&vdir).unwrap();
+    let mut names = Vec::new();
+    for (k, s) in volume_slices().iter().enumerate() {
+        let name = format!("z{k:02}.png");
+        std::fs::write(vdir.join(&name), s.encode_png().unwrap()).unwrap();
+        names.push(name);
+    }
+    let spec = vdir.join("volume.json");
+    let spec_json = |slices: &[String]| {
+        format!(
+            "{{\"slices\": {}, \"min\": [-1.5, -1.5, -1.5], \"max\": [1.5, 1.5, 1.5], \"wrap\": \"clamp\"}}",
+            serde_json::to_string(slices).unwrap()
+        )
+    };
+    std::fs::write(&spec, spec_json(&names)).unwrap();
+    let run = |extra: &[&str], out: &Path| {
+        let mut args = vec![
+            "transfer",
+            "--texture-space",
+            "builtin:blob",
+            "--to",
+            "builtin:blob",
+            "-o",
+            s(out),
+            "--size",
+            "96x72",
+            "--detail",
+            "3",
+            "--texture-size",
+            "64x32",
+        ];
+        args.extend_from_slice(extra);
+        let o = caoen(&args);
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(!err.contains("panicked"), "{err}");
+        (o.status.code(), err)
+    };
+    // Every procedural kind, with colours, and the volume: images that differ.
+    let mut outputs = Vec::new();
+    for kind in ["checker", "stripes", "rings", "marble"] {
+        let out = dir.join(format!("{kind}.png"));
+        let (code, err) = run(
+            &[
+                "--solid",
+                kind,
+                "--scale",
+                "0.4",
+                "--colours",
+                "#f0e0c0,402010",
+            ],
+            &out,
+        );
+        assert_eq!(code, Some(0), "{err}");
+        outputs.push(std::fs::read(&out).unwrap());
+    }
+    let out = dir.join("volume.png");
+    let (code, err) = run(&["--solid", s(&spec)], &out);
+    assert_eq!(code, Some(0), "{err}");
+    outputs.push(std::fs::read(&out).unwrap());
+    for i in 0..outputs.len() {
+        for j in 0..i {
+            assert_ne!(outputs[i], outputs[j], "outputs {i} and {j} are the same");
+        }
+    }
+    // The OBJ path with a volume: its texture is the volume sampled at B(x).
+    let obj = dir.join("v.obj");
+    let (code, err) = run(&["--solid", s(&spec)], &obj);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(dir.join("v-texture.png").exists());
+    // Bad parameters: usage errors.
+    let bad = dir.join("bad.png");
+    for extra in [
+        &["--solid", "wood"][..],
+        &["--solid", "marble", "--scale", "0"],
+        &["--solid", "marble", "--scale", "-1"],
+        &["--solid", "marble", "--colours", "ff0000"],
+        &["--solid", "marble", "--colours", "ff0000,zz0000"],
+        &["--solid", s(&spec), "--colours", "ff0000,00ff00"],
+    ] {
+        assert_eq!(run(extra, &bad).0, Some(2), "{extra:?}");
+    }
+    // Bad volumes: failures with a message naming the problem.
+    let bad_spec = |name: &str, text: String| {
+        let p = vdir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let mut missing = names.clone();
+    missing[1] = "nope.png".into();
+    let p = bad_spec("missing.json", spec_json(&missing));
+    let (code, err) = run(&["--solid", s(&p)], &bad);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("slice 1") && err.contains("nope.png"), "{err}");
+    std::fs::write(
+        dir.join("small.png"),
+        RgbImage {
+            width: 8,
+            height: 16,
+            pixels: vec![[0.5; 3]; 128],
+        }
+        .encode_png()
+        .unwrap(),
+    )
+    .unwrap();
+    let mut mismatched = names.clone();
+    mismatched[2] = s(&dir.join("small.png")).to_string();
+    let p = bad_spec("mismatched.json", spec_json(&mismatched));
+    let (code, err) = run(&["--solid", s(&p)], &bad);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("slice 2 is 8x16") && err.contains("one size"),
+        "{err}"
+    );
+    let p = bad_spec("empty.json", spec_json(&[]));
+    let (code, err) = run(&["--solid", s(&p)], &bad);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("empty"), "{err}");
+    let p = bad_spec(
+        "box.json",
+        r#"{"slices": ["z00.png"], "min": [1, 0, 0], "max": [0, 1, 1]}"#.into(),
+    );
+    let (code, err) = run(&["--solid", s(&p)], &bad);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("min < max"), "{err}");
+    let p = bad_spec("junk.json", "{\"slices\": 3}".into());
+    assert_eq!(run(&["--solid", s(&p)], &bad).0, Some(1));
+    assert_eq!(
+        run(&["--solid", s(&dir.join("none.json"))], &bad).0,
+        Some(1)
+    );
+    for name in [
+        "missing.json",
+        "mismatched.json",
+        "empty.json",
+        "box.json",
+        "junk.json",
+    ] {
+        let _ = std::fs::remove_file(vdir.join(name));
+    }
+}
+
+#[test]
+fn texture_control_example_steers_the_texture() {
+    // examples/texture-control.json: key points with different sources and one shape
+    // vector (the paper's texture control). More of the domain, so more of the texture,
+    // lands on the +x tip than on the plain blob.
+    use caoen::surface::SurfaceModel;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let model = SurfaceModel::load(&root.join("examples/texture-control.json")).unwrap();
+    assert!(model.texture.is_some());
+    let kps = model.network.key_points();
+    let tip: Vec<_> = kps.iter().filter(|k| k.shape == [1.3, 0.0, 0.0]).collect();
+    assert!(
+        tip.len() >= 2,
+        "{} key points share the tip's shape",
+        tip.len()
+    );
+    for (i, a) in tip.iter().enumerate() {
+        for b in &tip[..i] {
+            assert_ne!(a.source, b.source);
+        }
+    }
+    let blob = gallery::by_name("blob").unwrap().unwrap();
+    let on_tip = |m: &SurfaceModel| {
+        let mut n = 0;
+        for j in 0..64 {
+            for i in 0..128 {
+                let uv = [(i as f64 + 0.5) / 128.0, (j as f64 + 0.5) / 64.0];
+                let y = m.network.eval(&uv_domain(&m.domain, uv).unwrap()).unwrap();
+                n += usize::from(y[0] > 0.9);
+            }
+        }
+        n
+    };
+    let (steered, plain) = (on_tip(&model), on_tip(&blob));
+    println!("texels on the +x tip: texture control {steered}, plain blob {plain}");
+    assert!(steered as f64 > 1.3 * plain as f64, "{steered} vs {plain}");
 }

@@ -65,13 +65,23 @@ pub struct TransferArgs {
     #[arg(long)]
     pub from: Option<String>,
     /// Instead of --texture/--from: a network from the shared domain into a 3-D texture
-    /// space (a surface file); a solid checker texture (cubes of side --cell) sampled
-    /// there is carried onto B.
+    /// space (a surface file); the solid texture (--solid) sampled there is carried
+    /// onto B.
     #[arg(long, value_name = "NET", conflicts_with_all = ["texture", "from"])]
     pub texture_space: Option<String>,
-    /// Cube side of the solid checker texture (with --texture-space).
-    #[arg(long, default_value_t = 0.25)]
-    pub cell: f64,
+    /// Solid texture for --texture-space: checker (cubes), stripes (layers across x),
+    /// rings (wood: cylinders around z), marble (Perlin-noise veins), or a volume spec
+    /// FILE.json listing PNG slices (sampled trilinearly; docs/texture.md).
+    #[arg(long, value_name = "KIND|SPEC.json", default_value = "checker")]
+    pub solid: String,
+    /// Feature size of a procedural solid texture in texture-space units: cube side,
+    /// stripe period, ring spacing, vein spacing (with --texture-space).
+    #[arg(long, visible_alias = "cell", default_value_t = 0.25)]
+    pub scale: f64,
+    /// The two colours of a procedural solid texture, sRGB hex `RRGGBB,RRGGBB`
+    /// (default: a light sand and a dark blue).
+    #[arg(long, value_name = "RRGGBB,RRGGBB", requires = "texture_space")]
+    pub colours: Option<String>,
     /// Texture grid size WIDTHxHEIGHT baked for B (with --texture-space).
     #[arg(long, default_value = "512x256")]
     pub texture_size: String,
@@ -101,8 +111,9 @@ pub struct DistortArgs {
     /// Output image: .png or .exr (`-` for PNG on stdout).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// A control point move `x,y:x2,y2` in pixels (repeatable).
-    #[arg(long = "move", value_name = "X,Y:X2,Y2")]
+    /// A control point move `x,y:x2,y2` in pixels (repeatable); `x,y,z:x2,y2,z2` for a
+    /// surface. Values may be negative (`--move -0.5,0,0:0.5,0,0`).
+    #[arg(long = "move", value_name = "X,Y:X2,Y2", allow_hyphen_values = true)]
     pub moves: Vec<String>,
     /// A JSON file of moves: `[{"from": [x, y], "to": [x2, y2]}, ...]` or
     /// `[[[x, y], [x2, y2]], ...]`.

@@ -1,7 +1,9 @@
 //! Texture tools on Cao En networks (design section 9): image distortion by moving
 //! control points ([`warp`]) and texture transfer between surfaces sharing a domain
-//! ([`transfer`]). See `docs/texture.md`.
+//! ([`transfer`], with the solid textures of [`solid`] for its texture-space method).
+//! See `docs/texture.md`.
 
+pub mod solid;
 pub mod transfer;
 pub mod warp;
 pub mod warp3d;

@@ -87,15 +87,14 @@ pub fn transfer(
     })
 }
 
-/// A procedural solid (3-D) texture: a checkerboard of cubes of side `cell` in two
-/// linear colours.
+/// A procedural solid (3-D) texture: a checkerboard of cubes of side `cell` in the
+/// two [`super::solid::DEFAULT_COLOURS`] (`Solid::Checker`; kept for callers).
 pub fn solid_checker(p: [f64; 3], cell: f64) -> [f32; 3] {
-    let k: i64 = p.iter().map(|v| (v / cell).floor() as i64).sum();
-    if k.rem_euclid(2) == 0 {
-        [0.85, 0.8, 0.65]
-    } else {
-        [0.06, 0.12, 0.35]
+    super::solid::Solid::Checker {
+        scale: cell,
+        colours: super::solid::DEFAULT_COLOURS,
     }
+    .sample(p)
 }
 
 /// The second method of the paper: `space` maps the shared domain into a 3-D texture

@@ -2,8 +2,12 @@
 //! inverse stereographic projection) to 3-D displacements, with control points moved
 //! exactly and identity anchors on a coarse grid around the object, applied to a
 //! surface model (its key points' position shapes are moved) or to a mesh (its
-//! vertices are moved).
+//! vertices are moved). As in 2-D, fold-over is detected by sampling the Jacobian
+//! determinant of the map over the box ([`Warp3::check_folds`]).
 
+use rayon::prelude::*;
+
+use super::warp::FoldReport;
 use super::TextureError;
 use crate::surface::{Blend, Network, SurfaceModel};
 
@@ -19,6 +23,8 @@ pub struct Move3 {
 /// A warp of 3-D space around a box.
 #[derive(Debug, Clone)]
 pub struct Warp3 {
+    lo: [f64; 3],
+    hi: [f64; 3],
     centre: [f64; 3],
     inv_scale: f64,
     net: Network,
@@ -104,6 +110,8 @@ impl Warp3 {
         )
         .map_err(|e| TextureError::Invalid(format!("control points too close to solve: {e}")))?;
         Ok(Warp3 {
+            lo,
+            hi,
             centre,
             inv_scale,
             net,
@@ -123,6 +131,44 @@ impl Warp3 {
             .eval(&embed(self.centre, self.inv_scale, p))
             .expect("4-D input");
         [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
+    }
+
+    /// The Jacobian `d map / d p` (row `r` = output component `r`) at `p`: the
+    /// network's exact Jacobian chained with the embedding's.
+    pub fn jacobian(&self, p: [f64; 3]) -> [[f64; 3]; 3] {
+        let (_, jn) = self
+            .net
+            .eval_with_jacobian(&embed(self.centre, self.inv_scale, p))
+            .expect("4-D input");
+        let e = embed_jacobian(self.centre, self.inv_scale, p);
+        let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        for (r, row) in j.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v += (0..4).map(|k| jn[r * 4 + k] * e[k][c]).sum::<f64>();
+            }
+        }
+        j
+    }
+
+    /// Checks the Jacobian determinant on an `n x n x n` grid over the box the warp was
+    /// built for (corners included, `n >= 2`): a consistent set of moves keeps it
+    /// positive everywhere; crossing moves fold space over (determinant `<= 0`).
+    pub fn check_folds(&self, n: usize) -> FoldReport {
+        let n = n.max(2);
+        let at =
+            |k: usize, i: usize| self.lo[k] + (self.hi[k] - self.lo[k]) * i as f64 / (n - 1) as f64;
+        let dets: Vec<f64> = (0..n * n * n)
+            .into_par_iter()
+            .map(|idx| {
+                let p = [at(0, idx % n), at(1, (idx / n) % n), at(2, idx / (n * n))];
+                det3(&self.jacobian(p))
+            })
+            .collect();
+        FoldReport {
+            samples: dets.len(),
+            folded: dets.iter().filter(|&&d| d <= 0.0).count(),
+            min_det: dets.iter().copied().fold(f64::INFINITY, f64::min),
+        }
     }
 
     /// The model with its key points' position shapes (first three components) moved
@@ -156,4 +202,29 @@ fn embed(centre: [f64; 3], inv_scale: f64, p: [f64; 3]) -> [f64; 4] {
         2.0 * u[2] * d,
         (1.0 - r2) * d,
     ]
+}
+
+/// `d embed / d p` (4 x 3) of the inverse stereographic embedding.
+fn embed_jacobian(centre: [f64; 3], inv_scale: f64, p: [f64; 3]) -> [[f64; 3]; 4] {
+    let u = [0, 1, 2].map(|k| (p[k] - centre[k]) * inv_scale);
+    let r2: f64 = u.iter().map(|v| v * v).sum();
+    let d = 1.0 + r2;
+    let d2 = d * d;
+    let mut e = [[0.0; 3]; 4];
+    for (k, row) in e.iter_mut().take(3).enumerate() {
+        for (l, v) in row.iter_mut().enumerate() {
+            let delta = if k == l { d } else { 0.0 };
+            *v = 2.0 * (delta - 2.0 * u[k] * u[l]) / d2 * inv_scale;
+        }
+    }
+    for (l, v) in e[3].iter_mut().enumerate() {
+        *v = -4.0 * u[l] / d2 * inv_scale;
+    }
+    e
+}
+
+fn det3(m: &[[f64; 3]; 3]) -> f64 {
+    m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
 }

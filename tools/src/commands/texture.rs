@@ -134,6 +134,16 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         }
     }
     let warp = caoen::texture::warp3d::Warp3::new(lo, hi, &moves).map_err(tex_err)?;
+    // 32^3 samples over the model's box, like the 2-D check's 128 per side: a fold
+    // narrower than a cell (1/31 of the box) can slip through, a crossing cannot.
+    let r = warp.check_folds(32);
+    if !r.is_consistent() {
+        eprintln!(
+            "warning: inconsistent moves: the 3-D warp folds over at {} of {} sampled \
+             points (min Jacobian determinant {:.3}); the surface may turn inside out there",
+            r.folded, r.samples, r.min_det
+        );
+    }
     let out = warp.apply_to_model(&model).map_err(tex_err)?;
     if ext.as_deref() == Some("json") {
         crate::output::write_file(&a.output, out.to_json().as_bytes())?;
@@ -277,6 +287,30 @@ fn load_texture(path: &Path) -> CliResult<caoen::render::texture::Texture> {
     }
 }
 
+/// The solid texture of `--solid`, `--scale`, `--colours`: a procedural kind, or a
+/// volume spec file (anything ending in .json). Bad parameters are usage errors (exit
+/// 2), an unreadable or inconsistent volume is a failure (exit 1).
+fn solid_texture(a: &crate::cli::TransferArgs) -> CliResult<caoen::texture::solid::Solid> {
+    use caoen::texture::solid::{self, Solid, Volume};
+    let spec = Path::new(&a.solid);
+    if spec
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+    {
+        if a.colours.is_some() {
+            return Err(CliError::Usage(
+                "--colours applies to procedural solid textures, not to a volume".into(),
+            ));
+        }
+        return Ok(Solid::Volume(Volume::load(spec).map_err(tex_err)?));
+    }
+    let colours = match &a.colours {
+        Some(c) => solid::parse_colours(c).map_err(|e| CliError::Usage(e.to_string()))?,
+        None => solid::DEFAULT_COLOURS,
+    };
+    Solid::procedural(&a.solid, a.scale, colours).map_err(|e| CliError::Usage(e.to_string()))
+}
+
 /// `caoen transfer`.
 pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult {
     let ext = a
@@ -295,20 +329,14 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
     let start = Instant::now();
     let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
         (Some(space), _, _) => {
-            if !(a.cell.is_finite() && a.cell > 0.0) {
-                return Err(CliError::Usage(format!(
-                    "--cell {}: must be positive",
-                    a.cell
-                )));
-            }
             let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
+            let solid = solid_texture(a)?;
             let net = crate::commands::surface::load_model(space)?;
-            let cell = a.cell;
-            let solid = move |p: [f64; 3]| caoen::texture::transfer::solid_checker(p, cell);
+            let sample = |p: [f64; 3]| solid.sample(p);
             (
-                caoen::texture::transfer::bake_texture_space(&net, &to, &solid, tw, th)
+                caoen::texture::transfer::bake_texture_space(&net, &to, &sample, tw, th)
                     .map_err(tex_err)?,
-                format!("solid checker through {space}"),
+                format!("solid {} through {space}", a.solid),
             )
         }
         (None, Some(texture), Some(from_spec)) => {
