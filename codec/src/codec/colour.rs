@@ -91,13 +91,14 @@ where
     let n = width as usize * height as usize;
     let nc = planes.colour.len();
     let mut out = vec![0.0f32; n * (nc + usize::from(planes.alpha.is_some()))];
-    let clamp = format != SampleFormat::F32;
+    // Integer formats clamp; float ones undo the HDR curve. Two loops rather than a
+    // per-sample branch keep the common case vectorisable.
+    let hdr = format == SampleFormat::F32;
     let put = move |v: f64| {
-        let v = from_coding(v, format);
-        if clamp {
-            v.clamp(0.0, 1.0)
+        if hdr {
+            from_coding(v, format)
         } else {
-            v
+            (v as f32).clamp(0.0, 1.0)
         }
     };
     let (colour, alpha) = out.split_at_mut(n * nc);
@@ -105,17 +106,21 @@ where
         let (y, c1, c2) = (&planes.colour[0], &planes.colour[1], &planes.colour[2]);
         let (r, gb) = colour.split_at_mut(n);
         let (g, b) = gb.split_at_mut(n);
+        let (ky, k1, k2) = (1.0 / S3, 1.0 / S2, 1.0 / S6);
         r.par_chunks_mut(CHUNK)
             .zip(g.par_chunks_mut(CHUNK))
             .zip(b.par_chunks_mut(CHUNK))
             .enumerate()
             .for_each(|(k, ((r, g), b))| {
                 let o = k * CHUNK;
-                for i in 0..r.len() {
-                    let (y, c1, c2) = (y[o + i].into(), c1[o + i].into(), c2[o + i].into());
-                    r[i] = put(y / S3 + c1 / S2 + c2 / S6);
-                    g[i] = put(y / S3 - 2.0 * c2 / S6);
-                    b[i] = put(y / S3 - c1 / S2 + c2 / S6);
+                let m = r.len();
+                let (y, c1, c2) = (&y[o..o + m], &c1[o..o + m], &c2[o..o + m]);
+                let (g, b) = (&mut g[..m], &mut b[..m]);
+                for i in 0..m {
+                    let (y, c1, c2) = (y[i].into() * ky, c1[i].into() * k1, c2[i].into() * k2);
+                    r[i] = put(y + c1 + c2);
+                    g[i] = put(y - 2.0 * c2);
+                    b[i] = put(y - c1 + c2);
                 }
             });
     } else {

@@ -92,25 +92,33 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
         steps.push(header.step_alpha as f64);
     }
     let (w, h) = (header.width, header.height);
-    let luma_values = read_section_values(
-        parsed.payload(tag::LUMA).unwrap_or(&[]),
-        &luma_cells,
-        w,
-        h,
-        &steps,
-    )?;
-    let chroma_values = if colour {
-        let s = header.step_chroma as f64;
-        read_section_values(
-            parsed.payload(tag::CHROMA).unwrap_or(&[]),
-            &chroma_cells,
-            w,
-            h,
-            &[s, s],
-        )?
-    } else {
-        Vec::new()
-    };
+    // The two sections are independent range-coded streams.
+    let (luma_values, chroma_values) = rayon::join(
+        || {
+            read_section_values(
+                parsed.payload(tag::LUMA).unwrap_or(&[]),
+                &luma_cells,
+                w,
+                h,
+                &steps,
+            )
+        },
+        || {
+            if colour {
+                let s = header.step_chroma as f64;
+                read_section_values(
+                    parsed.payload(tag::CHROMA).unwrap_or(&[]),
+                    &chroma_cells,
+                    w,
+                    h,
+                    &[s, s],
+                )
+            } else {
+                Ok(Vec::new())
+            }
+        },
+    );
+    let (luma_values, chroma_values) = (luma_values?, chroma_values?);
     Ok(Decoded {
         header,
         luma_cells,
@@ -162,17 +170,19 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
 pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
-    let mut luma = KeySet::new(frame, &d.luma_cells, h.kernel)
-        .render(&d.luma_values, ow, oh)
-        .into_iter();
+    let (luma, chroma) = rayon::join(
+        || KeySet::new(frame, &d.luma_cells, h.kernel).render(&d.luma_values, ow, oh),
+        || {
+            if d.chroma_cells.is_empty() {
+                Vec::new()
+            } else {
+                KeySet::new(frame, &d.chroma_cells, h.kernel).render(&d.chroma_values, ow, oh)
+            }
+        },
+    );
+    let mut luma = luma.into_iter();
     let mut colour: Vec<Vec<f32>> = luma.next().into_iter().collect();
-    if !d.chroma_cells.is_empty() {
-        colour.extend(KeySet::new(frame, &d.chroma_cells, h.kernel).render(
-            &d.chroma_values,
-            ow,
-            oh,
-        ));
-    }
+    colour.extend(chroma);
     CodingPlanes {
         colour,
         alpha: luma.next().filter(|_| h.layout.has_alpha()),

@@ -103,6 +103,7 @@ impl KeySet {
     fn splats(&self, grid: &Grid) -> Vec<Option<Splat>> {
         let inv_scale = 1.0 / self.frame.width.max(self.frame.height).max(1) as f64;
         (0..self.len())
+            .into_par_iter()
             .map(|i| {
                 let (cx, cy) = self.centres[i];
                 let radius = self.frame.support_radius(cx, cy, self.sigma[i]);
@@ -186,54 +187,25 @@ impl KeySet {
         let ctx = Band {
             splats: &splats,
             grid,
+            frame: &self.frame,
             xs: &xs,
             stride,
         };
         chunks.into_par_iter().enumerate().for_each_init(
             || (Vec::new(), Vec::new()),
             |(g, acc), (b, mut out)| {
-                let j0 = b * BAND;
-                let rows = BAND.min(ny - j0);
-                g.clear();
-                for r in 0..rows {
-                    let v = (grid.y(j0 + r) - 0.5 * self.frame.height as f64) * inv_scale;
-                    let v2 = (v * v) as f32;
-                    g.extend(plane_u2.iter().map(|u2| 1.0 / (1.0 + u2 + v2)));
-                }
-                let list = &items[start[b]..start[b + 1]];
-                // Up to four planes share one pass; more take further passes.
-                for (group, vals) in out.chunks_mut(4).zip(values_f32.chunks(4)) {
-                    acc.clear();
-                    acc.resize((vals.len() + 1) * rows * stride, 0.0f32);
-                    // Compiled for the widest vector unit the CPU has. No fused multiply-adds
-                    // are formed (Rust never contracts), so every unit gives the same bits.
-                    let pass = Pass {
-                        band: &ctx,
-                        list,
-                        values: vals,
-                        g,
-                        j0,
-                        acc,
-                    };
-                    match vals.len() {
-                        1 => arch.dispatch(Planes::<1>(pass)),
-                        2 => arch.dispatch(Planes::<2>(pass)),
-                        3 => arch.dispatch(Planes::<3>(pass)),
-                        _ => arch.dispatch(Planes::<4>(pass)),
-                    }
-                    let (sum, planes) = acc.split_at(rows * stride);
-                    for (o, a) in group.iter_mut().zip(planes.chunks_exact(rows * stride)) {
-                        for ((o, a), sum) in o
-                            .chunks_exact_mut(nx)
-                            .zip(a.chunks_exact(stride))
-                            .zip(sum.chunks_exact(stride))
-                        {
-                            for ((o, &a), &s) in o.iter_mut().zip(a).zip(sum) {
-                                *o = if s > 0.0 { a / s } else { 0.0 };
-                            }
-                        }
-                    }
-                }
+                // Compiled for the widest vector unit the CPU has. No fused multiply-adds
+                // are formed (Rust never contracts), so every unit gives the same bits.
+                arch.dispatch(BandPass {
+                    band: &ctx,
+                    list: &items[start[b]..start[b + 1]],
+                    values: &values_f32,
+                    plane_u2: &plane_u2,
+                    j0: b * BAND,
+                    g,
+                    acc,
+                    out: &mut out,
+                });
             },
         );
         planes
@@ -244,6 +216,7 @@ impl KeySet {
 struct Band<'a> {
     splats: &'a [Option<Splat>],
     grid: &'a Grid,
+    frame: &'a Frame,
     xs: &'a [f32],
     stride: usize,
 }
@@ -276,39 +249,38 @@ impl Band<'_> {
             let r0 = s.rows.0.max(j0);
             let r1 = s.rows.1.min(j0 + rows - 1);
             let wide = s.cols.1 - s.cols.0 >= 4 * LANES;
-            for j in r0..=r1 {
+            let box_steps = (s.cols.1 - s.cols.0) / LANES + 1;
+            let box_x0 = (grid.x(s.cols.0) - s.cx) as f32;
+            for j in r0..r1 + 1 {
                 let dy = grid.y(j) - s.cy;
                 // A wide support's rows are trimmed to the disc's chord; a narrow one's
                 // bounding box costs less than the trimming.
-                let (c0, c1) = if wide {
+                let (c0, steps, x0) = if wide {
                     let half2 = s.radius * s.radius - dy * dy;
                     if half2 < 0.0 {
                         continue;
                     }
                     match Grid::span(s.cx, half2.sqrt(), grid.x0, grid.dx, grid.nx) {
-                        Some(c) => c,
+                        Some((c0, c1)) => (c0, (c1 - c0) / LANES + 1, (grid.x(c0) - s.cx) as f32),
                         None => continue,
                     }
                 } else {
-                    s.cols
+                    (s.cols.0, box_steps, box_x0)
                 };
-                let steps = (c1 - c0) / LANES + 1;
                 let off = (j - j0) * stride + c0;
                 let range = off..off + steps * LANES;
-                let rows_out: [&mut [f32]; NC] = {
-                    let mut it = planes.iter_mut();
-                    std::array::from_fn(|_| {
-                        let p = it.next().expect("NC planes");
-                        &mut p[range.clone()]
-                    })
-                };
+                let mut it = planes.iter_mut();
+                let rows_out: [&mut [f32]; NC] = std::array::from_fn(|_| match it.next() {
+                    Some(p) => &mut p[range.clone()],
+                    None => &mut [],
+                });
                 splat_row::<NC>(
                     &self.xs[..steps * LANES],
                     &g[range.clone()],
                     &mut sum[range],
                     rows_out,
                     Kernel {
-                        x0: (grid.x(c0) - s.cx) as f32,
+                        x0,
                         a: s.a,
                         a_dy2: s.a * (dy * dy) as f32,
                         weight: s.weight,
@@ -320,27 +292,65 @@ impl Band<'_> {
     }
 }
 
-/// One band pass's arguments.
-struct Pass<'a> {
+/// Everything one band computes, as a `pulp` operation: the conformal factors, the
+/// splats and the normalisation are all inlined into the target-feature function
+/// `pulp` picks, which is what vectorises them.
+struct BandPass<'a, 'o> {
     band: &'a Band<'a>,
     list: &'a [u32],
     values: &'a [Vec<f32>],
-    g: &'a [f32],
+    plane_u2: &'a [f32],
     j0: usize,
-    acc: &'a mut [f32],
+    g: &'a mut Vec<f32>,
+    acc: &'a mut Vec<f32>,
+    out: &'a mut [&'o mut [f32]],
 }
 
-/// A band pass over `NC` planes as a `pulp` operation: everything it calls is inlined
-/// into the target-feature function `pulp` picks, which is what vectorises it.
-struct Planes<'a, const NC: usize>(Pass<'a>);
-
-impl<const NC: usize> pulp::WithSimd for Planes<'_, NC> {
+impl pulp::WithSimd for BandPass<'_, '_> {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        let p = self.0;
-        p.band.splat::<NC>(p.list, p.values, p.g, p.j0, p.acc);
+        let band = self.band;
+        let (grid, frame, stride) = (band.grid, band.frame, band.stride);
+        let nx = grid.nx;
+        let rows = BAND.min(grid.ny - self.j0);
+        let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
+        self.g.clear();
+        for r in 0..rows {
+            let v = (grid.y(self.j0 + r) - 0.5 * frame.height as f64) * inv_scale;
+            let v2 = (v * v) as f32;
+            self.g
+                .extend(self.plane_u2.iter().map(|u2| 1.0 / (1.0 + u2 + v2)));
+        }
+        let plane = rows * stride;
+        // Up to four planes share one pass; more take further passes.
+        for (group, vals) in self.out.chunks_mut(4).zip(self.values.chunks(4)) {
+            self.acc.clear();
+            self.acc.resize((vals.len() + 1) * plane, 0.0f32);
+            let (g, acc) = (&self.g[..], &mut self.acc[..]);
+            match vals.len() {
+                1 => band.splat::<1>(self.list, vals, g, self.j0, acc),
+                2 => band.splat::<2>(self.list, vals, g, self.j0, acc),
+                3 => band.splat::<3>(self.list, vals, g, self.j0, acc),
+                _ => band.splat::<4>(self.list, vals, g, self.j0, acc),
+            }
+            let (sum, planes) = self.acc.split_at_mut(plane);
+            for s in sum.iter_mut() {
+                *s = if *s > 0.0 { 1.0 / *s } else { 0.0 };
+            }
+            for (o, a) in group.iter_mut().zip(planes.chunks_exact(plane)) {
+                for ((o, a), inv) in o
+                    .chunks_exact_mut(nx)
+                    .zip(a.chunks_exact(stride))
+                    .zip(sum.chunks_exact(stride))
+                {
+                    for ((o, &a), &inv) in o.iter_mut().zip(a).zip(inv) {
+                        *o = a * inv;
+                    }
+                }
+            }
+        }
     }
 }
 

@@ -85,6 +85,10 @@ impl KeySet {
             weight: Vec::with_capacity(n),
             buckets: OnceLock::new(),
         };
+        // Weights depend on the cell size alone: one power per tree level.
+        let weights: Vec<f64> = (0..32)
+            .map(|l| 2f64.powi(l).powf(-params.weight_exponent))
+            .collect();
         for c in cells {
             let (x, y) = c.centre(w, h);
             let s = c.size() as f64;
@@ -93,7 +97,7 @@ impl KeySet {
             ks.sigma.push(sigma);
             ks.sources.push(frame.embed(x, y));
             ks.q.push(frame.sharpness(x, y, sigma));
-            ks.weight.push(s.powf(-params.weight_exponent));
+            ks.weight.push(weights[c.log2 as usize]);
         }
         ks
     }
