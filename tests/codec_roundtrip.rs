@@ -254,6 +254,42 @@ fn output_is_identical_for_one_and_two_threads() {
 }
 
 #[test]
+fn decoded_samples_are_identical_for_any_thread_count() {
+    let img = corpus(caoen_corpus::Class::Scene, 150, 97, 2);
+    let bytes = encode(&img, &q(80.0)).unwrap();
+    for opts in [
+        DecodeOptions::default(),
+        DecodeOptions {
+            size: Some((301, 77)),
+            ..Default::default()
+        },
+        DecodeOptions {
+            supersample: Some(2),
+            ..Default::default()
+        },
+    ] {
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| decode(&bytes, &opts).unwrap())
+        };
+        let one = run(1);
+        for threads in [2, 3] {
+            let bits = |r: &caoen::raster::Raster| -> Vec<u32> {
+                r.samples().iter().map(|v| v.to_bits()).collect()
+            };
+            assert_eq!(
+                bits(&one),
+                bits(&run(threads)),
+                "{threads} threads, {opts:?}"
+            );
+        }
+    }
+}
+
+#[test]
 fn target_bpp_lands_within_three_percent_on_scenes() {
     for seed in [0, 3] {
         let img = corpus(caoen_corpus::Class::Scene, 256, 192, seed);

@@ -37,7 +37,8 @@ fn to_coding(v: f32, format: SampleFormat) -> f64 {
 
 fn from_coding(v: f64, format: SampleFormat) -> f32 {
     match format {
-        SampleFormat::F32 => (HDR_V0 * v.sinh()) as f32,
+        // A damaged file can carry values whose sinh overflows: keep samples finite.
+        SampleFormat::F32 => (HDR_V0 * v.sinh()).clamp(-(f32::MAX as f64), f32::MAX as f64) as f32,
         _ => v as f32,
     }
 }

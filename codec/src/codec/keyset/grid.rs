@@ -78,8 +78,13 @@ impl Grid {
     /// Grid indices `lo..=hi` along one axis whose coordinate lies within `[c - r, c + r]`,
     /// or `None` when none does.
     fn span(c: f64, r: f64, origin: f64, step: f64, n: usize) -> Option<(usize, usize)> {
-        let lo = ((c - r - origin) / step).ceil().max(0.0);
-        let hi = ((c + r - origin) / step).floor().min(n as f64 - 1.0);
+        // Clamped to the grid before rounding; ceil and floor by casts, which compile to
+        // a few instructions where the library calls would not.
+        let lo = ((c - r - origin) / step).clamp(0.0, n as f64);
+        let hi = ((c + r - origin) / step).clamp(-1.0, n as f64 - 1.0);
+        let (lo_t, hi_t) = (lo as i64, hi as i64);
+        let lo = lo_t + i64::from((lo_t as f64) < lo);
+        let hi = hi_t - i64::from((hi_t as f64) > hi);
         (lo <= hi).then_some((lo as usize, hi as usize))
     }
 }
@@ -379,8 +384,10 @@ fn splat_row<const NC: usize>(
     let (xs, _) = xs.as_chunks::<LANES>();
     let (g, _) = g.as_chunks::<LANES>();
     let (sum, _) = sum.as_chunks_mut::<LANES>();
-    let acc: [&mut [[f32; LANES]]; NC] = acc.map(|a| a.as_chunks_mut::<LANES>().0);
     let steps = xs.len().min(g.len()).min(sum.len());
+    // Every plane cut to the same length, so the loop below has no bounds checks.
+    let acc: [&mut [[f32; LANES]]; NC] = acc.map(|a| &mut a.as_chunks_mut::<LANES>().0[..steps]);
+    let (xs, g, sum) = (&xs[..steps], &g[..steps], &mut sum[..steps]);
     for s in 0..steps {
         let (x, g) = (&xs[s], &g[s]);
         let mut w = [0.0f32; LANES];
