@@ -116,23 +116,31 @@ pub struct Neighbours {
 /// Finds the causal neighbours of every cell (Z order makes all three precede it).
 pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
     let w = width as usize;
-    let mut owner = vec![u32::MAX; w * height as usize];
+    // Cells tile the image, so every pixel gets an owner before any query reads it.
+    let mut owner = vec![0u32; w * height as usize];
     for (i, c) in cells.iter().enumerate() {
         let (x0, y0, x1, y1) = c.clip(width, height);
-        for y in y0..y1 {
-            owner[y as usize * w + x0 as usize..y as usize * w + x1 as usize].fill(i as u32);
+        let (x0, x1) = (x0 as usize, x1 as usize);
+        for y in y0 as usize..y1 as usize {
+            for o in &mut owner[y * w + x0..y * w + x1] {
+                *o = i as u32;
+            }
         }
     }
-    let at = |x: u32, y: u32| Some(owner[y as usize * w + x as usize]).filter(|&o| o != u32::MAX);
+    let at = |x: u32, y: u32| Some(owner[y as usize * w + x as usize]);
     cells
         .iter()
         .map(|c| {
             let (x0, y0, x1, y1) = c.clip(width, height);
             let (cx, cy) = ((x0 + x1 - 1) / 2, (y0 + y1 - 1) / 2);
             Neighbours {
-                above: (y0 > 0).then(|| at(cx, y0 - 1)).flatten(),
-                left: (x0 > 0).then(|| at(x0 - 1, cy)).flatten(),
-                above_left: (x0 > 0 && y0 > 0).then(|| at(x0 - 1, y0 - 1)).flatten(),
+                above: if y0 > 0 { at(cx, y0 - 1) } else { None },
+                left: if x0 > 0 { at(x0 - 1, cy) } else { None },
+                above_left: if x0 > 0 && y0 > 0 {
+                    at(x0 - 1, y0 - 1)
+                } else {
+                    None
+                },
             }
         })
         .collect()
