@@ -46,7 +46,7 @@ impl KeyPoint {
 }
 
 /// Inputs per parallel task in batch evaluation (fixed, so output never depends on threads).
-const BATCH_BLOCK: usize = 4096;
+const BATCH_BLOCK: usize = 16384;
 /// Highest input dimension binned into cells; larger ones fall back to one query each.
 const MAX_BIN_DIM: usize = 6;
 /// Side of a binning cell as a fraction of the finest support radius: larger cells mean
@@ -443,11 +443,12 @@ impl Network {
     /// ordered along the domain (grids, scanlines, tiles) are fastest. The result does
     /// not depend on the number of threads.
     ///
-    /// For m = 3 with compact support the kernel runs in SIMD lanes (AVX-512, AVX2 + FMA
-    /// or plain scalar, chosen at run time by `pulp`). Its sums are split across lanes
-    /// and fused multiply-adds where the CPU has them, so a batch result can differ from
-    /// [`Self::eval`] (and between CPUs of different SIMD width) by rounding only; tests
-    /// hold both to brute force within 1e-12.
+    /// For m = 3 with compact support the kernel runs in SIMD lanes (AVX2 + FMA, or
+    /// plain scalar on CPUs without them, chosen at run time by `pulp`). Its sums are
+    /// split across lanes and use fused multiply-adds where the CPU has them, so a batch
+    /// result can differ from [`Self::eval`] (and between CPUs with and without AVX2) by
+    /// rounding only; tests hold both to brute force within 1e-12. On one CPU the output
+    /// bits are the same for any thread count.
     pub fn eval_batch(&self, xs: &[f64]) -> Result<Vec<f64>> {
         if xs.len() % self.m != 0 {
             return Err(SurfaceError::Dimension {
@@ -577,8 +578,10 @@ struct Bins {
     keys: Vec<u64>,
     /// Group of each input.
     group: Vec<u32>,
-    /// Open-addressing hash table from cell key to group (`u64::MAX`: empty slot).
-    table: Vec<(u64, u32)>,
+    /// Open-addressing hash table: cell key, group, and the `stamp` of the block that
+    /// wrote the slot (older slots count as empty, so the table is never cleared).
+    table: Vec<(u64, u32, u32)>,
+    stamp: u32,
     starts: Vec<u32>,
     order: Vec<u32>,
 }
@@ -597,11 +600,11 @@ impl Bins {
             return;
         }
         let inv = 1.0 / cell;
-        // Cell coordinates packed into one key below 2^63, `bits` per axis; coordinates
-        // beyond the range clamp into the edge cell, which only widens that group's query
-        // (still exact). Truncating after the offset is floor() up to rounding at cell
-        // borders, which only moves an input to the neighbouring cell: grouping never
-        // affects exactness.
+        // Cell coordinates packed into one key below 2^63 (so `u64::MAX` is never a key),
+        // `bits` per axis; coordinates beyond the range clamp into the edge cell, which
+        // only widens that group's query (still exact). Truncating after the offset is
+        // floor() up to rounding at cell borders, which only moves an input to the
+        // neighbouring cell: grouping never affects exactness.
         let bits = 63 / m as u32;
         let half = (1u64 << (bits - 1)) as f64;
         let top = ((1u64 << bits) - 1) as f64;
@@ -615,8 +618,14 @@ impl Bins {
         }
         let size = (2 * count).next_power_of_two().max(16);
         let shift = 64 - size.trailing_zeros();
-        self.table.clear();
-        self.table.resize(size, (u64::MAX, 0));
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.table.len() < size || self.stamp == 0 {
+            self.table.clear();
+            self.table.resize(size.max(self.table.len()), (0, 0, 0));
+            self.stamp = 1;
+        }
+        let stamp = self.stamp;
+        let table = &mut self.table[..size];
         self.group.clear();
         // Counts per group first, in `starts`.
         let mut last = (u64::MAX, 0u32);
@@ -624,13 +633,13 @@ impl Bins {
             if key != last.0 {
                 let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> shift) as usize;
                 let g = loop {
-                    let slot = &mut self.table[h];
-                    if slot.0 == key {
+                    let slot = &mut table[h];
+                    if slot.2 != stamp {
+                        *slot = (key, self.starts.len() as u32, stamp);
+                        self.starts.push(0);
                         break slot.1;
                     }
-                    if slot.0 == u64::MAX {
-                        *slot = (key, self.starts.len() as u32);
-                        self.starts.push(0);
+                    if slot.0 == key {
                         break slot.1;
                     }
                     h = (h + 1) & (size - 1);
@@ -991,10 +1000,12 @@ mod tests {
         }
     }
 
-    /// Binning groups every input exactly once, members ascending, whatever the cell.
+    /// Binning groups every input exactly once, members ascending, whatever the cell;
+    /// one `Bins` reused across blocks of different sizes (its table is never cleared).
     #[test]
     fn bins_partition_the_block() {
         let mut st = 9;
+        let mut bins = Bins::default();
         let xs: Vec<f64> = (0..3000).map(|_| 4.0 * uniform(&mut st) - 2.0).collect();
         for (m, cell) in [
             (3usize, 0.3),
@@ -1005,8 +1016,7 @@ mod tests {
             (10, 0.5),
             (3, 0.0),
         ] {
-            let xs = &xs[..xs.len() / m * m];
-            let mut bins = Bins::default();
+            let xs = &xs[..xs.len() / m * m / (1 + m % 2)];
             bins.bin(xs, m, cell);
             let mut seen = vec![false; xs.len() / m];
             for g in bins.starts.windows(2) {
@@ -1015,6 +1025,10 @@ mod tests {
                 members.iter().for_each(|&j| seen[j as usize] = true);
             }
             assert!(seen.iter().all(|s| *s) && bins.order.len() == seen.len());
+            // Same cells, same groups, when the block is binned again.
+            let before = (bins.starts.clone(), bins.order.clone());
+            bins.bin(xs, m, cell);
+            assert_eq!(before, (bins.starts.clone(), bins.order.clone()));
         }
     }
 }
