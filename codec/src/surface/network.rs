@@ -727,10 +727,10 @@ impl WithSimd for Block<'_> {
 /// reference, tested equal to 1e-12.
 ///
 /// The compact kernel with its weight is `a (1 - q (1 - s)/3)^3 = (c + b (s - 1))^3` with
-/// `c = a^(1/3)`, `b = c q / 3`, clamped at 0 outside the support. `s - 1` is exact
-/// inside the support, so this is as accurate as the scalar reference; folding it
-/// further into an affine form `alpha + w' . x` would save two operations but cancel
-/// terms of size q/3, losing ~q ulps.
+/// `c = a^(1/3)`, `b = c q / 3`, clamped at 0 outside the support. `s - 1` is exact for
+/// `s >= 1/2` and never cancels, so this is as accurate as the scalar reference;
+/// folding it further into an affine form `alpha + w' . x` would save two operations but
+/// cancel terms of size q/3, losing ~q ulps.
 #[derive(Default)]
 struct Gathered {
     c: Vec<f64>,
