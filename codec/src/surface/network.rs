@@ -7,6 +7,7 @@
 
 use std::sync::Arc;
 
+use pulp::{Arch, Simd, WithSimd};
 use rayon::prelude::*;
 
 use super::blend::Blend;
@@ -45,9 +46,12 @@ impl KeyPoint {
 }
 
 /// Inputs per parallel task in batch evaluation (fixed, so output never depends on threads).
-const BATCH_BLOCK: usize = 4096;
+const BATCH_BLOCK: usize = 16384;
 /// Highest input dimension binned into cells; larger ones fall back to one query each.
 const MAX_BIN_DIM: usize = 6;
+/// Side of a binning cell as a fraction of the finest support radius: larger cells mean
+/// fewer spatial queries but more candidates per input.
+const CELL_FACTOR: f64 = 0.5;
 
 /// The two-layer network mapping R^m (usually a domain manifold) to R^p.
 #[derive(Clone)]
@@ -63,6 +67,9 @@ pub struct Network {
     /// Key points without compact support: visited for every input.
     global: Vec<u32>,
     index: Option<Arc<SupportIndex>>,
+    /// For m = 3, each compact key point's kernel as the SIMD path reads it (see
+    /// [`Gathered`]): `[c, b, w_x, w_y, w_z]`; zeros for the others, empty for other m.
+    compact3: Arc<Vec<[f64; 5]>>,
 }
 
 impl std::fmt::Debug for Network {
@@ -173,6 +180,16 @@ impl Network {
         }
         let index =
             (!compact.is_empty()).then(|| Arc::new(SupportIndex::build(m, &sources, &compact)));
+        let compact3 = if m == 3 {
+            (0..n)
+                .map(|i| match blend[i] {
+                    Blend::Compact => compact_record(weight[i], q[i], &sources[i * 3..i * 3 + 3]),
+                    _ => [0.0; 5],
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Ok(Network {
             m,
             p,
@@ -184,6 +201,7 @@ impl Network {
             normalised,
             global,
             index,
+            compact3: Arc::new(compact3),
         })
     }
 
@@ -226,7 +244,7 @@ impl Network {
                 k[(j, i)] = v;
                 sum += v;
             }
-            if !(sum > 0.0) {
+            if sum.is_nan() || sum <= 0.0 {
                 return Err(SurfaceError::Parameter {
                     what: format!("key point {j} coverage"),
                     value: sum,
@@ -424,6 +442,13 @@ impl Network {
     /// Consecutive inputs that lie close together share one spatial query, so batches
     /// ordered along the domain (grids, scanlines, tiles) are fastest. The result does
     /// not depend on the number of threads.
+    ///
+    /// For m = 3 with compact support the kernel runs in SIMD lanes (AVX2 + FMA, or
+    /// plain scalar on CPUs without them, chosen at run time by `pulp`). Its sums are
+    /// split across lanes and use fused multiply-adds where the CPU has them, so a batch
+    /// result can differ from [`Self::eval`] (and between CPUs with and without AVX2) by
+    /// rounding only; tests hold both to brute force within 1e-12. On one CPU the output
+    /// bits are the same for any thread count.
     pub fn eval_batch(&self, xs: &[f64]) -> Result<Vec<f64>> {
         if xs.len() % self.m != 0 {
             return Err(SurfaceError::Dimension {
@@ -438,39 +463,50 @@ impl Network {
         let mut out = vec![0.0; count * p];
         out.par_chunks_mut(BATCH_BLOCK * p)
             .zip(xs.par_chunks(BATCH_BLOCK * m))
-            .for_each(|(ys, xs)| self.eval_block(xs, ys));
+            .for_each_init(Scratch::default, |scratch, (ys, xs)| {
+                Arch::new().dispatch(Block {
+                    net: self,
+                    xs,
+                    ys,
+                    scratch,
+                })
+            });
         Ok(out)
     }
 
     /// Evaluates one block sequentially: inputs are binned into spatial cells, each cell
     /// makes one spatial query, and its inputs are evaluated against those candidates.
-    fn eval_block(&self, xs: &[f64], ys: &mut [f64]) {
+    #[inline(always)]
+    fn eval_block<S: Simd>(&self, simd: S, xs: &[f64], ys: &mut [f64], scratch: &mut Scratch) {
         let (m, p) = (self.m, self.p);
-        let mut cand = Vec::new();
+        let Scratch {
+            bins,
+            cand,
+            gathered,
+        } = scratch;
         let Some(index) = &self.index else {
-            self.candidates(&[], 0.0, 0.0, &mut cand);
+            self.candidates(&[], 0.0, 0.0, cand);
             for (x, y) in xs.chunks_exact(m).zip(ys.chunks_exact_mut(p)) {
-                self.accumulate(x, &cand, y);
+                self.accumulate(x, cand, y);
             }
             return;
         };
-        let mut gathered = Gathered::default();
-        for group in bin_by_cell(xs, m, 0.5 * index.finest_radius) {
-            let (centre, spread, max_norm2) = bounding_ball(xs, m, &group);
-            self.candidates(&centre, spread, max_norm2, &mut cand);
-            if m == 3 && gathered.load(self, &cand) {
-                for &j in &group {
-                    let j = j as usize;
-                    gathered.eval_compact3(
-                        &xs[j * 3..j * 3 + 3],
-                        self.normalised,
-                        &mut ys[j * p..(j + 1) * p],
-                    );
-                }
+        bins.bin(xs, m, CELL_FACTOR * index.finest_radius);
+        // With no global key point every candidate is compact: the SIMD kernel applies.
+        let fast = m == 3 && self.global.is_empty();
+        let mut centre = [0.0; MAX_DIM];
+        let centre = &mut centre[..m];
+        for group in bins.starts.windows(2) {
+            let group = &bins.order[group[0] as usize..group[1] as usize];
+            let (spread, max_norm2) = bounding_ball(xs, m, group, centre);
+            self.candidates(centre, spread, max_norm2, cand);
+            let members = group.iter().map(|&j| j as usize);
+            if fast {
+                gathered.load(simd, self, cand);
+                gathered.eval_compact3(simd, self.normalised, xs, ys, members);
             } else {
-                for &j in &group {
-                    let j = j as usize;
-                    self.accumulate(&xs[j * m..(j + 1) * m], &cand, &mut ys[j * p..(j + 1) * p]);
+                for j in members {
+                    self.accumulate(&xs[j * m..(j + 1) * m], cand, &mut ys[j * p..(j + 1) * p]);
                 }
             }
         }
@@ -525,76 +561,180 @@ impl Network {
     }
 }
 
-/// Groups the inputs of a block (indices into `xs`) by the cubic cell of side `cell`
-/// they fall in, in a deterministic order.
-fn bin_by_cell(xs: &[f64], m: usize, cell: f64) -> Vec<Vec<u32>> {
-    let count = xs.len() / m;
-    if m > MAX_BIN_DIM || !(cell > 0.0) {
-        return (0..count as u32).map(|j| vec![j]).collect();
-    }
-    let inv = 1.0 / cell;
-    // Cell coordinates packed into one integer, `bits` per axis; coordinates beyond the
-    // range clamp into the edge cell, which only widens that group's query (still exact).
-    let bits = 63 / m as u32;
-    let half = 1i64 << (bits - 1);
-    let mut keyed: Vec<(u64, u32)> = (0..count)
-        .map(|j| {
-            let mut key = 0u64;
-            for v in &xs[j * m..(j + 1) * m] {
-                let c = ((v * inv).floor() as i64).clamp(-half, half - 1) + half;
-                key = (key << bits) | c as u64;
-            }
-            (key, j as u32)
-        })
-        .collect();
-    keyed.sort_unstable();
-    let mut groups: Vec<Vec<u32>> = Vec::new();
-    let mut last = None;
-    for (key, j) in keyed {
-        if last != Some(key) {
-            groups.push(Vec::new());
-            last = Some(key);
-        }
-        groups.last_mut().expect("pushed above").push(j);
-    }
-    groups
+/// `[c, b, w]` of a compact key point, `a F(x . w) = (c + b (x . w - 1))^3`: see
+/// [`Gathered`].
+fn compact_record(a: f64, q: f64, w: &[f64]) -> [f64; 5] {
+    let c = if a == 1.0 { 1.0 } else { a.cbrt() };
+    let b = c * q * (1.0 / super::blend::COMPACT_SUPPORT_U);
+    [c, b, w[0], w[1], w[2]]
 }
 
-/// Centre (the centroid), radius and largest squared norm of a group of inputs.
-fn bounding_ball(xs: &[f64], m: usize, group: &[u32]) -> (Vec<f64>, f64, f64) {
-    let mut centre = vec![0.0; m];
+/// The inputs of a block grouped by the cubic binning cell they fall in: group `g` is
+/// `order[starts[g]..starts[g + 1]]`, groups in order of first appearance, members
+/// ascending (deterministic). Buffers are kept from block to block.
+#[derive(Default)]
+struct Bins {
+    /// Cell key of each input.
+    keys: Vec<u64>,
+    /// Group of each input.
+    group: Vec<u32>,
+    /// Open-addressing hash table: cell key, group, and the `stamp` of the block that
+    /// wrote the slot (older slots count as empty, so the table is never cleared).
+    table: Vec<(u64, u32, u32)>,
+    stamp: u32,
+    starts: Vec<u32>,
+    order: Vec<u32>,
+}
+
+impl Bins {
+    /// Bins the inputs `xs` (N x m) into cells of side `cell`.
+    #[inline(always)]
+    fn bin(&mut self, xs: &[f64], m: usize, cell: f64) {
+        let count = xs.len() / m;
+        self.order.clear();
+        self.starts.clear();
+        if m > MAX_BIN_DIM || cell.is_nan() || cell <= 0.0 {
+            // One group per input.
+            self.order.extend(0..count as u32);
+            self.starts.extend(0..=count as u32);
+            return;
+        }
+        let inv = 1.0 / cell;
+        // Cell coordinates packed into one key below 2^63 (so `u64::MAX` is never a key),
+        // `bits` per axis; coordinates beyond the range clamp into the edge cell, which
+        // only widens that group's query (still exact). Truncating after the offset is
+        // floor() up to rounding at cell borders, which only moves an input to the
+        // neighbouring cell: grouping never affects exactness.
+        let bits = 63 / m as u32;
+        let half = (1u64 << (bits - 1)) as f64;
+        let top = ((1u64 << bits) - 1) as f64;
+        self.keys.clear();
+        for x in xs.chunks_exact(m) {
+            let mut key = 0u64;
+            for v in x {
+                key = (key << bits) | (v * inv + half).clamp(0.0, top) as i64 as u64;
+            }
+            self.keys.push(key);
+        }
+        let size = (2 * count).next_power_of_two().max(16);
+        let shift = 64 - size.trailing_zeros();
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.table.len() < size || self.stamp == 0 {
+            self.table.clear();
+            self.table.resize(size.max(self.table.len()), (0, 0, 0));
+            self.stamp = 1;
+        }
+        let stamp = self.stamp;
+        let table = &mut self.table[..size];
+        self.group.clear();
+        // Counts per group first, in `starts`.
+        let mut last = (u64::MAX, 0u32);
+        for &key in &self.keys {
+            if key != last.0 {
+                let mut h = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> shift) as usize;
+                let g = loop {
+                    let slot = &mut table[h];
+                    if slot.2 != stamp {
+                        *slot = (key, self.starts.len() as u32, stamp);
+                        self.starts.push(0);
+                        break slot.1;
+                    }
+                    if slot.0 == key {
+                        break slot.1;
+                    }
+                    h = (h + 1) & (size - 1);
+                };
+                last = (key, g);
+            }
+            self.starts[last.1 as usize] += 1;
+            self.group.push(last.1);
+        }
+        // Exclusive prefix sums, then scatter (members stay ascending).
+        let mut sum = 0;
+        for s in self.starts.iter_mut() {
+            let c = *s;
+            *s = sum;
+            sum += c;
+        }
+        self.starts.push(sum);
+        self.order.resize(count, 0);
+        let mut next = self.starts.clone();
+        for (j, &g) in self.group.iter().enumerate() {
+            self.order[next[g as usize] as usize] = j as u32;
+            next[g as usize] += 1;
+        }
+    }
+}
+
+/// Centre (written to `centre`), radius and largest squared norm of a group of inputs
+/// (binning keys): the centre and half diagonal of their bounding box.
+#[inline(always)]
+fn bounding_ball(xs: &[f64], m: usize, group: &[u32], centre: &mut [f64]) -> (f64, f64) {
+    let mut lo = [f64::INFINITY; MAX_DIM];
+    let mut hi = [f64::NEG_INFINITY; MAX_DIM];
     let mut max_norm2 = 0.0f64;
     for &j in group {
-        let x = &xs[j as usize * m..(j as usize + 1) * m];
-        centre.iter_mut().zip(x).for_each(|(c, v)| *c += v);
-        max_norm2 = max_norm2.max(x.iter().map(|v| v * v).sum());
+        let j = j as usize;
+        let x = &xs[j * m..(j + 1) * m];
+        let mut n2 = 0.0;
+        for (a, &v) in x.iter().enumerate() {
+            lo[a] = lo[a].min(v);
+            hi[a] = hi[a].max(v);
+            n2 += v * v;
+        }
+        max_norm2 = max_norm2.max(n2);
     }
-    let inv = 1.0 / group.len() as f64;
-    centre.iter_mut().for_each(|c| *c *= inv);
-    let spread2 = group
-        .iter()
-        .map(|&j| {
-            xs[j as usize * m..(j as usize + 1) * m]
-                .iter()
-                .zip(&centre)
-                .map(|(a, b)| (a - b) * (a - b))
-                .sum()
-        })
-        .fold(0.0f64, f64::max);
-    // Pad for the rounding of the centroid, so the query stays a superset.
-    (centre, spread2.sqrt() * (1.0 + 1e-12) + 1e-15, max_norm2)
+    let (mut spread2, mut size) = (0.0, 0.0f64);
+    for a in 0..m {
+        centre[a] = 0.5 * (lo[a] + hi[a]);
+        let h = 0.5 * (hi[a] - lo[a]);
+        spread2 += h * h;
+        size = size.max(centre[a].abs());
+    }
+    // Pad for the rounding of the centre, so the query stays a superset.
+    let spread = spread2.sqrt();
+    (spread + 1e-12 * (spread + size) + 1e-15, max_norm2)
 }
 
-/// Candidate key points of one cell in contiguous arrays (structure of arrays), so the
-/// per-input loop is branch-free and vectorisable: the fast path for m = 3 with compact
-/// support only; [`Network::accumulate`] is its scalar reference, tested equal to 1e-12.
+/// Per-thread scratch of batch evaluation, reused from block to block.
+#[derive(Default)]
+struct Scratch {
+    bins: Bins,
+    cand: Vec<u32>,
+    gathered: Gathered,
+}
+
+/// One block of [`Network::eval_batch`], compiled for the SIMD level `pulp` picks.
+struct Block<'a> {
+    net: &'a Network,
+    xs: &'a [f64],
+    ys: &'a mut [f64],
+    scratch: &'a mut Scratch,
+}
+
+impl WithSimd for Block<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) {
+        self.net.eval_block(simd, self.xs, self.ys, self.scratch);
+    }
+}
+
+/// Candidate key points of one cell in contiguous arrays (structure of arrays), padded to
+/// whole SIMD vectors, so the per-input loop is branch-free and runs in SIMD lanes: the
+/// fast path for m = 3 with compact support only; [`Network::accumulate`] is its scalar
+/// reference, tested equal to 1e-12.
 ///
-/// The compact kernel is folded into an affine form per key point:
-/// `a (1 - q (1 - s)/3)^3 = (alpha + w' . x)^3` with `c = a^(1/3)`, `alpha = c (1 - q/3)`,
-/// `w' = c q w / 3`, clamped at 0 outside the support.
+/// The compact kernel with its weight is `a (1 - q (1 - s)/3)^3 = (c + b (s - 1))^3` with
+/// `c = a^(1/3)`, `b = c q / 3`, clamped at 0 outside the support. `s - 1` is exact for
+/// `s >= 1/2` and never cancels, so this is as accurate as the scalar reference;
+/// folding it further into an affine form `alpha + w' . x` would save two operations but
+/// cancel terms of size q/3, losing ~q ulps.
 #[derive(Default)]
 struct Gathered {
-    alpha: Vec<f64>,
+    c: Vec<f64>,
+    b: Vec<f64>,
     wx: Vec<f64>,
     wy: Vec<f64>,
     wz: Vec<f64>,
@@ -603,113 +743,156 @@ struct Gathered {
     p: usize,
 }
 
-/// Accumulator lanes of the fast path's sums (breaks the add dependency chain).
-const LANES: usize = 4;
-
 impl Gathered {
-    /// Loads the candidates; false if any is not compact (the caller then falls back).
-    fn load(&mut self, net: &Network, cand: &[u32]) -> bool {
-        if cand
-            .iter()
-            .any(|&i| net.blend[i as usize] != Blend::Compact)
-        {
-            return false;
-        }
+    /// Loads the candidates (all compact), padded to whole vectors of `S`.
+    #[inline(always)]
+    fn load<S: Simd>(&mut self, _simd: S, net: &Network, cand: &[u32]) {
         let p = net.p;
-        // Padding entries have alpha = 0 and w' = 0: k = 0 exactly.
-        let len = cand.len().div_ceil(LANES) * LANES;
-        for v in [&mut self.alpha, &mut self.wx, &mut self.wy, &mut self.wz] {
+        // Padding entries have c = b = 0: k = 0 exactly.
+        let len = cand.len().div_ceil(S::F64_LANES) * S::F64_LANES;
+        let records = &net.compact3[..];
+        for (c, v) in [
+            &mut self.c,
+            &mut self.b,
+            &mut self.wx,
+            &mut self.wy,
+            &mut self.wz,
+        ]
+        .into_iter()
+        .enumerate()
+        {
             v.clear();
+            v.extend(cand.iter().map(|&i| records[i as usize][c]));
             v.resize(len, 0.0);
         }
         self.t.clear();
-        self.t.resize(len * p, 0.0);
+        for j in 0..p {
+            self.t
+                .extend(cand.iter().map(|&i| net.shapes[i as usize * p + j]));
+            self.t.resize((j + 1) * len, 0.0);
+        }
         self.p = p;
-        let third = 1.0 / super::blend::COMPACT_SUPPORT_U;
-        for (c, &i) in cand.iter().enumerate() {
-            let i = i as usize;
-            let a = net.weight[i];
-            let cube_root = if a == 1.0 { 1.0 } else { a.cbrt() };
-            let b = cube_root * net.q[i] * third;
-            self.alpha[c] = cube_root - b;
-            self.wx[c] = b * net.sources[i * 3];
-            self.wy[c] = b * net.sources[i * 3 + 1];
-            self.wz[c] = b * net.sources[i * 3 + 2];
-            for j in 0..p {
-                self.t[j * len + c] = net.shapes[i * p + j];
-            }
-        }
-        true
     }
 
-    fn eval_compact3(&self, x: &[f64], normalised: bool, y: &mut [f64]) {
-        let denom = match self.p {
-            1 => self.sums::<1>(x, y),
-            2 => self.sums::<2>(x, y),
-            3 => self.sums::<3>(x, y),
-            4 => self.sums::<4>(x, y),
-            5 => self.sums::<5>(x, y),
-            _ => self.sums_any(x, y),
-        };
-        if normalised {
-            if denom > 0.0 {
-                let inv = 1.0 / denom;
-                y.iter_mut().for_each(|v| *v *= inv);
-            } else {
-                y.fill(0.0);
-            }
-        }
-    }
-
-    /// `y_j = sum_c k_c t_cj` for P outputs and the returned `sum_c k_c`, in one pass.
-    #[inline]
-    fn sums<const P: usize>(&self, x: &[f64], y: &mut [f64]) -> f64 {
-        let (x0, x1, x2) = (x[0], x[1], x[2]);
-        let len = self.alpha.len();
-        let mut den = [0.0; LANES];
-        let mut acc = [[0.0; LANES]; P];
-        let t: [&[f64]; P] = std::array::from_fn(|j| &self.t[j * len..(j + 1) * len]);
-        let groups = self
-            .alpha
-            .chunks_exact(LANES)
-            .zip(self.wx.chunks_exact(LANES))
-            .zip(self.wy.chunks_exact(LANES).zip(self.wz.chunks_exact(LANES)));
-        for (g, ((al, wx), (wy, wz))) in groups.enumerate() {
-            let (al, wx, wy, wz): (&[f64; LANES], &[f64; LANES], &[f64; LANES], &[f64; LANES]) = (
-                al.try_into().expect("exact chunk"),
-                wx.try_into().expect("exact chunk"),
-                wy.try_into().expect("exact chunk"),
-                wz.try_into().expect("exact chunk"),
-            );
-            let mut k = [0.0; LANES];
-            for l in 0..LANES {
-                let v = (al[l] + x0 * wx[l] + x1 * wy[l] + x2 * wz[l]).max(0.0);
-                k[l] = v * v * v;
-                den[l] += k[l];
-            }
-            for j in 0..P {
-                let tj: &[f64; LANES] = t[j][g * LANES..(g + 1) * LANES]
-                    .try_into()
-                    .expect("exact chunk");
-                for l in 0..LANES {
-                    acc[j][l] += k[l] * tj[l];
+    /// Evaluates the inputs `members` (indices into the block) against the loaded
+    /// candidates, two at a time where the output dimension allows.
+    #[inline(always)]
+    fn eval_compact3<S: Simd>(
+        &self,
+        simd: S,
+        normalised: bool,
+        xs: &[f64],
+        ys: &mut [f64],
+        members: impl Iterator<Item = usize>,
+    ) {
+        match self.p {
+            1 => self.pairs::<S, 1>(simd, normalised, xs, ys, members),
+            2 => self.pairs::<S, 2>(simd, normalised, xs, ys, members),
+            3 => self.pairs::<S, 3>(simd, normalised, xs, ys, members),
+            4 => self.pairs::<S, 4>(simd, normalised, xs, ys, members),
+            p => {
+                for j in members {
+                    let den =
+                        self.sums_any(simd, &xs[j * 3..j * 3 + 3], &mut ys[j * p..(j + 1) * p]);
+                    finish(normalised, den, &mut ys[j * p..(j + 1) * p]);
                 }
             }
         }
-        for j in 0..P {
-            y[j] = (acc[j][0] + acc[j][1]) + (acc[j][2] + acc[j][3]);
-        }
-        (den[0] + den[1]) + (den[2] + den[3])
     }
 
-    /// [`Self::sums`] for any number of outputs.
-    fn sums_any(&self, x: &[f64], y: &mut [f64]) -> f64 {
-        let len = self.alpha.len();
+    #[inline(always)]
+    fn pairs<S: Simd, const P: usize>(
+        &self,
+        simd: S,
+        normalised: bool,
+        xs: &[f64],
+        ys: &mut [f64],
+        mut members: impl Iterator<Item = usize>,
+    ) {
+        let x = |j: usize| -> [f64; 3] { [xs[j * 3], xs[j * 3 + 1], xs[j * 3 + 2]] };
+        let mut put = |j: usize, (mut y, den): ([f64; P], f64)| {
+            finish(normalised, den, &mut y);
+            ys[j * P..(j + 1) * P].copy_from_slice(&y);
+        };
+        while let Some(a) = members.next() {
+            match members.next() {
+                Some(b) => {
+                    let [ra, rb] = self.sums::<S, P, 2>(simd, [x(a), x(b)]);
+                    put(a, ra);
+                    put(b, rb);
+                }
+                None => {
+                    let [ra] = self.sums::<S, P, 1>(simd, [x(a)]);
+                    put(a, ra);
+                }
+            }
+        }
+    }
+
+    /// `y_j = sum_c k_c t_cj` for P outputs and `sum_c k_c`, for N inputs at once (the
+    /// candidates' loads are shared; each input's arithmetic is the same for any N).
+    #[inline(always)]
+    fn sums<S: Simd, const P: usize, const N: usize>(
+        &self,
+        simd: S,
+        x: [[f64; 3]; N],
+    ) -> [([f64; P], f64); N] {
+        let cs = S::as_simd_f64s(&self.c).0;
+        let bs = S::as_simd_f64s(&self.b).0;
+        let wx = S::as_simd_f64s(&self.wx).0;
+        let wy = S::as_simd_f64s(&self.wy).0;
+        let wz = S::as_simd_f64s(&self.wz).0;
+        let len = self.c.len();
+        let t: [&[S::f64s]; P] =
+            std::array::from_fn(|j| S::as_simd_f64s(&self.t[j * len..(j + 1) * len]).0);
+        let groups = cs.len();
+        assert!(
+            bs.len() == groups && wx.len() == groups && wy.len() == groups && wz.len() == groups
+        );
+        assert!(t.iter().all(|t| t.len() == groups));
+        let zero = simd.splat_f64s(0.0);
+        let one = simd.splat_f64s(1.0);
+        let mut xv = [[zero; 3]; N];
+        for n in 0..N {
+            for a in 0..3 {
+                xv[n][a] = simd.splat_f64s(x[n][a]);
+            }
+        }
+        let mut den = [zero; N];
+        let mut acc = [[zero; P]; N];
+        for g in 0..groups {
+            for n in 0..N {
+                let s = simd.mul_f64s(xv[n][2], wz[g]);
+                let s = simd.mul_add_e_f64s(xv[n][1], wy[g], s);
+                let s = simd.mul_add_e_f64s(xv[n][0], wx[g], s);
+                let v = simd.mul_add_e_f64s(bs[g], simd.sub_f64s(s, one), cs[g]);
+                let v = simd.max_f64s(v, zero);
+                let k = simd.mul_f64s(simd.mul_f64s(v, v), v);
+                den[n] = simd.add_f64s(den[n], k);
+                for j in 0..P {
+                    acc[n][j] = simd.mul_add_e_f64s(k, t[j][g], acc[n][j]);
+                }
+            }
+        }
+        let mut out = [([0.0; P], 0.0); N];
+        for ((y, d), (acc, den)) in out.iter_mut().zip(acc.iter().zip(den)) {
+            for (y, &a) in y.iter_mut().zip(acc) {
+                *y = simd.reduce_sum_f64s(a);
+            }
+            *d = simd.reduce_sum_f64s(den);
+        }
+        out
+    }
+
+    /// [`Self::sums`] for any number of outputs, one input.
+    #[inline(always)]
+    fn sums_any<S: Simd>(&self, _simd: S, x: &[f64], y: &mut [f64]) -> f64 {
+        let len = self.c.len();
         y.fill(0.0);
         let mut den = 0.0;
         for c in 0..len {
-            let v = (self.alpha[c] + x[0] * self.wx[c] + x[1] * self.wy[c] + x[2] * self.wz[c])
-                .max(0.0);
+            let s = x[0] * self.wx[c] + x[1] * self.wy[c] + x[2] * self.wz[c];
+            let v = (self.c[c] + self.b[c] * (s - 1.0)).max(0.0);
             let k = v * v * v;
             den += k;
             for (j, yj) in y.iter_mut().enumerate() {
@@ -717,5 +900,135 @@ impl Gathered {
             }
         }
         den
+    }
+}
+
+/// Normalises `y` by `den` if the network is normalised (0 where nothing reaches).
+#[inline(always)]
+fn finish(normalised: bool, den: f64, y: &mut [f64]) {
+    if normalised {
+        if den > 0.0 {
+            let inv = 1.0 / den;
+            y.iter_mut().for_each(|v| *v *= inv);
+        } else {
+            y.fill(0.0);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// SplitMix64 in [0, 1).
+    fn uniform(state: &mut u64) -> f64 {
+        *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = *state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn unit3(state: &mut u64) -> Vec<f64> {
+        loop {
+            let v: Vec<f64> = (0..3).map(|_| 2.0 * uniform(state) - 1.0).collect();
+            let n = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if n > 0.1 && n <= 1.0 {
+                return v.into_iter().map(|a| a / n).collect();
+            }
+        }
+    }
+
+    /// One block through `eval_block` at the given SIMD level.
+    fn block_with<S: Simd>(simd: S, net: &Network, xs: &[f64]) -> Vec<f64> {
+        let mut ys = vec![0.0; xs.len() / 3 * net.p];
+        Block {
+            net,
+            xs,
+            ys: &mut ys,
+            scratch: &mut Scratch::default(),
+        }
+        .with_simd(simd);
+        ys
+    }
+
+    /// The SIMD kernel at every level this CPU has (and plain scalar, what a CPU without
+    /// AVX2 runs) equals brute force: n not a multiple of any lane count, weights other
+    /// than 1 (cube roots in the kernel's form) and 0, inputs reached by no key point,
+    /// every output dimension of the specialised and the general kernel.
+    #[test]
+    fn simd_kernel_equals_brute_force_at_every_level() {
+        let mut st = 5;
+        for (n, p) in [(1usize, 1usize), (7, 2), (13, 3), (61, 4), (203, 5), (9, 7)] {
+            let kps: Vec<KeyPoint> = (0..n)
+                .map(|i| {
+                    let mut k = KeyPoint::new(
+                        unit3(&mut st),
+                        (0..p).map(|_| uniform(&mut st) - 0.5).collect(),
+                        Blend::Compact,
+                        20.0 + 200.0 * uniform(&mut st),
+                    );
+                    k.weight = [1.0, 0.0, 0.3, 2.5][i % 4];
+                    k
+                })
+                .collect();
+            for normalised in [true, false] {
+                let net = Network::new(3, p, &kps, normalised).unwrap();
+                // Unordered inputs plus a far-away one: many reach no key point at all.
+                let mut xs: Vec<f64> = (0..501).flat_map(|_| unit3(&mut st)).collect();
+                xs.extend([5.0, -7.0, 9.0]);
+                let brute: Vec<f64> = xs
+                    .chunks_exact(3)
+                    .flat_map(|x| net.eval_brute_force(x).unwrap())
+                    .collect();
+                assert!(brute.iter().filter(|v| **v == 0.0).count() > 0);
+                let scalar = block_with(pulp::Scalar::new(), &net, &xs);
+                let dispatched = net.eval_batch(&xs).unwrap();
+                #[cfg(any(target_arch = "x86", target_arch = "x86_64"))]
+                let v3 = pulp::x86::V3::try_new().map(|s| block_with(s, &net, &xs));
+                #[cfg(not(any(target_arch = "x86", target_arch = "x86_64")))]
+                let v3: Option<Vec<f64>> = None;
+                for got in [Some(scalar), Some(dispatched), v3].into_iter().flatten() {
+                    for (a, b) in got.iter().zip(&brute) {
+                        assert!(
+                            (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                            "n={n} p={p}: {a} vs {b}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Binning groups every input exactly once, members ascending, whatever the cell;
+    /// one `Bins` reused across blocks of different sizes (its table is never cleared).
+    #[test]
+    fn bins_partition_the_block() {
+        let mut st = 9;
+        let mut bins = Bins::default();
+        let xs: Vec<f64> = (0..3000).map(|_| 4.0 * uniform(&mut st) - 2.0).collect();
+        for (m, cell) in [
+            (3usize, 0.3),
+            (3, 1e-9),
+            (3, 1e9),
+            (1, 0.01),
+            (6, 0.5),
+            (10, 0.5),
+            (3, 0.0),
+        ] {
+            let xs = &xs[..xs.len() / m * m / (1 + m % 2)];
+            bins.bin(xs, m, cell);
+            let mut seen = vec![false; xs.len() / m];
+            for g in bins.starts.windows(2) {
+                let members = &bins.order[g[0] as usize..g[1] as usize];
+                assert!(!members.is_empty() && members.windows(2).all(|w| w[0] < w[1]));
+                members.iter().for_each(|&j| seen[j as usize] = true);
+            }
+            assert!(seen.iter().all(|s| *s) && bins.order.len() == seen.len());
+            // Same cells, same groups, when the block is binned again.
+            let before = (bins.starts.clone(), bins.order.clone());
+            bins.bin(xs, m, cell);
+            assert_eq!(before, (bins.starts.clone(), bins.order.clone()));
+        }
     }
 }
