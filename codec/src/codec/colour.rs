@@ -76,54 +76,87 @@ pub fn forward(img: &Raster) -> CodingPlanes {
     CodingPlanes { colour, alpha }
 }
 
+/// A coding-plane value: `f64` in the encoder, `f32` from the decoder's fast path.
+pub trait CodingValue: Copy + Send + Sync {
+    /// The value in double precision.
+    fn to_f64(self) -> f64;
+    /// The value in single precision.
+    fn to_f32(self) -> f32;
+}
+
+impl CodingValue for f64 {
+    fn to_f64(self) -> f64 {
+        self
+    }
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+}
+
+impl CodingValue for f32 {
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    fn to_f32(self) -> f32 {
+        self
+    }
+}
+
+/// Pixels per parallel task of [`inverse`].
+const CHUNK: usize = 1 << 14;
+
+/// Maps every pixel's `(Y, C1, C2)` to RGB with `f`, in parallel, into three planes.
+fn opponent_to_rgb<T: CodingValue>(
+    planes: &[Vec<T>],
+    out: &mut [f32],
+    f: impl Fn(T, T, T) -> [f32; 3] + Sync,
+) {
+    let n = out.len() / 3;
+    let (y, c1, c2) = (&planes[0], &planes[1], &planes[2]);
+    let (r, gb) = out.split_at_mut(n);
+    let (g, b) = gb.split_at_mut(n);
+    r.par_chunks_mut(CHUNK)
+        .zip(g.par_chunks_mut(CHUNK))
+        .zip(b.par_chunks_mut(CHUNK))
+        .enumerate()
+        .for_each(|(k, ((r, g), b))| {
+            let o = k * CHUNK;
+            let m = r.len();
+            let (y, c1, c2) = (&y[o..o + m], &c1[o..o + m], &c2[o..o + m]);
+            let (g, b) = (&mut g[..m], &mut b[..m]);
+            for i in 0..m {
+                [r[i], g[i], b[i]] = f(y[i], c1[i], c2[i]);
+            }
+        });
+}
+
 /// Reassembles raster samples (planar) from coding planes. Integer formats are clamped
 /// to [0, 1] here, at output, and alpha always; float colour is not.
-pub fn inverse<T>(
+pub fn inverse<T: CodingValue>(
     planes: &CodingPlanes<T>,
     width: u32,
     height: u32,
     format: SampleFormat,
-) -> Vec<f32>
-where
-    T: Copy + Into<f64> + Sync,
-{
-    /// Pixels per parallel task.
-    const CHUNK: usize = 1 << 14;
+) -> Vec<f32> {
     let n = width as usize * height as usize;
     let nc = planes.colour.len();
     let mut out = vec![0.0f32; n * (nc + usize::from(planes.alpha.is_some()))];
-    // Integer formats clamp; float ones undo the HDR curve. Two loops rather than a
-    // per-sample branch keep the common case vectorisable.
-    let hdr = format == SampleFormat::F32;
-    let put = move |v: f64| {
-        if hdr {
-            from_coding(v, format)
-        } else {
-            (v as f32).clamp(0.0, 1.0)
-        }
-    };
     let (colour, alpha) = out.split_at_mut(n * nc);
-    if nc == 3 {
-        let (y, c1, c2) = (&planes.colour[0], &planes.colour[1], &planes.colour[2]);
-        let (r, gb) = colour.split_at_mut(n);
-        let (g, b) = gb.split_at_mut(n);
+    // Integer formats need only single precision before their clamp; float ones keep
+    // double precision through the HDR curve.
+    let hdr = format == SampleFormat::F32;
+    if nc == 3 && hdr {
         let (ky, k1, k2) = (1.0 / S3, 1.0 / S2, 1.0 / S6);
-        r.par_chunks_mut(CHUNK)
-            .zip(g.par_chunks_mut(CHUNK))
-            .zip(b.par_chunks_mut(CHUNK))
-            .enumerate()
-            .for_each(|(k, ((r, g), b))| {
-                let o = k * CHUNK;
-                let m = r.len();
-                let (y, c1, c2) = (&y[o..o + m], &c1[o..o + m], &c2[o..o + m]);
-                let (g, b) = (&mut g[..m], &mut b[..m]);
-                for i in 0..m {
-                    let (y, c1, c2) = (y[i].into() * ky, c1[i].into() * k1, c2[i].into() * k2);
-                    r[i] = put(y + c1 + c2);
-                    g[i] = put(y - 2.0 * c2);
-                    b[i] = put(y - c1 + c2);
-                }
-            });
+        opponent_to_rgb(&planes.colour, colour, |y, c1, c2| {
+            let (y, c1, c2) = (y.to_f64() * ky, c1.to_f64() * k1, c2.to_f64() * k2);
+            [y + c1 + c2, y - 2.0 * c2, y - c1 + c2].map(|v| from_coding(v, format))
+        });
+    } else if nc == 3 {
+        let (ky, k1, k2) = ((1.0 / S3) as f32, (1.0 / S2) as f32, (1.0 / S6) as f32);
+        opponent_to_rgb(&planes.colour, colour, |y, c1, c2| {
+            let (y, c1, c2) = (y.to_f32() * ky, c1.to_f32() * k1, c2.to_f32() * k2);
+            [y + c1 + c2, y - 2.0 * c2, y - c1 + c2].map(|v| v.clamp(0.0, 1.0))
+        });
     } else {
         let y = &planes.colour[0];
         colour
@@ -131,7 +164,12 @@ where
             .enumerate()
             .for_each(|(k, out)| {
                 for (i, o) in out.iter_mut().enumerate() {
-                    *o = put(y[k * CHUNK + i].into());
+                    let v = y[k * CHUNK + i];
+                    *o = if hdr {
+                        from_coding(v.to_f64(), format)
+                    } else {
+                        v.to_f32().clamp(0.0, 1.0)
+                    };
                 }
             });
     }
@@ -141,8 +179,7 @@ where
             .enumerate()
             .for_each(|(k, out)| {
                 for (i, o) in out.iter_mut().enumerate() {
-                    let v: f64 = a[k * CHUNK + i].into();
-                    *o = (v as f32).clamp(0.0, 1.0);
+                    *o = a[k * CHUNK + i].to_f32().clamp(0.0, 1.0);
                 }
             });
     }

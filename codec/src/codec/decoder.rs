@@ -333,10 +333,12 @@ pub(crate) fn fill_holes(planes: &mut [Vec<f64>], weight: &mut [f64], w: usize, 
     }
 }
 
-pub(crate) fn to_raster<T>(header: &Header, planes: CodingPlanes<T>, ow: u32, oh: u32) -> Raster
-where
-    T: Copy + Into<f64> + Sync,
-{
+pub(crate) fn to_raster<T: colour::CodingValue>(
+    header: &Header,
+    planes: CodingPlanes<T>,
+    ow: u32,
+    oh: u32,
+) -> Raster {
     let samples = colour::inverse(&planes, ow, oh, header.format);
     Raster::new(ow, oh, header.layout, header.format, samples)
         .expect("decoded samples are finite and sized")

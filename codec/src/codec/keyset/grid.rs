@@ -94,8 +94,6 @@ impl Grid {
 struct Splat {
     cx: f64,
     cy: f64,
-    /// A safe bound on the support radius in pixels.
-    radius: f64,
     /// Grid columns within the radius.
     cols: (usize, usize),
     /// `2 q / (3 S^2 (1 + r_c^2))`: the kernel is `weight * (1 - a d^2 g)^3`.
@@ -119,7 +117,6 @@ impl KeySet {
                 Some(Splat {
                     cx,
                     cy,
-                    radius,
                     cols,
                     a: a as f32,
                     weight: self.weight[i] as f32,
@@ -253,25 +250,12 @@ impl Band<'_> {
             let vals: [f32; NC] = std::array::from_fn(|c| values[c][i as usize]);
             let r0 = s.rows.0.max(j0);
             let r1 = s.rows.1.min(j0 + rows - 1);
-            let wide = s.cols.1 - s.cols.0 >= 4 * LANES;
-            let box_steps = (s.cols.1 - s.cols.0) / LANES + 1;
-            let box_x0 = (grid.x(s.cols.0) - s.cx) as f32;
+            // Whole bounding-box rows: trimming each row to the disc's chord cost more
+            // (a square root and two divisions per row) than the steps it saved.
+            let (c0, steps) = (s.cols.0, (s.cols.1 - s.cols.0) / LANES + 1);
+            let x0 = (grid.x(c0) - s.cx) as f32;
             for j in r0..r1 + 1 {
                 let dy = grid.y(j) - s.cy;
-                // A wide support's rows are trimmed to the disc's chord; a narrow one's
-                // bounding box costs less than the trimming.
-                let (c0, steps, x0) = if wide {
-                    let half2 = s.radius * s.radius - dy * dy;
-                    if half2 < 0.0 {
-                        continue;
-                    }
-                    match Grid::span(s.cx, half2.sqrt(), grid.x0, grid.dx, grid.nx) {
-                        Some((c0, c1)) => (c0, (c1 - c0) / LANES + 1, (grid.x(c0) - s.cx) as f32),
-                        None => continue,
-                    }
-                } else {
-                    (s.cols.0, box_steps, box_x0)
-                };
                 let off = (j - j0) * stride + c0;
                 let range = off..off + steps * LANES;
                 let mut it = planes.iter_mut();
