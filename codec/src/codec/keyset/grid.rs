@@ -8,8 +8,8 @@
 //! for plane distance `d`, so `q (1 - s) / 3 = a_i * d_px^2 * g(p)` with a per-key-point
 //! `a_i = 2 q_i / (3 S^2 (1 + r_c^2))` and a per-grid-point `g(p) = 1 / (1 + r_p^2)`. That
 //! keeps the inner loop to a handful of multiply-adds over contiguous grid points, which
-//! the compiler vectorises, and it avoids the dot product's cancellation `1 - s` near the
-//! centre. The per-pixel path ([`KeySet::kernels_at`]) stays as the reference; tests check
+//! the compiler vectorises for the widest unit `pulp` finds at run time (AVX2, AVX-512 or
+//! the baseline), and it avoids the dot product's cancellation `1 - s` near the centre. The per-pixel path ([`KeySet::kernels_at`]) stays as the reference; tests check
 //! the two agree to rounding.
 //!
 //! Sums run over key points in coding order for every grid point, whatever the band
