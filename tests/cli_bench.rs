@@ -24,6 +24,7 @@ fn s(p: &Path) -> &str {
 }
 
 /// Two small corpus images (a scene and a natural texture) with their manifest.
+#[cfg(feature = "peers")]
 fn tiny_corpus(dir: &Path) -> PathBuf {
     let corpus = dir.join("corpus");
     let out = caoen(&[

@@ -108,8 +108,8 @@ proptest! {
     #[test]
     fn normals_match_finite_differences_of_the_parameterisation(
         kps in prop::collection::vec(
-            ((0.0f64..6.28, 0.1f64..3.0), prop::collection::vec(-1.5f64..1.5, 3), blend_strategy(), 3.0f64..8.0), 6..20),
-        torus in any::<bool>(), normalised in any::<bool>(), t in 0.0f64..6.28, f in 0.2f64..2.9,
+            ((0.0f64..std::f64::consts::TAU, 0.1f64..3.0), prop::collection::vec(-1.5f64..1.5, 3), blend_strategy(), 3.0f64..8.0), 6..20),
+        torus in any::<bool>(), normalised in any::<bool>(), t in 0.0f64..std::f64::consts::TAU, f in 0.2f64..2.9,
     ) {
         let domain = if torus { Domain::Torus } else { Domain::SPHERE };
         let kps: Vec<KeyPoint> = kps.into_iter().map(|((a, b), shape, blend, q)| {

@@ -402,7 +402,11 @@ fn volume_slices() -> Vec<RgbImage> {
                 for i in 0..n {
                     let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
                     let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
-                    let shell = if (r * 8.0) as u32 % 2 == 0 { 1.0 } else { 0.35 };
+                    let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
+                        1.0
+                    } else {
+                        0.35
+                    };
                     pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
                 }
             }

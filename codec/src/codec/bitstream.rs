@@ -155,7 +155,7 @@ impl Header {
             ("chroma", step_chroma),
             ("alpha", step_alpha),
         ] {
-            if !(s.is_finite() && s >= 1e-7 && s <= 1e4) {
+            if !(s.is_finite() && (1e-7..=1e4).contains(&s)) {
                 return Err(CodecError::Format(format!(
                     "{name} quantiser step {s} invalid"
                 )));

@@ -189,7 +189,7 @@ pub struct RangeSource {
 impl RangeSource {
     /// A decoder over `bytes` (a whole section payload), reading at most `max_bins` bins.
     pub fn new(bytes: &[u8], max_bins: u64) -> Result<Self, CodecError> {
-        if bytes.len() % 4 != 0 {
+        if !bytes.len().is_multiple_of(4) {
             return Err(CodecError::Format(format!(
                 "entropy-coded payload of {} bytes is not whole words",
                 bytes.len()

@@ -146,7 +146,7 @@ impl<'a> LeastSquares<'a> {
                     continue;
                 }
                 let pap = dot_c(&p, &scratch, c);
-                if !(pap > 0.0) {
+                if pap.is_nan() || pap <= 0.0 {
                     active[c] = false;
                     continue;
                 }
@@ -233,7 +233,9 @@ mod tests {
         let truth: Vec<f64> = (0..ks.len())
             .map(|i| ((i * 7919) % 13) as f64 / 13.0)
             .collect();
-        let img = ks.render_per_pixel(&[truth.clone()], w, h).remove(0);
+        let img = ks
+            .render_per_pixel(std::slice::from_ref(&truth), w, h)
+            .remove(0);
         let a = ks.pixel_weights();
         let ls = LeastSquares::new(&a, ks.len());
         let prior = ls.prior(&[&img]);

@@ -240,7 +240,7 @@ mod tests {
         let mut k = 0u32;
         let leaves = shape.walk(|_| {
             k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            (k >> 16) % 3 != 0
+            !(k >> 16).is_multiple_of(3)
         });
         let mut cover = vec![0u8; 37 * 21];
         for l in &leaves {

@@ -51,7 +51,7 @@ fn gaussian(len: usize) -> Vec<f64> {
 /// Largest odd window length not above the standard one that fits in `n` pixels.
 fn window_len(n: usize) -> usize {
     let len = SSIM_WINDOW.min(n);
-    if len % 2 == 0 {
+    if len.is_multiple_of(2) {
         len - 1
     } else {
         len

@@ -127,7 +127,7 @@ impl Texture {
                 let v = (y as f64 + 0.5) / height as f64;
                 let p = if (v - 0.5).abs() < 0.02 {
                     [0.8, 0.05, 0.02]
-                } else if (cu + cv) % 2 == 0 {
+                } else if (cu + cv).is_multiple_of(2) {
                     a
                 } else {
                     b

@@ -58,7 +58,7 @@ impl ConvexSolid {
         for (i, t) in feet.iter().enumerate() {
             check_finite(|| format!("face_feet[{i}]"), t)?;
             let t2 = dot(*t, *t);
-            if !(t2 > 1e-24) {
+            if t2.is_nan() || t2 <= 1e-24 {
                 return Err(SurfaceError::Parameter {
                     what: format!("face_feet[{i}] length"),
                     value: t2.sqrt(),
@@ -101,7 +101,7 @@ impl ConvexSolid {
         for (i, pl) in planes.iter().enumerate() {
             let n2 = dot(pl.normal, pl.normal);
             let d = pl.offset - dot(pl.normal, centre);
-            if !(n2 > 0.0) || !(d > 0.0) {
+            if n2.is_nan() || n2 <= 0.0 || d.is_nan() || d <= 0.0 {
                 return Err(SurfaceError::Parameter {
                     what: format!("planes[{i}] distance from centre"),
                     value: d,

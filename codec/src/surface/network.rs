@@ -450,7 +450,7 @@ impl Network {
     /// rounding only; tests hold both to brute force within 1e-12. On one CPU the output
     /// bits are the same for any thread count.
     pub fn eval_batch(&self, xs: &[f64]) -> Result<Vec<f64>> {
-        if xs.len() % self.m != 0 {
+        if !xs.len().is_multiple_of(self.m) {
             return Err(SurfaceError::Dimension {
                 what: "batch of inputs (N x m)".into(),
                 expected: (xs.len() / self.m + 1) * self.m,

@@ -71,7 +71,7 @@ impl PerspectiveCamera {
         };
         let f = sub(target, eye);
         let right = cross(f, up);
-        if dot(&f, &f) == 0.0 || dot(&right, &right) < 1e-24 || !(focal > 0.0) {
+        if dot(&f, &f) == 0.0 || dot(&right, &right) < 1e-24 || focal.is_nan() || focal <= 0.0 {
             return Err(SurfaceError::Parameter {
                 what: "camera".into(),
                 value: focal,
@@ -112,7 +112,7 @@ impl PerspectiveCamera {
         let mut shapes = Vec::with_capacity(net.len() * 3);
         for t in net.shapes().chunks_exact(3) {
             let s = self.project(t);
-            if !(s[2] > 0.0) {
+            if s[2].is_nan() || s[2] <= 0.0 {
                 return Err(SurfaceError::Parameter {
                     what: "key point depth".into(),
                     value: s[2],

@@ -382,7 +382,7 @@ mod tests {
         let mut k = seed;
         let cells = shape.walk(|_| {
             k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            (k >> 16) % 2 == 0
+            (k >> 16).is_multiple_of(2)
         });
         KeySet::new(
             Frame::new(w, h),
