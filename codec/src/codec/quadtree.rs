@@ -172,6 +172,29 @@ pub fn pruned_one_level(shape: &TreeShape, leaves: &[Cell]) -> Vec<Cell> {
     out
 }
 
+/// A test tree over a `width x height` image: split flags from a seeded linear
+/// congruential sequence, splitting where `split(draw)` holds.
+#[cfg(test)]
+pub(crate) fn random_tree(
+    width: u32,
+    height: u32,
+    seed: u32,
+    split: impl Fn(u32) -> bool,
+) -> (TreeShape, Vec<Cell>) {
+    let shape = TreeShape {
+        width,
+        height,
+        block_log2: 4,
+        min_log2: 0,
+    };
+    let mut k = seed;
+    let leaves = shape.walk(|_| {
+        k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+        split(k >> 16)
+    });
+    (shape, leaves)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -210,17 +233,7 @@ mod tests {
             (100, 17, 4),
             (1, 1, 5),
         ] {
-            let shape = TreeShape {
-                width: w,
-                height: h,
-                block_log2: 4,
-                min_log2: 0,
-            };
-            let mut k = seed;
-            let leaves = shape.walk(|_| {
-                k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
-                (k >> 16) % 3 != 0
-            });
+            let (shape, leaves) = random_tree(w, h, seed, |d| d % 3 != 0);
             assert_eq!(
                 pruned_one_level(&shape, &leaves),
                 pruned_by_counting(&shape, &leaves),
@@ -231,17 +244,7 @@ mod tests {
 
     #[test]
     fn leaves_tile_the_image_exactly() {
-        let shape = TreeShape {
-            width: 37,
-            height: 21,
-            block_log2: 4,
-            min_log2: 0,
-        };
-        let mut k = 0u32;
-        let leaves = shape.walk(|_| {
-            k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            !(k >> 16).is_multiple_of(3)
-        });
+        let (shape, leaves) = random_tree(37, 21, 0, |d| !d.is_multiple_of(3));
         let mut cover = vec![0u8; 37 * 21];
         for l in &leaves {
             let (x0, y0, x1, y1) = l.clip(37, 21);

@@ -370,20 +370,10 @@ impl Weights {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::quadtree::TreeShape;
+    use crate::codec::quadtree::random_tree;
 
     fn random_keyset(w: u32, h: u32, seed: u32, sigma_factor: f64) -> KeySet {
-        let shape = TreeShape {
-            width: w,
-            height: h,
-            block_log2: 4,
-            min_log2: 0,
-        };
-        let mut k = seed;
-        let cells = shape.walk(|_| {
-            k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
-            (k >> 16).is_multiple_of(2)
-        });
+        let (_, cells) = random_tree(w, h, seed, |d| d.is_multiple_of(2));
         KeySet::new(
             Frame::new(w, h),
             &cells,
