@@ -130,7 +130,15 @@ impl Raster {
                 got: samples.len(),
             });
         }
-        if let Some(index) = samples.iter().position(|v| !v.is_finite()) {
+        // Chunked so the common, all-finite case vectorises; the search below only runs
+        // when something is wrong.
+        let finite = samples
+            .chunks(1024)
+            .all(|c| c.iter().fold(true, |ok, v| ok & v.is_finite()));
+        if let Some(index) = (!finite)
+            .then(|| samples.iter().position(|v| !v.is_finite()))
+            .flatten()
+        {
             return Err(RasterError::NonFinite {
                 index,
                 channel: index / plane,

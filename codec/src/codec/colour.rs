@@ -105,33 +105,69 @@ impl CodingValue for f32 {
 /// Pixels per parallel task of [`inverse`].
 const CHUNK: usize = 1 << 14;
 
-/// Maps every pixel's `(Y, C1, C2)` to RGB with `f`, in parallel, into three planes.
-fn opponent_to_rgb<T: CodingValue>(
-    planes: &[Vec<T>],
-    out: &mut [f32],
-    f: impl Fn(T, T, T) -> [f32; 3] + Sync,
+/// Converts one span of pixels from coding planes to raster samples: `colour` (Y, or
+/// Y, C1, C2) and optional `alpha` into `out`, the raster's planes over the same span
+/// (colour channels, then alpha). Integer formats are clamped to [0, 1] here, at
+/// output, and alpha always; float colour is not.
+pub fn inverse_span<T: CodingValue>(
+    colour: &[&[T]],
+    alpha: Option<&[T]>,
+    out: &mut [&mut [f32]],
+    format: SampleFormat,
 ) {
-    let n = out.len() / 3;
-    let (y, c1, c2) = (&planes[0], &planes[1], &planes[2]);
-    let (r, gb) = out.split_at_mut(n);
-    let (g, b) = gb.split_at_mut(n);
-    r.par_chunks_mut(CHUNK)
-        .zip(g.par_chunks_mut(CHUNK))
-        .zip(b.par_chunks_mut(CHUNK))
-        .enumerate()
-        .for_each(|(k, ((r, g), b))| {
-            let o = k * CHUNK;
-            let m = r.len();
-            let (y, c1, c2) = (&y[o..o + m], &c1[o..o + m], &c2[o..o + m]);
-            let (g, b) = (&mut g[..m], &mut b[..m]);
+    let nc = colour.len();
+    debug_assert_eq!(out.len(), nc + usize::from(alpha.is_some()));
+    // Integer formats need only single precision before their clamp; float ones keep
+    // double precision through the HDR curve.
+    let hdr = format == SampleFormat::F32;
+    if let [y, c1, c2] = colour {
+        let [r, g, b, ..] = out else {
+            unreachable!("three colour planes out")
+        };
+        let m = r
+            .len()
+            .min(g.len())
+            .min(b.len())
+            .min(y.len())
+            .min(c1.len())
+            .min(c2.len());
+        let (r, g, b) = (&mut r[..m], &mut g[..m], &mut b[..m]);
+        let (y, c1, c2) = (&y[..m], &c1[..m], &c2[..m]);
+        if hdr {
+            let (ky, k1, k2) = (1.0 / S3, 1.0 / S2, 1.0 / S6);
             for i in 0..m {
-                [r[i], g[i], b[i]] = f(y[i], c1[i], c2[i]);
+                let (y, c1, c2) = (y[i].to_f64() * ky, c1[i].to_f64() * k1, c2[i].to_f64() * k2);
+                r[i] = from_coding(y + c1 + c2, format);
+                g[i] = from_coding(y - 2.0 * c2, format);
+                b[i] = from_coding(y - c1 + c2, format);
             }
-        });
+        } else {
+            let (ky, k1, k2) = ((1.0 / S3) as f32, (1.0 / S2) as f32, (1.0 / S6) as f32);
+            for i in 0..m {
+                let (y, c1, c2) = (y[i].to_f32() * ky, c1[i].to_f32() * k1, c2[i].to_f32() * k2);
+                r[i] = (y + c1 + c2).clamp(0.0, 1.0);
+                g[i] = (y - 2.0 * c2).clamp(0.0, 1.0);
+                b[i] = (y - c1 + c2).clamp(0.0, 1.0);
+            }
+        }
+    } else {
+        for (o, &v) in out[0].iter_mut().zip(colour[0]) {
+            *o = if hdr {
+                from_coding(v.to_f64(), format)
+            } else {
+                v.to_f32().clamp(0.0, 1.0)
+            };
+        }
+    }
+    if let Some(a) = alpha {
+        for (o, &v) in out[nc].iter_mut().zip(a) {
+            *o = v.to_f32().clamp(0.0, 1.0);
+        }
+    }
 }
 
-/// Reassembles raster samples (planar) from coding planes. Integer formats are clamped
-/// to [0, 1] here, at output, and alpha always; float colour is not.
+/// Reassembles raster samples (planar) from coding planes, in parallel spans (see
+/// [`inverse_span`]).
 pub fn inverse<T: CodingValue>(
     planes: &CodingPlanes<T>,
     width: u32,
@@ -141,48 +177,19 @@ pub fn inverse<T: CodingValue>(
     let n = width as usize * height as usize;
     let nc = planes.colour.len();
     let mut out = vec![0.0f32; n * (nc + usize::from(planes.alpha.is_some()))];
-    let (colour, alpha) = out.split_at_mut(n * nc);
-    // Integer formats need only single precision before their clamp; float ones keep
-    // double precision through the HDR curve.
-    let hdr = format == SampleFormat::F32;
-    if nc == 3 && hdr {
-        let (ky, k1, k2) = (1.0 / S3, 1.0 / S2, 1.0 / S6);
-        opponent_to_rgb(&planes.colour, colour, |y, c1, c2| {
-            let (y, c1, c2) = (y.to_f64() * ky, c1.to_f64() * k1, c2.to_f64() * k2);
-            [y + c1 + c2, y - 2.0 * c2, y - c1 + c2].map(|v| from_coding(v, format))
-        });
-    } else if nc == 3 {
-        let (ky, k1, k2) = ((1.0 / S3) as f32, (1.0 / S2) as f32, (1.0 / S6) as f32);
-        opponent_to_rgb(&planes.colour, colour, |y, c1, c2| {
-            let (y, c1, c2) = (y.to_f32() * ky, c1.to_f32() * k1, c2.to_f32() * k2);
-            [y + c1 + c2, y - 2.0 * c2, y - c1 + c2].map(|v| v.clamp(0.0, 1.0))
-        });
-    } else {
-        let y = &planes.colour[0];
-        colour
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(k, out)| {
-                for (i, o) in out.iter_mut().enumerate() {
-                    let v = y[k * CHUNK + i];
-                    *o = if hdr {
-                        from_coding(v.to_f64(), format)
-                    } else {
-                        v.to_f32().clamp(0.0, 1.0)
-                    };
-                }
-            });
+    // Each span's part of every output plane, handed to one task.
+    let mut spans: Vec<Vec<&mut [f32]>> = (0..n.div_ceil(CHUNK)).map(|_| Vec::new()).collect();
+    for plane in out.chunks_mut(n.max(1)) {
+        for (k, part) in plane.chunks_mut(CHUNK).enumerate() {
+            spans[k].push(part);
+        }
     }
-    if let Some(a) = &planes.alpha {
-        alpha
-            .par_chunks_mut(CHUNK)
-            .enumerate()
-            .for_each(|(k, out)| {
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o = a[k * CHUNK + i].to_f32().clamp(0.0, 1.0);
-                }
-            });
-    }
+    spans.into_par_iter().enumerate().for_each(|(k, mut out)| {
+        let range = k * CHUNK..(k * CHUNK + CHUNK).min(n);
+        let colour: Vec<&[T]> = planes.colour.iter().map(|p| &p[range.clone()]).collect();
+        let alpha = planes.alpha.as_ref().map(|a| &a[range.clone()]);
+        inverse_span(&colour, alpha, &mut out, format);
+    });
     out
 }
 

@@ -11,11 +11,13 @@
 //! Interpolating the key points' absolute positions instead would shift edges: the
 //! normalised average of cell centres is biased wherever cell sizes change.
 
+use rayon::prelude::*;
+
 use super::bitstream::{self, tag, Header};
 use super::colour::{self, CodingPlanes};
 use super::entropy::RangeSource;
 use super::geometry::Frame;
-use super::keyset::{Grid, KeySet};
+use super::keyset::{BandScratch, Grid, GridEval, KeySet};
 use super::model::chroma_cells;
 use super::quadtree::Cell;
 use super::syntax::{self, MAX_BINS_PER_VALUE};
@@ -153,7 +155,7 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
     let d = read(bytes, opts.max_pixels)?;
     let (ow, oh) = output_size(&d.header, opts)?;
     let planes = match opts.supersample {
-        None => render_identity(&d, ow, oh),
+        None => return Ok(render_identity_raster(&d, ow, oh)),
         Some(s) if (1..=4).contains(&s) => render_forward(&d, ow, oh, s)?,
         Some(s) => {
             return Err(CodecError::Parameter {
@@ -187,6 +189,58 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
         colour,
         alpha: luma.next().filter(|_| h.layout.has_alpha()),
     }
+}
+
+/// The identity fast path straight to raster samples: equal to
+/// `to_raster(render_identity(..))`, but band by band, luma and chroma side by side and
+/// each band's colours converted while still in cache, so no full-size coding planes
+/// are made.
+pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Raster {
+    let h = &d.header;
+    let frame = Frame::new(h.width, h.height);
+    let grid = Grid::pixel_centres(&frame, ow, oh);
+    let (luma, chroma) = rayon::join(
+        || GridEval::new(frame, &d.luma_cells, h.kernel, &d.luma_values, &grid),
+        || {
+            (!d.chroma_cells.is_empty())
+                .then(|| GridEval::new(frame, &d.chroma_cells, h.kernel, &d.chroma_values, &grid))
+        },
+    );
+    let n = ow as usize * oh as usize;
+    let alpha = h.layout.has_alpha();
+    let nl = 1 + usize::from(alpha);
+    let nch = if chroma.is_some() { 2 } else { 0 };
+    let mut samples = vec![0.0f32; n * h.layout.channels()];
+    // Each band's rows of every output plane, handed to one task.
+    let band_len = GridEval::BAND * ow as usize;
+    let mut bands: Vec<Vec<&mut [f32]>> = (0..luma.bands()).map(|_| Vec::new()).collect();
+    for plane in samples.chunks_mut(n) {
+        for (b, rows) in plane.chunks_mut(band_len).enumerate() {
+            bands[b].push(rows);
+        }
+    }
+    bands.into_par_iter().enumerate().for_each_init(
+        || (BandScratch::default(), Vec::new()),
+        |(scratch, coding), (b, mut out)| {
+            let len = out[0].len();
+            // Every value is overwritten below: no need to clear.
+            coding.resize((nl + nch) * len, 0.0f32);
+            let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
+            let (lp, cp) = parts.split_at_mut(nl);
+            // Both key sets sit on the same grid: one set of conformal factors.
+            luma.conformal(b, &mut scratch.g);
+            luma.eval_band(b, &scratch.g, &mut scratch.acc, lp);
+            if let Some(chroma) = &chroma {
+                chroma.eval_band(b, &scratch.g, &mut scratch.acc, cp);
+            }
+            let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
+                .chain(cp.iter().map(|p| &**p))
+                .collect();
+            let alpha = alpha.then(|| &*lp[1]);
+            colour::inverse_span(&colour, alpha, &mut out, h.format);
+        },
+    );
+    Raster::new(ow, oh, h.layout, h.format, samples).expect("decoded samples are finite and sized")
 }
 
 /// Forward mapping with `s x s` samples per output pixel.
@@ -342,4 +396,56 @@ pub(crate) fn to_raster<T: colour::CodingValue>(
     let samples = colour::inverse(&planes, ow, oh, header.format);
     Raster::new(ow, oh, header.layout, header.format, samples)
         .expect("decoded samples are finite and sized")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::{encode, EncodeOptions};
+    use crate::raster::{ChannelLayout, SampleFormat};
+
+    #[test]
+    fn fused_identity_path_equals_planes_then_colour_conversion() {
+        let (w, h) = (45u32, 37u32);
+        let n = (w * h) as usize;
+        let wave = |c: usize, hdr: bool| {
+            (0..n).map(move |i| {
+                let (x, y) = ((i % w as usize) as f32, (i / w as usize) as f32);
+                let v = 0.5 + 0.45 * ((x * 0.31 + c as f32).sin() * (y * 0.23 - c as f32).cos());
+                if hdr {
+                    v * v * 40.0
+                } else {
+                    v
+                }
+            })
+        };
+        for (layout, format) in [
+            (ChannelLayout::Grey, SampleFormat::U8),
+            (ChannelLayout::GreyAlpha, SampleFormat::U16),
+            (ChannelLayout::Rgb, SampleFormat::U8),
+            (ChannelLayout::Rgba, SampleFormat::U16),
+            (ChannelLayout::Rgb, SampleFormat::F32),
+            (ChannelLayout::Grey, SampleFormat::F32),
+        ] {
+            let hdr = format == SampleFormat::F32;
+            let samples = (0..layout.channels()).flat_map(|c| wave(c, hdr)).collect();
+            let img = Raster::new(w, h, layout, format, samples).unwrap();
+            let opts = EncodeOptions {
+                quality: 90.0,
+                ..EncodeOptions::default()
+            };
+            let d = read(&encode(&img, &opts).unwrap(), u64::MAX).unwrap();
+            // Coded size, then up- and downscaled: bands of every height, the last short.
+            for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
+                let fused = render_identity_raster(&d, ow, oh);
+                let reference = to_raster(&d.header, render_identity(&d, ow, oh), ow, oh);
+                assert_eq!(
+                    fused.samples(),
+                    reference.samples(),
+                    "{layout:?} {format:?} at {ow}x{oh}"
+                );
+                assert_eq!((fused.layout(), fused.format()), (layout, format));
+            }
+        }
+    }
 }

@@ -17,7 +17,9 @@
 
 use rayon::prelude::*;
 
-use super::{Frame, KeySet};
+use super::{Frame, KernelParams, KeySet, MIN_SIGMA_FACTOR};
+use crate::codec::geometry::SUPPORT_SIGMAS;
+use crate::codec::quadtree::Cell;
 
 /// Grid rows evaluated together by one task.
 const BAND: usize = 16;
@@ -76,15 +78,15 @@ impl Grid {
     }
 
     /// Grid indices `lo..=hi` along one axis whose coordinate lies within `[c - r, c + r]`,
-    /// or `None` when none does.
-    fn span(c: f64, r: f64, origin: f64, step: f64, n: usize) -> Option<(usize, usize)> {
-        // Clamped to the grid before rounding; ceil and floor by casts, which compile to
-        // a few instructions where the library calls would not.
-        let lo = ((c - r - origin) / step).clamp(0.0, n as f64);
-        let hi = ((c + r - origin) / step).clamp(-1.0, n as f64 - 1.0);
+    /// or `None` when none does (`inv_step` is the reciprocal of the axis' spacing).
+    #[inline]
+    fn span(c: f64, r: f64, origin: f64, inv_step: f64, n: usize) -> Option<(usize, usize)> {
+        let (lo, hi) = ((c - r - origin) * inv_step, (c + r - origin) * inv_step);
+        // ceil and floor by casts, which compile to a few instructions where the library
+        // calls would not; `as` saturates, so far-off positions stay harmless.
         let (lo_t, hi_t) = (lo as i64, hi as i64);
-        let lo = lo_t + i64::from((lo_t as f64) < lo);
-        let hi = hi_t - i64::from((hi_t as f64) > hi);
+        let lo = (lo_t + i64::from((lo_t as f64) < lo)).max(0);
+        let hi = (hi_t - i64::from((hi_t as f64) > hi)).min(n as i64 - 1);
         (lo <= hi).then_some((lo as usize, hi as usize))
     }
 }
@@ -92,38 +94,56 @@ impl Grid {
 /// One key point as the splat loop needs it.
 #[derive(Debug, Clone, Copy)]
 struct Splat {
-    cx: f64,
     cy: f64,
-    /// Grid columns within the radius.
-    cols: (usize, usize),
+    /// First grid column of the support's bounding box.
+    c0: u32,
+    /// [`LANES`]-point steps that cover the box's columns.
+    steps: u32,
+    /// First and last grid row of the box.
+    rows: (u32, u32),
+    /// Column `c0`'s x offset from the key point.
+    x0: f32,
     /// `2 q / (3 S^2 (1 + r_c^2))`: the kernel is `weight * (1 - a d^2 g)^3`.
     a: f32,
     weight: f32,
-    rows: (usize, usize),
+    /// The key point's index (into the value planes).
+    key: u32,
+}
+
+/// A key set and its values prepared for evaluation on one grid, band by band: two key
+/// sets on the same grid (luma and chroma) can then be evaluated band by band side by
+/// side and their results consumed while they are still in cache.
+pub struct GridEval {
+    grid: Grid,
+    frame: Frame,
+    splats: Vec<Option<Splat>>,
+    /// Splats reaching band `b` are `band_items[band_start[b]..band_start[b + 1]]`, in
+    /// key-point order.
+    band_start: Vec<usize>,
+    band_items: Vec<u32>,
+    values: Vec<Vec<f32>>,
+    /// Offsets of a row segment's points from its first column.
+    xs: Vec<f32>,
+    /// `u^2` of every (padded) column.
+    plane_u2: Vec<f32>,
+    /// Row length of the band buffers: padded so a row's last step never leaves it.
+    stride: usize,
+    arch: pulp::Arch,
+}
+
+/// Per-task buffers of [`GridEval::eval_band`], reused from band to band.
+#[derive(Debug, Default)]
+pub struct BandScratch {
+    /// The conformal factor `g` of the band's grid points (see [`GridEval::conformal`]).
+    pub g: Vec<f32>,
+    /// The band's accumulators.
+    pub acc: Vec<f32>,
 }
 
 impl KeySet {
-    fn splats(&self, grid: &Grid) -> Vec<Option<Splat>> {
-        let inv_scale = 1.0 / self.frame.width.max(self.frame.height).max(1) as f64;
-        (0..self.len())
-            .into_par_iter()
-            .map(|i| {
-                let (cx, cy) = self.centres[i];
-                let radius = self.frame.support_radius(cx, cy, self.sigma[i]);
-                let cols = Grid::span(cx, radius, grid.x0, grid.dx, grid.nx)?;
-                let rows = Grid::span(cy, radius, grid.y0, grid.dy, grid.ny)?;
-                let (u, v) = self.frame.plane(cx, cy);
-                let a = 2.0 * self.q[i] * inv_scale * inv_scale / (3.0 * (1.0 + u * u + v * v));
-                Some(Splat {
-                    cx,
-                    cy,
-                    cols,
-                    a: a as f32,
-                    weight: self.weight[i] as f32,
-                    rows,
-                })
-            })
-            .collect()
+    /// Prepares `values` (planes with one value per key point) for evaluation on `grid`.
+    pub fn grid_eval(&self, values: &[Vec<f64>], grid: &Grid) -> GridEval {
+        GridEval::new(self.frame, &self.cells, self.params, values, grid)
     }
 
     /// Evaluates `values` (planes with one value per key point) at every point of `grid`,
@@ -137,95 +157,177 @@ impl KeySet {
         if nx == 0 || ny == 0 || values.is_empty() {
             return planes;
         }
-        let splats = self.splats(grid);
-        // Key points per band, in coding order (a counting sort over the bands each spans).
-        let bands = ny.div_ceil(BAND);
-        let mut start = vec![0usize; bands + 1];
-        for s in splats.iter().flatten() {
-            for b in s.rows.0 / BAND..=s.rows.1 / BAND {
-                start[b + 1] += 1;
-            }
-        }
-        for b in 0..bands {
-            start[b + 1] += start[b];
-        }
-        let mut fill = start.clone();
-        let mut items = vec![0u32; start[bands]];
-        for (i, s) in splats.iter().enumerate() {
-            if let Some(s) = s {
-                for b in s.rows.0 / BAND..=s.rows.1 / BAND {
-                    items[fill[b]] = i as u32;
-                    fill[b] += 1;
-                }
-            }
-        }
-        // Rows are padded so a row's last step never leaves its buffer (the padding's
-        // values are never read back).
-        let stride = nx.next_multiple_of(LANES) + LANES;
-        // Offsets from a row segment's first column, so positions stay exact in single
-        // precision however wide the image: the segment's own offset from the key point
-        // is formed in double precision.
-        let xs: Vec<f32> = (0..stride).map(|k| (k as f64 * grid.dx) as f32).collect();
-        let inv_scale = 1.0 / self.frame.width.max(self.frame.height).max(1) as f64;
-        let plane_u2: Vec<f32> = (0..stride)
-            .map(|i| {
-                let u = (grid.x(i.min(nx - 1)) - 0.5 * self.frame.width as f64) * inv_scale;
-                (u * u) as f32
-            })
-            .collect();
-        let values_f32: Vec<Vec<f32>> = values
-            .iter()
-            .map(|v| v.iter().map(|&x| x as f32).collect())
-            .collect();
-
+        let eval = self.grid_eval(values, grid);
         // Each band's rows of every plane, handed to one task.
-        let mut chunks: Vec<Vec<&mut [f32]>> = (0..bands).map(|_| Vec::new()).collect();
+        let mut chunks: Vec<Vec<&mut [f32]>> = (0..eval.bands()).map(|_| Vec::new()).collect();
         for plane in planes.iter_mut() {
             for (b, rows) in plane.chunks_mut(BAND * nx).enumerate() {
                 chunks[b].push(rows);
             }
         }
-        let arch = pulp::Arch::new();
-        let ctx = Band {
-            splats: &splats,
-            grid,
-            frame: &self.frame,
-            xs: &xs,
-            stride,
-        };
         chunks.into_par_iter().enumerate().for_each_init(
-            || (Vec::new(), Vec::new()),
-            |(g, acc), (b, mut out)| {
-                // Compiled for the widest vector unit the CPU has. No fused multiply-adds
-                // are formed (Rust never contracts), so every unit gives the same bits.
-                arch.dispatch(BandPass {
-                    band: &ctx,
-                    list: &items[start[b]..start[b + 1]],
-                    values: &values_f32,
-                    plane_u2: &plane_u2,
-                    j0: b * BAND,
-                    g,
-                    acc,
-                    out: &mut out,
-                });
+            BandScratch::default,
+            |scratch, (b, mut out)| {
+                eval.conformal(b, &mut scratch.g);
+                eval.eval_band(b, &scratch.g, &mut scratch.acc, &mut out);
             },
         );
         planes
     }
 }
 
-/// What every band's pass reads.
-struct Band<'a> {
-    splats: &'a [Option<Splat>],
-    grid: &'a Grid,
-    frame: &'a Frame,
-    xs: &'a [f32],
-    stride: usize,
+/// What a key point's splat needs from its cell size alone, per tree level.
+#[derive(Debug, Clone, Copy, Default)]
+struct LevelKernel {
+    /// `1 / (6 sigma^2)`: the kernel's `a` is `(1 + r_c^2)` times this.
+    inv_6s2: f64,
+    /// A radius the support never exceeds (pixels).
+    radius: f64,
+    weight: f32,
 }
 
-impl Band<'_> {
+impl GridEval {
+    /// Prepares the key points at the centres of `cells` (the [`KeySet`] of `frame`,
+    /// `cells` and `params`) and their `values` for evaluation on `grid`, straight from
+    /// the cells: the decoder needs none of the key set's other fields.
+    pub fn new(
+        frame: Frame,
+        cells: &[Cell],
+        params: KernelParams,
+        values: &[Vec<f64>],
+        grid: &Grid,
+    ) -> GridEval {
+        let (nx, ny) = (grid.nx, grid.ny);
+        let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
+        let sigma_factor = params.sigma_factor.max(MIN_SIGMA_FACTOR);
+        let levels: [LevelKernel; 32] = std::array::from_fn(|l| {
+            let sigma = sigma_factor * (1u64 << l) as f64;
+            // Frame::support_radius without its square roots: with delta = 4 sigma / S,
+            // sqrt((1 + r_p^2) / (1 + r_c^2)) <= 1 + delta / 2 + delta^2 / 2 because
+            // 2 r_c / (1 + r_c^2) <= 1. A looser box only costs lanes: the kernel is
+            // exactly zero outside its support.
+            let delta = 4.0 * sigma * inv_scale;
+            LevelKernel {
+                // Frame::sharpness's q = ((1 + r_c^2) S / (2 sigma))^2 makes the kernel's
+                // 2 q / (3 S^2 (1 + r_c^2)) equal to (1 + r_c^2) times this.
+                inv_6s2: 1.0 / (6.0 * sigma * sigma),
+                radius: SUPPORT_SIGMAS * sigma * (1.0 + 0.5 * delta * (1.0 + delta)) * (1.0 + 1e-9)
+                    + 1e-9,
+                weight: 2f64.powi(l as i32).powf(-params.weight_exponent) as f32,
+            }
+        });
+        let (inv_dx, inv_dy) = (1.0 / grid.dx, 1.0 / grid.dy);
+        let splat = |(i, c): (usize, &Cell)| -> Option<Splat> {
+            let (cx, cy) = c.centre(frame.width, frame.height);
+            let level = &levels[c.log2 as usize];
+            let cols = Grid::span(cx, level.radius, grid.x0, inv_dx, nx)?;
+            let rows = Grid::span(cy, level.radius, grid.y0, inv_dy, ny)?;
+            let (u, v) = frame.plane(cx, cy);
+            Some(Splat {
+                cy,
+                c0: cols.0 as u32,
+                steps: ((cols.1 - cols.0) / LANES + 1) as u32,
+                rows: (rows.0 as u32, rows.1 as u32),
+                x0: (grid.x(cols.0) - cx) as f32,
+                a: ((1.0 + u * u + v * v) * level.inv_6s2) as f32,
+                weight: level.weight,
+                key: i as u32,
+            })
+        };
+        let mut splats: Vec<Option<Splat>> = Vec::new();
+        if nx > 0 && ny > 0 {
+            cells
+                .par_iter()
+                .enumerate()
+                .map(splat)
+                .collect_into_vec(&mut splats);
+        }
+        // Splats per band, in key-point order (a counting sort over the bands each spans).
+        let bands = ny.div_ceil(BAND);
+        let mut band_start = vec![0usize; bands + 1];
+        for s in splats.iter().flatten() {
+            for b in s.rows.0 as usize / BAND..=s.rows.1 as usize / BAND {
+                band_start[b + 1] += 1;
+            }
+        }
+        for b in 0..bands {
+            band_start[b + 1] += band_start[b];
+        }
+        let mut fill = band_start.clone();
+        let mut band_items = vec![0u32; band_start[bands]];
+        for (k, s) in splats.iter().enumerate() {
+            if let Some(s) = s {
+                for b in s.rows.0 as usize / BAND..=s.rows.1 as usize / BAND {
+                    band_items[fill[b]] = k as u32;
+                    fill[b] += 1;
+                }
+            }
+        }
+        let stride = nx.next_multiple_of(LANES) + LANES;
+        // Offsets from a row segment's first column, so positions stay exact in single
+        // precision however wide the image: the segment's own offset from the key point
+        // is formed in double precision.
+        let xs = (0..stride).map(|k| (k as f64 * grid.dx) as f32).collect();
+        let plane_u2 = (0..stride)
+            .map(|i| {
+                let u = (grid.x(i.min(nx.max(1) - 1)) - 0.5 * frame.width as f64) * inv_scale;
+                (u * u) as f32
+            })
+            .collect();
+        GridEval {
+            grid: *grid,
+            frame,
+            splats,
+            band_start,
+            band_items,
+            values: values
+                .iter()
+                .map(|v| v.iter().map(|&x| x as f32).collect())
+                .collect(),
+            xs,
+            plane_u2,
+            stride,
+            arch: pulp::Arch::new(),
+        }
+    }
+
+    /// Number of bands: the grid's rows in groups of [`GridEval::BAND`].
+    pub fn bands(&self) -> usize {
+        self.grid.ny.div_ceil(BAND)
+    }
+
+    /// Rows per band (the last band may have fewer).
+    pub const BAND: usize = BAND;
+
+    /// The conformal factors `g = 1 / (1 + r_p^2)` of band `b`'s grid points, into `g`
+    /// (padded rows). They depend on the grid and frame alone, so key sets evaluated on
+    /// the same grid can share them.
+    pub fn conformal(&self, b: usize, g: &mut Vec<f32>) {
+        self.arch.dispatch(Conformal { eval: self, b, g });
+    }
+
+    /// Evaluates band `b` into `out` (one slice per value plane, the band's rows of
+    /// `nx` points each), normalised; `g` from [`GridEval::conformal`] on the same grid.
+    pub fn eval_band(&self, b: usize, g: &[f32], acc: &mut Vec<f32>, out: &mut [&mut [f32]]) {
+        debug_assert_eq!(out.len(), self.values.len());
+        let j0 = b * BAND;
+        let rows = BAND.min(self.grid.ny - j0);
+        debug_assert_eq!(g.len(), rows * self.stride);
+        // Compiled for the widest vector unit the CPU has. No fused multiply-adds are
+        // formed (Rust never contracts), so every unit gives the same bits.
+        self.arch.dispatch(BandPass {
+            eval: self,
+            list: &self.band_items[self.band_start[b]..self.band_start[b + 1]],
+            j0,
+            rows,
+            g,
+            acc,
+            out,
+        });
+    }
+
     /// Splats the key points `list` over the band starting at row `j0`; `acc` holds the
-    /// kernel sum then the `NC` value planes, each `rows x nx`.
+    /// kernel sum then the `NC` value planes, each `rows x stride`.
     #[inline(always)]
     fn splat<const NC: usize>(
         &self,
@@ -233,47 +335,51 @@ impl Band<'_> {
         values: &[Vec<f32>],
         g: &[f32],
         j0: usize,
+        rows: usize,
         acc: &mut [f32],
     ) {
-        let grid = self.grid;
+        let grid = &self.grid;
         let stride = self.stride;
-        let plane = g.len();
-        let rows = plane / stride;
+        let plane = rows * stride;
         let (sum, rest) = acc.split_at_mut(plane);
         let mut chunks = rest.chunks_exact_mut(plane);
         let mut planes: [&mut [f32]; NC] =
             std::array::from_fn(|_| chunks.next().expect("NC planes follow the sum"));
-        for &i in list {
-            let Some(s) = self.splats[i as usize] else {
+        let (xs, _) = self.xs.as_chunks::<LANES>();
+        for &k in list {
+            let Some(s) = &self.splats[k as usize] else {
                 continue;
             };
-            let vals: [f32; NC] = std::array::from_fn(|c| values[c][i as usize]);
-            let r0 = s.rows.0.max(j0);
-            let r1 = s.rows.1.min(j0 + rows - 1);
+            let vals: [f32; NC] = std::array::from_fn(|c| values[c][s.key as usize]);
+            let r0 = (s.rows.0 as usize).max(j0);
+            let r1 = (s.rows.1 as usize).min(j0 + rows - 1);
             // Whole bounding-box rows: trimming each row to the disc's chord cost more
             // (a square root and two divisions per row) than the steps it saved.
-            let (c0, steps) = (s.cols.0, (s.cols.1 - s.cols.0) / LANES + 1);
-            let x0 = (grid.x(c0) - s.cx) as f32;
-            for j in r0..r1 + 1 {
-                let dy = grid.y(j) - s.cy;
-                let off = (j - j0) * stride + c0;
-                let range = off..off + steps * LANES;
+            let steps = s.steps as usize;
+            let n = steps * LANES;
+            let row0 = (r0 - j0) * stride + s.c0 as usize;
+            let dy0 = grid.y(r0) - s.cy;
+            for r in 0..=r1 - r0 {
+                let dy = dy0 + r as f64 * grid.dy;
+                let kern = Kernel {
+                    x0: s.x0,
+                    a: s.a,
+                    a_dy2: s.a * (dy * dy) as f32,
+                    weight: s.weight,
+                };
+                let off = row0 + r * stride;
+                let range = off..off + n;
                 let mut it = planes.iter_mut();
-                let rows_out: [&mut [f32]; NC] = std::array::from_fn(|_| match it.next() {
-                    Some(p) => &mut p[range.clone()],
+                let out: [&mut [[f32; LANES]]; NC] = std::array::from_fn(|_| match it.next() {
+                    Some(p) => p[range.clone()].as_chunks_mut().0,
                     None => &mut [],
                 });
                 splat_row::<NC>(
-                    &self.xs[..steps * LANES],
-                    &g[range.clone()],
-                    &mut sum[range],
-                    rows_out,
-                    Kernel {
-                        x0,
-                        a: s.a,
-                        a_dy2: s.a * (dy * dy) as f32,
-                        weight: s.weight,
-                    },
+                    &xs[..steps],
+                    g[range.clone()].as_chunks().0,
+                    sum[range].as_chunks_mut().0,
+                    out,
+                    kern,
                     vals,
                 );
             }
@@ -281,16 +387,42 @@ impl Band<'_> {
     }
 }
 
-/// Everything one band computes, as a `pulp` operation: the conformal factors, the
-/// splats and the normalisation are all inlined into the target-feature function
-/// `pulp` picks, which is what vectorises them.
-struct BandPass<'a, 'o> {
-    band: &'a Band<'a>,
-    list: &'a [u32],
-    values: &'a [Vec<f32>],
-    plane_u2: &'a [f32],
-    j0: usize,
+/// The conformal factors of one band, as a `pulp` operation (so the division
+/// vectorises).
+struct Conformal<'a> {
+    eval: &'a GridEval,
+    b: usize,
     g: &'a mut Vec<f32>,
+}
+
+impl pulp::WithSimd for Conformal<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let e = self.eval;
+        let (grid, frame) = (&e.grid, &e.frame);
+        let j0 = self.b * BAND;
+        let rows = BAND.min(grid.ny - j0);
+        let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
+        self.g.clear();
+        for r in 0..rows {
+            let v = (grid.y(j0 + r) - 0.5 * frame.height as f64) * inv_scale;
+            let v2 = (v * v) as f32;
+            self.g
+                .extend(e.plane_u2.iter().map(|u2| 1.0 / (1.0 + u2 + v2)));
+        }
+    }
+}
+
+/// One band's splats and normalisation, as a `pulp` operation: everything is inlined
+/// into the target-feature function `pulp` picks, which is what vectorises it.
+struct BandPass<'a, 'o> {
+    eval: &'a GridEval,
+    list: &'a [u32],
+    j0: usize,
+    rows: usize,
+    g: &'a [f32],
     acc: &'a mut Vec<f32>,
     out: &'a mut [&'o mut [f32]],
 }
@@ -300,29 +432,19 @@ impl pulp::WithSimd for BandPass<'_, '_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        let band = self.band;
-        let (grid, frame, stride) = (band.grid, band.frame, band.stride);
-        let nx = grid.nx;
-        let rows = BAND.min(grid.ny - self.j0);
-        let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
-        self.g.clear();
-        for r in 0..rows {
-            let v = (grid.y(self.j0 + r) - 0.5 * frame.height as f64) * inv_scale;
-            let v2 = (v * v) as f32;
-            self.g
-                .extend(self.plane_u2.iter().map(|u2| 1.0 / (1.0 + u2 + v2)));
-        }
-        let plane = rows * stride;
+        let e = self.eval;
+        let (nx, stride) = (e.grid.nx, e.stride);
+        let plane = self.rows * stride;
         // Up to four planes share one pass; more take further passes.
-        for (group, vals) in self.out.chunks_mut(4).zip(self.values.chunks(4)) {
+        for (group, vals) in self.out.chunks_mut(4).zip(e.values.chunks(4)) {
             self.acc.clear();
             self.acc.resize((vals.len() + 1) * plane, 0.0f32);
-            let (g, acc) = (&self.g[..], &mut self.acc[..]);
+            let (g, acc) = (self.g, &mut self.acc[..]);
             match vals.len() {
-                1 => band.splat::<1>(self.list, vals, g, self.j0, acc),
-                2 => band.splat::<2>(self.list, vals, g, self.j0, acc),
-                3 => band.splat::<3>(self.list, vals, g, self.j0, acc),
-                _ => band.splat::<4>(self.list, vals, g, self.j0, acc),
+                1 => e.splat::<1>(self.list, vals, g, self.j0, self.rows, acc),
+                2 => e.splat::<2>(self.list, vals, g, self.j0, self.rows, acc),
+                3 => e.splat::<3>(self.list, vals, g, self.j0, self.rows, acc),
+                _ => e.splat::<4>(self.list, vals, g, self.j0, self.rows, acc),
             }
             let (sum, planes) = self.acc.split_at_mut(plane);
             for s in sum.iter_mut() {
@@ -354,33 +476,23 @@ struct Kernel {
     weight: f32,
 }
 
-/// The inner loop: one key point's kernel over one row segment, a whole number of
-/// [`LANES`]-point steps long.
+/// The inner loop: one key point's kernel over one row segment of whole
+/// [`LANES`]-point steps.
 #[inline(always)]
 fn splat_row<const NC: usize>(
-    xs: &[f32],
-    g: &[f32],
-    sum: &mut [f32],
-    acc: [&mut [f32]; NC],
+    xs: &[[f32; LANES]],
+    g: &[[f32; LANES]],
+    sum: &mut [[f32; LANES]],
+    acc: [&mut [[f32; LANES]]; NC],
     k: Kernel,
     vals: [f32; NC],
 ) {
-    let (xs, _) = xs.as_chunks::<LANES>();
-    let (g, _) = g.as_chunks::<LANES>();
-    let (sum, _) = sum.as_chunks_mut::<LANES>();
     let steps = xs.len().min(g.len()).min(sum.len());
-    // Every plane cut to the same length, so the loop below has no bounds checks.
-    let acc: [&mut [[f32; LANES]]; NC] = acc.map(|a| &mut a.as_chunks_mut::<LANES>().0[..steps]);
+    // Every slice cut to the same length, so the loop below has no bounds checks.
+    let acc: [&mut [[f32; LANES]]; NC] = acc.map(|a| &mut a[..steps]);
     let (xs, g, sum) = (&xs[..steps], &g[..steps], &mut sum[..steps]);
     for s in 0..steps {
-        let (x, g) = (&xs[s], &g[s]);
-        let mut w = [0.0f32; LANES];
-        for l in 0..LANES {
-            let dx = x[l] + k.x0;
-            let t = 1.0 - g[l] * (k.a * dx * dx + k.a_dy2);
-            let t = if t > 0.0 { t } else { 0.0 };
-            w[l] = k.weight * (t * t * t);
-        }
+        let w = k.weights(&xs[s], &g[s]);
         let out = &mut sum[s];
         for l in 0..LANES {
             out[l] += w[l];
@@ -391,5 +503,21 @@ fn splat_row<const NC: usize>(
                 out[l] += w[l] * vals[c];
             }
         }
+    }
+}
+
+impl Kernel {
+    /// The kernel at one step's points: column offsets `x` from the segment's start,
+    /// conformal factors `g`.
+    #[inline(always)]
+    fn weights(&self, x: &[f32; LANES], g: &[f32; LANES]) -> [f32; LANES] {
+        let mut w = [0.0f32; LANES];
+        for l in 0..LANES {
+            let dx = x[l] + self.x0;
+            let t = 1.0 - g[l] * (self.a * dx * dx + self.a_dy2);
+            let t = if t > 0.0 { t } else { 0.0 };
+            w[l] = self.weight * (t * t * t);
+        }
+        w
     }
 }

@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-pub use grid::Grid;
+pub use grid::{BandScratch, Grid, GridEval};
 
 use super::geometry::Frame;
 use super::quadtree::Cell;
@@ -40,11 +40,15 @@ const BUCKET: u32 = 2;
 #[derive(Debug, Clone)]
 pub struct KeySet {
     frame: Frame,
+    cells: Vec<Cell>,
+    params: KernelParams,
     /// Key point centres in pixels.
     pub centres: Vec<(f64, f64)>,
     /// Footprints in pixels.
     pub sigma: Vec<f64>,
-    sources: Vec<[f64; 3]>,
+    /// Sphere points of the centres, made on first use: the splatting path works in
+    /// the plane and does not need them.
+    sources: OnceLock<Vec<[f64; 3]>>,
     q: Vec<f64>,
     weight: Vec<f64>,
     /// Built on first per-pixel use: the splatting path does not need it.
@@ -75,31 +79,49 @@ impl KeySet {
     /// Key points at the centres of `cells` (clipped to the image).
     pub fn new(frame: Frame, cells: &[Cell], params: KernelParams) -> Self {
         let (w, h) = (frame.width, frame.height);
-        let n = cells.len();
-        let mut ks = KeySet {
-            frame,
-            centres: Vec::with_capacity(n),
-            sigma: Vec::with_capacity(n),
-            sources: Vec::with_capacity(n),
-            q: Vec::with_capacity(n),
-            weight: Vec::with_capacity(n),
-            buckets: OnceLock::new(),
-        };
         // Weights depend on the cell size alone: one power per tree level.
         let weights: Vec<f64> = (0..32)
             .map(|l| 2f64.powi(l).powf(-params.weight_exponent))
             .collect();
-        for c in cells {
-            let (x, y) = c.centre(w, h);
-            let s = c.size() as f64;
-            let sigma = params.sigma_factor.max(MIN_SIGMA_FACTOR) * s;
-            ks.centres.push((x, y));
-            ks.sigma.push(sigma);
-            ks.sources.push(frame.embed(x, y));
-            ks.q.push(frame.sharpness(x, y, sigma));
-            ks.weight.push(weights[c.log2 as usize]);
+        let sigma_factor = params.sigma_factor.max(MIN_SIGMA_FACTOR);
+        // One parallel pass per field: each is cheap, but there can be a million cells.
+        let mut centres = Vec::new();
+        cells
+            .par_iter()
+            .map(|c| c.centre(w, h))
+            .collect_into_vec(&mut centres);
+        let mut sigma = Vec::new();
+        cells
+            .par_iter()
+            .map(|c| sigma_factor * c.size() as f64)
+            .collect_into_vec(&mut sigma);
+        let mut q = Vec::new();
+        centres
+            .par_iter()
+            .zip(&sigma)
+            .map(|(&(x, y), &s)| frame.sharpness(x, y, s))
+            .collect_into_vec(&mut q);
+        let weight = cells.iter().map(|c| weights[c.log2 as usize]).collect();
+        KeySet {
+            frame,
+            cells: cells.to_vec(),
+            params,
+            centres,
+            sigma,
+            sources: OnceLock::new(),
+            q,
+            weight,
+            buckets: OnceLock::new(),
         }
-        ks
+    }
+
+    fn sources(&self) -> &[[f64; 3]] {
+        self.sources.get_or_init(|| {
+            self.centres
+                .iter()
+                .map(|&(x, y)| self.frame.embed(x, y))
+                .collect()
+        })
     }
 
     fn buckets(&self) -> &Buckets {
@@ -177,7 +199,7 @@ impl KeySet {
         Network::from_parts(
             3,
             p,
-            self.sources.iter().flatten().copied().collect(),
+            self.sources().iter().flatten().copied().collect(),
             shapes,
             self.q.clone(),
             self.weight.clone(),
@@ -202,10 +224,11 @@ impl KeySet {
             return self.kernels_brute(&p, out);
         }
         let buckets = self.buckets();
+        let sources = self.sources();
         let b = by as usize * buckets.cols as usize + bx as usize;
         let mut sum = 0.0;
         for &i in &buckets.items[buckets.start[b] as usize..buckets.start[b + 1] as usize] {
-            let k = self.kernel(i as usize, &p);
+            let k = self.kernel(sources, i as usize, &p);
             if k != 0.0 {
                 sum += k;
                 out.push((i, k));
@@ -215,17 +238,18 @@ impl KeySet {
     }
 
     #[inline]
-    fn kernel(&self, i: usize, p: &[f64; 3]) -> f64 {
-        let w = &self.sources[i];
+    fn kernel(&self, sources: &[[f64; 3]], i: usize, p: &[f64; 3]) -> f64 {
+        let w = &sources[i];
         let s = p[0] * w[0] + p[1] * w[1] + p[2] * w[2];
         self.weight[i] * Blend::Compact.value(s, self.q[i])
     }
 
     /// Positions outside the image (forward mapping, resampling) scan all key points.
     fn kernels_brute(&self, p: &[f64; 3], out: &mut Vec<(u32, f64)>) -> f64 {
+        let sources = self.sources();
         let mut sum = 0.0;
         for i in 0..self.len() {
-            let k = self.kernel(i, p);
+            let k = self.kernel(sources, i, p);
             if k != 0.0 {
                 sum += k;
                 out.push((i as u32, k));
