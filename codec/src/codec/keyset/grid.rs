@@ -183,7 +183,45 @@ struct LevelKernel {
     inv_6s2: f64,
     /// A radius the support never exceeds (pixels).
     radius: f64,
+    /// The same radius as whole grid steps on a pixel-centre axis (see [`pixel_span`]).
+    reach: PixelReach,
     weight: f32,
+}
+
+/// How many pixel centres a radius `r` reaches on either side of a key point: `odd`
+/// when the centre sits on a pixel centre, `(below, above)` when it sits on a pixel
+/// edge.
+#[derive(Debug, Clone, Copy, Default)]
+struct PixelReach {
+    odd: i64,
+    below: i64,
+    above: i64,
+}
+
+impl PixelReach {
+    fn new(r: f64) -> Self {
+        PixelReach {
+            odd: r.floor() as i64,
+            below: (r + 0.5).floor() as i64,
+            above: (r - 0.5).floor() as i64,
+        }
+    }
+}
+
+/// [`Grid::span`] in integers on an axis whose points are the pixel centres `i + 0.5`,
+/// for a key point at `m / 2` (cell centres are whole or half pixels): points `i` with
+/// `|i + 0.5 - m / 2| <= r`. Exact where the float version rounds, and a few
+/// instructions where its saturating casts take a dozen.
+#[inline]
+fn pixel_span(m: i64, reach: &PixelReach, n: usize) -> Option<(usize, usize)> {
+    let k = m >> 1;
+    let (lo, hi) = if m & 1 == 1 {
+        (k - reach.odd, k + reach.odd)
+    } else {
+        (k - reach.below, k + reach.above)
+    };
+    let (lo, hi) = (lo.max(0), hi.min(n as i64 - 1));
+    (lo <= hi).then_some((lo as usize, hi as usize))
 }
 
 impl GridEval {
@@ -207,21 +245,39 @@ impl GridEval {
             // 2 r_c / (1 + r_c^2) <= 1. A looser box only costs lanes: the kernel is
             // exactly zero outside its support.
             let delta = 4.0 * sigma * inv_scale;
+            let radius =
+                SUPPORT_SIGMAS * sigma * (1.0 + 0.5 * delta * (1.0 + delta)) * (1.0 + 1e-9) + 1e-9;
             LevelKernel {
                 // Frame::sharpness's q = ((1 + r_c^2) S / (2 sigma))^2 makes the kernel's
                 // 2 q / (3 S^2 (1 + r_c^2)) equal to (1 + r_c^2) times this.
                 inv_6s2: 1.0 / (6.0 * sigma * sigma),
-                radius: SUPPORT_SIGMAS * sigma * (1.0 + 0.5 * delta * (1.0 + delta)) * (1.0 + 1e-9)
-                    + 1e-9,
+                radius,
+                reach: PixelReach::new(radius),
                 weight: 2f64.powi(l as i32).powf(-params.weight_exponent) as f32,
             }
         });
         let (inv_dx, inv_dy) = (1.0 / grid.dx, 1.0 / grid.dy);
+        // Axes through the pixel centres at unit spacing (every decode at the coded size)
+        // take the integer span.
+        let (unit_x, unit_y) = (
+            grid.dx == 1.0 && grid.x0 == 0.5,
+            grid.dy == 1.0 && grid.y0 == 0.5,
+        );
         let splat = |(i, c): (usize, &Cell)| -> Option<Splat> {
-            let (cx, cy) = c.centre(frame.width, frame.height);
+            let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
+            let (mx, my) = ((x0 + x1) as i64, (y0 + y1) as i64);
+            let (cx, cy) = (0.5 * mx as f64, 0.5 * my as f64);
             let level = &levels[c.log2 as usize];
-            let cols = Grid::span(cx, level.radius, grid.x0, inv_dx, nx)?;
-            let rows = Grid::span(cy, level.radius, grid.y0, inv_dy, ny)?;
+            let cols = if unit_x {
+                pixel_span(mx, &level.reach, nx)
+            } else {
+                Grid::span(cx, level.radius, grid.x0, inv_dx, nx)
+            }?;
+            let rows = if unit_y {
+                pixel_span(my, &level.reach, ny)
+            } else {
+                Grid::span(cy, level.radius, grid.y0, inv_dy, ny)
+            }?;
             let (u, v) = frame.plane(cx, cy);
             Some(Splat {
                 cy,
@@ -519,5 +575,41 @@ impl Kernel {
             w[l] = self.weight * (t * t * t);
         }
         w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integer_pixel_span_is_the_set_of_centres_within_reach() {
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) as f64 / (1u64 << 31) as f64
+        };
+        for _ in 0..20000 {
+            let n = 1 + (next() * 40.0) as usize;
+            let m = (next() * 2.0 * n as f64) as i64;
+            let r = next() * 25.0;
+            let c = 0.5 * m as f64;
+            let want: Vec<usize> = (0..n)
+                .filter(|&i| (i as f64 + 0.5 - c).abs() <= r)
+                .collect();
+            let want = want.first().map(|&lo| (lo, *want.last().unwrap()));
+            assert_eq!(
+                pixel_span(m, &PixelReach::new(r), n),
+                want,
+                "m {m} r {r} n {n}"
+            );
+            assert_eq!(
+                Grid::span(c, r, 0.5, 1.0, n),
+                want,
+                "float span, m {m} r {r} n {n}"
+            );
+        }
     }
 }
