@@ -228,10 +228,10 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Raster {
             let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
             let (lp, cp) = parts.split_at_mut(nl);
             // Both key sets sit on the same grid: one set of conformal factors.
-            luma.conformal(b, &mut scratch.g);
-            luma.eval_band(b, &scratch.g, &mut scratch.acc, lp);
+            luma.conformal(b, scratch);
+            luma.eval_band(b, scratch, lp);
             if let Some(chroma) = &chroma {
-                chroma.eval_band(b, &scratch.g, &mut scratch.acc, cp);
+                chroma.eval_band(b, scratch, cp);
             }
             let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
                 .chain(cp.iter().map(|p| &**p))

@@ -103,9 +103,11 @@ struct Splat {
     rows: (u32, u32),
     /// Column `c0`'s x offset from the key point.
     x0: f32,
-    /// `2 q / (3 S^2 (1 + r_c^2))`: the kernel is `weight * (1 - a d^2 g)^3`.
-    a: f32,
-    weight: f32,
+    /// The cube root of the weight: the kernel is `(c - c a d^2 g)^3`.
+    c: f32,
+    /// `c a`, where `a = 2 q / (3 S^2 (1 + r_c^2))`: the kernel is
+    /// `weight * (1 - a d^2 g)^3`.
+    ca: f32,
     /// The key point's index (into the value planes).
     key: u32,
 }
@@ -131,13 +133,16 @@ pub struct GridEval {
     arch: pulp::Arch,
 }
 
-/// Per-task buffers of [`GridEval::eval_band`], reused from band to band.
+/// Per-task buffers of [`GridEval::conformal`] and [`GridEval::eval_band`], reused
+/// from band to band.
 #[derive(Debug, Default)]
 pub struct BandScratch {
-    /// The conformal factor `g` of the band's grid points (see [`GridEval::conformal`]).
-    pub g: Vec<f32>,
-    /// The band's accumulators.
-    pub acc: Vec<f32>,
+    /// The conformal factors `g` of the band's grid points.
+    g: Vec<f32>,
+    /// The kernel sum and value accumulators of the band.
+    acc: Vec<f32>,
+    /// One key point's `a dx^2` per step of its row segment.
+    ax2: Vec<[f32; LANES]>,
 }
 
 impl KeySet {
@@ -168,8 +173,8 @@ impl KeySet {
         chunks.into_par_iter().enumerate().for_each_init(
             BandScratch::default,
             |scratch, (b, mut out)| {
-                eval.conformal(b, &mut scratch.g);
-                eval.eval_band(b, &scratch.g, &mut scratch.acc, &mut out);
+                eval.conformal(b, scratch);
+                eval.eval_band(b, scratch, &mut out);
             },
         );
         planes
@@ -185,7 +190,8 @@ struct LevelKernel {
     radius: f64,
     /// The same radius as whole grid steps on a pixel-centre axis (see [`pixel_span`]).
     reach: PixelReach,
-    weight: f32,
+    /// The cube root of the key point weight.
+    cbrt_weight: f64,
 }
 
 /// How many pixel centres a radius `r` reaches on either side of a key point: `odd`
@@ -253,7 +259,7 @@ impl GridEval {
                 inv_6s2: 1.0 / (6.0 * sigma * sigma),
                 radius,
                 reach: PixelReach::new(radius),
-                weight: 2f64.powi(l as i32).powf(-params.weight_exponent) as f32,
+                cbrt_weight: 2f64.powi(l as i32).powf(-params.weight_exponent).cbrt(),
             }
         });
         let (inv_dx, inv_dy) = (1.0 / grid.dx, 1.0 / grid.dy);
@@ -285,8 +291,8 @@ impl GridEval {
                 steps: ((cols.1 - cols.0) / LANES + 1) as u32,
                 rows: (rows.0 as u32, rows.1 as u32),
                 x0: (grid.x(cols.0) - cx) as f32,
-                a: ((1.0 + u * u + v * v) * level.inv_6s2) as f32,
-                weight: level.weight,
+                c: level.cbrt_weight as f32,
+                ca: (level.cbrt_weight * (1.0 + u * u + v * v) * level.inv_6s2) as f32,
                 key: i as u32,
             })
         };
@@ -355,20 +361,29 @@ impl GridEval {
     /// Rows per band (the last band may have fewer).
     pub const BAND: usize = BAND;
 
-    /// The conformal factors `g = 1 / (1 + r_p^2)` of band `b`'s grid points, into `g`
-    /// (padded rows). They depend on the grid and frame alone, so key sets evaluated on
-    /// the same grid can share them.
-    pub fn conformal(&self, b: usize, g: &mut Vec<f32>) {
-        self.arch.dispatch(Conformal { eval: self, b, g });
+    /// The conformal factors `g = 1 / (1 + r_p^2)` of band `b`'s grid points, into
+    /// `scratch` (padded rows). They depend on the grid and frame alone, so key sets
+    /// evaluated on the same grid can share them.
+    pub fn conformal(&self, b: usize, scratch: &mut BandScratch) {
+        self.arch.dispatch(Conformal {
+            eval: self,
+            b,
+            g: &mut scratch.g,
+        });
     }
 
     /// Evaluates band `b` into `out` (one slice per value plane, the band's rows of
-    /// `nx` points each), normalised; `g` from [`GridEval::conformal`] on the same grid.
-    pub fn eval_band(&self, b: usize, g: &[f32], acc: &mut Vec<f32>, out: &mut [&mut [f32]]) {
+    /// `nx` points each), normalised. `scratch` holds band `b`'s conformal factors from
+    /// [`GridEval::conformal`] of this or another evaluator on the same grid.
+    pub fn eval_band(&self, b: usize, scratch: &mut BandScratch, out: &mut [&mut [f32]]) {
         debug_assert_eq!(out.len(), self.values.len());
         let j0 = b * BAND;
         let rows = BAND.min(self.grid.ny - j0);
-        debug_assert_eq!(g.len(), rows * self.stride);
+        assert_eq!(
+            scratch.g.len(),
+            rows * self.stride,
+            "conformal factors of this band first"
+        );
         // Compiled for the widest vector unit the CPU has. No fused multiply-adds are
         // formed (Rust never contracts), so every unit gives the same bits.
         self.arch.dispatch(BandPass {
@@ -376,8 +391,9 @@ impl GridEval {
             list: &self.band_items[self.band_start[b]..self.band_start[b + 1]],
             j0,
             rows,
-            g,
-            acc,
+            g: &scratch.g,
+            acc: &mut scratch.acc,
+            ax2: &mut scratch.ax2,
             out,
         });
     }
@@ -385,6 +401,7 @@ impl GridEval {
     /// Splats the key points `list` over the band starting at row `j0`; `acc` holds the
     /// kernel sum then the `NC` value planes, each `rows x stride`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn splat<const NC: usize>(
         &self,
         list: &[u32],
@@ -393,6 +410,7 @@ impl GridEval {
         j0: usize,
         rows: usize,
         acc: &mut [f32],
+        ax2: &mut Vec<[f32; LANES]>,
     ) {
         let grid = &self.grid;
         let stride = self.stride;
@@ -413,15 +431,24 @@ impl GridEval {
             // (a square root and two divisions per row) than the steps it saved.
             let steps = s.steps as usize;
             let n = steps * LANES;
+            // The x part of the kernel is the same on every row of the key point.
+            if ax2.len() < steps {
+                ax2.resize(steps, [0.0; LANES]);
+            }
+            let (ax2, xs) = (&mut ax2[..steps], &xs[..steps]);
+            let (x0, ca) = (s.x0, s.ca);
+            for (o, x) in ax2.iter_mut().zip(xs) {
+                *o = x.map(|x| {
+                    let dx = x + x0;
+                    ca * dx * dx
+                });
+            }
             let row0 = (r0 - j0) * stride + s.c0 as usize;
-            let dy0 = grid.y(r0) - s.cy;
+            let mut dy = grid.y(r0) - s.cy;
             for r in 0..=r1 - r0 {
-                let dy = dy0 + r as f64 * grid.dy;
                 let kern = Kernel {
-                    x0: s.x0,
-                    a: s.a,
-                    a_dy2: s.a * (dy * dy) as f32,
-                    weight: s.weight,
+                    c: s.c,
+                    ay2: s.ca * (dy * dy) as f32,
                 };
                 let off = row0 + r * stride;
                 let range = off..off + n;
@@ -431,13 +458,14 @@ impl GridEval {
                     None => &mut [],
                 });
                 splat_row::<NC>(
-                    &xs[..steps],
+                    ax2,
                     g[range.clone()].as_chunks().0,
                     sum[range].as_chunks_mut().0,
                     out,
                     kern,
                     vals,
                 );
+                dy += grid.dy;
             }
         }
     }
@@ -480,6 +508,7 @@ struct BandPass<'a, 'o> {
     rows: usize,
     g: &'a [f32],
     acc: &'a mut Vec<f32>,
+    ax2: &'a mut Vec<[f32; LANES]>,
     out: &'a mut [&'o mut [f32]],
 }
 
@@ -495,12 +524,13 @@ impl pulp::WithSimd for BandPass<'_, '_> {
         for (group, vals) in self.out.chunks_mut(4).zip(e.values.chunks(4)) {
             self.acc.clear();
             self.acc.resize((vals.len() + 1) * plane, 0.0f32);
-            let (g, acc) = (self.g, &mut self.acc[..]);
+            let (g, acc, ax2) = (self.g, &mut self.acc[..], &mut *self.ax2);
+            let (j0, rows, list) = (self.j0, self.rows, self.list);
             match vals.len() {
-                1 => e.splat::<1>(self.list, vals, g, self.j0, self.rows, acc),
-                2 => e.splat::<2>(self.list, vals, g, self.j0, self.rows, acc),
-                3 => e.splat::<3>(self.list, vals, g, self.j0, self.rows, acc),
-                _ => e.splat::<4>(self.list, vals, g, self.j0, self.rows, acc),
+                1 => e.splat::<1>(list, vals, g, j0, rows, acc, ax2),
+                2 => e.splat::<2>(list, vals, g, j0, rows, acc, ax2),
+                3 => e.splat::<3>(list, vals, g, j0, rows, acc, ax2),
+                _ => e.splat::<4>(list, vals, g, j0, rows, acc, ax2),
             }
             let (sum, planes) = self.acc.split_at_mut(plane);
             for s in sum.iter_mut() {
@@ -521,34 +551,37 @@ impl pulp::WithSimd for BandPass<'_, '_> {
     }
 }
 
-/// One key point's kernel on one row: `weight (1 - g (a dx^2 + a_dy2))^3`, clamped at 0,
-/// with `dx = x0 + k dx_grid` at the segment's `k`-th point.
+/// One key point's kernel on one row: `(c - g (ax2 + ay2))^3`, clamped at 0, where
+/// `c^3` is the key point's weight and `ax2`, `ay2` its `c a dx^2`, `c a dy^2`. Folding
+/// the weight into the cube saves a multiply per point: `c^3 (1 - g a d^2)^3`.
 #[derive(Debug, Clone, Copy)]
 struct Kernel {
-    /// The segment's first point's x offset from the key point.
-    x0: f32,
-    a: f32,
-    a_dy2: f32,
-    weight: f32,
+    c: f32,
+    ay2: f32,
 }
 
 /// The inner loop: one key point's kernel over one row segment of whole
 /// [`LANES`]-point steps.
 #[inline(always)]
 fn splat_row<const NC: usize>(
-    xs: &[[f32; LANES]],
+    ax2: &[[f32; LANES]],
     g: &[[f32; LANES]],
     sum: &mut [[f32; LANES]],
     acc: [&mut [[f32; LANES]]; NC],
     k: Kernel,
     vals: [f32; NC],
 ) {
-    let steps = xs.len().min(g.len()).min(sum.len());
+    let steps = ax2.len().min(g.len()).min(sum.len());
     // Every slice cut to the same length, so the loop below has no bounds checks.
     let acc: [&mut [[f32; LANES]]; NC] = acc.map(|a| &mut a[..steps]);
-    let (xs, g, sum) = (&xs[..steps], &g[..steps], &mut sum[..steps]);
+    let (ax2, g, sum) = (&ax2[..steps], &g[..steps], &mut sum[..steps]);
     for s in 0..steps {
-        let w = k.weights(&xs[s], &g[s]);
+        let mut w = [0.0f32; LANES];
+        for l in 0..LANES {
+            let t = k.c - g[s][l] * (ax2[s][l] + k.ay2);
+            let t = if t > 0.0 { t } else { 0.0 };
+            w[l] = t * t * t;
+        }
         let out = &mut sum[s];
         for l in 0..LANES {
             out[l] += w[l];
@@ -559,22 +592,6 @@ fn splat_row<const NC: usize>(
                 out[l] += w[l] * vals[c];
             }
         }
-    }
-}
-
-impl Kernel {
-    /// The kernel at one step's points: column offsets `x` from the segment's start,
-    /// conformal factors `g`.
-    #[inline(always)]
-    fn weights(&self, x: &[f32; LANES], g: &[f32; LANES]) -> [f32; LANES] {
-        let mut w = [0.0f32; LANES];
-        for l in 0..LANES {
-            let dx = x[l] + self.x0;
-            let t = 1.0 - g[l] * (self.a * dx * dx + self.a_dy2);
-            let t = if t > 0.0 { t } else { 0.0 };
-            w[l] = self.weight * (t * t * t);
-        }
-        w
     }
 }
 
