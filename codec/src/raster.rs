@@ -154,6 +154,38 @@ impl Raster {
         })
     }
 
+    /// Builds a raster from samples whose producer has already checked them finite
+    /// (the decoder checks each band while it is in cache); the sizes are still checked.
+    pub(crate) fn from_finite(
+        width: u32,
+        height: u32,
+        layout: ChannelLayout,
+        format: SampleFormat,
+        samples: Vec<f32>,
+    ) -> Result<Self, RasterError> {
+        debug_assert!(samples.iter().all(|v| v.is_finite()));
+        if width == 0 || height == 0 {
+            return Err(RasterError::Empty { width, height });
+        }
+        let expected = width as usize * height as usize * layout.channels();
+        if samples.len() != expected {
+            return Err(RasterError::BufferSize {
+                width,
+                height,
+                channels: layout.channels(),
+                expected,
+                got: samples.len(),
+            });
+        }
+        Ok(Raster {
+            width,
+            height,
+            layout,
+            format,
+            samples,
+        })
+    }
+
     /// Width in pixels.
     pub fn width(&self) -> u32 {
         self.width

@@ -155,7 +155,7 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
     let d = read(bytes, opts.max_pixels)?;
     let (ow, oh) = output_size(&d.header, opts)?;
     let planes = match opts.supersample {
-        None => return Ok(render_identity_raster(&d, ow, oh)),
+        None => return render_identity_raster(&d, ow, oh),
         Some(s) if (1..=4).contains(&s) => render_forward(&d, ow, oh, s)?,
         Some(s) => {
             return Err(CodecError::Parameter {
@@ -195,7 +195,7 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
 /// `to_raster(render_identity(..))`, but band by band, luma and chroma side by side and
 /// each band's colours converted while still in cache, so no full-size coding planes
 /// are made.
-pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Raster {
+pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Result<Raster, CodecError> {
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
@@ -219,7 +219,7 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Raster {
             bands[b].push(rows);
         }
     }
-    bands.into_par_iter().enumerate().for_each_init(
+    let finite = bands.into_par_iter().enumerate().map_init(
         || (BandScratch::default(), Vec::new()),
         |(scratch, coding), (b, mut out)| {
             let len = out[0].len();
@@ -238,9 +238,22 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Raster {
                 .collect();
             let alpha = alpha.then(|| &*lp[1]);
             colour::inverse_span(&colour, alpha, &mut out, h.format);
+            // Checked here, in cache, rather than by a pass over the whole raster. The
+            // colour conversion clamps, so only a kernel sum that underflowed could
+            // leave a non-finite sample; chunked folds vectorise.
+            out.iter().all(|p| {
+                p.chunks(256)
+                    .all(|c| c.iter().fold(true, |ok, v| ok & v.is_finite()))
+            })
         },
     );
-    Raster::new(ow, oh, h.layout, h.format, samples).expect("decoded samples are finite and sized")
+    if !finite.all(|ok| ok) {
+        return Err(CodecError::Format(
+            "the key points evaluate to a non-finite colour".into(),
+        ));
+    }
+    Raster::from_finite(ow, oh, h.layout, h.format, samples)
+        .map_err(|e| CodecError::Format(format!("decoded raster: {e}")))
 }
 
 /// Forward mapping with `s x s` samples per output pixel.
@@ -437,7 +450,7 @@ mod tests {
             let d = read(&encode(&img, &opts).unwrap(), u64::MAX).unwrap();
             // Coded size, then up- and downscaled: bands of every height, the last short.
             for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
-                let fused = render_identity_raster(&d, ow, oh);
+                let fused = render_identity_raster(&d, ow, oh).unwrap();
                 let reference = to_raster(&d.header, render_identity(&d, ow, oh), ow, oh);
                 assert_eq!(
                     fused.samples(),
