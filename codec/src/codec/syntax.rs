@@ -104,46 +104,84 @@ pub fn read_tree(shape: &TreeShape, src: &mut RangeSource) -> Result<Vec<Cell>, 
     }
 }
 
+/// Marks an absent neighbour.
+const NONE: u32 = u32::MAX;
+
 /// Causal neighbours of each key point (above, left, above-left), as key point indices
 /// earlier in coding order: the prediction and context of its values.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Neighbours {
-    above: Option<u32>,
-    left: Option<u32>,
-    above_left: Option<u32>,
+    above: u32,
+    left: u32,
+    above_left: u32,
+}
+
+impl Neighbours {
+    fn get(i: u32) -> Option<u32> {
+        (i != NONE).then_some(i)
+    }
 }
 
 /// Finds the causal neighbours of every cell (Z order makes all three precede it).
+///
+/// In Z order, any two cells that share a pixel column are coded top first, and any two
+/// that share a pixel row left first. So, before cell `c` is coded, the last coded cell
+/// covering column `x` of `c` is the one just above `c` there, and the last covering row
+/// `y` of `c` the one just left of it: one owner per column and per row replaces a
+/// per-pixel owner map. The above-left pixel `(x0-1, y0-1)` lies just above the left
+/// neighbour's right column at row `y0`: it is that neighbour itself unless the
+/// neighbour starts at row `y0`, and then it is the owner found above the neighbour's
+/// top-right pixel when the neighbour was coded, which each row keeps beside its last
+/// cell.
 pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
-    let w = width as usize;
-    // Cells tile the image, so every pixel gets an owner before any query reads it.
-    let mut owner = vec![0u32; w * height as usize];
-    for (i, c) in cells.iter().enumerate() {
-        let (x0, y0, x1, y1) = c.clip(width, height);
-        let (x0, x1) = (x0 as usize, x1 as usize);
-        for y in y0 as usize..y1 as usize {
-            for o in &mut owner[y * w + x0..y * w + x1] {
-                *o = i as u32;
+    let mut col = vec![NONE; width as usize];
+    // Per row: the last coded cell covering it, and the owner of the pixel just above
+    // that cell's right column in this row.
+    let mut row = vec![(NONE, NONE); height as usize];
+    let mut out = vec![
+        Neighbours {
+            above: NONE,
+            left: NONE,
+            above_left: NONE,
+        };
+        cells.len()
+    ];
+    for (i, (c, nb)) in cells.iter().zip(out.iter_mut()).enumerate() {
+        let i = i as u32;
+        let (x0, y0) = (c.x0 as usize, c.y0 as usize);
+        if x0 > 0 {
+            (nb.left, nb.above_left) = (row[y0].0, row[y0].1);
+        }
+        // Single-pixel cells dominate at high rates: no clipping, no fill loops.
+        if c.log2 == 0 {
+            if y0 > 0 {
+                nb.above = col[x0];
             }
+            col[x0] = i;
+            row[y0] = (i, nb.above);
+            continue;
+        }
+        let (_, _, x1, y1) = c.clip(width, height);
+        let (x1, y1) = (x1 as usize, y1 as usize);
+        let above_right = if y0 > 0 {
+            nb.above = col[(x0 + x1 - 1) / 2];
+            col[x1 - 1]
+        } else {
+            NONE
+        };
+        if x0 > 0 {
+            nb.left = row[(y0 + y1 - 1) / 2].0;
+        }
+        // Cells span at most 2^7 pixels: plain loops beat `fill`'s set-up.
+        for o in &mut col[x0..x1] {
+            *o = i;
+        }
+        row[y0] = (i, above_right);
+        for o in &mut row[y0 + 1..y1] {
+            *o = (i, i);
         }
     }
-    let at = |x: u32, y: u32| Some(owner[y as usize * w + x as usize]);
-    cells
-        .iter()
-        .map(|c| {
-            let (x0, y0, x1, y1) = c.clip(width, height);
-            let (cx, cy) = ((x0 + x1 - 1) / 2, (y0 + y1 - 1) / 2);
-            Neighbours {
-                above: if y0 > 0 { at(cx, y0 - 1) } else { None },
-                left: if x0 > 0 { at(x0 - 1, cy) } else { None },
-                above_left: if x0 > 0 && y0 > 0 {
-                    at(x0 - 1, y0 - 1)
-                } else {
-                    None
-                },
-            }
-        })
-        .collect()
+    out
 }
 
 /// Values beyond this magnitude are rejected by the decoder (no file needs them).
@@ -174,7 +212,7 @@ impl Default for ValueContexts {
 /// Prediction and activity class of key point `i` from already coded values.
 #[inline]
 pub fn predict(values: &[i64], nb: &Neighbours, previous: i64) -> (i64, usize) {
-    let get = |o: Option<u32>| o.map(|i| values[i as usize]);
+    let get = |i: u32| Neighbours::get(i).map(|i| values[i as usize]);
     match (get(nb.above), get(nb.left), get(nb.above_left)) {
         (Some(a), Some(l), Some(al)) => {
             // LOCO-I's median edge detector.
@@ -319,3 +357,60 @@ pub fn read_values(
 
 /// Most bins one value can take (zero, sign, unary, escape prefix and suffix).
 pub const MAX_BINS_PER_VALUE: u64 = 3 + UNARY as u64 + 2 * 41;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::quadtree::{pruned_one_level, random_tree};
+
+    /// The neighbours by their definition: the owners of three pixels in a full
+    /// per-pixel owner map.
+    fn neighbours_by_owner_map(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
+        let w = width as usize;
+        let mut owner = vec![NONE; w * height as usize];
+        for (i, c) in cells.iter().enumerate() {
+            let (x0, y0, x1, y1) = c.clip(width, height);
+            for y in y0 as usize..y1 as usize {
+                owner[y * w + x0 as usize..y * w + x1 as usize].fill(i as u32);
+            }
+        }
+        let at = |x: u32, y: u32| owner[y as usize * w + x as usize];
+        cells
+            .iter()
+            .map(|c| {
+                let (x0, y0, x1, y1) = c.clip(width, height);
+                let (cx, cy) = ((x0 + x1 - 1) / 2, (y0 + y1 - 1) / 2);
+                Neighbours {
+                    above: if y0 > 0 { at(cx, y0 - 1) } else { NONE },
+                    left: if x0 > 0 { at(x0 - 1, cy) } else { NONE },
+                    above_left: if x0 > 0 && y0 > 0 {
+                        at(x0 - 1, y0 - 1)
+                    } else {
+                        NONE
+                    },
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn neighbours_match_the_owner_map() {
+        for (w, h, seed, num) in [
+            (37, 21, 1u32, 2u32),
+            (64, 64, 2, 1),
+            (5, 3, 3, 2),
+            (100, 17, 4, 3),
+            (1, 1, 5, 2),
+            (129, 70, 6, 2),
+            (48, 80, 7, 4),
+        ] {
+            // Splitting with probability num/5: sparse to dense trees.
+            let (shape, leaves) = random_tree(w, h, seed, |d| d % 5 < num);
+            for cells in [leaves.clone(), pruned_one_level(&shape, &leaves)] {
+                let fast = neighbours(&cells, w, h);
+                let slow = neighbours_by_owner_map(&cells, w, h);
+                assert_eq!(fast, slow, "{w}x{h} seed {seed}");
+            }
+        }
+    }
+}
