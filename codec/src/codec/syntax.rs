@@ -185,17 +185,16 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
     // Per row: the last coded cell covering it, and the owner of the pixel just above
     // that cell's right column in this row.
     let mut row = vec![(NONE, NONE); height as usize];
-    let mut out = vec![
-        Neighbours {
+    // Pushed, not pre-filled: one pass over the output's fresh pages instead of two.
+    let mut out = Vec::with_capacity(cells.len());
+    for (i, c) in cells.iter().enumerate() {
+        let i = i as u32;
+        let (x0, y0) = (c.x0 as usize, c.y0 as usize);
+        let mut nb = Neighbours {
             above: NONE,
             left: NONE,
             above_left: NONE,
         };
-        cells.len()
-    ];
-    for (i, (c, nb)) in cells.iter().zip(out.iter_mut()).enumerate() {
-        let i = i as u32;
-        let (x0, y0) = (c.x0 as usize, c.y0 as usize);
         if x0 > 0 {
             (nb.left, nb.above_left) = (row[y0].0, row[y0].1);
         }
@@ -206,6 +205,7 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
             }
             col[x0] = i;
             row[y0] = (i, nb.above);
+            out.push(nb);
             continue;
         }
         let (_, _, x1, y1) = c.clip(width, height);
@@ -227,6 +227,7 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
         for o in &mut row[y0 + 1..y1] {
             *o = (i, i);
         }
+        out.push(nb);
     }
     out
 }
@@ -282,17 +283,23 @@ impl Default for ValueContexts {
 /// Prediction and activity class of key point `i` from already coded values.
 #[inline]
 pub fn predict(values: &[i64], nb: &Neighbours, previous: i64) -> (i64, usize) {
-    let get = |i: u32| Neighbours::get(i).map(|i| values[i as usize]);
-    match (get(nb.above), get(nb.left), get(nb.above_left)) {
-        (Some(a), Some(l), Some(al)) => {
-            // LOCO-I's median edge detector, as the median of a, l and a + l - al
-            // (min/max instead of branches: the comparisons are data, not patterns).
-            let pred = a.min(l).max(a.max(l).min(a + l - al));
-            let act = (a - al).abs() + (l - al).abs();
-            (pred, usize::from(act > 0) + usize::from(act > 3))
-        }
-        (Some(v), _, _) | (None, Some(v), _) => (v, 1),
-        (None, None, _) => (previous, 2),
+    // An above-left neighbour exists exactly when above and left do (the cell is off
+    // the top and left borders): one test for the common case.
+    if nb.above_left != NONE {
+        let (a, l, al) = (
+            values[nb.above as usize],
+            values[nb.left as usize],
+            values[nb.above_left as usize],
+        );
+        // LOCO-I's median edge detector, as the median of a, l and a + l - al
+        // (min/max instead of branches: the comparisons are data, not patterns).
+        let pred = a.min(l).max(a.max(l).min(a + l - al));
+        let act = (a - al).abs() + (l - al).abs();
+        return (pred, usize::from(act > 0) + usize::from(act > 3));
+    }
+    match (Neighbours::get(nb.above), Neighbours::get(nb.left)) {
+        (Some(v), _) | (None, Some(v)) => (values[v as usize], 1),
+        (None, None) => (previous, 2),
     }
 }
 
