@@ -15,12 +15,12 @@ use rayon::prelude::*;
 
 use super::bitstream::{self, tag, Header};
 use super::colour::{self, CodingPlanes};
-use super::entropy::RangeSource;
+use super::entropy::AnsSource;
 use super::geometry::Frame;
 use super::keyset::{BandScratch, Grid, GridEval, KeySet};
 use super::model::chroma_cells;
 use super::quadtree::Cell;
-use super::syntax::{self, MAX_BINS_PER_VALUE};
+use super::syntax::{self, Neighbours, MAX_SYMBOLS_PER_VALUE};
 use super::{CodecError, DecodeOptions, MAX_SIDE};
 use crate::raster::Raster;
 
@@ -42,22 +42,26 @@ pub struct Decoded {
 fn read_section_values(
     payload: &[u8],
     cells: &[Cell],
-    width: u32,
-    height: u32,
+    nbs: &[Neighbours],
     steps: &[f64],
 ) -> Result<Vec<Vec<f64>>, CodecError> {
-    let max_bins = MAX_BINS_PER_VALUE * cells.len() as u64 * steps.len() as u64;
-    let mut src = RangeSource::new(payload, max_bins)?;
-    let nbs = syntax::neighbours(cells, width, height);
-    steps
+    let max_symbols = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * steps.len() as u64;
+    let mut src = AnsSource::new(payload, max_symbols)?;
+    let values = steps
         .iter()
         .map(|&step| {
-            Ok(syntax::read_values(cells, &nbs, &mut src)?
+            Ok(syntax::read_values(cells, nbs, &mut src)?
                 .into_iter()
                 .map(|q| q as f64 * step)
                 .collect())
         })
-        .collect()
+        .collect::<Result<_, CodecError>>()?;
+    if !src.finished_cleanly() {
+        return Err(CodecError::Format(
+            "entropy-coded payload does not end where its syntax does".into(),
+        ));
+    }
+    Ok(values)
 }
 
 /// Parses and entropy-decodes a file (no pixel evaluation).
@@ -67,8 +71,8 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
     let shape = header.shape();
     // The walk visits at most 4/3 of the leaves as nodes; each reads one flag.
     let max_nodes = shape.max_leaves() * 4 / 3 + 4;
-    let mut src = RangeSource::new(parsed.payload(tag::TREE).unwrap_or(&[]), max_nodes)?;
-    let luma_cells = syntax::read_tree(&shape, &mut src)?;
+    let mut src = AnsSource::new(parsed.payload(tag::TREE).unwrap_or(&[]), max_nodes)?;
+    let luma_cells = syntax::read_tree(&shape, header.luma_count as usize, &mut src)?;
     if luma_cells.len() != header.luma_count as usize {
         return Err(CodecError::Format(format!(
             "tree has {} leaves, header says {}",
@@ -76,51 +80,54 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
             header.luma_count
         )));
     }
-    let colour = header.layout.colour_channels() == 3;
-    let chroma_cells = if colour {
-        chroma_cells(&shape, &luma_cells, header.chroma_pruned)
-    } else {
-        Vec::new()
-    };
-    if chroma_cells.len() != header.chroma_count as usize {
-        return Err(CodecError::Format(format!(
-            "chroma tree has {} leaves, header says {}",
-            chroma_cells.len(),
-            header.chroma_count
-        )));
+    if !src.finished_cleanly() {
+        return Err(CodecError::Format(
+            "tree payload does not end where the tree does".into(),
+        ));
     }
+    let colour = header.layout.colour_channels() == 3;
     let mut steps = vec![header.step_luma as f64];
     if header.layout.has_alpha() {
         steps.push(header.step_alpha as f64);
     }
     let (w, h) = (header.width, header.height);
-    // The two sections are independent range-coded streams.
-    let (luma_values, chroma_values) = rayon::join(
+    // The two sections are independent entropy-coded streams; each finds its own
+    // neighbours (and chroma its cells) on its thread.
+    let (luma_values, chroma) = rayon::join(
         || {
+            let nbs = syntax::neighbours(&luma_cells, w, h);
             read_section_values(
                 parsed.payload(tag::LUMA).unwrap_or(&[]),
                 &luma_cells,
-                w,
-                h,
+                &nbs,
                 &steps,
             )
         },
         || {
-            if colour {
-                let s = header.step_chroma as f64;
-                read_section_values(
-                    parsed.payload(tag::CHROMA).unwrap_or(&[]),
-                    &chroma_cells,
-                    w,
-                    h,
-                    &[s, s],
-                )
-            } else {
-                Ok(Vec::new())
+            if !colour {
+                return Ok((Vec::new(), Vec::new()));
             }
+            let cells = chroma_cells(&shape, &luma_cells, header.chroma_pruned);
+            if cells.len() != header.chroma_count as usize {
+                return Err(CodecError::Format(format!(
+                    "chroma tree has {} leaves, header says {}",
+                    cells.len(),
+                    header.chroma_count
+                )));
+            }
+            let nbs = syntax::neighbours(&cells, w, h);
+            let s = header.step_chroma as f64;
+            let values = read_section_values(
+                parsed.payload(tag::CHROMA).unwrap_or(&[]),
+                &cells,
+                &nbs,
+                &[s, s],
+            )?;
+            Ok((cells, values))
         },
     );
-    let (luma_values, chroma_values) = (luma_values?, chroma_values?);
+    let luma_values = luma_values?;
+    let (chroma_cells, chroma_values) = chroma?;
     Ok(Decoded {
         header,
         luma_cells,

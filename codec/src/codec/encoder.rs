@@ -2,7 +2,7 @@
 
 use super::bitstream::{self, Header};
 use super::colour::{self, CodingPlanes};
-use super::entropy::RangeSink;
+use super::entropy::AnsSink;
 use super::model::{self, Model};
 use super::rate_control::EncodeSettings;
 use super::syntax::{self, MAX_VALUE};
@@ -42,7 +42,7 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
     let (w, h) = (img.width(), img.height());
     let shape = model.shape;
     let leaf_set: std::collections::HashSet<_> = model.luma_cells.iter().copied().collect();
-    let mut tree = RangeSink::new();
+    let mut tree = AnsSink::new();
     let cells = syntax::write_tree(&shape, |c| !leaf_set.contains(c), &mut tree);
     debug_assert_eq!(cells, model.luma_cells);
     let header = Header {
@@ -60,7 +60,7 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
         luma_count: model.luma_cells.len() as u32,
         chroma_count: model.chroma_cells.len() as u32,
     };
-    let mut luma = RangeSink::new();
+    let mut luma = AnsSink::new();
     let nbs = syntax::neighbours(&model.luma_cells, w, h);
     for (c, values) in model.luma_colours.iter().enumerate() {
         let step = if c == 0 {
@@ -72,7 +72,7 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
         syntax::write_values(&model.luma_cells, &nbs, &q, &mut luma);
     }
     let chroma = (!model.chroma_cells.is_empty()).then(|| {
-        let mut sink = RangeSink::new();
+        let mut sink = AnsSink::new();
         let nbs = syntax::neighbours(&model.chroma_cells, w, h);
         for values in &model.chroma_colours {
             syntax::write_values(

@@ -1,12 +1,14 @@
-//! The coded syntax: quadtree split flags and key-point values, binarised onto
-//! adaptive contexts (see `docs/format.md`, "Tree" and "Values").
+//! The coded syntax: quadtree split flags and key-point values on adaptive contexts
+//! (see `docs/format.md`, "Tree syntax" and "Value syntax").
 
-use super::entropy::{BinModel, BinSink, RangeSource};
+use super::entropy::{AnsSource, BinModel, Cdf, SymbolSink, MAX_RAW_BITS};
 use super::quadtree::{Cell, TreeShape};
 use super::CodecError;
 
 /// Split-flag contexts: levels below the root (0..4) x split neighbours (0..=2).
 const TREE_LEVELS: usize = 4;
+/// Split flags adapt from rate 2^-1: a tree section is often only a few dozen flags.
+const SPLIT_START: u8 = 1;
 
 /// Adaptive contexts of the split flags.
 #[derive(Clone)]
@@ -17,45 +19,107 @@ pub struct TreeContexts {
 impl Default for TreeContexts {
     fn default() -> Self {
         TreeContexts {
-            split: [[BinModel::default(); 3]; TREE_LEVELS],
+            split: [[BinModel::new(SPLIT_START); 3]; TREE_LEVELS],
         }
     }
 }
 
-/// Which nodes of each level were split, for the neighbour context.
-struct SplitMap {
-    levels: Vec<(u32, Vec<u8>)>,
-    block_log2: u8,
+/// Walks the tree in coding order; `flag(cell, (level, neighbours), model)` codes or
+/// decodes the split flag of each node above the minimum size with its context's model.
+/// Returns the leaves in coding order.
+///
+/// The context counts the same-size nodes left of and above a node that were split. In
+/// Z order, every leaf coded before a node that covers the node's top row lies left of
+/// it, and the last of them holds pixel `(x0-1, y0)`; the same-size left node was split
+/// exactly when that leaf is smaller than the node (likewise above, by columns). So the
+/// walk keeps only the size of the last leaf per pixel row and per pixel column.
+fn walk_tree<E, F>(shape: &TreeShape, expected_leaves: usize, flag: F) -> Result<Vec<Cell>, E>
+where
+    F: FnMut(&Cell, (usize, usize), &mut BinModel) -> Result<bool, E>,
+{
+    let mut walk = TreeWalk {
+        shape: *shape,
+        ctx: TreeContexts::default(),
+        // u16, not u8: byte fills become memset calls, whose stores the next context
+        // load cannot forward from.
+        row: vec![u16::MAX; shape.height as usize],
+        col: vec![u16::MAX; shape.width as usize],
+        // Sized up front (growing by doubling costs copies and page faults), but no
+        // further than a corrupt count could make expensive.
+        leaves: Vec::with_capacity(expected_leaves.min(1 << 20)),
+        flag,
+    };
+    for root in shape.roots() {
+        walk.visit(root)?;
+    }
+    Ok(walk.leaves)
 }
 
-impl SplitMap {
-    fn new(shape: &TreeShape) -> Self {
-        let levels = (0..=shape.block_log2)
-            .map(|l| {
-                let cols = shape.width.div_ceil(1 << l) + 1;
-                let rows = shape.height.div_ceil(1 << l) + 1;
-                (cols, vec![0u8; (cols * rows) as usize])
-            })
-            .collect();
-        SplitMap {
-            levels,
-            block_log2: shape.block_log2,
+struct TreeWalk<F> {
+    shape: TreeShape,
+    ctx: TreeContexts,
+    /// Size (log2) of the last leaf covering each pixel row, and column.
+    row: Vec<u16>,
+    col: Vec<u16>,
+    leaves: Vec<Cell>,
+    flag: F,
+}
+
+impl<F> TreeWalk<F> {
+    fn visit<E>(&mut self, c: Cell) -> Result<(), E>
+    where
+        F: FnMut(&Cell, (usize, usize), &mut BinModel) -> Result<bool, E>,
+    {
+        let shape = self.shape;
+        let (x0, y0, size) = (c.x0 as usize, c.y0 as usize, c.log2 as u16);
+        if c.log2 > shape.min_log2 {
+            let n = usize::from(x0 > 0 && self.row[y0] < size)
+                + usize::from(y0 > 0 && self.col[x0] < size);
+            let level = ((shape.block_log2 - c.log2) as usize).min(TREE_LEVELS - 1);
+            if (self.flag)(&c, (level, n), &mut self.ctx.split[level][n])? {
+                let [a, b, d, e] = c.children();
+                if a.log2 == shape.min_log2 {
+                    // Children without flags of their own: all leaves.
+                    self.leaf(a);
+                    if shape.inside(&b) {
+                        self.leaf(b);
+                    }
+                    if shape.inside(&d) {
+                        self.leaf(d);
+                        if shape.inside(&e) {
+                            self.leaf(e);
+                        }
+                    }
+                } else {
+                    self.visit(a)?;
+                    if shape.inside(&b) {
+                        self.visit(b)?;
+                    }
+                    if shape.inside(&d) {
+                        self.visit(d)?;
+                        if shape.inside(&e) {
+                            self.visit(e)?;
+                        }
+                    }
+                }
+                return Ok(());
+            }
         }
+        self.leaf(c);
+        Ok(())
     }
 
-    fn context(&self, c: &Cell) -> (usize, usize) {
-        let (cols, map) = &self.levels[c.log2 as usize];
-        let (i, j) = (c.x0 >> c.log2, c.y0 >> c.log2);
-        let split_at = |i: u32, j: u32| map[(j * cols + i) as usize] == 2;
-        let n = usize::from(i > 0 && split_at(i - 1, j)) + usize::from(j > 0 && split_at(i, j - 1));
-        let level = ((self.block_log2 - c.log2) as usize).min(TREE_LEVELS - 1);
-        (level, n)
-    }
-
-    fn record(&mut self, c: &Cell, split: bool) {
-        let (cols, map) = &mut self.levels[c.log2 as usize];
-        let (i, j) = (c.x0 >> c.log2, c.y0 >> c.log2);
-        map[(j * *cols + i) as usize] = if split { 2 } else { 1 };
+    #[inline]
+    fn leaf(&mut self, c: Cell) {
+        self.leaves.push(c);
+        let (x0, y0, x1, y1) = c.clip(self.shape.width, self.shape.height);
+        let size = c.log2 as u16;
+        for r in &mut self.row[y0 as usize..y1 as usize] {
+            *r = size;
+        }
+        for r in &mut self.col[x0 as usize..x1 as usize] {
+            *r = size;
+        }
     }
 }
 
@@ -64,44 +128,27 @@ impl SplitMap {
 pub fn write_tree(
     shape: &TreeShape,
     is_split: impl Fn(&Cell) -> bool,
-    sink: &mut impl BinSink,
+    sink: &mut impl SymbolSink,
 ) -> Vec<Cell> {
-    let mut ctx = TreeContexts::default();
-    let mut map = SplitMap::new(shape);
-    shape.walk(|c| {
+    let leaves = walk_tree(shape, 0, |c, _, m| {
         let split = is_split(c);
-        let (l, n) = map.context(c);
-        sink.bin(&mut ctx.split[l][n], split);
-        map.record(c, split);
-        split
-    })
+        sink.bin(m, split);
+        Ok::<_, std::convert::Infallible>(split)
+    });
+    match leaves {
+        Ok(leaves) => leaves,
+        Err(never) => match never {},
+    }
 }
 
-/// Decodes the split flags; returns the leaves in coding order.
-pub fn read_tree(shape: &TreeShape, src: &mut RangeSource) -> Result<Vec<Cell>, CodecError> {
-    let mut ctx = TreeContexts::default();
-    let mut map = SplitMap::new(shape);
-    let mut err = None;
-    let leaves = shape.walk(|c| {
-        if err.is_some() {
-            return false;
-        }
-        let (l, n) = map.context(c);
-        match src.bin(&mut ctx.split[l][n]) {
-            Ok(split) => {
-                map.record(c, split);
-                split
-            }
-            Err(e) => {
-                err = Some(e);
-                false
-            }
-        }
-    });
-    match err {
-        Some(e) => Err(e),
-        None => Ok(leaves),
-    }
+/// Decodes the split flags of a tree expected to have `expected_leaves` leaves (a
+/// capacity hint); returns the leaves in coding order.
+pub fn read_tree(
+    shape: &TreeShape,
+    expected_leaves: usize,
+    src: &mut AnsSource,
+) -> Result<Vec<Cell>, CodecError> {
+    walk_tree(shape, expected_leaves, |_, _, m| src.bin(m))
 }
 
 /// Marks an absent neighbour.
@@ -138,17 +185,16 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
     // Per row: the last coded cell covering it, and the owner of the pixel just above
     // that cell's right column in this row.
     let mut row = vec![(NONE, NONE); height as usize];
-    let mut out = vec![
-        Neighbours {
+    // Pushed, not pre-filled: one pass over the output's fresh pages instead of two.
+    let mut out = Vec::with_capacity(cells.len());
+    for (i, c) in cells.iter().enumerate() {
+        let i = i as u32;
+        let (x0, y0) = (c.x0 as usize, c.y0 as usize);
+        let mut nb = Neighbours {
             above: NONE,
             left: NONE,
             above_left: NONE,
         };
-        cells.len()
-    ];
-    for (i, (c, nb)) in cells.iter().zip(out.iter_mut()).enumerate() {
-        let i = i as u32;
-        let (x0, y0) = (c.x0 as usize, c.y0 as usize);
         if x0 > 0 {
             (nb.left, nb.above_left) = (row[y0].0, row[y0].1);
         }
@@ -159,6 +205,7 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
             }
             col[x0] = i;
             row[y0] = (i, nb.above);
+            out.push(nb);
             continue;
         }
         let (_, _, x1, y1) = c.clip(width, height);
@@ -180,31 +227,55 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
         for o in &mut row[y0 + 1..y1] {
             *o = (i, i);
         }
+        out.push(nb);
     }
     out
 }
 
 /// Values beyond this magnitude are rejected by the decoder (no file needs them).
 pub const MAX_VALUE: i64 = 1 << 24;
-/// Unary magnitude bins before the Exp-Golomb escape.
-const UNARY: usize = 14;
+/// Residual magnitudes `0..LITERALS` are tokens of their own; token `LITERALS` escapes.
+const LITERALS: usize = 8;
+const TOKENS: usize = LITERALS + 1;
+/// A token model: its 8 boundaries fill two 64-bit words.
+type TokenCdf = Cdf<2>;
+/// Escape classes: the bit length minus one of `|r| - LITERALS + 1`, which is at most
+/// `2^25 - 7` since values and predictions lie in `[-2^24, 2^24]`.
+const CLASSES: usize = 25;
+type ClassCdf = Cdf<6>;
 const SIZE_CLASSES: usize = 5;
 const ACTIVITY: usize = 3;
+
+/// Initial token distributions per activity class: geometric, ratio 0.2, 0.4 and 0.6
+/// (flat regions are mostly zeros), with the floor (`docs/format.md` lists them).
+const TOKEN_INIT: [[u16; TOKENS - 1]; ACTIVITY] = [
+    [26190, 31431, 32482, 32696, 32742, 32754, 32760, 32764],
+    [19648, 27510, 30657, 31918, 32425, 32630, 32715, 32751],
+    [13230, 21170, 25935, 28796, 30514, 31547, 32168, 32542],
+];
+/// Initial escape class distribution: geometric, ratio 0.7, with the floor.
+const CLASS_INIT: [u16; CLASSES - 1] = [
+    9806, 16671, 21478, 24844, 27201, 28853, 30010, 30821, 31390, 31789, 32070, 32268, 32408,
+    32507, 32577, 32628, 32664, 32691, 32711, 32726, 32738, 32748, 32755, 32762,
+];
 
 /// Adaptive contexts of one channel's values.
 #[derive(Clone)]
 pub struct ValueContexts {
-    zero: [[BinModel; ACTIVITY]; SIZE_CLASSES],
-    sign: [BinModel; ACTIVITY],
-    magnitude: [[BinModel; ACTIVITY]; UNARY],
+    token: [[TokenCdf; ACTIVITY]; SIZE_CLASSES],
+    class: [ClassCdf; SIZE_CLASSES],
 }
 
 impl Default for ValueContexts {
     fn default() -> Self {
+        let token = [
+            Cdf::new(&TOKEN_INIT[0]),
+            Cdf::new(&TOKEN_INIT[1]),
+            Cdf::new(&TOKEN_INIT[2]),
+        ];
         ValueContexts {
-            zero: [[BinModel::default(); ACTIVITY]; SIZE_CLASSES],
-            sign: [BinModel::default(); ACTIVITY],
-            magnitude: [[BinModel::default(); ACTIVITY]; UNARY],
+            token: [token; SIZE_CLASSES],
+            class: [Cdf::new(&CLASS_INIT); SIZE_CLASSES],
         }
     }
 }
@@ -212,31 +283,23 @@ impl Default for ValueContexts {
 /// Prediction and activity class of key point `i` from already coded values.
 #[inline]
 pub fn predict(values: &[i64], nb: &Neighbours, previous: i64) -> (i64, usize) {
-    let get = |i: u32| Neighbours::get(i).map(|i| values[i as usize]);
-    match (get(nb.above), get(nb.left), get(nb.above_left)) {
-        (Some(a), Some(l), Some(al)) => {
-            // LOCO-I's median edge detector.
-            let pred = if al >= a.max(l) {
-                a.min(l)
-            } else if al <= a.min(l) {
-                a.max(l)
-            } else {
-                a + l - al
-            };
-            let act = (a - al).abs() + (l - al).abs();
-            (
-                pred,
-                if act == 0 {
-                    0
-                } else if act <= 3 {
-                    1
-                } else {
-                    2
-                },
-            )
-        }
-        (Some(v), _, _) | (None, Some(v), _) => (v, 1),
-        (None, None, _) => (previous, 2),
+    // An above-left neighbour exists exactly when above and left do (the cell is off
+    // the top and left borders): one test for the common case.
+    if nb.above_left != NONE {
+        let (a, l, al) = (
+            values[nb.above as usize],
+            values[nb.left as usize],
+            values[nb.above_left as usize],
+        );
+        // LOCO-I's median edge detector, as the median of a, l and a + l - al
+        // (min/max instead of branches: the comparisons are data, not patterns).
+        let pred = a.min(l).max(a.max(l).min(a + l - al));
+        let act = (a - al).abs() + (l - al).abs();
+        return (pred, usize::from(act > 0) + usize::from(act > 3));
+    }
+    match (Neighbours::get(nb.above), Neighbours::get(nb.left)) {
+        (Some(v), _) | (None, Some(v)) => (values[v as usize], 1),
+        (None, None) => (previous, 2),
     }
 }
 
@@ -244,85 +307,71 @@ fn size_class(c: &Cell) -> usize {
     (c.log2 as usize).min(SIZE_CLASSES - 1)
 }
 
-/// Codes one value's residual `r`.
+/// Codes one value's residual `r`: token `min(|r|, LITERALS)` in context (size,
+/// activity) with the sign of a nonzero `r` in the same step (signs are near even:
+/// modelling them saved 0.1% and cost a second coder step per value), and for
+/// escapes the escape class in context size followed by the class's raw bits.
 pub fn write_residual(
     ctx: &mut ValueContexts,
     size: usize,
     act: usize,
     r: i64,
-    sink: &mut impl BinSink,
+    sink: &mut impl SymbolSink,
 ) {
-    sink.bin(&mut ctx.zero[size][act], r != 0);
-    if r == 0 {
-        return;
-    }
-    sink.bin(&mut ctx.sign[act], r < 0);
-    let m = r.unsigned_abs() - 1;
-    for k in 0..UNARY {
-        let more = m > k as u64;
-        sink.bin(&mut ctx.magnitude[k][act], more);
-        if !more {
-            return;
+    let mag = r.unsigned_abs();
+    let token = (mag as usize).min(LITERALS);
+    sink.signed_symbol(&mut ctx.token[size][act], token, r < 0);
+    if token == LITERALS {
+        let v = mag - LITERALS as u64 + 1;
+        let class = 63 - v.leading_zeros();
+        sink.symbol(&mut ctx.class[size], class as usize);
+        // The class's bits below the leading one, high part first.
+        let rest = v - (1 << class);
+        if class > MAX_RAW_BITS {
+            sink.raw((rest >> MAX_RAW_BITS) as u32, class - MAX_RAW_BITS);
         }
-    }
-    // Exp-Golomb order 0 of the remainder, bypass-coded.
-    let v = m - UNARY as u64 + 1;
-    let bits = 63 - v.leading_zeros();
-    for _ in 0..bits {
-        sink.bypass(false);
-    }
-    for b in (0..=bits).rev() {
-        sink.bypass((v >> b) & 1 == 1);
+        if class > 0 {
+            let low = class.min(MAX_RAW_BITS);
+            sink.raw((rest & ((1 << low) - 1)) as u32, low);
+        }
     }
 }
 
 /// Reads one residual.
+#[inline]
 pub fn read_residual(
     ctx: &mut ValueContexts,
     size: usize,
     act: usize,
-    src: &mut RangeSource,
+    src: &mut AnsSource,
 ) -> Result<i64, CodecError> {
-    if !src.bin(&mut ctx.zero[size][act])? {
-        return Ok(0);
-    }
-    let negative = src.bin(&mut ctx.sign[act])?;
-    let mut m = 0u64;
-    let mut escaped = true;
-    for k in 0..UNARY {
-        if src.bin(&mut ctx.magnitude[k][act])? {
-            m = k as u64 + 1;
-        } else {
-            m = k as u64;
-            escaped = false;
-            break;
+    let (token, negative) = src.signed_symbol(&mut ctx.token[size][act])?;
+    let mag = if token < LITERALS {
+        token as i64
+    } else {
+        let class = src.symbol(&mut ctx.class[size])? as u32;
+        let mut rest = 0u64;
+        if class > MAX_RAW_BITS {
+            rest = (src.raw(class - MAX_RAW_BITS)? as u64) << MAX_RAW_BITS;
         }
-    }
-    if escaped {
-        let mut bits = 0;
-        while !src.bypass()? {
-            bits += 1;
-            if bits > 40 {
-                return Err(CodecError::Format("value escape code too long".into()));
-            }
+        if class > 0 {
+            rest |= src.raw(class.min(MAX_RAW_BITS))? as u64;
         }
-        let mut v = 1u64;
-        for _ in 0..bits {
-            v = (v << 1) | u64::from(src.bypass()?);
-        }
-        m = v - 1 + UNARY as u64;
-    }
-    let mag = m as i64 + 1;
-    if mag > 2 * MAX_VALUE {
-        return Err(CodecError::Format(format!(
-            "value residual {mag} out of range"
-        )));
-    }
-    Ok(if negative { -mag } else { mag })
+        // Below 2^25 + 2^25: no overflow; the caller's range check rejects the excess.
+        ((1u64 << class) + rest) as i64 + LITERALS as i64 - 1
+    };
+    // Branch-free negation: the sign is a coin toss for the predictor.
+    let flip = -i64::from(negative);
+    Ok((mag ^ flip) - flip)
 }
 
 /// Codes the quantised values of one channel over a key-point set.
-pub fn write_values(cells: &[Cell], nbs: &[Neighbours], values: &[i64], sink: &mut impl BinSink) {
+pub fn write_values(
+    cells: &[Cell],
+    nbs: &[Neighbours],
+    values: &[i64],
+    sink: &mut impl SymbolSink,
+) {
     let mut ctx = ValueContexts::default();
     let mut previous = 0;
     for (i, c) in cells.iter().enumerate() {
@@ -336,7 +385,7 @@ pub fn write_values(cells: &[Cell], nbs: &[Neighbours], values: &[i64], sink: &m
 pub fn read_values(
     cells: &[Cell],
     nbs: &[Neighbours],
-    src: &mut RangeSource,
+    src: &mut AnsSource,
 ) -> Result<Vec<i64>, CodecError> {
     let mut ctx = ValueContexts::default();
     let mut values = vec![0i64; cells.len()];
@@ -355,13 +404,200 @@ pub fn read_values(
     Ok(values)
 }
 
-/// Most bins one value can take (zero, sign, unary, escape prefix and suffix).
-pub const MAX_BINS_PER_VALUE: u64 = 3 + UNARY as u64 + 2 * 41;
+/// Most symbols one value can take (signed token, escape class, two raw-bit chunks).
+pub const MAX_SYMBOLS_PER_VALUE: u64 = 4;
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codec::entropy::{AnsSink, CostSink, CDF_FLOOR, CDF_ONE};
     use crate::codec::quadtree::{pruned_one_level, random_tree};
+
+    /// The split-flag contexts by their definition: per level, a map of which visited
+    /// nodes were split.
+    fn tree_contexts_by_split_maps(
+        shape: &TreeShape,
+        leaves: &[Cell],
+    ) -> Vec<(Cell, (usize, usize))> {
+        let leaf_set: std::collections::HashSet<Cell> = leaves.iter().copied().collect();
+        let mut maps: Vec<(u32, Vec<u8>)> = (0..=shape.block_log2)
+            .map(|l| {
+                let cols = shape.width.div_ceil(1 << l) + 1;
+                let rows = shape.height.div_ceil(1 << l) + 1;
+                (cols, vec![0u8; (cols * rows) as usize])
+            })
+            .collect();
+        let mut out = Vec::new();
+        shape.walk(|c| {
+            let (cols, map) = &mut maps[c.log2 as usize];
+            let (i, j) = (c.x0 >> c.log2, c.y0 >> c.log2);
+            let split_at = |i: u32, j: u32| map[(j * *cols + i) as usize] == 2;
+            let n =
+                usize::from(i > 0 && split_at(i - 1, j)) + usize::from(j > 0 && split_at(i, j - 1));
+            let level = ((shape.block_log2 - c.log2) as usize).min(TREE_LEVELS - 1);
+            out.push((*c, (level, n)));
+            let split = !leaf_set.contains(c);
+            map[(j * *cols + i) as usize] = if split { 2 } else { 1 };
+            split
+        });
+        out
+    }
+
+    #[test]
+    fn tree_contexts_match_the_split_maps() {
+        for (w, h, seed, num) in [
+            (37, 21, 1u32, 2u32),
+            (64, 64, 2, 3),
+            (5, 3, 3, 2),
+            (100, 17, 4, 3),
+            (1, 1, 5, 2),
+            (129, 70, 6, 2),
+            (48, 80, 7, 4),
+        ] {
+            let (shape, leaves) = random_tree(w, h, seed, |d| d % 5 < num);
+            let leaf_set: std::collections::HashSet<Cell> = leaves.iter().copied().collect();
+            let mut got = Vec::new();
+            let walked = walk_tree(&shape, 0, |c, ctx, _| {
+                got.push((*c, ctx));
+                Ok::<_, ()>(!leaf_set.contains(c))
+            })
+            .unwrap();
+            assert_eq!(walked, leaves);
+            assert_eq!(got, tree_contexts_by_split_maps(&shape, &leaves), "{w}x{h}");
+            let mut sink = AnsSink::new();
+            assert_eq!(
+                write_tree(&shape, |c| !leaf_set.contains(c), &mut sink),
+                leaves
+            );
+            let bytes = sink.finish();
+            let mut src = AnsSource::new(&bytes, got.len() as u64).unwrap();
+            assert_eq!(read_tree(&shape, 1, &mut src).unwrap(), leaves);
+            assert!(src.finished_cleanly());
+        }
+    }
+
+    #[test]
+    fn corrupt_payloads_give_errors_or_bounded_results() {
+        let (shape, cells) = random_tree(61, 37, 9, |d| d % 5 < 3);
+        let nbs = neighbours(&cells, 61, 37);
+        let mut k = 7u32;
+        for words in [0usize, 1, 2, 3, 5, 17, 200] {
+            for _ in 0..20 {
+                let bytes: Vec<u8> = (0..words * 4)
+                    .map(|_| {
+                        k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                        (k >> 16) as u8
+                    })
+                    .collect();
+                let budget = MAX_SYMBOLS_PER_VALUE * cells.len() as u64;
+                if let Ok(mut src) = AnsSource::new(&bytes, budget) {
+                    if let Ok(values) = read_values(&cells, &nbs, &mut src) {
+                        assert!(values.iter().all(|v| v.abs() <= MAX_VALUE));
+                    }
+                }
+                if let Ok(mut src) = AnsSource::new(&bytes, 10_000) {
+                    if let Ok(leaves) = read_tree(&shape, 0, &mut src) {
+                        assert!(leaves.len() as u64 <= shape.max_leaves());
+                    }
+                }
+            }
+        }
+        // A payload ending in a zero word is not one any encoder writes.
+        assert!(AnsSource::new(&[1, 0, 0, 0, 0, 0, 0, 0], 10).is_err());
+        assert!(AnsSource::new(&[1, 2, 3], 10).is_err());
+    }
+
+    #[test]
+    fn initial_tables_respect_the_floor_and_total() {
+        let check = |f: &[u16]| {
+            let mut left = 0;
+            for &v in f.iter().chain([&CDF_ONE]) {
+                assert!(v >= left + CDF_FLOOR, "{f:?}");
+                left = v;
+            }
+        };
+        TOKEN_INIT.iter().for_each(|t| check(t));
+        check(&CLASS_INIT);
+    }
+
+    /// Values over a random tree: a smooth ramp with noise, some large jumps (escapes
+    /// of every class), and the extremes of the value range.
+    fn test_values(n: usize, seed: u32) -> Vec<i64> {
+        let mut k = seed;
+        let mut next = || {
+            k = k.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            k >> 8
+        };
+        (0..n)
+            .map(|i| match next() % 50 {
+                0 => MAX_VALUE,
+                1 => -MAX_VALUE,
+                2 => (next() as i64 % (2 * MAX_VALUE + 1)) - MAX_VALUE,
+                3..=8 => (i as i64 / 7) + (next() % 600) as i64 - 300,
+                _ => (i as i64 / 7) + (next() % 5) as i64 - 2,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn values_round_trip_and_costs_track_the_real_size() {
+        for (w, h, seed) in [(61u32, 37u32, 1u32), (128, 96, 2), (3, 200, 3)] {
+            let (_, cells) = random_tree(w, h, seed, |d| d % 5 < 3);
+            let nbs = neighbours(&cells, w, h);
+            let channels = [
+                test_values(cells.len(), seed),
+                test_values(cells.len(), !seed),
+            ];
+            let mut sink = AnsSink::new();
+            let mut cost = CostSink::default();
+            for v in &channels {
+                write_values(&cells, &nbs, v, &mut sink);
+                write_values(&cells, &nbs, v, &mut cost);
+            }
+            let bytes = sink.finish();
+            let est = cost.cost as f64 / 2048.0;
+            assert!(
+                (bytes.len() as f64 - est).abs() < 0.005 * est + 8.0,
+                "real {} estimated {est}",
+                bytes.len()
+            );
+            let max = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * 2;
+            let mut src = AnsSource::new(&bytes, max).unwrap();
+            for v in &channels {
+                assert_eq!(&read_values(&cells, &nbs, &mut src).unwrap(), v);
+            }
+            assert!(src.finished_cleanly());
+        }
+    }
+
+    #[test]
+    fn every_residual_magnitude_class_round_trips() {
+        let mut rs: Vec<i64> = vec![0, 1, -1, 7, -7, 8, -8, 9, 22, -23];
+        for b in 0..=25 {
+            for d in [-1i64, 0, 1] {
+                let m = (1i64 << b) + d + LITERALS as i64 - 1;
+                if m > 0 && m <= 2 * MAX_VALUE {
+                    rs.extend([m, -m]);
+                }
+            }
+        }
+        rs.push(2 * MAX_VALUE);
+        let mut ctx = ValueContexts::default();
+        let mut sink = AnsSink::new();
+        for (i, &r) in rs.iter().enumerate() {
+            write_residual(&mut ctx, i % SIZE_CLASSES, i % ACTIVITY, r, &mut sink);
+        }
+        let bytes = sink.finish();
+        let mut src = AnsSource::new(&bytes, MAX_SYMBOLS_PER_VALUE * rs.len() as u64).unwrap();
+        let mut ctx = ValueContexts::default();
+        for (i, &r) in rs.iter().enumerate() {
+            assert_eq!(
+                read_residual(&mut ctx, i % SIZE_CLASSES, i % ACTIVITY, &mut src).unwrap(),
+                r
+            );
+        }
+        assert!(src.finished_cleanly());
+    }
 
     /// The neighbours by their definition: the owners of three pixels in a full
     /// per-pixel owner map.
