@@ -20,7 +20,7 @@ use super::geometry::Frame;
 use super::keyset::{BandScratch, Grid, GridEval, KeySet};
 use super::model::chroma_cells;
 use super::quadtree::Cell;
-use super::syntax::{self, Neighbours, MAX_SYMBOLS_PER_VALUE};
+use super::syntax::{self, MAX_SYMBOLS_PER_VALUE};
 use super::{CodecError, DecodeOptions, MAX_SIDE};
 use crate::raster::Raster;
 
@@ -42,26 +42,23 @@ pub struct Decoded {
 fn read_section_values(
     payload: &[u8],
     cells: &[Cell],
-    nbs: &[Neighbours],
+    (width, height): (u32, u32),
     steps: &[f64],
 ) -> Result<Vec<Vec<f64>>, CodecError> {
     let max_symbols = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * steps.len() as u64;
     let mut src = AnsSource::new(payload, max_symbols)?;
-    let values = steps
-        .iter()
-        .map(|&step| {
-            Ok(syntax::read_values(cells, nbs, &mut src)?
-                .into_iter()
-                .map(|q| q as f64 * step)
-                .collect())
-        })
-        .collect::<Result<_, CodecError>>()?;
+    let values = syntax::read_channels(cells, width, height, steps.len(), &mut src)?;
     if !src.finished_cleanly() {
         return Err(CodecError::Format(
             "entropy-coded payload does not end where its syntax does".into(),
         ));
     }
-    Ok(values)
+    // Collected in place: the integer buffers become the samples.
+    Ok(values
+        .into_iter()
+        .zip(steps)
+        .map(|(v, &step)| v.into_iter().map(|q| q as f64 * step).collect())
+        .collect())
 }
 
 /// Parses and entropy-decodes a file (no pixel evaluation).
@@ -91,15 +88,14 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
         steps.push(header.step_alpha as f64);
     }
     let (w, h) = (header.width, header.height);
-    // The two sections are independent entropy-coded streams; each finds its own
-    // neighbours (and chroma its cells) on its thread.
+    // The two sections are independent entropy-coded streams; each finds its
+    // neighbours while decoding (and chroma its cells first), on its own thread.
     let (luma_values, chroma) = rayon::join(
         || {
-            let nbs = syntax::neighbours(&luma_cells, w, h);
             read_section_values(
                 parsed.payload(tag::LUMA).unwrap_or(&[]),
                 &luma_cells,
-                &nbs,
+                (w, h),
                 &steps,
             )
         },
@@ -115,12 +111,11 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
                     header.chroma_count
                 )));
             }
-            let nbs = syntax::neighbours(&cells, w, h);
             let s = header.step_chroma as f64;
             let values = read_section_values(
                 parsed.payload(tag::CHROMA).unwrap_or(&[]),
                 &cells,
-                &nbs,
+                (w, h),
                 &[s, s],
             )?;
             Ok((cells, values))

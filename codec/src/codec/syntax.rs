@@ -181,14 +181,41 @@ impl Neighbours {
 /// top-right pixel when the neighbour was coded, which each row keeps beside its last
 /// cell.
 pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
-    let mut col = vec![NONE; width as usize];
-    // Per row: the last coded cell covering it, and the owner of the pixel just above
-    // that cell's right column in this row.
-    let mut row = vec![(NONE, NONE); height as usize];
-    // Pushed, not pre-filled: one pass over the output's fresh pages instead of two.
-    let mut out = Vec::with_capacity(cells.len());
-    for (i, c) in cells.iter().enumerate() {
-        let i = i as u32;
+    let mut walk = NeighbourWalk::new(width, height);
+    cells.iter().map(|c| walk.next(c)).collect()
+}
+
+/// [`neighbours`] one cell at a time, so a decoder can find them inside its value loop
+/// (the bookkeeping then overlaps the entropy decoder's latency).
+pub struct NeighbourWalk {
+    width: u32,
+    height: u32,
+    /// Per column: the last coded cell covering it.
+    col: Vec<u32>,
+    /// Per row: the last coded cell covering it, and the owner of the pixel just above
+    /// that cell's right column in this row.
+    row: Vec<(u32, u32)>,
+    /// Index of the next cell.
+    next: u32,
+}
+
+impl NeighbourWalk {
+    /// A walk over a `width x height` image's cells.
+    pub fn new(width: u32, height: u32) -> Self {
+        NeighbourWalk {
+            width,
+            height,
+            col: vec![NONE; width as usize],
+            row: vec![(NONE, NONE); height as usize],
+            next: 0,
+        }
+    }
+
+    /// The neighbours of `c`, the next cell in coding order.
+    #[inline]
+    pub fn next(&mut self, c: &Cell) -> Neighbours {
+        let i = self.next;
+        self.next += 1;
         let (x0, y0) = (c.x0 as usize, c.y0 as usize);
         let mut nb = Neighbours {
             above: NONE,
@@ -196,40 +223,38 @@ pub fn neighbours(cells: &[Cell], width: u32, height: u32) -> Vec<Neighbours> {
             above_left: NONE,
         };
         if x0 > 0 {
-            (nb.left, nb.above_left) = (row[y0].0, row[y0].1);
+            (nb.left, nb.above_left) = self.row[y0];
         }
         // Single-pixel cells dominate at high rates: no clipping, no fill loops.
         if c.log2 == 0 {
             if y0 > 0 {
-                nb.above = col[x0];
+                nb.above = self.col[x0];
             }
-            col[x0] = i;
-            row[y0] = (i, nb.above);
-            out.push(nb);
-            continue;
+            self.col[x0] = i;
+            self.row[y0] = (i, nb.above);
+            return nb;
         }
-        let (_, _, x1, y1) = c.clip(width, height);
+        let (_, _, x1, y1) = c.clip(self.width, self.height);
         let (x1, y1) = (x1 as usize, y1 as usize);
         let above_right = if y0 > 0 {
-            nb.above = col[(x0 + x1 - 1) / 2];
-            col[x1 - 1]
+            nb.above = self.col[(x0 + x1 - 1) / 2];
+            self.col[x1 - 1]
         } else {
             NONE
         };
         if x0 > 0 {
-            nb.left = row[(y0 + y1 - 1) / 2].0;
+            nb.left = self.row[(y0 + y1 - 1) / 2].0;
         }
         // Cells span at most 2^7 pixels: plain loops beat `fill`'s set-up.
-        for o in &mut col[x0..x1] {
+        for o in &mut self.col[x0..x1] {
             *o = i;
         }
-        row[y0] = (i, above_right);
-        for o in &mut row[y0 + 1..y1] {
+        self.row[y0] = (i, above_right);
+        for o in &mut self.row[y0 + 1..y1] {
             *o = (i, i);
         }
-        out.push(nb);
+        nb
     }
-    out
 }
 
 /// Values beyond this magnitude are rejected by the decoder (no file needs them).
@@ -338,7 +363,8 @@ pub fn write_residual(
 }
 
 /// Reads one residual.
-#[inline]
+// Always: the value loops are the decoder's hot path, and a call per value costs.
+#[inline(always)]
 pub fn read_residual(
     ctx: &mut ValueContexts,
     size: usize,
@@ -402,6 +428,46 @@ pub fn read_values(
         previous = v;
     }
     Ok(values)
+}
+
+/// Reads the quantised values of `channels` channels over `cells` of a
+/// `width x height` image, finding the neighbours during the first channel.
+pub fn read_channels(
+    cells: &[Cell],
+    width: u32,
+    height: u32,
+    channels: usize,
+    src: &mut AnsSource,
+) -> Result<Vec<Vec<i64>>, CodecError> {
+    let mut out = Vec::with_capacity(channels);
+    if channels == 0 {
+        return Ok(out);
+    }
+    let mut walk = NeighbourWalk::new(width, height);
+    let mut nbs = Vec::with_capacity(if channels > 1 { cells.len() } else { 0 });
+    let mut ctx = ValueContexts::default();
+    let mut values = vec![0i64; cells.len()];
+    let mut previous = 0;
+    for (i, c) in cells.iter().enumerate() {
+        let nb = walk.next(c);
+        if channels > 1 {
+            nbs.push(nb);
+        }
+        let (pred, act) = predict(&values, &nb, previous);
+        let v = pred + read_residual(&mut ctx, size_class(c), act, src)?;
+        if v.abs() > MAX_VALUE {
+            return Err(CodecError::Format(format!(
+                "key point value {v} out of range"
+            )));
+        }
+        values[i] = v;
+        previous = v;
+    }
+    out.push(values);
+    for _ in 1..channels {
+        out.push(read_values(cells, &nbs, src)?);
+    }
+    Ok(out)
 }
 
 /// Most symbols one value can take (signed token, escape class, two raw-bit chunks).
@@ -566,6 +632,9 @@ mod tests {
             for v in &channels {
                 assert_eq!(&read_values(&cells, &nbs, &mut src).unwrap(), v);
             }
+            assert!(src.finished_cleanly());
+            let mut src = AnsSource::new(&bytes, max).unwrap();
+            assert_eq!(read_channels(&cells, w, h, 2, &mut src).unwrap(), channels);
             assert!(src.finished_cleanly());
         }
     }
