@@ -270,7 +270,7 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Result<Raster, C
 ///
 /// The network is evaluated on the whole lattice by [`KeySet::eval_grid`] (tested equal
 /// to the core network). Its position outputs are the sample's own position plus the
-/// interpolated key-point displacements; version 1 files carry no displacements, so
+/// interpolated key-point displacements; version 2 files carry no displacements, so
 /// those outputs are the lattice positions themselves and are not evaluated.
 pub fn render_forward(
     d: &Decoded,
