@@ -116,20 +116,8 @@ impl Raster {
         format: SampleFormat,
         samples: Vec<f32>,
     ) -> Result<Self, RasterError> {
-        if width == 0 || height == 0 {
-            return Err(RasterError::Empty { width, height });
-        }
+        Self::check_size(width, height, layout, samples.len())?;
         let plane = width as usize * height as usize;
-        let expected = plane * layout.channels();
-        if samples.len() != expected {
-            return Err(RasterError::BufferSize {
-                width,
-                height,
-                channels: layout.channels(),
-                expected,
-                got: samples.len(),
-            });
-        }
         // Chunked so the common, all-finite case vectorises; the search below only runs
         // when something is wrong.
         let finite = samples
@@ -154,6 +142,29 @@ impl Raster {
         })
     }
 
+    /// Non-empty dimensions and a buffer of exactly one sample per pixel and channel.
+    fn check_size(
+        width: u32,
+        height: u32,
+        layout: ChannelLayout,
+        got: usize,
+    ) -> Result<(), RasterError> {
+        if width == 0 || height == 0 {
+            return Err(RasterError::Empty { width, height });
+        }
+        let expected = width as usize * height as usize * layout.channels();
+        if got != expected {
+            return Err(RasterError::BufferSize {
+                width,
+                height,
+                channels: layout.channels(),
+                expected,
+                got,
+            });
+        }
+        Ok(())
+    }
+
     /// Builds a raster from samples whose producer has already checked them finite
     /// (the decoder checks each band while it is in cache); the sizes are still checked.
     pub(crate) fn from_finite(
@@ -164,19 +175,7 @@ impl Raster {
         samples: Vec<f32>,
     ) -> Result<Self, RasterError> {
         debug_assert!(samples.iter().all(|v| v.is_finite()));
-        if width == 0 || height == 0 {
-            return Err(RasterError::Empty { width, height });
-        }
-        let expected = width as usize * height as usize * layout.channels();
-        if samples.len() != expected {
-            return Err(RasterError::BufferSize {
-                width,
-                height,
-                channels: layout.channels(),
-                expected,
-                got: samples.len(),
-            });
-        }
+        Self::check_size(width, height, layout, samples.len())?;
         Ok(Raster {
             width,
             height,
