@@ -13,7 +13,7 @@
 
 use rayon::prelude::*;
 
-use super::bitstream::{self, tag, Header};
+use super::bitstream::{self, tag, Header, Parsed};
 use super::colour::{self, CodingPlanes};
 use super::entropy::AnsSource;
 use super::geometry::Frame;
@@ -39,41 +39,56 @@ pub struct Decoded {
     pub chroma_values: Vec<Vec<f64>>,
 }
 
-fn read_section_values(
+/// Entropy-decodes one value section: `channels` planes of quantised values over
+/// `cells`.
+fn read_section(
     payload: &[u8],
     cells: &[Cell],
     (width, height): (u32, u32),
-    steps: &[f64],
-) -> Result<Vec<Vec<f64>>, CodecError> {
-    let max_symbols = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * steps.len() as u64;
+    channels: usize,
+) -> Result<Vec<Vec<i64>>, CodecError> {
+    let max_symbols = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * channels as u64;
     let mut src = AnsSource::new(payload, max_symbols)?;
-    let values = syntax::read_channels(cells, width, height, steps.len(), &mut src)?;
+    let values = syntax::read_channels(cells, width, height, channels, &mut src)?;
     if !src.finished_cleanly() {
         return Err(CodecError::Format(
             "entropy-coded payload does not end where its syntax does".into(),
         ));
     }
-    // Collected in place: the integer buffers become the samples.
-    Ok(values
-        .into_iter()
-        .zip(steps)
-        .map(|(v, &step)| v.into_iter().map(|q| q as f64 * step).collect())
-        .collect())
+    Ok(values)
 }
 
-/// Parses and entropy-decodes a file (no pixel evaluation).
-pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
-    let parsed = bitstream::parse(bytes, max_pixels)?;
-    let header = parsed.header.clone();
+/// Quantised planes times their steps: the key points' values.
+fn dequantise<T>(planes: Vec<Vec<i64>>, steps: &[f64], to: impl Fn(f64) -> T) -> Vec<Vec<T>> {
+    planes
+        .into_iter()
+        .zip(steps)
+        .map(|(v, &step)| v.into_iter().map(|q| to(q as f64 * step)).collect())
+        .collect()
+}
+
+/// The quantiser steps of the luma set's channels (Y, then alpha) and of chroma.
+fn steps(header: &Header) -> (Vec<f64>, [f64; 2]) {
+    let mut luma = vec![header.step_luma as f64];
+    if header.layout.has_alpha() {
+        luma.push(header.step_alpha as f64);
+    }
+    let c = header.step_chroma as f64;
+    (luma, [c, c])
+}
+
+/// Decodes the tree section: the luma cells in coding order.
+fn read_luma_cells(parsed: &Parsed) -> Result<Vec<Cell>, CodecError> {
+    let header = &parsed.header;
     let shape = header.shape();
     // The walk visits at most 4/3 of the leaves as nodes; each reads one flag.
     let max_nodes = shape.max_leaves() * 4 / 3 + 4;
     let mut src = AnsSource::new(parsed.payload(tag::TREE).unwrap_or(&[]), max_nodes)?;
-    let luma_cells = syntax::read_tree(&shape, header.luma_count as usize, &mut src)?;
-    if luma_cells.len() != header.luma_count as usize {
+    let cells = syntax::read_tree(&shape, header.luma_count as usize, &mut src)?;
+    if cells.len() != header.luma_count as usize {
         return Err(CodecError::Format(format!(
             "tree has {} leaves, header says {}",
-            luma_cells.len(),
+            cells.len(),
             header.luma_count
         )));
     }
@@ -82,53 +97,57 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
             "tree payload does not end where the tree does".into(),
         ));
     }
-    let colour = header.layout.colour_channels() == 3;
-    let mut steps = vec![header.step_luma as f64];
-    if header.layout.has_alpha() {
-        steps.push(header.step_alpha as f64);
+    Ok(cells)
+}
+
+/// The chroma cells the luma cells imply, checked against the header's count.
+fn read_chroma_cells(header: &Header, luma_cells: &[Cell]) -> Result<Vec<Cell>, CodecError> {
+    let cells = chroma_cells(&header.shape(), luma_cells, header.chroma_pruned);
+    if cells.len() != header.chroma_count as usize {
+        return Err(CodecError::Format(format!(
+            "chroma tree has {} leaves, header says {}",
+            cells.len(),
+            header.chroma_count
+        )));
     }
-    let (w, h) = (header.width, header.height);
+    Ok(cells)
+}
+
+/// Parses and entropy-decodes a file (no pixel evaluation).
+pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
+    let parsed = bitstream::parse(bytes, max_pixels)?;
+    let header = parsed.header.clone();
+    let luma_cells = read_luma_cells(&parsed)?;
+    let colour = header.layout.colour_channels() == 3;
+    let (luma_steps, chroma_steps) = steps(&header);
+    let size = (header.width, header.height);
     // The two sections are independent entropy-coded streams; each finds its
     // neighbours while decoding (and chroma its cells first), on its own thread.
     let (luma_values, chroma) = rayon::join(
         || {
-            read_section_values(
+            read_section(
                 parsed.payload(tag::LUMA).unwrap_or(&[]),
                 &luma_cells,
-                (w, h),
-                &steps,
+                size,
+                luma_steps.len(),
             )
         },
-        || {
+        || -> Result<_, CodecError> {
             if !colour {
                 return Ok((Vec::new(), Vec::new()));
             }
-            let cells = chroma_cells(&shape, &luma_cells, header.chroma_pruned);
-            if cells.len() != header.chroma_count as usize {
-                return Err(CodecError::Format(format!(
-                    "chroma tree has {} leaves, header says {}",
-                    cells.len(),
-                    header.chroma_count
-                )));
-            }
-            let s = header.step_chroma as f64;
-            let values = read_section_values(
-                parsed.payload(tag::CHROMA).unwrap_or(&[]),
-                &cells,
-                (w, h),
-                &[s, s],
-            )?;
+            let cells = read_chroma_cells(&header, &luma_cells)?;
+            let values = read_section(parsed.payload(tag::CHROMA).unwrap_or(&[]), &cells, size, 2)?;
             Ok((cells, values))
         },
     );
-    let luma_values = luma_values?;
     let (chroma_cells, chroma_values) = chroma?;
     Ok(Decoded {
+        luma_values: dequantise(luma_values?, &luma_steps, |v| v),
+        chroma_values: dequantise(chroma_values, &chroma_steps, |v| v),
         header,
         luma_cells,
         chroma_cells,
-        luma_values,
-        chroma_values,
     })
 }
 
@@ -154,11 +173,9 @@ fn output_size(header: &Header, opts: &DecodeOptions) -> Result<(u32, u32), Code
 
 /// Decodes a file into a raster.
 pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
-    let d = read(bytes, opts.max_pixels)?;
-    let (ow, oh) = output_size(&d.header, opts)?;
-    let planes = match opts.supersample {
-        None => return render_identity_raster(&d, ow, oh),
-        Some(s) if (1..=4).contains(&s) => render_forward(&d, ow, oh, s)?,
+    let s = match opts.supersample {
+        None => return decode_identity(bytes, opts),
+        Some(s) if (1..=4).contains(&s) => s,
         Some(s) => {
             return Err(CodecError::Parameter {
                 name: "supersample",
@@ -167,6 +184,9 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
             });
         }
     };
+    let d = read(bytes, opts.max_pixels)?;
+    let (ow, oh) = output_size(&d.header, opts)?;
+    let planes = render_forward(&d, ow, oh, s)?;
     Ok(to_raster(&d.header, planes, ow, oh))
 }
 
@@ -201,18 +221,93 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Result<Raster, C
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
+    let to_f32 = |planes: &[Vec<f64>]| -> Vec<Vec<f32>> {
+        planes
+            .iter()
+            .map(|v| v.iter().map(|&x| x as f32).collect())
+            .collect()
+    };
     let (luma, chroma) = rayon::join(
-        || GridEval::new(frame, &d.luma_cells, h.kernel, &d.luma_values, &grid),
+        || GridEval::new(frame, &d.luma_cells, h.kernel, &grid).with_values(to_f32(&d.luma_values)),
         || {
-            (!d.chroma_cells.is_empty())
-                .then(|| GridEval::new(frame, &d.chroma_cells, h.kernel, &d.chroma_values, &grid))
+            (!d.chroma_cells.is_empty()).then(|| {
+                GridEval::new(frame, &d.chroma_cells, h.kernel, &grid)
+                    .with_values(to_f32(&d.chroma_values))
+            })
         },
     );
+    let samples = vec![0.0f32; ow as usize * oh as usize * h.layout.channels()];
+    band_pass(h, &luma, chroma.as_ref(), (ow, oh), samples)
+}
+
+/// [`decode`] by the identity fast path, its stages overlapped: the output is
+/// allocated while the tree decodes, and both key sets' splats are built while their
+/// values decode (a splat needs its cell, not its value). The result equals
+/// `render_identity_raster(&read(..)?, ..)`.
+fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
+    let parsed = bitstream::parse(bytes, opts.max_pixels)?;
+    let header = &parsed.header;
+    let (ow, oh) = output_size(header, opts)?;
+    let frame = Frame::new(header.width, header.height);
+    let grid = Grid::pixel_centres(&frame, ow, oh);
+    let size = (header.width, header.height);
+    let (luma_steps, chroma_steps) = steps(header);
+    let colour = header.layout.colour_channels() == 3;
+    let (luma_cells, samples) = rayon::join(
+        || read_luma_cells(&parsed),
+        || vec![0.0f32; ow as usize * oh as usize * header.layout.channels()],
+    );
+    let luma_cells = luma_cells?;
+    let luma_geometry = || GridEval::new(frame, &luma_cells, header.kernel, &grid);
+    // rayon runs a join's first closure here and offers the second to the other thread:
+    // luma values (the longest stage) go first, then chroma values, and the splats
+    // are built by whichever thread is free.
+    let (luma_values, rest) = rayon::join(
+        || {
+            read_section(
+                parsed.payload(tag::LUMA).unwrap_or(&[]),
+                &luma_cells,
+                size,
+                luma_steps.len(),
+            )
+        },
+        || -> Result<_, CodecError> {
+            if !colour {
+                return Ok((luma_geometry(), None));
+            }
+            let cells = read_chroma_cells(header, &luma_cells)?;
+            let (values, (luma, chroma)) = rayon::join(
+                || read_section(parsed.payload(tag::CHROMA).unwrap_or(&[]), &cells, size, 2),
+                || {
+                    rayon::join(luma_geometry, || {
+                        GridEval::new(frame, &cells, header.kernel, &grid)
+                    })
+                },
+            );
+            let chroma = chroma.with_values(dequantise(values?, &chroma_steps, |v| v as f32));
+            Ok((luma, Some(chroma)))
+        },
+    );
+    let (luma, chroma) = rest?;
+    let luma = luma.with_values(dequantise(luma_values?, &luma_steps, |v| v as f32));
+    band_pass(header, &luma, chroma.as_ref(), (ow, oh), samples)
+}
+
+/// Evaluates both key sets band by band into `samples` (`ow x oh` pixels of the
+/// header's layout, every one overwritten), converting each band's colours while they
+/// are still in cache.
+fn band_pass(
+    h: &Header,
+    luma: &GridEval,
+    chroma: Option<&GridEval>,
+    (ow, oh): (u32, u32),
+    mut samples: Vec<f32>,
+) -> Result<Raster, CodecError> {
     let n = ow as usize * oh as usize;
+    debug_assert_eq!(samples.len(), n * h.layout.channels());
     let alpha = h.layout.has_alpha();
     let nl = 1 + usize::from(alpha);
     let nch = if chroma.is_some() { 2 } else { 0 };
-    let mut samples = vec![0.0f32; n * h.layout.channels()];
     // Each band's rows of every output plane, handed to one task.
     let band_len = GridEval::BAND * ow as usize;
     let mut bands: Vec<Vec<&mut [f32]>> = (0..luma.bands()).map(|_| Vec::new()).collect();
@@ -416,7 +511,7 @@ pub(crate) fn to_raster<T: colour::CodingValue>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::{encode, EncodeOptions};
+    use crate::codec::{encode, DecodeOptions, EncodeOptions};
     use crate::raster::{ChannelLayout, SampleFormat};
 
     #[test]
@@ -449,7 +544,8 @@ mod tests {
                 quality: 90.0,
                 ..EncodeOptions::default()
             };
-            let d = read(&encode(&img, &opts).unwrap(), u64::MAX).unwrap();
+            let bytes = encode(&img, &opts).unwrap();
+            let d = read(&bytes, u64::MAX).unwrap();
             // Coded size, then up- and downscaled: bands of every height, the last short.
             for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
                 let fused = render_identity_raster(&d, ow, oh).unwrap();
@@ -460,6 +556,16 @@ mod tests {
                     "{layout:?} {format:?} at {ow}x{oh}"
                 );
                 assert_eq!((fused.layout(), fused.format()), (layout, format));
+                // The overlapped decoder builds the same evaluators in another order.
+                let decoded = decode(
+                    &bytes,
+                    &DecodeOptions {
+                        size: Some((ow, oh)),
+                        ..DecodeOptions::default()
+                    },
+                )
+                .unwrap();
+                assert_eq!(decoded.samples(), fused.samples(), "decode at {ow}x{oh}");
             }
         }
     }

@@ -92,7 +92,7 @@ impl Grid {
 }
 
 /// One key point as the splat loop needs it.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 struct Splat {
     cy: f64,
     /// First grid column of the support's bounding box.
@@ -118,11 +118,13 @@ struct Splat {
 pub struct GridEval {
     grid: Grid,
     frame: Frame,
-    splats: Vec<Option<Splat>>,
-    /// Splats reaching band `b` are `band_items[band_start[b]..band_start[b + 1]]`, in
-    /// key-point order.
+    /// The splats reaching band `b` are `band_splats[band_start[b]..band_start[b + 1]]`,
+    /// in key-point order; a splat over several bands is copied into each, so a band
+    /// pass reads its splats contiguously.
     band_start: Vec<usize>,
-    band_items: Vec<u32>,
+    band_splats: Vec<Splat>,
+    /// Number of key points.
+    keys: usize,
     values: Vec<Vec<f32>>,
     /// Offsets of a row segment's points from its first column.
     xs: Vec<f32>,
@@ -148,7 +150,12 @@ pub struct BandScratch {
 impl KeySet {
     /// Prepares `values` (planes with one value per key point) for evaluation on `grid`.
     pub fn grid_eval(&self, values: &[Vec<f64>], grid: &Grid) -> GridEval {
-        GridEval::new(self.frame, &self.cells, self.params, values, grid)
+        GridEval::new(self.frame, &self.cells, self.params, grid).with_values(
+            values
+                .iter()
+                .map(|v| v.iter().map(|&x| x as f32).collect())
+                .collect(),
+        )
     }
 
     /// Evaluates `values` (planes with one value per key point) at every point of `grid`,
@@ -230,17 +237,58 @@ fn pixel_span(m: i64, reach: &PixelReach, n: usize) -> Option<(usize, usize)> {
     (lo <= hi).then_some((lo as usize, hi as usize))
 }
 
+/// What [`GridEval::new`] needs to turn a cell into its splat.
+struct SplatBuilder {
+    levels: [LevelKernel; 32],
+    frame: Frame,
+    grid: Grid,
+    /// Reciprocal grid spacings.
+    inv_d: (f64, f64),
+    /// Whether each axis is the unit pixel-centre axis of [`pixel_span`].
+    unit: (bool, bool),
+}
+
+impl SplatBuilder {
+    /// The splat of cell `c`, key point `key`, or `None` when it reaches no grid point.
+    // Always: called once per cell, and a call returning the splat through memory
+    // cost more than building it.
+    #[inline(always)]
+    fn splat(&self, key: u32, c: &Cell) -> Option<Splat> {
+        let (frame, grid) = (&self.frame, &self.grid);
+        let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
+        let (mx, my) = ((x0 + x1) as i64, (y0 + y1) as i64);
+        let (cx, cy) = (0.5 * mx as f64, 0.5 * my as f64);
+        let level = &self.levels[c.log2 as usize & 31];
+        let cols = if self.unit.0 {
+            pixel_span(mx, &level.reach, grid.nx)
+        } else {
+            Grid::span(cx, level.radius, grid.x0, self.inv_d.0, grid.nx)
+        }?;
+        let rows = if self.unit.1 {
+            pixel_span(my, &level.reach, grid.ny)
+        } else {
+            Grid::span(cy, level.radius, grid.y0, self.inv_d.1, grid.ny)
+        }?;
+        let (u, v) = frame.plane(cx, cy);
+        Some(Splat {
+            cy,
+            c0: cols.0 as u32,
+            steps: ((cols.1 - cols.0) / LANES + 1) as u32,
+            rows: (rows.0 as u32, rows.1 as u32),
+            x0: (grid.x(cols.0) - cx) as f32,
+            c: level.cbrt_weight as f32,
+            ca: (level.cbrt_weight * (1.0 + u * u + v * v) * level.inv_6s2) as f32,
+            key,
+        })
+    }
+}
+
 impl GridEval {
     /// Prepares the key points at the centres of `cells` (the [`KeySet`] of `frame`,
-    /// `cells` and `params`) and their `values` for evaluation on `grid`, straight from
-    /// the cells: the decoder needs none of the key set's other fields.
-    pub fn new(
-        frame: Frame,
-        cells: &[Cell],
-        params: KernelParams,
-        values: &[Vec<f64>],
-        grid: &Grid,
-    ) -> GridEval {
+    /// `cells` and `params`) for evaluation on `grid`, straight from the cells: the
+    /// decoder needs none of the key set's other fields, and can build this while it
+    /// still decodes the values ([`GridEval::with_values`] adds them).
+    pub fn new(frame: Frame, cells: &[Cell], params: KernelParams, grid: &Grid) -> GridEval {
         let (nx, ny) = (grid.nx, grid.ny);
         let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
         let sigma_factor = params.sigma_factor.max(MIN_SIGMA_FACTOR);
@@ -262,67 +310,46 @@ impl GridEval {
                 cbrt_weight: 2f64.powi(l as i32).powf(-params.weight_exponent).cbrt(),
             }
         });
-        let (inv_dx, inv_dy) = (1.0 / grid.dx, 1.0 / grid.dy);
-        // Axes through the pixel centres at unit spacing (every decode at the coded size)
-        // take the integer span.
-        let (unit_x, unit_y) = (
-            grid.dx == 1.0 && grid.x0 == 0.5,
-            grid.dy == 1.0 && grid.y0 == 0.5,
-        );
-        let splat = |(i, c): (usize, &Cell)| -> Option<Splat> {
-            let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
-            let (mx, my) = ((x0 + x1) as i64, (y0 + y1) as i64);
-            let (cx, cy) = (0.5 * mx as f64, 0.5 * my as f64);
-            let level = &levels[c.log2 as usize];
-            let cols = if unit_x {
-                pixel_span(mx, &level.reach, nx)
-            } else {
-                Grid::span(cx, level.radius, grid.x0, inv_dx, nx)
-            }?;
-            let rows = if unit_y {
-                pixel_span(my, &level.reach, ny)
-            } else {
-                Grid::span(cy, level.radius, grid.y0, inv_dy, ny)
-            }?;
-            let (u, v) = frame.plane(cx, cy);
-            Some(Splat {
-                cy,
-                c0: cols.0 as u32,
-                steps: ((cols.1 - cols.0) / LANES + 1) as u32,
-                rows: (rows.0 as u32, rows.1 as u32),
-                x0: (grid.x(cols.0) - cx) as f32,
-                c: level.cbrt_weight as f32,
-                ca: (level.cbrt_weight * (1.0 + u * u + v * v) * level.inv_6s2) as f32,
-                key: i as u32,
-            })
+        let builder = SplatBuilder {
+            levels,
+            frame,
+            grid: *grid,
+            inv_d: (1.0 / grid.dx, 1.0 / grid.dy),
+            // Axes through the pixel centres at unit spacing (every decode at the coded
+            // size) take the integer span.
+            unit: (
+                grid.dx == 1.0 && grid.x0 == 0.5,
+                grid.dy == 1.0 && grid.y0 == 0.5,
+            ),
         };
-        let mut splats: Vec<Option<Splat>> = Vec::new();
-        if nx > 0 && ny > 0 {
-            cells
-                .par_iter()
-                .enumerate()
-                .map(splat)
-                .collect_into_vec(&mut splats);
-        }
-        // Splats per band, in key-point order (a counting sort over the bands each spans).
+        let band_range = |s: &Splat| s.rows.0 as usize / BAND..=s.rows.1 as usize / BAND;
+        // Serial: a splat takes a few dozen instructions, less than a thread hand-off,
+        // and the decoder builds its luma and chroma sets side by side anyway.
         let bands = ny.div_ceil(BAND);
         let mut band_start = vec![0usize; bands + 1];
-        for s in splats.iter().flatten() {
-            for b in s.rows.0 as usize / BAND..=s.rows.1 as usize / BAND {
-                band_start[b + 1] += 1;
+        let mut splats = Vec::with_capacity(if nx > 0 && ny > 0 { cells.len() } else { 0 });
+        if nx > 0 && ny > 0 {
+            for (i, c) in cells.iter().enumerate() {
+                if let Some(s) = builder.splat(i as u32, c) {
+                    for b in band_range(&s) {
+                        band_start[b + 1] += 1;
+                    }
+                    splats.push(s);
+                }
             }
         }
+        // Copied band by band (a counting sort), keeping key-point order in each band.
+        // One allocation for every band: band-sized ones would go back to the system
+        // between decodes and be page-faulted in again.
         for b in 0..bands {
             band_start[b + 1] += band_start[b];
         }
+        let mut band_splats = vec![Splat::default(); band_start[bands]];
         let mut fill = band_start.clone();
-        let mut band_items = vec![0u32; band_start[bands]];
-        for (k, s) in splats.iter().enumerate() {
-            if let Some(s) = s {
-                for b in s.rows.0 as usize / BAND..=s.rows.1 as usize / BAND {
-                    band_items[fill[b]] = k as u32;
-                    fill[b] += 1;
-                }
+        for s in &splats {
+            for b in band_range(s) {
+                band_splats[fill[b]] = *s;
+                fill[b] += 1;
             }
         }
         let stride = nx.next_multiple_of(LANES) + LANES;
@@ -339,18 +366,26 @@ impl GridEval {
         GridEval {
             grid: *grid,
             frame,
-            splats,
             band_start,
-            band_items,
-            values: values
-                .iter()
-                .map(|v| v.iter().map(|&x| x as f32).collect())
-                .collect(),
+            band_splats,
+            keys: cells.len(),
+            values: Vec::new(),
             xs,
             plane_u2,
             stride,
             arch: pulp::Arch::new(),
         }
+    }
+
+    /// The same evaluator with the value planes to evaluate: one value per key point
+    /// each, single precision (ample for any output quantum).
+    pub fn with_values(mut self, values: Vec<Vec<f32>>) -> GridEval {
+        assert!(
+            values.iter().all(|v| v.len() == self.keys),
+            "one value per key point"
+        );
+        self.values = values;
+        self
     }
 
     /// Number of bands: the grid's rows in groups of [`GridEval::BAND`].
@@ -388,7 +423,7 @@ impl GridEval {
         // formed (Rust never contracts), so every unit gives the same bits.
         self.arch.dispatch(BandPass {
             eval: self,
-            list: &self.band_items[self.band_start[b]..self.band_start[b + 1]],
+            list: &self.band_splats[self.band_start[b]..self.band_start[b + 1]],
             j0,
             rows,
             g: &scratch.g,
@@ -404,7 +439,7 @@ impl GridEval {
     #[allow(clippy::too_many_arguments)]
     fn splat<const NC: usize>(
         &self,
-        list: &[u32],
+        list: &[Splat],
         values: &[Vec<f32>],
         g: &[f32],
         j0: usize,
@@ -420,10 +455,7 @@ impl GridEval {
         let mut planes: [&mut [f32]; NC] =
             std::array::from_fn(|_| chunks.next().expect("NC planes follow the sum"));
         let (xs, _) = self.xs.as_chunks::<LANES>();
-        for &k in list {
-            let Some(s) = &self.splats[k as usize] else {
-                continue;
-            };
+        for s in list {
             let vals: [f32; NC] = std::array::from_fn(|c| values[c][s.key as usize]);
             let r0 = (s.rows.0 as usize).max(j0);
             let r1 = (s.rows.1 as usize).min(j0 + rows - 1);
@@ -503,7 +535,7 @@ impl pulp::WithSimd for Conformal<'_> {
 /// into the target-feature function `pulp` picks, which is what vectorises it.
 struct BandPass<'a, 'o> {
     eval: &'a GridEval,
-    list: &'a [u32],
+    list: &'a [Splat],
     j0: usize,
     rows: usize,
     g: &'a [f32],
