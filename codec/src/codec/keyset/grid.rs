@@ -92,7 +92,7 @@ impl Grid {
 }
 
 /// One key point as the splat loop needs it.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct Splat {
     cy: f64,
     /// First grid column of the support's bounding box.
@@ -344,14 +344,17 @@ impl GridEval {
         for b in 0..bands {
             band_start[b + 1] += band_start[b];
         }
-        let mut band_splats = vec![Splat::default(); band_start[bands]];
+        // Sorted as indices, then gathered: the splats are written once, in order, and
+        // never cleared first.
+        let mut order = vec![0u32; band_start[bands]];
         let mut fill = band_start.clone();
-        for s in &splats {
+        for (k, s) in splats.iter().enumerate() {
             for b in band_range(s) {
-                band_splats[fill[b]] = *s;
+                order[fill[b]] = k as u32;
                 fill[b] += 1;
             }
         }
+        let band_splats = order.iter().map(|&k| splats[k as usize]).collect();
         let stride = nx.next_multiple_of(LANES) + LANES;
         // Offsets from a row segment's first column, so positions stay exact in single
         // precision however wide the image: the segment's own offset from the key point
@@ -463,6 +466,32 @@ impl GridEval {
             // (a square root and two divisions per row) than the steps it saved.
             let steps = s.steps as usize;
             let n = steps * LANES;
+            let row0 = (r0 - j0) * stride + s.c0 as usize;
+            let mut dy = grid.y(r0) - s.cy;
+            if steps == 1 {
+                // Most key points at high rates (one- and two-pixel cells) span one step:
+                // their x part stays in registers and a row is one step, without the
+                // slicing a row of several steps needs.
+                let ax2 = xs[0].map(|x| {
+                    let dx = x + s.x0;
+                    s.ca * dx * dx
+                });
+                let mut off = row0;
+                for _ in r0..=r1 {
+                    let kern = Kernel {
+                        c: s.c,
+                        ay2: s.ca * (dy * dy) as f32,
+                    };
+                    let w = kern.step(&ax2, lanes(g, off));
+                    add_step(lanes_mut(sum, off), &w, None);
+                    for (p, &v) in planes.iter_mut().zip(&vals) {
+                        add_step(lanes_mut(p, off), &w, Some(v));
+                    }
+                    off += stride;
+                    dy += grid.dy;
+                }
+                continue;
+            }
             // The x part of the kernel is the same on every row of the key point.
             if ax2.len() < steps {
                 ax2.resize(steps, [0.0; LANES]);
@@ -475,8 +504,6 @@ impl GridEval {
                     ca * dx * dx
                 });
             }
-            let row0 = (r0 - j0) * stride + s.c0 as usize;
-            let mut dy = grid.y(r0) - s.cy;
             for r in 0..=r1 - r0 {
                 let kern = Kernel {
                     c: s.c,
@@ -608,23 +635,49 @@ fn splat_row<const NC: usize>(
     let acc: [&mut [[f32; LANES]]; NC] = acc.map(|a| &mut a[..steps]);
     let (ax2, g, sum) = (&ax2[..steps], &g[..steps], &mut sum[..steps]);
     for s in 0..steps {
+        let w = k.step(&ax2[s], &g[s]);
+        add_step(&mut sum[s], &w, None);
+        for c in 0..NC {
+            add_step(&mut acc[c][s], &w, Some(vals[c]));
+        }
+    }
+}
+
+impl Kernel {
+    /// The kernel at one step of points, from their `c a dx^2` and conformal factors.
+    #[inline(always)]
+    fn step(self, ax2: &[f32; LANES], g: &[f32; LANES]) -> [f32; LANES] {
         let mut w = [0.0f32; LANES];
         for l in 0..LANES {
-            let t = k.c - g[s][l] * (ax2[s][l] + k.ay2);
+            let t = self.c - g[l] * (ax2[l] + self.ay2);
             let t = if t > 0.0 { t } else { 0.0 };
             w[l] = t * t * t;
         }
-        let out = &mut sum[s];
-        for l in 0..LANES {
-            out[l] += w[l];
-        }
-        for c in 0..NC {
-            let out = &mut acc[c][s];
-            for l in 0..LANES {
-                out[l] += w[l] * vals[c];
-            }
-        }
+        w
     }
+}
+
+/// Adds the kernel `w` (times `value`, if any) to one step of an accumulator.
+#[inline(always)]
+fn add_step(out: &mut [f32; LANES], w: &[f32; LANES], value: Option<f32>) {
+    for l in 0..LANES {
+        out[l] += match value {
+            Some(v) => w[l] * v,
+            None => w[l],
+        };
+    }
+}
+
+/// The step of points starting at `off`.
+#[inline(always)]
+fn lanes(s: &[f32], off: usize) -> &[f32; LANES] {
+    s[off..off + LANES].try_into().expect("LANES points")
+}
+
+/// The step of points starting at `off`, mutably.
+#[inline(always)]
+fn lanes_mut(s: &mut [f32], off: usize) -> &mut [f32; LANES] {
+    (&mut s[off..off + LANES]).try_into().expect("LANES points")
 }
 
 #[cfg(test)]
