@@ -240,10 +240,8 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Result<Raster, C
     band_pass(h, &luma, chroma.as_ref(), (ow, oh), samples)
 }
 
-/// [`decode`] by the identity fast path, its stages overlapped: the output is
-/// allocated while the tree decodes, and both key sets' splats are built while their
-/// values decode (a splat needs its cell, not its value). The result equals
-/// `render_identity_raster(&read(..)?, ..)`.
+/// [`decode`] by the identity fast path: equal to `render_identity_raster(&read(..)?, ..)`,
+/// with the output allocated while the tree decodes.
 fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
     let parsed = bitstream::parse(bytes, opts.max_pixels)?;
     let header = &parsed.header;
@@ -258,38 +256,46 @@ fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecEr
         || vec![0.0f32; ow as usize * oh as usize * header.layout.channels()],
     );
     let luma_cells = luma_cells?;
-    let luma_geometry = || GridEval::new(frame, &luma_cells, header.kernel, &grid);
-    // rayon runs a join's first closure here and offers the second to the other thread:
-    // luma values (the longest stage) go first, then chroma values, and the splats
-    // are built by whichever thread is free.
-    let (luma_values, rest) = rayon::join(
-        || {
-            read_section(
-                parsed.payload(tag::LUMA).unwrap_or(&[]),
-                &luma_cells,
-                size,
-                luma_steps.len(),
-            )
-        },
-        || -> Result<_, CodecError> {
-            if !colour {
-                return Ok((luma_geometry(), None));
-            }
-            let cells = read_chroma_cells(header, &luma_cells)?;
-            let (values, (luma, chroma)) = rayon::join(
-                || read_section(parsed.payload(tag::CHROMA).unwrap_or(&[]), &cells, size, 2),
-                || {
-                    rayon::join(luma_geometry, || {
-                        GridEval::new(frame, &cells, header.kernel, &grid)
-                    })
-                },
-            );
-            let chroma = chroma.with_values(dequantise(values?, &chroma_steps, |v| v as f32));
-            Ok((luma, Some(chroma)))
-        },
-    );
-    let (luma, chroma) = rest?;
-    let luma = luma.with_values(dequantise(luma_values?, &luma_steps, |v| v as f32));
+    // The two value sections are independent entropy-coded streams, one per thread;
+    // each thread then prepares its key set's evaluator.
+    let (luma, chroma) =
+        rayon::join(
+            || -> Result<_, CodecError> {
+                let values = read_section(
+                    parsed.payload(tag::LUMA).unwrap_or(&[]),
+                    &luma_cells,
+                    size,
+                    luma_steps.len(),
+                )?;
+                Ok(
+                    GridEval::new(frame, &luma_cells, header.kernel, &grid)
+                        .with_values(dequantise(values, &luma_steps, |v| v as f32)),
+                )
+            },
+            || -> Result<_, CodecError> {
+                if !colour {
+                    return Ok(None);
+                }
+                let cells = read_chroma_cells(header, &luma_cells)?;
+                let values =
+                    read_section(parsed.payload(tag::CHROMA).unwrap_or(&[]), &cells, size, 2)?;
+                Ok(Some((
+                    cells,
+                    dequantise(values, &chroma_steps, |v| v as f32),
+                )))
+            },
+        );
+    let luma = luma?;
+    let (chroma_cells, chroma_values) = chroma?.unzip();
+    let chroma = chroma_values.map(|values| {
+        GridEval::new(
+            frame,
+            chroma_cells.as_deref().unwrap_or(&[]),
+            header.kernel,
+            &grid,
+        )
+        .with_values(values)
+    });
     band_pass(header, &luma, chroma.as_ref(), (ow, oh), samples)
 }
 

@@ -115,16 +115,19 @@ struct Splat {
 /// A key set and its values prepared for evaluation on one grid, band by band: two key
 /// sets on the same grid (luma and chroma) can then be evaluated band by band side by
 /// side and their results consumed while they are still in cache.
-pub struct GridEval {
+pub struct GridEval<'c> {
     grid: Grid,
     frame: Frame,
-    /// The splats reaching band `b` are `band_splats[band_start[b]..band_start[b + 1]]`,
-    /// in key-point order; a splat over several bands is copied into each, so a band
-    /// pass reads its splats contiguously.
-    band_start: Vec<usize>,
-    band_splats: Vec<Splat>,
-    /// Number of key points.
-    keys: usize,
+    builder: SplatBuilder,
+    cells: &'c [Cell],
+    /// Per band, the cells `lo..hi` from the first to the last whose splat reaches it.
+    /// Coding order runs through the image in block rows, so a window is a few block
+    /// rows of cells; a band pass builds their splats as it goes, and no splat is
+    /// stored or sorted.
+    windows: Vec<(u32, u32)>,
+    /// Per cell, the first and last band its splat reaches (`[MAX, 0]` for none): a
+    /// window's cells outside the band are skipped on a 4-byte load.
+    cell_bands: Vec<[u16; 2]>,
     values: Vec<Vec<f32>>,
     /// Offsets of a row segment's points from its first column.
     xs: Vec<f32>,
@@ -149,7 +152,7 @@ pub struct BandScratch {
 
 impl KeySet {
     /// Prepares `values` (planes with one value per key point) for evaluation on `grid`.
-    pub fn grid_eval(&self, values: &[Vec<f64>], grid: &Grid) -> GridEval {
+    pub fn grid_eval(&self, values: &[Vec<f64>], grid: &Grid) -> GridEval<'_> {
         GridEval::new(self.frame, &self.cells, self.params, grid).with_values(
             values
                 .iter()
@@ -237,7 +240,7 @@ fn pixel_span(m: i64, reach: &PixelReach, n: usize) -> Option<(usize, usize)> {
     (lo <= hi).then_some((lo as usize, hi as usize))
 }
 
-/// What [`GridEval::new`] needs to turn a cell into its splat.
+/// What a band pass needs to turn a cell into its splat.
 struct SplatBuilder {
     levels: [LevelKernel; 32],
     frame: Frame,
@@ -249,11 +252,35 @@ struct SplatBuilder {
 }
 
 impl SplatBuilder {
-    /// The splat of cell `c`, key point `key`, or `None` when it reaches no grid point.
-    // Always: called once per cell, and a call returning the splat through memory
-    // cost more than building it.
+    /// The grid rows cell `c`'s splat reaches, if any.
     #[inline(always)]
-    fn splat(&self, key: u32, c: &Cell) -> Option<Splat> {
+    fn rows(&self, c: &Cell) -> Option<(usize, usize)> {
+        let (y0, y1) = (c.y0, (c.y0 + c.size()).min(self.frame.height));
+        let my = (y0 + y1) as i64;
+        let level = &self.levels[c.log2 as usize & 31];
+        let grid = &self.grid;
+        if self.unit.1 {
+            pixel_span(my, &level.reach, grid.ny)
+        } else {
+            Grid::span(
+                0.5 * my as f64,
+                level.radius,
+                grid.y0,
+                self.inv_d.1,
+                grid.ny,
+            )
+        }
+    }
+
+    /// The splat of cell `c`, key point `key`, if it reaches grid rows `band.0..=band.1`.
+    // Always: called per cell in the band loop, where a call returning the splat
+    // through memory would cost more than building it.
+    #[inline(always)]
+    fn splat(&self, key: u32, c: &Cell, band: (usize, usize)) -> Option<Splat> {
+        let rows = self.rows(c)?;
+        if rows.1 < band.0 || rows.0 > band.1 {
+            return None;
+        }
         let (frame, grid) = (&self.frame, &self.grid);
         let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
         let (mx, my) = ((x0 + x1) as i64, (y0 + y1) as i64);
@@ -263,11 +290,6 @@ impl SplatBuilder {
             pixel_span(mx, &level.reach, grid.nx)
         } else {
             Grid::span(cx, level.radius, grid.x0, self.inv_d.0, grid.nx)
-        }?;
-        let rows = if self.unit.1 {
-            pixel_span(my, &level.reach, grid.ny)
-        } else {
-            Grid::span(cy, level.radius, grid.y0, self.inv_d.1, grid.ny)
         }?;
         let (u, v) = frame.plane(cx, cy);
         Some(Splat {
@@ -283,12 +305,12 @@ impl SplatBuilder {
     }
 }
 
-impl GridEval {
+impl<'c> GridEval<'c> {
     /// Prepares the key points at the centres of `cells` (the [`KeySet`] of `frame`,
-    /// `cells` and `params`) for evaluation on `grid`, straight from the cells: the
-    /// decoder needs none of the key set's other fields, and can build this while it
-    /// still decodes the values ([`GridEval::with_values`] adds them).
-    pub fn new(frame: Frame, cells: &[Cell], params: KernelParams, grid: &Grid) -> GridEval {
+    /// `cells` and `params`) for evaluation on `grid`, straight from the cells (the
+    /// decoder needs none of the key set's other fields); [`GridEval::with_values`]
+    /// adds the values.
+    pub fn new(frame: Frame, cells: &'c [Cell], params: KernelParams, grid: &Grid) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
         let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
         let sigma_factor = params.sigma_factor.max(MIN_SIGMA_FACTOR);
@@ -322,39 +344,26 @@ impl GridEval {
                 grid.dy == 1.0 && grid.y0 == 0.5,
             ),
         };
-        let band_range = |s: &Splat| s.rows.0 as usize / BAND..=s.rows.1 as usize / BAND;
-        // Serial: a splat takes a few dozen instructions, less than a thread hand-off,
-        // and the decoder builds its luma and chroma sets side by side anyway.
+        // Windows and band ranges from one pass over the cells (a few instructions
+        // each; serial).
         let bands = ny.div_ceil(BAND);
-        let mut band_start = vec![0usize; bands + 1];
-        let mut splats = Vec::with_capacity(if nx > 0 && ny > 0 { cells.len() } else { 0 });
-        if nx > 0 && ny > 0 {
-            for (i, c) in cells.iter().enumerate() {
-                if let Some(s) = builder.splat(i as u32, c) {
-                    for b in band_range(&s) {
-                        band_start[b + 1] += 1;
-                    }
-                    splats.push(s);
+        assert!(
+            bands <= 1 << 16,
+            "{ny} grid rows: band numbers must fit 16 bits"
+        );
+        let mut windows = vec![(u32::MAX, 0u32); bands];
+        let mut cell_bands = vec![[u16::MAX, 0]; if nx > 0 && ny > 0 { cells.len() } else { 0 }];
+        for ((i, c), cb) in cells.iter().enumerate().zip(&mut cell_bands) {
+            if let Some(rows) = builder.rows(c) {
+                let (b0, b1) = (rows.0 / BAND, rows.1 / BAND);
+                // At most 65536 rows (16384 supersampled 4 times): bands fit 16 bits.
+                *cb = [b0 as u16, b1 as u16];
+                for w in &mut windows[b0..=b1] {
+                    w.0 = w.0.min(i as u32);
+                    w.1 = i as u32 + 1;
                 }
             }
         }
-        // Copied band by band (a counting sort), keeping key-point order in each band.
-        // One allocation for every band: band-sized ones would go back to the system
-        // between decodes and be page-faulted in again.
-        for b in 0..bands {
-            band_start[b + 1] += band_start[b];
-        }
-        // Sorted as indices, then gathered: the splats are written once, in order, and
-        // never cleared first.
-        let mut order = vec![0u32; band_start[bands]];
-        let mut fill = band_start.clone();
-        for (k, s) in splats.iter().enumerate() {
-            for b in band_range(s) {
-                order[fill[b]] = k as u32;
-                fill[b] += 1;
-            }
-        }
-        let band_splats = order.iter().map(|&k| splats[k as usize]).collect();
         let stride = nx.next_multiple_of(LANES) + LANES;
         // Offsets from a row segment's first column, so positions stay exact in single
         // precision however wide the image: the segment's own offset from the key point
@@ -369,9 +378,10 @@ impl GridEval {
         GridEval {
             grid: *grid,
             frame,
-            band_start,
-            band_splats,
-            keys: cells.len(),
+            builder,
+            cells,
+            windows,
+            cell_bands,
             values: Vec::new(),
             xs,
             plane_u2,
@@ -382,9 +392,9 @@ impl GridEval {
 
     /// The same evaluator with the value planes to evaluate: one value per key point
     /// each, single precision (ample for any output quantum).
-    pub fn with_values(mut self, values: Vec<Vec<f32>>) -> GridEval {
+    pub fn with_values(mut self, values: Vec<Vec<f32>>) -> Self {
         assert!(
-            values.iter().all(|v| v.len() == self.keys),
+            values.iter().all(|v| v.len() == self.cells.len()),
             "one value per key point"
         );
         self.values = values;
@@ -426,7 +436,7 @@ impl GridEval {
         // formed (Rust never contracts), so every unit gives the same bits.
         self.arch.dispatch(BandPass {
             eval: self,
-            list: &self.band_splats[self.band_start[b]..self.band_start[b + 1]],
+            window: self.windows[b],
             j0,
             rows,
             g: &scratch.g,
@@ -436,13 +446,13 @@ impl GridEval {
         });
     }
 
-    /// Splats the key points `list` over the band starting at row `j0`; `acc` holds the
-    /// kernel sum then the `NC` value planes, each `rows x stride`.
+    /// Splats the key points of `window` over the band starting at row `j0`; `acc`
+    /// holds the kernel sum then the `NC` value planes, each `rows x stride`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn splat<const NC: usize>(
         &self,
-        list: &[Splat],
+        (lo, hi): (u32, u32),
         values: &[Vec<f32>],
         g: &[f32],
         j0: usize,
@@ -458,7 +468,21 @@ impl GridEval {
         let mut planes: [&mut [f32]; NC] =
             std::array::from_fn(|_| chunks.next().expect("NC planes follow the sum"));
         let (xs, _) = self.xs.as_chunks::<LANES>();
-        for s in list {
+        let band = (j0, j0 + rows - 1);
+        let b = (j0 / BAND) as u16;
+        let range = lo as usize..hi as usize;
+        let (cells, bands) = (
+            self.cells.get(range.clone()).unwrap_or(&[]),
+            self.cell_bands.get(range).unwrap_or(&[]),
+        );
+        for ((k, c), &[b0, b1]) in (lo..hi).zip(cells).zip(bands) {
+            if b < b0 || b > b1 {
+                continue;
+            }
+            let Some(s) = self.builder.splat(k, c, band) else {
+                continue;
+            };
+            let s = &s;
             let vals: [f32; NC] = std::array::from_fn(|c| values[c][s.key as usize]);
             let r0 = (s.rows.0 as usize).max(j0);
             let r1 = (s.rows.1 as usize).min(j0 + rows - 1);
@@ -532,13 +556,13 @@ impl GridEval {
 
 /// The conformal factors of one band, as a `pulp` operation (so the division
 /// vectorises).
-struct Conformal<'a> {
-    eval: &'a GridEval,
+struct Conformal<'a, 'c> {
+    eval: &'a GridEval<'c>,
     b: usize,
     g: &'a mut Vec<f32>,
 }
 
-impl pulp::WithSimd for Conformal<'_> {
+impl pulp::WithSimd for Conformal<'_, '_> {
     type Output = ();
 
     #[inline(always)]
@@ -560,9 +584,9 @@ impl pulp::WithSimd for Conformal<'_> {
 
 /// One band's splats and normalisation, as a `pulp` operation: everything is inlined
 /// into the target-feature function `pulp` picks, which is what vectorises it.
-struct BandPass<'a, 'o> {
-    eval: &'a GridEval,
-    list: &'a [Splat],
+struct BandPass<'a, 'c, 'o> {
+    eval: &'a GridEval<'c>,
+    window: (u32, u32),
     j0: usize,
     rows: usize,
     g: &'a [f32],
@@ -571,7 +595,7 @@ struct BandPass<'a, 'o> {
     out: &'a mut [&'o mut [f32]],
 }
 
-impl pulp::WithSimd for BandPass<'_, '_> {
+impl pulp::WithSimd for BandPass<'_, '_, '_> {
     type Output = ();
 
     #[inline(always)]
@@ -584,12 +608,12 @@ impl pulp::WithSimd for BandPass<'_, '_> {
             self.acc.clear();
             self.acc.resize((vals.len() + 1) * plane, 0.0f32);
             let (g, acc, ax2) = (self.g, &mut self.acc[..], &mut *self.ax2);
-            let (j0, rows, list) = (self.j0, self.rows, self.list);
+            let (j0, rows, window) = (self.j0, self.rows, self.window);
             match vals.len() {
-                1 => e.splat::<1>(list, vals, g, j0, rows, acc, ax2),
-                2 => e.splat::<2>(list, vals, g, j0, rows, acc, ax2),
-                3 => e.splat::<3>(list, vals, g, j0, rows, acc, ax2),
-                _ => e.splat::<4>(list, vals, g, j0, rows, acc, ax2),
+                1 => e.splat::<1>(window, vals, g, j0, rows, acc, ax2),
+                2 => e.splat::<2>(window, vals, g, j0, rows, acc, ax2),
+                3 => e.splat::<3>(window, vals, g, j0, rows, acc, ax2),
+                _ => e.splat::<4>(window, vals, g, j0, rows, acc, ax2),
             }
             let (sum, planes) = self.acc.split_at_mut(plane);
             for s in sum.iter_mut() {
