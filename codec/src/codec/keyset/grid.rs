@@ -204,22 +204,22 @@ struct LevelKernel {
     cbrt_weight: f64,
 }
 
-/// How many pixel centres a radius `r` reaches on either side of a key point: `odd`
-/// when the centre sits on a pixel centre, `(below, above)` when it sits on a pixel
-/// edge.
+/// How many pixel centres a radius `r` reaches below and above a key point at `m / 2`,
+/// indexed by the parity of `m`: a centre on a pixel edge (even) or on a pixel centre
+/// (odd). Indexed rather than branched on: the parity changes with the cell size, so a
+/// branch on it mispredicts.
 #[derive(Debug, Clone, Copy, Default)]
 struct PixelReach {
-    odd: i64,
-    below: i64,
-    above: i64,
+    below: [i64; 2],
+    above: [i64; 2],
 }
 
 impl PixelReach {
     fn new(r: f64) -> Self {
+        let odd = r.floor() as i64;
         PixelReach {
-            odd: r.floor() as i64,
-            below: (r + 0.5).floor() as i64,
-            above: (r - 0.5).floor() as i64,
+            below: [(r + 0.5).floor() as i64, odd],
+            above: [(r - 0.5).floor() as i64, odd],
         }
     }
 }
@@ -230,12 +230,8 @@ impl PixelReach {
 /// instructions where its saturating casts take a dozen.
 #[inline]
 fn pixel_span(m: i64, reach: &PixelReach, n: usize) -> Option<(usize, usize)> {
-    let k = m >> 1;
-    let (lo, hi) = if m & 1 == 1 {
-        (k - reach.odd, k + reach.odd)
-    } else {
-        (k - reach.below, k + reach.above)
-    };
+    let (k, parity) = (m >> 1, (m & 1) as usize);
+    let (lo, hi) = (k - reach.below[parity], k + reach.above[parity]);
     let (lo, hi) = (lo.max(0), hi.min(n as i64 - 1));
     (lo <= hi).then_some((lo as usize, hi as usize))
 }
@@ -359,7 +355,11 @@ impl<'c> GridEval<'c> {
                 // At most 65536 rows (16384 supersampled 4 times): bands fit 16 bits.
                 *cb = [b0 as u16, b1 as u16];
                 for w in &mut windows[b0..=b1] {
-                    w.0 = w.0.min(i as u32);
+                    // A predicted branch, not a min: the min's load would wait on the
+                    // previous cell's store to the same window.
+                    if w.1 == 0 {
+                        w.0 = i as u32;
+                    }
                     w.1 = i as u32 + 1;
                 }
             }
