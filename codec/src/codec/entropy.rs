@@ -206,8 +206,15 @@ impl<const W: usize> Cdf<W> {
             count += below.wrapping_mul(LANES) >> 48;
         }
         let s = count as usize;
-        let (left, width) = self.interval(s);
-        (s, left, left + width)
+        // The ends without branches: s is 0 for about half the tokens, a coin toss
+        // for the predictor. `min` keeps the lane reads in bounds for the compiler.
+        let left = self.entry(s.max(1) - 1) & 0u32.wrapping_sub(u32::from(s != 0));
+        let right = if s >= Self::M {
+            CDF_ONE as u32
+        } else {
+            self.entry(s.min(Self::M - 1))
+        };
+        (s, left, right)
     }
 
     #[inline]
@@ -307,16 +314,18 @@ impl EncoderModel<PRECISION> for Bernoulli {
 impl DecoderModel<PRECISION> for Bernoulli {
     #[inline]
     fn quantile_function(&self, quantile: u32) -> (bool, u32, NonZeroU32) {
+        // Without branches: split flags are hard to predict, and a mispredicted
+        // branch costs more than the masks.
         let p0 = self.0;
-        if quantile < p0 {
-            (false, 0, NonZeroU32::new(p0).expect("p0 >= LIMIT"))
-        } else {
-            (
-                true,
-                p0,
-                NonZeroU32::new(ONE - p0).expect("p0 <= ONE - LIMIT"),
-            )
-        }
+        let bit = quantile >= p0;
+        let mask = 0u32.wrapping_sub(u32::from(bit));
+        let left = p0 & mask;
+        let p = p0.wrapping_add(ONE.wrapping_sub(2 * p0) & mask);
+        (
+            bit,
+            left,
+            NonZeroU32::new(p).expect("LIMIT <= p0 <= ONE - LIMIT"),
+        )
     }
 }
 

@@ -42,8 +42,10 @@ where
         ctx: TreeContexts::default(),
         // u16, not u8: byte fills become memset calls, whose stores the next context
         // load cannot forward from.
-        row: vec![u16::MAX; shape.height as usize],
-        col: vec![u16::MAX; shape.width as usize],
+        // Padded to whole root blocks: a leaf then marks all its rows and columns
+        // without clipping (entries past the image are never read).
+        row: vec![u16::MAX; padded(shape.height, shape.block_log2)],
+        col: vec![u16::MAX; padded(shape.width, shape.block_log2)],
         // Sized up front (growing by doubling costs copies and page faults), but no
         // further than a corrupt count could make expensive.
         leaves: Vec::with_capacity(expected_leaves.min(1 << 20)),
@@ -79,17 +81,19 @@ impl<F> TreeWalk<F> {
             if (self.flag)(&c, (level, n), &mut self.ctx.split[level][n])? {
                 let [a, b, d, e] = c.children();
                 if a.log2 == shape.min_log2 {
-                    // Children without flags of their own: all leaves.
-                    self.leaf(a);
+                    // Children without flags of their own: all leaves, of one size, so
+                    // one mark over the node does for the four.
+                    self.leaves.push(a);
                     if shape.inside(&b) {
-                        self.leaf(b);
+                        self.leaves.push(b);
                     }
                     if shape.inside(&d) {
-                        self.leaf(d);
+                        self.leaves.push(d);
                         if shape.inside(&e) {
-                            self.leaf(e);
+                            self.leaves.push(e);
                         }
                     }
+                    self.mark(&c, a.log2 as u16);
                 } else {
                     self.visit(a)?;
                     if shape.inside(&b) {
@@ -112,14 +116,33 @@ impl<F> TreeWalk<F> {
     #[inline]
     fn leaf(&mut self, c: Cell) {
         self.leaves.push(c);
-        let (x0, y0, x1, y1) = c.clip(self.shape.width, self.shape.height);
-        let size = c.log2 as u16;
-        for r in &mut self.row[y0 as usize..y1 as usize] {
-            *r = size;
-        }
-        for r in &mut self.col[x0 as usize..x1 as usize] {
-            *r = size;
-        }
+        self.mark(&c, c.log2 as u16);
+    }
+
+    /// Records `size` as the last leaf size over the rows and columns of `c`.
+    #[inline(always)]
+    fn mark(&mut self, c: &Cell, size: u16) {
+        fill_pow2(&mut self.row, c.y0 as usize, c.log2, size);
+        fill_pow2(&mut self.col, c.x0 as usize, c.log2, size);
+    }
+}
+
+/// `n` rounded up to whole blocks of `2^block_log2`.
+fn padded(n: u32, block_log2: u8) -> usize {
+    (n as usize).div_ceil(1 << block_log2) << block_log2
+}
+
+/// Sets the `2^log2` entries from `start`; the usual lengths are constants, so their
+/// stores are a few straight-line moves instead of a loop.
+#[inline(always)]
+fn fill_pow2(v: &mut [u16], start: usize, log2: u8, value: u16) {
+    match log2 {
+        0 => v[start] = value,
+        1 => v[start..start + 2].fill(value),
+        2 => v[start..start + 4].fill(value),
+        3 => v[start..start + 8].fill(value),
+        4 => v[start..start + 16].fill(value),
+        _ => v[start..start + (1 << log2)].fill(value),
     }
 }
 
@@ -212,7 +235,7 @@ impl NeighbourWalk {
     }
 
     /// The neighbours of `c`, the next cell in coding order.
-    #[inline]
+    #[inline(always)]
     pub fn next(&mut self, c: &Cell) -> Neighbours {
         let i = self.next;
         self.next += 1;
