@@ -346,6 +346,42 @@ impl KeySet {
 impl Weights {
     /// `A v` for `k` interleaved right-hand sides (`v[i * k + c]`), into `out[p * k + c]`.
     pub fn apply(&self, v: &[f64], k: usize, out: &mut [f64]) {
+        // The encoder's conjugate gradients spend most of their time here: with `k` a
+        // constant the channel loop unrolls and its bounds checks go. Same sums in the
+        // same order as the general loop, so the same bits.
+        match k {
+            1 => self.apply_k::<1>(v, out),
+            2 => self.apply_k::<2>(v, out),
+            3 => self.apply_k::<3>(v, out),
+            4 => self.apply_k::<4>(v, out),
+            _ => self.apply_any(v, k, out),
+        }
+    }
+
+    /// [`Weights::apply`] for `K` right-hand sides.
+    fn apply_k<const K: usize>(&self, v: &[f64], out: &mut [f64]) {
+        let (v, _) = v.as_chunks::<K>();
+        out.par_chunks_mut(K * 1024)
+            .enumerate()
+            .for_each(|(chunk, o)| {
+                let p0 = chunk * 1024;
+                for (dp, op) in o.as_chunks_mut::<K>().0.iter_mut().enumerate() {
+                    let p = p0 + dp;
+                    let (s, e) = (self.row_start[p], self.row_start[p + 1]);
+                    let mut acc = [0.0; K];
+                    for (&i, &a) in self.col[s..e].iter().zip(&self.val[s..e]) {
+                        let vi = &v[i as usize];
+                        for c in 0..K {
+                            acc[c] += a * vi[c];
+                        }
+                    }
+                    *op = acc;
+                }
+            });
+    }
+
+    /// [`Weights::apply`] for any number of right-hand sides.
+    fn apply_any(&self, v: &[f64], k: usize, out: &mut [f64]) {
         out.par_chunks_mut(k * 1024)
             .enumerate()
             .for_each(|(chunk, o)| {
