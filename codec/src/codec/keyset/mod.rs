@@ -537,4 +537,28 @@ mod tests {
             }
         }
     }
+
+    #[test]
+    fn weights_apply_equals_its_definition_for_any_number_of_right_hand_sides() {
+        let ks = random_keyset(37, 29, 5, 0.6);
+        let a = ks.pixel_weights();
+        let (pixels, n) = (a.row_start.len() - 1, ks.cells.len());
+        for k in 1..=6 {
+            let v: Vec<f64> = (0..n * k)
+                .map(|i| ((i * 7919) % 101) as f64 - 50.5)
+                .collect();
+            let mut got = vec![f64::NAN; pixels * k];
+            a.apply(&v, k, &mut got);
+            // The definition, summed in entry order as the fast paths promise.
+            for p in 0..pixels {
+                for c in 0..k {
+                    let mut want = 0.0;
+                    for e in a.row_start[p]..a.row_start[p + 1] {
+                        want += a.val[e] * v[a.col[e] as usize * k + c];
+                    }
+                    assert_eq!(got[p * k + c].to_bits(), want.to_bits(), "k {k} pixel {p}");
+                }
+            }
+        }
+    }
 }
