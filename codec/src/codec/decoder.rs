@@ -1,7 +1,8 @@
 //! The decoder: parse, rebuild the key points, evaluate the network.
 //!
 //! Two evaluation paths: the identity fast path evaluates colours at output pixel
-//! centres through [`KeySet::render`]; the forward-mapping path samples the domain
+//! centres band by band through [`GridEval`] (luma and chroma side by side, each band
+//! converted to output colours while in cache); the forward-mapping path samples the domain
 //! S x S times per pixel, maps every sample through the core [`Network`] to an output
 //! position and colour, and splats the colour there (the paper's depth-buffer method in
 //! 2-D), filling any pixel no sample reached from its neighbours.
