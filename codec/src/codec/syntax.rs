@@ -532,18 +532,29 @@ mod tests {
         out
     }
 
-    #[test]
-    fn tree_contexts_match_the_split_maps() {
-        for (w, h, seed, num) in [
+    /// Random trees from sparse to dense (splitting where a draw is below `num` of 5),
+    /// over odd, degenerate and whole-block sizes: `(width, height, shape, leaves)`.
+    fn test_trees() -> impl Iterator<Item = (u32, u32, TreeShape, Vec<Cell>)> {
+        [
             (37, 21, 1u32, 2u32),
+            (64, 64, 2, 1),
             (64, 64, 2, 3),
             (5, 3, 3, 2),
             (100, 17, 4, 3),
             (1, 1, 5, 2),
             (129, 70, 6, 2),
             (48, 80, 7, 4),
-        ] {
+        ]
+        .into_iter()
+        .map(|(w, h, seed, num)| {
             let (shape, leaves) = random_tree(w, h, seed, |d| d % 5 < num);
+            (w, h, shape, leaves)
+        })
+    }
+
+    #[test]
+    fn tree_contexts_match_the_split_maps() {
+        for (w, h, shape, leaves) in test_trees() {
             let leaf_set: std::collections::HashSet<Cell> = leaves.iter().copied().collect();
             let mut got = Vec::new();
             let walked = walk_tree(&shape, 0, |c, ctx, _| {
@@ -723,21 +734,11 @@ mod tests {
 
     #[test]
     fn neighbours_match_the_owner_map() {
-        for (w, h, seed, num) in [
-            (37, 21, 1u32, 2u32),
-            (64, 64, 2, 1),
-            (5, 3, 3, 2),
-            (100, 17, 4, 3),
-            (1, 1, 5, 2),
-            (129, 70, 6, 2),
-            (48, 80, 7, 4),
-        ] {
-            // Splitting with probability num/5: sparse to dense trees.
-            let (shape, leaves) = random_tree(w, h, seed, |d| d % 5 < num);
+        for (w, h, shape, leaves) in test_trees() {
             for cells in [leaves.clone(), pruned_one_level(&shape, &leaves)] {
                 let fast = neighbours(&cells, w, h);
                 let slow = neighbours_by_owner_map(&cells, w, h);
-                assert_eq!(fast, slow, "{w}x{h} seed {seed}");
+                assert_eq!(fast, slow, "{w}x{h}, {} cells", cells.len());
             }
         }
     }

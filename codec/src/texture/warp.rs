@@ -173,13 +173,8 @@ impl Warp {
         let sigma_a = opts.sigma_factor * g;
         // Key points: (position, target displacement, sigma).
         let mut kp: Vec<([f64; 2], [f64; 2], f64)> = Vec::new();
-        for (i, m) in moves.iter().enumerate() {
-            let nearest = moves
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, o)| dist(o.from, m.from))
-                .fold(f64::INFINITY, f64::min);
+        let froms: Vec<[f64; 2]> = moves.iter().map(|m| m.from).collect();
+        for (m, nearest) in moves.iter().zip(nearest_other(&froms)) {
             let local = nearest.min(g);
             let sigma = (opts.sigma_factor * local).max(1.0);
             let d = [m.to[0] - m.from[0], m.to[1] - m.from[1]];
@@ -326,8 +321,30 @@ impl Warp {
     }
 }
 
-fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+/// Per point, the distance to the nearest other point (infinite for a lone point): the
+/// local spacing that sizes a move's key point, in 2-D and 3-D warps alike.
+pub(super) fn nearest_other<const N: usize>(points: &[[f64; N]]) -> Vec<f64> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            points
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, o)| dist(*o, *p))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect()
+}
+
+/// Euclidean distance.
+pub(super) fn dist<const N: usize>(a: [f64; N], b: [f64; N]) -> f64 {
+    a.iter()
+        .zip(&b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// `dP/d(x, y)` of the stereographic embedding (3 x 2).

@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use super::warp::FoldReport;
+use super::warp::{dist, nearest_other, FoldReport};
 use super::TextureError;
 use crate::surface::{Blend, Network, SurfaceModel};
 
@@ -53,16 +53,9 @@ impl Warp3 {
         let inv_scale = 1.0 / size;
         let cells = 4usize;
         let g = 1.5 * size / cells as f64;
-        let dist =
-            |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt();
         let mut kp: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
-        for (i, m) in moves.iter().enumerate() {
-            let nearest = moves
-                .iter()
-                .enumerate()
-                .filter(|&(j, _)| j != i)
-                .map(|(_, o)| dist(o.from, m.from))
-                .fold(f64::INFINITY, f64::min);
+        let froms: Vec<[f64; 3]> = moves.iter().map(|m| m.from).collect();
+        for (m, nearest) in moves.iter().zip(nearest_other(&froms)) {
             if nearest < 1e-9 * size {
                 return Err(TextureError::Invalid(
                     "two moves start at the same point".into(),
