@@ -430,6 +430,27 @@ pub fn write_values(
     }
 }
 
+/// Reads the value of cell `c` from its prediction and residual, range-checked.
+// Always: the value loops are the decoder's hot path.
+#[inline(always)]
+fn read_value(
+    ctx: &mut ValueContexts,
+    c: &Cell,
+    nb: &Neighbours,
+    values: &[i64],
+    previous: i64,
+    src: &mut AnsSource,
+) -> Result<i64, CodecError> {
+    let (pred, act) = predict(values, nb, previous);
+    let v = pred + read_residual(ctx, size_class(c), act, src)?;
+    if v.abs() > MAX_VALUE {
+        return Err(CodecError::Format(format!(
+            "key point value {v} out of range"
+        )));
+    }
+    Ok(v)
+}
+
 /// Reads the quantised values of one channel.
 pub fn read_values(
     cells: &[Cell],
@@ -440,13 +461,7 @@ pub fn read_values(
     let mut values = vec![0i64; cells.len()];
     let mut previous = 0;
     for (i, c) in cells.iter().enumerate() {
-        let (pred, act) = predict(&values, &nbs[i], previous);
-        let v = pred + read_residual(&mut ctx, size_class(c), act, src)?;
-        if v.abs() > MAX_VALUE {
-            return Err(CodecError::Format(format!(
-                "key point value {v} out of range"
-            )));
-        }
+        let v = read_value(&mut ctx, c, &nbs[i], &values, previous, src)?;
         values[i] = v;
         previous = v;
     }
@@ -476,13 +491,7 @@ pub fn read_channels(
         if channels > 1 {
             nbs.push(nb);
         }
-        let (pred, act) = predict(&values, &nb, previous);
-        let v = pred + read_residual(&mut ctx, size_class(c), act, src)?;
-        if v.abs() > MAX_VALUE {
-            return Err(CodecError::Format(format!(
-                "key point value {v} out of range"
-            )));
-        }
+        let v = read_value(&mut ctx, c, &nb, &values, previous, src)?;
         values[i] = v;
         previous = v;
     }
