@@ -97,6 +97,15 @@ pub enum ImageIoError {
         max_pixels: u64,
     },
 
+    /// Decoding the image would exceed the memory budget.
+    #[error("{}: {source}", path.display())]
+    Memory {
+        /// The file.
+        path: PathBuf,
+        /// The need and the budget.
+        source: crate::budget::OverBudget,
+    },
+
     // --- The caller's fault ---------------------------------------------------------
     /// The output path's extension names no format we write.
     #[error("{}: cannot write this format (use .png or .exr)", path.display())]
@@ -157,14 +166,33 @@ impl LoadLimits {
         Ok(())
     }
 
+    /// Checks the memory a decode takes against the budget: the decoder's buffer of
+    /// `decoded_bytes` per pixel, and the raster's `channels` floats per pixel.
+    fn check_memory(
+        &self,
+        path: &Path,
+        (width, height): (u64, u64),
+        decoded_bytes: u64,
+        channels: u64,
+    ) -> Result<(), ImageIoError> {
+        let need = crate::budget::bytes(width, height, decoded_bytes + 4 * channels);
+        crate::budget::check(|| format!("decoding {width}x{height}"), need).map_err(|source| {
+            ImageIoError::Memory {
+                path: path.to_path_buf(),
+                source,
+            }
+        })
+    }
+
     /// The same limits for the `image` crate: strict sides, and an allocation budget
     /// of the largest accepted image at 4 channels of 32-bit floats plus slack for
-    /// the decoder's own buffers.
+    /// the decoder's own buffers, never more than the memory budget.
     fn for_image_crate(&self) -> image::Limits {
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(self.max_side);
         limits.max_image_height = Some(self.max_side);
-        limits.max_alloc = Some(self.max_pixels.saturating_mul(16).saturating_add(64 << 20));
+        let alloc = self.max_pixels.saturating_mul(16).saturating_add(64 << 20);
+        limits.max_alloc = Some(alloc.min(crate::budget::get()));
         limits
     }
 }
@@ -323,6 +351,13 @@ fn decode_reader<R: std::io::BufRead + Seek>(
         let mut decoder = reader.into_decoder().map_err(|e| image_error(path, e))?;
         let (w, h) = decoder.dimensions();
         limits.check(path, u64::from(w), u64::from(h))?;
+        let colour = decoder.color_type();
+        limits.check_memory(
+            path,
+            (u64::from(w), u64::from(h)),
+            colour.bytes_per_pixel().into(),
+            colour.channel_count().into(),
+        )?;
         decoder
             .set_limits(limits.for_image_crate())
             .map_err(|e| image_error(path, e))?;
@@ -551,6 +586,22 @@ pub fn encode(raster: &Raster, format: OutputFormat) -> Result<Vec<u8>, ImageIoE
     }
 }
 
+/// Estimated memory of [`encode`] beside the raster itself, in bytes: the interleaved
+/// samples (twice for 16-bit, which is built through a temporary) and the encoded file,
+/// counted at its uncompressed size.
+pub fn encode_memory(width: u32, height: u32, channels: usize, format: OutputFormat) -> u64 {
+    let per_sample = match format {
+        OutputFormat::Png8 => 2,
+        OutputFormat::Png16 => 6,
+        OutputFormat::Exr => 8,
+    };
+    crate::budget::bytes(
+        u64::from(width) * u64::from(height),
+        channels as u64,
+        per_sample,
+    )
+}
+
 fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<u8>, ImageIoError> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::{ExtendedColorType as C, ImageEncoder};
@@ -710,7 +761,12 @@ mod exr_io {
             reason: "OpenEXR file has no layers".into(),
         })?;
         for h in meta.headers.iter() {
-            limits.check(path, h.layer_size.0 as u64, h.layer_size.1 as u64)?;
+            let size = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+            limits.check(path, size.0, size.1)?;
+            let channels = h.channels.list.len() as u64;
+            // Up to 4 bytes a sample as read, and the raster's 4 bytes for each of up
+            // to 4 kept channels.
+            limits.check_memory(path, size, 4 * channels, channels.min(4))?;
             if h.deep {
                 return Err(ImageIoError::Unsupported {
                     path: path.to_path_buf(),

@@ -25,6 +25,10 @@ pub struct GlobalArgs {
     /// Worker threads (default: all cores). Output never depends on it.
     #[arg(short = 'j', long, global = true, value_parser = clap::value_parser!(u16).range(1..=256))]
     pub threads: Option<u16>,
+    /// Memory budget of the command (e.g. 2G, 512M, 1.5GiB): work that would need more
+    /// is refused before it starts, with the need and the budget in the message.
+    #[arg(long, global = true, value_name = "SIZE", default_value = "2G", value_parser = caoen::budget::parse_size)]
+    pub max_memory: u64,
 }
 
 /// Top-level commands.
@@ -160,6 +164,20 @@ pub struct EncodeArgs {
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Parses `WxH` (or `WXH`) into two sides in `1..=max_side`.
+pub fn parse_wxh(s: &str, max_side: u32) -> Result<(u32, u32), String> {
+    let bad = || format!("`{s}`: expected WIDTHxHEIGHT like 512x384");
+    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let side = |t: &str| -> Result<u32, String> {
+        let v: u64 = t.trim().parse().map_err(|_| bad())?;
+        if v == 0 || v > u64::from(max_side) {
+            return Err(format!("`{s}`: each side must be in 1..={max_side}"));
+        }
+        Ok(v as u32)
+    };
+    Ok((side(a)?, side(b)?))
 }
 
 fn parse_quality(s: &str) -> Result<f32, String> {

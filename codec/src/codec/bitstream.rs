@@ -1,5 +1,6 @@
 //! The container: magic, version, then CRC-checked sections (see `docs/format.md`).
 
+use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
 use super::{CodecError, MAX_SIDE};
@@ -109,10 +110,10 @@ impl Header {
         let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
         let f32_at = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
         let (width, height) = (u32_at(0), u32_at(4));
-        if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
-            return Err(CodecError::Format(format!(
-                "image size {width}x{height} outside 1..={MAX_SIDE} per side"
-            )));
+        for (what, side) in [("width", width), ("height", height)] {
+            if side == 0 || side > MAX_SIDE {
+                return Err(CodecError::range(what, side, 1.0, MAX_SIDE.into()));
+            }
         }
         let pixels = width as u64 * height as u64;
         if pixels > max_pixels {
@@ -123,42 +124,48 @@ impl Header {
             });
         }
         let layout = ChannelLayout::from_channels(p[8] as usize)
-            .ok_or_else(|| CodecError::Format(format!("channel count {} not in 1..=4", p[8])))?;
+            .ok_or_else(|| CodecError::range("channel count", p[8], 1.0, 4.0))?;
         let format = match p[9] {
             0 => SampleFormat::U8,
             1 => SampleFormat::U16,
             2 => SampleFormat::F32,
-            v => return Err(CodecError::Format(format!("sample format {v} unknown"))),
+            v => return Err(CodecError::range("sample format", v, 0.0, 2.0)),
         };
         let (block_log2, min_log2) = (p[10], p[11]);
-        if !(1..=7).contains(&block_log2) || min_log2 > block_log2 || min_log2 > 4 {
-            return Err(CodecError::Format(format!(
-                "tree levels {min_log2}..{block_log2} invalid"
-            )));
+        if !(1..=7).contains(&block_log2) {
+            return Err(CodecError::range("root block level", block_log2, 1.0, 7.0));
+        }
+        if min_log2 > block_log2.min(4) {
+            return Err(CodecError::range(
+                "smallest cell level",
+                min_log2,
+                0.0,
+                block_log2.min(4).into(),
+            ));
         }
         let kernel = KernelParams {
             sigma_factor: u16::from_le_bytes([p[12], p[13]]) as f64 / 1024.0,
             weight_exponent: p[14] as f64 / 16.0,
         };
         if !(0.3..=4.0).contains(&kernel.sigma_factor) {
-            return Err(CodecError::Format(format!(
-                "kernel footprint {} outside 0.3..=4",
-                kernel.sigma_factor
-            )));
+            return Err(CodecError::range(
+                "kernel footprint",
+                kernel.sigma_factor,
+                0.3,
+                4.0,
+            ));
         }
         if p[15] > 1 {
-            return Err(CodecError::Format(format!("flags {:#x} unknown", p[15])));
+            return Err(CodecError::range("flags", p[15], 0.0, 1.0));
         }
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
         for (name, s) in [
-            ("luma", step_luma),
-            ("chroma", step_chroma),
-            ("alpha", step_alpha),
+            ("luma quantiser step", step_luma),
+            ("chroma quantiser step", step_chroma),
+            ("alpha quantiser step", step_alpha),
         ] {
             if !(s.is_finite() && (1e-7..=1e4).contains(&s)) {
-                return Err(CodecError::Format(format!(
-                    "{name} quantiser step {s} invalid"
-                )));
+                return Err(CodecError::range(name, s, 1e-7, 1e4));
             }
         }
         let header = Header {
@@ -177,14 +184,21 @@ impl Header {
             chroma_count: u32_at(32),
         };
         let max = header.shape().max_leaves();
-        if header.luma_count as u64 > max
-            || header.chroma_count as u64 > max
-            || header.luma_count == 0
-        {
-            return Err(CodecError::Format(format!(
-                "key point counts {}/{} impossible for a {width}x{height} tree (1..={max})",
-                header.luma_count, header.chroma_count
-            )));
+        if header.luma_count == 0 || header.luma_count as u64 > max {
+            return Err(CodecError::range(
+                "luma key point count",
+                header.luma_count,
+                1.0,
+                max as f64,
+            ));
+        }
+        if header.chroma_count as u64 > max {
+            return Err(CodecError::range(
+                "chroma key point count",
+                header.chroma_count,
+                0.0,
+                max as f64,
+            ));
         }
         if (header.layout.colour_channels() == 3) != (header.chroma_count > 0) {
             return Err(CodecError::Format(
@@ -253,31 +267,35 @@ impl<'a> Parsed<'a> {
 /// Parses and checks the container: magic, version, section order, lengths, CRCs,
 /// and the header's limits, before anything is allocated for the image.
 pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
-    if bytes.len() < 5 {
-        return Err(CodecError::Format(format!(
-            "file of {} bytes is too short for a caoen file",
-            bytes.len()
-        )));
+    if bytes.len() < 4 || bytes[..4] != MAGIC {
+        return Err(CodecError::WrongMagic {
+            found: bytes[..bytes.len().min(4)].to_vec(),
+        });
     }
-    if bytes[..4] != MAGIC {
-        return Err(CodecError::Format(format!(
-            "wrong magic {:02x?}, expected \"CAOE\"",
-            &bytes[..4]
-        )));
+    if bytes.len() < 5 {
+        return Err(CodecError::Truncated {
+            what: "the version byte",
+            offset: 4,
+            need: 1,
+            available: 0,
+        });
     }
     if bytes[4] != VERSION {
-        return Err(CodecError::Unsupported(format!(
-            "format version {} (this decoder reads version {VERSION})",
-            bytes[4]
-        )));
+        return Err(CodecError::UnsupportedVersion {
+            found: bytes[4],
+            supported: VERSION,
+        });
     }
     let mut sections = Vec::new();
     let mut pos = 5;
     loop {
         if bytes.len() - pos < 9 {
-            return Err(CodecError::Format(format!(
-                "truncated: section header at byte {pos} runs past the end"
-            )));
+            return Err(CodecError::Truncated {
+                what: "a section's tag, length and CRC",
+                offset: pos as u64,
+                need: 9,
+                available: (bytes.len() - pos) as u64,
+            });
         }
         let tag = bytes[pos];
         let len = u32::from_le_bytes([
@@ -288,17 +306,27 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
         ]) as usize;
         let end = pos + 5 + len;
         if len > bytes.len() - pos - 9 {
-            return Err(CodecError::Format(format!(
-                "truncated: section '{}' at byte {pos} claims {len} bytes, {} remain",
-                tag as char,
-                bytes.len() - pos - 9
-            )));
+            return Err(CodecError::Truncated {
+                what: "a section's payload",
+                offset: pos as u64 + 5,
+                need: len as u64,
+                available: (bytes.len() - pos - 9) as u64,
+            });
         }
-        let crc = u32::from_le_bytes([bytes[end], bytes[end + 1], bytes[end + 2], bytes[end + 3]]);
-        if crc32fast::hash(&bytes[pos..end]) != crc {
+        let stored =
+            u32::from_le_bytes([bytes[end], bytes[end + 1], bytes[end + 2], bytes[end + 3]]);
+        let computed = crc32fast::hash(&bytes[pos..end]);
+        if computed != stored {
+            return Err(CodecError::CrcMismatch {
+                tag: Tag(tag),
+                offset: pos as u64,
+                stored,
+                computed,
+            });
+        }
+        if tag == tag::END && len != 0 {
             return Err(CodecError::Format(format!(
-                "CRC mismatch in section '{}' at byte {pos}",
-                tag as char
+                "the end section at byte {pos} carries {len} bytes; it must be empty"
             )));
         }
         sections.push(Section {

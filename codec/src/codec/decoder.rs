@@ -161,15 +161,45 @@ fn output_size(header: &Header, opts: &DecodeOptions) -> Result<(u32, u32), Code
             reason: "1..=16384 per side",
         });
     }
+    let s = u64::from(opts.supersample.unwrap_or(1));
     let px = ow as u64 * oh as u64;
-    if px > opts.max_pixels {
+    if px * s * s > opts.max_pixels {
         return Err(CodecError::Limit {
-            what: "output pixels",
-            value: px,
+            what: if s > 1 {
+                "output samples (pixels x S^2)"
+            } else {
+                "output pixels"
+            },
+            value: px * s * s,
             limit: opts.max_pixels,
         });
     }
+    crate::budget::check(
+        || format!("decoding {}x{} to {ow}x{oh}", header.width, header.height),
+        decode_memory(header, (ow, oh), opts.supersample),
+    )?;
     Ok((ow, oh))
+}
+
+/// Bytes per key point while decoding: its cell, values, splat window entry and, on
+/// the forward path, its kernel and bucket entries.
+const KEY_POINT_BYTES: u64 = 256;
+
+/// Estimated peak memory of decoding a file with `header` to `ow x oh` pixels, in
+/// bytes: the key points, the output raster and, for forward mapping with `S x S`
+/// samples, the sample lattice and the accumulation planes.
+pub fn decode_memory(header: &Header, (ow, oh): (u32, u32), supersample: Option<u32>) -> u64 {
+    let channels = header.layout.channels() as u64;
+    let keys = (u64::from(header.luma_count) + u64::from(header.chroma_count)) * KEY_POINT_BYTES;
+    let per_pixel = match supersample {
+        None => 4 * channels,
+        Some(s) => {
+            let s = u64::from(s);
+            4 * channels + 4 * channels * s * s + 8 * channels + 8
+        }
+    };
+    keys.saturating_add(crate::budget::bytes(ow.into(), oh.into(), per_pixel))
+        .saturating_add(16 << 20)
 }
 
 /// Decodes a file into a raster.

@@ -444,9 +444,12 @@ fn read_value(
     let (pred, act) = predict(values, nb, previous);
     let v = pred + read_residual(ctx, size_class(c), act, src)?;
     if v.abs() > MAX_VALUE {
-        return Err(CodecError::Format(format!(
-            "key point value {v} out of range"
-        )));
+        return Err(CodecError::range(
+            "key point value",
+            v as f64,
+            -MAX_VALUE as f64,
+            MAX_VALUE as f64,
+        ));
     }
     Ok(v)
 }

@@ -21,6 +21,12 @@ pub enum RenderError {
         /// What the valid range is.
         reason: String,
     },
+    /// An image file could not be loaded (the message names the file).
+    #[error(transparent)]
+    Image(#[from] crate::image_io::ImageIoError),
+    /// An image would not fit the memory budget.
+    #[error(transparent)]
+    Memory(#[from] crate::budget::OverBudget),
     /// Reading or writing a file or an image failed.
     #[error("{path}: {message}")]
     Io {

@@ -165,19 +165,38 @@ impl RgbImage {
         Ok(bytes.into_inner())
     }
 
-    /// Decodes an image file's bytes (PNG or JPEG) into linear light.
+    /// Loads an image file into linear light through the checked loader (size limits
+    /// and the memory budget before any pixel is decoded).
+    pub fn load(path: &std::path::Path) -> Result<RgbImage> {
+        Self::from_raster(&crate::image_io::load(path)?)
+    }
+
+    /// Decodes an image file's bytes into linear light, through the checked loader.
     pub fn decode(bytes: &[u8]) -> Result<RgbImage> {
-        let img = image::load_from_memory(bytes)
-            .map_err(|e| RenderError::io("<image>", e))?
-            .to_rgb8();
-        let (width, height) = img.dimensions();
-        let pixels = img
-            .pixels()
-            .map(|p| srgb8_to_linear([p[0], p[1], p[2]]))
+        Self::from_raster(&crate::image_io::load_from_memory(
+            bytes,
+            &Default::default(),
+        )?)
+    }
+
+    /// A raster's colours in linear light, taken at 8 bits: grey on all three
+    /// channels, alpha dropped.
+    pub fn from_raster(raster: &crate::raster::Raster) -> Result<RgbImage> {
+        let n = raster.pixel_count();
+        crate::budget::check(
+            || format!("a {}x{} texture", raster.width(), raster.height()),
+            crate::budget::bytes(n as u64, 12, 1),
+        )?;
+        let grey = raster.layout().colour_channels() == 1;
+        let plane = |c: usize| raster.plane(if grey { 0 } else { c });
+        let (r, g, b) = (plane(0), plane(1), plane(2));
+        let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        let pixels = (0..n)
+            .map(|i| srgb8_to_linear([byte(r[i]), byte(g[i]), byte(b[i])]))
             .collect();
         Ok(RgbImage {
-            width,
-            height,
+            width: raster.width(),
+            height: raster.height(),
             pixels,
         })
     }

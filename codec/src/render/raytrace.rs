@@ -63,6 +63,9 @@ pub struct ImplicitTracer {
 
 /// Upper bound on cutting-plane and Newton iterations (each converges in far fewer).
 const MAX_ITER: usize = 100;
+/// Finest subdivision of the paper's inside-point search; with the default tolerance of
+/// a 256th of the bounding radius it stops at 512 parts.
+const MAX_SEARCH_PARTS: u64 = 1 << 16;
 
 impl ImplicitTracer {
     /// Prepares `solid`; tolerances default to `radius / 256` (inside-point search) and
@@ -249,7 +252,8 @@ impl Line<'_> {
                     return Some(t);
                 }
             }
-            if h < tol || parts >= 1 << 30 {
+            // `!(h >= tol)` also ends a search whose bracket or tolerance is NaN.
+            if !(h >= tol) || parts >= MAX_SEARCH_PARTS {
                 return None;
             }
             parts *= 2;
@@ -258,7 +262,11 @@ impl Line<'_> {
 
     /// Bisection between `outside` (g > 0) and `inside` (g <= 0) down to `tol`.
     fn bisect(&self, mut outside: f64, mut inside: f64, tol: f64) -> f64 {
-        while (outside - inside).abs() > tol {
+        // Each step halves the bracket: 2100 steps take any finite f64 bracket to one ulp.
+        for _ in 0..2100 {
+            if !((outside - inside).abs() > tol) {
+                break;
+            }
             let mid = 0.5 * (outside + inside);
             if mid == outside || mid == inside {
                 break;
@@ -297,7 +305,12 @@ impl Line<'_> {
             }
             // Stay clear of the ends so the bracket always shrinks by a fair fraction.
             let margin = 0.05 * (hi - lo);
-            let t = t.clamp(lo + margin, hi - margin);
+            // max/min rather than clamp: a NaN from overflowing slopes must end the
+            // search, not panic.
+            let t = t.max(lo + margin).min(hi - margin);
+            if !t.is_finite() {
+                return None;
+            }
             let (g, d) = self.g_and_slope(t);
             if g <= 0.0 {
                 return Some(t);

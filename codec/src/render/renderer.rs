@@ -207,6 +207,13 @@ fn draw(
     opts: &RenderOptions,
     prog: &Progress,
 ) -> Result<(GBuffer, RenderStats)> {
+    // Per sample: the hit buffer, a surface's depth-buffer image, the shaded colour and
+    // the depth map.
+    let per_sample = std::mem::size_of::<Option<super::framebuffer::Hit>>() as u64 + 48 + 12 + 8;
+    crate::budget::check(
+        || format!("rendering {}x{} samples", camera.width, camera.height),
+        crate::budget::bytes(camera.width.into(), camera.height.into(), per_sample),
+    )?;
     let mut buf = GBuffer::new(camera.width, camera.height);
     let mut stats = RenderStats::default();
     for (oi, obj) in scene.objects.iter().enumerate() {

@@ -413,10 +413,11 @@ pub fn polyhedron_solid(
             format!("unknown `{name}`; known: {}", POLYHEDRA.join(", ")),
         )
     })?;
-    if !(radius > 0.0 && radius.is_finite()) {
+    let (lo, hi) = SCALE_RANGE;
+    if !(lo..=hi).contains(&radius) {
         return Err(RenderError::parameter(
             "radius",
-            format!("{radius} must be finite and > 0"),
+            format!("{radius:e} is outside [{lo:e}, {hi:e}]"),
         ));
     }
     let a = Affine::from_parts(scale, rotate_deg, [0.0; 3]);
@@ -436,22 +437,43 @@ pub fn polyhedron_solid(
 
 // ---- the file format -------------------------------------------------------------
 
-fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
-    if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
-        Ok(srgb_to_linear(c))
+/// Largest colour component or light and material coefficient: far above white, far
+/// below where shading sums overflow.
+const MAX_COEFFICIENT: f64 = 1e3;
+/// Largest shininess exponent.
+const MAX_SHININESS: f64 = 1e4;
+/// Smallest and largest scale factor of a transform or solid.
+const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
+
+fn check_number(what: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
+    if v >= lo && v <= hi {
+        Ok(v)
     } else {
         Err(RenderError::Scene(format!(
-            "{what}: colour components must be finite and >= 0, got {c:?}"
+            "{what}: {v:e} is outside [{lo:e}, {hi:e}]"
         )))
     }
 }
 
+fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
+    if c.iter().all(|v| (0.0..=MAX_COEFFICIENT).contains(v)) {
+        Ok(srgb_to_linear(c))
+    } else {
+        Err(RenderError::Scene(format!(
+            "{what}: colour components must be in [0, {MAX_COEFFICIENT:e}], got {c:?}"
+        )))
+    }
+}
+
+/// Checks a position or direction: coordinates within the world the renderers keep
+/// precision in (the same bound as solids' centres).
 fn check_vec(what: &str, v: [f64; 3]) -> Result<[f64; 3]> {
-    if v.iter().all(|x| x.is_finite()) {
+    let limit = crate::surface::implicit::WORLD_LIMIT;
+    if v.iter().all(|x| x.abs() <= limit) {
         Ok(v)
     } else {
         Err(RenderError::Scene(format!(
-            "{what}: components must be finite, got {v:?}"
+            "{what}: components must be within [-{limit:e}, {limit:e}], got {v:?}"
         )))
     }
 }
@@ -540,10 +562,9 @@ impl FileCamera {
                     ));
                 }
                 let h = self.height.unwrap_or(0.0);
-                if self.height.is_some() && !(h > 0.0 && h.is_finite()) {
-                    return Err(RenderError::Scene(format!(
-                        "camera.height: {h} must be finite and > 0"
-                    )));
+                if self.height.is_some() {
+                    let limit = crate::surface::implicit::WORLD_LIMIT;
+                    check_number("camera.height", h, SCALE_RANGE.0, 2.0 * limit)?;
                 }
                 // Height 0 means "fit the scene" (see `Scene::camera`).
                 Projection::Orthographic { height: h }
@@ -584,12 +605,12 @@ impl FileLight {
                 "{path}.direction: must be non-zero"
             )));
         }
-        if !(self.intensity >= 0.0 && self.intensity.is_finite()) {
-            return Err(RenderError::Scene(format!(
-                "{path}.intensity: {} must be finite and >= 0",
-                self.intensity
-            )));
-        }
+        check_number(
+            &format!("{path}.intensity"),
+            self.intensity,
+            0.0,
+            MAX_COEFFICIENT,
+        )?;
         Ok(Light::new(
             d,
             check_colour(&format!("{path}.colour"), self.colour)?,
@@ -639,11 +660,12 @@ fn scale_of(path: &str, s: &Option<ScaleSpec>) -> Result<[f64; 3]> {
         Some(ScaleSpec::Uniform(k)) => [*k; 3],
         Some(ScaleSpec::PerAxis(v)) => *v,
     };
-    if v.iter().all(|x| x.is_finite() && *x != 0.0) {
+    let (lo, hi) = SCALE_RANGE;
+    if v.iter().all(|x| (lo..=hi).contains(&x.abs())) {
         Ok(v)
     } else {
         Err(RenderError::Scene(format!(
-            "{path}.scale: must be finite and non-zero, got {v:?}"
+            "{path}.scale: each factor's size must be in [{lo:e}, {hi:e}], got {v:?}"
         )))
     }
 }
@@ -753,10 +775,14 @@ impl FileSolid {
                     .enumerate()
                     .map(|(i, p)| {
                         let n = check_vec(&format!("{path}.planes[{i}].normal"), p.normal)?;
-                        Ok(Plane {
-                            normal: n,
-                            offset: p.offset,
-                        })
+                        let limit = crate::surface::implicit::WORLD_LIMIT;
+                        let offset = check_number(
+                            &format!("{path}.planes[{i}].offset"),
+                            p.offset,
+                            -limit,
+                            limit,
+                        )?;
+                        Ok(Plane { normal: n, offset })
                     })
                     .collect::<Result<_>>()?;
                 ConvexSolid::from_planes(&planes, centre, self.blend, self.q, self.level)
@@ -876,12 +902,12 @@ impl FileObject {
             ("shininess", fm.shininess, &mut material.shininess),
         ] {
             if let Some(v) = v {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(RenderError::Scene(format!(
-                        "{mp}.{what}: {v} must be finite and >= 0"
-                    )));
-                }
-                *dst = v as f32;
+                let hi = if what == "shininess" {
+                    MAX_SHININESS
+                } else {
+                    MAX_COEFFICIENT
+                };
+                *dst = check_number(&format!("{mp}.{what}"), v, 0.0, hi)? as f32;
             }
         }
         let kinds = [

@@ -58,14 +58,9 @@ impl Texture {
         Ok(Texture { image })
     }
 
-    /// Loads a PNG or JPEG file.
+    /// Loads an image file (any format the checked loader reads).
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, e))?;
-        let image = RgbImage::decode(&bytes).map_err(|e| match e {
-            RenderError::Io { message, .. } => RenderError::io(path, message),
-            other => other,
-        })?;
-        Texture::new(image)
+        Texture::new(RgbImage::load(path)?)
     }
 
     /// The texture image.

@@ -36,6 +36,18 @@ pub enum SurfaceError {
         /// What the valid range is.
         reason: &'static str,
     },
+    /// A number outside the range where the model's math stays finite.
+    #[error("{what} = {value:e} is outside [{lo:.4e}, {hi:.4e}], the range where the model stays finite")]
+    OutOfRange {
+        /// Which value.
+        what: String,
+        /// The offending value.
+        value: f64,
+        /// Smallest allowed value.
+        lo: f64,
+        /// Largest allowed value.
+        hi: f64,
+    },
     /// A surface description file could not be read or is malformed.
     #[error("surface file: {0}")]
     File(String),
@@ -62,6 +74,24 @@ pub(crate) fn check_len(what: impl FnOnce() -> String, expected: usize, got: usi
             what: what(),
             expected,
             got,
+        })
+    }
+}
+
+pub(crate) fn check_range(
+    what: impl FnOnce() -> String,
+    value: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<()> {
+    if value >= lo && value <= hi {
+        Ok(())
+    } else {
+        Err(SurfaceError::OutOfRange {
+            what: what(),
+            value,
+            lo,
+            hi,
         })
     }
 }

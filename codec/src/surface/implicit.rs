@@ -8,7 +8,7 @@
 //! polyhedron more tightly.
 
 use super::blend::Blend;
-use super::error::{check_finite, Result, SurfaceError};
+use super::error::{check_finite, check_range, Result, SurfaceError};
 use super::network::{KeyPoint, Network};
 
 /// A half-space `normal . x <= offset`, `normal` of any non-zero length.
@@ -46,8 +46,18 @@ impl ConvexSolid {
         if feet.is_empty() {
             return Err(SurfaceError::Empty);
         }
+        check_range(
+            || "face count".into(),
+            feet.len() as f64,
+            1.0,
+            MAX_FACES as f64,
+        )?;
         check_finite(|| "centre".into(), &centre)?;
-        if !(level > 1.0 && level.is_finite()) {
+        for (k, c) in centre.iter().enumerate() {
+            check_range(|| format!("centre[{k}]"), *c, -WORLD_LIMIT, WORLD_LIMIT)?;
+        }
+        check_range(|| "level s".into(), level, f64::MIN_POSITIVE, MAX_LEVEL)?;
+        if level <= 1.0 {
             return Err(SurfaceError::Parameter {
                 what: "level s".into(),
                 value: level,
@@ -57,14 +67,21 @@ impl ConvexSolid {
         let mut kps = Vec::with_capacity(feet.len());
         for (i, t) in feet.iter().enumerate() {
             check_finite(|| format!("face_feet[{i}]"), t)?;
-            let t2 = dot(*t, *t);
-            if t2.is_nan() || t2 <= 1e-24 {
+            let len = dot(*t, *t).sqrt();
+            if len.is_nan() || len <= MIN_FOOT {
                 return Err(SurfaceError::Parameter {
                     what: format!("face_feet[{i}] length"),
-                    value: t2.sqrt(),
-                    reason: "the centre must lie strictly inside every face",
+                    value: len,
+                    reason: "the centre must lie strictly inside every face, at least 1e-6 from it",
                 });
             }
+            check_range(
+                || format!("face_feet[{i}] length"),
+                len,
+                MIN_FOOT,
+                WORLD_LIMIT,
+            )?;
+            let t2 = len * len;
             kps.push(KeyPoint::new(
                 t.iter().map(|v| v / t2).collect(),
                 vec![1.0],
@@ -73,13 +90,25 @@ impl ConvexSolid {
             ));
         }
         let network = Network::new(3, 1, &kps, false)?;
-        // f <= s forces x . w_i <= sigma for every i: the polyhedron scaled by sigma.
-        let sigma = blend.level_set_s(level, q).max(1.0);
-        let bounding_radius = circumradius(feet).ok_or_else(|| SurfaceError::Parameter {
+        let circumradius = circumradius(feet).ok_or_else(|| SurfaceError::Parameter {
             what: "face count".into(),
             value: feet.len() as f64,
             reason: "the planes do not enclose a bounded solid",
-        })? * sigma;
+        })?;
+        let min_foot = feet
+            .iter()
+            .map(|t| dot(*t, *t).sqrt())
+            .fold(f64::INFINITY, f64::min);
+        let field = FieldRange {
+            blend,
+            level,
+            faces: feet.len() as f64,
+            reach: circumradius / min_foot,
+        };
+        let Some(sigma) = field.scale(q) else {
+            return Err(field.sharpness_error(q));
+        };
+        let bounding_radius = circumradius * sigma;
         Ok(ConvexSolid {
             network,
             centre,
@@ -177,6 +206,78 @@ impl ConvexSolid {
     /// The underlying one-generator network.
     pub fn network(&self) -> &Network {
         &self.network
+    }
+}
+
+/// Most faces a solid may have: the bounding-radius search visits every triple of faces.
+pub const MAX_FACES: usize = 128;
+/// Largest coordinate (centre, face distance) of a solid: squares and products of
+/// coordinates stay far from overflow, and rays keep their precision.
+pub const WORLD_LIMIT: f64 = 1e6;
+/// Shortest distance from the centre to a face.
+const MIN_FOOT: f64 = 1e-6;
+/// Largest level `s`.
+pub const MAX_LEVEL: f64 = 1e6;
+/// Largest scale `sigma` of the bounding polyhedron over the polyhedron itself.
+const MAX_SIGMA: f64 = 1e6;
+/// Largest slope `F'` the field may reach inside its bounding sphere, so that sums
+/// over faces, gradients and Newton steps stay finite.
+const MAX_SLOPE: f64 = 1e250;
+
+/// Where the field of one solid stays finite, as a function of its sharpness.
+struct FieldRange {
+    blend: Blend,
+    level: f64,
+    faces: f64,
+    /// Largest `x . w_i` on the polyhedron's circumsphere, over `sigma`.
+    reach: f64,
+}
+
+impl FieldRange {
+    /// `sigma` for sharpness `q`, if every value and slope of the field inside the
+    /// bounding sphere is finite (with headroom); None otherwise.
+    fn scale(&self, q: f64) -> Option<f64> {
+        if !(q.is_finite() && q > 0.0) {
+            return None;
+        }
+        // f <= s forces x . w_i <= sigma for every i: the polyhedron scaled by sigma.
+        let sigma = self.blend.level_set_s(self.level, q).max(1.0);
+        if !(sigma <= MAX_SIGMA) {
+            return None;
+        }
+        let (f, slope) = self.blend.value_and_slope(self.reach * sigma, q);
+        (f.is_finite() && slope.abs() * self.faces <= MAX_SLOPE).then_some(sigma)
+    }
+
+    /// The error for a sharpness outside the range, naming the range where there is one.
+    fn sharpness_error(&self, q: f64) -> SurfaceError {
+        // The valid sharpnesses form one interval (sigma falls and the far slope grows
+        // with q): find a point inside on a coarse grid, then each end by bisection.
+        let ok = |lg: f64| self.scale(lg.exp2()).is_some();
+        let Some(inside) = (-60..=60).map(|k| k as f64).find(|&lg| ok(lg)) else {
+            return SurfaceError::Parameter {
+                what: "level s".into(),
+                value: self.level,
+                reason: "no sharpness q gives this solid a finite field at this level",
+            };
+        };
+        let edge = |mut good: f64, mut bad: f64| {
+            for _ in 0..60 {
+                let mid = 0.5 * (good + bad);
+                if ok(mid) {
+                    good = mid;
+                } else {
+                    bad = mid;
+                }
+            }
+            good.exp2()
+        };
+        SurfaceError::OutOfRange {
+            what: "q".into(),
+            value: q,
+            lo: edge(inside, -1100.0),
+            hi: edge(inside, 1100.0),
+        }
     }
 }
 

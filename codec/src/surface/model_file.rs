@@ -76,6 +76,68 @@ fn default_q() -> f64 {
     4.0
 }
 
+/// Largest source vector length: every domain lies on the unit sphere, so `x . w` is
+/// at most `|w|`.
+pub const MAX_SOURCE_NORM: f64 = 1e3;
+/// Largest shape vector component (output coordinates, colours).
+pub const MAX_SHAPE: f64 = 1e6;
+/// Largest sharpness of a compact kernel (support radius about 2.4e-6).
+const MAX_COMPACT_Q: f64 = 1e12;
+/// Largest kernel slope on the domain: sums over millions of key points, times shapes,
+/// and the Jacobian's products stay finite.
+const MAX_SLOPE: f64 = 1e200;
+
+/// Whether a kernel of sharpness `q` stays finite with headroom for `x . w <= reach`.
+fn kernel_finite(blend: Blend, q: f64, reach: f64) -> bool {
+    let (f, slope) = blend.value_and_slope(reach.max(1.0), q);
+    q.is_finite() && q > 0.0 && q <= MAX_COMPACT_Q && f.is_finite() && slope.abs() <= MAX_SLOPE
+}
+
+/// Checks every key point's numbers against the range where the model's values,
+/// normals and Jacobians stay finite on its domain.
+fn check_ranges(network: &Network) -> Result<()> {
+    let (m, p) = (network.input_dim(), network.output_dim());
+    let sources = network.sources();
+    let shapes = network.shapes();
+    for (i, (&q, &blend)) in network.sharpness().iter().zip(network.blends()).enumerate() {
+        let w = &sources[i * m..(i + 1) * m];
+        let reach = w.iter().map(|v| v * v).sum::<f64>().sqrt();
+        super::error::check_range(
+            || format!("key_points[{i}].source length"),
+            reach,
+            0.0,
+            MAX_SOURCE_NORM,
+        )?;
+        for (k, &t) in shapes[i * p..(i + 1) * p].iter().enumerate() {
+            super::error::check_range(
+                || format!("key_points[{i}].shape[{k}]"),
+                t,
+                -MAX_SHAPE,
+                MAX_SHAPE,
+            )?;
+        }
+        if !kernel_finite(blend, q, reach) {
+            // The finite sharpnesses are (0, hi]: find hi by bisection on log2 q.
+            let (mut good, mut bad) = (-1100.0f64, 40.0f64);
+            for _ in 0..80 {
+                let mid = 0.5 * (good + bad);
+                if kernel_finite(blend, mid.exp2(), reach) {
+                    good = mid;
+                } else {
+                    bad = mid;
+                }
+            }
+            return Err(SurfaceError::OutOfRange {
+                what: format!("key_points[{i}].q"),
+                value: q,
+                lo: f64::MIN_POSITIVE,
+                hi: good.exp2(),
+            });
+        }
+    }
+    Ok(())
+}
+
 impl SurfaceModel {
     /// Builds a model, checking the network against the domain.
     pub fn new(name: impl Into<String>, domain: Domain, network: Network) -> Result<Self> {
@@ -85,6 +147,7 @@ impl SurfaceModel {
             domain.ambient_dim(),
             network.input_dim(),
         )?;
+        check_ranges(&network)?;
         Ok(SurfaceModel {
             name: name.into(),
             domain,
@@ -166,6 +229,7 @@ impl SurfaceModel {
         })?;
         let network = Network::new(domain.ambient_dim(), p, &kps, file.normalised)
             .map_err(|e| SurfaceError::File(e.to_string()))?;
+        check_ranges(&network).map_err(|e| SurfaceError::File(e.to_string()))?;
         if let Some(t) = &file.texture {
             if t.trim().is_empty() {
                 return Err(SurfaceError::File(

@@ -129,9 +129,7 @@ fn default_output(input: &Path, ext: &str) -> PathBuf {
 }
 
 fn parse_size(s: &str) -> CliResult<(u32, u32)> {
-    let bad = || CliError::Usage(format!("`{s}`: expected WxH like 1536x1024"));
-    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    Ok((a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?))
+    crate::cli::parse_wxh(s, caoen::codec::MAX_SIDE).map_err(CliError::Usage)
 }
 
 /// Decodes (or, without `-o`, validates) a `.cae` file.
@@ -160,6 +158,29 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         supersample: a.supersample,
         max_pixels: a.max_pixels,
     };
+    let header = &parsed.header;
+    let format = match &a.output {
+        None => None,
+        Some(out) if out.as_os_str() == "-" => Some(image_io::OutputFormat::natural(header.format)),
+        Some(out) => Some(
+            image_io::OutputFormat::for_path(out, header.format).ok_or_else(|| {
+                CliError::Usage(format!(
+                    "{}: output must end in .png or .exr",
+                    out.display()
+                ))
+            })?,
+        ),
+    };
+    // The whole job against the budget before any of it starts: the decode and the
+    // output file's buffers.
+    let (ow, oh) = size.unwrap_or((w, h));
+    let need = decoder::decode_memory(header, (ow, oh), a.supersample).saturating_add(
+        format.map_or(0, |f| {
+            image_io::encode_memory(ow, oh, header.layout.channels(), f)
+        }),
+    );
+    caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
+        .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
     let start = Instant::now();
     let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
     let secs = start.elapsed().as_secs_f64();
@@ -174,18 +195,9 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             ),
         ),
         Some(out) => {
-            let encoded = if out.as_os_str() == "-" {
-                image_io::encode(&img, image_io::OutputFormat::natural(img.format()))
-            } else {
-                let fmt = image_io::OutputFormat::for_path(out, img.format()).ok_or_else(|| {
-                    CliError::Usage(format!(
-                        "{}: output must end in .png or .exr",
-                        out.display()
-                    ))
-                })?;
-                image_io::encode(&img, fmt)
-            }
-            .map_err(|e| CliError::Failed(format!("{}: {e}", out.display())))?;
+            let fmt = format.expect("chosen with the output above");
+            let encoded = image_io::encode(&img, fmt)
+                .map_err(|e| CliError::Failed(format!("{}: {e}", out.display())))?;
             let target = Target::from_arg(Some(out), PathBuf::new);
             target.write(&encoded, true)?;
             note(

@@ -15,6 +15,7 @@ use crate::failure::{CliError, CliResult};
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> CliResult {
     let global = cli.global.clone();
+    caoen::budget::set(global.max_memory);
     let job = move || match cli.command {
         None => demo::run(&global, &crate::cli::DemoArgs::default()),
         Some(cmd) => run_command(&global, cmd),

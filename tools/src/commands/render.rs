@@ -30,18 +30,7 @@ impl From<RenderError> for CliError {
 
 /// Parses `WxH` into a render size.
 pub fn parse_size(s: &str) -> CliResult<(u32, u32)> {
-    let bad = || CliError::Usage(format!("`{s}`: expected WIDTHxHEIGHT like 512x384"));
-    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let (w, h): (u32, u32) = (
-        a.trim().parse().map_err(|_| bad())?,
-        b.trim().parse().map_err(|_| bad())?,
-    );
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(CliError::Usage(format!(
-            "`{s}`: width and height must be in 1..=16384"
-        )));
-    }
-    Ok((w, h))
+    crate::cli::parse_wxh(s, 16384).map_err(CliError::Usage)
 }
 
 /// Loads a scene file, or wraps a model file / `builtin:NAME` into a one-object scene.

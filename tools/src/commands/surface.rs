@@ -96,16 +96,17 @@ fn parse_list(s: &str) -> CliResult<Vec<f64>> {
         .collect()
 }
 
+/// Most points a `--grid` evaluates.
+const MAX_GRID_POINTS: u64 = 16_000_000;
+
 fn parse_size(s: &str) -> CliResult<(usize, usize)> {
-    let bad = || CliError::Usage(format!("`{s}`: expected COLSxROWS like 64x32"));
-    let (a, b) = s.split_once(['x', 'X']).ok_or_else(bad)?;
-    let (a, b) = (a.parse().map_err(|_| bad())?, b.parse().map_err(|_| bad())?);
-    if a == 0 || b == 0 || a * b > 16_000_000 {
+    let (a, b) = crate::cli::parse_wxh(s, MAX_GRID_POINTS as u32).map_err(CliError::Usage)?;
+    if u64::from(a) * u64::from(b) > MAX_GRID_POINTS {
         return Err(CliError::Usage(format!(
-            "`{s}`: grid must be non-empty and at most 16M points"
+            "`{s}`: a grid has at most {MAX_GRID_POINTS} points"
         )));
     }
-    Ok((a, b))
+    Ok((a as usize, b as usize))
 }
 
 fn eval(a: &SurfaceEvalArgs) -> CliResult {

@@ -276,14 +276,9 @@ fn load_texture(path: &Path) -> CliResult<caoen::render::texture::Texture> {
         .map(str::to_ascii_lowercase);
     if matches!(ext.as_deref(), Some("cae" | "exr")) {
         let r = crate::commands::compare::load_any(path)?;
-        let png = image_io::encode(
-            &r.with_format(caoen::raster::SampleFormat::U8),
-            image_io::OutputFormat::Png8,
-        )
-        .map_err(failed)?;
-        Texture::new(RgbImage::decode(&png).map_err(failed)?).map_err(failed)
+        Texture::new(RgbImage::from_raster(&r).map_err(failed)?).map_err(failed)
     } else {
-        Texture::load(path).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+        Texture::load(path).map_err(failed)
     }
 }
 

@@ -1,0 +1,134 @@
+//! The memory budget: the most memory one operation may take for its working set.
+//!
+//! Every allocation that grows with the input (decoded images, coding planes, the
+//! encoder's design matrix, rendered frames, textures) is estimated from declared sizes
+//! — an image header, a caoen header, the requested output size — and checked here
+//! before anything is allocated, so a small hostile file cannot demand gigabytes.
+//!
+//! The budget is process-wide (the `caoen` command line sets it once from
+//! `--max-memory`): the checks sit deep inside loaders that scenes, textures and volume
+//! slices reach through many layers, and one number for the whole process is what a
+//! user can reason about.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use thiserror::Error;
+
+/// The default budget, 2 GiB: what a laptop survives alongside everything else.
+pub const DEFAULT_BUDGET: u64 = 2 << 30;
+
+static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BUDGET);
+
+/// An operation would need more memory than the budget allows.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("{what} needs about {}, over the memory budget of {} (raise it with --max-memory)", human(*.need), human(*.budget))]
+pub struct OverBudget {
+    /// What would have been allocated.
+    pub what: String,
+    /// Its estimated size in bytes.
+    pub need: u64,
+    /// The budget in force, in bytes.
+    pub budget: u64,
+}
+
+/// Sets the process-wide budget in bytes.
+pub fn set(bytes: u64) {
+    BUDGET.store(bytes, Ordering::Relaxed);
+}
+
+/// The process-wide budget in bytes.
+pub fn get() -> u64 {
+    BUDGET.load(Ordering::Relaxed)
+}
+
+/// Checks an estimated need against the budget; `what` is only formatted on failure.
+pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
+    let budget = get();
+    if need <= budget {
+        Ok(())
+    } else {
+        Err(OverBudget {
+            what: what(),
+            need,
+            budget,
+        })
+    }
+}
+
+/// `a * b * c` bytes, saturating: an estimate that overflows is over any budget.
+pub fn bytes(a: u64, b: u64, c: u64) -> u64 {
+    a.saturating_mul(b).saturating_mul(c)
+}
+
+/// Parses a size such as `2G`, `512M`, `1.5GiB` or `1000000` (bytes).
+pub fn parse_size(s: &str) -> Result<u64, String> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let value: f64 = num
+        .parse()
+        .map_err(|_| format!("`{s}`: expected a size like 2G, 512M or 1000000"))?;
+    let scale = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1u64,
+        "k" | "kb" | "kib" => 1 << 10,
+        "m" | "mb" | "mib" => 1 << 20,
+        "g" | "gb" | "gib" => 1 << 30,
+        "t" | "tb" | "tib" => 1 << 40,
+        _ => return Err(format!("`{s}`: unknown unit `{unit}` (use K, M, G or T)")),
+    };
+    let b = value * scale as f64;
+    if !(b.is_finite() && b >= 1.0 && b <= u64::MAX as f64) {
+        return Err(format!("`{s}`: the budget must be at least one byte"));
+    }
+    Ok(b as u64)
+}
+
+/// A byte count for messages: `1.3 GiB`, `512.0 MiB`, `900 bytes`.
+pub fn human(b: u64) -> String {
+    const UNITS: [(&str, u64); 4] = [
+        ("TiB", 1 << 40),
+        ("GiB", 1 << 30),
+        ("MiB", 1 << 20),
+        ("KiB", 1 << 10),
+    ];
+    UNITS.iter().find(|(_, u)| b >= *u).map_or_else(
+        || format!("{b} bytes"),
+        |(n, u)| format!("{:.1} {n}", b as f64 / *u as f64),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_with_binary_units() {
+        assert_eq!(parse_size("2G"), Ok(2 << 30));
+        assert_eq!(parse_size("512M"), Ok(512 << 20));
+        assert_eq!(parse_size("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_size("1000"), Ok(1000));
+        assert!(parse_size("-1G").is_err());
+        assert!(parse_size("0").is_err());
+        assert!(parse_size("1e400").is_err());
+        assert!(parse_size("2X").is_err());
+        assert!(parse_size("NaN").is_err());
+    }
+
+    #[test]
+    fn estimates_saturate_and_messages_name_both_sizes() {
+        assert_eq!(bytes(u64::MAX, 2, 3), u64::MAX);
+        assert_eq!(human(3 << 29), "1.5 GiB");
+        assert_eq!(human(900), "900 bytes");
+        let e = OverBudget {
+            what: "decoding 16384x4096".into(),
+            need: 3 << 30,
+            budget: 2 << 30,
+        };
+        assert_eq!(
+            e.to_string(),
+            "decoding 16384x4096 needs about 3.0 GiB, over the memory budget of 2.0 GiB (raise it with --max-memory)"
+        );
+    }
+}
