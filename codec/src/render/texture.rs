@@ -58,14 +58,14 @@ impl Texture {
         Ok(Texture { image })
     }
 
-    /// Loads a PNG or JPEG file.
+    /// Loads a PNG or JPEG file; every error names the file (once).
     pub fn load(path: &Path) -> Result<Self> {
         let bytes = std::fs::read(path).map_err(|e| RenderError::io(path, e))?;
         let image = RgbImage::decode(&bytes).map_err(|e| match e {
             RenderError::Io { message, .. } => RenderError::io(path, message),
-            other => other,
+            other => RenderError::io(path, other),
         })?;
-        Texture::new(image)
+        Texture::new(image).map_err(|e| RenderError::io(path, e))
     }
 
     /// The texture image.
