@@ -107,6 +107,8 @@ fn caoen_only_accounts_for_every_point() {
         s(&report),
         "--markdown",
         s(&page),
+        // The page exists: splicing the tables into it replaces it.
+        "--force",
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");

@@ -196,3 +196,30 @@ fn demo_runs_on_built_in_data() {
         assert!(d.join(f).exists(), "{f}");
     }
 }
+
+#[test]
+fn an_error_names_the_bad_file_once() {
+    let d = tmpdir("named-once");
+    let junk = d.join("junk.png");
+    std::fs::write(&junk, b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    let out = d.join("out.png");
+    for args in [
+        vec!["encode", s(&junk), "-o", s(&d.join("x.cae"))],
+        vec!["compare", s(&junk), s(&junk)],
+        vec!["distort", s(&junk), "-o", s(&out), "--move", "1,1:2,2"],
+        vec![
+            "surface",
+            "render",
+            "builtin:blob",
+            "-o",
+            s(&out),
+            "--texture",
+            s(&junk),
+        ],
+    ] {
+        let o = caoen(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(err.matches("junk.png").count(), 1, "{args:?}: {err}");
+    }
+}

@@ -167,3 +167,34 @@ fn a_closed_stdout_is_not_a_panic() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(out.status.success());
 }
+
+#[test]
+fn trailing_data_after_a_surface_or_scene_is_refused() {
+    let bad = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad");
+    let d = tmpdir("trailing");
+    for (args, what) in [
+        (vec!["surface", "info"], "surface-trailing-garbage.json"),
+        (
+            vec!["surface", "render", "--size", "8x6"],
+            "scene-trailing-garbage.scene.json",
+        ),
+    ] {
+        let file = bad.join(what);
+        let png = d.join("out.png");
+        let mut args = args.clone();
+        args.insert(2, file.to_str().unwrap());
+        if args[1] == "render" {
+            args.extend(["-o", png.to_str().unwrap()]);
+        }
+        let out = caoen(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        // The file, then where the trailing data starts.
+        assert!(
+            err.contains(what) && err.contains("trailing characters at line"),
+            "{err}"
+        );
+        assert!(!png.exists());
+    }
+}

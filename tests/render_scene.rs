@@ -108,14 +108,18 @@ fn cli_renders_every_method_and_writes_depth_maps() {
     let dir = std::env::temp_dir().join(format!("caoen-render-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let p = |n: &str| dir.join(n).to_string_lossy().into_owned();
-    for (input, method) in [
+    for (i, (input, method)) in [
         ("builtin:blob", "mesh"),
         ("builtin:ring", "depth"),
         ("examples/csg.scene.json", "ray"),
         ("examples/textured-blob.json", "depth"),
-    ] {
-        let out = p(&format!("{method}.png"));
-        let depth = p(&format!("{method}-depth.png"));
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        // One name per case: an existing output is not replaced without --force.
+        let out = p(&format!("{i}-{method}.png"));
+        let depth = p(&format!("{i}-{method}-depth.png"));
         let o = caoen(&[
             "--quiet",
             "surface",

@@ -550,6 +550,7 @@ fn surface_3d_warp_fold_check() {
         "builtin:blob",
         "-o",
         s(&out),
+        "--force",
         "--quiet",
         "--move",
         "-0.5,0,0:0.5,0,0",

@@ -186,7 +186,15 @@ fn cli_transfer_png_obj_and_errors() {
         assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
         o.status.code()
     };
-    let base = ["transfer", "--texture", s(&tex), "--from", "builtin:blob"];
+    // --force: these cases are about the surfaces and the texture, and `png` exists.
+    let base = [
+        "transfer",
+        "--force",
+        "--texture",
+        s(&tex),
+        "--from",
+        "builtin:blob",
+    ];
     fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
         [base, extra].concat()
     }
@@ -215,6 +223,7 @@ fn cli_transfer_png_obj_and_errors() {
     assert_eq!(
         code(&[
             "transfer",
+            "--force",
             "--texture",
             s(&dir.join("none.png")),
             "--from",

@@ -41,8 +41,9 @@ pub struct CorpusArgs {
     #[arg(long, value_name = "PNG")]
     pub contact_sheet: Option<PathBuf>,
 
-    /// Overwrite files that this tool did not write.
-    #[arg(long)]
+    /// Overwrite files that this tool did not write. Set by the front end's own
+    /// `-f/--force` (skipped here so that `caoen`'s global flag owns it).
+    #[arg(skip)]
     pub force: bool,
 
     /// Worker threads [default: all cores]. Does not change any output. Set by the

@@ -17,6 +17,9 @@ struct Cli {
     /// Worker threads [default: all cores]. Does not change any output.
     #[arg(short = 'j', long, value_name = "N")]
     threads: Option<usize>,
+    /// Overwrite files that this tool did not write.
+    #[arg(short, long)]
+    force: bool,
 }
 
 fn main() -> ExitCode {
@@ -24,6 +27,7 @@ fn main() -> ExitCode {
     let args = CorpusArgs {
         quiet: cli.quiet,
         threads: cli.threads,
+        force: cli.force,
         ..cli.args
     };
     match run(&args) {

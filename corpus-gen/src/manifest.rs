@@ -116,8 +116,14 @@ impl Manifest {
                 source,
             })?;
         text.push('\n');
-        std::fs::write(&tmp, text).map_err(|e| CorpusError::io(&tmp, e))?;
-        std::fs::rename(&tmp, &path).map_err(|e| CorpusError::io(&path, e))
+        let written = std::fs::write(&tmp, text)
+            .map_err(|e| CorpusError::io(&path, e))
+            .and_then(|()| std::fs::rename(&tmp, &path).map_err(|e| CorpusError::io(&path, e)));
+        // A failed write or rename must not leave the temporary file behind.
+        if written.is_err() {
+            let _ = std::fs::remove_file(&tmp);
+        }
+        written
     }
 
     /// Does the manifest list this file (image or contact sheet)?

@@ -4,9 +4,19 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+/// How every command treats its outputs, shown at the end of `caoen --help`.
+const OUTPUT_RULES: &str = "\
+Outputs: `-o -` is standard output. An existing file is not replaced without
+-f/--force, whether named with -o or chosen by the command, and never when it is an
+input of the same command. Files are written whole through a temporary file beside
+them, renamed into place when complete. Devices and FIFOs (/dev/null, named pipes) are
+written in place; a symbolic link's target is written and the link kept.
+`caoen examples`, `caoen demo` and `caoen bench --keep` regenerate their own
+directories. Exit codes: 0 success, 1 failure, 2 usage error.";
+
 /// caoen: Cao En surfaces, an image codec built on them, and texture tools.
 #[derive(Debug, Parser)]
-#[command(name = "caoen", version, about, propagate_version = true)]
+#[command(name = "caoen", version, about, propagate_version = true, after_help = OUTPUT_RULES)]
 pub struct Cli {
     /// Options shared by every command.
     #[command(flatten)]
@@ -29,12 +39,17 @@ pub struct GlobalArgs {
     /// is refused before it starts, with the need and the budget in the message.
     #[arg(long, global = true, value_name = "SIZE", default_value = "2G", value_parser = caoen::budget::parse_size)]
     pub max_memory: u64,
+    /// Replace existing output files, named with -o or not. Never an input of the same
+    /// command; devices and FIFOs (/dev/null, pipes) are written in place without it.
+    #[arg(short = 'f', long, global = true)]
+    pub force: bool,
 }
 
 /// Top-level commands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run the main job on built-in data, no input files needed.
+    /// Run the main job on built-in data, no input files needed (replaces its own
+    /// files in its output directory).
     Demo(DemoArgs),
     /// Encode an image (PNG, JPEG, EXR, ...) into a caoen file.
     Encode(EncodeArgs),
@@ -47,7 +62,8 @@ pub enum Command {
     /// Cao En surface models: inspect, evaluate, mesh.
     #[command(subcommand)]
     Surface(SurfaceCommand),
-    /// Regenerate the example models, scenes and pictures (examples/).
+    /// Regenerate the example models, scenes and pictures (examples/; replaces its
+    /// own files there).
     Examples(ExamplesArgs),
     /// Measure B against the reference A: PSNR, Y-PSNR, SSIM, SSIMULACRA2.
     Compare(CompareArgs),
@@ -136,8 +152,8 @@ pub struct DistortArgs {
 pub struct EncodeArgs {
     /// Input image (PNG, JPEG, OpenEXR, anything the image crate reads).
     pub input: PathBuf,
-    /// Output file (`-` for stdout). Default: the input's name with `.cae`, never
-    /// overwritten without --force.
+    /// Output file (`-` for stdout). Default: the input's name with `.cae`. An
+    /// existing file is not replaced without -f/--force.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Quality 0..100.
@@ -158,9 +174,6 @@ pub struct EncodeArgs {
     /// Also write the analysis and the chosen key points over the image as a PNG.
     #[arg(long, value_name = "PNG")]
     pub keypoint_map: Option<PathBuf>,
-    /// Overwrite an existing default-named output.
-    #[arg(short, long)]
-    pub force: bool,
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -235,7 +248,8 @@ pub struct CompareArgs {
 /// `caoen examples`.
 #[derive(Debug, Args)]
 pub struct ExamplesArgs {
-    /// Directory to write into.
+    /// Directory to write into; the files `caoen examples` writes there are replaced
+    /// without --force (regenerating them is its job).
     #[arg(short, long, default_value = "examples")]
     pub out: PathBuf,
     /// Supersampling per pixel side for the pictures.
@@ -246,7 +260,8 @@ pub struct ExamplesArgs {
 /// `caoen demo`.
 #[derive(Debug, Args)]
 pub struct DemoArgs {
-    /// Directory to write into.
+    /// Directory to write into; the demo's files there are replaced without --force
+    /// (regenerating them is its job).
     #[arg(short, long, default_value = "caoen-demo")]
     pub out_dir: PathBuf,
 }

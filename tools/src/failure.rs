@@ -33,6 +33,13 @@ impl CliError {
         }
     }
 
+    /// Whether this is standard output losing its reader (`caoen ... | head`): the
+    /// reader chose to stop, so it is no failure.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, CliError::Io { path, source }
+            if path == crate::output::STDOUT && source.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+
     /// An I/O error on `path`.
     pub fn io(path: impl AsRef<std::path::Path>, source: std::io::Error) -> Self {
         CliError::Io {

@@ -130,7 +130,10 @@ impl Scene {
         struct Tag {
             format: Option<String>,
         }
-        serde_json::from_str::<Tag>(text)
+        // Only the first value is looked at, so that a scene with trailing data is
+        // still recognised and [`Scene::from_json`] reports the trailing data.
+        let de = &mut serde_json::Deserializer::from_str(text);
+        Tag::deserialize(de)
             .ok()
             .and_then(|t| t.format)
             .is_some_and(|f| f.starts_with("caoen-scene/"))
@@ -146,10 +149,11 @@ impl Scene {
         })
     }
 
-    /// Parses a scene; relative file names are resolved against `base_dir`.
+    /// Parses a scene (exactly one JSON value, nothing after it); relative file names
+    /// are resolved against `base_dir`.
     pub fn from_json(text: &str, base_dir: &Path) -> Result<Scene> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let file: FileScene = serde_path_to_error::deserialize(de).map_err(|e| {
+        let file: FileScene = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let path = e.path().to_string();
             RenderError::Scene(if path == "." {
                 e.inner().to_string()
@@ -157,6 +161,9 @@ impl Scene {
                 format!("{path}: {}", e.inner())
             })
         })?;
+        // Data after the value is a damaged or concatenated file, not a scene to trust.
+        de.end()
+            .map_err(|e| RenderError::Scene(format!("after the scene: {e}")))?;
         if file.format != SCENE_FORMAT_TAG {
             return Err(RenderError::Scene(format!(
                 "format: expected \"{SCENE_FORMAT_TAG}\", found \"{}\"",

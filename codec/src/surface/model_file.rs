@@ -156,10 +156,10 @@ impl SurfaceModel {
         })
     }
 
-    /// Parses a model from JSON text.
+    /// Parses a model from JSON text: exactly one JSON value, nothing after it.
     pub fn from_json(text: &str) -> Result<Self> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let file: FileModel = serde_path_to_error::deserialize(de).map_err(|e| {
+        let file: FileModel = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let path = e.path().to_string();
             SurfaceError::File(if path == "." {
                 e.inner().to_string()
@@ -167,6 +167,9 @@ impl SurfaceModel {
                 format!("{path}: {}", e.inner())
             })
         })?;
+        // Data after the value is a damaged or concatenated file, not a model to trust.
+        de.end()
+            .map_err(|e| SurfaceError::File(format!("after the model: {e}")))?;
         if file.format != FORMAT_TAG {
             return Err(SurfaceError::File(format!(
                 "format: expected \"{FORMAT_TAG}\", found \"{}\"",

@@ -94,6 +94,9 @@ pub struct Config {
     pub repeat: usize,
     /// Directory to write every encoded file and its decoded image into.
     pub keep: Option<PathBuf>,
+    /// How kept files are written: replacing files of the same names (the keep
+    /// directory is the bench's), never a corpus image.
+    pub keep_outputs: crate::output::Outputs,
 }
 
 /// One encoded and measured point.
@@ -385,11 +388,14 @@ fn measure_point(
                 .map_or(image.name.clone(), |s| s.to_string_lossy().into_owned());
             let stem = format!("{base}.{}.{}", codec.name(), label(point));
             let file = format!("{stem}.{}", codec.extension());
-            std::fs::write(dir.join(&file), &bytes)
-                .map_err(|e| format!("{}: {e}", dir.join(&file).display()))?;
+            let out = &config.keep_outputs;
+            out.write_path(&dir.join(&file), &bytes)
+                .map_err(|e| e.to_string())?;
             let format = OutputFormat::natural(decoded.format());
             let dec = format!("{stem}.decoded.{}", format.extension());
-            image_io::save_as(&decoded, &dir.join(&dec), format).map_err(|e| e.to_string())?;
+            let dec_bytes = image_io::encode(&decoded, format).map_err(|e| e.to_string())?;
+            out.write_path(&dir.join(&dec), &dec_bytes)
+                .map_err(|e| e.to_string())?;
             (Some(file), Some(dec))
         }
         None => (None, None),

@@ -50,10 +50,13 @@ pub struct BenchArgs {
     /// Write RD plots, one per class: `rd.png` gives `rd-scene.png`, ... (.png or .svg).
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
-    /// Also write the Markdown tables (always printed on stdout) to this file.
+    /// Also write the Markdown tables (always printed on stdout) to this file; a file
+    /// holding the two `caoen bench` markers keeps its text outside them (an existing
+    /// file needs --force, like every output).
     #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
-    /// Keep every encoded file and its decoded image in this directory.
+    /// Keep every encoded file and its decoded image in this directory (files of the
+    /// same names there are replaced without --force: the directory is the bench's).
     #[arg(long, value_name = "DIR")]
     pub keep: Option<PathBuf>,
     /// Only these classes (comma-separated corpus class names).

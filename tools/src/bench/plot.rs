@@ -133,6 +133,7 @@ fn class_series(measurements: &[Measurement], class: &str, codecs: &[String]) ->
 
 /// Writes one RD plot per class next to `base`; returns the files written.
 pub fn write_plots(
+    outputs: &crate::output::Outputs,
     base: &Path,
     measurements: &[Measurement],
     codecs: &[String],
@@ -158,7 +159,9 @@ pub fn write_plots(
                 let root = SVGBackend::with_string(&mut text, SIZE).into_drawing_area();
                 draw(&root, &title, &series).map_err(|e| format!("plot {class}: {e}"))?;
             }
-            crate::output::write_file(&path, text.as_bytes()).map_err(|e| e.to_string())?;
+            outputs
+                .write_path(&path, text.as_bytes())
+                .map_err(|e| e.to_string())?;
         } else {
             let mut buf = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
             {
@@ -171,7 +174,7 @@ pub fn write_plots(
             image::DynamicImage::ImageRgb8(img)
                 .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
                 .map_err(|e| e.to_string())?;
-            crate::output::write_file(&path, &png).map_err(|e| e.to_string())?;
+            outputs.write_path(&path, &png).map_err(|e| e.to_string())?;
         }
         written.push(path);
     }

@@ -13,7 +13,7 @@ use crate::bench::{plot, summary, BenchArgs};
 use crate::cli::GlobalArgs;
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
-use crate::output::write_file;
+use crate::output::{print, Outputs};
 
 /// The codecs benchmarked when `--codecs` is not given.
 fn default_codecs() -> Vec<String> {
@@ -112,6 +112,31 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     let started = Instant::now();
     note(global, format!("loading images: {}", source.describe()));
     let images = corpus::load(&source, &classes).map_err(CliError::Failed)?;
+    let corpus_files: Vec<std::path::PathBuf> = images
+        .iter()
+        .filter_map(|i| i.file.clone())
+        .chain(match &source {
+            Source::Dir(dir) => Some(dir.join(caoen_corpus::manifest::MANIFEST_NAME)),
+            Source::Generated { .. } => None,
+        })
+        .collect();
+    let reading = |force| {
+        corpus_files
+            .iter()
+            .fold(Outputs::new(force), |o, f| o.input(f))
+    };
+    let mut outputs = reading(global.force);
+    for path in [&args.report, &args.markdown].into_iter().flatten() {
+        outputs.check_path(path)?;
+    }
+    if let Some(base) = &args.plot {
+        let mut classes: Vec<&str> = images.iter().map(|i| i.class.as_str()).collect();
+        classes.sort_unstable();
+        classes.dedup();
+        for class in classes {
+            outputs.check_path(&plot::class_path(base, class))?;
+        }
+    }
     let total: u64 = images.len() as u64
         * codecs
             .iter()
@@ -143,6 +168,7 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
         rates,
         repeat: args.repeat as usize,
         keep: args.keep.clone(),
+        keep_outputs: reading(true),
     };
     let outcome = harness::run(&images, &config, &bar);
     bar.finish_and_clear();
@@ -195,17 +221,19 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     };
 
     let markdown = report.to_markdown();
-    print!("{markdown}");
+    print(&markdown)?;
     if let Some(path) = &args.report {
-        write_file(path, report.to_json().as_bytes())?;
+        outputs.write_path(path, report.to_json().as_bytes())?;
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(path) = &args.markdown {
-        write_file(path, splice_markdown(path, &markdown).as_bytes())?;
+        outputs.write_path(path, splice_markdown(path, &markdown).as_bytes())?;
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(base) = &args.plot {
-        for p in plot::write_plots(base, &report.measurements, &names).map_err(CliError::Failed)? {
+        for p in plot::write_plots(&outputs, base, &report.measurements, &names)
+            .map_err(CliError::Failed)?
+        {
             note(global, format!("wrote {}", p.display()));
         }
     }

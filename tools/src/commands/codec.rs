@@ -12,7 +12,7 @@ use serde_json::json;
 use crate::cli::{DecodeArgs, EncodeArgs, GlobalArgs, InfoArgs};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
-use crate::output::Target;
+use crate::output::{print, Outputs, Target};
 
 fn read_input(path: &Path) -> CliResult<Vec<u8>> {
     if path.as_os_str() == "-" {
@@ -26,7 +26,16 @@ fn read_input(path: &Path) -> CliResult<Vec<u8>> {
 
 /// Loads an image file into a raster, with a clear error naming the file.
 pub fn load_image(path: &Path) -> CliResult<Raster> {
-    image_io::load(path).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+    // Image errors name their file already.
+    image_io::load(path).map_err(|e| CliError::Failed(e.to_string()))
+}
+
+/// An error encoding an image in memory for the output `path`: named after the output
+/// rather than the encoder's placeholder.
+pub fn encode_error(path: &Path, e: image_io::ImageIoError) -> CliError {
+    let msg = e.to_string();
+    let msg = msg.strip_prefix("<memory>: ").unwrap_or(&msg);
+    CliError::Failed(format!("{}: {msg}", path.display()))
 }
 
 fn codec_err(path: &Path, e: caoen::codec::CodecError) -> CliError {
@@ -71,14 +80,15 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         keypoints: a.keypoints,
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
-    if let Target::Default(p) = &out {
-        if p.exists() && !a.force {
-            return Err(CliError::Failed(format!(
-                "{} exists; pass -f/--force to overwrite it or -o to name the output",
-                p.display()
-            )));
+    let mut outputs = Outputs::new(global.force).input(&a.input);
+    outputs.check(&out)?;
+    let map_format = match &a.keypoint_map {
+        Some(map) => {
+            outputs.check_path(map)?;
+            Some(image_format(map, img.format(), "key point map")?)
         }
-    }
+        None => None,
+    };
     let pb = progress_bar(global, "encoding");
     let start = Instant::now();
     let (bytes, stats) = caoen::codec::encode_with_progress(&img, &opts, |done, total| {
@@ -92,20 +102,20 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    out.write(&bytes, a.force)?;
+    outputs.write(&out, &bytes)?;
     let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
-    if let Some(map) = &a.keypoint_map {
+    if let (Some(map), Some(format)) = (&a.keypoint_map, map_format) {
         let decoded = decoder::read(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
         let picture = keypoint_map::render(&img, &decoded);
-        image_io::save(&picture, map)
-            .map_err(|e| CliError::Failed(format!("{}: {e}", map.display())))?;
+        let png = image_io::encode(&picture, format).map_err(|e| encode_error(map, e))?;
+        outputs.write_path(map, &png)?;
         note(global, format!("wrote key point map {}", map.display()));
     }
     if a.json {
         let v = json!({"input": a.input, "output": out.display(), "bytes": bytes.len(), "bpp": bpp,
             "width": img.width(), "height": img.height(), "luma_keypoints": stats.luma_keypoints,
             "chroma_keypoints": stats.chroma_keypoints, "seconds": secs});
-        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+        print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
     }
     note(
         global,
@@ -119,6 +129,25 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         ),
     );
     Ok(())
+}
+
+/// The image format written to `path`: by its extension, or the natural format of
+/// `samples` for a stream (`/dev/stdout`, a FIFO), whose name says nothing.
+pub fn image_format(
+    path: &Path,
+    samples: caoen::raster::SampleFormat,
+    what: &str,
+) -> CliResult<image_io::OutputFormat> {
+    image_io::OutputFormat::for_path(path, samples)
+        .or_else(|| {
+            crate::output::is_stream(path).then(|| image_io::OutputFormat::natural(samples))
+        })
+        .ok_or_else(|| {
+            CliError::Usage(format!(
+                "{}: {what} must end in .png or .exr",
+                path.display()
+            ))
+        })
 }
 
 fn default_output(input: &Path, ext: &str) -> PathBuf {
@@ -158,25 +187,25 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         supersample: a.supersample,
         max_pixels: a.max_pixels,
     };
-    let header = &parsed.header;
-    let format = match &a.output {
-        None => None,
-        Some(out) if out.as_os_str() == "-" => Some(image_io::OutputFormat::natural(header.format)),
-        Some(out) => Some(
-            image_io::OutputFormat::for_path(out, header.format).ok_or_else(|| {
-                CliError::Usage(format!(
-                    "{}: output must end in .png or .exr",
-                    out.display()
-                ))
-            })?,
-        ),
+    let target = a
+        .output
+        .as_deref()
+        .map(|o| Target::from_arg(Some(o), PathBuf::new));
+    let format = match target.as_ref().and_then(Target::path) {
+        None => image_io::OutputFormat::natural(parsed.header.format),
+        Some(out) => image_format(out, parsed.header.format, "output")?,
     };
+    let mut outputs = Outputs::new(global.force).input(&a.input);
+    if let Some(t) = &target {
+        outputs.check(t)?;
+    }
     // The whole job against the budget before any of it starts: the decode and the
     // output file's buffers.
+    let header = &parsed.header;
     let (ow, oh) = size.unwrap_or((w, h));
     let need = decoder::decode_memory(header, (ow, oh), a.supersample).saturating_add(
-        format.map_or(0, |f| {
-            image_io::encode_memory(ow, oh, header.layout.channels(), f)
+        target.as_ref().map_or(0, |_| {
+            image_io::encode_memory(ow, oh, header.layout.channels(), format)
         }),
     );
     caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
@@ -184,7 +213,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     let start = Instant::now();
     let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
     let secs = start.elapsed().as_secs_f64();
-    match &a.output {
+    match &target {
         None => note(
             global,
             format!(
@@ -194,12 +223,10 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
                 img.height()
             ),
         ),
-        Some(out) => {
-            let fmt = format.expect("chosen with the output above");
-            let encoded = image_io::encode(&img, fmt)
-                .map_err(|e| CliError::Failed(format!("{}: {e}", out.display())))?;
-            let target = Target::from_arg(Some(out), PathBuf::new);
-            target.write(&encoded, true)?;
+        Some(target) => {
+            let encoded = image_io::encode(&img, format)
+                .map_err(|e| encode_error(Path::new(&target.display()), e))?;
+            outputs.write(target, &encoded)?;
             note(
                 global,
                 format!(
@@ -236,6 +263,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
         })
         .collect();
     let px = h.width as f64 * h.height as f64;
+    let mut text = String::new();
     if a.json {
         let v = json!({
             "file": a.input, "bytes": bytes.len(), "bpp": bytes.len() as f64 * 8.0 / px,
@@ -247,30 +275,39 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "step_alpha": h.step_alpha, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
         });
-        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
-        return Ok(());
+        outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
+        return print(text);
     }
-    println!(
+    outln!(
+        text,
         "file:        {} ({} bytes, {:.4} bpp)",
         a.input.display(),
         bytes.len(),
         bytes.len() as f64 * 8.0 / px
     );
-    println!("format:      caoen version {}", bitstream::VERSION);
-    println!(
+    outln!(text, "format:      caoen version {}", bitstream::VERSION);
+    outln!(
+        text,
         "image:       {}x{}, {:?}, {:?} samples",
-        h.width, h.height, h.layout, h.format
+        h.width,
+        h.height,
+        h.layout,
+        h.format
     );
-    println!(
+    outln!(
+        text,
         "tree:        blocks of {} px, cells down to {} px",
         1 << h.block_log2,
         1 << h.min_log2
     );
-    println!(
+    outln!(
+        text,
         "kernel:      compact, sigma = {} x cell, weight = cell^-{}",
-        h.kernel.sigma_factor, h.kernel.weight_exponent
+        h.kernel.sigma_factor,
+        h.kernel.weight_exponent
     );
-    println!(
+    outln!(
+        text,
         "key points:  {} luma, {} chroma{}",
         h.luma_count,
         h.chroma_count,
@@ -280,13 +317,16 @@ pub fn info(a: &InfoArgs) -> CliResult {
             ""
         }
     );
-    println!(
+    outln!(
+        text,
         "quantiser:   luma {}, chroma {}, alpha {}",
-        h.step_luma, h.step_chroma, h.step_alpha
+        h.step_luma,
+        h.step_chroma,
+        h.step_alpha
     );
-    println!("sections:");
+    outln!(text, "sections:");
     for (t, n, o, b) in &sections {
-        println!("  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
+        outln!(text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
     }
-    Ok(())
+    print(text)
 }

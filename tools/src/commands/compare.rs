@@ -12,6 +12,7 @@ use serde_json::json;
 use crate::cli::{CompareArgs, GlobalArgs};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
+use crate::output::print;
 
 /// Extension of caoen files.
 pub const CAE_EXTENSION: &str = "cae";
@@ -104,13 +105,15 @@ pub fn run(global: &GlobalArgs, args: &CompareArgs) -> CliResult {
             args.test.display()
         ))
     })?;
+    let mut text = String::new();
     if args.json {
         let mut v = comparison_json(&c);
         v["reference"] = json!(args.reference.display().to_string());
         v["test"] = json!(args.test.display().to_string());
         v["width"] = json!(a.width());
         v["height"] = json!(a.height());
-        println!(
+        outln!(
+            text,
             "{}",
             serde_json::to_string_pretty(&v).expect("json of plain values")
         );
@@ -119,16 +122,16 @@ pub fn run(global: &GlobalArgs, args: &CompareArgs) -> CliResult {
             metrics::Scale::Display => "",
             metrics::Scale::LogHdr => " (HDR: log scale)",
         };
-        println!("PSNR         {}{scale}", db(c.psnr));
-        println!("Y-PSNR       {}", db(c.psnr_y));
-        println!("SSIM         {:.6}", c.ssim);
+        outln!(text, "PSNR         {}{scale}", db(c.psnr));
+        outln!(text, "Y-PSNR       {}", db(c.psnr_y));
+        outln!(text, "SSIM         {:.6}", c.ssim);
         match c.ssimulacra2 {
-            Some(s) => println!("SSIMULACRA2  {s:.3}"),
-            None => println!("SSIMULACRA2  n/a (HDR or smaller than 8x8)"),
+            Some(s) => outln!(text, "SSIMULACRA2  {s:.3}"),
+            None => outln!(text, "SSIMULACRA2  n/a (HDR or smaller than 8x8)"),
         }
         if let Some(p) = c.psnr_alpha {
-            println!("alpha PSNR   {}", db(p));
+            outln!(text, "alpha PSNR   {}", db(p));
         }
     }
-    Ok(())
+    print(text)
 }

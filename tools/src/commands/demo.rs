@@ -13,9 +13,10 @@ use caoen_corpus::Class;
 
 use crate::cli::{DemoArgs, GlobalArgs};
 use crate::failure::{CliError, CliResult};
-use crate::output::write_file;
+use crate::output::{print, replace_file};
 
-/// Runs the demo into `args.out_dir` (its own files there are replaced).
+/// Runs the demo into `args.out_dir`; its own files there are replaced without
+/// `--force`, as regenerating them is the demo's job.
 pub fn run(global: &GlobalArgs, args: &DemoArgs) -> CliResult {
     let dir = &args.out_dir;
     let corpus = caoen_corpus::generate(Class::Scene, 768, 512, 4);
@@ -24,8 +25,8 @@ pub fn run(global: &GlobalArgs, args: &DemoArgs) -> CliResult {
     let save = |name: &str, raster: &caoen::raster::Raster| -> CliResult<std::path::PathBuf> {
         let path = dir.join(name);
         let bytes = image_io::encode(raster, image_io::OutputFormat::natural(raster.format()))
-            .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))?;
-        write_file(&path, &bytes)?;
+            .map_err(|e| crate::commands::codec::encode_error(&path, e))?;
+        replace_file(&path, &bytes)?;
         Ok(path)
     };
     let orig_path = save("scene-original.png", &original)?;
@@ -35,7 +36,7 @@ pub fn run(global: &GlobalArgs, args: &DemoArgs) -> CliResult {
         caoen::codec::encode(&original, &opts).map_err(|e| CliError::Failed(e.to_string()))?;
     let encode_s = t.elapsed().as_secs_f64();
     let cae_path = dir.join("scene.cae");
-    write_file(&cae_path, &bytes)?;
+    replace_file(&cae_path, &bytes)?;
     let t = Instant::now();
     let decoded = caoen::codec::decode(&bytes, &DecodeOptions::default())
         .map_err(|e| CliError::Failed(e.to_string()))?;
@@ -44,22 +45,27 @@ pub fn run(global: &GlobalArgs, args: &DemoArgs) -> CliResult {
     let psnr = metrics::psnr(&original, &decoded).map_err(|e| CliError::Failed(e.to_string()))?;
     let bpp = bytes.len() as f64 * 8.0 / original.pixel_count() as f64;
     let threads = rayon::current_num_threads();
-    println!(
+    let mut text = String::new();
+    outln!(
+        text,
         "built-in image: corpus scene #4, {}x{} RGB",
         original.width(),
         original.height()
     );
-    println!("wrote {} (original)", orig_path.display());
-    println!(
+    outln!(text, "wrote {} (original)", orig_path.display());
+    outln!(
+        text,
         "wrote {} ({} bytes, {bpp:.3} bpp at quality {})",
         cae_path.display(),
         bytes.len(),
         opts.quality
     );
-    println!("wrote {} (decoded)", dec_path.display());
-    println!(
+    outln!(text, "wrote {} (decoded)", dec_path.display());
+    outln!(
+        text,
         "PSNR {psnr:.2} dB; encode {encode_s:.2} s, decode {decode_s:.3} s on {threads} threads"
     );
+    print(text)?;
     if !global.quiet {
         eprintln!("next: caoen encode your.png -o your.cae; caoen decode your.cae -o back.png; caoen --help");
     }

@@ -19,19 +19,19 @@ use crate::cli::{ExamplesArgs, GlobalArgs};
 use crate::commands::note;
 use crate::commands::render::render_with_progress;
 use crate::failure::{CliError, CliResult};
-use crate::output::write_file;
+use crate::output::replace_file;
 
 fn save_json(dir: &Path, name: &str, v: &Value) -> CliResult {
     let text = serde_json::to_string_pretty(v).expect("json values serialise") + "\n";
-    write_file(&dir.join(name), text.as_bytes())
+    replace_file(&dir.join(name), text.as_bytes())
 }
 
 fn save_model(dir: &Path, name: &str, model: &SurfaceModel) -> CliResult {
-    write_file(&dir.join(name), (model.to_json() + "\n").as_bytes())
+    replace_file(&dir.join(name), (model.to_json() + "\n").as_bytes())
 }
 
 fn save_png(global: &GlobalArgs, dir: &Path, name: &str, img: &RgbImage) -> CliResult {
-    write_file(&dir.join(name), &img.encode_png()?)?;
+    replace_file(&dir.join(name), &img.encode_png()?)?;
     note(global, format!("wrote {}", dir.join(name).display()));
     Ok(())
 }
@@ -206,7 +206,7 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
     )?;
     let scene = Scene::load(&dir.join("torus-freeform.scene.json"))?;
     let r = render(&scene, &opts(384, 288, 1, Method::Depth), &|_, _| {})?;
-    write_file(
+    replace_file(
         &dir.join("torus-freeform-depth.png"),
         &r.depth.encode_png16()?,
     )?;
@@ -343,7 +343,7 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
 
     // 6. A textured surface: a checker texture on the sphere domain of the blob.
     let tex = Texture::checker(256, 128, 16, 8, [0.9, 0.85, 0.7], [0.08, 0.25, 0.5])?;
-    write_file(&dir.join("checker.png"), &tex.image().encode_png()?)?;
+    replace_file(&dir.join("checker.png"), &tex.image().encode_png()?)?;
     let textured = gallery::blob()?.with_texture("checker.png");
     save_model(dir, "textured-blob.json", &textured)?;
     save_json(

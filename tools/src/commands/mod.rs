@@ -1,5 +1,15 @@
 //! Command implementations, one module per command group.
 
+/// Appends a formatted line to a `String` of command output, printed at the end with
+/// [`crate::output::print`] so that a failed write to stdout fails the command.
+macro_rules! outln {
+    ($buf:expr, $($arg:tt)*) => {{
+        use std::fmt::Write as _;
+        // Formatting into a String cannot fail.
+        let _ = writeln!($buf, $($arg)*);
+    }};
+}
+
 pub mod bench;
 pub mod codec;
 pub mod compare;
@@ -41,6 +51,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Corpus(args) => {
             let args = caoen_corpus::cli::CorpusArgs {
                 quiet: global.quiet,
+                force: global.force,
                 ..args
             };
             caoen_corpus::cli::run(&args).map_err(|e| CliError::Failed(e.to_string()))

@@ -17,7 +17,7 @@ use crate::cli::{
 use crate::commands::note;
 use crate::commands::surface::load_model;
 use crate::failure::{CliError, CliResult};
-use crate::output::write_file;
+use crate::output::{is_same_file, Outputs};
 
 impl From<RenderError> for CliError {
     fn from(e: RenderError) -> Self {
@@ -99,7 +99,7 @@ pub fn render_with_progress(
 }
 
 /// Writes a depth map: 16-bit PNG, or OpenEXR (raw depths) for `.exr`.
-pub fn write_depth(r: &Rendered, path: &Path) -> CliResult {
+pub fn write_depth(outputs: &Outputs, r: &Rendered, path: &Path) -> CliResult {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -114,7 +114,7 @@ pub fn write_depth(r: &Rendered, path: &Path) -> CliResult {
             )))
         }
     };
-    write_file(path, &bytes)
+    outputs.write_path(path, &bytes)
 }
 
 /// Render options from the command line.
@@ -150,7 +150,7 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if ext.as_deref() != Some("png") {
+    if ext.as_deref() != Some("png") && !crate::output::is_stream(&a.output) {
         return Err(CliError::Usage(format!(
             "{}: render output must end in .png",
             a.output.display()
@@ -168,6 +168,13 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
             )));
         }
     }
+    let mut outputs = Outputs::new(global.force)
+        .input(&a.model)
+        .input_opt(a.texture.as_deref());
+    outputs.check_path(&a.output)?;
+    if let Some(d) = &a.depth_out {
+        outputs.check_path(d)?;
+    }
     let mut scene = load_scene(&a.model, a.texture.as_deref())?;
     if let Some(p) = a.projection {
         scene.camera.projection = match p {
@@ -177,9 +184,9 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     }
     let start = std::time::Instant::now();
     let r = render_with_progress(global, &scene, &opts, "rendering")?;
-    write_file(&a.output, &r.image.encode_png()?)?;
+    outputs.write_path(&a.output, &r.image.encode_png()?)?;
     if let Some(d) = &a.depth_out {
-        write_depth(&r, d)?;
+        write_depth(&outputs, &r, d)?;
     }
     let s = r.stats;
     note(
@@ -212,21 +219,45 @@ pub fn texture_sibling(obj: &Path) -> PathBuf {
     obj.with_file_name(format!("{stem}-texture.png"))
 }
 
+/// The material library written beside an OBJ: `<stem>.mtl`.
+pub fn mtl_sibling(obj: &Path) -> PathBuf {
+    let stem = obj.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
+    obj.with_file_name(format!("{stem}.mtl"))
+}
+
+/// Whether `texture` already is the OBJ's texture file `png` (a PNG at that path), so
+/// there is nothing to copy.
+pub fn texture_is_sibling(texture: &Path, png: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    is_same_file(texture, png)
+        && std::fs::File::open(texture)
+            .and_then(|mut f| f.read_exact(&mut magic))
+            .is_ok()
+        && &magic == PNG_MAGIC
+}
+
+const PNG_MAGIC: &[u8; 8] = b"\x89PNG\r\n\x1a\n";
+
 /// Writes `<stem>.mtl` and `<stem>-texture.png` beside the OBJ `obj`, the texture
 /// copied from `texture` (re-encoded as PNG if it is not one); returns their file names
 /// as the OBJ refers to them.
-pub fn write_obj_material(obj: &Path, texture: &Path) -> CliResult<(String, String)> {
+pub fn write_obj_material(
+    outputs: &Outputs,
+    obj: &Path,
+    texture: &Path,
+) -> CliResult<(String, String)> {
     let png = texture_sibling(obj);
-    let bytes = std::fs::read(texture).map_err(|e| CliError::io(texture, e))?;
-    let is_png = bytes.starts_with(b"\x89PNG\r\n\x1a\n");
-    let png_bytes = if is_png {
-        bytes
-    } else {
-        Texture::load(texture)?.image().encode_png()?
-    };
-    write_file(&png, &png_bytes)?;
-    let stem = obj.file_stem().and_then(|s| s.to_str()).unwrap_or("mesh");
-    let mtl = obj.with_file_name(format!("{stem}.mtl"));
+    if !texture_is_sibling(texture, &png) {
+        let bytes = std::fs::read(texture).map_err(|e| CliError::io(texture, e))?;
+        let png_bytes = if bytes.starts_with(PNG_MAGIC) {
+            bytes
+        } else {
+            Texture::load(texture)?.image().encode_png()?
+        };
+        outputs.write_path(&png, &png_bytes)?;
+    }
+    let mtl = mtl_sibling(obj);
     let png_name = png
         .file_name()
         .and_then(|s| s.to_str())
@@ -235,7 +266,7 @@ pub fn write_obj_material(obj: &Path, texture: &Path) -> CliResult<(String, Stri
     let mut text = Vec::new();
     caoen::render::mesh_io::write_mtl(&mut text, "caoen_surface", &png_name)
         .map_err(|e| CliError::io(&mtl, e))?;
-    write_file(&mtl, &text)?;
+    outputs.write_path(&mtl, &text)?;
     let mtl_name = mtl
         .file_name()
         .and_then(|s| s.to_str())

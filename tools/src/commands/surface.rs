@@ -1,6 +1,6 @@
 //! `caoen surface info|eval|mesh|export`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use caoen::render::mesh::{tessellate, NormalMode};
 use caoen::render::mesh_io::{write_obj, write_ply};
@@ -11,7 +11,7 @@ use serde_json::json;
 use crate::cli::{GlobalArgs, NormalsArg, SurfaceCommand, SurfaceEvalArgs, SurfaceMeshArgs};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
-use crate::output::{write_file, Target};
+use crate::output::{print, Outputs, Target};
 
 /// Loads a model from a file or `builtin:NAME`.
 pub fn load_model(spec: &str) -> CliResult<SurfaceModel> {
@@ -36,9 +36,11 @@ pub fn run(global: &GlobalArgs, cmd: SurfaceCommand) -> CliResult {
         SurfaceCommand::Mesh(a) => mesh(global, &a),
         SurfaceCommand::Render(a) => crate::commands::render::run(global, &a),
         SurfaceCommand::Export(a) => {
+            let target = Target::from_arg(Some(&a.output), PathBuf::new);
+            let mut outputs = Outputs::new(global.force).input(&a.model);
+            outputs.check(&target)?;
             let model = load_model(&a.model)?;
-            Target::from_arg(Some(&a.output), || unreachable!())
-                .write((model.to_json() + "\n").as_bytes(), false)
+            outputs.write(&target, (model.to_json() + "\n").as_bytes())
         }
     }
 }
@@ -57,6 +59,7 @@ fn info(model: &SurfaceModel, as_json: bool) -> CliResult {
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
     let empty = net.weights().iter().filter(|&&w| w == 0.0).count();
+    let mut text = String::new();
     if as_json {
         let v = json!({
             "name": model.name, "domain": model.domain, "input_dim": net.input_dim(),
@@ -64,17 +67,23 @@ fn info(model: &SurfaceModel, as_json: bool) -> CliResult {
             "normalised": net.is_normalised(), "blends": blends.iter().map(|(n, c)| json!({"blend": n, "count": c})).collect::<Vec<_>>(),
             "q_min": qmin, "q_max": qmax, "spatial_index": net.uses_support_index(),
         });
-        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+        outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
     } else {
-        println!("name:        {}", model.name);
-        println!("domain:      {:?} (m = {})", model.domain, net.input_dim());
-        println!("outputs:     p = {}", net.output_dim());
-        println!("key points:  {} ({} empty)", net.len(), empty);
-        println!("normalised:  {}", net.is_normalised());
+        outln!(text, "name:        {}", model.name);
+        outln!(
+            text,
+            "domain:      {:?} (m = {})",
+            model.domain,
+            net.input_dim()
+        );
+        outln!(text, "outputs:     p = {}", net.output_dim());
+        outln!(text, "key points:  {} ({} empty)", net.len(), empty);
+        outln!(text, "normalised:  {}", net.is_normalised());
         let b: Vec<String> = blends.iter().map(|(n, c)| format!("{n} x{c}")).collect();
-        println!("blends:      {}", b.join(", "));
-        println!("sharpness:   q in [{qmin}, {qmax}]");
-        println!(
+        outln!(text, "blends:      {}", b.join(", "));
+        outln!(text, "sharpness:   q in [{qmin}, {qmax}]");
+        outln!(
+            text,
             "index:       {}",
             if net.uses_support_index() {
                 "compact support (k-d trees)"
@@ -83,7 +92,7 @@ fn info(model: &SurfaceModel, as_json: bool) -> CliResult {
             }
         );
     }
-    Ok(())
+    print(text)
 }
 
 fn parse_list(s: &str) -> CliResult<Vec<f64>> {
@@ -134,6 +143,7 @@ fn eval(a: &SurfaceEvalArgs) -> CliResult {
     }
     let net = &model.network;
     let mut rows = Vec::with_capacity(points.len());
+    let mut text = String::new();
     for x in &points {
         let (y, jac) = net.eval_with_jacobian(x)?;
         let normal = if a.normal {
@@ -157,7 +167,7 @@ fn eval(a: &SurfaceEvalArgs) -> CliResult {
                 o
             })
             .collect();
-        println!("{}", serde_json::to_string_pretty(&v).expect("json"));
+        outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
     } else {
         let fmt = |v: &[f64]| {
             v.iter()
@@ -175,25 +185,44 @@ fn eval(a: &SurfaceEvalArgs) -> CliResult {
                 line += "  ";
                 line += &fmt(n);
             }
-            println!("{line}");
+            outln!(text, "{line}");
         }
     }
-    Ok(())
+    print(text)
+}
+
+/// The files a mesh write produces, to check before the work: the mesh, and for a
+/// textured OBJ its material library and texture copy (unless the texture is that copy).
+pub fn mesh_files(path: &Path, texture: Option<&Path>) -> Vec<PathBuf> {
+    let mut files = vec![path.to_path_buf()];
+    let obj = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if let (true, Some(tex)) = (obj, texture) {
+        files.push(crate::commands::render::mtl_sibling(path));
+        let png = crate::commands::render::texture_sibling(path);
+        if !crate::commands::render::texture_is_sibling(tex, &png) {
+            files.push(png);
+        }
+    }
+    files
 }
 
 /// Writes the mesh of `model` to `path` (format by extension) and returns a summary.
 pub fn write_mesh(
+    outputs: &Outputs,
     model: &SurfaceModel,
     path: &Path,
     detail: u32,
     normals: NormalMode,
 ) -> CliResult<String> {
-    write_mesh_textured(model, path, detail, normals, None)
+    write_mesh_textured(outputs, model, path, detail, normals, None)
 }
 
 /// Like [`write_mesh`]; with a `texture` file an OBJ also gets `<stem>.mtl` and the
 /// texture as `<stem>-texture.png`, referenced by its material.
 pub fn write_mesh_textured(
+    outputs: &Outputs,
     model: &SurfaceModel,
     path: &Path,
     detail: u32,
@@ -215,7 +244,7 @@ pub fn write_mesh_textured(
     let mut extra = String::new();
     match (ext.as_deref(), texture) {
         (Some("obj"), Some(tex)) => {
-            let (mtl, png) = crate::commands::render::write_obj_material(path, tex)?;
+            let (mtl, png) = crate::commands::render::write_obj_material(outputs, path, tex)?;
             extra = format!(" (+ {mtl}, {png})");
             write_obj(&mesh, &mut bytes, Some((&mtl, "caoen_surface")))
         }
@@ -223,7 +252,7 @@ pub fn write_mesh_textured(
         _ => write_ply(&mesh, &mut bytes),
     }
     .map_err(|e| CliError::io(path, e))?;
-    write_file(path, &bytes)?;
+    outputs.write_path(path, &bytes)?;
     Ok(format!(
         "{}{extra}: {} vertices, {} triangles, Euler characteristic {}",
         path.display(),
@@ -244,7 +273,20 @@ fn mesh(global: &GlobalArgs, a: &SurfaceMeshArgs) -> CliResult {
         None if !a.model.starts_with("builtin:") => model.texture_path(Some(Path::new(&a.model))),
         None => None,
     };
-    let summary = write_mesh_textured(&model, &a.output, a.detail, normals, texture.as_deref())?;
+    let mut outputs = Outputs::new(global.force)
+        .input(&a.model)
+        .input_opt(texture.as_deref());
+    for f in mesh_files(&a.output, texture.as_deref()) {
+        outputs.check_path(&f)?;
+    }
+    let summary = write_mesh_textured(
+        &outputs,
+        &model,
+        &a.output,
+        a.detail,
+        normals,
+        texture.as_deref(),
+    )?;
     note(global, format!("wrote {summary}"));
     Ok(())
 }

@@ -13,7 +13,7 @@ use crate::cli::{DistortArgs, GlobalArgs};
 use crate::commands::compare::is_cae;
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
-use crate::output::Target;
+use crate::output::{Outputs, Target};
 
 /// Parses `x,y:x2,y2`.
 pub fn parse_move(s: &str) -> CliResult<Move> {
@@ -124,6 +124,10 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
             a.output.display()
         )));
     }
+    let mut outputs = Outputs::new(global.force).input(&a.input);
+    for f in crate::commands::surface::mesh_files(&a.output, None) {
+        outputs.check_path(&f)?;
+    }
     let model = crate::commands::surface::load_model(&spec)?;
     let mesh = caoen::render::mesh::tessellate(&model, 3, caoen::render::mesh::NormalMode::Exact)?;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -146,9 +150,10 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
     }
     let out = warp.apply_to_model(&model).map_err(tex_err)?;
     if ext.as_deref() == Some("json") {
-        crate::output::write_file(&a.output, out.to_json().as_bytes())?;
+        outputs.write_path(&a.output, out.to_json().as_bytes())?;
     } else {
         crate::commands::surface::write_mesh(
+            &outputs,
             &out,
             &a.output,
             6,
@@ -193,14 +198,14 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         if a.output.as_os_str() == "-" {
             Ok(image_io::OutputFormat::natural(f))
         } else {
-            image_io::OutputFormat::for_path(&a.output, f).ok_or_else(|| {
-                CliError::Usage(format!(
-                    "{}: output must end in .png or .exr",
-                    a.output.display()
-                ))
-            })
+            crate::commands::codec::image_format(&a.output, f, "output")
         }
     };
+    let target = Target::from_arg(Some(&a.output), PathBuf::new);
+    let mut outputs = Outputs::new(global.force)
+        .input(&a.input)
+        .input_opt(a.moves_file.as_deref());
+    outputs.check(&target)?;
     let start = Instant::now();
     let (img, warp) = if is_cae(&a.input) {
         let bytes = std::fs::read(&a.input).map_err(|e| CliError::io(&a.input, e))?;
@@ -229,9 +234,8 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         img
     };
     let bytes = image_io::encode(&img, fmt_for(img.format())?)
-        .map_err(|e| CliError::Failed(format!("{}: {e}", a.output.display())))?;
-    let target = Target::from_arg(Some(&a.output), PathBuf::new);
-    target.write(&bytes, true)?;
+        .map_err(|e| crate::commands::codec::encode_error(Path::new(&target.display()), e))?;
+    outputs.write(&target, &bytes)?;
     note(
         global,
         format!(
@@ -278,7 +282,7 @@ fn load_texture(path: &Path) -> CliResult<caoen::render::texture::Texture> {
         let r = crate::commands::compare::load_any(path)?;
         Texture::new(RgbImage::from_raster(&r).map_err(failed)?).map_err(failed)
     } else {
-        Texture::load(path).map_err(failed)
+        Ok(Texture::load(path)?)
     }
 }
 
@@ -313,6 +317,10 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    let ext = match ext {
+        None if crate::output::is_stream(&a.output) => Some("png".to_string()),
+        e => e,
+    };
     if !matches!(ext.as_deref(), Some("png" | "obj")) {
         return Err(CliError::Usage(format!(
             "{}: output must end in .png (render) or .obj (mesh with material)",
@@ -320,7 +328,31 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         )));
     }
     let size = crate::commands::render::parse_size(&a.size)?;
+    // The transferred texture as a PNG file, for the renderer and the OBJ writer: a
+    // fresh private temporary file, deleted when dropped.
+    let mut tmp = tempfile::Builder::new()
+        .prefix("caoen-transfer-")
+        .suffix(".png")
+        .tempfile()
+        .map_err(|e| CliError::io(std::env::temp_dir(), e))?;
+    let solid_spec = Path::new(&a.solid);
+    let mut outputs = Outputs::new(global.force)
+        .input_opt(a.texture.as_deref())
+        .input_opt(a.from.as_deref())
+        .input_opt(a.texture_space.as_deref())
+        .input(&a.to)
+        .input_opt(
+            (a.texture_space.is_some()
+                && solid_spec
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("json")))
+            .then_some(solid_spec),
+        );
     let to = crate::commands::surface::load_model(&a.to)?;
+    let texture = (ext.as_deref() == Some("obj")).then(|| tmp.path());
+    for f in crate::commands::surface::mesh_files(&a.output, texture) {
+        outputs.check_path(&f)?;
+    }
     let start = Instant::now();
     let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
         (Some(space), _, _) => {
@@ -349,20 +381,24 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             ))
         }
     };
-    // The transferred texture as a PNG file, for the renderer and the OBJ writer.
-    let tmp = std::env::temp_dir().join(format!("caoen-transfer-{}.png", std::process::id()));
-    crate::output::write_file(&tmp, &moved.encode_png().map_err(failed)?)?;
-    let result = (|| -> CliResult<String> {
+    {
+        use std::io::Write as _;
+        tmp.write_all(&moved.encode_png().map_err(failed)?)
+            .and_then(|()| tmp.flush())
+            .map_err(|e| CliError::io(tmp.path(), e))?;
+    }
+    let summary = {
         if ext.as_deref() == Some("obj") {
             crate::commands::surface::write_mesh_textured(
+                &outputs,
                 &to,
                 &a.output,
                 a.detail,
                 caoen::render::mesh::NormalMode::Exact,
-                Some(&tmp),
-            )
+                Some(tmp.path()),
+            )?
         } else {
-            let scene = crate::commands::render::load_scene(&a.to, Some(&tmp))?;
+            let scene = crate::commands::render::load_scene(&a.to, Some(tmp.path()))?;
             let opts = caoen::render::renderer::RenderOptions {
                 width: size.0,
                 height: size.1,
@@ -372,12 +408,10 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             };
             let r =
                 crate::commands::render::render_with_progress(global, &scene, &opts, "rendering")?;
-            crate::output::write_file(&a.output, &r.image.encode_png().map_err(failed)?)?;
-            Ok(format!("{} ({}x{})", a.output.display(), size.0, size.1))
+            outputs.write_path(&a.output, &r.image.encode_png().map_err(failed)?)?;
+            format!("{} ({}x{})", a.output.display(), size.0, size.1)
         }
-    })();
-    let _ = std::fs::remove_file(&tmp);
-    let summary = result?;
+    };
     note(
         global,
         format!(
