@@ -267,6 +267,14 @@ impl<'a> Parsed<'a> {
 /// Parses and checks the container: magic, version, section order, lengths, CRCs,
 /// and the header's limits, before anything is allocated for the image.
 pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
+    if bytes.len() < 4 && MAGIC.starts_with(bytes) {
+        return Err(CodecError::Truncated {
+            what: "the magic bytes",
+            offset: 0,
+            need: 4,
+            available: bytes.len() as u64,
+        });
+    }
     if bytes.len() < 4 || bytes[..4] != MAGIC {
         return Err(CodecError::WrongMagic {
             found: bytes[..bytes.len().min(4)].to_vec(),

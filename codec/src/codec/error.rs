@@ -22,7 +22,7 @@ impl std::fmt::Display for Tag {
 pub enum CodecError {
     // --- The file's fault -----------------------------------------------------------
     /// The file does not start with the caoen magic bytes.
-    #[error("not a caoen file: starts with {found:02x?}, expected \"CAOE\"")]
+    #[error("not a caoen file: magic bytes {found:02x?}, expected \"CAOE\"")]
     WrongMagic {
         /// The first bytes of the file.
         found: Vec<u8>,

@@ -1,0 +1,316 @@
+//! Inputs that once broke caoen (`tests/bad/hostile/`): each must end in a clean error
+//! (one `error:` line, the expected exit code, no panic) or a bounded success, inside a
+//! 2 GiB address space where `prlimit` exists, and without hanging.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Far above the 10 s any of these takes alone: a guard against hangs, not a timing.
+const HANG_GUARD: Duration = Duration::from_secs(120);
+const ADDRESS_SPACE: &str = "--as=2147483648";
+
+fn bad(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/bad/hostile")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn scratch(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("caoen-hostile-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}
+
+struct Outcome {
+    code: i32,
+    stderr: String,
+}
+
+/// Runs caoen with `args` under the address-space limit (when `prlimit` is present),
+/// killing it if it outlives the hang guard.
+fn run(args: &[&str]) -> Outcome {
+    let bin = env!("CARGO_BIN_EXE_caoen");
+    let limited = Command::new("prlimit")
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    let mut cmd = if limited {
+        let mut c = Command::new("prlimit");
+        c.arg(ADDRESS_SPACE).arg(bin);
+        c
+    } else {
+        Command::new(bin)
+    };
+    let mut child = cmd
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run caoen");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if start.elapsed() > HANG_GUARD {
+            child.kill().ok();
+            panic!("caoen {args:?} still running after {HANG_GUARD:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().expect("piped"), &mut stderr)
+        .expect("stderr");
+    Outcome {
+        code: status.code().unwrap_or(-1),
+        stderr,
+    }
+}
+
+/// Asserts a clean failure: `code`, one `error:` line containing `needle`, no panic.
+fn fails_cleanly(args: &[&str], code: i32, needle: &str) {
+    let o = run(args);
+    assert!(
+        !o.stderr.contains("panicked"),
+        "{args:?} panicked:\n{}",
+        o.stderr
+    );
+    assert_eq!(o.code, code, "{args:?}: {}", o.stderr);
+    let lines: Vec<&str> = o.stderr.lines().collect();
+    assert_eq!(
+        lines.len(),
+        1,
+        "{args:?}: want one line, got:\n{}",
+        o.stderr
+    );
+    assert!(lines[0].starts_with("error: "), "{}", lines[0]);
+    assert!(
+        lines[0].contains(needle),
+        "{args:?}: `{needle}` not in {}",
+        lines[0]
+    );
+    assert!(
+        !lines[0].chars().any(|c| c.is_control()),
+        "control character in {:?}",
+        lines[0]
+    );
+}
+
+#[test]
+fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() {
+    let dir = scratch("solids");
+    let out = dir.join("r.png").display().to_string();
+    for method in ["ray", "depth", "mesh"] {
+        fails_cleanly(
+            &[
+                "surface",
+                "render",
+                &bad("R1-solid-q-1e19.scene.json"),
+                "-o",
+                &out,
+                "--method",
+                method,
+            ],
+            1,
+            "q = 1e19 is outside [",
+        );
+    }
+    fails_cleanly(
+        &[
+            "surface",
+            "render",
+            &bad("R2-solid-q-1e-300.scene.json"),
+            "-o",
+            &out,
+        ],
+        1,
+        "q = 1e-300 is outside [",
+    );
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn tiny_files_declaring_huge_images_stay_within_the_budget() {
+    let dir = scratch("decode");
+    let exr = dir.join("z.exr").display().to_string();
+    fails_cleanly(
+        &[
+            "decode",
+            &bad("R3-86-byte-16384x4096-rgba-hdr.cae"),
+            "-o",
+            &exr,
+        ],
+        1,
+        "over the memory budget of 2.0 GiB",
+    );
+    // The 8-bit file fits the budget: a bounded success.
+    let png = dir.join("z.png");
+    let o = run(&[
+        "decode",
+        &bad("R3b-86-byte-16384x4096-rgba8.cae"),
+        "-o",
+        &png.display().to_string(),
+    ]);
+    assert_eq!(o.code, 0, "{}", o.stderr);
+    assert!(png.metadata().expect("written").len() > 0);
+    // A tighter budget refuses it before decoding.
+    fails_cleanly(
+        &[
+            "decode",
+            &bad("R3b-86-byte-16384x4096-rgba8.cae"),
+            "-o",
+            &png.display().to_string(),
+            "-f",
+            "--max-memory",
+            "256M",
+        ],
+        1,
+        "over the memory budget of 256.0 MiB",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
+    let dir = scratch("supersample");
+    let out = dir.join("s.png").display().to_string();
+    let file = bad("small_q30.cae");
+    fails_cleanly(
+        &[
+            "decode",
+            &file,
+            "--size",
+            "8192x8192",
+            "--supersample",
+            "4",
+            "-o",
+            &out,
+        ],
+        1,
+        "memory budget",
+    );
+    fails_cleanly(
+        &[
+            "decode",
+            &file,
+            "--size",
+            "4096x4096",
+            "--supersample",
+            "4",
+            "-o",
+            &out,
+            "--max-memory",
+            "64G",
+        ],
+        1,
+        "output samples (pixels x S^2) is 268435456, limit 67108864",
+    );
+}
+
+#[test]
+fn encoding_a_huge_flat_image_is_refused_before_work_starts() {
+    let dir = scratch("encode");
+    let out = dir.join("b.cae");
+    fails_cleanly(
+        &[
+            "encode",
+            &bad("R4-png-8192x8192-flat.png"),
+            "-o",
+            &out.display().to_string(),
+        ],
+        1,
+        "encoding 8192x8192 at quality 75 needs about",
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn textures_go_through_the_checked_loader() {
+    let dir = scratch("textures");
+    let out = dir.join("t.png").display().to_string();
+    fails_cleanly(
+        &[
+            "surface",
+            "render",
+            &bad("R5-texture-bomb.json"),
+            "-o",
+            &out,
+        ],
+        1,
+        "image is 16384x16384, over the limit",
+    );
+    fails_cleanly(
+        &[
+            "transfer",
+            "--texture",
+            &bad("R5-grey-16384x16384.png"),
+            "--from",
+            "builtin:octahedron",
+            "--to",
+            "builtin:blob",
+            "-o",
+            &out,
+        ],
+        1,
+        "image is 16384x16384, over the limit",
+    );
+}
+
+#[test]
+fn grid_counts_are_checked_without_overflow() {
+    fails_cleanly(
+        &[
+            "surface",
+            "eval",
+            "builtin:blob",
+            "--grid",
+            "4294967296x4294967296",
+        ],
+        2,
+        "each side must be in 1..=16000000",
+    );
+    fails_cleanly(
+        &["surface", "eval", "builtin:blob", "--grid", "65536x65536"],
+        2,
+        "at most 16000000 points",
+    );
+}
+
+#[test]
+fn container_errors_are_specific_and_printable() {
+    fails_cleanly(
+        &["info", &bad("R8-tag-0x1c-control-char.cae")],
+        1,
+        "CRC mismatch in section 0x1c at byte 89: stored",
+    );
+    let dir = scratch("container");
+    fails_cleanly(
+        &[
+            "decode",
+            &bad("R9-E-section-with-payload.cae"),
+            "-o",
+            &dir.join("e.png").display().to_string(),
+        ],
+        1,
+        "the end section at byte 93 carries 4 bytes; it must be empty",
+    );
+    fails_cleanly(
+        &["surface", "info", &bad("R10-surface-trailing-garbage.json")],
+        1,
+        "trailing",
+    );
+}
+
+#[test]
+fn memory_budget_sizes_are_validated() {
+    for bad_size in ["0", "-1G", "2X", "NaN", "1e400"] {
+        let o = run(&["info", &bad("small_q30.cae"), "--max-memory", bad_size]);
+        assert_eq!(o.code, 2, "--max-memory {bad_size}: {}", o.stderr);
+        assert!(!o.stderr.contains("panicked"));
+    }
+}
