@@ -18,7 +18,7 @@ use super::bitstream::{self, tag, Header, Parsed};
 use super::colour::{self, CodingPlanes};
 use super::entropy::AnsSource;
 use super::geometry::Frame;
-use super::keyset::{BandScratch, Grid, GridEval, KeySet};
+use super::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
 use super::model::chroma_cells;
 use super::quadtree::Cell;
 use super::syntax::{self, MAX_SYMBOLS_PER_VALUE};
@@ -249,6 +249,16 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
 /// each band's colours converted while still in cache, so no full-size coding planes
 /// are made.
 pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Result<Raster, CodecError> {
+    render_identity_raster_on(d, ow, oh, Vectorisation::Dispatched)
+}
+
+/// [`render_identity_raster`] on the given instruction set.
+pub fn render_identity_raster_on(
+    d: &Decoded,
+    ow: u32,
+    oh: u32,
+    v: Vectorisation,
+) -> Result<Raster, CodecError> {
     let h = &d.header;
     let frame = Frame::new(h.width, h.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
@@ -259,10 +269,15 @@ pub fn render_identity_raster(d: &Decoded, ow: u32, oh: u32) -> Result<Raster, C
             .collect()
     };
     let (luma, chroma) = rayon::join(
-        || GridEval::new(frame, &d.luma_cells, h.kernel, &grid).with_values(to_f32(&d.luma_values)),
+        || {
+            GridEval::new(frame, &d.luma_cells, h.kernel, &grid)
+                .on(v)
+                .with_values(to_f32(&d.luma_values))
+        },
         || {
             (!d.chroma_cells.is_empty()).then(|| {
                 GridEval::new(frame, &d.chroma_cells, h.kernel, &grid)
+                    .on(v)
                     .with_values(to_f32(&d.chroma_values))
             })
         },
@@ -593,6 +608,18 @@ mod tests {
                     "{layout:?} {format:?} at {ow}x{oh}"
                 );
                 assert_eq!((fused.layout(), fused.format()), (layout, format));
+                // The portable scalar path gives the same bits as the vector unit.
+                let scalar = render_identity_raster_on(&d, ow, oh, Vectorisation::Scalar).unwrap();
+                assert_eq!(
+                    scalar.samples(),
+                    fused.samples(),
+                    "scalar vs dispatched ({}) at {ow}x{oh}",
+                    if super::super::keyset::has_vector_unit() {
+                        "vector unit"
+                    } else {
+                        "no vector unit on this CPU"
+                    }
+                );
                 // The overlapped decoder builds the same evaluators in another order.
                 let decoded = decode(
                     &bytes,

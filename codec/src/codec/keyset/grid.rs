@@ -390,6 +390,16 @@ impl<'c> GridEval<'c> {
         }
     }
 
+    /// The same evaluator on the given instruction set: [`Vectorisation::Scalar`] forces
+    /// the portable path the dispatched one must equal bit for bit.
+    pub fn on(mut self, v: Vectorisation) -> Self {
+        self.arch = match v {
+            Vectorisation::Dispatched => pulp::Arch::new(),
+            Vectorisation::Scalar => pulp::Arch::Scalar,
+        };
+        self
+    }
+
     /// The same evaluator with the value planes to evaluate: one value per key point
     /// each, single precision (ample for any output quantum).
     pub fn with_values(mut self, values: Vec<Vec<f32>>) -> Self {
@@ -552,6 +562,21 @@ impl<'c> GridEval<'c> {
             }
         }
     }
+}
+
+/// Which instructions the band pass runs on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Vectorisation {
+    /// The widest vector unit the CPU has (AVX-512, AVX2 or scalar), found at run time.
+    Dispatched,
+    /// Plain scalar code, whatever the CPU: the reference.
+    Scalar,
+}
+
+/// Whether this CPU runs the band pass on a vector unit (else the dispatched path is the
+/// scalar one).
+pub fn has_vector_unit() -> bool {
+    !matches!(pulp::Arch::new(), pulp::Arch::Scalar)
 }
 
 /// The conformal factors of one band, as a `pulp` operation (so the division

@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-pub use grid::{BandScratch, Grid, GridEval};
+pub use grid::{has_vector_unit, BandScratch, Grid, GridEval, Vectorisation};
 
 use super::geometry::Frame;
 use super::quadtree::Cell;
