@@ -242,7 +242,7 @@ impl FieldRange {
         }
         // f <= s forces x . w_i <= sigma for every i: the polyhedron scaled by sigma.
         let sigma = self.blend.level_set_s(self.level, q).max(1.0);
-        if !(sigma <= MAX_SIGMA) {
+        if sigma.is_nan() || sigma > MAX_SIGMA {
             return None;
         }
         let (f, slope) = self.blend.value_and_slope(self.reach * sigma, q);
