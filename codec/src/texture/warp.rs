@@ -43,6 +43,36 @@ pub struct Move {
     pub to: [f64; 2],
 }
 
+/// One entry of a moves file: `{"from": [x, y], "to": [x2, y2]}` or `[[x, y], [x2, y2]]`.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum MoveJson {
+    Object(Move),
+    Pair([[f64; 2]; 2]),
+}
+
+/// Parses a moves file (`docs/texture.md`): a JSON array of moves, each an object
+/// `{"from": [x, y], "to": [x2, y2]}` or a pair `[[x, y], [x2, y2]]`, every coordinate
+/// finite.
+pub fn parse_moves(text: &str) -> Result<Vec<Move>, TextureError> {
+    let v: Vec<MoveJson> =
+        serde_json::from_str(text).map_err(|e| TextureError::Invalid(e.to_string()))?;
+    let moves: Vec<Move> = v
+        .into_iter()
+        .map(|m| match m {
+            MoveJson::Object(m) => m,
+            MoveJson::Pair([from, to]) => Move { from, to },
+        })
+        .collect();
+    if moves
+        .iter()
+        .any(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
+    {
+        return Err(TextureError::Invalid("a move is not finite".into()));
+    }
+    Ok(moves)
+}
+
 /// Options of the warp network.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WarpOptions {
