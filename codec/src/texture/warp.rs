@@ -808,6 +808,28 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
 mod tests {
     use super::*;
 
+    #[test]
+    fn moves_files_take_objects_and_pairs_and_nothing_else() {
+        let m = Move {
+            from: [1.0, 2.5],
+            to: [3.0, -4.0],
+        };
+        let objects = r#"[{"from": [1, 2.5], "to": [3, -4]}, {"from": [1, 2.5], "to": [3, -4]}]"#;
+        assert_eq!(parse_moves(objects).unwrap(), [m, m]);
+        assert_eq!(parse_moves("[[[1, 2.5], [3, -4]]]").unwrap(), [m]);
+        assert_eq!(parse_moves("[]").unwrap(), []);
+        for bad in [
+            "",
+            "{}",
+            "[[1, 2]]",
+            r#"[{"from": [1, 2]}]"#,
+            "[[[1, 2], [3, 1e999]]]",
+            "[] x",
+        ] {
+            assert!(parse_moves(bad).is_err(), "{bad:?} accepted");
+        }
+    }
+
     fn warp() -> Warp {
         let moves = [
             Move {
