@@ -182,3 +182,10 @@ pub fn encode_memory(width: u32, height: u32, quality: f32) -> u64 {
 pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
     decoder::decode(bytes, opts)
 }
+
+/// Describes a caoen file without decoding it: the header and the sections, with every
+/// container check [`decode`] makes. There is no pixel limit, since nothing is
+/// allocated for the image.
+pub fn inspect(bytes: &[u8]) -> Result<bitstream::Parsed<'_>, CodecError> {
+    bitstream::parse(bytes, u64::MAX)
+}

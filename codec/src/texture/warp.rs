@@ -43,6 +43,36 @@ pub struct Move {
     pub to: [f64; 2],
 }
 
+/// One entry of a moves file: `{"from": [x, y], "to": [x2, y2]}` or `[[x, y], [x2, y2]]`.
+#[derive(serde::Deserialize)]
+#[serde(untagged)]
+enum MoveJson {
+    Object(Move),
+    Pair([[f64; 2]; 2]),
+}
+
+/// Parses a moves file (`docs/texture.md`): a JSON array of moves, each an object
+/// `{"from": [x, y], "to": [x2, y2]}` or a pair `[[x, y], [x2, y2]]`, every coordinate
+/// finite.
+pub fn parse_moves(text: &str) -> Result<Vec<Move>, TextureError> {
+    let v: Vec<MoveJson> =
+        serde_json::from_str(text).map_err(|e| TextureError::Invalid(e.to_string()))?;
+    let moves: Vec<Move> = v
+        .into_iter()
+        .map(|m| match m {
+            MoveJson::Object(m) => m,
+            MoveJson::Pair([from, to]) => Move { from, to },
+        })
+        .collect();
+    if moves
+        .iter()
+        .any(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
+    {
+        return Err(TextureError::Invalid("a move is not finite".into()));
+    }
+    Ok(moves)
+}
+
 /// Options of the warp network.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WarpOptions {
@@ -777,6 +807,28 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn moves_files_take_objects_and_pairs_and_nothing_else() {
+        let m = Move {
+            from: [1.0, 2.5],
+            to: [3.0, -4.0],
+        };
+        let objects = r#"[{"from": [1, 2.5], "to": [3, -4]}, {"from": [1, 2.5], "to": [3, -4]}]"#;
+        assert_eq!(parse_moves(objects).unwrap(), [m, m]);
+        assert_eq!(parse_moves("[[[1, 2.5], [3, -4]]]").unwrap(), [m]);
+        assert_eq!(parse_moves("[]").unwrap(), []);
+        for bad in [
+            "",
+            "{}",
+            "[[1, 2]]",
+            r#"[{"from": [1, 2]}]"#,
+            "[[[1, 2], [3, 1e999]]]",
+            "[] x",
+        ] {
+            assert!(parse_moves(bad).is_err(), "{bad:?} accepted");
+        }
+    }
 
     fn warp() -> Warp {
         let moves = [

@@ -245,7 +245,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
 /// Describes a `.cae` file: header, sections, key points.
 pub fn info(a: &InfoArgs) -> CliResult {
     let bytes = read_input(&a.input)?;
-    let parsed = bitstream::parse(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
+    let parsed = caoen::codec::inspect(&bytes).map_err(|e| codec_err(&a.input, e))?;
     let h = &parsed.header;
     let sections: Vec<_> = parsed
         .sections

@@ -35,35 +35,10 @@ pub fn parse_move(s: &str) -> CliResult<Move> {
     })
 }
 
-#[derive(serde::Deserialize)]
-#[serde(untagged)]
-enum MoveJson {
-    Object(Move),
-    Pair([[f64; 2]; 2]),
-}
-
 /// Reads a moves JSON file.
 pub fn read_moves(path: &Path) -> CliResult<Vec<Move>> {
     let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
-    let v: Vec<MoveJson> = serde_json::from_str(&text)
-        .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))?;
-    let moves: Vec<Move> = v
-        .into_iter()
-        .map(|m| match m {
-            MoveJson::Object(m) => m,
-            MoveJson::Pair([from, to]) => Move { from, to },
-        })
-        .collect();
-    if moves
-        .iter()
-        .any(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
-    {
-        return Err(CliError::Failed(format!(
-            "{}: a move is not finite",
-            path.display()
-        )));
-    }
-    Ok(moves)
+    warp::parse_moves(&text).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
 }
 
 fn tex_err(e: TextureError) -> CliError {

@@ -1,0 +1,566 @@
+//! The bodies of the fuzz targets (`docs/fuzzing.md`).
+//!
+//! Each target takes the fuzzer's bytes, drives one input path of `caoen` and returns
+//! the error the input earned, if any. It panics only when something that must hold for
+//! every input does not: a panic inside `caoen`, an error message that is not one
+//! printable line, a file accepted that the format forbids, a result of the wrong size,
+//! a file written by `caoen` that it cannot read back. A hang is caught by the fuzzer's
+//! timeout (and by the replay test's time bound).
+//!
+//! The binaries in `src/bin/` are one call each; `tests/fuzz_replay.rs` compiles this
+//! same file into the main workspace to replay seeds and findings without AFL.
+#![forbid(unsafe_code)]
+
+use std::cell::RefCell;
+use std::path::Path;
+
+use caoen::codec::bitstream::{self, tag, Header, Parsed};
+use caoen::codec::decoder;
+use caoen::codec::entropy::AnsSink;
+use caoen::codec::keyset::KernelParams;
+use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
+use caoen::image_io::{self, LoadLimits};
+use caoen::raster::{ChannelLayout, Raster, SampleFormat};
+use caoen::render::mesh::{tessellate, NormalMode};
+use caoen::render::raytrace::RayMethod;
+use caoen::render::{render, Method, RenderOptions, Scene};
+use caoen::surface::SurfaceModel;
+use caoen::texture::warp::{self, Warp};
+
+/// What a target made of its input: nothing to report, or the error the input earned.
+pub type Outcome = Result<(), String>;
+
+/// A fuzz target's body.
+pub type Target = fn(&[u8]) -> Outcome;
+
+/// Every target by name: the binary in `src/bin/`, the seed directory under `seeds/` and
+/// the findings directory under `tests/bad/` share it.
+pub const TARGETS: [(&str, Target); 6] = [
+    ("decode", decode),
+    ("container", container),
+    ("image", image),
+    ("surface", surface),
+    ("scene", scene),
+    ("distort", distort),
+];
+
+/// Runs rayon's parallel loops on one worker thread, so that a run's coverage does not
+/// depend on thread scheduling (AFL's stability) and parallel fuzzers do not compete
+/// for cores with each other's thread pools.
+///
+/// Call it inside the fuzz loop, not before: AFL's fork server forks when the loop
+/// starts, a forked child has none of its parent's threads, and a pool built before the
+/// fork would never run a job (every input would hang).
+pub fn single_thread() {
+    // After the first call this fails at once: the pool exists and serves.
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global();
+}
+
+/// Pixel limit of the decode targets: the format's limits are exercised by `inspect`,
+/// which has none, and far below the CLI's default so a run takes milliseconds.
+const DECODE_MAX_PIXELS: u64 = 1 << 16;
+
+/// Largest coded image also decoded by forward mapping, which costs more per pixel.
+const FORWARD_MAX_PIXELS: u64 = 1 << 12;
+
+/// An error message as the command line prints it must be one line of printable text.
+fn message(e: impl std::fmt::Display) -> String {
+    let m = e.to_string();
+    assert!(
+        !m.is_empty() && !m.chars().any(char::is_control),
+        "error message is not one printable line: {m:?}"
+    );
+    m
+}
+
+/// The input as text; bytes that are not UTF-8 are an error, as for a file.
+fn text(data: &[u8]) -> Result<&str, String> {
+    std::str::from_utf8(data).map_err(message)
+}
+
+/// A JSON file a parser accepted must be exactly one JSON document: nothing after it.
+fn assert_one_document(text: &str, what: &str) {
+    if let Err(e) = serde_json::from_str::<serde_json::Value>(text) {
+        panic!("accepted a {what} that is not one JSON document: {e}");
+    }
+}
+
+/// Decodes and inspects a caoen file.
+///
+/// A file `inspect` rejects must not decode, and a file it accepts must be the one way
+/// of writing its parts (no payload in the end section, nothing after it). Decoding
+/// runs the identity path at the coded size and, for small images, the forward-mapping
+/// path at another size.
+pub fn decode(data: &[u8]) -> Outcome {
+    let opts = DecodeOptions {
+        max_pixels: DECODE_MAX_PIXELS,
+        ..DecodeOptions::default()
+    };
+    let decoded = codec::decode(data, &opts);
+    let parsed = match codec::inspect(data) {
+        Ok(p) => p,
+        Err(e) => {
+            let e = message(e);
+            assert!(
+                decoded.is_err(),
+                "decode accepts a file inspect rejects: {e}"
+            );
+            return Err(e);
+        }
+    };
+    assert_canonical(data, &parsed);
+    let h = &parsed.header;
+    let img = decoded.map_err(message)?;
+    assert_decoded(&img, h, (h.width, h.height));
+    if u64::from(h.width) * u64::from(h.height) <= FORWARD_MAX_PIXELS {
+        // Narrower (a downscaled axis) and taller (an upscaled one).
+        let size = ((h.width * 3).div_ceil(4), h.height + h.height / 2);
+        let opts = DecodeOptions {
+            size: Some(size),
+            supersample: Some(2),
+            max_pixels: DECODE_MAX_PIXELS,
+        };
+        let img = codec::decode(data, &opts).map_err(message)?;
+        assert_decoded(&img, h, size);
+    }
+    Ok(())
+}
+
+/// The container written again from its parsed parts must be the input itself.
+fn assert_canonical(data: &[u8], parsed: &Parsed) {
+    let payload = |t| parsed.payload(t).unwrap_or(&[]);
+    let again = bitstream::write(
+        &parsed.header,
+        payload(tag::TREE),
+        payload(tag::LUMA),
+        parsed.payload(tag::CHROMA),
+    );
+    if again != data {
+        let at = again.iter().zip(data).take_while(|(a, b)| a == b).count();
+        let section = parsed
+            .sections
+            .iter()
+            .rev()
+            .find(|s| s.offset <= at)
+            .map_or('?', |s| s.tag as char);
+        panic!(
+            "accepted a container that is not the canonical writing of its parts: \
+             {} bytes read, {} written, first difference at byte {at} (section {section:?})",
+            data.len(),
+            again.len()
+        );
+    }
+}
+
+/// A decoded image has the requested size and the header's layout and format.
+fn assert_decoded(img: &Raster, h: &Header, (w, ht): (u32, u32)) {
+    assert_eq!((img.width(), img.height()), (w, ht), "decoded size");
+    assert_eq!(img.layout(), h.layout, "decoded channel layout");
+    assert_eq!(img.format(), h.format, "decoded sample format");
+}
+
+/// The fuzzer's bytes read as a stream of choices; past the end every choice is 0, so
+/// a short input makes a small, simple file.
+struct Choices<'a> {
+    data: &'a [u8],
+    pos: usize,
+    /// Bits left over from the last byte read by [`Choices::bit`].
+    bits: u8,
+    nbits: u32,
+}
+
+impl<'a> Choices<'a> {
+    fn new(data: &'a [u8]) -> Self {
+        Choices {
+            data,
+            pos: 0,
+            bits: 0,
+            nbits: 0,
+        }
+    }
+
+    fn byte(&mut self) -> u8 {
+        let b = self.data.get(self.pos).copied().unwrap_or(0);
+        self.pos += 1;
+        b
+    }
+
+    fn u16(&mut self) -> u16 {
+        u16::from_le_bytes([self.byte(), self.byte()])
+    }
+
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes([self.byte(), self.byte(), self.byte(), self.byte()])
+    }
+
+    /// One bit; eight per byte, since a tree takes one per node.
+    fn bit(&mut self) -> bool {
+        if self.nbits == 0 {
+            self.bits = self.byte();
+            self.nbits = 8;
+        }
+        let b = self.bits & 1 == 1;
+        self.bits >>= 1;
+        self.nbits -= 1;
+        b
+    }
+
+    /// The bytes not read yet.
+    fn rest(&self) -> &'a [u8] {
+        self.data.get(self.pos..).unwrap_or(&[])
+    }
+}
+
+/// A header within every limit of the format, its fields chosen by the fuzzer; the key
+/// point counts are filled in once the tree is drawn.
+fn choose_header(c: &mut Choices) -> Header {
+    let width = 1 + u32::from(c.byte() % 128);
+    let height = 1 + u32::from(c.byte() % 128);
+    let layout = ChannelLayout::from_channels(1 + usize::from(c.byte() % 4)).expect("1..=4");
+    let format =
+        [SampleFormat::U8, SampleFormat::U16, SampleFormat::F32][usize::from(c.byte() % 3)];
+    let block_log2 = 1 + c.byte() % 7;
+    let min_log2 = c.byte() % (block_log2.min(4) + 1);
+    // 308/1024 is the first stored footprint at or above the 0.3 minimum.
+    let sigma = 308 + c.u16() % (4096 - 308 + 1);
+    let kernel = KernelParams {
+        sigma_factor: f64::from(sigma) / 1024.0,
+        weight_exponent: f64::from(c.byte()) / 16.0,
+    };
+    let chroma_pruned = c.bit();
+    // Log-uniform over the valid 1e-7..=1e4.
+    let mut step = || {
+        let t = f64::from(c.u16()) / 65535.0;
+        ((1e-7 * 1e11f64.powf(t)) as f32).clamp(1e-7, 1e4)
+    };
+    let (step_luma, step_chroma, step_alpha) = (step(), step(), step());
+    Header {
+        width,
+        height,
+        layout,
+        format,
+        block_log2,
+        min_log2,
+        kernel,
+        chroma_pruned,
+        step_luma,
+        step_chroma,
+        step_alpha,
+        luma_count: 0,
+        chroma_count: 0,
+    }
+}
+
+/// Quantised values for one channel: runs of small, medium or extreme values, always
+/// within the format's range.
+fn choose_values(c: &mut Choices, n: usize) -> Vec<i64> {
+    let max = syntax::MAX_VALUE;
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let mode = c.byte();
+        let run = 1 + usize::from(mode >> 2);
+        for _ in 0..run.min(n - out.len()) {
+            out.push(match mode & 3 {
+                0 => i64::from(c.byte() as i8),
+                1 => i64::from(c.u16() as i16),
+                2 => i64::from(c.u32() as i32).clamp(-max, max),
+                _ => {
+                    if c.bit() {
+                        max
+                    } else {
+                        -max
+                    }
+                }
+            });
+        }
+    }
+    out
+}
+
+/// A valid caoen file drawn from the fuzzer's choices: header, a tree, and values coded
+/// by the encoder's own syntax writers. Returns the file and its header.
+fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
+    let mut header = choose_header(c);
+    let shape = header.shape();
+    let mut tree = AnsSink::new();
+    let choices = RefCell::new(c);
+    let luma_cells = syntax::write_tree(&shape, |_| choices.borrow_mut().bit(), &mut tree);
+    let c = choices.into_inner();
+    let colour = header.layout.colour_channels() == 3;
+    let chroma_cells = if colour {
+        model::chroma_cells(&shape, &luma_cells, header.chroma_pruned)
+    } else {
+        Vec::new()
+    };
+    header.luma_count = luma_cells.len() as u32;
+    header.chroma_count = chroma_cells.len() as u32;
+    let (w, h) = (header.width, header.height);
+    let mut luma = AnsSink::new();
+    let nbs = syntax::neighbours(&luma_cells, w, h);
+    let luma_channels = 1 + usize::from(header.layout.has_alpha());
+    for _ in 0..luma_channels {
+        let v = choose_values(c, luma_cells.len());
+        syntax::write_values(&luma_cells, &nbs, &v, &mut luma);
+    }
+    let chroma = colour.then(|| {
+        let mut sink = AnsSink::new();
+        let nbs = syntax::neighbours(&chroma_cells, w, h);
+        for _ in 0..2 {
+            let v = choose_values(c, chroma_cells.len());
+            syntax::write_values(&chroma_cells, &nbs, &v, &mut sink);
+        }
+        sink.finish()
+    });
+    let file = bitstream::write(&header, &tree.finish(), &luma.finish(), chroma.as_deref());
+    (file, header)
+}
+
+/// Appends a section with its CRC (`docs/format.md`).
+fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
+    let start = out.len();
+    out.push(tag);
+    out.extend((payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(payload);
+    let crc = crc32fast::hash(&out[start..]);
+    out.extend(crc.to_le_bytes());
+}
+
+/// Damages a valid file in one way the fuzzer chooses, keeping every CRC right, so the
+/// damage reaches the parsers behind the container check.
+fn damage(file: &[u8], how: u8, c: &mut Choices) -> Vec<u8> {
+    let parsed = codec::inspect(file).expect("a generated file parses");
+    let mut sections: Vec<(u8, Vec<u8>)> = parsed
+        .sections
+        .iter()
+        .map(|s| (s.tag, s.payload.to_vec()))
+        .collect();
+    let n = sections.len();
+    let i = usize::from(c.byte()) % n;
+    let payload = &mut sections[i].1;
+    match how % 8 {
+        // Flip bits of one byte.
+        1 if !payload.is_empty() => {
+            let at = usize::from(c.u16()) % payload.len();
+            payload[at] ^= c.byte().max(1);
+        }
+        // Cut the payload short (to any length, not only whole words).
+        2 => {
+            let keep = usize::from(c.u16()) % (payload.len() + 1);
+            payload.truncate(keep);
+        }
+        // Append bytes.
+        3 => {
+            let k = 1 + usize::from(c.byte() % 8);
+            for _ in 0..k {
+                payload.push(c.byte());
+            }
+        }
+        // Replace the payload by the rest of the input.
+        4 => *payload = c.rest().to_vec(),
+        // Overwrite one header field byte (the header is section 0).
+        5 => {
+            let at = usize::from(c.byte()) % sections[0].1.len();
+            sections[0].1[at] = c.byte();
+        }
+        // Drop a section.
+        6 => {
+            sections.remove(i);
+        }
+        // Repeat a section, or swap two.
+        _ => {
+            let j = usize::from(c.byte()) % n;
+            if i == j {
+                let s = sections[i].clone();
+                sections.insert(i, s);
+            } else {
+                sections.swap(i, j);
+            }
+        }
+    }
+    let mut out = Vec::with_capacity(file.len() + 64);
+    out.extend(bitstream::MAGIC);
+    out.push(bitstream::VERSION);
+    for (t, p) in &sections {
+        push_section(&mut out, *t, p);
+    }
+    out
+}
+
+/// Structure-aware decoding: builds a valid caoen file from the fuzzer's choices, which
+/// must decode to the header's size and layout, then (as the input chooses) damages one
+/// section with its CRC kept right, and decodes that through [`decode`].
+///
+/// Byte mutation of real files mostly breaks a CRC and stops at the container check;
+/// here the fuzzer's bytes steer the header fields, the tree, the values and the damage.
+pub fn container(data: &[u8]) -> Outcome {
+    let mut c = Choices::new(data);
+    let (file, header) = choose_file(&mut c);
+    let parsed = codec::inspect(&file)
+        .unwrap_or_else(|e| panic!("inspect rejects a file the syntax writers made: {e}"));
+    assert_eq!(parsed.header, header, "the header read back");
+    if let Err(e) = decode(&file) {
+        panic!("the decoder rejects a file the syntax writers made: {e}");
+    }
+    match c.byte() {
+        0 => Ok(()),
+        how => decode(&damage(&file, how, &mut c)),
+    }
+}
+
+/// Limits of the image target: small, so a run takes milliseconds; the limit checks are
+/// the same code at any size.
+const IMAGE_LIMITS: LoadLimits = LoadLimits {
+    max_side: 1024,
+    max_pixels: 1 << 16,
+};
+
+/// Largest loaded image also encoded and decoded again.
+const ENCODE_MAX_PIXELS: usize = 256;
+
+/// Loads an image from memory (any format `image_io` reads) within small limits, and
+/// for tiny images encodes it at the lowest effort and decodes the result, which must
+/// have the image's size, layout and format.
+pub fn image(data: &[u8]) -> Outcome {
+    let img = image_io::load_from_memory(data, &IMAGE_LIMITS).map_err(message)?;
+    assert!(
+        img.width() <= IMAGE_LIMITS.max_side
+            && img.height() <= IMAGE_LIMITS.max_side
+            && img.pixel_count() as u64 <= IMAGE_LIMITS.max_pixels,
+        "loaded {}x{}, over the limits",
+        img.width(),
+        img.height()
+    );
+    if img.pixel_count() <= ENCODE_MAX_PIXELS {
+        let opts = EncodeOptions {
+            quality: 50.0,
+            effort: 1,
+            ..EncodeOptions::default()
+        };
+        let bytes = codec::encode(&img, &opts).map_err(message)?;
+        let back = codec::decode(&bytes, &DecodeOptions::default())
+            .unwrap_or_else(|e| panic!("a file the encoder wrote does not decode: {e}"));
+        assert_eq!(
+            (back.width(), back.height(), back.layout(), back.format()),
+            (img.width(), img.height(), img.layout(), img.format()),
+            "encoded and decoded image"
+        );
+    }
+    Ok(())
+}
+
+/// Parses a surface model file; an accepted model must be one JSON document, must
+/// write out as a model that reads back the same, and is meshed coarsely with exact
+/// normals (its network and Jacobian evaluated at every vertex).
+pub fn surface(data: &[u8]) -> Outcome {
+    let text = text(data)?;
+    let model = SurfaceModel::from_json(text).map_err(message)?;
+    assert_one_document(text, "surface model");
+    let json = model.to_json();
+    let again = SurfaceModel::from_json(&json)
+        .unwrap_or_else(|e| panic!("a written model does not read back: {e}"));
+    assert!(
+        again.to_json() == json,
+        "a written model reads back as another model"
+    );
+    // Domains without a mesh (the 3-ball, S^3) say so in an error.
+    if let Err(e) = tessellate(&model, 1, NormalMode::Exact) {
+        message(e);
+    }
+    Ok(())
+}
+
+/// The directory scene files resolve their file names against: one that does not
+/// exist, so no `..` climbs out of it and a named file is simply not found.
+const NO_DIR: &str = "/nonexistent-caoen-fuzz-dir";
+
+/// Whether any string in the JSON text is an absolute path: a scene may name files,
+/// and reading `/dev/zero` or a huge file is not what a fuzzer should spend time on.
+fn names_absolute_path(text: &str) -> bool {
+    fn walk(v: &serde_json::Value) -> bool {
+        match v {
+            serde_json::Value::String(s) => s.starts_with('/'),
+            serde_json::Value::Array(a) => a.iter().any(walk),
+            serde_json::Value::Object(o) => o.values().any(walk),
+            _ => false,
+        }
+    }
+    serde_json::from_str::<serde_json::Value>(text).is_ok_and(|v| walk(&v))
+}
+
+/// Render sizes and settings of the scene target: tiny, one sample, coarse meshes, so
+/// each method's numeric code runs in milliseconds.
+fn tiny_render(method: Method, ray_method: RayMethod) -> RenderOptions {
+    let mut opts = RenderOptions {
+        width: 16,
+        height: 12,
+        samples: 1,
+        method,
+        mesh_detail: 2,
+        ray_method,
+        polygonise_cells: 8,
+        ..RenderOptions::default()
+    };
+    opts.depth.max_samples = 1 << 20;
+    opts
+}
+
+/// Parses a scene file and renders it at 16x12 by the mesh, depth-buffer and ray
+/// methods (both crossing searches); an accepted scene must be one JSON document, and
+/// each render that succeeds has the requested size.
+pub fn scene(data: &[u8]) -> Outcome {
+    let text = text(data)?;
+    if names_absolute_path(text) {
+        return Err("names an absolute path".into());
+    }
+    let scene = Scene::from_json(text, Path::new(NO_DIR)).map_err(message)?;
+    assert_one_document(text, "scene");
+    for (method, ray) in [
+        (Method::Mesh, RayMethod::Fast),
+        (Method::Depth, RayMethod::Fast),
+        (Method::Ray, RayMethod::Fast),
+        (Method::Ray, RayMethod::Paper),
+    ] {
+        let opts = tiny_render(method, ray);
+        match render(&scene, &opts, &|_, _| {}) {
+            Ok(r) => assert_eq!(
+                (r.image.width, r.image.height),
+                (opts.width, opts.height),
+                "rendered size"
+            ),
+            Err(e) => {
+                message(e);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Size of the image the distort target warps.
+const WARP_SIZE: (u32, u32) = (32, 24);
+
+/// The picture the distort target warps, as a caoen file of [`WARP_SIZE`]. Read on
+/// every run rather than made once: work done only on a process's first run would make
+/// its coverage differ from the next run's (AFL's stability).
+const WARP_INPUT: &[u8] = include_bytes!("warp-input.cae");
+
+/// Parses a moves file, builds the warp network for a 32x24 image (the interpolation
+/// solve), checks it for folds, and applies it to an image, to its grid, and to the key
+/// points of a caoen file; each result has the image's size.
+pub fn distort(data: &[u8]) -> Outcome {
+    let text = text(data)?;
+    let moves = warp::parse_moves(text).map_err(message)?;
+    let (w, h) = WARP_SIZE;
+    let warp = Warp::new(w, h, &moves).map_err(message)?;
+    warp.check_folds(1.0);
+    let input = codec::decode(WARP_INPUT, &DecodeOptions::default()).expect("the warp input");
+    let img = warp::warp_raster(&input, &warp, 2).map_err(message)?;
+    assert_eq!((img.width(), img.height()), WARP_SIZE, "warped image size");
+    let grid = warp::draw_grid(img, &warp).map_err(message)?;
+    assert_eq!((grid.width(), grid.height()), WARP_SIZE, "grid image size");
+    let decoded = decoder::read(WARP_INPUT, u64::MAX).expect("the warp input");
+    let img = warp::warp_decoded(&decoded, &warp, 1).map_err(message)?;
+    assert_eq!((img.width(), img.height()), WARP_SIZE, "warped caoen size");
+    Ok(())
+}
