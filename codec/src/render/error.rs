@@ -55,5 +55,25 @@ impl RenderError {
     }
 }
 
+impl RenderError {
+    /// The same error with any text from a file made printable.
+    pub(crate) fn printable(self) -> Self {
+        use crate::surface::error::printable;
+        match self {
+            RenderError::Scene(m) => RenderError::Scene(printable(&m)),
+            RenderError::Parameter { what, reason } => RenderError::Parameter {
+                what: printable(&what),
+                reason: printable(&reason),
+            },
+            RenderError::Io { path, message } => RenderError::Io {
+                path: printable(&path),
+                message: printable(&message),
+            },
+            RenderError::Surface(e) => RenderError::Surface(e.printable()),
+            other => other,
+        }
+    }
+}
+
 /// Result alias of the renderers.
 pub type Result<T, E = RenderError> = std::result::Result<T, E>;

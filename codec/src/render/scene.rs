@@ -143,15 +143,21 @@ impl Scene {
     pub fn load(path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Scene::from_json(&text, &base).map_err(|e| match e {
-            RenderError::Scene(msg) => RenderError::Scene(format!("{}: {msg}", path.display())),
-            other => other,
-        })
+        Scene::from_json(&text, &base)
+            .map_err(|e| match e {
+                RenderError::Scene(msg) => RenderError::Scene(format!("{}: {msg}", path.display())),
+                other => other,
+            })
+            .map_err(RenderError::printable)
     }
 
     /// Parses a scene (exactly one JSON value, nothing after it); relative file names
     /// are resolved against `base_dir`.
     pub fn from_json(text: &str, base_dir: &Path) -> Result<Scene> {
+        Self::parse_json(text, base_dir).map_err(RenderError::printable)
+    }
+
+    fn parse_json(text: &str, base_dir: &Path) -> Result<Scene> {
         let de = &mut serde_json::Deserializer::from_str(text);
         let file: FileScene = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let path = e.path().to_string();

@@ -158,6 +158,10 @@ impl SurfaceModel {
 
     /// Parses a model from JSON text: exactly one JSON value, nothing after it.
     pub fn from_json(text: &str) -> Result<Self> {
+        Self::parse_json(text).map_err(SurfaceError::printable)
+    }
+
+    fn parse_json(text: &str) -> Result<Self> {
         let de = &mut serde_json::Deserializer::from_str(text);
         let file: FileModel = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
             let path = e.path().to_string();
@@ -294,9 +298,11 @@ impl SurfaceModel {
     /// Loads a model from a file.
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path)
-            .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())))?;
+            .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())).printable())?;
         Self::from_json(&text).map_err(|e| match e {
-            SurfaceError::File(msg) => SurfaceError::File(format!("{}: {msg}", path.display())),
+            SurfaceError::File(msg) => {
+                SurfaceError::File(format!("{}: {msg}", path.display())).printable()
+            }
             other => other,
         })
     }
