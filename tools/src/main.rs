@@ -25,7 +25,10 @@ fn is_print_failure(payload: &(dyn std::any::Any + Send)) -> bool {
 
 fn fail(e: &caoen_cli::failure::CliError) -> ExitCode {
     // One line, whatever a file put into the message.
-            eprintln!("error: {}", caoen::surface::error::printable(&e.to_string()));
+    eprintln!(
+        "error: {}",
+        caoen::surface::error::printable(&e.to_string())
+    );
     ExitCode::from(e.exit_code())
 }
 
