@@ -543,7 +543,9 @@ fn planar<T: Copy>(interleaved: &[T], channels: usize, f: impl Fn(T) -> f32) -> 
 }
 
 /// Integer samples for an 8- or 16-bit output: clamped to [0, 1], rounded.
-fn quantise(v: f32, max: f32) -> f32 {
+/// A sample in [0, 1] on an integer scale of `max`, rounded: the one quantiser of
+/// every integer output.
+pub(crate) fn quantise(v: f32, max: f32) -> f32 {
     (v.clamp(0.0, 1.0) * max).round()
 }
 
@@ -603,8 +605,7 @@ pub fn encode_memory(width: u32, height: u32, channels: usize, format: OutputFor
 }
 
 fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<u8>, ImageIoError> {
-    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
-    use image::{ExtendedColorType as C, ImageEncoder};
+    use image::ExtendedColorType as C;
     let sixteen = format == OutputFormat::Png16;
     let color = match (raster.layout(), sixteen) {
         (ChannelLayout::Grey, false) => C::L8,
@@ -625,15 +626,55 @@ fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<
     } else {
         interleave(raster, |v| quantise(v, 255.0) as u8)
     };
+    write_png(&bytes, raster.width(), raster.height(), color, path)
+}
+
+fn write_png(
+    bytes: &[u8],
+    width: u32,
+    height: u32,
+    color: image::ExtendedColorType,
+    path: &Path,
+) -> Result<Vec<u8>, ImageIoError> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+    use image::ImageEncoder;
     let mut out = Vec::new();
-    // Single-threaded, fixed settings: the same raster always gives the same bytes.
+    // Single-threaded, fixed settings: the same samples always give the same bytes.
     PngEncoder::new_with_quality(&mut out, CompressionType::Default, FilterType::Adaptive)
-        .write_image(&bytes, raster.width(), raster.height(), color)
+        .write_image(bytes, width, height, color)
         .map_err(|e| ImageIoError::Corrupt {
             path: path.to_path_buf(),
             reason: format!("PNG encoder: {e}"),
         })?;
     Ok(out)
+}
+
+/// Encodes interleaved integer samples (from [`crate::codec::decoder::decode_interleaved`])
+/// as a PNG file in memory: the same bytes as [`encode`] of the equivalent raster.
+pub fn encode_png_interleaved(
+    image: &crate::codec::decoder::Interleaved,
+) -> Result<Vec<u8>, ImageIoError> {
+    use crate::codec::decoder::Samples;
+    use image::ExtendedColorType as C;
+    let sixteen = matches!(image.samples, Samples::U16(_));
+    let color = match (image.layout, sixteen) {
+        (ChannelLayout::Grey, false) => C::L8,
+        (ChannelLayout::GreyAlpha, false) => C::La8,
+        (ChannelLayout::Rgb, false) => C::Rgb8,
+        (ChannelLayout::Rgba, false) => C::Rgba8,
+        (ChannelLayout::Grey, true) => C::L16,
+        (ChannelLayout::GreyAlpha, true) => C::La16,
+        (ChannelLayout::Rgb, true) => C::Rgb16,
+        (ChannelLayout::Rgba, true) => C::Rgba16,
+    };
+    let mem = Path::new("<memory>");
+    match &image.samples {
+        Samples::U8(b) => write_png(b, image.width, image.height, color, mem),
+        Samples::U16(s) => {
+            let bytes: Vec<u8> = s.iter().flat_map(|v| v.to_ne_bytes()).collect();
+            write_png(&bytes, image.width, image.height, color, mem)
+        }
+    }
 }
 
 /// Writes a raster with the format its path's extension asks for (`.png`: 8-bit for

@@ -23,7 +23,7 @@ use super::model::chroma_cells;
 use super::quadtree::Cell;
 use super::syntax::{self, MAX_SYMBOLS_PER_VALUE};
 use super::{CodecError, DecodeOptions, MAX_SIDE};
-use crate::raster::Raster;
+use crate::raster::{ChannelLayout, Raster, SampleFormat};
 
 /// The decoded key points and their values, before evaluation.
 #[derive(Debug, Clone)]
@@ -152,7 +152,11 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
     })
 }
 
-fn output_size(header: &Header, opts: &DecodeOptions) -> Result<(u32, u32), CodecError> {
+fn output_size(
+    header: &Header,
+    opts: &DecodeOptions,
+    sample_bytes: u64,
+) -> Result<(u32, u32), CodecError> {
     let (ow, oh) = opts.size.unwrap_or((header.width, header.height));
     if ow == 0 || oh == 0 || ow > MAX_SIDE || oh > MAX_SIDE {
         return Err(CodecError::Parameter {
@@ -176,7 +180,7 @@ fn output_size(header: &Header, opts: &DecodeOptions) -> Result<(u32, u32), Code
     }
     crate::budget::check(
         || format!("decoding {}x{} to {ow}x{oh}", header.width, header.height),
-        decode_memory(header, (ow, oh), opts.supersample),
+        decode_memory(header, (ow, oh), opts.supersample, sample_bytes),
     )?;
     Ok((ow, oh))
 }
@@ -186,13 +190,19 @@ fn output_size(header: &Header, opts: &DecodeOptions) -> Result<(u32, u32), Code
 const KEY_POINT_BYTES: u64 = 256;
 
 /// Estimated peak memory of decoding a file with `header` to `ow x oh` pixels, in
-/// bytes: the key points, the output raster and, for forward mapping with `S x S`
-/// samples, the sample lattice and the accumulation planes.
-pub fn decode_memory(header: &Header, (ow, oh): (u32, u32), supersample: Option<u32>) -> u64 {
+/// bytes: the key points, the output of `sample_bytes` per sample (4 for a raster, 1
+/// or 2 for [`decode_interleaved`]) and, for forward mapping with `S x S` samples, the
+/// sample lattice and the accumulation planes.
+pub fn decode_memory(
+    header: &Header,
+    (ow, oh): (u32, u32),
+    supersample: Option<u32>,
+    sample_bytes: u64,
+) -> u64 {
     let channels = header.layout.channels() as u64;
     let keys = (u64::from(header.luma_count) + u64::from(header.chroma_count)) * KEY_POINT_BYTES;
     let per_pixel = match supersample {
-        None => 4 * channels,
+        None => sample_bytes * channels,
         Some(s) => {
             let s = u64::from(s);
             4 * channels + 4 * channels * s * s + 8 * channels + 8
@@ -216,7 +226,7 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
         }
     };
     let d = read(bytes, opts.max_pixels)?;
-    let (ow, oh) = output_size(&d.header, opts)?;
+    let (ow, oh) = output_size(&d.header, opts, 4)?;
     let planes = render_forward(&d, ow, oh, s)?;
     Ok(to_raster(&d.header, planes, ow, oh))
 }
@@ -289,18 +299,121 @@ pub fn render_identity_raster_on(
 /// [`decode`] by the identity fast path: equal to `render_identity_raster(&read(..)?, ..)`,
 /// with the output allocated while the tree decodes.
 fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
+    identity_with(
+        bytes,
+        opts,
+        4,
+        |h, (ow, oh)| vec![0.0f32; ow as usize * oh as usize * h.layout.channels()],
+        |h, luma, chroma, size, samples| band_pass(h, luma, chroma, size, samples),
+    )
+}
+
+/// Decodes by the identity fast path straight to interleaved 8- or 16-bit samples (as
+/// PNG stores them), band by band, with no full-size float copy: equal to quantising
+/// and interleaving [`decode`]'s raster.
+pub fn decode_interleaved(
+    bytes: &[u8],
+    opts: &DecodeOptions,
+    depth: Depth,
+) -> Result<Interleaved, CodecError> {
+    let opts = DecodeOptions {
+        supersample: None,
+        ..opts.clone()
+    };
+    let sample_bytes = match depth {
+        Depth::Eight => 1,
+        Depth::Sixteen => 2,
+    };
+    identity_with(
+        bytes,
+        &opts,
+        sample_bytes,
+        |h, (ow, oh)| {
+            let n = ow as usize * oh as usize * h.layout.channels();
+            match depth {
+                Depth::Eight => Samples::U8(vec![0; n]),
+                Depth::Sixteen => Samples::U16(vec![0; n]),
+            }
+        },
+        |h, luma, chroma, (ow, oh), mut samples| {
+            let ok = match &mut samples {
+                Samples::U8(out) => band_pass_interleaved(h, luma, chroma, ow, out, |v| {
+                    crate::image_io::quantise(v, 255.0) as u8
+                }),
+                Samples::U16(out) => band_pass_interleaved(h, luma, chroma, ow, out, |v| {
+                    crate::image_io::quantise(v, 65535.0) as u16
+                }),
+            };
+            if !ok {
+                return Err(non_finite());
+            }
+            Ok(Interleaved {
+                width: ow,
+                height: oh,
+                layout: h.layout,
+                format: h.format,
+                samples,
+            })
+        },
+    )
+}
+
+/// Bits per sample of [`decode_interleaved`]'s output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Depth {
+    /// 8 bits.
+    Eight,
+    /// 16 bits.
+    Sixteen,
+}
+
+/// Interleaved integer samples.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Samples {
+    /// 8-bit samples.
+    U8(Vec<u8>),
+    /// 16-bit samples.
+    U16(Vec<u16>),
+}
+
+/// A decoded image as interleaved integer samples, pixel by pixel, channel by channel.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Interleaved {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Channels.
+    pub layout: ChannelLayout,
+    /// The sample format the image was coded from.
+    pub format: SampleFormat,
+    /// The samples.
+    pub samples: Samples,
+}
+
+fn non_finite() -> CodecError {
+    CodecError::Format("the key points evaluate to a non-finite colour".into())
+}
+
+/// The identity path with its output made by `alloc` (while the tree decodes) and filled
+/// by `finish` from the two evaluators.
+fn identity_with<O: Send, R>(
+    bytes: &[u8],
+    opts: &DecodeOptions,
+    sample_bytes: u64,
+    alloc: impl FnOnce(&Header, (u32, u32)) -> O + Send,
+    finish: impl FnOnce(&Header, &GridEval, Option<&GridEval>, (u32, u32), O) -> Result<R, CodecError>,
+) -> Result<R, CodecError> {
     let parsed = bitstream::parse(bytes, opts.max_pixels)?;
     let header = &parsed.header;
-    let (ow, oh) = output_size(header, opts)?;
+    let (ow, oh) = output_size(header, opts, sample_bytes)?;
     let frame = Frame::new(header.width, header.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
     let size = (header.width, header.height);
     let (luma_steps, chroma_steps) = steps(header);
     let colour = header.layout.colour_channels() == 3;
-    let (luma_cells, samples) = rayon::join(
-        || read_luma_cells(&parsed),
-        || vec![0.0f32; ow as usize * oh as usize * header.layout.channels()],
-    );
+    let (luma_cells, samples) =
+        rayon::join(|| read_luma_cells(&parsed), || alloc(header, (ow, oh)));
     let luma_cells = luma_cells?;
     // The two value sections are independent entropy-coded streams, one per thread;
     // each thread then prepares its key set's evaluator.
@@ -342,7 +455,7 @@ fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecEr
         )
         .with_values(values)
     });
-    band_pass(header, &luma, chroma.as_ref(), (ow, oh), samples)
+    finish(header, &luma, chroma.as_ref(), (ow, oh), samples)
 }
 
 /// Evaluates both key sets band by band into `samples` (`ow x oh` pixels of the
@@ -397,12 +510,56 @@ fn band_pass(
         },
     );
     if !finite.all(|ok| ok) {
-        return Err(CodecError::Format(
-            "the key points evaluate to a non-finite colour".into(),
-        ));
+        return Err(non_finite());
     }
     Raster::from_finite(ow, oh, h.layout, h.format, samples)
         .map_err(|e| CodecError::Format(format!("decoded raster: {e}")))
+}
+
+/// [`band_pass`] into interleaved samples converted by `convert`: each band is
+/// evaluated into a band-sized planar buffer, checked finite, then converted into its
+/// rows of `out`. Returns whether every sample was finite.
+fn band_pass_interleaved<T: Send>(
+    h: &Header,
+    luma: &GridEval,
+    chroma: Option<&GridEval>,
+    ow: u32,
+    out: &mut [T],
+    convert: impl Fn(f32) -> T + Sync,
+) -> bool {
+    let ch = h.layout.channels();
+    let alpha = h.layout.has_alpha();
+    let nl = 1 + usize::from(alpha);
+    let nch = if chroma.is_some() { 2 } else { 0 };
+    let band_len = GridEval::BAND * ow as usize;
+    out.par_chunks_mut(band_len * ch)
+        .enumerate()
+        .map_init(
+            || (BandScratch::default(), Vec::new(), Vec::new()),
+            |(scratch, coding, planar), (b, out)| {
+                let len = out.len() / ch;
+                coding.resize((nl + nch) * len, 0.0f32);
+                planar.resize(ch * len, 0.0f32);
+                let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
+                let (lp, cp) = parts.split_at_mut(nl);
+                luma.conformal(b, scratch);
+                luma.eval_band(b, scratch, lp);
+                if let Some(chroma) = &chroma {
+                    chroma.eval_band(b, scratch, cp);
+                }
+                let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
+                    .chain(cp.iter().map(|p| &**p))
+                    .collect();
+                let mut planes: Vec<&mut [f32]> = planar.chunks_exact_mut(len).collect();
+                colour::inverse_span(&colour, alpha.then(|| &*lp[1]), &mut planes, h.format);
+                let finite = planar.iter().fold(true, |ok, v| ok & v.is_finite());
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = convert(planar[(i % ch) * len + i / ch]);
+                }
+                finite
+            },
+        )
+        .all(|ok| ok)
 }
 
 /// Forward mapping with `s x s` samples per output pixel.
@@ -630,6 +787,23 @@ mod tests {
                 )
                 .unwrap();
                 assert_eq!(decoded.samples(), fused.samples(), "decode at {ow}x{oh}");
+                // Straight to integer samples: the same PNG as through the raster.
+                let opts = DecodeOptions {
+                    size: Some((ow, oh)),
+                    ..DecodeOptions::default()
+                };
+                for (depth, png) in [
+                    (Depth::Eight, crate::image_io::OutputFormat::Png8),
+                    (Depth::Sixteen, crate::image_io::OutputFormat::Png16),
+                ] {
+                    let direct = decode_interleaved(&bytes, &opts, depth).unwrap();
+                    assert_eq!((direct.width, direct.height), (ow, oh));
+                    assert_eq!(
+                        crate::image_io::encode_png_interleaved(&direct).unwrap(),
+                        crate::image_io::encode(&decoded, png).unwrap(),
+                        "{layout:?} {format:?} {depth:?} at {ow}x{oh}"
+                    );
+                }
             }
         }
     }

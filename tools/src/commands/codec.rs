@@ -199,45 +199,74 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     if let Some(t) = &target {
         outputs.check(t)?;
     }
+    // PNG output from the identity path is decoded straight to its integer samples,
+    // with no full-size float raster.
+    let depth = match (&target, a.supersample, format) {
+        (Some(_), None, image_io::OutputFormat::Png8) => Some(decoder::Depth::Eight),
+        (Some(_), None, image_io::OutputFormat::Png16) => Some(decoder::Depth::Sixteen),
+        _ => None,
+    };
     // The whole job against the budget before any of it starts: the decode and the
     // output file's buffers.
     let header = &parsed.header;
+    let channels = header.layout.channels();
     let (ow, oh) = size.unwrap_or((w, h));
-    let need = decoder::decode_memory(header, (ow, oh), a.supersample).saturating_add(
-        target.as_ref().map_or(0, |_| {
-            image_io::encode_memory(ow, oh, header.layout.channels(), format)
-        }),
-    );
+    let need =
+        match depth {
+            Some(d) => {
+                let b = if d == decoder::Depth::Eight { 1 } else { 2 };
+                // The samples, the file (counted at their size) and, for 16 bits, the
+                // samples as bytes.
+                decoder::decode_memory(header, (ow, oh), None, b).saturating_add(
+                    caoen::budget::bytes(u64::from(ow) * u64::from(oh), channels as u64, 2 * b - 1),
+                )
+            }
+            None => decoder::decode_memory(header, (ow, oh), a.supersample, 4).saturating_add(
+                target
+                    .as_ref()
+                    .map_or(0, |_| image_io::encode_memory(ow, oh, channels, format)),
+            ),
+        };
     caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
     let start = Instant::now();
-    let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
+    let (encoded, (iw, ih)) = match depth {
+        Some(d) => {
+            let img = decoder::decode_interleaved(&bytes, &opts, d)
+                .map_err(|e| codec_err(&a.input, e))?;
+            let size = (img.width, img.height);
+            (Some(image_io::encode_png_interleaved(&img)), size)
+        }
+        None => {
+            let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
+            let size = (img.width(), img.height());
+            (
+                target.as_ref().map(|_| image_io::encode(&img, format)),
+                size,
+            )
+        }
+    };
     let secs = start.elapsed().as_secs_f64();
-    match &target {
-        None => note(
-            global,
-            format!(
-                "{}: valid, {}x{} decoded in {secs:.3} s",
-                a.input.display(),
-                img.width(),
-                img.height()
-            ),
-        ),
-        Some(target) => {
-            let encoded = image_io::encode(&img, format)
-                .map_err(|e| encode_error(Path::new(&target.display()), e))?;
+    match (&target, encoded) {
+        (Some(target), Some(encoded)) => {
+            let encoded = encoded.map_err(|e| encode_error(Path::new(&target.display()), e))?;
             outputs.write(target, &encoded)?;
             note(
                 global,
                 format!(
-                    "{} -> {}: {}x{} in {secs:.3} s",
+                    "{} -> {}: {iw}x{ih} in {secs:.3} s",
                     a.input.display(),
                     target.display(),
-                    img.width(),
-                    img.height()
                 ),
             );
         }
+        _ => note(
+            global,
+            format!(
+                "{}: valid, {iw}x{ih} decoded in {secs:.3} s",
+                a.input.display()
+            ),
+        ),
     }
     Ok(())
 }
