@@ -82,9 +82,7 @@ fn steps(header: &Header) -> (Vec<f64>, [f64; 2]) {
 fn read_luma_cells(parsed: &Parsed) -> Result<Vec<Cell>, CodecError> {
     let header = &parsed.header;
     let shape = header.shape();
-    // The walk visits at most 4/3 of the leaves as nodes; each reads one flag.
-    let max_nodes = shape.max_leaves() * 4 / 3 + 4;
-    let mut src = AnsSource::new(parsed.payload(tag::TREE).unwrap_or(&[]), max_nodes)?;
+    let mut src = AnsSource::new(parsed.payload(tag::TREE).unwrap_or(&[]), shape.max_flags())?;
     let cells = syntax::read_tree(&shape, header.luma_count as usize, &mut src)?;
     if cells.len() != header.luma_count as usize {
         return Err(CodecError::Format(format!(

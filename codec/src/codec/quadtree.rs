@@ -139,6 +139,18 @@ impl TreeShape {
         let m = 1u64 << self.min_log2;
         (self.width as u64).div_ceil(m) * (self.height as u64).div_ceil(m)
     }
+
+    /// Most split flags a tree can have: one per node above the smallest size that
+    /// meets the image. Near the image's edges a node can have a single child, so the
+    /// count is not bounded by a fixed multiple of the leaves.
+    pub fn max_flags(&self) -> u64 {
+        (self.min_log2 + 1..=self.block_log2)
+            .map(|l| {
+                let s = 1u64 << l;
+                (self.width as u64).div_ceil(s) * (self.height as u64).div_ceil(s)
+            })
+            .sum()
+    }
 }
 
 /// The chroma key points: the luma leaves pruned one level. Wherever all existing
@@ -200,6 +212,38 @@ pub(crate) fn random_tree(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tree split wherever it can be has the most flags; near thin or tiny images its
+    /// nodes have single children, so there are more flags than leaves.
+    #[test]
+    fn max_flags_counts_the_fully_split_tree() {
+        for (width, height, block_log2, min_log2) in [
+            (1, 1, 7, 0),
+            (1, 37, 7, 0),
+            (37, 1, 5, 1),
+            (3, 3, 2, 0),
+            (100, 60, 6, 2),
+        ] {
+            let shape = TreeShape {
+                width,
+                height,
+                block_log2,
+                min_log2,
+            };
+            let flags = std::cell::Cell::new(0u64);
+            let mut sink = crate::codec::entropy::AnsSink::new();
+            let leaves = crate::codec::syntax::write_tree(
+                &shape,
+                |_| {
+                    flags.set(flags.get() + 1);
+                    true
+                },
+                &mut sink,
+            );
+            assert_eq!(flags.get(), shape.max_flags(), "{width}x{height}");
+            assert_eq!(leaves.len() as u64, shape.max_leaves(), "{width}x{height}");
+        }
+    }
 
     /// The pruning by its definition: count each parent's leaf children.
     fn pruned_by_counting(shape: &TreeShape, leaves: &[Cell]) -> Vec<Cell> {
