@@ -375,15 +375,40 @@ fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T, ImageIoError>) -> Resul
             .map(|s| s.to_string())
             .or_else(|| panic.downcast_ref::<String>().cloned())
             .unwrap_or_else(|| "unknown".into());
-        Err(ImageIoError::Corrupt {
+        Err(tidy(ImageIoError::Corrupt {
             path: path.to_path_buf(),
             reason: format!("the decoder failed: {what}"),
-        })
+        }))
     })
 }
 
 /// Sorts an `image` crate error by fault.
+/// A third-party decoder's words as one printable line: trimmed, control characters
+/// escaped.
+fn tidy(e: ImageIoError) -> ImageIoError {
+    let line = |r: String| crate::surface::error::printable(r.trim());
+    match e {
+        ImageIoError::Truncated { path, reason } => ImageIoError::Truncated {
+            path,
+            reason: line(reason),
+        },
+        ImageIoError::Corrupt { path, reason } => ImageIoError::Corrupt {
+            path,
+            reason: line(reason),
+        },
+        ImageIoError::Unsupported { path, reason } => ImageIoError::Unsupported {
+            path,
+            reason: line(reason),
+        },
+        other => other,
+    }
+}
+
 fn image_error(path: &Path, e: image::ImageError) -> ImageIoError {
+    tidy(image_error_words(path, e))
+}
+
+fn image_error_words(path: &Path, e: image::ImageError) -> ImageIoError {
     use image::error::{ImageError as E, LimitErrorKind};
     let path = path.to_path_buf();
     match e {
@@ -763,6 +788,10 @@ mod exr_io {
     }
 
     fn corrupt(path: &Path, e: exr::error::Error) -> ImageIoError {
+        super::tidy(corrupt_words(path, e))
+    }
+
+    fn corrupt_words(path: &Path, e: exr::error::Error) -> ImageIoError {
         let path = path.to_path_buf();
         match e {
             exr::error::Error::Io(source) if source.kind() == std::io::ErrorKind::UnexpectedEof => {
