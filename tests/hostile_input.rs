@@ -314,3 +314,19 @@ fn memory_budget_sizes_are_validated() {
         assert!(!o.stderr.contains("panicked"));
     }
 }
+
+#[test]
+fn files_larger_than_the_budget_are_not_read() {
+    let dir = scratch("big");
+    let big = dir.join("big.cae");
+    // Sparse: no disk is spent on the 3 GiB.
+    std::fs::File::create(&big)
+        .and_then(|f| f.set_len(3 << 30))
+        .expect("sparse file");
+    fails_cleanly(
+        &["info", &big.display().to_string()],
+        1,
+        "reading the file needs about 3.0 GiB, over the memory budget of 2.0 GiB",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,6 +10,7 @@
 //! slices reach through many layers, and one number for the whole process is what a
 //! user can reason about.
 
+use std::io::Read;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use thiserror::Error;
@@ -58,6 +59,51 @@ pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget>
 /// `a * b * c` bytes, saturating: an estimate that overflows is over any budget.
 pub fn bytes(a: u64, b: u64, c: u64) -> u64 {
     a.saturating_mul(b).saturating_mul(c)
+}
+
+/// Reads a whole file (or all of `reader`), refusing one larger than the budget before
+/// reading it: a file's bytes are held in memory, so they count like any allocation.
+pub fn read_all(mut reader: impl std::io::Read, len_hint: Option<u64>) -> std::io::Result<Vec<u8>> {
+    let budget = get();
+    let too_big = |what: &str, need: u64| {
+        std::io::Error::other(OverBudget {
+            what: what.into(),
+            need,
+            budget,
+        })
+    };
+    if let Some(len) = len_hint.filter(|&l| l > budget) {
+        return Err(too_big("reading the file", len));
+    }
+    let mut buf = Vec::new();
+    // One byte past the budget tells a stream that is too long.
+    (&mut reader)
+        .take(budget.saturating_add(1))
+        .read_to_end(&mut buf)?;
+    if buf.len() as u64 > budget {
+        return Err(too_big(
+            "reading the input (it goes on past the budget)",
+            buf.len() as u64,
+        ));
+    }
+    Ok(buf)
+}
+
+/// [`read_all`] of the file at `path`.
+pub fn read(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    let file = std::fs::File::open(path)?;
+    let len = file
+        .metadata()
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
+    read_all(file, len)
+}
+
+/// [`read`] as UTF-8 text.
+pub fn read_to_string(path: &std::path::Path) -> std::io::Result<String> {
+    String::from_utf8(read(path)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// Parses a size such as `2G`, `512M`, `1.5GiB` or `1000000` (bytes).

@@ -141,7 +141,7 @@ impl Scene {
 
     /// Loads a scene file; files it names are resolved against its directory.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
+        let text = crate::budget::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::from_json(&text, &base)
             .map_err(|e| match e {

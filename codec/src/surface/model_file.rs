@@ -297,7 +297,7 @@ impl SurfaceModel {
 
     /// Loads a model from a file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::budget::read_to_string(path)
             .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())).printable())?;
         Self::from_json(&text).map_err(|e| match e {
             SurfaceError::File(msg) => {

@@ -315,7 +315,7 @@ impl Volume {
             VolumeWrap::Clamp
         }
         let at = |e: String| TextureError::Invalid(format!("{}: {e}", spec.display()));
-        let text = std::fs::read_to_string(spec).map_err(|e| at(e.to_string()))?;
+        let text = crate::budget::read_to_string(spec).map_err(|e| at(e.to_string()))?;
         let s: Spec = serde_json::from_str(&text).map_err(|e| at(e.to_string()))?;
         if s.slices.is_empty() {
             return Err(at("the slice stack is empty (\"slices\": [])".into()));
@@ -325,7 +325,7 @@ impl Volume {
         let mut voxels = 0usize;
         for (k, name) in s.slices.iter().enumerate() {
             let path = dir.join(name);
-            let bytes = std::fs::read(&path)
+            let bytes = crate::budget::read(&path)
                 .map_err(|e| at(format!("slice {k} ({}): {e}", path.display())))?;
             let img = RgbImage::decode(&bytes)
                 .map_err(|e| at(format!("slice {k} ({}): {e}", path.display())))?;

@@ -16,12 +16,10 @@ use crate::output::{print, Outputs, Target};
 
 fn read_input(path: &Path) -> CliResult<Vec<u8>> {
     if path.as_os_str() == "-" {
-        let mut buf = Vec::new();
-        std::io::Read::read_to_end(&mut std::io::stdin(), &mut buf)
-            .map_err(|e| CliError::io("<stdin>", e))?;
-        return Ok(buf);
+        return caoen::budget::read_all(std::io::stdin().lock(), None)
+            .map_err(|e| CliError::io("<stdin>", e));
     }
-    std::fs::read(path).map_err(|e| CliError::io(path, e))
+    caoen::budget::read(path).map_err(|e| CliError::io(path, e))
 }
 
 /// Loads an image file into a raster, with a clear error naming the file.

@@ -26,7 +26,7 @@ pub fn is_cae(path: &Path) -> bool {
 /// Reads an image file, or decodes a caoen file, into a raster.
 pub fn load_any(path: &Path) -> CliResult<Raster> {
     if is_cae(path) {
-        let bytes = std::fs::read(path).map_err(|e| CliError::io(path, e))?;
+        let bytes = caoen::budget::read(path).map_err(|e| CliError::io(path, e))?;
         codec::decode(&bytes, &DecodeOptions::default())
             .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
     } else {

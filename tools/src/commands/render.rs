@@ -38,7 +38,7 @@ pub fn load_scene(spec: &str, texture: Option<&Path>) -> CliResult<Scene> {
     let is_file = !spec.starts_with("builtin:");
     if is_file {
         let path = Path::new(spec);
-        let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+        let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
         if Scene::is_scene_json(&text) {
             if texture.is_some() {
                 return Err(CliError::Usage(
@@ -249,7 +249,7 @@ pub fn write_obj_material(
 ) -> CliResult<(String, String)> {
     let png = texture_sibling(obj);
     if !texture_is_sibling(texture, &png) {
-        let bytes = std::fs::read(texture).map_err(|e| CliError::io(texture, e))?;
+        let bytes = caoen::budget::read(texture).map_err(|e| CliError::io(texture, e))?;
         let png_bytes = if bytes.starts_with(PNG_MAGIC) {
             bytes
         } else {

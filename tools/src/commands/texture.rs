@@ -37,7 +37,7 @@ pub fn parse_move(s: &str) -> CliResult<Move> {
 
 /// Reads a moves JSON file.
 pub fn read_moves(path: &Path) -> CliResult<Vec<Move>> {
-    let text = std::fs::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+    let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
     warp::parse_moves(&text).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
 }
 
@@ -183,7 +183,7 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
     outputs.check(&target)?;
     let start = Instant::now();
     let (img, warp) = if is_cae(&a.input) {
-        let bytes = std::fs::read(&a.input).map_err(|e| CliError::io(&a.input, e))?;
+        let bytes = caoen::budget::read(&a.input).map_err(|e| CliError::io(&a.input, e))?;
         let d = decoder::read(&bytes, caoen::codec::DEFAULT_MAX_PIXELS)
             .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
         fmt_for(d.header.format)?;
