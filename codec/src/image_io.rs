@@ -630,18 +630,8 @@ pub fn encode_memory(width: u32, height: u32, channels: usize, format: OutputFor
 }
 
 fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<u8>, ImageIoError> {
-    use image::ExtendedColorType as C;
     let sixteen = format == OutputFormat::Png16;
-    let color = match (raster.layout(), sixteen) {
-        (ChannelLayout::Grey, false) => C::L8,
-        (ChannelLayout::GreyAlpha, false) => C::La8,
-        (ChannelLayout::Rgb, false) => C::Rgb8,
-        (ChannelLayout::Rgba, false) => C::Rgba8,
-        (ChannelLayout::Grey, true) => C::L16,
-        (ChannelLayout::GreyAlpha, true) => C::La16,
-        (ChannelLayout::Rgb, true) => C::Rgb16,
-        (ChannelLayout::Rgba, true) => C::Rgba16,
-    };
+    let color = png_colour(raster.layout(), sixteen);
     let bytes: Vec<u8> = if sixteen {
         // The encoder takes 16-bit samples in native byte order.
         interleave(raster, |v| (quantise(v, 65535.0) as u16).to_ne_bytes())
@@ -652,6 +642,21 @@ fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<
         interleave(raster, |v| quantise(v, 255.0) as u8)
     };
     write_png(&bytes, raster.width(), raster.height(), color, path)
+}
+
+/// The PNG colour type of a layout at 8 or 16 bits.
+fn png_colour(layout: ChannelLayout, sixteen: bool) -> image::ExtendedColorType {
+    use image::ExtendedColorType as C;
+    match (layout, sixteen) {
+        (ChannelLayout::Grey, false) => C::L8,
+        (ChannelLayout::GreyAlpha, false) => C::La8,
+        (ChannelLayout::Rgb, false) => C::Rgb8,
+        (ChannelLayout::Rgba, false) => C::Rgba8,
+        (ChannelLayout::Grey, true) => C::L16,
+        (ChannelLayout::GreyAlpha, true) => C::La16,
+        (ChannelLayout::Rgb, true) => C::Rgb16,
+        (ChannelLayout::Rgba, true) => C::Rgba16,
+    }
 }
 
 fn write_png(
@@ -680,18 +685,8 @@ pub fn encode_png_interleaved(
     image: &crate::codec::decoder::Interleaved,
 ) -> Result<Vec<u8>, ImageIoError> {
     use crate::codec::decoder::Samples;
-    use image::ExtendedColorType as C;
     let sixteen = matches!(image.samples, Samples::U16(_));
-    let color = match (image.layout, sixteen) {
-        (ChannelLayout::Grey, false) => C::L8,
-        (ChannelLayout::GreyAlpha, false) => C::La8,
-        (ChannelLayout::Rgb, false) => C::Rgb8,
-        (ChannelLayout::Rgba, false) => C::Rgba8,
-        (ChannelLayout::Grey, true) => C::L16,
-        (ChannelLayout::GreyAlpha, true) => C::La16,
-        (ChannelLayout::Rgb, true) => C::Rgb16,
-        (ChannelLayout::Rgba, true) => C::Rgba16,
-    };
+    let color = png_colour(image.layout, sixteen);
     let mem = Path::new("<memory>");
     match &image.samples {
         Samples::U8(b) => write_png(b, image.width, image.height, color, mem),

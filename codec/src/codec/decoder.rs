@@ -468,9 +468,6 @@ fn band_pass(
 ) -> Result<Raster, CodecError> {
     let n = ow as usize * oh as usize;
     debug_assert_eq!(samples.len(), n * h.layout.channels());
-    let alpha = h.layout.has_alpha();
-    let nl = 1 + usize::from(alpha);
-    let nch = if chroma.is_some() { 2 } else { 0 };
     // Each band's rows of every output plane, handed to one task.
     let band_len = GridEval::BAND * ow as usize;
     let mut bands: Vec<Vec<&mut [f32]>> = (0..luma.bands()).map(|_| Vec::new()).collect();
@@ -482,22 +479,7 @@ fn band_pass(
     let finite = bands.into_par_iter().enumerate().map_init(
         || (BandScratch::default(), Vec::new()),
         |(scratch, coding), (b, mut out)| {
-            let len = out[0].len();
-            // Every value is overwritten below: no need to clear.
-            coding.resize((nl + nch) * len, 0.0f32);
-            let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
-            let (lp, cp) = parts.split_at_mut(nl);
-            // Both key sets sit on the same grid: one set of conformal factors.
-            luma.conformal(b, scratch);
-            luma.eval_band(b, scratch, lp);
-            if let Some(chroma) = &chroma {
-                chroma.eval_band(b, scratch, cp);
-            }
-            let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
-                .chain(cp.iter().map(|p| &**p))
-                .collect();
-            let alpha = alpha.then(|| &*lp[1]);
-            colour::inverse_span(&colour, alpha, &mut out, h.format);
+            band_colours(h, luma, chroma, b, scratch, coding, &mut out);
             // Checked here, in cache, rather than by a pass over the whole raster. The
             // colour conversion clamps, so only a kernel sum that underflowed could
             // leave a non-finite sample; chunked folds vectorise.
@@ -514,6 +496,37 @@ fn band_pass(
         .map_err(|e| CodecError::Format(format!("decoded raster: {e}")))
 }
 
+/// Evaluates band `b` of both key sets into `coding` and converts it to the output
+/// colours in `out` (one slice per channel, the band's pixels).
+fn band_colours(
+    h: &Header,
+    luma: &GridEval,
+    chroma: Option<&GridEval>,
+    b: usize,
+    scratch: &mut BandScratch,
+    coding: &mut Vec<f32>,
+    out: &mut [&mut [f32]],
+) {
+    let len = out[0].len();
+    let alpha = h.layout.has_alpha();
+    let nl = 1 + usize::from(alpha);
+    let nch = if chroma.is_some() { 2 } else { 0 };
+    // Every value is overwritten below: no need to clear.
+    coding.resize((nl + nch) * len, 0.0f32);
+    let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
+    let (lp, cp) = parts.split_at_mut(nl);
+    // Both key sets sit on the same grid: one set of conformal factors.
+    luma.conformal(b, scratch);
+    luma.eval_band(b, scratch, lp);
+    if let Some(chroma) = &chroma {
+        chroma.eval_band(b, scratch, cp);
+    }
+    let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
+        .chain(cp.iter().map(|p| &**p))
+        .collect();
+    colour::inverse_span(&colour, alpha.then(|| &*lp[1]), out, h.format);
+}
+
 /// [`band_pass`] into interleaved samples converted by `convert`: each band is
 /// evaluated into a band-sized planar buffer, checked finite, then converted into its
 /// rows of `out`. Returns whether every sample was finite.
@@ -526,9 +539,6 @@ fn band_pass_interleaved<T: Send>(
     convert: impl Fn(f32) -> T + Sync,
 ) -> bool {
     let ch = h.layout.channels();
-    let alpha = h.layout.has_alpha();
-    let nl = 1 + usize::from(alpha);
-    let nch = if chroma.is_some() { 2 } else { 0 };
     let band_len = GridEval::BAND * ow as usize;
     out.par_chunks_mut(band_len * ch)
         .enumerate()
@@ -536,20 +546,9 @@ fn band_pass_interleaved<T: Send>(
             || (BandScratch::default(), Vec::new(), Vec::new()),
             |(scratch, coding, planar), (b, out)| {
                 let len = out.len() / ch;
-                coding.resize((nl + nch) * len, 0.0f32);
                 planar.resize(ch * len, 0.0f32);
-                let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
-                let (lp, cp) = parts.split_at_mut(nl);
-                luma.conformal(b, scratch);
-                luma.eval_band(b, scratch, lp);
-                if let Some(chroma) = &chroma {
-                    chroma.eval_band(b, scratch, cp);
-                }
-                let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
-                    .chain(cp.iter().map(|p| &**p))
-                    .collect();
                 let mut planes: Vec<&mut [f32]> = planar.chunks_exact_mut(len).collect();
-                colour::inverse_span(&colour, alpha.then(|| &*lp[1]), &mut planes, h.format);
+                band_colours(h, luma, chroma, b, scratch, coding, &mut planes);
                 let finite = planar.iter().fold(true, |ok, v| ok & v.is_finite());
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = convert(planar[(i % ch) * len + i / ch]);
