@@ -1,4 +1,4 @@
-//! Network evaluation throughput (issue 2): n = 64, 1024, 16384 key points, compact
+//! Network evaluation throughput: n = 64, 1024, 16384 key points, compact
 //! support (~30 neighbours per input) and dense, on batches of sphere points, beside a
 //! plain nalgebra matrix multiply of the dense network's shape measured in the same run.
 //!

@@ -1,4 +1,4 @@
-//! Render throughput (issue 3), each beside a plain baseline measured in the same run:
+//! Render throughput, each beside a plain baseline measured in the same run:
 //! - rays/s of the convex implicit ray tracer (20-plane solid, 512x512, 1 sample), the
 //!   paper's crossing search and the fast one, against analytic sphere ray tracing of
 //!   the same image;

@@ -1,4 +1,4 @@
-//! `caoen distort` and the warp network (issue 7): control point placement, identity,
+//! `caoen distort` and the warp network: control point placement, identity,
 //! Jacobian sign, PNG vs .cae agreement, fold-over warning, CLI errors.
 
 mod common;

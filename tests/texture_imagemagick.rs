@@ -1,5 +1,5 @@
-//! Side by side with ImageMagick's `-distort Shepards` on the same control points
-//! (issue 7): placement error (dot centroids), smoothness (mean |Laplacian| of the
+//! Side by side with ImageMagick's `-distort Shepards` on the same control points:
+//! placement error (dot centroids), smoothness (mean |Laplacian| of the
 //! displacement field, measured the same way for both through a warped coordinate
 //! image) and time. Skipped with a message when ImageMagick is absent (`.ci/run`
 //! installs the Debian package `imagemagick` when it can).

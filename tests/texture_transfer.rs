@@ -1,4 +1,4 @@
-//! `caoen transfer` (issue 7): texture transfer between surfaces through their shared
+//! `caoen transfer`: texture transfer between surfaces through their shared
 //! domain.
 
 mod common;

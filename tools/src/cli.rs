@@ -67,7 +67,7 @@ pub enum Command {
     Examples(ExamplesArgs),
     /// Measure B against the reference A: PSNR, Y-PSNR, SSIM, SSIMULACRA2.
     Compare(CompareArgs),
-    /// Rate-distortion benchmark of caoen and peer codecs on a corpus (issue 6).
+    /// Rate-distortion benchmark of caoen and peer codecs on a corpus.
     Bench(crate::bench::BenchArgs),
     /// Distort an image or caoen file by moving control points (a Cao En warp).
     Distort(DistortArgs),

@@ -1,5 +1,5 @@
-//! `caoen bench`: the rate-distortion benchmark of caoen against real peer codecs
-//! (issue 6). See `docs/benchmarks.md` for how to run it and what it reports.
+//! `caoen bench`: the rate-distortion benchmark of caoen against real peer codecs.
+//! See `docs/benchmarks.md` for how to run it and what it reports.
 //!
 //! - [`corpus`]: the images (a corpus directory or the generated default corpus);
 //! - [`codecs`]: the codec interface, caoen through its facade, the registry;
