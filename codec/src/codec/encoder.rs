@@ -30,7 +30,10 @@ fn quantise(nbs: &[syntax::Neighbours], values: &[f64], step: f64, deadzone: f64
         let (pred, _) = syntax::predict(&out, &nbs[i], previous);
         let r = values[i] / step - pred as f64;
         let m = (r.abs() + 0.5 - deadzone).floor().max(0.0);
-        let v = (pred + (r.signum() * m) as i64).clamp(-MAX_VALUE, MAX_VALUE);
+        // Clamped in floating point: an extreme (finite) sample can put the residual
+        // far beyond i64, and the sum must not overflow. Below 2^53 the sum is exact, so
+        // in range this is the integer sum.
+        let v = (pred as f64 + r.signum() * m).clamp(-MAX_VALUE as f64, MAX_VALUE as f64) as i64;
         out[i] = v;
         previous = v;
     }
