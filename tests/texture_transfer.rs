@@ -281,7 +281,7 @@ fn texture_space_carries_a_solid_texture() {
     let b = gallery::by_name("blob").unwrap().unwrap();
     // Texture space = the shape itself: the object looks carved from the solid.
     let solid = |p: [f64; 3]| solid_checker(p, 0.3);
-    let img = bake_texture_space(&b, &b, &solid, 64, 32).unwrap();
+    let img = bake_texture_space(&b, &b, &solid, 64, 32, 1).unwrap();
     for (k, px) in img.pixels.iter().enumerate().step_by(37) {
         let uv = [
             ((k % 64) as f64 + 0.5) / 64.0,
@@ -292,7 +292,7 @@ fn texture_space_carries_a_solid_texture() {
         assert_eq!(*px, solid([y[0], y[1], y[2]]));
     }
     let ring = gallery::by_name("ring").unwrap().unwrap();
-    assert!(bake_texture_space(&ring, &b, &solid, 8, 8).is_err());
+    assert!(bake_texture_space(&ring, &b, &solid, 8, 8, 1).is_err());
     let dir = tmpdir("space");
     let out = dir.join("s.png");
     let o = caoen(&[
@@ -667,4 +667,313 @@ fn texture_control_example_steers_the_texture() {
     let (steered, plain) = (on_tip(&model), on_tip(&blob));
     println!("texels on the +x tip: texture control {steered}, plain blob {plain}");
     assert!(steered as f64 > 1.3 * plain as f64, "{steered} vs {plain}");
+}
+
+/// A colour ramp in sRGB: red rises with the column, green with the row.
+fn ramp_png(path: &Path, w: u32, h: u32) {
+    let img = image::RgbImage::from_fn(w, h, |i, j| {
+        image::Rgb([(i * 255 / (w - 1)) as u8, (j * 255 / (h - 1)) as u8, 96])
+    });
+    img.save(path).unwrap();
+}
+
+fn load_rgb(path: &Path) -> RgbImage {
+    RgbImage::load(path).unwrap()
+}
+
+#[test]
+fn cli_the_source_surface_shapes_a_projected_picture() {
+    // A picture laid on A in A's own space: carried to the same B, it looks different
+    // from different A (and from A's domain texture), while `--project domain` carries
+    // the same domain texture whatever A is.
+    let dir = tmpdir("from");
+    let pic = dir.join("ramp.png");
+    ramp_png(&pic, 128, 64);
+    let run = |from: &str, project: &str, out: &str| {
+        let out = dir.join(out);
+        let o = caoen(&[
+            "transfer",
+            "--texture",
+            s(&pic),
+            "--from",
+            from,
+            "--project",
+            project,
+            "--to",
+            "builtin:blob",
+            "-o",
+            s(&out),
+            "--size",
+            "96x72",
+            "--detail",
+            "4",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out).unwrap()
+    };
+    for project in ["planar", "cylindrical", "spherical"] {
+        let a = run("builtin:octahedron", project, &format!("o-{project}.png"));
+        let c = run("builtin:six-point", project, &format!("s-{project}.png"));
+        assert!(
+            a != c,
+            "{project}: octahedron and six-point give the same result"
+        );
+    }
+    // The ring lives on the torus: a different domain is refused, not ignored.
+    let o = caoen(&[
+        "transfer",
+        "--texture",
+        s(&pic),
+        "--from",
+        "builtin:ring",
+        "--to",
+        "builtin:blob",
+        "-o",
+        s(&dir.join("ring.png")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("domain"));
+    let a = run("builtin:octahedron", "domain", "o-domain.png");
+    let c = run("builtin:six-point", "domain", "s-domain.png");
+    assert_eq!(
+        a, c,
+        "a domain texture does not depend on the source surface"
+    );
+    assert!(a != run("builtin:octahedron", "spherical", "o-spherical2.png"));
+}
+
+#[test]
+fn cli_projected_picture_round_trip_a_b_a() {
+    // A picture on A carried to B (written as an OBJ with B's texture) and back to A
+    // (B's texture is a domain texture) renders as A with the picture directly, and
+    // within 35 dB of a reference baked at 4x the texture size.
+    let dir = tmpdir("roundtrip");
+    let pic = dir.join("ramp.png");
+    ramp_png(&pic, 128, 64);
+    let ok = |args: &[&str]| {
+        let o = caoen(args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let common = ["--size", "128x96", "--detail", "4"];
+    let (obj, back, direct, reference) = (
+        dir.join("b.obj"),
+        dir.join("back.png"),
+        dir.join("direct.png"),
+        dir.join("reference.png"),
+    );
+    ok(&[
+        "transfer",
+        "--texture",
+        s(&pic),
+        "--from",
+        "builtin:blob",
+        "--to",
+        "builtin:octahedron",
+        "-o",
+        s(&obj),
+        "--detail",
+        "3",
+    ]);
+    let b_texture = dir.join("b-texture.png");
+    let mut args = vec![
+        "transfer",
+        "--texture",
+        s(&b_texture),
+        "--project",
+        "domain",
+        "--from",
+        "builtin:octahedron",
+        "--to",
+        "builtin:blob",
+        "-o",
+        s(&back),
+    ];
+    args.extend(common);
+    ok(&args);
+    let mut args = vec![
+        "transfer",
+        "--texture",
+        s(&pic),
+        "--from",
+        "builtin:blob",
+        "--to",
+        "builtin:blob",
+        "-o",
+        s(&direct),
+    ];
+    args.extend(common);
+    ok(&args);
+    let mut args = vec![
+        "transfer",
+        "--texture",
+        s(&pic),
+        "--from",
+        "builtin:blob",
+        "--to",
+        "builtin:blob",
+        "--bake-size",
+        "512x256",
+        "-o",
+        s(&reference),
+    ];
+    args.extend(common);
+    ok(&args);
+    let (back, direct, reference) = (load_rgb(&back), load_rgb(&direct), load_rgb(&reference));
+    let (to_direct, to_reference) = (psnr(&direct, &back), psnr(&reference, &back));
+    println!("A -> B -> A: {to_direct:.1} dB against A directly, {to_reference:.1} dB against the 4x bake");
+    assert!(to_direct >= 35.0 && to_reference >= 35.0);
+}
+
+#[test]
+fn baked_checker_has_no_stair_steps() {
+    // The blob carved from a solid checker, baked at 256x256 and rendered at 128x128
+    // (2x2 samples), against a 4x reference: bake at 1024x1024, 8x8 samples. Texels
+    // averaged over their area (--bake-samples) and pyramid lookups keep the edges
+    // smooth; point-sampled texels draw stair steps the reference does not have.
+    use caoen::render::renderer::{render, RenderOptions};
+    use caoen::render::Scene;
+    use caoen::texture::transfer::bake_texture_space;
+    let blob = gallery::by_name("blob").unwrap().unwrap();
+    let solid = |p: [f64; 3]| caoen::texture::transfer::solid_checker(p, 0.3);
+    let shot = |tex: RgbImage, samples: u32| {
+        let dir = tmpdir("stairs");
+        std::fs::write(dir.join("t.png"), tex.encode_png().unwrap()).unwrap();
+        let model = blob.clone().with_texture("t.png");
+        let scene = Scene::from_model(model, Some(&dir.join("blob.json"))).unwrap();
+        let opts = RenderOptions {
+            width: 128,
+            height: 128,
+            samples,
+            mesh_detail: 5,
+            ..Default::default()
+        };
+        render(&scene, &opts, &|_, _| {}).unwrap().image
+    };
+    let reference = shot(
+        bake_texture_space(&blob, &blob, &solid, 1024, 1024, 3).unwrap(),
+        8,
+    );
+    let filtered = shot(
+        bake_texture_space(&blob, &blob, &solid, 256, 256, 3).unwrap(),
+        2,
+    );
+    let point = shot(
+        bake_texture_space(&blob, &blob, &solid, 256, 256, 1).unwrap(),
+        2,
+    );
+    let (f, p) = (psnr(&reference, &filtered), psnr(&reference, &point));
+    println!("against the 4x reference: filtered bake {f:.2} dB, point-sampled bake {p:.2} dB");
+    assert!(f >= 35.0, "{f:.2} dB");
+    assert!(f > p + 0.3, "filtering gains {:.2} dB", f - p);
+}
+
+#[test]
+fn texture_pyramid_averages_and_selects_levels() {
+    let tex = checker();
+    assert_eq!(tex.levels(), 9); // 256x128 .. 1x1
+    let mean = |img: &RgbImage| {
+        let n = img.pixels.len() as f64;
+        [0, 1, 2].map(|k| img.pixels.iter().map(|p| p[k] as f64).sum::<f64>() / n)
+    };
+    let m = mean(tex.image());
+    // The top level is the mean of the image; a footprint beyond the image reads it.
+    let top = tex.sample_filtered([0.3, 0.6], 1e9, Wrap::Sphere);
+    for k in 0..3 {
+        assert!((top[k] as f64 - m[k]).abs() < 1e-5, "{top:?} vs {m:?}");
+    }
+    // A footprint of one texel or less is the plain bilinear lookup.
+    for uv in [[0.1, 0.2], [0.77, 0.31], [0.999, 0.001]] {
+        assert_eq!(
+            tex.sample_filtered(uv, 0.5, Wrap::Sphere),
+            tex.sample(uv, Wrap::Sphere)
+        );
+    }
+    // Across a 16-texel checker cell a footprint of 2 texels blends into level 1, and
+    // moves the value towards the mean; far from any edge it changes nothing.
+    let inside = [(8.0 + 0.5) / 256.0, (8.0 + 0.5) / 128.0];
+    let c = tex.sample(inside, Wrap::Sphere);
+    let f = tex.sample_filtered(inside, 2.0, Wrap::Sphere);
+    assert!((0..3).all(|k| (c[k] - f[k]).abs() < 1e-6));
+    // Odd sizes keep every texel's area: a 3x1 image's level 1 has 2 texels.
+    let odd = Texture::new(RgbImage {
+        width: 3,
+        height: 1,
+        pixels: vec![[0.0; 3], [1.0; 3], [0.5; 3]],
+    })
+    .unwrap();
+    assert_eq!(odd.levels(), 3);
+    let l1 = odd.sample_filtered([0.25, 0.5], 2.0, Wrap::Clamp);
+    assert!((l1[0] - 0.5).abs() < 1e-6, "{l1:?}");
+    // Huge finite coordinates neither panic nor leave the image.
+    let far = tex.sample_filtered([1e300, -1e300], 3.0, Wrap::Torus);
+    assert!(far.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn obj_with_texture_loads_in_trimesh() {
+    // An independent reader (Python's trimesh) loads the OBJ + MTL + texture, and the
+    // colour it looks up at each vertex's texture coordinates is the one caoen meant:
+    // with a domain ramp texture, red follows u and green follows v measured downwards
+    // (the OBJ's vt runs upwards).
+    let probe = std::process::Command::new("python3")
+        .args(["-c", "import trimesh, PIL"])
+        .output();
+    if !probe.is_ok_and(|o| o.status.success()) {
+        eprintln!(
+            "skipped: python3 with trimesh and pillow is not installed (.ci/run installs them)"
+        );
+        return;
+    }
+    let dir = tmpdir("trimesh");
+    let pic = dir.join("ramp.png");
+    ramp_png(&pic, 256, 128);
+    let obj = dir.join("blob.obj");
+    let o = caoen(&[
+        "transfer",
+        "--texture",
+        s(&pic),
+        "--project",
+        "domain",
+        "--from",
+        "builtin:blob",
+        "--to",
+        "builtin:blob",
+        "-o",
+        s(&obj),
+        "--detail",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let script = r#"
+import sys, trimesh, numpy as np
+m = trimesh.load(sys.argv[1], force='mesh')
+assert m.visual.kind == 'texture', m.visual.kind
+img = m.visual.material.image
+c = m.visual.to_color().vertex_colors[:, :3].astype(float)
+uv = m.visual.uv
+# Away from the u seam and the poles, where a vertex's colour is a blend across a jump.
+keep = (uv[:, 0] > 0.03) & (uv[:, 0] < 0.97) & (uv[:, 1] > 0.03) & (uv[:, 1] < 0.97)
+er = np.abs(c[keep, 0] - 255 * uv[keep, 0]).mean()
+eg = np.abs(c[keep, 1] - 255 * (1 - uv[keep, 1])).mean()
+eg_flipped = np.abs(c[keep, 1] - 255 * uv[keep, 1]).mean()
+print(len(m.vertices), len(m.faces), img.size[0], img.size[1], keep.sum(), er, eg, eg_flipped)
+"#;
+    let o = std::process::Command::new("python3")
+        .args(["-c", script, s(&obj)])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    println!("trimesh: {out}");
+    let v: Vec<f64> = out.split_whitespace().map(|t| t.parse().unwrap()).collect();
+    assert_eq!(v[1], 1280.0, "triangles of a level-3 sphere mesh");
+    assert_eq!((v[2], v[3]), (256.0, 128.0), "the texture's size");
+    assert!(v[4] > 300.0, "vertices checked: {}", v[4]);
+    assert!(
+        v[5] < 4.0 && v[6] < 4.0,
+        "mean colour error {} / {} levels",
+        v[5],
+        v[6]
+    );
+    assert!(v[7] > 40.0, "v upside down would fit too: {}", v[7]);
 }

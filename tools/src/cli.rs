@@ -78,12 +78,27 @@ pub enum Command {
 /// `caoen transfer`.
 #[derive(Debug, Args)]
 pub struct TransferArgs {
-    /// Texture on A's domain: image (PNG, JPEG, EXR, ...) or caoen file (.cae).
+    /// Picture laid on surface A: image (PNG, JPEG, EXR, ...) or caoen file (.cae).
     #[arg(long, required_unless_present = "texture_space", requires = "from")]
     pub texture: Option<PathBuf>,
-    /// Surface A the texture is laid on (file or builtin:NAME).
+    /// Surface A the picture is laid on (file or builtin:NAME).
     #[arg(long)]
     pub from: Option<String>,
+    /// How the picture is laid on A: projected in A's own space onto its bounding box
+    /// (planar along z, cylindrical around z, spherical around the centre), then pulled
+    /// back to the shared domain; or `domain`: the picture is already A's texture in
+    /// domain coordinates and carries over unchanged.
+    #[arg(long, value_name = "KIND", default_value = "spherical",
+          value_parser = ["planar", "cylindrical", "spherical", "domain"])]
+    pub project: String,
+    /// Texture grid WIDTHxHEIGHT baked for B from a projected picture (default: the
+    /// picture's size; with --texture-space, --texture-size).
+    #[arg(long, value_name = "WxH")]
+    pub bake_size: Option<String>,
+    /// Points per texel side averaged when baking a projected picture or a solid
+    /// texture (antialiased edges).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub bake_samples: u32,
     /// Instead of --texture/--from: a network from the shared domain into a 3-D texture
     /// space (a surface file); the solid texture (--solid) sampled there is carried
     /// onto B.

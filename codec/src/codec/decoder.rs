@@ -302,7 +302,7 @@ fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecEr
         opts,
         4,
         |h, (ow, oh)| vec![0.0f32; ow as usize * oh as usize * h.layout.channels()],
-        |h, luma, chroma, size, samples| band_pass(h, luma, chroma, size, samples),
+        band_pass,
     )
 }
 

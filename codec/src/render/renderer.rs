@@ -25,7 +25,7 @@ use super::raster::rasterise;
 use super::raytrace::{ImplicitTracer, RayMethod};
 use super::scene::{Scene, Shape};
 use super::shading::shade;
-use super::texture::domain_uv;
+use super::texture::{domain_uv, Wrap};
 use super::transform::Affine;
 use super::vec3::scale;
 use crate::surface::normals::{point_and_normal, NormalNetwork};
@@ -525,7 +525,12 @@ fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer) -> RgbImage {
             Some(h) => {
                 let obj = &scene.objects[h.object as usize];
                 let ray = camera.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-                let albedo = obj.material.albedo(h.uv);
+                let albedo = match &obj.material.texture {
+                    Some((_, wrap)) => obj
+                        .material
+                        .albedo_filtered(h.uv, uv_steps(buf, i, h, *wrap)),
+                    None => obj.material.colour,
+                };
                 shade(
                     &scene.lighting,
                     &obj.material,
@@ -541,4 +546,50 @@ fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer) -> RgbImage {
         height: buf.height,
         pixels,
     }
+}
+
+/// How far the texture coordinates move per sample step in x and in y around sample
+/// `i`: the smaller of the two one-sided differences to neighbours on the same object,
+/// so a silhouette, an occluding edge or the texture's seam does not count as a
+/// footprint; a wrapping coordinate's difference is taken the short way round.
+fn uv_steps(buf: &GBuffer, i: usize, hit: &Hit, wrap: Wrap) -> [[f32; 2]; 2] {
+    let (w, h) = (buf.width as usize, buf.height as usize);
+    let (x, y) = (i % w, i / w);
+    let (u_wraps, v_wraps) = match wrap {
+        Wrap::Sphere => (true, false),
+        Wrap::Torus => (true, true),
+        Wrap::Clamp => (false, false),
+    };
+    let diff = |j: usize| -> Option<[f32; 2]> {
+        let n = buf.hits[j].as_ref()?;
+        if n.object != hit.object || !n.uv[0].is_finite() {
+            return None;
+        }
+        let short = |d: f32, wraps: bool| if wraps { d - d.round() } else { d };
+        Some([
+            short(n.uv[0] - hit.uv[0], u_wraps),
+            short(n.uv[1] - hit.uv[1], v_wraps),
+        ])
+    };
+    let len = |d: &[f32; 2]| d[0].hypot(d[1]);
+    let pick = |a: Option<[f32; 2]>, b: Option<[f32; 2]>| match (a, b) {
+        (Some(a), Some(b)) => {
+            if len(&a) <= len(&b) {
+                a
+            } else {
+                b
+            }
+        }
+        (Some(a), None) | (None, Some(a)) => a,
+        (None, None) => [0.0; 2],
+    };
+    let dx = pick(
+        (x > 0).then(|| diff(i - 1)).flatten(),
+        (x + 1 < w).then(|| diff(i + 1)).flatten(),
+    );
+    let dy = pick(
+        (y > 0).then(|| diff(i - w)).flatten(),
+        (y + 1 < h).then(|| diff(i + w)).flatten(),
+    );
+    [dx, dy]
 }

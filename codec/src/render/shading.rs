@@ -79,11 +79,21 @@ impl Default for Material {
 }
 
 impl Material {
-    /// The base colour at texture coordinates `uv` (NaN: untextured point).
+    /// The base colour at texture coordinates `uv` (NaN: untextured point), unfiltered.
     pub fn albedo(&self, uv: [f32; 2]) -> [f32; 3] {
+        self.albedo_filtered(uv, [[0.0; 2]; 2])
+    }
+
+    /// The base colour at texture coordinates `uv` for a sample whose neighbours one
+    /// sample step away in x and y lie `duv[0]` and `duv[1]` away in texture
+    /// coordinates: the texture is read at the pyramid level of that footprint.
+    pub fn albedo_filtered(&self, uv: [f32; 2], duv: [[f32; 2]; 2]) -> [f32; 3] {
         match &self.texture {
             Some((tex, wrap)) if uv[0].is_finite() => {
-                let t = tex.sample([uv[0] as f64, uv[1] as f64], *wrap);
+                let (w, h) = (tex.image().width as f64, tex.image().height as f64);
+                let side = |d: [f32; 2]| (d[0] as f64 * w).hypot(d[1] as f64 * h);
+                let footprint = side(duv[0]).max(side(duv[1]));
+                let t = tex.sample_filtered([uv[0] as f64, uv[1] as f64], footprint, *wrap);
                 [
                     t[0] * self.colour[0],
                     t[1] * self.colour[1],

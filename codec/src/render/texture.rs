@@ -16,6 +16,8 @@ pub enum Wrap {
     Sphere,
     /// Both wrap (the torus).
     Torus,
+    /// Both clamp to the edge (a projected picture).
+    Clamp,
 }
 
 impl Wrap {
@@ -43,19 +45,110 @@ pub fn domain_uv(domain: &Domain, x: &[f64]) -> Option<[f64; 2]> {
     }
 }
 
-/// A texture image in linear light, sampled bilinearly.
+/// A texture image in linear light with its mip pyramid: sampled bilinearly where one
+/// texel covers at least a sample, trilinearly between pyramid levels where a sample
+/// covers many texels (minification), so a far or oblique texture does not alias.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Texture {
-    image: RgbImage,
+    /// Level 0 is the image; level `k + 1` halves each side of level `k` (rounding up).
+    levels: Vec<RgbImage>,
+}
+
+/// One pyramid level from the level below: each texel the mean of (up to) 2x2 texels.
+/// Odd sides repeat their last row or column, so every texel keeps a mean of its own
+/// area and the level's texel centres stay at `(i + 0.5) / width`.
+fn halve(img: &RgbImage) -> RgbImage {
+    let (w, h) = (img.width.div_ceil(2), img.height.div_ceil(2));
+    let (sw, sh) = (img.width as usize, img.height as usize);
+    let mut pixels = Vec::with_capacity(w as usize * h as usize);
+    for j in 0..h as usize {
+        let (y0, y1) = (2 * j, (2 * j + 1).min(sh - 1));
+        for i in 0..w as usize {
+            let (x0, x1) = (2 * i, (2 * i + 1).min(sw - 1));
+            let p = [
+                img.pixels[y0 * sw + x0],
+                img.pixels[y0 * sw + x1],
+                img.pixels[y1 * sw + x0],
+                img.pixels[y1 * sw + x1],
+            ];
+            pixels.push([0, 1, 2].map(|k| 0.25 * (p[0][k] + p[1][k] + p[2][k] + p[3][k])));
+        }
+    }
+    RgbImage {
+        width: w,
+        height: h,
+        pixels,
+    }
+}
+
+/// Bilinear sample of one image at `(u, v)` (texel centres at `(i + 0.5) / width`).
+fn bilinear(img: &RgbImage, uv: [f64; 2], wrap: Wrap) -> [f32; 3] {
+    let (w, h) = (img.width as i64, img.height as i64);
+    let x = uv[0] * w as f64 - 0.5;
+    let y = uv[1] * h as f64 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+    // Reduced before the integer cast (periods on wrapping axes, the edge on clamped
+    // ones): a huge finite coordinate must not saturate into an overflowing index.
+    let (u_wraps, v_wraps) = match wrap {
+        Wrap::Sphere => (true, false),
+        Wrap::Torus => (true, true),
+        Wrap::Clamp => (false, false),
+    };
+    let reduce = |t: f64, n: i64, wraps: bool| {
+        if wraps {
+            t.rem_euclid(n as f64) as i64
+        } else {
+            t.clamp(-1.0, n as f64) as i64
+        }
+    };
+    let (x0, y0) = (reduce(x0, w, u_wraps), reduce(y0, h, v_wraps));
+    let col = |i: i64| {
+        if u_wraps {
+            i.rem_euclid(w) as usize
+        } else {
+            i.clamp(0, w - 1) as usize
+        }
+    };
+    let row = |j: i64| {
+        if v_wraps {
+            j.rem_euclid(h) as usize
+        } else {
+            j.clamp(0, h - 1) as usize
+        }
+    };
+    let px = |i: i64, j: i64| img.pixels[row(j) * w as usize + col(i)];
+    let (a, b, c, d) = (
+        px(x0, y0),
+        px(x0 + 1, y0),
+        px(x0, y0 + 1),
+        px(x0 + 1, y0 + 1),
+    );
+    let mut out = [0.0f32; 3];
+    for k in 0..3 {
+        let top = a[k] + (b[k] - a[k]) * fx;
+        let bottom = c[k] + (d[k] - c[k]) * fx;
+        out[k] = top + (bottom - top) * fy;
+    }
+    out
 }
 
 impl Texture {
-    /// Wraps a linear-light image.
+    /// Wraps a linear-light image and builds its mip pyramid (a third more memory).
     pub fn new(image: RgbImage) -> Result<Self> {
         if image.width == 0 || image.height == 0 {
             return Err(RenderError::parameter("texture", "image is empty"));
         }
-        Ok(Texture { image })
+        let mut levels = vec![image];
+        loop {
+            let top = levels.last().expect("level 0 exists");
+            if top.width == 1 && top.height == 1 {
+                break;
+            }
+            let next = halve(top);
+            levels.push(next);
+        }
+        Ok(Texture { levels })
     }
 
     /// Loads an image file (any format the checked loader reads).
@@ -65,39 +158,46 @@ impl Texture {
 
     /// The texture image.
     pub fn image(&self) -> &RgbImage {
-        &self.image
+        &self.levels[0]
     }
 
-    /// Bilinear sample at `(u, v)` (texel centres at `(i + 0.5) / width`).
+    /// Number of pyramid levels (level 0 is the image, the last is 1x1).
+    pub fn levels(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Bilinear sample of the full-resolution image at `(u, v)` (texel centres at
+    /// `(i + 0.5) / width`): the unfiltered lookup, for magnification and resampling
+    /// at equal sizes.
     pub fn sample(&self, uv: [f64; 2], wrap: Wrap) -> [f32; 3] {
-        let (w, h) = (self.image.width as i64, self.image.height as i64);
         if !(uv[0].is_finite() && uv[1].is_finite()) {
-            return self.image.pixels[0];
+            return self.levels[0].pixels[0];
         }
-        let x = uv[0] * w as f64 - 0.5;
-        let y = uv[1] * h as f64 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let col = |i: i64| i.rem_euclid(w) as usize;
-        let row = |j: i64| match wrap {
-            Wrap::Sphere => j.clamp(0, h - 1) as usize,
-            Wrap::Torus => j.rem_euclid(h) as usize,
+        bilinear(&self.levels[0], uv, wrap)
+    }
+
+    /// Trilinear sample at `(u, v)` for a sample that spans `footprint` texels of the
+    /// full-resolution image (the larger side of its footprint): level `log2(footprint)`
+    /// of the pyramid, blended between the two nearest levels. A footprint of one texel
+    /// or less is the bilinear [`Texture::sample`].
+    pub fn sample_filtered(&self, uv: [f64; 2], footprint: f64, wrap: Wrap) -> [f32; 3] {
+        if !(uv[0].is_finite() && uv[1].is_finite()) {
+            return self.levels[0].pixels[0];
+        }
+        let top = (self.levels.len() - 1) as f64;
+        let lod = if footprint > 1.0 {
+            footprint.log2().min(top)
+        } else {
+            0.0
         };
-        let px = |i: i64, j: i64| self.image.pixels[row(j) * w as usize + col(i)];
-        let (a, b, c, d) = (
-            px(x0, y0),
-            px(x0 + 1, y0),
-            px(x0, y0 + 1),
-            px(x0 + 1, y0 + 1),
-        );
-        let mut out = [0.0f32; 3];
-        for k in 0..3 {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bottom = c[k] + (d[k] - c[k]) * fx;
-            out[k] = top + (bottom - top) * fy;
+        let lo = lod.floor();
+        let t = (lod - lo) as f32;
+        let a = bilinear(&self.levels[lo as usize], uv, wrap);
+        if t == 0.0 {
+            return a;
         }
-        out
+        let b = bilinear(&self.levels[lo as usize + 1], uv, wrap);
+        [0, 1, 2].map(|k| a[k] + t * (b[k] - a[k]))
     }
 
     /// A procedural test texture: a checkerboard of `cells_u x cells_v` cells in two

@@ -3,6 +3,7 @@
 //! ([`transfer`], with the solid textures of [`solid`] for its texture-space method).
 //! See `docs/texture.md`.
 
+pub mod projected;
 pub mod solid;
 pub mod transfer;
 pub mod warp;

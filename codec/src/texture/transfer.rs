@@ -12,6 +12,7 @@
 
 use rayon::prelude::*;
 
+use super::projected::Projected;
 use super::TextureError;
 use crate::render::framebuffer::RgbImage;
 use crate::render::texture::{domain_uv, Texture, Wrap};
@@ -66,6 +67,10 @@ pub fn transfer(
             "texture size {width}x{height}"
         )));
     }
+    // A texel of the new grid spans this many texels of the texture (both grids cover
+    // the whole domain), so a smaller grid reads a coarser pyramid level.
+    let footprint = (f64::from(texture.image().width) / f64::from(width))
+        .max(f64::from(texture.image().height) / f64::from(height));
     let pixels: Vec<[f32; 3]> = (0..height)
         .into_par_iter()
         .flat_map_iter(|j| {
@@ -76,7 +81,7 @@ pub fn transfer(
                 ];
                 let x = uv_domain(&to.domain, uv).expect("checked domain");
                 let src = domain_uv(&from.domain, &x).expect("checked domain");
-                texture.sample(src, wrap)
+                texture.sample_filtered(src, footprint, wrap)
             })
         })
         .collect();
@@ -100,13 +105,81 @@ pub fn solid_checker(p: [f64; 3], cell: f64) -> [f32; 3] {
 /// The second method of the paper: `space` maps the shared domain into a 3-D texture
 /// space; the solid texture `solid` sampled at `space(x)` is baked onto `to`'s texture
 /// grid (`width x height` texels), so it is carried onto the shape wherever `to` puts
-/// the domain point `x`.
+/// the domain point `x`. Each texel is the mean of `samples x samples` points spread
+/// over it, so a sharp edge of the solid texture is an antialiased edge in the bake.
 pub fn bake_texture_space(
     space: &SurfaceModel,
     to: &SurfaceModel,
     solid: &(dyn Fn([f64; 3]) -> [f32; 3] + Sync),
     width: u32,
     height: u32,
+    samples: u32,
+) -> Result<RgbImage, TextureError> {
+    bake(space, to, width, height, samples, &|points, _| {
+        points.par_iter().map(|p| solid(*p)).collect()
+    })
+}
+
+/// A picture laid on surface `from` in its own space (`picture`, projected onto
+/// `from`'s points) pulled back to the shared domain and baked onto `to`'s texture grid
+/// (`width x height` texels, `samples x samples` points per texel). Each lookup reads
+/// the picture at the pyramid level of the distance between neighbouring points in
+/// picture texels, so a picture larger than the grid is averaged, not point-sampled.
+pub fn bake_projected(
+    from: &SurfaceModel,
+    to: &SurfaceModel,
+    picture: &Projected,
+    width: u32,
+    height: u32,
+    samples: u32,
+) -> Result<RgbImage, TextureError> {
+    let (pw, ph) = picture.picture_size();
+    let (pw, ph) = (f64::from(pw), f64::from(ph));
+    bake(from, to, width, height, samples, &|points, grid_width| {
+        let uv: Vec<[f64; 2]> = points.par_iter().map(|p| picture.uv(*p)).collect();
+        let rows = points.len() / grid_width;
+        (0..points.len())
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = (i % grid_width, i / grid_width);
+                // Texels between this point and a neighbour, the angle's way round.
+                let texels = |j: usize| {
+                    let du = uv[j][0] - uv[i][0];
+                    let du = du - du.round();
+                    (du * pw).hypot((uv[j][1] - uv[i][1]) * ph)
+                };
+                let step = |a: Option<usize>, b: Option<usize>| match (a, b) {
+                    (Some(a), Some(b)) => texels(a).min(texels(b)),
+                    (Some(a), None) | (None, Some(a)) => texels(a),
+                    (None, None) => 0.0,
+                };
+                let fx = step(
+                    (x > 0).then(|| i - 1),
+                    (x + 1 < grid_width).then_some(i + 1),
+                );
+                let fy = step(
+                    (y > 0).then(|| i - grid_width),
+                    (y + 1 < rows).then_some(i + grid_width),
+                );
+                picture.sample(points[i], fx.max(fy))
+            })
+            .collect()
+    })
+}
+
+/// Colours the 3-D points of a band of rows (a row-major grid of the given width).
+type BandColours<'a> = dyn Fn(&[[f64; 3]], usize) -> Vec<[f32; 3]> + Sync + 'a;
+
+/// The shared part of the bakes: `to`'s texture grid, `samples x samples` domain points
+/// per texel mapped through `space`, coloured by `colour` (given the 3-D points of a
+/// band of rows as a row-major grid and the grid's width), and averaged per texel.
+fn bake(
+    space: &SurfaceModel,
+    to: &SurfaceModel,
+    width: u32,
+    height: u32,
+    samples: u32,
+    colour: &BandColours<'_>,
 ) -> Result<RgbImage, TextureError> {
     if space.domain != to.domain {
         return Err(TextureError::Invalid(format!(
@@ -130,25 +203,61 @@ pub fn bake_texture_space(
             "texture size {width}x{height}"
         )));
     }
-    let mut domain = Vec::with_capacity(width as usize * height as usize * 4);
-    for j in 0..height {
-        for i in 0..width {
-            let uv = [
-                (i as f64 + 0.5) / width as f64,
-                (j as f64 + 0.5) / height as f64,
-            ];
-            domain.extend(uv_domain(&to.domain, uv).expect("checked domain"));
+    if !(1..=MAX_BAKE_SAMPLES).contains(&samples) {
+        return Err(TextureError::Invalid(format!(
+            "bake samples {samples}: allowed 1..={MAX_BAKE_SAMPLES}"
+        )));
+    }
+    let (w, s) = (width as usize, samples as usize);
+    let grid_width = w * s;
+    // Bands of whole texel rows, about 2^18 points each: big enough for the network's
+    // parallel batches, small enough that the points of a band stay a few megabytes.
+    let band = ((1usize << 18) / (grid_width * s)).max(1);
+    let p = space.network.output_dim();
+    let m = space.network.input_dim();
+    let mut pixels = Vec::with_capacity(w * height as usize);
+    let norm = 1.0 / (s * s) as f32;
+    for j0 in (0..height as usize).step_by(band) {
+        let j1 = (j0 + band).min(height as usize);
+        let rows = (j1 - j0) * s;
+        let mut domain = Vec::with_capacity(rows * grid_width * m);
+        for sy in 0..rows {
+            for sx in 0..grid_width {
+                let uv = [
+                    (sx as f64 + 0.5) / grid_width as f64,
+                    ((j0 * s + sy) as f64 + 0.5) / (height as usize * s) as f64,
+                ];
+                domain.extend(uv_domain(&to.domain, uv).expect("checked domain"));
+            }
+        }
+        let points: Vec<[f64; 3]> = space
+            .network
+            .eval_batch(&domain)?
+            .chunks_exact(p)
+            .map(|y| [y[0], y[1], y[2]])
+            .collect();
+        let colours = colour(&points, grid_width);
+        for j in 0..j1 - j0 {
+            for i in 0..w {
+                let mut sum = [0.0f32; 3];
+                for sy in 0..s {
+                    for sx in 0..s {
+                        let c = colours[(j * s + sy) * grid_width + i * s + sx];
+                        for k in 0..3 {
+                            sum[k] += c[k];
+                        }
+                    }
+                }
+                pixels.push(sum.map(|v| v * norm));
+            }
         }
     }
-    let p = space.network.output_dim();
-    let t = space.network.eval_batch(&domain)?;
-    let pixels = t
-        .par_chunks_exact(p)
-        .map(|y| solid([y[0], y[1], y[2]]))
-        .collect();
     Ok(RgbImage {
         width,
         height,
         pixels,
     })
 }
+
+/// Most points per texel side a bake takes (64 per texel).
+pub const MAX_BAKE_SAMPLES: u32 = 8;

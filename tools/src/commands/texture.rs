@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use caoen::codec::decoder;
 use caoen::image_io;
+use caoen::texture::projected::{self, Projected, ProjectionKind};
 use caoen::texture::warp::{self, Move, Warp};
 use caoen::texture::TextureError;
 
@@ -336,18 +337,43 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             let net = crate::commands::surface::load_model(space)?;
             let sample = |p: [f64; 3]| solid.sample(p);
             (
-                caoen::texture::transfer::bake_texture_space(&net, &to, &sample, tw, th)
-                    .map_err(tex_err)?,
+                caoen::texture::transfer::bake_texture_space(
+                    &net,
+                    &to,
+                    &sample,
+                    tw,
+                    th,
+                    a.bake_samples,
+                )
+                .map_err(tex_err)?,
                 format!("solid {} through {space}", a.solid),
             )
         }
         (None, Some(texture), Some(from_spec)) => {
             let from = crate::commands::surface::load_model(from_spec)?;
             let tex = load_texture(texture)?;
-            let (tw, th) = (tex.image().width, tex.image().height);
+            let (tw, th) = match &a.bake_size {
+                Some(s) => crate::commands::render::parse_size(s)?,
+                None => (tex.image().width, tex.image().height),
+            };
+            let moved = match ProjectionKind::parse(&a.project) {
+                None => caoen::texture::transfer::transfer(&from, &to, &tex, tw, th),
+                Some(kind) => {
+                    let (lo, hi) = projected::surface_box(&from).map_err(tex_err)?;
+                    let picture = Projected::new(tex, kind, lo, hi).map_err(tex_err)?;
+                    caoen::texture::transfer::bake_projected(
+                        &from,
+                        &to,
+                        &picture,
+                        tw,
+                        th,
+                        a.bake_samples,
+                    )
+                }
+            };
             (
-                caoen::texture::transfer::transfer(&from, &to, &tex, tw, th).map_err(tex_err)?,
-                format!("{} on {from_spec}", texture.display()),
+                moved.map_err(tex_err)?,
+                format!("{} ({}) on {from_spec}", texture.display(), a.project),
             )
         }
         _ => {
