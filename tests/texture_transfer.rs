@@ -240,15 +240,12 @@ fn cli_transfer_png_obj_and_errors() {
 #[test]
 fn textured_morph_keeps_the_texture_attached() {
     // Five frames of examples/morph-a.json -> morph-b.json: every mesh vertex keeps the
-    // texture coordinates of its domain point, whatever the shape does. With
-    // CAOEN_WRITE_EXAMPLES=1 the frames are written as textured surface files to
-    // examples/morph-textured/ (render them with `caoen surface render`).
+    // texture coordinates of its domain point, whatever the shape does.
     use caoen::render::mesh::{tessellate, NormalMode};
     use caoen::surface::{morph::morph, SurfaceModel};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let a = SurfaceModel::load(&root.join("examples/morph-a.json")).unwrap();
     let b = SurfaceModel::load(&root.join("examples/morph-b.json")).unwrap();
-    let write = std::env::var_os("CAOEN_WRITE_EXAMPLES").is_some();
     for k in 0..5 {
         let u = k as f64 / 4.0;
         let net = morph(&a.network, &b.network, u).unwrap();
@@ -266,11 +263,6 @@ fn textured_morph_keeps_the_texture_attached() {
                 let du = (uvs[c][0] - want[0]).rem_euclid(1.0);
                 assert!(du.min(1.0 - du) < 1e-9 && (uvs[c][1] - want[1]).abs() < 1e-9);
             }
-        }
-        if write {
-            let dir = root.join("examples/morph-textured");
-            std::fs::create_dir_all(&dir).unwrap();
-            model.save(&dir.join(format!("frame-{k}.json"))).unwrap();
         }
     }
 }
@@ -482,14 +474,7 @@ fn volume_texture_trilinear_and_errors() {
 #[test]
 fn cli_solid_textures_and_volume_specs() {
     let dir = tmpdir("solid");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    // The example volume: slices and spec written with CAOEN_WRITE_EXAMPLES=1, else
-    // in the temporary folder.
-    let vdir = if std::env::var_os("CAOEN_WRITE_EXAMPLES").is_some() {
-        root.join("examples/transfer/volume")
-    } else {
-        dir.join("volume")
-    };
+    let vdir = dir.join("volume");
     std::fs::create_dir_all(&vdir).unwrap();
     let mut names = Vec::new();
     for (k, s) in volume_slices().iter().enumerate() {

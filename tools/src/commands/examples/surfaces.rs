@@ -1,63 +1,20 @@
-//! `caoen examples`: regenerates every example model, scene and picture in examples/.
-//!
-//! The models are built here in code and written as surface files, the scenes as scene
-//! files, and every picture is rendered from those files, so the committed JSON is
-//! exactly what produced the committed PNGs.
+//! The surface examples: the six-point family, a torus-domain freeform surface, a
+//! morph, implicit solids and CSG, a compound teapot-like model and a textured blob.
 
 use std::f64::consts::TAU;
 use std::path::Path;
 
-use caoen::render::framebuffer::RgbImage;
-use caoen::render::renderer::{render, Method, RenderOptions};
+use caoen::render::renderer::{render, Method};
 use caoen::render::texture::Texture;
 use caoen::render::Scene;
 use caoen::surface::morph::morph;
 use caoen::surface::{gallery, Blend, Domain, KeyPoint, Network, SurfaceModel};
-use serde_json::{json, Value};
+use serde_json::json;
 
-use crate::cli::{ExamplesArgs, GlobalArgs};
-use crate::commands::note;
-use crate::commands::render::render_with_progress;
-use crate::failure::{CliError, CliResult};
+use super::{camera_json, opts, render_scene_file, save_json, save_model, save_png, tile_grid};
+use crate::cli::GlobalArgs;
+use crate::failure::CliResult;
 use crate::output::replace_file;
-
-fn save_json(dir: &Path, name: &str, v: &Value) -> CliResult {
-    let text = serde_json::to_string_pretty(v).expect("json values serialise") + "\n";
-    replace_file(&dir.join(name), text.as_bytes())
-}
-
-fn save_model(dir: &Path, name: &str, model: &SurfaceModel) -> CliResult {
-    replace_file(&dir.join(name), (model.to_json() + "\n").as_bytes())
-}
-
-fn save_png(global: &GlobalArgs, dir: &Path, name: &str, img: &RgbImage) -> CliResult {
-    replace_file(&dir.join(name), &img.encode_png()?)?;
-    note(global, format!("wrote {}", dir.join(name).display()));
-    Ok(())
-}
-
-fn opts(width: u32, height: u32, samples: u32, method: Method) -> RenderOptions {
-    RenderOptions {
-        width,
-        height,
-        samples,
-        method,
-        ..RenderOptions::default()
-    }
-}
-
-/// Renders the scene file `scene` to `dir/png`.
-fn render_scene_file(
-    global: &GlobalArgs,
-    dir: &Path,
-    scene: &Path,
-    png: &str,
-    o: &RenderOptions,
-) -> CliResult {
-    let scene = Scene::load(scene)?;
-    let r = render_with_progress(global, &scene, o, png)?;
-    save_png(global, dir, png, &r.image)
-}
 
 fn kp(source: [f64; 3], shape: [f64; 3], q: f64) -> KeyPoint {
     KeyPoint::new(source.to_vec(), shape.to_vec(), Blend::Exponential, q)
@@ -69,7 +26,7 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
 }
 
 /// Six axis points and eight cube diagonals, each pulled to `shape(direction)`.
-fn fourteen_point(
+pub(super) fn fourteen_point(
     name: &str,
     q: f64,
     shape: impl Fn([f64; 3]) -> [f64; 3],
@@ -121,41 +78,8 @@ fn torus_model(
     )?)
 }
 
-fn camera_json(view_from: [f64; 3]) -> Value {
-    json!({"projection": "perspective", "fov_deg": 30.0, "view_from": view_from})
-}
-
-/// Renders one model per tile with a fixed orthographic camera and lays the tiles out
-/// in a grid (row-major).
-fn tile_grid(
-    models: &[SurfaceModel],
-    cols: u32,
-    tile: u32,
-    samples: u32,
-    height: f64,
-) -> CliResult<RgbImage> {
-    let rows = (models.len() as u32).div_ceil(cols);
-    let mut out: Option<RgbImage> = None;
-    for (i, m) in models.iter().enumerate() {
-        let mut scene = Scene::from_model(m.clone(), None)?;
-        scene.camera.eye = Some([3.0, -3.9, 2.4]);
-        scene.camera.target = Some([0.0; 3]);
-        scene.camera.projection = caoen::render::Projection::Orthographic { height };
-        let r = render(&scene, &opts(tile, tile, samples, Method::Mesh), &|_, _| {})?;
-        let img =
-            out.get_or_insert_with(|| RgbImage::filled(cols * tile, rows * tile, scene.background));
-        img.blit(&r.image, (i as u32 % cols) * tile, (i as u32 / cols) * tile);
-    }
-    out.ok_or_else(|| CliError::Failed("no tiles".into()))
-}
-
-/// `caoen examples`.
-pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
-    let dir = a.out.as_path();
-    let n = a.samples;
-    std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, e))?;
-    let start = std::time::Instant::now();
-
+/// Writes the surface examples into `dir` with `n x n` samples per pixel.
+pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     // 1. The six-point family (figures 2 and 3): q = 1..6, exponential on top, the
     //    normalised exponential below.
     let sub = dir.join("six-point");
@@ -363,12 +287,5 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
         &opts(320, 240, n, Method::Depth),
     )?;
 
-    note(
-        global,
-        format!(
-            "examples regenerated in {:.1} s",
-            start.elapsed().as_secs_f64()
-        ),
-    );
     Ok(())
 }
