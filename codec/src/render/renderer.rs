@@ -249,6 +249,20 @@ fn draw(
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
             }
+            (Shape::Field { node, bounds }, Method::Mesh) => {
+                let mesh = crate::frep::polygonise::mesh(node, bounds, opts.polygonise_cells);
+                prog.within(1, 2);
+                stats.triangles += rasterise(&mesh, camera, id, &mut buf);
+            }
+            (Shape::Field { node, bounds }, _) => {
+                let (hits, rays) = trace_field(node, bounds, camera, id, &|d, t| prog.within(d, t));
+                stats.rays += rays;
+                for (i, h) in hits.into_iter().enumerate() {
+                    if let Some(h) = h {
+                        buf.offer(i, h);
+                    }
+                }
+            }
             (Shape::Solid { solids, csg }, _) => {
                 let (hits, rays) =
                     trace_solids(solids, csg, camera, opts.ray_method, id, &|d, t| {
@@ -470,6 +484,45 @@ pub fn trace_solids(
                     Some(Hit {
                         depth: camera.depth(p),
                         normal: n.map(|v| v as f32),
+                        uv: [f32::NAN; 2],
+                        object,
+                    })
+                })
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
+            row
+        })
+        .collect();
+    (rows.into_iter().flatten().collect(), w * h)
+}
+
+/// Ray casts an F-rep solid through every pixel of `camera` (interval subdivision,
+/// normals from the exact gradient); returns the hits and the number of rays.
+pub fn trace_field(
+    node: &crate::frep::Node,
+    bounds: &crate::frep::Aabb,
+    camera: &Camera,
+    object: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> (Vec<Option<Hit>>, usize) {
+    let caster = crate::frep::raycast::Caster::new(node, *bounds, Default::default());
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let done = AtomicU64::new(0);
+    let rows: Vec<Vec<Option<Hit>>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let row = (0..w)
+                .map(|x| {
+                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                    let t = caster.first_hit(ray.origin, ray.dir, 0.0, f64::INFINITY)?;
+                    let p = ray.at(t);
+                    let (_, g) = node.value_gradient(p);
+                    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                    let k = if len > 0.0 { -1.0 / len } else { 0.0 };
+                    // Outward: the function decreases away from the solid.
+                    Some(Hit {
+                        depth: camera.depth(p),
+                        normal: g.map(|v| (k * v) as f32),
                         uv: [f32::NAN; 2],
                         object,
                     })

@@ -70,6 +70,13 @@ pub enum Shape {
         /// The expression.
         csg: CsgNode,
     },
+    /// An F-rep solid (`f >= 0` inside) within a box that holds it.
+    Field {
+        /// The model.
+        node: Arc<crate::frep::Node>,
+        /// A box the solid lies in.
+        bounds: crate::frep::Aabb,
+    },
 }
 
 /// One object of a scene.
@@ -238,6 +245,10 @@ impl Scene {
                         add([c[0] + r, c[1] + r, c[2] + r]);
                     }
                 }
+                Shape::Field { bounds, .. } => {
+                    add(bounds.lo);
+                    add(bounds.hi);
+                }
             }
         }
         if !lo[0].is_finite() {
@@ -267,6 +278,18 @@ impl Scene {
                 Shape::Solid { solids, csg } => {
                     for i in csg.solids() {
                         r = r.max(solid_extent(&solids[i as usize], c));
+                    }
+                }
+                Shape::Field { bounds, .. } => {
+                    for corner in 0..8 {
+                        let pick = |k: usize| {
+                            if corner >> k & 1 == 1 {
+                                bounds.hi[k]
+                            } else {
+                                bounds.lo[k]
+                            }
+                        };
+                        r = r.max(dist([pick(0), pick(1), pick(2)]));
                     }
                 }
             }
@@ -880,7 +903,18 @@ struct FileObject {
     #[serde(default)]
     csg: Option<FileCsg>,
     #[serde(default)]
+    frep: Option<serde_json::Value>,
+    #[serde(default)]
+    bounds: Option<FileBounds>,
+    #[serde(default)]
     material: FileMaterial,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileBounds {
+    min: [f64; 3],
+    max: [f64; 3],
 }
 
 /// Loads a surface model by file name (relative to `base`) or `builtin:NAME`; returns
@@ -927,10 +961,16 @@ impl FileObject {
             self.surface.is_some(),
             self.solid.is_some(),
             self.csg.is_some(),
+            self.frep.is_some(),
         ];
         if kinds.iter().filter(|k| **k).count() != 1 {
             return Err(RenderError::Scene(format!(
-                "{path}: give exactly one of `surface`, `solid` or `csg`"
+                "{path}: give exactly one of `surface`, `solid`, `csg` or `frep`"
+            )));
+        }
+        if self.bounds.is_some() && self.frep.is_none() {
+            return Err(RenderError::Scene(format!(
+                "{path}.bounds: only for `frep` objects"
             )));
         }
         if self.surface.is_none() && (self.transform.is_some() || self.detail.is_some()) {
@@ -938,7 +978,41 @@ impl FileObject {
                 "{path}: `transform` and `detail` apply to surfaces (solids take centre, scale, rotate_deg)"
             )));
         }
-        let shape = if let Some(spec) = &self.surface {
+        let shape = if let Some(v) = &self.frep {
+            if fm.texture.is_some() {
+                return Err(RenderError::Scene(format!(
+                    "{mp}.texture: F-rep solids have no domain to carry a texture"
+                )));
+            }
+            if self.transform.is_some() || self.detail.is_some() {
+                return Err(RenderError::Scene(format!(
+                    "{path}: an F-rep object is placed by a `transform` node inside `frep`"
+                )));
+            }
+            let node = crate::frep::Node::from_json(v, &format!("{path}.frep"))
+                .map_err(|e| RenderError::Scene(e.to_string()))?;
+            let bounds = match &self.bounds {
+                Some(b) => {
+                    let lo = check_vec(&format!("{path}.bounds.min"), b.min)?;
+                    let hi = check_vec(&format!("{path}.bounds.max"), b.max)?;
+                    if (0..3).any(|k| !(lo[k] < hi[k])) {
+                        return Err(RenderError::Scene(format!(
+                            "{path}.bounds: min must be below max on every axis"
+                        )));
+                    }
+                    crate::frep::Aabb::new(lo, hi)
+                }
+                None => node.bounds().filter(|b| b.is_bounded() && b.longest() > 0.0).ok_or_else(|| {
+                    RenderError::Scene(format!(
+                        "{path}: the model's extent is unbounded (a half-space or quadric); give `bounds`: {{\"min\": [..], \"max\": [..]}}"
+                    ))
+                })?,
+            };
+            Shape::Field {
+                node: Arc::new(node),
+                bounds,
+            }
+        } else if let Some(spec) = &self.surface {
             let (model, file) = load_surface(spec, base).map_err(|e| match e {
                 RenderError::Scene(m) => RenderError::Scene(format!("{path}.surface: {m}")),
                 other => RenderError::Scene(format!("{path}.surface: {other}")),

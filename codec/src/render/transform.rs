@@ -124,6 +124,25 @@ fn matmul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
 }
 
 impl Affine {
+    /// The inverse map, or None if the linear part is singular.
+    pub fn inverse(&self) -> Option<Affine> {
+        let det = self.det();
+        if det.abs() < 1e-300 || !det.is_finite() {
+            return None;
+        }
+        let c = self.cofactor();
+        // m^-1 = (det m^-T)^T / det.
+        let m = [0, 1, 2].map(|i| [0, 1, 2].map(|j| c[j][i] / det));
+        let t = [0, 1, 2].map(|i| -dot(m[i], self.t));
+        Some(Affine { m, t })
+    }
+
+    /// The transpose of the linear part applied to `v` (pulls a gradient back through
+    /// the map: the gradient of `f(A x)` is `m^T grad f`).
+    pub fn transpose_mul(&self, v: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|j| (0..3).map(|i| self.m[i][j] * v[i]).sum())
+    }
+
     /// `m^-T n` exactly (not renormalised): how a plane normal transforms so that
     /// `n . x <= d` becomes `(m^-T n) . (m x) <= d`. None if `m` is singular.
     pub fn plane_normal(&self, n: [f64; 3]) -> Option<[f64; 3]> {

@@ -1,0 +1,597 @@
+//! The F-rep model: a tree of field nodes (primitives, R-function set operations,
+//! blends, offsets, affine transforms), its value, exact gradient (chain rule through
+//! every node), interval bound over a box and bounding box, and its JSON form
+//! (`docs/frep.md`).
+
+use serde_json::Value;
+
+use super::interval::{Aabb, Interval};
+use super::primitive::Primitive;
+use super::rfunction::{self, SetOp};
+use crate::render::transform::Affine;
+
+/// Deepest nesting a model may have.
+pub const MAX_DEPTH: usize = 64;
+/// Most nodes a model may have.
+pub const MAX_NODES: usize = 10_000;
+/// Largest coordinate or length a model may use (as for the other solids).
+pub const WORLD_LIMIT: f64 = crate::surface::implicit::WORLD_LIMIT;
+/// Smallest length (radius, side, blend range) a model may use.
+pub const MIN_LENGTH: f64 = 1e-9;
+
+/// A field node: `f >= 0` inside.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Node {
+    /// A primitive.
+    Primitive(Primitive),
+    /// An R-function set operation folded over two or more operands, left to right.
+    SetOp {
+        /// Which operation.
+        op: SetOp,
+        /// The R-function parameter in [0, 1] (1: max/min).
+        a: f64,
+        /// The operands.
+        operands: Vec<Node>,
+    },
+    /// A blending union or intersection of two operands.
+    Blend {
+        /// Union or intersection.
+        op: SetOp,
+        /// The R-function parameter.
+        a: f64,
+        /// Height of the blend (positive adds material).
+        a0: f64,
+        /// Fall-off along the first operand's function.
+        a1: f64,
+        /// Fall-off along the second operand's function.
+        a2: f64,
+        /// The two operands.
+        operands: Box<[Node; 2]>,
+    },
+    /// `f + by`: grows the solid (shrinks it for a negative amount).
+    Offset {
+        /// Added to the function.
+        by: f64,
+        /// The operand.
+        operand: Box<Node>,
+    },
+    /// The operand moved by an affine map: `f(A^-1 p)`.
+    Transform {
+        /// The map from the operand's space into the model's.
+        forward: Affine,
+        /// Its inverse.
+        inverse: Affine,
+        /// The operand.
+        operand: Box<Node>,
+    },
+}
+
+/// A malformed or out-of-range model, with the JSON path of the offending value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{path}: {reason}")]
+pub struct ModelError {
+    /// Where, e.g. `model.union[1].sphere.radius`.
+    pub path: String,
+    /// What is wrong.
+    pub reason: String,
+}
+
+fn err<T>(path: &str, reason: impl Into<String>) -> Result<T, ModelError> {
+    Err(ModelError {
+        path: path.to_string(),
+        reason: reason.into(),
+    })
+}
+
+impl Node {
+    /// The function's value at `p`.
+    pub fn value(&self, p: [f64; 3]) -> f64 {
+        match self {
+            Node::Primitive(q) => q.value_gradient(p).0,
+            Node::SetOp { op, a, operands } => {
+                let mut it = operands.iter();
+                let first = it.next().map_or(f64::NEG_INFINITY, |n| n.value(p));
+                it.fold(first, |acc, n| rfunction::apply(*op, acc, n.value(p), *a))
+            }
+            Node::Blend {
+                op,
+                a,
+                a0,
+                a1,
+                a2,
+                operands,
+            } => {
+                let (f1, f2) = (operands[0].value(p), operands[1].value(p));
+                rfunction::apply(*op, f1, f2, *a)
+                    + rfunction::blend_partials(f1, f2, *a0, *a1, *a2).0
+            }
+            Node::Offset { by, operand } => operand.value(p) + by,
+            Node::Transform {
+                inverse, operand, ..
+            } => operand.value(inverse.point(p)),
+        }
+    }
+
+    /// The function's value and exact gradient at `p`.
+    pub fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        match self {
+            Node::Primitive(q) => q.value_gradient(p),
+            Node::SetOp { op, a, operands } => {
+                let mut it = operands.iter();
+                let mut acc = it
+                    .next()
+                    .map_or((f64::NEG_INFINITY, [0.0; 3]), |n| n.value_gradient(p));
+                for n in it {
+                    let (v, g) = n.value_gradient(p);
+                    let (r, d1, d2) = rfunction::partials(*op, acc.0, v, *a);
+                    acc = (r, [0, 1, 2].map(|k| d1 * acc.1[k] + d2 * g[k]));
+                }
+                acc
+            }
+            Node::Blend {
+                op,
+                a,
+                a0,
+                a1,
+                a2,
+                operands,
+            } => {
+                let (f1, g1) = operands[0].value_gradient(p);
+                let (f2, g2) = operands[1].value_gradient(p);
+                let (r, d1, d2) = rfunction::partials(*op, f1, f2, *a);
+                let (b, e1, e2) = rfunction::blend_partials(f1, f2, *a0, *a1, *a2);
+                (
+                    r + b,
+                    [0, 1, 2].map(|k| (d1 + e1) * g1[k] + (d2 + e2) * g2[k]),
+                )
+            }
+            Node::Offset { by, operand } => {
+                let (v, g) = operand.value_gradient(p);
+                (v + by, g)
+            }
+            Node::Transform {
+                inverse, operand, ..
+            } => {
+                let (v, g) = operand.value_gradient(inverse.point(p));
+                (v, inverse.transpose_mul(g))
+            }
+        }
+    }
+
+    /// Bounds of the function over the box `b`.
+    pub fn interval(&self, b: &Aabb) -> Interval {
+        match self {
+            Node::Primitive(q) => q.interval(b),
+            Node::SetOp { op, a, operands } => {
+                let mut it = operands.iter();
+                let first = it
+                    .next()
+                    .map_or(Interval::point(f64::NEG_INFINITY), |n| n.interval(b));
+                it.fold(first, |acc, n| {
+                    rfunction::interval(*op, acc, n.interval(b), *a)
+                })
+            }
+            Node::Blend {
+                op,
+                a,
+                a0,
+                a1,
+                a2,
+                operands,
+            } => {
+                let (i1, i2) = (operands[0].interval(b), operands[1].interval(b));
+                rfunction::interval(*op, i1, i2, *a)
+                    + rfunction::blend_interval(i1, i2, *a0, *a1, *a2)
+            }
+            Node::Offset { by, operand } => operand.interval(b) + Interval::point(*by),
+            Node::Transform {
+                inverse, operand, ..
+            } => operand.interval(&map_box(inverse, b)),
+        }
+    }
+
+    /// A box holding the solid, or None if the model cannot bound it.
+    pub fn bounds(&self) -> Option<Aabb> {
+        match self {
+            Node::Primitive(q) => q.bounds(),
+            Node::SetOp { op, operands, .. } => match op {
+                SetOp::Union => operands
+                    .iter()
+                    .map(Node::bounds)
+                    .try_fold(None::<Aabb>, |acc, b| {
+                        let b = b?;
+                        Some(Some(acc.map_or(b, |a| a.union(&b))))
+                    })
+                    .flatten(),
+                SetOp::Intersection => operands
+                    .iter()
+                    .filter_map(Node::bounds)
+                    .reduce(|a, b| a.intersection(&b).unwrap_or(Aabb::new(a.lo, a.lo))),
+                SetOp::Difference => operands.first().and_then(Node::bounds),
+            },
+            Node::Blend {
+                op,
+                a1,
+                a2,
+                operands,
+                ..
+            } => {
+                let (b1, b2) = (operands[0].bounds(), operands[1].bounds());
+                let joined = match op {
+                    SetOp::Union => b1.zip(b2).map(|(x, y)| x.union(&y)),
+                    _ => match (b1, b2) {
+                        (Some(x), Some(y)) => Some(x.intersection(&y).unwrap_or(x)),
+                        (x, y) => x.or(y),
+                    },
+                }?;
+                // The blend adds material only where both functions are within a few
+                // fall-off ranges of zero; a margin of a quarter of the box (at least
+                // the ranges) holds it for the usual scales.
+                Some(
+                    joined.padded((0.25 * joined.longest()).max(a1.max(*a2).min(joined.longest()))),
+                )
+            }
+            Node::Offset { by, operand } => {
+                let b = operand.bounds()?;
+                // For the quadratic primitives, f + by moves the boundary by about
+                // by / |grad f|; a margin proportional to the offset and the box covers it.
+                let grow = if *by > 0.0 { by.sqrt() + by } else { 0.0 };
+                Some(b.padded(grow))
+            }
+            Node::Transform {
+                forward, operand, ..
+            } => Some(map_box(forward, &operand.bounds()?)),
+        }
+    }
+
+    /// Number of nodes.
+    pub fn count(&self) -> usize {
+        1 + match self {
+            Node::Primitive(_) => 0,
+            Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
+            Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
+            Node::Offset { operand, .. } | Node::Transform { operand, .. } => operand.count(),
+        }
+    }
+
+    /// Parses a node from its JSON form; `path` names it in errors.
+    pub fn from_json(v: &Value, path: &str) -> Result<Node, ModelError> {
+        let mut count = 0;
+        let node = parse(v, path, 0, &mut count)?;
+        Ok(node)
+    }
+}
+
+/// The box holding the image of box `b` under `m` (interval arithmetic per row).
+fn map_box(m: &Affine, b: &Aabb) -> Aabb {
+    let axes = b.axes();
+    let mut lo = [0.0; 3];
+    let mut hi = [0.0; 3];
+    for i in 0..3 {
+        let r = (0..3)
+            .map(|j| axes[j].scale(m.m[i][j]))
+            .fold(Interval::point(m.t[i]), |acc, x| acc + x);
+        lo[i] = r.lo;
+        hi[i] = r.hi;
+    }
+    Aabb { lo, hi }
+}
+
+fn number(v: &Value, path: &str, lo: f64, hi: f64) -> Result<f64, ModelError> {
+    let Some(x) = v.as_f64() else {
+        return err(path, format!("expected a number, found {v}"));
+    };
+    if !(x >= lo && x <= hi) {
+        return err(
+            path,
+            format!("{x} is outside the allowed range [{lo}, {hi}]"),
+        );
+    }
+    Ok(x)
+}
+
+fn vec3(v: &Value, path: &str, lo: f64, hi: f64) -> Result<[f64; 3], ModelError> {
+    match v.as_array() {
+        Some(a) if a.len() == 3 => {
+            let mut out = [0.0; 3];
+            for k in 0..3 {
+                out[k] = number(&a[k], &format!("{path}[{k}]"), lo, hi)?;
+            }
+            Ok(out)
+        }
+        _ => err(path, "expected three numbers [x, y, z]"),
+    }
+}
+
+/// The fields of a parameter object: each key once, no others than `allowed`.
+fn fields<'a>(
+    v: &'a Value,
+    path: &str,
+    allowed: &[&str],
+) -> Result<&'a serde_json::Map<String, Value>, ModelError> {
+    let Some(o) = v.as_object() else {
+        return err(path, "expected an object");
+    };
+    for k in o.keys() {
+        if !allowed.contains(&k.as_str()) {
+            return err(
+                path,
+                format!(
+                    "unknown field `{k}` (expected one of: {})",
+                    allowed.join(", ")
+                ),
+            );
+        }
+    }
+    Ok(o)
+}
+
+fn get<'a>(
+    o: &'a serde_json::Map<String, Value>,
+    key: &str,
+    path: &str,
+) -> Result<&'a Value, ModelError> {
+    o.get(key).ok_or_else(|| ModelError {
+        path: path.to_string(),
+        reason: format!("missing field `{key}`"),
+    })
+}
+
+const PRIMITIVES: [&str; 8] = [
+    "sphere",
+    "box",
+    "cylinder",
+    "cone",
+    "torus",
+    "half_space",
+    "quadric",
+    "superellipsoid",
+];
+const OPERATIONS: [&str; 7] = [
+    "union",
+    "intersection",
+    "difference",
+    "blend_union",
+    "blend_intersection",
+    "offset",
+    "transform",
+];
+
+fn parse(v: &Value, path: &str, depth: usize, count: &mut usize) -> Result<Node, ModelError> {
+    if depth > MAX_DEPTH {
+        return err(path, format!("nested deeper than {MAX_DEPTH} levels"));
+    }
+    *count += 1;
+    if *count > MAX_NODES {
+        return err(path, format!("the model has more than {MAX_NODES} nodes"));
+    }
+    let Some(o) = v.as_object() else {
+        return err(path, "expected a node object like {\"sphere\": {...}}");
+    };
+    let kind = o
+        .keys()
+        .find(|k| PRIMITIVES.contains(&k.as_str()) || OPERATIONS.contains(&k.as_str()))
+        .ok_or_else(|| ModelError {
+            path: path.to_string(),
+            reason: format!(
+                "no node kind; expected one of: {}, {}",
+                PRIMITIVES.join(", "),
+                OPERATIONS.join(", ")
+            ),
+        })?
+        .clone();
+    let here = format!("{path}.{kind}");
+    let body = &o[&kind];
+    let w = WORLD_LIMIT;
+    let length = |v: &Value, p: &str| number(v, p, MIN_LENGTH, w);
+    if PRIMITIVES.contains(&kind.as_str()) {
+        if o.len() != 1 {
+            return err(
+                path,
+                format!("a `{kind}` node takes no fields beside `{kind}`"),
+            );
+        }
+        let centre = |o: &serde_json::Map<String, Value>| match o.get("centre") {
+            Some(c) => vec3(c, &format!("{here}.centre"), -w, w),
+            None => Ok([0.0; 3]),
+        };
+        let prim = match kind.as_str() {
+            "sphere" => {
+                let f = fields(body, &here, &["centre", "radius"])?;
+                Primitive::Sphere {
+                    centre: centre(f)?,
+                    radius: length(get(f, "radius", &here)?, &format!("{here}.radius"))?,
+                }
+            }
+            "box" => {
+                let f = fields(body, &here, &["centre", "size"])?;
+                let size = vec3(
+                    get(f, "size", &here)?,
+                    &format!("{here}.size"),
+                    MIN_LENGTH,
+                    w,
+                )?;
+                Primitive::Box {
+                    centre: centre(f)?,
+                    half: size.map(|s| 0.5 * s),
+                }
+            }
+            "cylinder" | "cone" => {
+                let f = fields(body, &here, &["centre", "radius", "length"])?;
+                let (c, r, l) = (
+                    centre(f)?,
+                    length(get(f, "radius", &here)?, &format!("{here}.radius"))?,
+                    length(get(f, "length", &here)?, &format!("{here}.length"))?,
+                );
+                if kind == "cylinder" {
+                    Primitive::Cylinder {
+                        centre: c,
+                        radius: r,
+                        length: l,
+                    }
+                } else {
+                    Primitive::Cone {
+                        centre: c,
+                        radius: r,
+                        length: l,
+                    }
+                }
+            }
+            "torus" => {
+                let f = fields(body, &here, &["centre", "major", "minor"])?;
+                Primitive::Torus {
+                    centre: centre(f)?,
+                    major: length(get(f, "major", &here)?, &format!("{here}.major"))?,
+                    minor: length(get(f, "minor", &here)?, &format!("{here}.minor"))?,
+                }
+            }
+            "half_space" => {
+                let f = fields(body, &here, &["point", "normal"])?;
+                let point = match f.get("point") {
+                    Some(p) => vec3(p, &format!("{here}.point"), -w, w)?,
+                    None => [0.0; 3],
+                };
+                let n = vec3(get(f, "normal", &here)?, &format!("{here}.normal"), -w, w)?;
+                let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                if len < MIN_LENGTH {
+                    return err(&format!("{here}.normal"), "must not be zero");
+                }
+                Primitive::HalfSpace {
+                    point,
+                    normal: n.map(|v| v / len),
+                }
+            }
+            "quadric" => {
+                let Some(a) = body.as_array().filter(|a| a.len() == 10) else {
+                    return err(
+                        &here,
+                        "expected ten coefficients [a, b, c, d, e, f, g, h, i, j]",
+                    );
+                };
+                let mut c = [0.0; 10];
+                for k in 0..10 {
+                    c[k] = number(&a[k], &format!("{here}[{k}]"), -w, w)?;
+                }
+                if c.iter().all(|v| *v == 0.0) {
+                    return err(&here, "all coefficients are zero");
+                }
+                Primitive::Quadric { coefficients: c }
+            }
+            _ => {
+                let f = fields(body, &here, &["centre", "radii", "exponents"])?;
+                let e = match f.get("exponents") {
+                    Some(Value::Array(a)) if a.len() == 2 => [
+                        number(&a[0], &format!("{here}.exponents[0]"), 0.05, 8.0)?,
+                        number(&a[1], &format!("{here}.exponents[1]"), 0.05, 8.0)?,
+                    ],
+                    Some(_) => return err(&format!("{here}.exponents"), "expected [e1, e2]"),
+                    None => [1.0, 1.0],
+                };
+                Primitive::Superellipsoid {
+                    centre: centre(f)?,
+                    radii: vec3(
+                        get(f, "radii", &here)?,
+                        &format!("{here}.radii"),
+                        MIN_LENGTH,
+                        w,
+                    )?,
+                    exponents: e,
+                }
+            }
+        };
+        return Ok(Node::Primitive(prim));
+    }
+    // Operations: the operands under the kind's key, parameters beside it.
+    let op_fields: &[&str] = match kind.as_str() {
+        "union" | "intersection" | "difference" => &["a"],
+        "blend_union" | "blend_intersection" => &["a", "a0", "a1", "a2"],
+        "offset" => &["by"],
+        _ => &["scale", "rotate_deg", "translate"],
+    };
+    for k in o.keys() {
+        if *k != kind && !op_fields.contains(&k.as_str()) {
+            return err(
+                path,
+                format!(
+                    "unknown field `{k}` beside `{kind}` (expected: {})",
+                    op_fields.join(", ")
+                ),
+            );
+        }
+    }
+    let a = match o.get("a") {
+        Some(v) => number(v, &format!("{path}.a"), 0.0, 1.0)?,
+        None => 0.0,
+    };
+    let mut operands = |min: usize, max: usize| -> Result<Vec<Node>, ModelError> {
+        let Some(list) = body.as_array() else {
+            return err(&here, "expected a list of operand nodes");
+        };
+        if list.len() < min || list.len() > max {
+            return err(
+                &here,
+                format!("has {} operands; expected {min} to {max}", list.len()),
+            );
+        }
+        list.iter()
+            .enumerate()
+            .map(|(i, n)| parse(n, &format!("{here}[{i}]"), depth + 1, count))
+            .collect()
+    };
+    Ok(match kind.as_str() {
+        "union" | "intersection" | "difference" => Node::SetOp {
+            op: match kind.as_str() {
+                "union" => SetOp::Union,
+                "intersection" => SetOp::Intersection,
+                _ => SetOp::Difference,
+            },
+            a,
+            operands: operands(2, MAX_NODES)?,
+        },
+        "blend_union" | "blend_intersection" => {
+            let [x, y]: [Node; 2] = operands(2, 2)?.try_into().expect("two operands");
+            Node::Blend {
+                op: if kind == "blend_union" {
+                    SetOp::Union
+                } else {
+                    SetOp::Intersection
+                },
+                a,
+                a0: number(get(o, "a0", path)?, &format!("{path}.a0"), -w, w)?,
+                a1: length(get(o, "a1", path)?, &format!("{path}.a1"))?,
+                a2: length(get(o, "a2", path)?, &format!("{path}.a2"))?,
+                operands: Box::new([x, y]),
+            }
+        }
+        "offset" => Node::Offset {
+            by: number(get(o, "by", path)?, &format!("{path}.by"), -w, w)?,
+            operand: Box::new(parse(body, &here, depth + 1, count)?),
+        },
+        _ => {
+            let scale = match o.get("scale") {
+                None => [1.0; 3],
+                Some(Value::Number(_)) => {
+                    [number(&o["scale"], &format!("{path}.scale"), 1e-6, 1e6)?; 3]
+                }
+                Some(s) => vec3(s, &format!("{path}.scale"), 1e-6, 1e6)?,
+            };
+            let rot = match o.get("rotate_deg") {
+                Some(r) => vec3(r, &format!("{path}.rotate_deg"), -1e4, 1e4)?,
+                None => [0.0; 3],
+            };
+            let t = match o.get("translate") {
+                Some(t) => vec3(t, &format!("{path}.translate"), -w, w)?,
+                None => [0.0; 3],
+            };
+            let forward = Affine::from_parts(scale, rot, t);
+            let Some(inverse) = forward.inverse() else {
+                return err(path, "the transform is singular");
+            };
+            Node::Transform {
+                forward,
+                inverse,
+                operand: Box::new(parse(body, &here, depth + 1, count)?),
+            }
+        }
+    })
+}

@@ -1,0 +1,1 @@
+//! POV-Ray export of F-rep models (filled in below).
