@@ -73,6 +73,79 @@ pub enum Command {
     Distort(DistortArgs),
     /// Carry a texture from one surface to another through their shared domain.
     Transfer(TransferArgs),
+    /// Function-based (F-rep) solids: render, mesh, export to POV-Ray.
+    #[command(subcommand)]
+    Frep(FrepCommand),
+}
+
+/// `caoen frep ...`.
+#[derive(Debug, Subcommand)]
+pub enum FrepCommand {
+    /// Render an F-rep model or scene to a PNG (interval ray casting or its mesh).
+    Render(FrepRenderArgs),
+    /// Polygonise an F-rep model into a mesh (.obj or .ply).
+    Mesh(FrepMeshArgs),
+    /// Write a POV-Ray scene (.pov) that renders as the same model.
+    ExportPov(FrepExportArgs),
+}
+
+/// F-rep render method.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum FrepMethodArg {
+    /// Interval ray casting with exact gradient normals.
+    Ray,
+    /// The polygonised mesh, rasterised.
+    Mesh,
+}
+
+/// `caoen frep render`.
+#[derive(Debug, Args)]
+pub struct FrepRenderArgs {
+    /// F-rep model file (format "caoen-frep/1") or scene file with `frep` objects
+    /// (docs/frep.md).
+    pub model: PathBuf,
+    /// Output image (.png).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Rendering method.
+    #[arg(long, value_enum, default_value_t = FrepMethodArg::Ray)]
+    pub method: FrepMethodArg,
+    /// Image size WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x384")]
+    pub size: String,
+    /// Supersampling: N x N samples per pixel.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
+    /// Grid cells along the longest side for --method mesh.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    pub cells: u32,
+}
+
+/// `caoen frep mesh`.
+#[derive(Debug, Args)]
+pub struct FrepMeshArgs {
+    /// F-rep model file or scene file with one `frep` object.
+    pub model: PathBuf,
+    /// Output mesh (.obj or .ply).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Grid cells along the longest side.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    pub cells: u32,
+}
+
+/// `caoen frep export-pov`.
+#[derive(Debug, Args)]
+pub struct FrepExportArgs {
+    /// F-rep model file or scene file with `frep` objects.
+    pub model: PathBuf,
+    /// Output POV-Ray scene (.pov).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Image size WIDTHxHEIGHT the camera is framed for (render POV-Ray at this size,
+    /// e.g. `povray +W512 +H384`).
+    #[arg(long, default_value = "512x384")]
+    pub size: String,
 }
 
 /// `caoen transfer`.

@@ -23,7 +23,7 @@ pub fn mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
         for _ in 0..PROJECTION_STEPS {
             let (f, g) = node.value_gradient(*p);
             let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
-            if !(g2 > 0.0) || !f.is_finite() {
+            if g2.is_nan() || g2 <= 0.0 || !f.is_finite() {
                 break;
             }
             let q = [0, 1, 2].map(|k| p[k] - f * g[k] / g2);
@@ -33,7 +33,7 @@ pub fn mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
                 .map(|k| (q[k] - start[k]).powi(2))
                 .sum::<f64>()
                 .sqrt();
-            if !(moved <= limit) {
+            if moved.is_nan() || moved > limit {
                 break;
             }
             *p = q;

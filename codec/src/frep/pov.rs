@@ -1,1 +1,319 @@
-//! POV-Ray export of F-rep models (filled in below).
+//! POV-Ray export: a `.pov` scene that POV-Ray renders as the same model.
+//!
+//! Every node becomes a declared POV-Ray function of `(x, y, z)` in caoen's
+//! coordinates; the solid is an `isosurface` of the negated model function (POV-Ray's
+//! inside is below the threshold, F-rep's is `f >= 0`) with a `max_gradient` measured
+//! on a grid over the box. caoen is right-handed with z up, POV-Ray left-handed with y
+//! up: swapping y and z maps one onto the other without mirroring the picture, so the
+//! isosurface calls the model as `f(x, z, y)` and every exported vector swaps its last
+//! two components. The camera is caoen's resolved camera (same eye, direction, up and
+//! field of view), the lights are parallel lights along the same directions.
+
+use std::fmt::Write as _;
+
+use super::interval::Aabb;
+use super::node::Node;
+use super::primitive::Primitive;
+use super::rfunction::SetOp;
+use crate::render::camera::{Camera, Projection};
+use crate::render::scene::{Scene, Shape};
+
+/// A vector in POV-Ray's axes.
+fn v3(p: [f64; 3]) -> String {
+    format!("<{}, {}, {}>", num(p[0]), num(p[2]), num(p[1]))
+}
+
+/// A number POV-Ray reads back exactly (shortest round-trip form; exponents as `e`).
+fn num(x: f64) -> String {
+    let s = format!("{x:?}");
+    if s.contains("inf") || s.contains("NaN") {
+        // Validated models never hold these; a finite stand-in keeps the file parseable.
+        return "0".into();
+    }
+    s
+}
+
+/// Declares the functions of `node` and its operands; returns the name of its own.
+fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
+    let name = format!("caoen_f{}", *next);
+    *next += 1;
+    let q = |c: &[f64; 3]| {
+        (
+            format!("(x - {})", num(c[0])),
+            format!("(y - {})", num(c[1])),
+            format!("(z - {})", num(c[2])),
+        )
+    };
+    let body = match node {
+        Node::Primitive(p) => match p {
+            Primitive::Sphere { centre, radius } => {
+                let (x, y, z) = q(centre);
+                format!("{} - ({x}*{x} + {y}*{y} + {z}*{z})", num(radius * radius))
+            }
+            Primitive::Box { centre, half } => {
+                let (x, y, z) = q(centre);
+                format!(
+                    "min({} - {x}*{x}, {} - {y}*{y}, {} - {z}*{z})",
+                    num(half[0] * half[0]),
+                    num(half[1] * half[1]),
+                    num(half[2] * half[2])
+                )
+            }
+            Primitive::Cylinder {
+                centre,
+                radius,
+                length,
+            } => {
+                let (x, y, z) = q(centre);
+                format!(
+                    "min({} - {x}*{x} - {y}*{y}, {} - {z}*{z})",
+                    num(radius * radius),
+                    num(0.25 * length * length)
+                )
+            }
+            Primitive::Cone {
+                centre,
+                radius,
+                length,
+            } => {
+                let (x, y, z) = q(centre);
+                let s = format!("({} * (1 - {z} / {}))", num(*radius), num(*length));
+                format!(
+                    "min({s}*{s} - {x}*{x} - {y}*{y}, {z} * ({} - {z}))",
+                    num(*length)
+                )
+            }
+            Primitive::Torus {
+                centre,
+                major,
+                minor,
+            } => {
+                let (x, y, z) = q(centre);
+                let d = format!("(sqrt({x}*{x} + {y}*{y}) - {})", num(*major));
+                format!("{} - {d}*{d} - {z}*{z}", num(minor * minor))
+            }
+            Primitive::HalfSpace { point, normal } => format!(
+                "{} * ({} - x) + {} * ({} - y) + {} * ({} - z)",
+                num(normal[0]),
+                num(point[0]),
+                num(normal[1]),
+                num(point[1]),
+                num(normal[2]),
+                num(point[2])
+            ),
+            Primitive::Quadric { coefficients: c } => format!(
+                "{}*x*x + {}*y*y + {}*z*z + {}*x*y + {}*y*z + {}*x*z + {}*x + {}*y + {}*z + {}",
+                num(c[0]),
+                num(c[1]),
+                num(c[2]),
+                num(c[3]),
+                num(c[4]),
+                num(c[5]),
+                num(c[6]),
+                num(c[7]),
+                num(c[8]),
+                num(c[9])
+            ),
+            Primitive::Superellipsoid {
+                centre,
+                radii,
+                exponents: [e1, e2],
+            } => {
+                let (x, y, z) = q(centre);
+                let p = |t: &str, r: f64, e: f64| format!("pow(abs({t} / {}), {})", num(r), num(e));
+                format!(
+                    "1 - (pow({} + {}, {}) + {})",
+                    p(&x, radii[0], 2.0 / e2),
+                    p(&y, radii[1], 2.0 / e2),
+                    num(e2 / e1),
+                    p(&z, radii[2], 2.0 / e1)
+                )
+            }
+        },
+        Node::SetOp { op, a, operands } => {
+            let names: Vec<String> = operands.iter().map(|n| declare(n, out, next)).collect();
+            let mut acc = format!("{}(x, y, z)", names[0]);
+            for n in &names[1..] {
+                let other = format!("{n}(x, y, z)");
+                acc = match op {
+                    SetOp::Union => format!("caoen_union({acc}, {other}, {})", num(*a)),
+                    SetOp::Intersection => {
+                        format!("caoen_intersection({acc}, {other}, {})", num(*a))
+                    }
+                    SetOp::Difference => {
+                        format!("caoen_intersection({acc}, -{other}, {})", num(*a))
+                    }
+                };
+            }
+            acc
+        }
+        Node::Blend {
+            op,
+            a,
+            a0,
+            a1,
+            a2,
+            operands,
+        } => {
+            let f1 = declare(&operands[0], out, next);
+            let f2 = declare(&operands[1], out, next);
+            let helper = if *op == SetOp::Union {
+                "caoen_blend_union"
+            } else {
+                "caoen_blend_intersection"
+            };
+            format!(
+                "{helper}({f1}(x, y, z), {f2}(x, y, z), {}, {}, {}, {})",
+                num(*a),
+                num(*a0),
+                num(*a1),
+                num(*a2)
+            )
+        }
+        Node::Offset { by, operand } => {
+            let f = declare(operand, out, next);
+            format!("{f}(x, y, z) + {}", num(*by))
+        }
+        Node::Transform {
+            inverse, operand, ..
+        } => {
+            let f = declare(operand, out, next);
+            let row = |i: usize| {
+                format!(
+                    "{}*x + {}*y + {}*z + {}",
+                    num(inverse.m[i][0]),
+                    num(inverse.m[i][1]),
+                    num(inverse.m[i][2]),
+                    num(inverse.t[i])
+                )
+            };
+            format!("{f}({}, {}, {})", row(0), row(1), row(2))
+        }
+    };
+    let _ = writeln!(out, "#declare {name} = function(x, y, z) {{ {body} }}");
+    name
+}
+
+/// The R-function helpers the exported functions call (`a = 1` is max/min exactly, as
+/// in caoen).
+const HELPERS: &str = "\
+#declare caoen_union = function(p, q, k) { select(k - 1, (p + q + sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), max(p, q)) }
+#declare caoen_intersection = function(p, q, k) { select(k - 1, (p + q - sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), min(p, q)) }
+#declare caoen_blend_union = function(p, q, k, b0, b1, b2) { caoen_union(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }
+#declare caoen_blend_intersection = function(p, q, k, b0, b1, b2) { caoen_intersection(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }
+";
+
+/// The largest gradient length of `node` on a grid of `n^3` points over `b`, with a
+/// safety factor for what falls between the points (POV-Ray's `max_gradient`).
+pub fn max_gradient(node: &Node, b: &Aabb, n: usize) -> f64 {
+    let n = n.max(2);
+    let mut best: f64 = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                let t = [i, j, k].map(|v| v as f64 / (n - 1) as f64);
+                let p = [0, 1, 2].map(|a| b.lo[a] + t[a] * (b.hi[a] - b.lo[a]));
+                let (_, g) = node.value_gradient(p);
+                let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                if len.is_finite() {
+                    best = best.max(len);
+                }
+            }
+        }
+    }
+    1.25 * best.max(1e-6)
+}
+
+/// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface;
+/// surfaces and convex solids are not exported (an error names the first).
+pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "// POV-Ray 3.7 scene written by caoen (frep export-pov): the model's function\n\
+         // negated as an isosurface, axes swapped (caoen z up = POV-Ray y up).\n\
+         #version 3.7;\n\
+         global_settings {{ assumed_gamma 1.0 }}"
+    );
+    let bg = scene.background;
+    let _ = writeln!(
+        out,
+        "background {{ rgb <{}, {}, {}> }}",
+        bg[0], bg[1], bg[2]
+    );
+    let aspect = camera.width as f64 / camera.height as f64;
+    let target = [0, 1, 2].map(|k| camera.eye[k] + camera.forward[k]);
+    match camera.projection {
+        Projection::Perspective { fov_y_deg } => {
+            let half_h = (0.5 * fov_y_deg.to_radians()).tan();
+            let fov_x = 2.0 * (half_h * aspect).atan().to_degrees();
+            let _ = writeln!(
+                out,
+                "camera {{\n  perspective\n  location {}\n  right x*{}\n  up y\n  sky {}\n  angle {}\n  look_at {}\n}}",
+                v3(camera.eye),
+                num(aspect),
+                v3(camera.up),
+                num(fov_x),
+                v3(target)
+            );
+        }
+        Projection::Orthographic { height } => {
+            let _ = writeln!(
+                out,
+                "camera {{\n  orthographic\n  location {}\n  right x*{}\n  up y*{}\n  sky {}\n  look_at {}\n}}",
+                v3(camera.eye),
+                num(height * aspect),
+                num(height),
+                v3(camera.up),
+                v3(target)
+            );
+        }
+    }
+    let amb = scene.lighting.ambient;
+    let _ = writeln!(
+        out,
+        "global_settings {{ ambient_light rgb <{}, {}, {}> }}",
+        amb[0], amb[1], amb[2]
+    );
+    for l in &scene.lighting.lights {
+        let far = l.direction.map(|v| v * 1e4);
+        let _ = writeln!(
+            out,
+            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0> }}",
+            v3(far),
+            l.radiance[0],
+            l.radiance[1],
+            l.radiance[2]
+        );
+    }
+    out.push_str(HELPERS);
+    let mut next = 0;
+    for (i, obj) in scene.objects.iter().enumerate() {
+        let Shape::Field { node, bounds } = &obj.shape else {
+            return Err(format!(
+                "object {i} (`{}`) is not an F-rep solid; only F-rep objects are exported",
+                obj.name
+            ));
+        };
+        let top = declare(node, &mut out, &mut next);
+        // A little margin so the container never clips the surface.
+        let b = bounds.padded(1e-3 * bounds.longest());
+        let m = &obj.material;
+        let _ = writeln!(
+            out,
+            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  pigment {{ rgb <{}, {}, {}> }}\n  finish {{ ambient {} diffuse {} specular {} roughness {} }}\n}}",
+            v3(b.lo),
+            v3(b.hi),
+            num(1e-5 * b.longest()),
+            num(max_gradient(node, &b, 48)),
+            m.colour[0],
+            m.colour[1],
+            m.colour[2],
+            m.ambient,
+            m.diffuse,
+            m.specular,
+            num(1.0 / m.shininess.max(1.0) as f64)
+        );
+    }
+    Ok(out)
+}

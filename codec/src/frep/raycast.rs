@@ -102,7 +102,7 @@ impl<'a> Caster<'a> {
             return;
         };
         let (a, b) = (a.max(t_min), b.min(t_max));
-        if !(a <= b) {
+        if a.is_nan() || b.is_nan() || a > b {
             return;
         }
         let at = |t: f64| [0, 1, 2].map(|k| origin[k] + t * dir[k]);

@@ -55,12 +55,14 @@ fn conj_partials(f1: f64, f2: f64, a: f64, sign: f64) -> (f64, f64, f64) {
     }
     let s = radical(f1, f2, a);
     let k = 1.0 / (1.0 + a);
+    // The value exactly as `conj` computes it.
+    let v = (f1 + f2 + sign * s) / (1.0 + a);
     if s == 0.0 {
         // Both zero: the function is not differentiable there; the symmetric choice.
-        return ((f1 + f2) * k, k, k);
+        return (v, k, k);
     }
     (
-        (f1 + f2 + sign * s) * k,
+        v,
         (1.0 + sign * (f1 - a * f2) / s) * k,
         (1.0 + sign * (f2 - a * f1) / s) * k,
     )

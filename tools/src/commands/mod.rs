@@ -15,6 +15,7 @@ pub mod codec;
 pub mod compare;
 pub mod demo;
 pub mod examples;
+pub mod frep;
 pub mod render;
 pub mod surface;
 pub mod texture;
@@ -61,6 +62,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Bench(args) => bench::run(&global, &args),
         Command::Distort(args) => texture::distort(&global, &args),
         Command::Transfer(args) => texture::transfer(&global, &args),
+        Command::Frep(cmd) => frep::run(&global, cmd),
     }
 }
 

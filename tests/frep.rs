@@ -1,0 +1,462 @@
+//! F-rep: R-functions against their formulas, exact gradients against finite
+//! differences, interval bounds that hold, the ray caster against analytic
+//! intersections, closed meshes with the right volume, bad models refused, and the CLI.
+
+mod common;
+use common::caoen;
+
+use std::path::{Path, PathBuf};
+
+use caoen::frep::interval::Aabb;
+use caoen::frep::raycast::{CastOptions, Caster};
+use caoen::frep::rfunction::{self, SetOp};
+use caoen::frep::Node;
+use proptest::prelude::*;
+use serde_json::json;
+
+fn node(v: serde_json::Value) -> Node {
+    Node::from_json(&v, "model").unwrap()
+}
+
+/// A deterministic stream of numbers in [-1, 1) (xorshift), for many-sample checks.
+struct Stream(u64);
+impl Stream {
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
+#[test]
+fn r_functions_equal_their_formulas() {
+    let mut s = Stream(0x9e37_79b9_7f4a_7c15);
+    for i in 0..100_000 {
+        let (f1, f2) = (5.0 * s.next(), 5.0 * s.next());
+        // a = 1: max and min exactly.
+        assert_eq!(rfunction::apply(SetOp::Union, f1, f2, 1.0), f1.max(f2));
+        assert_eq!(
+            rfunction::apply(SetOp::Intersection, f1, f2, 1.0),
+            f1.min(f2)
+        );
+        assert_eq!(
+            rfunction::apply(SetOp::Difference, f1, f2, 1.0),
+            f1.min(-f2)
+        );
+        let a = if i % 4 == 0 {
+            0.0
+        } else {
+            0.5 * (s.next() + 1.0)
+        };
+        let root = |p: f64, q: f64| (p * p + q * q - 2.0 * a * p * q).sqrt();
+        let u = (f1 + f2 + root(f1, f2)) / (1.0 + a);
+        let n = (f1 + f2 - root(f1, f2)) / (1.0 + a);
+        let d = (f1 - f2 - root(f1, -f2)) / (1.0 + a);
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * (1.0 + y.abs());
+        assert!(
+            close(rfunction::apply(SetOp::Union, f1, f2, a), u),
+            "{f1} {f2} {a}"
+        );
+        assert!(close(rfunction::apply(SetOp::Intersection, f1, f2, a), n));
+        assert!(close(rfunction::apply(SetOp::Difference, f1, f2, a), d));
+    }
+}
+
+/// Models covering every node kind, for the gradient and interval properties.
+fn zoo() -> Vec<Node> {
+    let sphere = json!({"sphere": {"centre": [0.1, -0.2, 0.3], "radius": 0.8}});
+    let boxy = json!({"box": {"centre": [0.2, 0.0, -0.1], "size": [1.0, 0.6, 0.8]}});
+    vec![
+        node(sphere.clone()),
+        node(boxy.clone()),
+        node(json!({"cylinder": {"centre": [0.0, 0.1, 0.0], "radius": 0.4, "length": 1.5}})),
+        node(json!({"cone": {"centre": [0.0, 0.0, -0.5], "radius": 0.7, "length": 1.2}})),
+        node(json!({"torus": {"centre": [0.0, 0.0, 0.1], "major": 0.7, "minor": 0.2}})),
+        node(json!({"half_space": {"point": [0.1, 0.0, 0.0], "normal": [1.0, 2.0, -0.5]}})),
+        node(json!({"quadric": [1.0, 2.0, 0.5, 0.3, -0.2, 0.1, 0.2, -0.1, 0.05, -1.0]})),
+        node(json!({"superellipsoid": {"radii": [0.9, 0.7, 0.6], "exponents": [0.5, 0.7]}})),
+        node(json!({"union": [sphere.clone(), boxy.clone()], "a": 0.3})),
+        node(json!({"intersection": [sphere.clone(), boxy.clone()]})),
+        node(json!({"difference": [boxy.clone(), sphere.clone()], "a": 0.6})),
+        node(
+            json!({"blend_union": [sphere.clone(), boxy.clone()], "a0": 0.4, "a1": 0.5, "a2": 0.3}),
+        ),
+        node(
+            json!({"blend_intersection": [sphere.clone(), boxy.clone()], "a0": -0.2, "a1": 0.5, "a2": 0.5}),
+        ),
+        node(json!({"offset": sphere.clone(), "by": 0.1})),
+        node(
+            json!({"transform": {"union": [sphere, boxy]}, "scale": [1.0, 2.0, 0.5], "rotate_deg": [10.0, 20.0, 30.0], "translate": [0.3, 0.0, -0.2]}),
+        ),
+    ]
+}
+
+#[test]
+fn gradients_equal_central_differences() {
+    let mut s = Stream(12345);
+    let mut checked = 0;
+    for (k, n) in zoo().iter().enumerate() {
+        for _ in 0..2000 {
+            let p = [1.2 * s.next(), 1.2 * s.next(), 1.2 * s.next()];
+            let (v, g) = n.value_gradient(p);
+            assert_eq!(v, n.value(p), "model {k}: value_gradient's value is value");
+            let h = 1e-6;
+            let fd: Vec<f64> = (0..3)
+                .map(|i| {
+                    let mut a = p;
+                    let mut b = p;
+                    a[i] += h;
+                    b[i] -= h;
+                    (n.value(a) - n.value(b)) / (2.0 * h)
+                })
+                .collect();
+            // Central differences are exact to O(h^2) where the function is smooth; skip
+            // the points within h of a crease (min/max, |x| at 0), where they are not.
+            let smooth = (0..3).all(|i| {
+                let mut a = p;
+                a[i] += 2.0 * h;
+                let mut b = p;
+                b[i] -= 2.0 * h;
+                let (_, ga) = n.value_gradient(a);
+                let (_, gb) = n.value_gradient(b);
+                (0..3).all(|j| (ga[j] - gb[j]).abs() < 1e-3 * (1.0 + g[j].abs()))
+            });
+            if !smooth {
+                continue;
+            }
+            let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
+            for i in 0..3 {
+                assert!(
+                    (g[i] - fd[i]).abs() <= 1e-6 * scale,
+                    "model {k} at {p:?}: d/dx{i} analytic {} vs central {}",
+                    g[i],
+                    fd[i]
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 25_000, "only {checked} smooth points checked");
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+    /// The interval over a box holds the function at every point of the box.
+    #[test]
+    fn intervals_hold_the_values(
+        c in prop::array::uniform3(-1.5f64..1.5),
+        h in prop::array::uniform3(0.0f64..0.8),
+        t in prop::collection::vec(prop::array::uniform3(0.0f64..1.0), 16),
+    ) {
+        let b = Aabb::new([0, 1, 2].map(|k| c[k] - h[k]), [0, 1, 2].map(|k| c[k] + h[k]));
+        for (k, n) in zoo().iter().enumerate() {
+            let range = n.interval(&b);
+            for u in &t {
+                let p = [0, 1, 2].map(|i| b.lo[i] + u[i] * (b.hi[i] - b.lo[i]));
+                let v = n.value(p);
+                let slack = 1e-9 * (1.0 + v.abs());
+                prop_assert!(range.lo - slack <= v && v <= range.hi + slack,
+                    "model {} on {:?}: {} outside [{}, {}]", k, b, v, range.lo, range.hi);
+            }
+        }
+    }
+}
+
+#[test]
+fn caster_finds_analytic_spans() {
+    // Two unit spheres 3 apart on the x axis, a ray along x: [-1, 1] and [2, 4].
+    let n = node(json!({"union": [
+        {"sphere": {"centre": [0.0, 0.0, 0.0], "radius": 1.0}},
+        {"sphere": {"centre": [3.0, 0.0, 0.0], "radius": 1.0}}
+    ]}));
+    let c = Caster::new(&n, n.bounds().unwrap(), CastOptions::default());
+    let spans = c.spans([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.0, f64::INFINITY);
+    assert_eq!(spans.len(), 2, "{spans:?}");
+    let want = [(4.0, 6.0), (7.0, 9.0)];
+    for (s, w) in spans.iter().zip(want) {
+        assert!(
+            (s.enter - w.0).abs() < 1e-9 && (s.exit - w.1).abs() < 1e-9,
+            "{s:?}"
+        );
+    }
+    // An off-axis ray meets the first sphere where the quadratic says.
+    let y: f64 = 0.6;
+    let t = c
+        .first_hit([-5.0, y, 0.0], [1.0, 0.0, 0.0], 0.0, f64::INFINITY)
+        .unwrap();
+    assert!((t - (5.0 - (1.0 - y * y).sqrt())).abs() < 1e-9, "{t}");
+    // A miss, and a ray starting inside.
+    assert!(c
+        .first_hit([-5.0, 1.5, 0.0], [1.0, 0.0, 0.0], 0.0, f64::INFINITY)
+        .is_none());
+    assert_eq!(c.first_hit([0.0; 3], [1.0, 0.0, 0.0], 0.0, 10.0), Some(0.0));
+}
+
+/// Volume enclosed by a closed triangle mesh (divergence theorem).
+fn volume(m: &caoen::render::mesh::Mesh) -> f64 {
+    m.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.positions[i as usize]);
+            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                / 6.0
+        })
+        .sum::<f64>()
+        .abs()
+}
+
+#[test]
+fn union_of_two_spheres_meshes_closed_with_the_right_volume() {
+    // Unit spheres 1.0 apart: volume 2 (4/3) pi minus the lens pi (4r + d)(2r - d)^2 / 12.
+    let want = 8.0 * std::f64::consts::PI / 3.0 - 5.0 * std::f64::consts::PI / 12.0;
+    for a in [0.0, 1.0] {
+        let n = node(json!({"union": [
+            {"sphere": {"centre": [-0.5, 0.0, 0.0], "radius": 1.0}},
+            {"sphere": {"centre": [0.5, 0.0, 0.0], "radius": 1.0}}
+        ], "a": a}));
+        let m = caoen::frep::polygonise::mesh(&n, &n.bounds().unwrap(), 96);
+        // Closed: every edge in exactly two triangles, once each way.
+        let mut edges = std::collections::HashMap::new();
+        for t in &m.triangles {
+            for k in 0..3 {
+                *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        for (&(i, j), &c) in &edges {
+            assert_eq!(c, 1, "edge {i}-{j} used {c} times one way");
+            assert_eq!(edges.get(&(j, i)), Some(&1), "edge {i}-{j} has no twin");
+        }
+        assert_eq!(m.euler_characteristic(), 2);
+        let v = volume(&m);
+        println!(
+            "a = {a}: {} triangles, volume {v:.5} vs {want:.5} ({:+.3}%)",
+            m.triangles.len(),
+            100.0 * (v / want - 1.0)
+        );
+        assert!((v / want - 1.0).abs() < 0.01);
+        // Every vertex sits on the surface (projected along the gradient).
+        let worst = m
+            .positions
+            .iter()
+            .map(|p| {
+                let (f, g) = n.value_gradient(*p);
+                f.abs() / (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt().max(1e-300)
+            })
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-6, "a vertex {worst} off the surface");
+    }
+}
+
+#[test]
+fn bad_models_are_refused_with_the_path() {
+    let cases = [
+        (json!({"sphere": {"radius": -1.0}}), "model.sphere.radius"),
+        (json!({"sphere": {"radius": 1e300}}), "model.sphere.radius"),
+        (
+            json!({"sphere": {"radius": 1.0, "colour": 3}}),
+            "unknown field `colour`",
+        ),
+        (
+            json!({"sphere": {"centre": [0, 0], "radius": 1.0}}),
+            "model.sphere.centre",
+        ),
+        (
+            json!({"union": [{"sphere": {"radius": 1.0}}]}),
+            "1 operands",
+        ),
+        (
+            json!({"union": [{"sphere": {"radius": 1.0}}, {"box": {"size": [1, 1, 1]}}], "a": 2}),
+            "model.a",
+        ),
+        (
+            json!({"quadric": [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]}),
+            "all coefficients are zero",
+        ),
+        (
+            json!({"transform": {"sphere": {"radius": 1.0}}, "scale": 0.0}),
+            "model.scale",
+        ),
+        (json!({"teapot": {}}), "no node kind"),
+        (json!([1, 2]), "expected a node object"),
+    ];
+    for (v, want) in cases {
+        let e = Node::from_json(&v, "model").unwrap_err().to_string();
+        assert!(e.contains(want), "{v}: `{e}` should mention `{want}`");
+    }
+    // Nesting deeper than the limit.
+    let mut v = json!({"sphere": {"radius": 1.0}});
+    for _ in 0..70 {
+        v = json!({"offset": v, "by": 0.0});
+    }
+    let e = Node::from_json(&v, "model").unwrap_err().to_string();
+    assert!(e.contains("nested deeper"), "{e}");
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("caoen-frep-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn blend_model(dir: &Path) -> PathBuf {
+    let path = dir.join("blend.json");
+    let model = json!({
+        "format": "caoen-frep/1", "name": "blended union",
+        "model": {"blend_union": [
+            {"sphere": {"centre": [-0.5, 0.0, 0.0], "radius": 0.6}},
+            {"difference": [{"box": {"centre": [0.5, 0.0, 0.0], "size": [0.9, 0.9, 0.9]}},
+                            {"cylinder": {"centre": [0.5, 0.0, 0.0], "radius": 0.25, "length": 2.0}}], "a": 1.0}
+        ], "a0": 0.3, "a1": 0.3, "a2": 0.3},
+        "material": {"colour": [0.8, 0.5, 0.3]},
+        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]}
+    });
+    std::fs::write(&path, model.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn cli_render_mesh_and_errors() {
+    let dir = tmpdir("cli");
+    let model = blend_model(&dir);
+    let (ray, mesh, obj) = (dir.join("ray.png"), dir.join("mesh.png"), dir.join("m.obj"));
+    for (out, method) in [(&ray, "ray"), (&mesh, "mesh")] {
+        let o = caoen(&[
+            "frep",
+            "render",
+            s(&model),
+            "-o",
+            s(out),
+            "--method",
+            method,
+            "--size",
+            "192x144",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let (a, b) = (
+        caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
+        caoen::render::framebuffer::RgbImage::load(&mesh).unwrap(),
+    );
+    let mse: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] as f64 - q[k] as f64).powi(2)))
+        .sum::<f64>()
+        / (3 * a.pixels.len()) as f64;
+    let psnr = 10.0 * (1.0 / mse).log10();
+    println!("ray vs mesh render: {psnr:.1} dB");
+    assert!(psnr > 35.0, "{psnr:.1} dB");
+    let o = caoen(&["frep", "mesh", s(&model), "-o", s(&obj), "--cells", "48"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The box's bore makes the solid a handlebody of genus 1: V - E + F = 0.
+    assert!(String::from_utf8_lossy(&o.stderr).contains("Euler characteristic 0"));
+    // Bad files: exit 1, one line naming the problem, no panic.
+    let bad = dir.join("bad.json");
+    for (text, want) in [
+        (
+            "{\"format\": \"caoen-frep/1\", \"model\": {\"sphere\": {\"radius\": NaN}}}",
+            "not JSON",
+        ),
+        (
+            "{\"format\": \"caoen-frep/1\", \"model\": {\"sphere\": {\"radius\": 1e999}}}",
+            "not JSON",
+        ),
+        (
+            "{\"format\": \"caoen-frep/1\", \"model\": {\"sphere\": {\"radius\": 1e30}}}",
+            "radius",
+        ),
+        (
+            "{\"format\": \"caoen-frep/1\", \"model\": {\"half_space\": {\"normal\": [0, 0, 1]}}}",
+            "bounds",
+        ),
+        ("{\"format\": \"caoen-frep/2\", \"model\": {}}", "format"),
+        ("{\"format\": \"caoen-frep/1\"}", "missing field `model`"),
+    ] {
+        std::fs::write(&bad, text).unwrap();
+        let o = caoen(&["frep", "render", s(&bad), "-o", s(&dir.join("x.png"))]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{text}: {err}");
+        assert!(
+            err.contains(want) && !err.contains("panicked") && err.trim().lines().count() == 1,
+            "{text}: {err}"
+        );
+    }
+}
+
+/// The POV-Ray render of the exported model has caoen's silhouette.
+#[test]
+fn pov_ray_renders_the_exported_model() {
+    let probe = std::process::Command::new("povray")
+        .arg("--version")
+        .output();
+    if !probe.is_ok_and(|o| o.status.success() || !o.stderr.is_empty()) {
+        eprintln!("skipped: POV-Ray is not installed (.ci/run installs it)");
+        return;
+    }
+    let dir = tmpdir("pov");
+    let model = blend_model(&dir);
+    let (pov, ours, theirs) = (dir.join("m.pov"), dir.join("ours.png"), dir.join("pov.png"));
+    let o = caoen(&[
+        "frep",
+        "export-pov",
+        s(&model),
+        "-o",
+        s(&pov),
+        "--size",
+        "512x512",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = caoen(&[
+        "frep",
+        "render",
+        s(&model),
+        "-o",
+        s(&ours),
+        "--size",
+        "512x512",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = std::process::Command::new("povray")
+        .args([
+            &format!("+I{}", s(&pov)),
+            "+W512",
+            "+H512",
+            "+A0.1",
+            "-D",
+            "+FN",
+            &format!("+O{}", s(&theirs)),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "povray: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let mask = |p: &Path| {
+        let img = image::open(p).unwrap().to_rgb8();
+        let bg = *img.get_pixel(0, 0);
+        img.pixels()
+            .map(|q| {
+                (0..3)
+                    .map(|k| (q[k] as i32 - bg[k] as i32).abs())
+                    .sum::<i32>()
+                    > 24
+            })
+            .collect::<Vec<bool>>()
+    };
+    let (a, b) = (mask(&ours), mask(&theirs));
+    let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
+    let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
+    let iou = inter as f64 / union as f64;
+    println!("silhouette IoU caoen vs POV-Ray: {iou:.4} ({union} pixels)");
+    assert!(union > 10_000 && iou >= 0.98, "IoU {iou:.4}");
+}

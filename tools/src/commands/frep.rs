@@ -1,0 +1,196 @@
+//! `caoen frep render|mesh|export-pov`: F-rep models (`docs/frep.md`).
+
+use std::path::Path;
+
+use caoen::render::mesh_io::{write_obj, write_ply};
+use caoen::render::scene::Shape;
+use caoen::render::{Method, RenderOptions, Scene};
+
+use crate::cli::{
+    FrepCommand, FrepExportArgs, FrepMeshArgs, FrepMethodArg, FrepRenderArgs, GlobalArgs,
+};
+use crate::commands::note;
+use crate::commands::render::{parse_size, render_with_progress};
+use crate::failure::{CliError, CliResult};
+use crate::output::Outputs;
+
+/// The format tag of an F-rep model file.
+pub const FREP_FORMAT: &str = "caoen-frep/1";
+
+/// Runs one `caoen frep` command.
+pub fn run(global: &GlobalArgs, cmd: FrepCommand) -> CliResult {
+    match cmd {
+        FrepCommand::Render(a) => render(global, &a),
+        FrepCommand::Mesh(a) => mesh(global, &a),
+        FrepCommand::ExportPov(a) => export_pov(global, &a),
+    }
+}
+
+/// Loads an F-rep model file (wrapped into a one-object scene) or a scene file.
+pub fn load(path: &Path) -> CliResult<Scene> {
+    let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let failed = |m: String| CliError::Failed(format!("{}: {m}", path.display()));
+    if Scene::is_scene_json(&text) {
+        return Scene::from_json(&text, &base).map_err(|e| failed(e.to_string()));
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| failed(format!("not JSON: {e}")))?;
+    let Some(o) = v.as_object() else {
+        return Err(failed("expected a JSON object".into()));
+    };
+    match o.get("format").and_then(|f| f.as_str()) {
+        Some(FREP_FORMAT) => {}
+        Some(other) => {
+            return Err(failed(format!(
+                "format `{other}`: expected `{FREP_FORMAT}` (a model) or `caoen-scene/1` (a scene)"
+            )))
+        }
+        None => return Err(failed(format!("no `format` field (`{FREP_FORMAT}`)"))),
+    }
+    for k in o.keys() {
+        if ![
+            "format",
+            "name",
+            "model",
+            "bounds",
+            "material",
+            "camera",
+            "background",
+            "lights",
+        ]
+        .contains(&k.as_str())
+        {
+            return Err(failed(format!("unknown field `{k}`")));
+        }
+    }
+    let model = o
+        .get("model")
+        .ok_or_else(|| failed("missing field `model`".into()))?;
+    let mut object = serde_json::json!({"name": o.get("name").cloned().unwrap_or("model".into()), "frep": model});
+    for k in ["bounds", "material"] {
+        if let Some(x) = o.get(k) {
+            object[k] = x.clone();
+        }
+    }
+    let mut scene = serde_json::json!({
+        "format": "caoen-scene/1",
+        "name": o.get("name").cloned().unwrap_or("F-rep model".into()),
+        "objects": [object],
+    });
+    for k in ["camera", "background", "lights"] {
+        if let Some(x) = o.get(k) {
+            scene[k] = x.clone();
+        }
+    }
+    Scene::from_json(&scene.to_string(), &base).map_err(|e| failed(e.to_string()))
+}
+
+fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
+    let mut outputs = Outputs::new(global.force).input(&a.model);
+    outputs.check_path(&a.output)?;
+    let scene = load(&a.model)?;
+    let (width, height) = parse_size(&a.size)?;
+    let opts = RenderOptions {
+        width,
+        height,
+        samples: a.samples,
+        method: match a.method {
+            FrepMethodArg::Ray => Method::Ray,
+            FrepMethodArg::Mesh => Method::Mesh,
+        },
+        polygonise_cells: a.cells as usize,
+        ..RenderOptions::default()
+    };
+    let start = std::time::Instant::now();
+    let r = render_with_progress(global, &scene, &opts, "rendering")?;
+    outputs.write_path(&a.output, &r.image.encode_png()?)?;
+    note(
+        global,
+        format!(
+            "wrote {} ({width}x{height}, {s}x{s} samples, {:.2} s)",
+            a.output.display(),
+            start.elapsed().as_secs_f64(),
+            s = a.samples
+        ),
+    );
+    Ok(())
+}
+
+fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
+    let mut outputs = Outputs::new(global.force).input(&a.model);
+    outputs.check_path(&a.output)?;
+    let scene = load(&a.model)?;
+    let fields: Vec<_> = scene
+        .objects
+        .iter()
+        .filter_map(|o| match &o.shape {
+            Shape::Field { node, bounds } => Some((node, bounds)),
+            _ => None,
+        })
+        .collect();
+    let [(node, bounds)] = fields[..] else {
+        return Err(CliError::Failed(format!(
+            "{}: holds {} F-rep objects; mesh takes exactly one",
+            a.model.display(),
+            fields.len()
+        )));
+    };
+    let cells = a.cells as u64;
+    // Grid values (8 bytes per corner) dominate; vertices and triangles follow the area.
+    caoen::budget::check(
+        || format!("polygonising on {cells}^3 cells"),
+        (cells + 2).pow(3).saturating_mul(8),
+    )
+    .map_err(|e| CliError::Failed(e.to_string()))?;
+    let m = caoen::frep::polygonise::mesh(node, bounds, a.cells as usize);
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let mut bytes = Vec::new();
+    match ext.as_deref() {
+        Some("obj") => write_obj(&m, &mut bytes, None),
+        Some("ply") => write_ply(&m, &mut bytes),
+        _ => {
+            return Err(CliError::Usage(format!(
+                "{}: mesh output must end in .obj or .ply",
+                a.output.display()
+            )))
+        }
+    }
+    .map_err(|e| CliError::io(&a.output, e))?;
+    outputs.write_path(&a.output, &bytes)?;
+    note(
+        global,
+        format!(
+            "wrote {}: {} vertices, {} triangles, Euler characteristic {}",
+            a.output.display(),
+            m.positions.len(),
+            m.triangles.len(),
+            m.euler_characteristic()
+        ),
+    );
+    Ok(())
+}
+
+fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
+    let mut outputs = Outputs::new(global.force).input(&a.model);
+    outputs.check_path(&a.output)?;
+    let scene = load(&a.model)?;
+    let (width, height) = parse_size(&a.size)?;
+    let camera = scene.camera(width, height)?;
+    let text = caoen::frep::pov::export(&scene, &camera)
+        .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?;
+    outputs.write_path(&a.output, text.as_bytes())?;
+    note(
+        global,
+        format!(
+            "wrote {} (render with: povray +I{} +W{width} +H{height} +A0.1 +O<out>.png)",
+            a.output.display(),
+            a.output.display()
+        ),
+    );
+    Ok(())
+}
