@@ -6,6 +6,7 @@
 //! the command it shows (`caoen distort`, `caoen transfer`), so the committed files are
 //! exactly what produced the committed pictures.
 
+mod frep;
 mod surfaces;
 mod texture;
 
@@ -96,6 +97,7 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
     let start = std::time::Instant::now();
     surfaces::write(global, dir, a.samples)?;
     texture::write(global, dir, a.samples)?;
+    frep::write(global, dir, a.samples)?;
     note(
         global,
         format!(
