@@ -15,7 +15,7 @@ use proptest::prelude::*;
 use serde_json::json;
 
 fn node(v: serde_json::Value) -> Node {
-    Node::from_json(&v, "model").unwrap()
+    Node::from_json(&v, "model", Path::new(".")).unwrap()
 }
 
 /// A deterministic stream of numbers in [-1, 1) (xorshift), for many-sample checks.
@@ -282,7 +282,9 @@ fn bad_models_are_refused_with_the_path() {
         (json!([1, 2]), "expected a node object"),
     ];
     for (v, want) in cases {
-        let e = Node::from_json(&v, "model").unwrap_err().to_string();
+        let e = Node::from_json(&v, "model", Path::new("."))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(want), "{v}: `{e}` should mention `{want}`");
     }
     // Nesting deeper than the limit.
@@ -290,7 +292,9 @@ fn bad_models_are_refused_with_the_path() {
     for _ in 0..70 {
         v = json!({"offset": v, "by": 0.0});
     }
-    let e = Node::from_json(&v, "model").unwrap_err().to_string();
+    let e = Node::from_json(&v, "model", Path::new("."))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("nested deeper"), "{e}");
 }
 
@@ -459,4 +463,276 @@ fn pov_ray_renders_the_exported_model() {
     let iou = inter as f64 / union as f64;
     println!("silhouette IoU caoen vs POV-Ray: {iou:.4} ({union} pixels)");
     assert!(union > 10_000 && iou >= 0.98, "IoU {iou:.4}");
+}
+
+/// A smooth grey image (8-bit) of `w x h`, written to `dir/name`.
+fn grey_png(dir: &Path, name: &str, w: u32, h: u32) -> PathBuf {
+    let img = image::GrayImage::from_fn(w, h, |i, j| {
+        let (x, y) = (i as f64 / (w - 1) as f64, j as f64 / (h - 1) as f64);
+        let v = 0.5 + 0.45 * (5.0 * x).sin() * (3.0 * y + 0.5).cos();
+        image::Luma([(255.0 * v).round() as u8])
+    });
+    let p = dir.join(name);
+    img.save(&p).unwrap();
+    p
+}
+
+fn height_map(dir: &Path, base: serde_json::Value, interp: &str, threshold: Option<f64>) -> Node {
+    let mut hm = json!({"image": "hm.png", "base": base, "rect": [-1.0, -0.5, 1.0, 0.5], "height": 0.3, "interp": interp});
+    if let Some(t) = threshold {
+        hm["threshold"] = json!(t);
+    }
+    Node::from_json(&json!({"height_map": hm}), "model", dir).unwrap()
+}
+
+#[test]
+fn height_map_reproduces_the_samples_and_its_gradient() {
+    use caoen::frep::height_map::HeightMap;
+    let dir = tmpdir("hm-nodes");
+    grey_png(&dir, "hm.png", 33, 17);
+    for interp in ["bilinear", "bicubic"] {
+        let n = height_map(&dir, json!("plane"), interp, None);
+        let Node::HeightMap(h) = &n else {
+            panic!("a height map node")
+        };
+        let h: &HeightMap = h;
+        let (w, hh) = h.size();
+        for j in 0..hh {
+            for i in 0..w {
+                let uv = h.sample_uv(i, j);
+                // On the plane base at z = 0, F = h exactly at every sample.
+                assert_eq!(
+                    n.value([uv[0], uv[1], 0.0]),
+                    h.sample(i, j),
+                    "{interp} sample {i},{j}"
+                );
+            }
+        }
+        // Outside the rectangle the base alone.
+        assert_eq!(n.value([1.2, 0.0, -0.25]), 0.25);
+    }
+    // The gradient against central differences on every base (away from cell edges,
+    // where bilinear interpolation has a crease).
+    let mut s = Stream(7);
+    for base in [
+        json!("plane"),
+        json!({"ellipsoid": [1.0, 0.8, 0.6]}),
+        json!({"cylinder": 0.7}),
+    ] {
+        for interp in ["bilinear", "bicubic"] {
+            let n = height_map(&dir, base.clone(), interp, None);
+            let mut checked = 0;
+            for _ in 0..3000 {
+                let p = [0.9 * s.next(), 0.9 * s.next(), 0.6 * s.next()];
+                let (_, g) = n.value_gradient(p);
+                let h = 1e-7;
+                let fd = [0, 1, 2].map(|k| {
+                    let (mut a, mut b) = (p, p);
+                    a[k] += h;
+                    b[k] -= h;
+                    (n.value(a) - n.value(b)) / (2.0 * h)
+                });
+                let near_crease = (0..3).any(|k| {
+                    let (mut a, mut b) = (p, p);
+                    a[k] += 4.0 * h;
+                    b[k] -= 4.0 * h;
+                    let (ga, gb) = (n.value_gradient(a).1, n.value_gradient(b).1);
+                    (0..3).any(|j| (ga[j] - gb[j]).abs() > 1e-4 * (1.0 + g[j].abs()))
+                });
+                if near_crease {
+                    continue;
+                }
+                let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
+                for k in 0..3 {
+                    assert!(
+                        (g[k] - fd[k]).abs() <= 1e-5 * scale,
+                        "{base} {interp} at {p:?}: {g:?} vs {fd:?}"
+                    );
+                }
+                checked += 1;
+            }
+            assert!(checked > 1000, "{base} {interp}: only {checked} points");
+            // The bound over a box holds the function at points of the box.
+            for _ in 0..300 {
+                let c = [0.9 * s.next(), 0.9 * s.next(), 0.6 * s.next()];
+                let r = 0.3 * (s.next() + 1.0);
+                let b = Aabb::new(c.map(|v| v - r), c.map(|v| v + r));
+                let range = n.interval(&b);
+                for _ in 0..20 {
+                    let p =
+                        [0, 1, 2].map(|k| b.lo[k] + 0.5 * (s.next() + 1.0) * (b.hi[k] - b.lo[k]));
+                    let v = n.value(p);
+                    assert!(
+                        range.contains(v),
+                        "{base} {interp}: {v} outside {range:?} on {b:?}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn height_map_ray_hits_match_a_fine_mesh() {
+    // Vertical rays onto a bilinear map against a mesh of its patches subdivided 16x16
+    // per cell (vertices on the surface): depths agree to 1e-4 of the extent.
+    let dir = tmpdir("hm-mesh");
+    grey_png(&dir, "hm.png", 9, 5);
+    let n = height_map(&dir, json!("plane"), "bilinear", None);
+    let Node::HeightMap(h) = &n else { panic!() };
+    let bounds = Aabb::new([-1.0, -0.5, -0.1], [1.0, 0.5, 0.4]);
+    let c = Caster::new(
+        &n,
+        bounds,
+        CastOptions {
+            resolution: 1e-4,
+            refine_steps: 60,
+        },
+    );
+    let (w, hh) = h.size();
+    let sub = 16;
+    let mut s = Stream(99);
+    let mut worst: f64 = 0.0;
+    for _ in 0..2000 {
+        let (x, y) = (0.999 * s.next(), 0.499 * s.next());
+        let t = c
+            .first_hit([x, y, 1.0], [0.0, 0.0, -1.0], 0.0, 10.0)
+            .unwrap();
+        let ray_z = 1.0 - t;
+        // The mesh: the bilinear patch sampled at the sub-grid corners, two triangles
+        // per sub-cell, interpolated linearly in the triangle holding (x, y).
+        let gx = (x + 1.0) / 2.0 * (w - 1) as f64 * sub as f64;
+        let gy = (0.5 - y) / 1.0 * (hh - 1) as f64 * sub as f64;
+        let (i, j) = (gx.floor(), gy.floor());
+        let (fx, fy) = (gx - i, gy - j);
+        let z_at = |a: f64, b: f64| {
+            let u = -1.0 + 2.0 * a / ((w - 1) * sub) as f64;
+            let v = 0.5 - b / ((hh - 1) * sub) as f64;
+            h.height([u, v]).0
+        };
+        let (z00, z10, z01, z11) = (
+            z_at(i, j),
+            z_at(i + 1.0, j),
+            z_at(i, j + 1.0),
+            z_at(i + 1.0, j + 1.0),
+        );
+        let mesh_z = if fx >= fy {
+            z00 + fx * (z10 - z00) + fy * (z11 - z10)
+        } else {
+            z00 + fy * (z01 - z00) + fx * (z11 - z01)
+        };
+        worst = worst.max((ray_z - mesh_z).abs());
+    }
+    let extent = bounds.longest();
+    println!(
+        "height map: worst ray vs 16x mesh depth {worst:.2e} ({:.2e} of the extent)",
+        worst / extent
+    );
+    assert!(worst <= 1e-4 * extent);
+}
+
+#[test]
+fn thresholded_outline_has_the_counted_area() {
+    // With a threshold, the raised part's outline is where h >= T; seen from above, its
+    // area matches the count of grid cells whose bilinear heights pass, within 1%.
+    let dir = tmpdir("hm-outline");
+    grey_png(&dir, "hm.png", 129, 65);
+    let t = 0.15;
+    let n = height_map(&dir, json!("plane"), "bilinear", Some(t));
+    let Node::HeightMap(h) = &n else { panic!() };
+    // Counted: the image's samples that pass, each standing for its share of the
+    // rectangle (half at an edge, a quarter at a corner).
+    let (w, hh) = h.size();
+    let sample_area = (2.0 / (w - 1) as f64) * (1.0 / (hh - 1) as f64);
+    let mut counted = 0.0;
+    let mut passing = 0usize;
+    for j in 0..hh {
+        for i in 0..w {
+            if h.sample(i, j) >= t {
+                let edge = |k: usize, n: usize| if k == 0 || k == n - 1 { 0.5 } else { 1.0 };
+                counted += edge(i, w) * edge(j, hh) * sample_area;
+                passing += 1;
+            }
+        }
+    }
+    // Seen: vertical rays on a grid 8 times finer land above the base plane.
+    let sub = 8;
+    let (cols, rows) = ((w - 1) * sub, (hh - 1) * sub);
+    let cell_area = (2.0 / cols as f64) * (1.0 / rows as f64);
+    let mut seen = 0usize;
+    let c = Caster::new(
+        &n,
+        Aabb::new([-1.0, -0.5, -0.1], [1.0, 0.5, 0.4]),
+        CastOptions::default(),
+    );
+    for j in 0..rows {
+        for i in 0..cols {
+            let (x, y) = (
+                -1.0 + (i as f64 + 0.5) * 2.0 / cols as f64,
+                0.5 - (j as f64 + 0.5) / rows as f64,
+            );
+            let z = 1.0
+                - c.first_hit([x, y, 1.0], [0.0, 0.0, -1.0], 0.0, 10.0)
+                    .unwrap();
+            seen += usize::from(z > 0.5 * t);
+        }
+    }
+    let (a, b) = (counted, seen as f64 * cell_area);
+    println!(
+        "thresholded outline: counted {a:.4}, ray cast {b:.4} ({:+.3}%)",
+        100.0 * (b / a - 1.0)
+    );
+    assert!(
+        passing > 500 && passing < w * hh - 500,
+        "the threshold should cut: {passing}"
+    );
+    assert!((b / a - 1.0).abs() < 0.01);
+}
+
+#[test]
+fn cli_heightfield_writes_models_and_renders() {
+    let dir = tmpdir("heightfield");
+    let img = grey_png(&dir, "relief.png", 48, 32);
+    for base in ["plane", "ellipsoid", "cylinder"] {
+        let json = dir.join(format!("{base}.json"));
+        let o = caoen(&[
+            "heightfield",
+            s(&img),
+            "--base",
+            base,
+            "--threshold",
+            "0.2",
+            "-o",
+            s(&json),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // The model renders through `caoen frep render` from another directory.
+        let png = dir.join(format!("{base}.png"));
+        let o = caoen(&[
+            "frep",
+            "render",
+            s(&json),
+            "-o",
+            s(&png),
+            "--size",
+            "96x72",
+            "--samples",
+            "1",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let r = caoen::render::framebuffer::RgbImage::load(&png).unwrap();
+        let bg = r.pixels[0];
+        let covered = r.pixels.iter().filter(|p| **p != bg).count();
+        assert!(covered > 500, "{base}: {covered} pixels of the solid");
+    }
+    let o = caoen(&["heightfield", s(&img), "-o", s(&dir.join("x.obj"))]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = caoen(&[
+        "heightfield",
+        s(&dir.join("missing.png")),
+        "-o",
+        s(&dir.join("x.png")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
 }

@@ -76,6 +76,47 @@ pub enum Command {
     /// Function-based (F-rep) solids: render, mesh, export to POV-Ray.
     #[command(subcommand)]
     Frep(FrepCommand),
+    /// A height map from an image on a plane, ellipsoid or cylinder (an F-rep model).
+    Heightfield(HeightfieldArgs),
+}
+
+/// Base solid of `caoen heightfield`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum HeightBaseArg {
+    /// A slab under the plane z = 0; the image covers it with its aspect ratio.
+    Plane,
+    /// The unit sphere; the image covers all longitudes and latitudes.
+    Ellipsoid,
+    /// A cylinder of radius 1 and length 2 around z; the image wraps around it.
+    Cylinder,
+}
+
+/// `caoen heightfield`.
+#[derive(Debug, Args)]
+pub struct HeightfieldArgs {
+    /// Image whose grey levels (0..1) are the heights.
+    pub image: PathBuf,
+    /// Output: .json (an F-rep model naming the image) or .png (its render).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Base solid.
+    #[arg(long, value_enum, default_value_t = HeightBaseArg::Plane)]
+    pub base: HeightBaseArg,
+    /// Height of a white pixel.
+    #[arg(long, default_value_t = 0.25)]
+    pub height: f64,
+    /// Keep only heights at or above T (the rest is 0): a non-rectangular outline.
+    #[arg(long, value_name = "T")]
+    pub threshold: Option<f64>,
+    /// Interpolation between samples.
+    #[arg(long, value_parser = ["bilinear", "bicubic"], default_value = "bicubic")]
+    pub interp: String,
+    /// Render size WIDTHxHEIGHT (.png output).
+    #[arg(long, default_value = "512x384")]
+    pub size: String,
+    /// Supersampling of the render: N x N samples per pixel.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
 }
 
 /// `caoen frep ...`.

@@ -5,6 +5,7 @@
 
 use serde_json::Value;
 
+use super::height_map::{Base, HeightMap, Interp};
 use super::interval::{Aabb, Interval};
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
@@ -24,6 +25,8 @@ pub const MIN_LENGTH: f64 = 1e-9;
 pub enum Node {
     /// A primitive.
     Primitive(Primitive),
+    /// A base solid perturbed by a height map.
+    HeightMap(HeightMap),
     /// An R-function set operation folded over two or more operands, left to right.
     SetOp {
         /// Which operation.
@@ -88,6 +91,7 @@ impl Node {
     pub fn value(&self, p: [f64; 3]) -> f64 {
         match self {
             Node::Primitive(q) => q.value_gradient(p).0,
+            Node::HeightMap(h) => h.value_gradient(p).0,
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let first = it.next().map_or(f64::NEG_INFINITY, |n| n.value(p));
@@ -116,6 +120,7 @@ impl Node {
     pub fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         match self {
             Node::Primitive(q) => q.value_gradient(p),
+            Node::HeightMap(h) => h.value_gradient(p),
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let mut acc = it
@@ -162,6 +167,7 @@ impl Node {
     pub fn interval(&self, b: &Aabb) -> Interval {
         match self {
             Node::Primitive(q) => q.interval(b),
+            Node::HeightMap(h) => h.interval(b),
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let first = it
@@ -194,6 +200,7 @@ impl Node {
     pub fn bounds(&self) -> Option<Aabb> {
         match self {
             Node::Primitive(q) => q.bounds(),
+            Node::HeightMap(h) => h.bounds(),
             Node::SetOp { op, operands, .. } => match op {
                 SetOp::Union => operands
                     .iter()
@@ -247,18 +254,22 @@ impl Node {
     /// Number of nodes.
     pub fn count(&self) -> usize {
         1 + match self {
-            Node::Primitive(_) => 0,
+            Node::Primitive(_) | Node::HeightMap(_) => 0,
             Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Offset { operand, .. } | Node::Transform { operand, .. } => operand.count(),
         }
     }
 
-    /// Parses a node from its JSON form; `path` names it in errors.
-    pub fn from_json(v: &Value, path: &str) -> Result<Node, ModelError> {
-        let mut count = 0;
-        let node = parse(v, path, 0, &mut count)?;
-        Ok(node)
+    /// Parses a node from its JSON form; `path` names it in errors. Image files (height
+    /// maps) are relative to `base_dir`.
+    pub fn from_json(
+        v: &Value,
+        path: &str,
+        base_dir: &std::path::Path,
+    ) -> Result<Node, ModelError> {
+        let mut ctx = Context { count: 0, base_dir };
+        parse(v, path, 0, &mut ctx)
     }
 }
 
@@ -337,7 +348,8 @@ fn get<'a>(
     })
 }
 
-const PRIMITIVES: [&str; 8] = [
+const PRIMITIVES: [&str; 9] = [
+    "height_map",
     "sphere",
     "box",
     "cylinder",
@@ -357,12 +369,18 @@ const OPERATIONS: [&str; 7] = [
     "transform",
 ];
 
-fn parse(v: &Value, path: &str, depth: usize, count: &mut usize) -> Result<Node, ModelError> {
+/// What parsing carries through the tree.
+struct Context<'a> {
+    count: usize,
+    base_dir: &'a std::path::Path,
+}
+
+fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result<Node, ModelError> {
     if depth > MAX_DEPTH {
         return err(path, format!("nested deeper than {MAX_DEPTH} levels"));
     }
-    *count += 1;
-    if *count > MAX_NODES {
+    count.count += 1;
+    if count.count > MAX_NODES {
         return err(path, format!("the model has more than {MAX_NODES} nodes"));
     }
     let Some(o) = v.as_object() else {
@@ -396,6 +414,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut usize) -> Result<Node,
             None => Ok([0.0; 3]),
         };
         let prim = match kind.as_str() {
+            "height_map" => return height_map(body, &here, count.base_dir).map(Node::HeightMap),
             "sphere" => {
                 let f = fields(body, &here, &["centre", "radius"])?;
                 Primitive::Sphere {
@@ -593,5 +612,89 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut usize) -> Result<Node,
                 operand: Box::new(parse(body, &here, depth + 1, count)?),
             }
         }
+    })
+}
+
+/// Parses a height map node and reads its image (grey level in [0, 1] times `height`).
+fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<HeightMap, ModelError> {
+    let w = WORLD_LIMIT;
+    let f = fields(
+        v,
+        here,
+        &["image", "base", "rect", "height", "threshold", "interp"],
+    )?;
+    let base = match get(f, "base", here)? {
+        Value::String(s) if s == "plane" => Base::Plane,
+        Value::Object(o) if o.len() == 1 && o.contains_key("ellipsoid") => Base::Ellipsoid(vec3(
+            &o["ellipsoid"],
+            &format!("{here}.base.ellipsoid"),
+            MIN_LENGTH,
+            w,
+        )?),
+        Value::Object(o) if o.len() == 1 && o.contains_key("cylinder") => Base::Cylinder(number(
+            &o["cylinder"],
+            &format!("{here}.base.cylinder"),
+            MIN_LENGTH,
+            w,
+        )?),
+        other => {
+            return err(
+                &format!("{here}.base"),
+                format!(
+                "{other}: expected \"plane\", {{\"ellipsoid\": [a, b, c]}} or {{\"cylinder\": r}}"
+            ),
+            )
+        }
+    };
+    let rect = match get(f, "rect", here)?.as_array() {
+        Some(a) if a.len() == 4 => {
+            let mut r = [0.0; 4];
+            for k in 0..4 {
+                r[k] = number(&a[k], &format!("{here}.rect[{k}]"), -w, w)?;
+            }
+            r
+        }
+        _ => return err(&format!("{here}.rect"), "expected [u0, v0, u1, v1]"),
+    };
+    let height = match f.get("height") {
+        Some(h) => number(h, &format!("{here}.height"), -w, w)?,
+        None => 1.0,
+    };
+    let threshold = match f.get("threshold") {
+        Some(t) => number(t, &format!("{here}.threshold"), -w, w)?,
+        None => f64::NEG_INFINITY,
+    };
+    let interp = match f.get("interp").map(|v| v.as_str()) {
+        None | Some(Some("bilinear")) => Interp::Bilinear,
+        Some(Some("bicubic")) => Interp::Bicubic,
+        Some(_) => {
+            return err(
+                &format!("{here}.interp"),
+                "expected \"bilinear\" or \"bicubic\"",
+            )
+        }
+    };
+    let Some(image) = get(f, "image", here)?.as_str() else {
+        return err(&format!("{here}.image"), "expected a file name");
+    };
+    let path = base_dir.join(image);
+    let raster = crate::image_io::load(&path).map_err(|e| ModelError {
+        path: format!("{here}.image"),
+        reason: e.to_string(),
+    })?;
+    let (iw, ih) = (raster.width() as usize, raster.height() as usize);
+    let channels = raster.layout().channels().min(3);
+    let values: Vec<f64> = (0..iw * ih)
+        .map(|i| {
+            let grey = (0..channels)
+                .map(|c| raster.plane(c)[i] as f64)
+                .sum::<f64>()
+                / channels as f64;
+            height * grey
+        })
+        .collect();
+    HeightMap::new(base, rect, iw, ih, values, threshold, interp).map_err(|e| ModelError {
+        path: here.to_string(),
+        reason: e,
     })
 }

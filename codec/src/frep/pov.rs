@@ -45,6 +45,7 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         )
     };
     let body = match node {
+        Node::HeightMap(_) => unreachable!("export refuses height maps before declaring"),
         Node::Primitive(p) => match p {
             Primitive::Sphere { centre, radius } => {
                 let (x, y, z) = q(centre);
@@ -295,6 +296,12 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
                 obj.name
             ));
         };
+        if has_height_map(node) {
+            return Err(format!(
+                "object {i} (`{}`) holds a height map, which the POV-Ray export does not write",
+                obj.name
+            ));
+        }
         let top = declare(node, &mut out, &mut next);
         // A little margin so the container never clips the surface.
         let b = bounds.padded(1e-3 * bounds.longest());
@@ -316,4 +323,14 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
         );
     }
     Ok(out)
+}
+
+fn has_height_map(node: &Node) -> bool {
+    match node {
+        Node::HeightMap(_) => true,
+        Node::Primitive(_) => false,
+        Node::SetOp { operands, .. } => operands.iter().any(has_height_map),
+        Node::Blend { operands, .. } => operands.iter().any(has_height_map),
+        Node::Offset { operand, .. } | Node::Transform { operand, .. } => has_height_map(operand),
+    }
 }

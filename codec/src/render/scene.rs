@@ -989,7 +989,7 @@ impl FileObject {
                     "{path}: an F-rep object is placed by a `transform` node inside `frep`"
                 )));
             }
-            let node = crate::frep::Node::from_json(v, &format!("{path}.frep"))
+            let node = crate::frep::Node::from_json(v, &format!("{path}.frep"), base)
                 .map_err(|e| RenderError::Scene(e.to_string()))?;
             let bounds = match &self.bounds {
                 Some(b) => {

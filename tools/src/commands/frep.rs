@@ -8,6 +8,7 @@ use caoen::render::{Method, RenderOptions, Scene};
 
 use crate::cli::{
     FrepCommand, FrepExportArgs, FrepMeshArgs, FrepMethodArg, FrepRenderArgs, GlobalArgs,
+    HeightBaseArg, HeightfieldArgs,
 };
 use crate::commands::note;
 use crate::commands::render::{parse_size, render_with_progress};
@@ -191,6 +192,123 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
             a.output.display(),
             a.output.display()
         ),
+    );
+    Ok(())
+}
+
+/// The F-rep model of `caoen heightfield`: the image's heights on the chosen base, cut
+/// to a finite solid. `image` is the path written into the model.
+pub fn heightfield_model(a: &HeightfieldArgs, image: &str, aspect: f64) -> serde_json::Value {
+    use serde_json::json;
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let mut hm = json!({"image": image, "height": a.height, "interp": a.interp});
+    if let Some(t) = a.threshold {
+        hm["threshold"] = json!(t);
+    }
+    let top = a.height.max(0.0);
+    let model = match a.base {
+        HeightBaseArg::Plane => {
+            // The image spans 2 units across its longer side; the slab is 0.2 deep.
+            let (hw, hh) = if aspect >= 1.0 {
+                (1.0, 1.0 / aspect)
+            } else {
+                (aspect, 1.0)
+            };
+            hm["base"] = json!("plane");
+            hm["rect"] = json!([-hw, -hh, hw, hh]);
+            json!({"intersection": [
+                {"height_map": hm},
+                {"box": {"centre": [0.0, 0.0, 0.5 * top - 0.1], "size": [2.0 * hw, 2.0 * hh, top + 0.2 + 1e-3]}}
+            ], "a": 1.0})
+        }
+        HeightBaseArg::Ellipsoid => {
+            hm["base"] = json!({"ellipsoid": [1.0, 1.0, 1.0]});
+            hm["rect"] = json!([-PI, -FRAC_PI_2, PI, FRAC_PI_2]);
+            json!({"height_map": hm})
+        }
+        HeightBaseArg::Cylinder => {
+            hm["base"] = json!({"cylinder": 1.0});
+            hm["rect"] = json!([-PI, -1.0, PI, 1.0]);
+            json!({"intersection": [
+                {"height_map": hm},
+                {"box": {"centre": [0.0, 0.0, 0.0], "size": [2.0 * (1.0 + top), 2.0 * (1.0 + top), 2.0]}}
+            ], "a": 1.0})
+        }
+    };
+    json!({
+        "format": FREP_FORMAT,
+        "name": format!("height field ({})", match a.base {
+            HeightBaseArg::Plane => "plane",
+            HeightBaseArg::Ellipsoid => "ellipsoid",
+            HeightBaseArg::Cylinder => "cylinder",
+        }),
+        "model": model,
+        "material": {"colour": [0.72, 0.7, 0.66], "specular": 0.15},
+        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [0.4, -1.4, 1.2]}
+    })
+}
+
+/// `caoen heightfield`.
+pub fn heightfield(global: &GlobalArgs, a: &HeightfieldArgs) -> CliResult {
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("json" | "png")) {
+        return Err(CliError::Usage(format!(
+            "{}: output must end in .json (model) or .png (render)",
+            a.output.display()
+        )));
+    }
+    if !(a.height.is_finite() && a.height.abs() <= 1e3) {
+        return Err(CliError::Usage(format!(
+            "--height {}: must be finite, at most 1000",
+            a.height
+        )));
+    }
+    if a.threshold
+        .is_some_and(|t| !(t.is_finite() && t.abs() <= 1e3))
+    {
+        return Err(CliError::Usage(
+            "--threshold: must be finite, at most 1000".into(),
+        ));
+    }
+    let mut outputs = Outputs::new(global.force).input(&a.image);
+    outputs.check_path(&a.output)?;
+    let header = caoen::image_io::load(&a.image).map_err(|e| CliError::Failed(e.to_string()))?;
+    let aspect = header.width() as f64 / header.height() as f64;
+    // The model names the image by an absolute path, so it renders from anywhere.
+    let image = std::fs::canonicalize(&a.image).map_err(|e| CliError::io(&a.image, e))?;
+    let model = heightfield_model(a, &image.to_string_lossy(), aspect);
+    let text = serde_json::to_string_pretty(&model).expect("json values serialise") + "\n";
+    if ext.as_deref() == Some("json") {
+        outputs.write_path(&a.output, text.as_bytes())?;
+        note(global, format!("wrote {}", a.output.display()));
+        return Ok(());
+    }
+    let scene = Scene::from_json(
+        &serde_json::json!({
+            "format": "caoen-scene/1", "name": model["name"], "camera": model["camera"],
+            "objects": [{"frep": model["model"], "material": model["material"]}]
+        })
+        .to_string(),
+        Path::new("."),
+    )
+    .map_err(|e| CliError::Failed(format!("{}: {e}", a.image.display())))?;
+    let (width, height) = parse_size(&a.size)?;
+    let opts = RenderOptions {
+        width,
+        height,
+        samples: a.samples,
+        method: Method::Ray,
+        ..RenderOptions::default()
+    };
+    let r = render_with_progress(global, &scene, &opts, "rendering")?;
+    outputs.write_path(&a.output, &r.image.encode_png()?)?;
+    note(
+        global,
+        format!("wrote {} ({width}x{height})", a.output.display()),
     );
     Ok(())
 }

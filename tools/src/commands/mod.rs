@@ -63,6 +63,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Distort(args) => texture::distort(&global, &args),
         Command::Transfer(args) => texture::transfer(&global, &args),
         Command::Frep(cmd) => frep::run(&global, cmd),
+        Command::Heightfield(args) => frep::heightfield(&global, &args),
     }
 }
 

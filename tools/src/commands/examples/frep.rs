@@ -6,7 +6,7 @@ use std::path::Path;
 use caoen::render::renderer::{render, Method};
 
 use super::{opts, save_json, save_png};
-use crate::cli::GlobalArgs;
+use crate::cli::{GlobalArgs, HeightBaseArg, HeightfieldArgs};
 use crate::failure::{CliError, CliResult};
 use crate::output::replace_file;
 
@@ -37,5 +37,34 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     save_png(global, &sub, "blend.png", &pair)?;
     let camera = scene.camera(512, 512)?;
     let pov = caoen::frep::pov::export(&scene, &camera).map_err(CliError::Failed)?;
-    replace_file(&sub.join("blend.pov"), pov.as_bytes())
+    replace_file(&sub.join("blend.pov"), pov.as_bytes())?;
+
+    // The distort example's scene as a height map on each base, thresholded at 0.1:
+    // what `caoen heightfield ../distort/input.png --base B --threshold 0.1` writes.
+    let mut tiles = Vec::new();
+    for (base, name) in [
+        (HeightBaseArg::Plane, "plane"),
+        (HeightBaseArg::Ellipsoid, "ellipsoid"),
+        (HeightBaseArg::Cylinder, "cylinder"),
+    ] {
+        let args = HeightfieldArgs {
+            image: "../distort/input.png".into(),
+            output: sub.join(format!("heightfield-{name}.json")),
+            base,
+            height: 0.25,
+            threshold: Some(0.1),
+            interp: "bicubic".into(),
+            size: "320x240".into(),
+            samples: n,
+        };
+        let model = crate::commands::frep::heightfield_model(&args, "../distort/input.png", 1.5);
+        save_json(&sub, &format!("heightfield-{name}.json"), &model)?;
+        let scene = crate::commands::frep::load(&args.output)?;
+        tiles.push(render(&scene, &opts(320, 240, n, Method::Ray), &|_, _| {})?.image);
+    }
+    let mut row = caoen::render::framebuffer::RgbImage::filled(960, 240, [1.0; 3]);
+    for (i, t) in tiles.iter().enumerate() {
+        row.blit(t, 320 * i as u32, 0);
+    }
+    save_png(global, &sub, "heightfield.png", &row)
 }
