@@ -40,6 +40,9 @@ pub enum Interp {
     Bicubic,
 }
 
+/// One pyramid level: width, height, and (min, max) per block.
+type Level = (usize, usize, Vec<(f64, f64)>);
+
 /// Samples with a min/max pyramid for range queries.
 #[derive(Debug, PartialEq)]
 struct Samples {
@@ -47,7 +50,7 @@ struct Samples {
     height: usize,
     values: Vec<f64>,
     /// Level `k` holds the min and max of blocks of `2^k x 2^k` samples.
-    pyramid: Vec<(usize, usize, Vec<(f64, f64)>)>,
+    pyramid: Vec<Level>,
 }
 
 impl Samples {
