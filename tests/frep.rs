@@ -86,6 +86,13 @@ fn zoo() -> Vec<Node> {
             json!({"blend_intersection": [sphere.clone(), boxy.clone()], "a0": -0.2, "a1": 0.5, "a2": 0.5}),
         ),
         node(json!({"offset": sphere.clone(), "by": 0.1})),
+        node(json!({"perturb": sphere.clone(), "patches": [
+            {"bump": {"centre": [0.6, 0.0, 0.3], "radius": 0.5, "height": 0.4}},
+            {"quadric": [-1.0, -2.0, -1.5, 0.2, 0.0, 0.1, 0.0, 0.3, 0.0, 0.2], "factor": -0.5}
+        ]})),
+        node(
+            json!({"perturb": boxy.clone(), "patches": [{"bump": {"centre": [0.0, 0.3, 0.4], "radius": 0.6, "height": 0.5}}], "power": 3}),
+        ),
         node(
             json!({"transform": {"union": [sphere, boxy]}, "scale": [1.0, 2.0, 0.5], "rotate_deg": [10.0, 20.0, 30.0], "translate": [0.3, 0.0, -0.2]}),
         ),
@@ -406,63 +413,84 @@ fn pov_ray_renders_the_exported_model() {
         return;
     }
     let dir = tmpdir("pov");
-    let model = blend_model(&dir);
-    let (pov, ours, theirs) = (dir.join("m.pov"), dir.join("ours.png"), dir.join("pov.png"));
-    let o = caoen(&[
-        "frep",
-        "export-pov",
-        s(&model),
-        "-o",
-        s(&pov),
-        "--size",
-        "512x512",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = caoen(&[
-        "frep",
-        "render",
-        s(&model),
-        "-o",
-        s(&ours),
-        "--size",
-        "512x512",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = std::process::Command::new("povray")
-        .args([
-            &format!("+I{}", s(&pov)),
-            "+W512",
-            "+H512",
-            "+A0.1",
-            "-D",
-            "+FN",
-            &format!("+O{}", s(&theirs)),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "povray: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let mask = |p: &Path| {
-        let img = image::open(p).unwrap().to_rgb8();
-        let bg = *img.get_pixel(0, 0);
-        img.pixels()
-            .map(|q| {
-                (0..3)
-                    .map(|k| (q[k] as i32 - bg[k] as i32).abs())
-                    .sum::<i32>()
-                    > 24
-            })
-            .collect::<Vec<bool>>()
-    };
-    let (a, b) = (mask(&ours), mask(&theirs));
-    let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
-    let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
-    let iou = inter as f64 / union as f64;
-    println!("silhouette IoU caoen vs POV-Ray: {iou:.4} ({union} pixels)");
-    assert!(union > 10_000 && iou >= 0.98, "IoU {iou:.4}");
+    let bumps = dir.join("bumps.json");
+    std::fs::write(
+        &bumps,
+        json!({
+            "format": "caoen-frep/1", "name": "sphere with quadric patches",
+            "model": {"perturb": {"sphere": {"radius": 0.8}}, "patches": [
+                {"bump": {"centre": [0.7, 0.0, 0.3], "radius": 0.45, "height": 0.5}},
+                {"bump": {"centre": [-0.3, -0.6, 0.4], "radius": 0.4, "height": 0.4}},
+                {"bump": {"centre": [0.0, 0.5, -0.6], "radius": 0.5, "height": 0.3}, "factor": -1.0}
+            ]},
+            "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]}
+        })
+        .to_string(),
+    )
+    .unwrap();
+    for model in [blend_model(&dir), bumps] {
+        let stem = model.file_stem().unwrap().to_string_lossy().to_string();
+        let (pov, ours, theirs) = (
+            dir.join(format!("{stem}.pov")),
+            dir.join(format!("{stem}-ours.png")),
+            dir.join(format!("{stem}-pov.png")),
+        );
+        let o = caoen(&[
+            "frep",
+            "export-pov",
+            s(&model),
+            "-o",
+            s(&pov),
+            "--size",
+            "512x512",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = caoen(&[
+            "frep",
+            "render",
+            s(&model),
+            "-o",
+            s(&ours),
+            "--size",
+            "512x512",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = std::process::Command::new("povray")
+            .args([
+                &format!("+I{}", s(&pov)),
+                "+W512",
+                "+H512",
+                "+A0.1",
+                "-D",
+                "+FN",
+                &format!("+O{}", s(&theirs)),
+            ])
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "povray: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let mask = |p: &Path| {
+            let img = image::open(p).unwrap().to_rgb8();
+            let bg = *img.get_pixel(0, 0);
+            img.pixels()
+                .map(|q| {
+                    (0..3)
+                        .map(|k| (q[k] as i32 - bg[k] as i32).abs())
+                        .sum::<i32>()
+                        > 24
+                })
+                .collect::<Vec<bool>>()
+        };
+        let (a, b) = (mask(&ours), mask(&theirs));
+        let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
+        let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
+        let iou = inter as f64 / union as f64;
+        println!("{stem}: silhouette IoU caoen vs POV-Ray {iou:.4} ({union} pixels)");
+        assert!(union > 10_000 && iou >= 0.98, "{stem}: IoU {iou:.4}");
+    }
 }
 
 /// A smooth grey image (8-bit) of `w x h`, written to `dir/name`.
@@ -735,4 +763,28 @@ fn cli_heightfield_writes_models_and_renders() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
+}
+
+#[test]
+fn patch_gradient_is_continuous_where_the_patch_ends() {
+    // R = Q^2 (and Q^3) where Q > 0: the gradient of F + R is continuous across Q = 0.
+    for power in [2, 3] {
+        let n = node(json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [
+            {"bump": {"centre": [0.8, 0.2, 0.4], "radius": 0.7, "height": 0.6}}
+        ], "power": power}));
+        let mut s = Stream(3);
+        let mut worst: f64 = 0.0;
+        for _ in 0..1000 {
+            let d = [s.next(), s.next(), s.next()];
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let at = |r: f64| [0, 1, 2].map(|k| [0.8, 0.2, 0.4][k] + r * d[k] / len);
+            let eps = 1e-12;
+            let (_, gi) = n.value_gradient(at(0.7 - eps));
+            let (_, go) = n.value_gradient(at(0.7 + eps));
+            let jump = (0..3).map(|k| (gi[k] - go[k]).abs()).fold(0.0, f64::max);
+            worst = worst.max(jump);
+        }
+        println!("power {power}: largest gradient jump across Q = 0: {worst:.2e}");
+        assert!(worst < 1e-9, "{worst}");
+    }
 }

@@ -13,4 +13,4 @@ pub mod raycast;
 pub mod rfunction;
 
 pub use interval::{Aabb, Interval};
-pub use node::{ModelError, Node};
+pub use node::{ModelError, Node, Patch};

@@ -51,6 +51,16 @@ pub enum Node {
         /// The two operands.
         operands: Box<[Node; 2]>,
     },
+    /// `f + sum_i factor_i max(Q_i, 0)^power`: the base perturbed by quadric patches
+    /// (power 2: C1 where a patch ends; power 3: C2).
+    Perturb {
+        /// The base.
+        base: Box<Node>,
+        /// The perturbing quadrics with their form factors.
+        terms: Vec<Patch>,
+        /// The exponent (2 or 3).
+        power: i32,
+    },
     /// `f + by`: grows the solid (shrinks it for a negative amount).
     Offset {
         /// Added to the function.
@@ -67,6 +77,74 @@ pub enum Node {
         /// The operand.
         operand: Box<Node>,
     },
+}
+
+/// One quadric patch of a perturbation: `factor * max(Q, 0)^power`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Patch {
+    /// `Q` as a quadric primitive (its ten coefficients).
+    pub quadric: Primitive,
+    /// The form factor (positive adds material).
+    pub factor: f64,
+}
+
+impl Patch {
+    /// The patch's value and gradient for `power`.
+    fn value_gradient(&self, p: [f64; 3], power: i32) -> (f64, [f64; 3]) {
+        let (q, g) = self.quadric.value_gradient(p);
+        if q <= 0.0 {
+            return (0.0, [0.0; 3]);
+        }
+        let r = self.factor * q.powi(power);
+        let d = self.factor * f64::from(power) * q.powi(power - 1);
+        (r, g.map(|v| d * v))
+    }
+
+    fn interval(&self, b: &Aabb, power: i32) -> Interval {
+        let q = self.quadric.interval(b);
+        let (lo, hi) = (q.lo.max(0.0), q.hi.max(0.0));
+        Interval::new(lo.powi(power), hi.powi(power)).scale(self.factor)
+    }
+
+    /// The box of the region where `Q > 0`, if it is bounded (an ellipsoid's inside).
+    fn positive_box(&self) -> Option<Aabb> {
+        let Primitive::Quadric { coefficients: c } = &self.quadric else {
+            return None;
+        };
+        // Q = x^T A x + b . x + k with A symmetric.
+        let a = [
+            [c[0], 0.5 * c[3], 0.5 * c[5]],
+            [0.5 * c[3], c[1], 0.5 * c[4]],
+            [0.5 * c[5], 0.5 * c[4], c[2]],
+        ];
+        let b = [c[6], c[7], c[8]];
+        // Bounded only if -A is positive definite (leading minors of -A positive).
+        let m1 = -a[0][0];
+        let m2 = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        let det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+            - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+            + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+        if !(m1 > 0.0 && m2 > 0.0 && -det > 0.0) {
+            return None;
+        }
+        // Inverse of A by cofactors.
+        let inv = |i: usize, j: usize| {
+            let (r0, r1) = ((j + 1) % 3, (j + 2) % 3);
+            let (c0, c1) = ((i + 1) % 3, (i + 2) % 3);
+            (a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]) / det
+        };
+        let centre = [0, 1, 2].map(|i| -0.5 * (0..3).map(|j| inv(i, j) * b[j]).sum::<f64>());
+        let (top, _) = self.quadric.value_gradient(centre);
+        if top <= 0.0 {
+            return None;
+        }
+        // Half-width along axis k: sqrt(top * ((-A)^-1)_kk).
+        let half = [0, 1, 2].map(|k| (top * -inv(k, k)).max(0.0).sqrt());
+        Some(Aabb::new(
+            [0, 1, 2].map(|k| centre[k] - half[k]),
+            [0, 1, 2].map(|k| centre[k] + half[k]),
+        ))
+    }
 }
 
 /// A malformed or out-of-range model, with the JSON path of the offending value.
@@ -109,6 +187,12 @@ impl Node {
                 rfunction::apply(*op, f1, f2, *a)
                     + rfunction::blend_partials(f1, f2, *a0, *a1, *a2).0
             }
+            Node::Perturb { base, terms, power } => {
+                // Added one by one, in the same order as value_gradient.
+                terms
+                    .iter()
+                    .fold(base.value(p), |v, t| v + t.value_gradient(p, *power).0)
+            }
             Node::Offset { by, operand } => operand.value(p) + by,
             Node::Transform {
                 inverse, operand, ..
@@ -150,6 +234,17 @@ impl Node {
                     [0, 1, 2].map(|k| (d1 + e1) * g1[k] + (d2 + e2) * g2[k]),
                 )
             }
+            Node::Perturb { base, terms, power } => {
+                let (mut v, mut g) = base.value_gradient(p);
+                for t in terms {
+                    let (r, gr) = t.value_gradient(p, *power);
+                    v += r;
+                    for k in 0..3 {
+                        g[k] += gr[k];
+                    }
+                }
+                (v, g)
+            }
             Node::Offset { by, operand } => {
                 let (v, g) = operand.value_gradient(p);
                 (v + by, g)
@@ -189,6 +284,9 @@ impl Node {
                 rfunction::interval(*op, i1, i2, *a)
                     + rfunction::blend_interval(i1, i2, *a0, *a1, *a2)
             }
+            Node::Perturb { base, terms, power } => terms
+                .iter()
+                .fold(base.interval(b), |acc, t| acc + t.interval(b, *power)),
             Node::Offset { by, operand } => operand.interval(b) + Interval::point(*by),
             Node::Transform {
                 inverse, operand, ..
@@ -238,6 +336,13 @@ impl Node {
                     joined.padded((0.25 * joined.longest()).max(a1.max(*a2).min(joined.longest()))),
                 )
             }
+            Node::Perturb { base, terms, .. } => {
+                let mut b = base.bounds()?;
+                for t in terms.iter().filter(|t| t.factor > 0.0) {
+                    b = b.union(&t.positive_box()?);
+                }
+                Some(b)
+            }
             Node::Offset { by, operand } => {
                 let b = operand.bounds()?;
                 // For the quadratic primitives, f + by moves the boundary by about
@@ -257,6 +362,7 @@ impl Node {
             Node::Primitive(_) | Node::HeightMap(_) => 0,
             Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
+            Node::Perturb { base, terms, .. } => base.count() + terms.len(),
             Node::Offset { operand, .. } | Node::Transform { operand, .. } => operand.count(),
         }
     }
@@ -359,7 +465,8 @@ const PRIMITIVES: [&str; 9] = [
     "quadric",
     "superellipsoid",
 ];
-const OPERATIONS: [&str; 7] = [
+const OPERATIONS: [&str; 8] = [
+    "perturb",
     "union",
     "intersection",
     "difference",
@@ -525,6 +632,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
         "union" | "intersection" | "difference" => &["a"],
         "blend_union" | "blend_intersection" => &["a", "a0", "a1", "a2"],
         "offset" => &["by"],
+        "perturb" => &["patches", "power"],
         _ => &["scale", "rotate_deg", "translate"],
     };
     for k in o.keys() {
@@ -580,6 +688,38 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 a1: length(get(o, "a1", path)?, &format!("{path}.a1"))?,
                 a2: length(get(o, "a2", path)?, &format!("{path}.a2"))?,
                 operands: Box::new([x, y]),
+            }
+        }
+        "perturb" => {
+            let power = match o.get("power") {
+                None => 2,
+                Some(v) => match v.as_i64() {
+                    Some(p @ 2..=3) => p as i32,
+                    _ => return err(&format!("{path}.power"), format!("{v}: expected 2 or 3")),
+                },
+            };
+            let Some(list) = o.get("patches").and_then(Value::as_array) else {
+                return err(path, "`perturb` needs `patches`: a list of patches");
+            };
+            if list.is_empty() || list.len() > MAX_NODES {
+                return err(
+                    &format!("{path}.patches"),
+                    format!("{} patches: expected 1 to {MAX_NODES}", list.len()),
+                );
+            }
+            count.count += list.len();
+            if count.count > MAX_NODES {
+                return err(path, format!("the model has more than {MAX_NODES} nodes"));
+            }
+            let terms = list
+                .iter()
+                .enumerate()
+                .map(|(i, t)| patch(t, &format!("{path}.patches[{i}]")))
+                .collect::<Result<Vec<_>, _>>()?;
+            Node::Perturb {
+                base: Box::new(parse(body, &here, depth + 1, count)?),
+                terms,
+                power,
             }
         }
         "offset" => Node::Offset {
@@ -696,5 +836,68 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
     HeightMap::new(base, rect, iw, ih, values, threshold, interp).map_err(|e| ModelError {
         path: here.to_string(),
         reason: e,
+    })
+}
+
+/// One patch: `{"quadric": [10 coefficients], "factor": f}` or a bump
+/// `{"bump": {"centre", "radius", "height"}}` (`Q = height (1 - |p - centre|^2 / radius^2)`,
+/// positive in the ball).
+fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
+    let w = WORLD_LIMIT;
+    let f = fields(v, path, &["quadric", "factor", "bump"])?;
+    let factor = match f.get("factor") {
+        Some(x) => number(x, &format!("{path}.factor"), -w, w)?,
+        None => 1.0,
+    };
+    let coefficients = match (f.get("quadric"), f.get("bump")) {
+        (Some(q), None) => {
+            let Some(a) = q.as_array().filter(|a| a.len() == 10) else {
+                return err(&format!("{path}.quadric"), "expected ten coefficients");
+            };
+            let mut c = [0.0; 10];
+            for k in 0..10 {
+                c[k] = number(&a[k], &format!("{path}.quadric[{k}]"), -w, w)?;
+            }
+            c
+        }
+        (None, Some(b)) => {
+            let here = format!("{path}.bump");
+            let g = fields(b, &here, &["centre", "radius", "height"])?;
+            let c = match g.get("centre") {
+                Some(c) => vec3(c, &format!("{here}.centre"), -w, w)?,
+                None => [0.0; 3],
+            };
+            let r = number(
+                get(g, "radius", &here)?,
+                &format!("{here}.radius"),
+                MIN_LENGTH,
+                w,
+            )?;
+            let h = number(
+                get(g, "height", &here)?,
+                &format!("{here}.height"),
+                MIN_LENGTH,
+                w,
+            )?;
+            // h (1 - |p - c|^2 / r^2) expanded.
+            let k = -h / (r * r);
+            [
+                k,
+                k,
+                k,
+                0.0,
+                0.0,
+                0.0,
+                -2.0 * k * c[0],
+                -2.0 * k * c[1],
+                -2.0 * k * c[2],
+                h + k * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+            ]
+        }
+        _ => return err(path, "give exactly one of `quadric` or `bump`"),
+    };
+    Ok(Patch {
+        quadric: Primitive::Quadric { coefficients },
+        factor,
     })
 }

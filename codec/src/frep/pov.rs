@@ -175,6 +175,22 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             let f = declare(operand, out, next);
             format!("{f}(x, y, z) + {}", num(*by))
         }
+        Node::Perturb { base, terms, power } => {
+            let f = declare(base, out, next);
+            let mut expr = format!("{f}(x, y, z)");
+            for t in terms {
+                let Primitive::Quadric { coefficients: c } = &t.quadric else {
+                    unreachable!("patches are quadrics");
+                };
+                let q = format!(
+                    "({}*x*x + {}*y*y + {}*z*z + {}*x*y + {}*y*z + {}*x*z + {}*x + {}*y + {}*z + {})",
+                    num(c[0]), num(c[1]), num(c[2]), num(c[3]), num(c[4]),
+                    num(c[5]), num(c[6]), num(c[7]), num(c[8]), num(c[9])
+                );
+                let _ = write!(expr, " + {} * pow(max({q}, 0), {power})", num(t.factor));
+            }
+            expr
+        }
         Node::Transform {
             inverse, operand, ..
         } => {
@@ -331,6 +347,7 @@ fn has_height_map(node: &Node) -> bool {
         Node::Primitive(_) => false,
         Node::SetOp { operands, .. } => operands.iter().any(has_height_map),
         Node::Blend { operands, .. } => operands.iter().any(has_height_map),
+        Node::Perturb { base, .. } => has_height_map(base),
         Node::Offset { operand, .. } | Node::Transform { operand, .. } => has_height_map(operand),
     }
 }
