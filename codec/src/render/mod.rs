@@ -5,6 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
+pub mod crease;
 pub mod csg;
 pub mod depth_buffer;
 pub mod error;

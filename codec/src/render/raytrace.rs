@@ -125,6 +125,20 @@ impl ImplicitTracer {
             .sum()
     }
 
+    /// `f(x)` and its gradient.
+    pub fn value_gradient(&self, x: [f64; 3]) -> (f64, [f64; 3]) {
+        let r = sub(x, self.centre);
+        let (mut v, mut g) = (0.0, [0.0; 3]);
+        for ((w, &q), b) in self.w.iter().zip(&self.q).zip(&self.blend) {
+            let (f, d) = b.value_and_slope(dot(*w, r), q);
+            v += f;
+            for k in 0..3 {
+                g[k] += d * w[k];
+            }
+        }
+        (v, g)
+    }
+
     /// The unit outward normal at `x` (the normalised gradient of `f`).
     pub fn normal(&self, x: [f64; 3]) -> [f64; 3] {
         let r = sub(x, self.centre);

@@ -428,7 +428,86 @@ pub fn csg_field(tracers: &[ImplicitTracer], levels: &[f64], node: &CsgNode, x: 
     }
 }
 
-/// The marching-tetrahedra mesh of a CSG expression over convex solids.
+/// The leaves of a CSG expression over convex solids, for sharpening its mesh.
+struct CsgLeaves<'a> {
+    tracers: &'a [ImplicitTracer],
+    levels: &'a [f64],
+    csg: &'a CsgNode,
+    /// The sign each solid's field enters the expression with (-1 for subtracted).
+    signs: Vec<f64>,
+}
+
+impl CsgLeaves<'_> {
+    /// The expression's value at `x` and the solid it comes from.
+    fn eval(&self, node: &CsgNode, x: [f64; 3]) -> (f64, usize) {
+        match node {
+            CsgNode::Solid(i) => {
+                let i = *i as usize;
+                (
+                    (self.tracers[i].value(x).max(1e-300) / self.levels[i]).ln(),
+                    i,
+                )
+            }
+            CsgNode::Union(c) => c
+                .iter()
+                .map(|n| self.eval(n, x))
+                .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a }),
+            CsgNode::Intersection(c) => c
+                .iter()
+                .map(|n| self.eval(n, x))
+                .fold((f64::NEG_INFINITY, 0), |a, b| if b.0 > a.0 { b } else { a }),
+            CsgNode::Difference(c) => {
+                let mut it = c.iter();
+                let first = it.next().map_or((f64::INFINITY, 0), |n| self.eval(n, x));
+                it.fold(first, |a, n| {
+                    let (v, i) = self.eval(n, x);
+                    if -v > a.0 {
+                        (-v, i)
+                    } else {
+                        a
+                    }
+                })
+            }
+        }
+    }
+}
+
+fn leaf_signs(node: &CsgNode, sign: f64, out: &mut [f64], seen: &mut [bool]) {
+    match node {
+        CsgNode::Solid(i) => {
+            let i = *i as usize;
+            if !seen[i] {
+                seen[i] = true;
+                out[i] = sign;
+            }
+        }
+        CsgNode::Union(c) | CsgNode::Intersection(c) => {
+            c.iter().for_each(|n| leaf_signs(n, sign, out, seen))
+        }
+        CsgNode::Difference(c) => {
+            for (k, n) in c.iter().enumerate() {
+                leaf_signs(n, if k == 0 { sign } else { -sign }, out, seen);
+            }
+        }
+    }
+}
+
+impl super::crease::Leaves for CsgLeaves<'_> {
+    fn leaf(&self, i: usize, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let (f, g) = self.tracers[i].value_gradient(p);
+        let f = f.max(1e-300);
+        let s = self.signs[i];
+        (s * (f / self.levels[i]).ln(), g.map(|v| s * v / f))
+    }
+
+    fn active(&self, p: [f64; 3]) -> usize {
+        self.eval(self.csg, p).1
+    }
+}
+
+/// The mesh of a CSG expression over convex solids: marching tetrahedra, then vertices
+/// moved onto their solids and onto the rims where two solids meet, with each face's
+/// normals from its own solid (sharp rims, `render::crease`).
 pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) -> Mesh {
     let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
     let levels: Vec<f64> = solids.iter().map(|s| s.level()).collect();
@@ -447,7 +526,17 @@ pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) ->
     let pad = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
     let lo = lo.map(|v| v - pad);
     let hi = hi.map(|v| v + pad);
-    polygonise(&|x| csg_field(&tracers, &levels, csg, x), lo, hi, cells)
+    let mesh = polygonise(&|x| csg_field(&tracers, &levels, csg, x), lo, hi, cells);
+    let mut signs = vec![1.0; solids.len()];
+    leaf_signs(csg, 1.0, &mut signs, &mut vec![false; solids.len()]);
+    let leaves = CsgLeaves {
+        tracers: &tracers,
+        levels: &levels,
+        csg,
+        signs,
+    };
+    let cell = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
+    super::crease::sharpen(mesh, &leaves, cell)
 }
 
 /// Ray traces a CSG expression of convex solids through every pixel of `camera`;

@@ -199,6 +199,20 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         "csg.png",
         &opts(320, 240, n, Method::Ray),
     )?;
+    // A rim of the carved cube up close: ray traced (left) and its mesh (right), each a
+    // 128x128 crop of a 512x384 render shown at twice the size.
+    let scene = Scene::load(&dir.join("csg.scene.json"))?;
+    let mut crops = caoen::render::framebuffer::RgbImage::filled(512, 256, scene.background);
+    for (k, method) in [Method::Ray, Method::Mesh].into_iter().enumerate() {
+        let r = render(&scene, &opts(512, 384, n, method), &|_, _| {})?;
+        for y in 0..256u32 {
+            for x in 0..256u32 {
+                let src = r.image.pixels[((110 + y / 2) * 512 + 190 + x / 2) as usize];
+                crops.pixels[(y * 512 + 256 * k as u32 + x) as usize] = src;
+            }
+        }
+    }
+    save_png(global, dir, "csg-rim.png", &crops)?;
 
     // 5. A compound teapot-like model: body, lid with knob, spout (sphere domains) and
     //    handle (torus domain), placed by transforms.
