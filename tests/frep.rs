@@ -788,3 +788,154 @@ fn patch_gradient_is_continuous_where_the_patch_ends() {
         assert!(worst < 1e-9, "{worst}");
     }
 }
+
+#[test]
+fn relief_and_pattern_gradients_and_bounds() {
+    let dir = tmpdir("picture-nodes");
+    grey_png(&dir, "hm.png", 40, 24);
+    let models = [
+        json!({"relief": {"sphere": {"radius": 1.0}}, "image": "hm.png", "projection": "spherical", "depth": 0.1, "interp": "bicubic"}),
+        json!({"relief": {"box": {"size": [1.6, 1.6, 1.0]}}, "image": "hm.png", "projection": "planar", "depth": -0.05}),
+        json!({"pattern": {"image": "hm.png", "projection": "cylindrical", "rect": [-3.0, -1.0, 3.0, 1.0], "level": 0.4, "interp": "bicubic"}}),
+    ];
+    let mut s = Stream(5);
+    for m in models {
+        let n = Node::from_json(&m, "model", &dir).unwrap();
+        let mut checked = 0;
+        for _ in 0..3000 {
+            let p = [0.9 * s.next(), 0.9 * s.next(), 0.9 * s.next()];
+            let (v, g) = n.value_gradient(p);
+            assert_eq!(v, n.value(p));
+            let h = 1e-7;
+            let fd = [0, 1, 2].map(|k| {
+                let (mut a, mut b) = (p, p);
+                a[k] += h;
+                b[k] -= h;
+                (n.value(a) - n.value(b)) / (2.0 * h)
+            });
+            let crease = (0..3).any(|k| {
+                let (mut a, mut b) = (p, p);
+                a[k] += 4.0 * h;
+                b[k] -= 4.0 * h;
+                let (ga, gb) = (n.value_gradient(a).1, n.value_gradient(b).1);
+                (0..3).any(|j| (ga[j] - gb[j]).abs() > 1e-4 * (1.0 + g[j].abs()))
+            });
+            if crease {
+                continue;
+            }
+            let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
+            for k in 0..3 {
+                assert!(
+                    (g[k] - fd[k]).abs() <= 1e-5 * scale,
+                    "{m} at {p:?}: {g:?} vs {fd:?}"
+                );
+            }
+            checked += 1;
+        }
+        assert!(checked > 1000, "{m}: {checked}");
+        for _ in 0..300 {
+            let c = [0.9 * s.next(), 0.9 * s.next(), 0.9 * s.next()];
+            let r = 0.3 * (s.next() + 1.0);
+            let b = Aabb::new(c.map(|v| v - r), c.map(|v| v + r));
+            let range = n.interval(&b);
+            for _ in 0..20 {
+                let p = [0, 1, 2].map(|k| b.lo[k] + 0.5 * (s.next() + 1.0) * (b.hi[k] - b.lo[k]));
+                assert!(range.contains(n.value(p)), "{m}: bound {range:?} on {b:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn cli_relief_and_carve() {
+    let dir = tmpdir("carve");
+    let img = grey_png(&dir, "pattern.png", 64, 32);
+    let ball = dir.join("ball.json");
+    std::fs::write(
+        &ball,
+        // A fixed camera, so the pictures compare pixel for pixel.
+        json!({"format": "caoen-frep/1", "name": "ball", "model": {"sphere": {"radius": 1.0}},
+               "camera": {"projection": "perspective", "fov_deg": 30.0, "eye": [0.0, -6.0, 0.0], "target": [0.0, 0.0, 0.0]}})
+            .to_string(),
+    )
+    .unwrap();
+    let plain = dir.join("plain.png");
+    let o = caoen(&[
+        "frep",
+        "render",
+        s(&ball),
+        "-o",
+        s(&plain),
+        "--size",
+        "96x72",
+        "--samples",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let covered = |p: &Path| {
+        let r = caoen::render::framebuffer::RgbImage::load(p).unwrap();
+        let bg = r.pixels[0];
+        r.pixels.iter().filter(|q| **q != bg).count()
+    };
+    let base = covered(&plain);
+    for (cmd, extra) in [
+        ("relief", vec!["--depth", "0.2"]),
+        ("carve", vec!["--shell", "0.1", "--level", "0.5"]),
+    ] {
+        let (json_out, png_out) = (
+            dir.join(format!("{cmd}.json")),
+            dir.join(format!("{cmd}.png")),
+        );
+        let mut args = vec![cmd, s(&img), "--on", s(&ball), "-o", s(&json_out)];
+        args.extend(&extra);
+        let o = caoen(&args);
+        assert!(
+            o.status.success(),
+            "{cmd}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let o = caoen(&[
+            "frep",
+            "render",
+            s(&json_out),
+            "-o",
+            s(&png_out),
+            "--size",
+            "96x72",
+            "--samples",
+            "1",
+        ]);
+        assert!(
+            o.status.success(),
+            "{cmd}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let c = covered(&png_out);
+        println!("{cmd}: {c} pixels covered, the plain ball {base}");
+        if cmd == "relief" {
+            // Raised everywhere the picture is not black: the silhouette grows.
+            assert!(c > base, "relief {c} vs {base}");
+        } else {
+            // Cut where the picture is dark: holes show the background.
+            assert!(c < base, "carve {c} vs {base}");
+        }
+    }
+    let o = caoen(&[
+        "relief",
+        s(&img),
+        "--on",
+        s(&img),
+        "-o",
+        s(&dir.join("x.json")),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let o = caoen(&[
+        "carve",
+        s(&img),
+        "--on",
+        s(&ball),
+        "-o",
+        s(&dir.join("x.obj")),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}

@@ -78,6 +78,41 @@ pub enum Command {
     Frep(FrepCommand),
     /// A height map from an image on a plane, ellipsoid or cylinder (an F-rep model).
     Heightfield(HeightfieldArgs),
+    /// Raise an image's grey levels as relief on an F-rep model (along its normal).
+    Relief(PictureArgs),
+    /// Carve an F-rep model with an image's pattern swept through it (lattice carving).
+    Carve(PictureArgs),
+}
+
+/// `caoen relief` and `caoen carve`.
+#[derive(Debug, Args)]
+pub struct PictureArgs {
+    /// Image (grey levels 0..1: relief height, or the pattern; bright is kept).
+    pub image: PathBuf,
+    /// The F-rep model file (format "caoen-frep/1") to work on.
+    #[arg(long)]
+    pub on: PathBuf,
+    /// Output: .json (the new model, naming the image) or .png (its render).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// How the image lies on the model: along z, around the z axis, or around the origin.
+    #[arg(long, value_parser = ["planar", "cylindrical", "spherical"], default_value = "spherical")]
+    pub projection: String,
+    /// Relief: height of white in the model's units (negative engraves).
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
+    pub depth: f64,
+    /// Carve: the grey level between kept (brighter) and cut away.
+    #[arg(long, default_value_t = 0.5)]
+    pub level: f64,
+    /// Carve: hollow the model first, leaving a wall this thick (lattice carving).
+    #[arg(long)]
+    pub shell: Option<f64>,
+    /// Render size WIDTHxHEIGHT (.png output).
+    #[arg(long, default_value = "512x384")]
+    pub size: String,
+    /// Supersampling of the render: N x N samples per pixel.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
 }
 
 /// Base solid of `caoen heightfield`.

@@ -314,6 +314,24 @@ impl HeightMap {
         }
     }
 
+    /// The thresholded height `h(u(p), v(p))` alone (without the base) and its exact
+    /// gradient in space: a picture mapped onto 3-D space through the base's
+    /// parameters, constant along the parameters' level lines.
+    pub fn perturbation(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let (uv, gu, gv) = self.params(p);
+        let (h, hu, hv) = self.height(uv);
+        if h >= self.threshold {
+            (h, [0, 1, 2].map(|k| hu * gu[k] + hv * gv[k]))
+        } else {
+            (0.0, [0.0; 3])
+        }
+    }
+
+    /// Bounds of [`Self::perturbation`] over a box.
+    pub fn perturbation_range(&self, b: &Aabb) -> Interval {
+        self.height_range(b)
+    }
+
     /// `F = G + h` and its exact gradient at `p`.
     pub fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
         let (g, mut grad) = self.base_value_gradient(p);

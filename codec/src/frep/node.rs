@@ -61,6 +61,25 @@ pub enum Node {
         /// The exponent (2 or 3).
         power: i32,
     },
+    /// A picture swept through space along its projection: `h(u(p), v(p)) - level`
+    /// (positive where the picture is brighter than `level`), for carving.
+    Pattern {
+        /// The picture and its projection.
+        map: HeightMap,
+        /// The grey level of the boundary.
+        level: f64,
+    },
+    /// Relief: the base displaced along its normal by a picture's grey levels,
+    /// `f + gain h(u(p), v(p))`, where `gain` is the depth times the base function's
+    /// mean gradient length on its surface (so the offset is about `depth h`).
+    Relief {
+        /// The base.
+        base: Box<Node>,
+        /// The picture and its projection.
+        map: HeightMap,
+        /// Depth times the base's mean gradient length on the surface.
+        gain: f64,
+    },
     /// `f + by`: grows the solid (shrinks it for a negative amount).
     Offset {
         /// Added to the function.
@@ -193,6 +212,8 @@ impl Node {
                     .iter()
                     .fold(base.value(p), |v, t| v + t.value_gradient(p, *power).0)
             }
+            Node::Pattern { map, level } => map.perturbation(p).0 - level,
+            Node::Relief { base, map, gain } => base.value(p) + gain * map.perturbation(p).0,
             Node::Offset { by, operand } => operand.value(p) + by,
             Node::Transform {
                 inverse, operand, ..
@@ -245,6 +266,15 @@ impl Node {
                 }
                 (v, g)
             }
+            Node::Pattern { map, level } => {
+                let (h, g) = map.perturbation(p);
+                (h - level, g)
+            }
+            Node::Relief { base, map, gain } => {
+                let (v, g) = base.value_gradient(p);
+                let (h, gh) = map.perturbation(p);
+                (v + gain * h, [0, 1, 2].map(|k| g[k] + gain * gh[k]))
+            }
             Node::Offset { by, operand } => {
                 let (v, g) = operand.value_gradient(p);
                 (v + by, g)
@@ -287,6 +317,10 @@ impl Node {
             Node::Perturb { base, terms, power } => terms
                 .iter()
                 .fold(base.interval(b), |acc, t| acc + t.interval(b, *power)),
+            Node::Pattern { map, level } => map.perturbation_range(b) - Interval::point(*level),
+            Node::Relief { base, map, gain } => {
+                base.interval(b) + map.perturbation_range(b).scale(*gain)
+            }
             Node::Offset { by, operand } => operand.interval(b) + Interval::point(*by),
             Node::Transform {
                 inverse, operand, ..
@@ -343,6 +377,15 @@ impl Node {
                 }
                 Some(b)
             }
+            // A swept picture reaches infinity along its projection.
+            Node::Pattern { .. } => None,
+            Node::Relief { base, map, gain } => {
+                let b = base.bounds()?;
+                // Raised by at most depth * max h, in the base's own length units.
+                let top = map.perturbation_range(&b).hi.max(0.0) * gain;
+                let g = mean_surface_gradient(base, &b);
+                Some(b.padded(if g > 0.0 { 1.5 * top / g } else { 0.0 }))
+            }
             Node::Offset { by, operand } => {
                 let b = operand.bounds()?;
                 // For the quadratic primitives, f + by moves the boundary by about
@@ -363,6 +406,8 @@ impl Node {
             Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Perturb { base, terms, .. } => base.count() + terms.len(),
+            Node::Pattern { .. } => 0,
+            Node::Relief { base, .. } => base.count(),
             Node::Offset { operand, .. } | Node::Transform { operand, .. } => operand.count(),
         }
     }
@@ -465,7 +510,9 @@ const PRIMITIVES: [&str; 9] = [
     "quadric",
     "superellipsoid",
 ];
-const OPERATIONS: [&str; 8] = [
+const OPERATIONS: [&str; 10] = [
+    "pattern",
+    "relief",
     "perturb",
     "union",
     "intersection",
@@ -627,12 +674,29 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
         };
         return Ok(Node::Primitive(prim));
     }
+    if kind == "pattern" {
+        if o.len() != 1 {
+            return err(path, "a `pattern` node takes no fields beside `pattern`");
+        }
+        let f = fields(
+            body,
+            &here,
+            &["image", "projection", "rect", "level", "interp"],
+        )?;
+        let level = match f.get("level") {
+            Some(l) => number(l, &format!("{here}.level"), -w, w)?,
+            None => 0.5,
+        };
+        let map = picture(body, &here, count.base_dir, None)?;
+        return Ok(Node::Pattern { map, level });
+    }
     // Operations: the operands under the kind's key, parameters beside it.
     let op_fields: &[&str] = match kind.as_str() {
         "union" | "intersection" | "difference" => &["a"],
         "blend_union" | "blend_intersection" => &["a", "a0", "a1", "a2"],
         "offset" => &["by"],
         "perturb" => &["patches", "power"],
+        "relief" => &["image", "projection", "rect", "depth", "interp"],
         _ => &["scale", "rotate_deg", "translate"],
     };
     for k in o.keys() {
@@ -720,6 +784,21 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 base: Box::new(parse(body, &here, depth + 1, count)?),
                 terms,
                 power,
+            }
+        }
+        "relief" => {
+            let base = parse(body, &here, depth + 1, count)?;
+            let b = base.bounds().ok_or_else(|| ModelError {
+                path: here.clone(),
+                reason: "the relief's base must be bounded".into(),
+            })?;
+            let d = number(get(o, "depth", path)?, &format!("{path}.depth"), -w, w)?;
+            let map = picture(&Value::Object(o.clone()), path, count.base_dir, Some(&b))?;
+            let gain = d * mean_surface_gradient(&base, &b);
+            Node::Relief {
+                base: Box::new(base),
+                map,
+                gain,
             }
         }
         "offset" => Node::Offset {
@@ -817,22 +896,7 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
     let Some(image) = get(f, "image", here)?.as_str() else {
         return err(&format!("{here}.image"), "expected a file name");
     };
-    let path = base_dir.join(image);
-    let raster = crate::image_io::load(&path).map_err(|e| ModelError {
-        path: format!("{here}.image"),
-        reason: e.to_string(),
-    })?;
-    let (iw, ih) = (raster.width() as usize, raster.height() as usize);
-    let channels = raster.layout().channels().min(3);
-    let values: Vec<f64> = (0..iw * ih)
-        .map(|i| {
-            let grey = (0..channels)
-                .map(|c| raster.plane(c)[i] as f64)
-                .sum::<f64>()
-                / channels as f64;
-            height * grey
-        })
-        .collect();
+    let (iw, ih, values) = grey_levels(&base_dir.join(image), &format!("{here}.image"), height)?;
     HeightMap::new(base, rect, iw, ih, values, threshold, interp).map_err(|e| ModelError {
         path: here.to_string(),
         reason: e,
@@ -900,4 +964,116 @@ fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
         quadric: Primitive::Quadric { coefficients },
         factor,
     })
+}
+
+/// The mean gradient length of `node` near its surface: over a 24^3 grid on the box,
+/// the points within half a cell of the surface (by `|f| / |grad f|`).
+pub fn mean_surface_gradient(node: &Node, b: &Aabb) -> f64 {
+    let n = 24;
+    let cell = b.longest() / n as f64;
+    let (mut sum, mut count) = (0.0, 0usize);
+    for i in 0..=n {
+        for j in 0..=n {
+            for k in 0..=n {
+                let t = [i, j, k].map(|v| v as f64 / n as f64);
+                let p = [0, 1, 2].map(|a| b.lo[a] + t[a] * (b.hi[a] - b.lo[a]));
+                let (f, g) = node.value_gradient(p);
+                let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                if len > 0.0 && len.is_finite() && f.abs() / len <= 0.5 * cell {
+                    sum += len;
+                    count += 1;
+                }
+            }
+        }
+    }
+    if count == 0 {
+        1.0
+    } else {
+        sum / count as f64
+    }
+}
+
+/// A picture with its projection (`pattern` and `relief` nodes): `image` (grey levels
+/// in [0, 1]), `projection` planar (along z), cylindrical (around z) or spherical
+/// (around the origin), `rect` in the projection's parameters (default: the box's x, y
+/// for planar, all angles and the box's z for cylindrical, all angles for spherical),
+/// `interp`.
+fn picture(
+    v: &Value,
+    here: &str,
+    base_dir: &std::path::Path,
+    bounds: Option<&Aabb>,
+) -> Result<HeightMap, ModelError> {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let w = WORLD_LIMIT;
+    let o = v.as_object().expect("checked by the caller");
+    let base = match o.get("projection").and_then(Value::as_str) {
+        Some("planar") | None => Base::Plane,
+        Some("cylindrical") => Base::Cylinder(1.0),
+        Some("spherical") => Base::Ellipsoid([1.0; 3]),
+        Some(other) => {
+            return err(
+                &format!("{here}.projection"),
+                format!("`{other}`: expected planar, cylindrical or spherical"),
+            )
+        }
+    };
+    let rect = match (o.get("rect"), bounds, base) {
+        (Some(r), _, _) => match r.as_array() {
+            Some(a) if a.len() == 4 => {
+                let mut out = [0.0; 4];
+                for k in 0..4 {
+                    out[k] = number(&a[k], &format!("{here}.rect[{k}]"), -w, w)?;
+                }
+                out
+            }
+            _ => return err(&format!("{here}.rect"), "expected [u0, v0, u1, v1]"),
+        },
+        (None, Some(b), Base::Plane) => [b.lo[0], b.lo[1], b.hi[0], b.hi[1]],
+        (None, Some(b), Base::Cylinder(_)) => [-PI, b.lo[2], PI, b.hi[2]],
+        (None, _, Base::Ellipsoid(_)) => [-PI, -FRAC_PI_2, PI, FRAC_PI_2],
+        (None, None, _) => return err(here, "needs `rect` (the picture's place)"),
+    };
+    let interp = match o.get("interp").map(|v| v.as_str()) {
+        None | Some(Some("bilinear")) => Interp::Bilinear,
+        Some(Some("bicubic")) => Interp::Bicubic,
+        Some(_) => {
+            return err(
+                &format!("{here}.interp"),
+                "expected \"bilinear\" or \"bicubic\"",
+            )
+        }
+    };
+    let Some(image) = get(o, "image", here)?.as_str() else {
+        return err(&format!("{here}.image"), "expected a file name");
+    };
+    let (iw, ih, values) = grey_levels(&base_dir.join(image), &format!("{here}.image"), 1.0)?;
+    HeightMap::new(base, rect, iw, ih, values, f64::NEG_INFINITY, interp).map_err(|e| ModelError {
+        path: here.to_string(),
+        reason: e,
+    })
+}
+
+/// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.
+fn grey_levels(
+    path: &std::path::Path,
+    at: &str,
+    scale: f64,
+) -> Result<(usize, usize, Vec<f64>), ModelError> {
+    let raster = crate::image_io::load(path).map_err(|e| ModelError {
+        path: at.to_string(),
+        reason: e.to_string(),
+    })?;
+    let (iw, ih) = (raster.width() as usize, raster.height() as usize);
+    let channels = raster.layout().channels().min(3);
+    let values = (0..iw * ih)
+        .map(|i| {
+            scale
+                * (0..channels)
+                    .map(|c| raster.plane(c)[i] as f64)
+                    .sum::<f64>()
+                / channels as f64
+        })
+        .collect();
+    Ok((iw, ih, values))
 }

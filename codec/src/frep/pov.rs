@@ -45,7 +45,9 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         )
     };
     let body = match node {
-        Node::HeightMap(_) => unreachable!("export refuses height maps before declaring"),
+        Node::HeightMap(_) | Node::Pattern { .. } | Node::Relief { .. } => {
+            unreachable!("export refuses pictures before declaring")
+        }
         Node::Primitive(p) => match p {
             Primitive::Sphere { centre, radius } => {
                 let (x, y, z) = q(centre);
@@ -314,7 +316,7 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
         };
         if has_height_map(node) {
             return Err(format!(
-                "object {i} (`{}`) holds a height map, which the POV-Ray export does not write",
+                "object {i} (`{}`) holds a height map, pattern or relief (a picture), which the POV-Ray export does not write",
                 obj.name
             ));
         }
@@ -343,7 +345,7 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
 
 fn has_height_map(node: &Node) -> bool {
     match node {
-        Node::HeightMap(_) => true,
+        Node::HeightMap(_) | Node::Pattern { .. } | Node::Relief { .. } => true,
         Node::Primitive(_) => false,
         Node::SetOp { operands, .. } => operands.iter().any(has_height_map),
         Node::Blend { operands, .. } => operands.iter().any(has_height_map),

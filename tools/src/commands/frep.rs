@@ -8,7 +8,7 @@ use caoen::render::{Method, RenderOptions, Scene};
 
 use crate::cli::{
     FrepCommand, FrepExportArgs, FrepMeshArgs, FrepMethodArg, FrepRenderArgs, GlobalArgs,
-    HeightBaseArg, HeightfieldArgs,
+    HeightBaseArg, HeightfieldArgs, PictureArgs,
 };
 use crate::commands::note;
 use crate::commands::render::{parse_size, render_with_progress};
@@ -281,34 +281,172 @@ pub fn heightfield(global: &GlobalArgs, a: &HeightfieldArgs) -> CliResult {
     // The model names the image by an absolute path, so it renders from anywhere.
     let image = std::fs::canonicalize(&a.image).map_err(|e| CliError::io(&a.image, e))?;
     let model = heightfield_model(a, &image.to_string_lossy(), aspect);
-    let text = serde_json::to_string_pretty(&model).expect("json values serialise") + "\n";
-    if ext.as_deref() == Some("json") {
-        outputs.write_path(&a.output, text.as_bytes())?;
-        note(global, format!("wrote {}", a.output.display()));
-        return Ok(());
-    }
-    let scene = Scene::from_json(
-        &serde_json::json!({
-            "format": "caoen-scene/1", "name": model["name"], "camera": model["camera"],
-            "objects": [{"frep": model["model"], "material": model["material"]}]
-        })
-        .to_string(),
+    write_model(
+        global,
+        &outputs,
+        &model,
+        &a.output,
+        &a.size,
+        a.samples,
         Path::new("."),
     )
-    .map_err(|e| CliError::Failed(format!("{}: {e}", a.image.display())))?;
-    let (width, height) = parse_size(&a.size)?;
+}
+
+/// Writes `model` (an F-rep model file's JSON) to `output`: the JSON itself (.json) or
+/// its ray-cast render (.png); file names in it resolve against `base`.
+fn write_model(
+    global: &GlobalArgs,
+    outputs: &Outputs,
+    model: &serde_json::Value,
+    output: &Path,
+    size: &str,
+    samples: u32,
+    base: &Path,
+) -> CliResult {
+    let ext = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if ext.as_deref() == Some("json") {
+        let text = serde_json::to_string_pretty(model).expect("json values serialise") + "\n";
+        outputs.write_path(output, text.as_bytes())?;
+        note(global, format!("wrote {}", output.display()));
+        return Ok(());
+    }
+    let mut object = serde_json::json!({"frep": model["model"]});
+    for k in ["material", "bounds"] {
+        if !model[k].is_null() {
+            object[k] = model[k].clone();
+        }
+    }
+    let mut scene = serde_json::json!({
+        "format": "caoen-scene/1", "name": model["name"], "objects": [object]
+    });
+    if !model["camera"].is_null() {
+        scene["camera"] = model["camera"].clone();
+    }
+    let scene = Scene::from_json(&scene.to_string(), base)
+        .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
+    let (width, height) = parse_size(size)?;
     let opts = RenderOptions {
         width,
         height,
-        samples: a.samples,
+        samples,
         method: Method::Ray,
         ..RenderOptions::default()
     };
     let r = render_with_progress(global, &scene, &opts, "rendering")?;
-    outputs.write_path(&a.output, &r.image.encode_png()?)?;
+    outputs.write_path(output, &r.image.encode_png()?)?;
     note(
         global,
-        format!("wrote {} ({width}x{height})", a.output.display()),
+        format!("wrote {} ({width}x{height})", output.display()),
     );
     Ok(())
+}
+
+/// What `caoen relief` and `caoen carve` do with the picture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PictureUse {
+    /// Displace the model along its normal by the grey levels.
+    Relief,
+    /// Keep the model where the picture is brighter than the level.
+    Carve,
+}
+
+/// `caoen relief` and `caoen carve`: a new model file wrapping the model of `--on`.
+pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliResult {
+    use serde_json::json;
+    let ext = a
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("json" | "png")) {
+        return Err(CliError::Usage(format!(
+            "{}: output must end in .json (model) or .png (render)",
+            a.output.display()
+        )));
+    }
+    for (name, v) in [("--depth", a.depth), ("--level", a.level)] {
+        if !(v.is_finite() && v.abs() <= 1e3) {
+            return Err(CliError::Usage(format!(
+                "{name} {v}: must be finite, at most 1000"
+            )));
+        }
+    }
+    if a.shell
+        .is_some_and(|t| !(t.is_finite() && t > 0.0 && t <= 1e3))
+    {
+        return Err(CliError::Usage("--shell: a thickness in (0, 1000]".into()));
+    }
+    let mut outputs = Outputs::new(global.force).input(&a.image).input(&a.on);
+    outputs.check_path(&a.output)?;
+    let text = caoen::budget::read_to_string(&a.on).map_err(|e| CliError::io(&a.on, e))?;
+    let on: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| CliError::Failed(format!("{}: not JSON: {e}", a.on.display())))?;
+    if on["format"] != FREP_FORMAT {
+        return Err(CliError::Failed(format!(
+            "{}: --on takes an F-rep model file (format `{FREP_FORMAT}`)",
+            a.on.display()
+        )));
+    }
+    // The base model as a scene object first: its errors are reported as such, and
+    // its bounds are needed for the shell.
+    let base_dir = a.on.parent().map(Path::to_path_buf).unwrap_or_default();
+    let scene = load(&a.on)?;
+    let Some(Shape::Field { node, bounds }) = scene.objects.first().map(|o| &o.shape) else {
+        return Err(CliError::Failed(format!(
+            "{}: no F-rep model",
+            a.on.display()
+        )));
+    };
+    let image = std::fs::canonicalize(&a.image).map_err(|e| CliError::io(&a.image, e))?;
+    let image = image.to_string_lossy();
+    let mut model = on.clone();
+    let base = on["model"].clone();
+    model["model"] = match what {
+        PictureUse::Relief => json!({
+            "relief": base, "image": image, "projection": a.projection, "depth": a.depth,
+            "interp": "bicubic"
+        }),
+        PictureUse::Carve => {
+            let body = match a.shell {
+                None => base,
+                Some(t) => {
+                    // The wall: the model minus itself moved inwards by t (in the
+                    // function's units, t times its gradient near the surface).
+                    let g = caoen::frep::node::mean_surface_gradient(node, bounds);
+                    json!({"difference": [base.clone(), {"offset": base, "by": -t * g}], "a": 1.0})
+                }
+            };
+            let mut pattern = json!({"image": image, "projection": a.projection, "level": a.level});
+            if a.projection == "planar" {
+                pattern["rect"] = json!([bounds.lo[0], bounds.lo[1], bounds.hi[0], bounds.hi[1]]);
+            } else if a.projection == "cylindrical" {
+                pattern["rect"] = json!([
+                    -std::f64::consts::PI,
+                    bounds.lo[2],
+                    std::f64::consts::PI,
+                    bounds.hi[2]
+                ]);
+            }
+            json!({"intersection": [body, {"pattern": pattern}], "a": 1.0})
+        }
+    };
+    if model.get("bounds").is_none() && what == PictureUse::Carve {
+        model["bounds"] = json!({"min": bounds.lo, "max": bounds.hi});
+    }
+    if let Some(n) = on["name"].as_str() {
+        model["name"] = json!(format!(
+            "{n}, {}",
+            if what == PictureUse::Relief {
+                "relief"
+            } else {
+                "carved"
+            }
+        ));
+    }
+    write_model(
+        global, &outputs, &model, &a.output, &a.size, a.samples, &base_dir,
+    )
 }

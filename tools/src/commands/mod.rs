@@ -64,6 +64,8 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Transfer(args) => texture::transfer(&global, &args),
         Command::Frep(cmd) => frep::run(&global, cmd),
         Command::Heightfield(args) => frep::heightfield(&global, &args),
+        Command::Relief(args) => frep::picture(&global, &args, frep::PictureUse::Relief),
+        Command::Carve(args) => frep::picture(&global, &args, frep::PictureUse::Carve),
     }
 }
 

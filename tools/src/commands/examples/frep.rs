@@ -66,5 +66,68 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     for (i, t) in tiles.iter().enumerate() {
         row.blit(t, 320 * i as u32, 0);
     }
-    save_png(global, &sub, "heightfield.png", &row)
+    save_png(global, &sub, "heightfield.png", &row)?;
+
+    // Lattice carving: a diagonal lattice (antialiased bars) swept around the z axis
+    // through the wall of a superellipsoid cup, open at the top; and relief: the
+    // distort example's scene raised on a ball. What `caoen carve lattice.png --on ...
+    // --projection cylindrical --shell 0.05` and `caoen relief ../distort/input.png --on
+    // ... --depth 0.06` write, with the images named relative to examples/frep.
+    write_lattice(&sub.join("lattice.png"))?;
+    let cup = serde_json::json!({"difference": [
+        {"superellipsoid": {"radii": [0.6, 0.6, 0.8], "exponents": [0.3, 1.0]}},
+        {"superellipsoid": {"radii": [0.55, 0.55, 0.75], "exponents": [0.3, 1.0]}},
+        {"half_space": {"point": [0.0, 0.0, 0.55], "normal": [0.0, 0.0, -1.0]}}
+    ], "a": 1.0});
+    save_json(
+        &sub,
+        "lattice.json",
+        &serde_json::json!({
+            "format": "caoen-frep/1", "name": "lattice cup",
+            "model": {"intersection": [cup, {"pattern": {"image": "lattice.png", "projection": "cylindrical",
+                "rect": [-std::f64::consts::PI, -0.8, std::f64::consts::PI, 0.8], "level": 0.5, "interp": "bicubic"}}], "a": 1.0},
+            "bounds": {"min": [-0.61, -0.61, -0.81], "max": [0.61, 0.61, 0.81]},
+            "material": {"colour": [0.75, 0.6, 0.4], "specular": 0.3},
+            "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 1.1]}
+        }),
+    )?;
+    save_json(
+        &sub,
+        "relief.json",
+        &serde_json::json!({
+            "format": "caoen-frep/1", "name": "relief on a ball",
+            "model": {"relief": {"sphere": {"radius": 1.0}}, "image": "../distort/input.png",
+                      "projection": "spherical", "depth": 0.06, "interp": "bicubic"},
+            "material": {"colour": [0.85, 0.82, 0.78]},
+            "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.5]}
+        }),
+    )?;
+    let mut pair = caoen::render::framebuffer::RgbImage::filled(640, 240, [1.0; 3]);
+    for (k, name) in ["lattice.json", "relief.json"].into_iter().enumerate() {
+        let scene = crate::commands::frep::load(&sub.join(name))?;
+        let r = render(&scene, &opts(320, 240, n, Method::Ray), &|_, _| {})?;
+        pair.blit(&r.image, 320 * k as u32, 0);
+    }
+    save_png(global, &sub, "carving.png", &pair)
+}
+
+/// A diagonal lattice, 512x256 grey: bright bars (kept by carving) with soft edges,
+/// 12 cells around and 4 up.
+fn write_lattice(path: &Path) -> CliResult {
+    let (w, h) = (512u32, 256u32);
+    let img = image::GrayImage::from_fn(w, h, |i, j| {
+        let (u, v) = (
+            (i as f64 + 0.5) / w as f64 * 12.0,
+            (j as f64 + 0.5) / h as f64 * 4.0,
+        );
+        let bar = |t: f64| (t - t.floor() - 0.5).abs();
+        let d = bar(u + v).min(bar(u - v));
+        // Bars 0.24 wide with a smooth edge a pixel or two wide.
+        let t = ((0.12 - d) / 0.02).clamp(-1.0, 1.0);
+        image::Luma([(127.5 + 127.5 * t).round() as u8])
+    });
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))?;
+    replace_file(path, &png)
 }
