@@ -86,6 +86,12 @@ fn zoo() -> Vec<Node> {
             json!({"blend_intersection": [sphere.clone(), boxy.clone()], "a0": -0.2, "a1": 0.5, "a2": 0.5}),
         ),
         node(json!({"offset": sphere.clone(), "by": 0.1})),
+        node(
+            json!({"cao_en_solid": {"polyhedron": "dodecahedron", "radius": 0.8, "q": 12.0, "level": 2.0}}),
+        ),
+        node(
+            json!({"difference": [{"cao_en_solid": {"polyhedron": "cube", "radius": 0.7, "q": 8.0, "blend": "power"}}, sphere.clone()], "a": 1.0}),
+        ),
         node(json!({"perturb": sphere.clone(), "patches": [
             {"bump": {"centre": [0.6, 0.0, 0.3], "radius": 0.5, "height": 0.4}},
             {"quadric": [-1.0, -2.0, -1.5, 0.2, 0.0, 0.1, 0.0, 0.3, 0.0, 0.2], "factor": -0.5}
@@ -428,7 +434,20 @@ fn pov_ray_renders_the_exported_model() {
         .to_string(),
     )
     .unwrap();
-    for model in [blend_model(&dir), bumps] {
+    let solid = dir.join("cao-en.json");
+    std::fs::write(
+        &solid,
+        json!({
+            "format": "caoen-frep/1", "name": "Cao En solid blended with a torus",
+            "model": {"blend_union": [
+                {"cao_en_solid": {"polyhedron": "dodecahedron", "radius": 0.8, "q": 12.0, "level": 2.0}},
+                {"torus": {"major": 0.9, "minor": 0.15}}], "a0": 0.5, "a1": 0.5, "a2": 0.3},
+            "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.7, 1.0]}
+        })
+        .to_string(),
+    )
+    .unwrap();
+    for model in [blend_model(&dir), bumps, solid] {
         let stem = model.file_stem().unwrap().to_string_lossy().to_string();
         let (pov, ours, theirs) = (
             dir.join(format!("{stem}.pov")),

@@ -499,7 +499,8 @@ fn get<'a>(
     })
 }
 
-const PRIMITIVES: [&str; 9] = [
+const PRIMITIVES: [&str; 10] = [
+    "cao_en_solid",
     "height_map",
     "sphere",
     "box",
@@ -569,6 +570,19 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
         };
         let prim = match kind.as_str() {
             "height_map" => return height_map(body, &here, count.base_dir).map(Node::HeightMap),
+            "cao_en_solid" => {
+                let solid =
+                    crate::render::scene::convex_solid_from_json(body, &here).map_err(|e| {
+                        // The scene's message starts with the path already.
+                        let text = e.to_string();
+                        let reason = text.strip_prefix(here.as_str()).unwrap_or(&text);
+                        ModelError {
+                            path: here.clone(),
+                            reason: reason.trim_start_matches([':', ' ']).to_string(),
+                        }
+                    })?;
+                Primitive::CaoEn(super::primitive::CaoEnSolid::new(&solid))
+            }
             "sphere" => {
                 let f = fields(body, &here, &["centre", "radius"])?;
                 Primitive::Sphere {

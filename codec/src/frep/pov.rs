@@ -117,6 +117,37 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
                 num(c[8]),
                 num(c[9])
             ),
+            Primitive::CaoEn(c) => {
+                use crate::surface::blend::COMPACT_SUPPORT_U;
+                use crate::surface::Blend;
+                let t = c.tracer();
+                let (x, y, z) = q(&t.centre());
+                let terms: Vec<String> = t
+                    .terms()
+                    .map(|(w, qq, b)| {
+                        let s = format!(
+                            "({}*{x} + {}*{y} + {}*{z})",
+                            num(w[0]),
+                            num(w[1]),
+                            num(w[2])
+                        );
+                        match b {
+                            Blend::Exponential => format!("exp({} * ({s} - 1))", num(qq)),
+                            Blend::Power => format!("pow(max({s}, 0), {})", num(qq)),
+                            Blend::Compact => format!(
+                                "pow(max(1 - {} * (1 - {s}) / {}, 0), 3)",
+                                num(qq),
+                                num(COMPACT_SUPPORT_U)
+                            ),
+                        }
+                    })
+                    .collect();
+                format!(
+                    "ln({} / max({}, 1e-300))",
+                    num(t.level()),
+                    terms.join(" + ")
+                )
+            }
             Primitive::Superellipsoid {
                 centre,
                 radii,

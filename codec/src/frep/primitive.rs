@@ -13,7 +13,41 @@
 //! | quadric | `a x^2 + b y^2 + c z^2 + d xy + e yz + f xz + g x + h y + i z + j` (no centre) |
 //! | superellipsoid | `1 - ((|q_x/a|^(2/e2) + |q_y/b|^(2/e2))^(e2/e1) + |q_z/c|^(2/e1))` (Barr) |
 
+use std::sync::Arc;
+
 use super::interval::{Aabb, Interval};
+use crate::render::raytrace::ImplicitTracer;
+
+/// A convex Cao En solid (the implicit form, formula 17) as an F-rep function:
+/// `ln(s / f(p))`, positive inside `f < s`. The logarithm makes the function nearly
+/// linear across the surface (the sum of exponentials grows exponentially outside).
+#[derive(Debug, Clone)]
+pub struct CaoEnSolid {
+    tracer: Arc<ImplicitTracer>,
+}
+
+impl PartialEq for CaoEnSolid {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.tracer, &other.tracer)
+    }
+}
+
+impl CaoEnSolid {
+    /// Wraps a convex solid.
+    pub fn new(solid: &crate::surface::ConvexSolid) -> Self {
+        CaoEnSolid {
+            tracer: Arc::new(ImplicitTracer::new(solid)),
+        }
+    }
+
+    /// The solid's implicit form.
+    pub fn tracer(&self) -> &ImplicitTracer {
+        &self.tracer
+    }
+}
+
+/// Smallest `f` the logarithm sees (the power and compact blends reach 0 inside).
+const TINY: f64 = 1e-300;
 
 /// One primitive.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,6 +105,8 @@ pub enum Primitive {
         /// `[a, b, c, d, e, f, g, h, i, j]`.
         coefficients: [f64; 10],
     },
+    /// A convex Cao En solid.
+    CaoEn(CaoEnSolid),
     /// Barr's superellipsoid.
     Superellipsoid {
         /// Centre.
@@ -196,6 +232,11 @@ impl Primitive {
                     ],
                 )
             }
+            Primitive::CaoEn(c) => {
+                let (f, g) = c.tracer.value_gradient(p);
+                let f = f.max(TINY);
+                ((c.tracer.level() / f).ln(), g.map(|v| -v / f))
+            }
             Primitive::Superellipsoid {
                 centre,
                 radii,
@@ -281,6 +322,12 @@ impl Primitive {
                     + z.scale(c[8])
                     + k(c[9])
             }
+            Primitive::CaoEn(c) => {
+                let (lo, hi) = c.tracer.value_bounds(b.lo, b.hi);
+                let l = c.tracer.level();
+                // ln(s / f) decreases in f.
+                Interval::new((l / hi.max(TINY)).ln(), (l / lo.max(TINY)).ln())
+            }
             Primitive::Superellipsoid {
                 centre,
                 radii,
@@ -322,6 +369,7 @@ impl Primitive {
             } => around(*centre, [major + minor, major + minor, *minor]),
             Primitive::HalfSpace { .. } | Primitive::Quadric { .. } => None,
             Primitive::Superellipsoid { centre, radii, .. } => around(*centre, *radii),
+            Primitive::CaoEn(c) => around(c.tracer.centre(), [c.tracer.bounding_radius(); 3]),
         }
     }
 }

@@ -125,6 +125,37 @@ impl ImplicitTracer {
             .sum()
     }
 
+    /// Bounds of `f` over the box `lo..hi`: every blend is non-decreasing in its
+    /// argument `w_i . (x - c)`, whose range over a box is exact.
+    pub fn value_bounds(&self, lo: [f64; 3], hi: [f64; 3]) -> (f64, f64) {
+        let (mut a, mut b) = (0.0, 0.0);
+        for ((w, &q), bl) in self.w.iter().zip(&self.q).zip(&self.blend) {
+            let (mut smin, mut smax) = (0.0, 0.0);
+            for k in 0..3 {
+                let (l, h) = (lo[k] - self.centre[k], hi[k] - self.centre[k]);
+                smin += (w[k] * l).min(w[k] * h);
+                smax += (w[k] * l).max(w[k] * h);
+            }
+            a += bl.value(smin, q);
+            b += bl.value(smax, q);
+        }
+        (a, b)
+    }
+
+    /// The solid's terms `(w_i, q_i, blend_i)` of `f(x) = sum_i F_i(w_i . (x - c))`.
+    pub fn terms(&self) -> impl Iterator<Item = ([f64; 3], f64, Blend)> + '_ {
+        self.w
+            .iter()
+            .zip(&self.q)
+            .zip(&self.blend)
+            .map(|((w, q), b)| (*w, *q, *b))
+    }
+
+    /// The level `s` of the surface `f = s`.
+    pub fn level(&self) -> f64 {
+        self.level
+    }
+
     /// `f(x)` and its gradient.
     pub fn value_gradient(&self, x: [f64; 3]) -> (f64, [f64; 3]) {
         let r = sub(x, self.centre);

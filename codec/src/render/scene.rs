@@ -762,6 +762,14 @@ fn default_level() -> f64 {
     2.0
 }
 
+/// A convex Cao En solid from its scene-file form (`{"polyhedron": ..., "q": ...}` or
+/// `{"planes": [...], ...}`, `docs/rendering.md`); `path` names it in errors.
+pub fn convex_solid_from_json(v: &serde_json::Value, path: &str) -> Result<ConvexSolid> {
+    let file: FileSolid = serde_json::from_value(v.clone())
+        .map_err(|e| RenderError::Scene(format!("{path}: {e}")))?;
+    file.resolve(path)
+}
+
 impl FileSolid {
     fn resolve(&self, path: &str) -> Result<ConvexSolid> {
         let centre = check_vec(&format!("{path}.centre"), self.centre.unwrap_or([0.0; 3]))?;
