@@ -223,3 +223,152 @@ fn an_error_names_the_bad_file_once() {
         assert_eq!(err.matches("junk.png").count(), 1, "{args:?}: {err}");
     }
 }
+
+/// Pixels of a PNG as 8-bit RGB.
+fn rgb8(p: &Path) -> image::RgbImage {
+    image::open(p).unwrap().to_rgb8()
+}
+
+fn psnr8(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+    let mse = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| (*x as f64 - *y as f64).powi(2))
+        .sum::<f64>()
+        / a.as_raw().len() as f64;
+    10.0 * (255.0 * 255.0 / mse).log10()
+}
+
+#[test]
+fn png_compression_levels_keep_the_pixels() {
+    let d = tmpdir("png-levels");
+    let png = d.join("scene.png");
+    caoen_corpus::generate(caoen_corpus::Class::Scene, 384, 256, 4)
+        .to_dynamic_image()
+        .save(&png)
+        .unwrap();
+    let cae = d.join("p.cae");
+    assert!(caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"])
+        .status
+        .success());
+    let mut sizes = Vec::new();
+    for level in ["fast", "default", "best"] {
+        let out = d.join(format!("{level}.png"));
+        let o = caoen(&[
+            "decode",
+            s(&cae),
+            "-o",
+            s(&out),
+            "--png-compression",
+            level,
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        sizes.push(std::fs::metadata(&out).unwrap().len());
+        assert_eq!(
+            rgb8(&out),
+            rgb8(&d.join("fast.png")),
+            "{level}: same pixels"
+        );
+        // The same bytes again (deterministic at every level).
+        let again = d.join(format!("{level}-again.png"));
+        assert!(caoen(&[
+            "decode",
+            s(&cae),
+            "-o",
+            s(&again),
+            "--png-compression",
+            level,
+            "--quiet",
+            "-j",
+            "1"
+        ])
+        .status
+        .success());
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            std::fs::read(&again).unwrap(),
+            "{level}"
+        );
+    }
+    println!("PNG sizes fast/default/best: {sizes:?}");
+    assert!(
+        sizes[2] < sizes[0],
+        "best compresses more than fast: {sizes:?}"
+    );
+    let o = caoen(&[
+        "decode",
+        s(&cae),
+        "-o",
+        s(&d.join("x.png")),
+        "--png-compression",
+        "max",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn supersampling_anti_aliases_downscaled_decodes() {
+    // At the coded size --supersample changes nothing (same bytes); at a quarter of the
+    // size, 2x2 samples per pixel come closer to the full-size decode box-filtered down
+    // than one sample per pixel.
+    let d = tmpdir("supersample");
+    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 384, 256, 4);
+    let png = d.join("scene.png");
+    img.to_dynamic_image().save(&png).unwrap();
+    let cae = d.join("scene.cae");
+    assert!(
+        caoen(&["encode", s(&png), "-o", s(&cae), "-q", "90", "--quiet"])
+            .status
+            .success()
+    );
+    let dec = |name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut args = vec!["decode", s(&cae), "-o", s(&out), "--quiet"];
+        args.extend(extra);
+        let o = caoen(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        out
+    };
+    let plain = dec("plain.png", &[]);
+    let s2 = dec("s2.png", &["--supersample", "2"]);
+    assert_eq!(std::fs::read(&plain).unwrap(), std::fs::read(&s2).unwrap());
+    // The reference: the full-size decode averaged over 4x4 blocks in linear light.
+    let full = rgb8(&plain);
+    let lin = |v: u8| {
+        let c = v as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let enc = |l: f64| {
+        let c = if l <= 0.0031308 {
+            l * 12.92
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        };
+        (c * 255.0).round().clamp(0.0, 255.0) as u8
+    };
+    let reference = image::RgbImage::from_fn(96, 64, |x, y| {
+        let mut sum = [0.0; 3];
+        for j in 0..4 {
+            for i in 0..4 {
+                let p = full.get_pixel(4 * x + i, 4 * y + j);
+                for k in 0..3 {
+                    sum[k] += lin(p[k]);
+                }
+            }
+        }
+        image::Rgb(sum.map(|v| enc(v / 16.0)))
+    });
+    let one = psnr8(&reference, &rgb8(&dec("q1.png", &["--scale", "0.25"])));
+    let two = psnr8(
+        &reference,
+        &rgb8(&dec("q2.png", &["--scale", "0.25", "--supersample", "2"])),
+    );
+    println!("quarter-size decode against the box-filtered full decode: S=1 {one:.2} dB, S=2 {two:.2} dB");
+    assert!(two > one + 1.0, "S=1 {one:.2} dB, S=2 {two:.2} dB");
+}

@@ -604,11 +604,20 @@ fn interleave<T>(raster: &Raster, f: impl Fn(f32) -> T) -> Vec<T> {
     (0..n * ch).map(|j| f(s[(j % ch) * n + j / ch])).collect()
 }
 
-/// Encodes a raster as a file in memory.
+/// Encodes a raster as a file in memory (PNG at [`PngCompression::Fast`]).
 pub fn encode(raster: &Raster, format: OutputFormat) -> Result<Vec<u8>, ImageIoError> {
+    encode_with(raster, format, PngCompression::default())
+}
+
+/// Encodes a raster as a file in memory, PNG at the given compression.
+pub fn encode_with(
+    raster: &Raster,
+    format: OutputFormat,
+    png: PngCompression,
+) -> Result<Vec<u8>, ImageIoError> {
     let mem = Path::new("<memory>");
     match format {
-        OutputFormat::Png8 | OutputFormat::Png16 => encode_png(raster, format, mem),
+        OutputFormat::Png8 | OutputFormat::Png16 => encode_png(raster, format, mem, png),
         OutputFormat::Exr => exr_io::write_exr(raster, mem),
     }
 }
@@ -629,7 +638,12 @@ pub fn encode_memory(width: u32, height: u32, channels: usize, format: OutputFor
     )
 }
 
-fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<u8>, ImageIoError> {
+fn encode_png(
+    raster: &Raster,
+    format: OutputFormat,
+    path: &Path,
+    level: PngCompression,
+) -> Result<Vec<u8>, ImageIoError> {
     let sixteen = format == OutputFormat::Png16;
     let color = png_colour(raster.layout(), sixteen);
     let bytes: Vec<u8> = if sixteen {
@@ -641,7 +655,7 @@ fn encode_png(raster: &Raster, format: OutputFormat, path: &Path) -> Result<Vec<
     } else {
         interleave(raster, |v| quantise(v, 255.0) as u8)
     };
-    write_png(&bytes, raster.width(), raster.height(), color, path)
+    write_png(&bytes, raster.width(), raster.height(), color, path, level)
 }
 
 /// The PNG colour type of a layout at 8 or 16 bits.
@@ -659,18 +673,48 @@ fn png_colour(layout: ChannelLayout, sixteen: bool) -> image::ExtendedColorType 
     }
 }
 
+/// How hard the PNG writer compresses: speed against file size. Every level is
+/// deterministic (single-threaded, fixed settings: the same samples give the same bytes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PngCompression {
+    /// A fast deflate (about as fast as the decode itself); files somewhat larger.
+    #[default]
+    Fast,
+    /// zlib's default level with adaptive filtering.
+    Default,
+    /// The smallest files, slowest.
+    Best,
+}
+
+impl PngCompression {
+    /// Parses `fast`, `default` or `best`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "fast" => Some(PngCompression::Fast),
+            "default" => Some(PngCompression::Default),
+            "best" => Some(PngCompression::Best),
+            _ => None,
+        }
+    }
+}
+
 fn write_png(
     bytes: &[u8],
     width: u32,
     height: u32,
     color: image::ExtendedColorType,
     path: &Path,
+    level: PngCompression,
 ) -> Result<Vec<u8>, ImageIoError> {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     use image::ImageEncoder;
     let mut out = Vec::new();
-    // Single-threaded, fixed settings: the same samples always give the same bytes.
-    PngEncoder::new_with_quality(&mut out, CompressionType::Default, FilterType::Adaptive)
+    let (c, f) = match level {
+        PngCompression::Fast => (CompressionType::Fast, FilterType::Adaptive),
+        PngCompression::Default => (CompressionType::Default, FilterType::Adaptive),
+        PngCompression::Best => (CompressionType::Best, FilterType::Adaptive),
+    };
+    PngEncoder::new_with_quality(&mut out, c, f)
         .write_image(bytes, width, height, color)
         .map_err(|e| ImageIoError::Corrupt {
             path: path.to_path_buf(),
@@ -680,19 +724,21 @@ fn write_png(
 }
 
 /// Encodes interleaved integer samples (from [`crate::codec::decoder::decode_interleaved`])
-/// as a PNG file in memory: the same bytes as [`encode`] of the equivalent raster.
+/// as a PNG file in memory: the same bytes as [`encode_with`] of the equivalent raster
+/// at the same compression.
 pub fn encode_png_interleaved(
     image: &crate::codec::decoder::Interleaved,
+    level: PngCompression,
 ) -> Result<Vec<u8>, ImageIoError> {
     use crate::codec::decoder::Samples;
     let sixteen = matches!(image.samples, Samples::U16(_));
     let color = png_colour(image.layout, sixteen);
     let mem = Path::new("<memory>");
     match &image.samples {
-        Samples::U8(b) => write_png(b, image.width, image.height, color, mem),
+        Samples::U8(b) => write_png(b, image.width, image.height, color, mem, level),
         Samples::U16(s) => {
             let bytes: Vec<u8> = s.iter().flat_map(|v| v.to_ne_bytes()).collect();
-            write_png(&bytes, image.width, image.height, color, mem)
+            write_png(&bytes, image.width, image.height, color, mem, level)
         }
     }
 }
@@ -711,7 +757,9 @@ pub fn save(raster: &Raster, path: &Path) -> Result<(), ImageIoError> {
 /// Writes a raster in an explicit format, whatever the path's extension.
 pub fn save_as(raster: &Raster, path: &Path, format: OutputFormat) -> Result<(), ImageIoError> {
     let bytes = match format {
-        OutputFormat::Png8 | OutputFormat::Png16 => encode_png(raster, format, path)?,
+        OutputFormat::Png8 | OutputFormat::Png16 => {
+            encode_png(raster, format, path, PngCompression::default())?
+        }
         OutputFormat::Exr => exr_io::write_exr(raster, path)?,
     };
     std::fs::write(path, bytes).map_err(|source| ImageIoError::Io {

@@ -198,10 +198,12 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         outputs.check(t)?;
     }
     // PNG output from the identity path is decoded straight to its integer samples,
-    // with no full-size float raster.
-    let depth = match (&target, a.supersample, format) {
-        (Some(_), None, image_io::OutputFormat::Png8) => Some(decoder::Depth::Eight),
-        (Some(_), None, image_io::OutputFormat::Png16) => Some(decoder::Depth::Sixteen),
+    // with no full-size float raster. Supersampling at the coded size is the identity
+    // (the decoder skips it), so it takes this path too.
+    let identity = a.supersample.is_none() || size.is_none_or(|s| s == (w, h));
+    let depth = match (&target, identity, format) {
+        (Some(_), true, image_io::OutputFormat::Png8) => Some(decoder::Depth::Eight),
+        (Some(_), true, image_io::OutputFormat::Png16) => Some(decoder::Depth::Sixteen),
         _ => None,
     };
     // The whole job against the budget before any of it starts: the decode and the
@@ -227,19 +229,26 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         };
     caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
+    let png = image_io::PngCompression::parse(&a.png_compression).expect("clap checked it");
     let start = Instant::now();
     let (encoded, (iw, ih)) = match depth {
         Some(d) => {
+            let opts = DecodeOptions {
+                supersample: None,
+                ..opts
+            };
             let img = decoder::decode_interleaved(&bytes, &opts, d)
                 .map_err(|e| codec_err(&a.input, e))?;
             let size = (img.width, img.height);
-            (Some(image_io::encode_png_interleaved(&img)), size)
+            (Some(image_io::encode_png_interleaved(&img, png)), size)
         }
         None => {
             let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
             let size = (img.width(), img.height());
             (
-                target.as_ref().map(|_| image_io::encode(&img, format)),
+                target
+                    .as_ref()
+                    .map(|_| image_io::encode_with(&img, format, png)),
                 size,
             )
         }
