@@ -78,10 +78,44 @@ pub enum Command {
     Frep(FrepCommand),
     /// A height map from an image on a plane, ellipsoid or cylinder (an F-rep model).
     Heightfield(HeightfieldArgs),
+    /// Morph between two surfaces (key points paired, the shorter padded with empty
+    /// ones) and render the frames: a folder of PNGs, an animated GIF or PNG.
+    Morph(MorphArgs),
     /// Raise an image's grey levels as relief on an F-rep model (along its normal).
     Relief(PictureArgs),
     /// Carve an F-rep model with an image's pattern swept through it (lattice carving).
     Carve(PictureArgs),
+}
+
+/// `caoen morph`.
+#[derive(Debug, Args)]
+pub struct MorphArgs {
+    /// The first surface (file or builtin:NAME).
+    pub a: String,
+    /// The last surface (same domain).
+    pub b: String,
+    /// Number of frames, the first A and the last B.
+    #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u32).range(2..=1000))]
+    pub frames: u32,
+    /// Output: a folder (frame-000.png, ... and contact.png), anim.gif, or anim.png
+    /// (animated PNG).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Frame size WIDTHxHEIGHT.
+    #[arg(long, default_value = "320x240")]
+    pub size: String,
+    /// Supersampling: N x N samples per pixel.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub samples: u32,
+    /// Tessellation level of the meshes.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(0..=9))]
+    pub detail: u32,
+    /// Time per frame of an animation, in milliseconds.
+    #[arg(long, default_value_t = 80, value_parser = clap::value_parser!(u32).range(10..=10000))]
+    pub delay: u32,
+    /// Print the frame count and the camera as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `caoen relief` and `caoen carve`.

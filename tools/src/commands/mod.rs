@@ -16,6 +16,7 @@ pub mod compare;
 pub mod demo;
 pub mod examples;
 pub mod frep;
+pub mod morph;
 pub mod render;
 pub mod surface;
 pub mod texture;
@@ -64,6 +65,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Transfer(args) => texture::transfer(&global, &args),
         Command::Frep(cmd) => frep::run(&global, cmd),
         Command::Heightfield(args) => frep::heightfield(&global, &args),
+        Command::Morph(args) => morph::run(&global, &args),
         Command::Relief(args) => frep::picture(&global, &args, frep::PictureUse::Relief),
         Command::Carve(args) => frep::picture(&global, &args, frep::PictureUse::Carve),
     }

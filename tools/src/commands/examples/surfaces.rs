@@ -161,6 +161,25 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         "morph.png",
         &tile_grid(&frames, 5, 96, n, 3.0)?,
     )?;
+    // The same morph as an animation, by `caoen morph morph-a.json morph-b.json -o
+    // morph.gif --frames 12`.
+    crate::commands::morph::run(
+        &GlobalArgs {
+            force: true,
+            ..global.clone()
+        },
+        &crate::cli::MorphArgs {
+            a: dir.join("morph-a.json").to_string_lossy().into_owned(),
+            b: dir.join("morph-b.json").to_string_lossy().into_owned(),
+            frames: 12,
+            output: dir.join("morph.gif"),
+            size: "240x180".into(),
+            samples: n.min(2),
+            detail: 5,
+            delay: 100,
+            json: false,
+        },
+    )?;
 
     // 4. Convex implicit solids from polyhedra, ray traced: one alone, and a CSG of two.
     save_json(
