@@ -557,6 +557,12 @@ pub struct SurfaceRenderArgs {
     /// Texture image (PNG/JPEG) on the domain of a model (overrides the model's own).
     #[arg(long, value_name = "FILE")]
     pub texture: Option<PathBuf>,
+    /// How mesh vertices reach the screen: the exact camera, or the paper's camera
+    /// network (axis generators, exact for orthographic views; shape vectors projected
+    /// to the screen, an approximation, for perspective views). The network's distance
+    /// from the exact projection is printed.
+    #[arg(long, value_parser = ["exact", "network"], default_value = "exact")]
+    pub camera: String,
 }
 
 /// `caoen surface info`.

@@ -64,6 +64,10 @@ pub struct RenderOptions {
     pub ray_method: RayMethod,
     /// Marching-tetrahedra cells along the longest side of a solid's box (mesh method).
     pub polygonise_cells: usize,
+    /// Project mesh vertices through the paper's camera network (section 5) instead of
+    /// the exact camera: axis generators for an orthographic camera (exact), shape
+    /// vectors projected to the screen for a perspective one (an approximation).
+    pub network_camera: bool,
 }
 
 impl Default for RenderOptions {
@@ -78,12 +82,13 @@ impl Default for RenderOptions {
             depth: DepthBufferOptions::default(),
             ray_method: RayMethod::Fast,
             polygonise_cells: 128,
+            network_camera: false,
         }
     }
 }
 
 /// Counters of one render.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RenderStats {
     /// Triangles rasterised.
     pub triangles: usize,
@@ -93,6 +98,9 @@ pub struct RenderStats {
     pub unresolved: usize,
     /// Rays traced against solids.
     pub rays: usize,
+    /// With the network camera: how far its projected vertices lie from the exact
+    /// camera's, in output pixels, `[max, mean]`.
+    pub projection_error: Option<[f64; 2]>,
 }
 
 /// A finished render.
@@ -151,6 +159,12 @@ fn check(opts: &RenderOptions) -> Result<()> {
         return Err(RenderError::parameter(
             "polygonise cells",
             "must be in 4..=1024",
+        ));
+    }
+    if opts.network_camera && opts.method != Method::Mesh {
+        return Err(RenderError::parameter(
+            "camera",
+            "the network camera projects mesh vertices: use the mesh method",
         ));
     }
     Ok(())
@@ -216,6 +230,8 @@ fn draw(
     )?;
     let mut buf = GBuffer::new(camera.width, camera.height);
     let mut stats = RenderStats::default();
+    // Network camera: largest distance, their sum and the vertex count.
+    let mut network_error = [0.0f64; 3];
     for (oi, obj) in scene.objects.iter().enumerate() {
         let id = oi as u32;
         match (&obj.shape, opts.method) {
@@ -229,6 +245,14 @@ fn draw(
             ) => {
                 let mut mesh = tessellate(model, detail.unwrap_or(opts.mesh_detail), opts.normals)?;
                 place_mesh(&mut mesh, place);
+                if opts.network_camera {
+                    let [max, sum, count] = network_projection(&mut mesh, model, place, camera)?;
+                    network_error = [
+                        network_error[0].max(max),
+                        network_error[1] + sum,
+                        network_error[2] + count,
+                    ];
+                }
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
             }
@@ -278,7 +302,95 @@ fn draw(
         }
         prog.next();
     }
+    if opts.network_camera {
+        // Camera pixels per output pixel (supersampling).
+        let per = f64::from(camera.width) / f64::from(opts.width);
+        let [max, sum, count] = network_error;
+        stats.projection_error = Some([max / per, sum / count.max(1.0) / per]);
+    }
     Ok((buf, stats))
+}
+
+/// Moves every vertex of a placed mesh to where the paper's camera network puts it on
+/// the screen (keeping its depth and normal) and returns `[max, sum, count]` of the
+/// distances, in camera pixels, from where the exact camera puts it.
+fn network_projection(
+    mesh: &mut Mesh,
+    model: &SurfaceModel,
+    place: &super::transform::Affine,
+    camera: &Camera,
+) -> Result<[f64; 3]> {
+    use super::camera::Projection;
+    use crate::surface::projection::{axis_generators, PerspectiveCamera};
+    let net = &model.network;
+    if net.output_dim() != 3 {
+        return Err(RenderError::parameter(
+            "network camera",
+            "needs a surface with 3-D output",
+        ));
+    }
+    // Placed shape vectors: an affine map commutes with a normalised network's convex
+    // combination, so the placed network is the placed surface.
+    let net = if place.is_identity() {
+        net.clone()
+    } else {
+        if !net.is_normalised() {
+            return Err(RenderError::parameter(
+                "network camera",
+                "a placed (transformed) surface must be normalised to move its shape vectors",
+            ));
+        }
+        let shapes = net
+            .shapes()
+            .chunks_exact(3)
+            .flat_map(|t| place.point([t[0], t[1], t[2]]))
+            .collect();
+        net.with_shapes(3, shapes)?
+    };
+    let domain: Vec<f64> = mesh.domain_points.iter().flatten().copied().collect();
+    let mut moved = Vec::with_capacity(mesh.positions.len());
+    match camera.projection {
+        Projection::Perspective { .. } => {
+            let f = camera.pixel_scale();
+            let cam = PerspectiveCamera {
+                eye: camera.eye,
+                forward: camera.forward,
+                right: camera.right,
+                up: camera.up,
+                focal: f,
+            };
+            let out = cam.approximate_network(&net)?.eval_batch(&domain)?;
+            for s in out.chunks_exact(3) {
+                let (u, v, d) = (s[0], s[1], s[2]);
+                moved.push([0, 1, 2].map(|k| {
+                    camera.eye[k]
+                        + d * camera.forward[k]
+                        + u * d / f * camera.right[k]
+                        + v * d / f * camera.up[k]
+                }));
+            }
+        }
+        Projection::Orthographic { .. } => {
+            // Three generators, along the camera's axes (formulas 14-15): exact.
+            let axes: [&[f64]; 3] = [&camera.right, &camera.up, &camera.forward];
+            let out = axis_generators(&net, &axes)?.eval_batch(&domain)?;
+            for s in out.chunks_exact(3) {
+                moved.push([0, 1, 2].map(|k| {
+                    s[0] * camera.right[k] + s[1] * camera.up[k] + s[2] * camera.forward[k]
+                }));
+            }
+        }
+    }
+    let (mut max, mut sum) = (0.0f64, 0.0);
+    for (p, q) in mesh.positions.iter_mut().zip(moved) {
+        if let (Some(a), Some(b)) = (camera.project(*p), camera.project(q)) {
+            let e = (a[0] - b[0]).hypot(a[1] - b[1]);
+            max = max.max(e);
+            sum += e;
+        }
+        *p = q;
+    }
+    Ok([max, sum, mesh.positions.len() as f64])
 }
 
 /// Moves a mesh into the scene.

@@ -138,6 +138,7 @@ pub fn options(a: &SurfaceRenderArgs) -> CliResult<RenderOptions> {
             RayMethodArg::Paper => RayMethod::Paper,
             RayMethodArg::Fast => RayMethod::Fast,
         },
+        network_camera: a.camera == "network",
         ..RenderOptions::default()
     })
 }
@@ -204,6 +205,14 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
             s.rays
         ),
     );
+    if let Some([max, mean]) = s.projection_error {
+        note(
+            global,
+            format!(
+                "camera network: vertices within {max:.4} px of the exact projection (mean {mean:.4} px)"
+            ),
+        );
+    }
     if s.unresolved > 0 {
         note(
             global,
