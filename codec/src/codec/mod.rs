@@ -1,6 +1,7 @@
 //! The image codec (paper section 9): an image as a Cao En network whose outputs are
 //! `(x, y, colour)` points over a hypersphere domain. See `docs/format.md` for the
-//! bitstream and `shared/design/codec.md` for the model.
+//! bitstream and the reconstruction, `docs/codec-ablation.md` for the model's choices
+//! and what each measured.
 //!
 //! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
 

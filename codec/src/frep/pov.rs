@@ -191,13 +191,13 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         } => {
             let f1 = declare(&operands[0], out, next);
             let f2 = declare(&operands[1], out, next);
-            let helper = if *op == SetOp::Union {
+            let r_function = if *op == SetOp::Union {
                 "caoen_blend_union"
             } else {
                 "caoen_blend_intersection"
             };
             format!(
-                "{helper}({f1}(x, y, z), {f2}(x, y, z), {}, {}, {}, {})",
+                "{r_function}({f1}(x, y, z), {f2}(x, y, z), {}, {}, {}, {})",
                 num(*a),
                 num(*a0),
                 num(*a1),
@@ -244,9 +244,9 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
     name
 }
 
-/// The R-function helpers the exported functions call (`a = 1` is max/min exactly, as
+/// The R-functions the exported functions call (`a = 1` is max/min exactly, as
 /// in caoen).
-const HELPERS: &str = "\
+const R_FUNCTIONS: &str = "\
 #declare caoen_union = function(p, q, k) { select(k - 1, (p + q + sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), max(p, q)) }
 #declare caoen_intersection = function(p, q, k) { select(k - 1, (p + q - sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), min(p, q)) }
 #declare caoen_blend_union = function(p, q, k, b0, b1, b2) { caoen_union(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }
@@ -336,7 +336,7 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
             l.radiance[2]
         );
     }
-    out.push_str(HELPERS);
+    out.push_str(R_FUNCTIONS);
     let mut next = 0;
     for (i, obj) in scene.objects.iter().enumerate() {
         let Shape::Field { node, bounds } = &obj.shape else {

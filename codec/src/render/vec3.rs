@@ -1,4 +1,4 @@
-//! Small 3-vector helpers shared by the renderers (plain arrays keep the hot loops
+//! Small 3-vector operations shared by the renderers (plain arrays keep the hot loops
 //! free of any abstraction the optimiser would have to see through).
 
 pub(crate) type V3 = [f64; 3];

@@ -1,4 +1,4 @@
-//! Texture tools on Cao En networks (design section 9): image distortion by moving
+//! Texture tools on Cao En networks (paper section 9): image distortion by moving
 //! control points ([`warp`]) and texture transfer between surfaces sharing a domain
 //! ([`transfer`], with the solid textures of [`solid`] for its texture-space method).
 //! See `docs/texture.md`.

@@ -1,4 +1,4 @@
-//! Texture transfer between surfaces sharing a domain (design section 9, "Texture
+//! Texture transfer between surfaces sharing a domain (paper section 9, "Texture
 //! mapping"): a texture laid on surface A through A's domain parameterisation
 //! (equirectangular `(theta / 2pi, phi / pi)` on the sphere, `(t, f) / 2pi` on the
 //! torus) appears on B at the corresponding domain points, since B maps the same

@@ -1,5 +1,5 @@
 //! Image distortion by moving control points: a Cao En warp network over the image
-//! domain (design section 9, "Distortion").
+//! domain (paper section 9, "Distortion").
 //!
 //! The image is embedded on the unit sphere exactly as the codec embeds it
 //! ([`Frame::embed`], inverse stereographic projection), so the warp is a network
