@@ -5,21 +5,55 @@
 //!
 //! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
 
-pub mod analysis;
+//! Beside the facade, the CLI's tools need three stages: [`bitstream`] (the container,
+//! for `caoen info`), [`decoder`] (the decoded key points, for distortion and integer
+//! output) and [`keypoint_map`]. The other stages are the codec's internals: public only
+//! with the `internals` feature, for the fuzz targets and experiments.
+
 pub mod bitstream;
-pub mod colour;
 pub mod decoder;
-pub mod encoder;
-pub mod entropy;
 mod error;
-pub mod fit;
-pub mod geometry;
 pub mod keypoint_map;
-pub mod keyset;
-pub mod model;
-pub mod quadtree;
-pub mod rate_control;
-pub mod syntax;
+
+/// Declares the internal stages: public with the `internals` feature, else crate-private.
+macro_rules! stages {
+    ($($(#[$doc:meta])* $name:ident;)*) => {
+        $(
+            $(#[$doc])*
+            #[cfg(feature = "internals")]
+            pub mod $name;
+            $(#[$doc])*
+            #[cfg(not(feature = "internals"))]
+            #[allow(dead_code, unreachable_pub)]
+            pub(crate) mod $name;
+        )*
+    };
+}
+
+stages! {
+    /// Edge and per-scale detail maps that start the tree.
+    analysis;
+    /// Opponent colour transform and the HDR curve.
+    colour;
+    /// Quantisation and assembly of a file.
+    encoder;
+    /// Adaptive binary and multi-symbol models on the ANS coder; the bit counter.
+    entropy;
+    /// Ridge least squares by block conjugate gradients.
+    fit;
+    /// Pixels embedded on the sphere; sharpness for a footprint.
+    geometry;
+    /// Key-point sets: the network they stand for, and grid evaluation.
+    keyset;
+    /// Choosing the tree and fitting the colours.
+    model;
+    /// The adaptive quadtree.
+    quadtree;
+    /// Quality and effort mapping; the rate-target search.
+    rate_control;
+    /// Split flags and value residuals as coded symbols.
+    syntax;
+}
 
 pub use error::{CodecError, Tag};
 

@@ -13,6 +13,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
+#[cfg_attr(not(feature = "internals"), allow(unused_imports))]
 pub use grid::{has_vector_unit, BandScratch, Grid, GridEval, Vectorisation};
 
 use super::geometry::Frame;
