@@ -447,8 +447,17 @@ fn pov_ray_renders_the_exported_model() {
         .to_string(),
     )
     .unwrap();
-    for model in [blend_model(&dir), bumps, solid] {
+    // A picture-based model: the example height field on a cylinder, which POV-Ray
+    // reads from the same image (bilinear, as exported).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cylinder = root.join("examples/frep/heightfield-cylinder.json");
+    for model in [blend_model(&dir), bumps, solid, cylinder] {
         let stem = model.file_stem().unwrap().to_string_lossy().to_string();
+        // POV-Ray evaluates a picture through its pigment function, dozens of times
+        // slower: that model renders smaller and without antialiasing.
+        let picture = stem.starts_with("heightfield");
+        let (side, aa) = if picture { (192, "-A") } else { (512, "+A0.1") };
+        let size = format!("{side}x{side}");
         let (pov, ours, theirs) = (
             dir.join(format!("{stem}.pov")),
             dir.join(format!("{stem}-ours.png")),
@@ -461,25 +470,17 @@ fn pov_ray_renders_the_exported_model() {
             "-o",
             s(&pov),
             "--size",
-            "512x512",
+            &size,
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let o = caoen(&[
-            "frep",
-            "render",
-            s(&model),
-            "-o",
-            s(&ours),
-            "--size",
-            "512x512",
-        ]);
+        let o = caoen(&["frep", "render", s(&model), "-o", s(&ours), "--size", &size]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let o = std::process::Command::new("povray")
             .args([
                 &format!("+I{}", s(&pov)),
-                "+W512",
-                "+H512",
-                "+A0.1",
+                &format!("+W{side}"),
+                &format!("+H{side}"),
+                aa,
                 "-D",
                 "+FN",
                 &format!("+O{}", s(&theirs)),
@@ -508,7 +509,10 @@ fn pov_ray_renders_the_exported_model() {
         let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
         let iou = inter as f64 / union as f64;
         println!("{stem}: silhouette IoU caoen vs POV-Ray {iou:.4} ({union} pixels)");
-        assert!(union > 10_000 && iou >= 0.98, "{stem}: IoU {iou:.4}");
+        assert!(
+            union > side * side / 20 && iou >= 0.98,
+            "{stem}: IoU {iou:.4}"
+        );
     }
 }
 

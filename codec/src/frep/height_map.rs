@@ -124,6 +124,8 @@ pub struct HeightMap {
     threshold: f64,
     interp: Interp,
     samples: Arc<Samples>,
+    /// The image file the samples came from and the height of white, for exports.
+    source: Option<(std::path::PathBuf, f64)>,
 }
 
 /// Catmull-Rom weights and their derivatives at `t` in [0, 1].
@@ -176,7 +178,22 @@ impl HeightMap {
             threshold,
             interp,
             samples: Arc::new(Samples::new(width, height, values)),
+            source: None,
         })
+    }
+
+    /// The same map, remembering the image file it was read from and the height of
+    /// white (grey level 1), so an exporter can name the file instead of the samples.
+    pub fn with_source(self, path: std::path::PathBuf, scale: f64) -> Self {
+        HeightMap {
+            source: Some((path, scale)),
+            ..self
+        }
+    }
+
+    /// The image file and the height of white, if the map was read from a file.
+    pub fn source(&self) -> Option<(&std::path::Path, f64)> {
+        self.source.as_ref().map(|(p, s)| (p.as_path(), *s))
     }
 
     /// The sample grid's size.

@@ -910,11 +910,14 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
     let Some(image) = get(f, "image", here)?.as_str() else {
         return err(&format!("{here}.image"), "expected a file name");
     };
-    let (iw, ih, values) = grey_levels(&base_dir.join(image), &format!("{here}.image"), height)?;
-    HeightMap::new(base, rect, iw, ih, values, threshold, interp).map_err(|e| ModelError {
-        path: here.to_string(),
-        reason: e,
-    })
+    let file = base_dir.join(image);
+    let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), height)?;
+    HeightMap::new(base, rect, iw, ih, values, threshold, interp)
+        .map(|m| m.with_source(file, height))
+        .map_err(|e| ModelError {
+            path: here.to_string(),
+            reason: e,
+        })
 }
 
 /// One patch: `{"quadric": [10 coefficients], "factor": f}` or a bump
@@ -1061,11 +1064,14 @@ fn picture(
     let Some(image) = get(o, "image", here)?.as_str() else {
         return err(&format!("{here}.image"), "expected a file name");
     };
-    let (iw, ih, values) = grey_levels(&base_dir.join(image), &format!("{here}.image"), 1.0)?;
-    HeightMap::new(base, rect, iw, ih, values, f64::NEG_INFINITY, interp).map_err(|e| ModelError {
-        path: here.to_string(),
-        reason: e,
-    })
+    let file = base_dir.join(image);
+    let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), 1.0)?;
+    HeightMap::new(base, rect, iw, ih, values, f64::NEG_INFINITY, interp)
+        .map(|m| m.with_source(file, 1.0))
+        .map_err(|e| ModelError {
+            path: here.to_string(),
+            reason: e,
+        })
 }
 
 /// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.

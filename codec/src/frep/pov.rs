@@ -11,6 +11,7 @@
 
 use std::fmt::Write as _;
 
+use super::height_map::{Base, HeightMap};
 use super::interval::Aabb;
 use super::node::Node;
 use super::primitive::Primitive;
@@ -45,8 +46,18 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         )
     };
     let body = match node {
-        Node::HeightMap(_) | Node::Pattern { .. } | Node::Relief { .. } => {
-            unreachable!("export refuses pictures before declaring")
+        Node::HeightMap(m) => {
+            let (h, base) = picture(m, out, next);
+            format!("{base} + {h}")
+        }
+        Node::Pattern { map, level } => {
+            let (h, _) = picture(map, out, next);
+            format!("{h} - {}", num(*level))
+        }
+        Node::Relief { base, map, gain } => {
+            let f = declare(base, out, next);
+            let (h, _) = picture(map, out, next);
+            format!("{f}(x, y, z) + {} * {h}", num(*gain))
         }
         Node::Primitive(p) => match p {
             Primitive::Sphere { centre, radius } => {
@@ -244,6 +255,85 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
     name
 }
 
+/// Declares a picture's image as a pigment function and returns the expression of its
+/// thresholded height at `(x, y, z)` (caoen's axes) and of its base solid. The image is
+/// read by POV-Ray itself (bilinear, `interpolate 2`, raw grey levels with `gamma 1`);
+/// a bicubic map is exported bilinear. caoen's samples sit on the rectangle's corners,
+/// POV-Ray's at pixel centres: the coordinates are mapped so the samples coincide.
+fn picture(m: &HeightMap, out: &mut String, next: &mut usize) -> (String, String) {
+    let name = format!("caoen_image{}", *next);
+    *next += 1;
+    let (path, scale) = m.source().expect("checked by unexportable");
+    let (base, [u0, v0, u1, v1], threshold, _) = m.parts();
+    let (w, h) = m.size();
+    let kind = image_kind(path).expect("checked by unexportable");
+    // An absolute path: the scene file may be rendered from anywhere.
+    let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    let _ = writeln!(
+        out,
+        "#declare {name} = function {{ pigment {{ image_map {{ {kind} \"{}\" gamma 1.0 interpolate 2 once }} }} }}",
+        path.display()
+    );
+    let (u, v, g) = match base {
+        Base::Plane => ("x".to_string(), "y".to_string(), "-z".to_string()),
+        Base::Cylinder(r) => (
+            "atan2(y, x)".to_string(),
+            "z".to_string(),
+            format!("1 - (x*x + y*y) / {}", num(r * r)),
+        ),
+        Base::Ellipsoid([a, b, c]) => {
+            let (xx, yy, zz) = (
+                format!("(x / {})", num(a)),
+                format!("(y / {})", num(b)),
+                format!("(z / {})", num(c)),
+            );
+            (
+                format!("atan2({yy}, {xx})"),
+                format!("atan2({zz}, sqrt({xx}*{xx} + {yy}*{yy}))"),
+                format!("1 - ({xx}*{xx} + {yy}*{yy} + {zz}*{zz})"),
+            )
+        }
+    };
+    let un = format!("(({u}) - {}) / {}", num(u0), num(u1 - u0));
+    let vn = format!("(({v}) - {}) / {}", num(v0), num(v1 - v0));
+    // Sample i of w at u = i / (w - 1) is POV-Ray's pixel centre (i + 0.5) / w.
+    let px = format!(
+        "(({un}) * {} + 0.5) / {}",
+        num((w - 1) as f64),
+        num(w as f64)
+    );
+    let py = format!(
+        "(({vn}) * {} + 0.5) / {}",
+        num((h - 1) as f64),
+        num(h as f64)
+    );
+    let grey = format!(
+        "(({name}({px}, {py}, 0).red + {name}({px}, {py}, 0).green + {name}({px}, {py}, 0).blue) / 3)"
+    );
+    let inside =
+        format!("select({un}, 0, select(1 - {un}, 0, select({vn}, 0, select(1 - {vn}, 0, 1))))");
+    let height = format!("({} * {grey} * {inside})", num(scale));
+    let thresholded = if threshold == f64::NEG_INFINITY {
+        height
+    } else {
+        format!("select({height} - {}, 0, {height})", num(threshold))
+    };
+    (format!("({thresholded})"), format!("({g})"))
+}
+
+/// The image_map file type POV-Ray reads for a file, by its extension.
+fn image_kind(path: &std::path::Path) -> Option<&'static str> {
+    let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+    match ext.as_str() {
+        "png" => Some("png"),
+        "jpg" | "jpeg" => Some("jpeg"),
+        "gif" => Some("gif"),
+        "tif" | "tiff" => Some("tiff"),
+        "ppm" | "pgm" => Some("ppm"),
+        _ => None,
+    }
+}
+
 /// The R-functions the exported functions call (`a = 1` is max/min exactly, as
 /// in caoen).
 const R_FUNCTIONS: &str = "\
@@ -345,11 +435,8 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
                 obj.name
             ));
         };
-        if has_height_map(node) {
-            return Err(format!(
-                "object {i} (`{}`) holds a height map, pattern or relief (a picture), which the POV-Ray export does not write",
-                obj.name
-            ));
+        if let Some(why) = unexportable(node) {
+            return Err(format!("object {i} (`{}`): {why}", obj.name));
         }
         let top = declare(node, &mut out, &mut next);
         // A little margin so the container never clips the surface.
@@ -374,13 +461,23 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
     Ok(out)
 }
 
-fn has_height_map(node: &Node) -> bool {
+/// Why a node cannot be exported, if it cannot: a picture POV-Ray cannot read.
+fn unexportable(node: &Node) -> Option<String> {
+    let map = |m: &HeightMap| match m.source() {
+        None => Some("a picture built in memory has no file for POV-Ray to read".to_string()),
+        Some((p, _)) if image_kind(p).is_none() => Some(format!(
+            "POV-Ray does not read {} (PNG, JPEG, GIF, TIFF, PPM)",
+            p.display()
+        )),
+        Some(_) => None,
+    };
     match node {
-        Node::HeightMap(_) | Node::Pattern { .. } | Node::Relief { .. } => true,
-        Node::Primitive(_) => false,
-        Node::SetOp { operands, .. } => operands.iter().any(has_height_map),
-        Node::Blend { operands, .. } => operands.iter().any(has_height_map),
-        Node::Perturb { base, .. } => has_height_map(base),
-        Node::Offset { operand, .. } | Node::Transform { operand, .. } => has_height_map(operand),
+        Node::HeightMap(m) | Node::Pattern { map: m, .. } => map(m),
+        Node::Relief { base, map: m, .. } => map(m).or_else(|| unexportable(base)),
+        Node::Primitive(_) => None,
+        Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),
+        Node::Blend { operands, .. } => operands.iter().find_map(unexportable),
+        Node::Perturb { base, .. } => unexportable(base),
+        Node::Offset { operand, .. } | Node::Transform { operand, .. } => unexportable(operand),
     }
 }
