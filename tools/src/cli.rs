@@ -136,7 +136,7 @@ pub struct PictureArgs {
     #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
     pub depth: f64,
     /// Carve: the grey level between kept (brighter) and cut away.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
     pub level: f64,
     /// Carve: hollow the model first, leaving a wall this thick (lattice carving).
     #[arg(long)]
@@ -171,11 +171,11 @@ pub struct HeightfieldArgs {
     /// Base solid.
     #[arg(long, value_enum, default_value_t = HeightBaseArg::Plane)]
     pub base: HeightBaseArg,
-    /// Height of a white pixel.
-    #[arg(long, default_value_t = 0.25)]
+    /// Height of a white pixel (negative engraves).
+    #[arg(long, default_value_t = 0.25, allow_hyphen_values = true)]
     pub height: f64,
     /// Keep only heights at or above T (the rest is 0): a non-rectangular outline.
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", allow_hyphen_values = true)]
     pub threshold: Option<f64>,
     /// Interpolation between samples.
     #[arg(long, value_parser = ["bilinear", "bicubic"], default_value = "bicubic")]

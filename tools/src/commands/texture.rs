@@ -286,6 +286,16 @@ fn solid_texture(a: &crate::cli::TransferArgs) -> CliResult<caoen::texture::soli
     Solid::procedural(&a.solid, a.scale, colours).map_err(|e| CliError::Usage(e.to_string()))
 }
 
+/// The baked texture against the memory budget: per texel, the linear-light image, its
+/// PNG and the same texture loaded back for rendering with its mip pyramid.
+fn check_bake(width: u32, height: u32) -> CliResult {
+    caoen::budget::check(
+        || format!("baking a {width}x{height} texture"),
+        caoen::budget::bytes(u64::from(width), u64::from(height), 12 + 3 + 16),
+    )
+    .map_err(|e| CliError::Failed(e.to_string()))
+}
+
 /// `caoen transfer`.
 pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult {
     let ext = a
@@ -333,6 +343,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
     let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
         (Some(space), _, _) => {
             let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
+            check_bake(tw, th)?;
             let solid = solid_texture(a)?;
             let net = crate::commands::surface::load_model(space)?;
             let sample = |p: [f64; 3]| solid.sample(p);
@@ -356,6 +367,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
                 Some(s) => crate::commands::render::parse_size(s)?,
                 None => (tex.image().width, tex.image().height),
             };
+            check_bake(tw, th)?;
             let moved = match ProjectionKind::parse(&a.project) {
                 None => caoen::texture::transfer::transfer(&from, &to, &tex, tw, th),
                 Some(kind) => {
