@@ -115,9 +115,21 @@ pub fn bake_texture_space(
     height: u32,
     samples: u32,
 ) -> Result<RgbImage, TextureError> {
-    bake(space, to, width, height, samples, &|points, _| {
-        points.par_iter().map(|p| solid(*p)).collect()
-    })
+    bake_texture_space_with(space, to, solid, width, height, samples, &|_, _| {})
+}
+
+/// [`bake_texture_space`] reporting `(rows done, rows)` as it goes.
+pub fn bake_texture_space_with(
+    space: &SurfaceModel,
+    to: &SurfaceModel,
+    solid: &(dyn Fn([f64; 3]) -> [f32; 3] + Sync),
+    width: u32,
+    height: u32,
+    samples: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<RgbImage, TextureError> {
+    let colour = |points: &[[f64; 3]], _: usize| points.par_iter().map(|p| solid(*p)).collect();
+    bake(space, to, width, height, samples, &colour, progress)
 }
 
 /// A picture laid on surface `from` in its own space (`picture`, projected onto
@@ -133,9 +145,22 @@ pub fn bake_projected(
     height: u32,
     samples: u32,
 ) -> Result<RgbImage, TextureError> {
+    bake_projected_with(from, to, picture, width, height, samples, &|_, _| {})
+}
+
+/// [`bake_projected`] reporting `(rows done, rows)` as it goes.
+pub fn bake_projected_with(
+    from: &SurfaceModel,
+    to: &SurfaceModel,
+    picture: &Projected,
+    width: u32,
+    height: u32,
+    samples: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<RgbImage, TextureError> {
     let (pw, ph) = picture.picture_size();
     let (pw, ph) = (f64::from(pw), f64::from(ph));
-    bake(from, to, width, height, samples, &|points, grid_width| {
+    let colour = |points: &[[f64; 3]], grid_width: usize| -> Vec<[f32; 3]> {
         let uv: Vec<[f64; 2]> = points.par_iter().map(|p| picture.uv(*p)).collect();
         let rows = points.len() / grid_width;
         (0..points.len())
@@ -164,7 +189,8 @@ pub fn bake_projected(
                 picture.sample(points[i], fx.max(fy))
             })
             .collect()
-    })
+    };
+    bake(from, to, width, height, samples, &colour, progress)
 }
 
 /// Colours the 3-D points of a band of rows (a row-major grid of the given width).
@@ -180,6 +206,7 @@ fn bake(
     height: u32,
     samples: u32,
     colour: &BandColours<'_>,
+    progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<RgbImage, TextureError> {
     if space.domain != to.domain {
         return Err(TextureError::Invalid(format!(
@@ -251,6 +278,7 @@ fn bake(
                 pixels.push(sum.map(|v| v * norm));
             }
         }
+        progress(j1 as u64, u64::from(height));
     }
     Ok(RgbImage {
         width,

@@ -340,6 +340,11 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         outputs.check_path(&f)?;
     }
     let start = Instant::now();
+    let bar = crate::commands::render::progress_bar(global, "baking");
+    let report = |done: u64, total: u64| {
+        bar.set_length(total);
+        bar.set_position(done);
+    };
     let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
         (Some(space), _, _) => {
             let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
@@ -348,13 +353,14 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             let net = crate::commands::surface::load_model(space)?;
             let sample = |p: [f64; 3]| solid.sample(p);
             (
-                caoen::texture::transfer::bake_texture_space(
+                caoen::texture::transfer::bake_texture_space_with(
                     &net,
                     &to,
                     &sample,
                     tw,
                     th,
                     a.bake_samples,
+                    &report,
                 )
                 .map_err(tex_err)?,
                 format!("solid {} through {space}", a.solid),
@@ -373,13 +379,14 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
                 Some(kind) => {
                     let (lo, hi) = projected::surface_box(&from).map_err(tex_err)?;
                     let picture = Projected::new(tex, kind, lo, hi).map_err(tex_err)?;
-                    caoen::texture::transfer::bake_projected(
+                    caoen::texture::transfer::bake_projected_with(
                         &from,
                         &to,
                         &picture,
                         tw,
                         th,
                         a.bake_samples,
+                        &report,
                     )
                 }
             };
@@ -394,6 +401,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             ))
         }
     };
+    bar.finish_and_clear();
     {
         use std::io::Write as _;
         tmp.write_all(&moved.encode_png().map_err(failed)?)
