@@ -452,6 +452,48 @@ fn number(v: &Value, path: &str, lo: f64, hi: f64) -> Result<f64, ModelError> {
     Ok(x)
 }
 
+/// `N` numbers in `lo..=hi` as a JSON list; `shape` names the list in the error.
+fn numbers<const N: usize>(
+    v: &Value,
+    path: &str,
+    lo: f64,
+    hi: f64,
+    shape: &str,
+) -> Result<[f64; N], ModelError> {
+    let Some(a) = v.as_array().filter(|a| a.len() == N) else {
+        return err(path, format!("expected {shape}"));
+    };
+    let mut out = [0.0; N];
+    for k in 0..N {
+        out[k] = number(&a[k], &format!("{path}[{k}]"), lo, hi)?;
+    }
+    Ok(out)
+}
+
+/// The `interp` field of a picture: bilinear (the default) or bicubic.
+fn interp_of(o: &serde_json::Map<String, Value>, here: &str) -> Result<Interp, ModelError> {
+    match o.get("interp").map(|v| v.as_str()) {
+        None | Some(Some("bilinear")) => Ok(Interp::Bilinear),
+        Some(Some("bicubic")) => Ok(Interp::Bicubic),
+        Some(_) => err(
+            &format!("{here}.interp"),
+            "expected \"bilinear\" or \"bicubic\"",
+        ),
+    }
+}
+
+/// The `image` field of a picture, as a file relative to `base_dir`.
+fn image_file(
+    o: &serde_json::Map<String, Value>,
+    here: &str,
+    base_dir: &std::path::Path,
+) -> Result<std::path::PathBuf, ModelError> {
+    match get(o, "image", here)?.as_str() {
+        Some(name) => Ok(base_dir.join(name)),
+        None => err(&format!("{here}.image"), "expected a file name"),
+    }
+}
+
 fn vec3(v: &Value, path: &str, lo: f64, hi: f64) -> Result<[f64; 3], ModelError> {
     match v.as_array() {
         Some(a) if a.len() == 3 => {
@@ -649,16 +691,13 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 }
             }
             "quadric" => {
-                let Some(a) = body.as_array().filter(|a| a.len() == 10) else {
-                    return err(
-                        &here,
-                        "expected ten coefficients [a, b, c, d, e, f, g, h, i, j]",
-                    );
-                };
-                let mut c = [0.0; 10];
-                for k in 0..10 {
-                    c[k] = number(&a[k], &format!("{here}[{k}]"), -w, w)?;
-                }
+                let c: [f64; 10] = numbers(
+                    body,
+                    &here,
+                    -w,
+                    w,
+                    "ten coefficients [a, b, c, d, e, f, g, h, i, j]",
+                )?;
                 if c.iter().all(|v| *v == 0.0) {
                     return err(&here, "all coefficients are zero");
                 }
@@ -879,16 +918,13 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
             )
         }
     };
-    let rect = match get(f, "rect", here)?.as_array() {
-        Some(a) if a.len() == 4 => {
-            let mut r = [0.0; 4];
-            for k in 0..4 {
-                r[k] = number(&a[k], &format!("{here}.rect[{k}]"), -w, w)?;
-            }
-            r
-        }
-        _ => return err(&format!("{here}.rect"), "expected [u0, v0, u1, v1]"),
-    };
+    let rect = numbers(
+        get(f, "rect", here)?,
+        &format!("{here}.rect"),
+        -w,
+        w,
+        "[u0, v0, u1, v1]",
+    )?;
     let height = match f.get("height") {
         Some(h) => number(h, &format!("{here}.height"), -w, w)?,
         None => 1.0,
@@ -897,20 +933,8 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
         Some(t) => number(t, &format!("{here}.threshold"), -w, w)?,
         None => f64::NEG_INFINITY,
     };
-    let interp = match f.get("interp").map(|v| v.as_str()) {
-        None | Some(Some("bilinear")) => Interp::Bilinear,
-        Some(Some("bicubic")) => Interp::Bicubic,
-        Some(_) => {
-            return err(
-                &format!("{here}.interp"),
-                "expected \"bilinear\" or \"bicubic\"",
-            )
-        }
-    };
-    let Some(image) = get(f, "image", here)?.as_str() else {
-        return err(&format!("{here}.image"), "expected a file name");
-    };
-    let file = base_dir.join(image);
+    let interp = interp_of(f, here)?;
+    let file = image_file(f, here, base_dir)?;
     let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), height)?;
     HeightMap::new(base, rect, iw, ih, values, threshold, interp)
         .map(|m| m.with_source(file, height))
@@ -931,16 +955,7 @@ fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
         None => 1.0,
     };
     let coefficients = match (f.get("quadric"), f.get("bump")) {
-        (Some(q), None) => {
-            let Some(a) = q.as_array().filter(|a| a.len() == 10) else {
-                return err(&format!("{path}.quadric"), "expected ten coefficients");
-            };
-            let mut c = [0.0; 10];
-            for k in 0..10 {
-                c[k] = number(&a[k], &format!("{path}.quadric[{k}]"), -w, w)?;
-            }
-            c
-        }
+        (Some(q), None) => numbers(q, &format!("{path}.quadric"), -w, w, "ten coefficients")?,
         (None, Some(b)) => {
             let here = format!("{path}.bump");
             let g = fields(b, &here, &["centre", "radius", "height"])?;
@@ -1036,35 +1051,14 @@ fn picture(
         }
     };
     let rect = match (o.get("rect"), bounds, base) {
-        (Some(r), _, _) => match r.as_array() {
-            Some(a) if a.len() == 4 => {
-                let mut out = [0.0; 4];
-                for k in 0..4 {
-                    out[k] = number(&a[k], &format!("{here}.rect[{k}]"), -w, w)?;
-                }
-                out
-            }
-            _ => return err(&format!("{here}.rect"), "expected [u0, v0, u1, v1]"),
-        },
+        (Some(r), _, _) => numbers(r, &format!("{here}.rect"), -w, w, "[u0, v0, u1, v1]")?,
         (None, Some(b), Base::Plane) => [b.lo[0], b.lo[1], b.hi[0], b.hi[1]],
         (None, Some(b), Base::Cylinder(_)) => [-PI, b.lo[2], PI, b.hi[2]],
         (None, _, Base::Ellipsoid(_)) => [-PI, -FRAC_PI_2, PI, FRAC_PI_2],
         (None, None, _) => return err(here, "needs `rect` (the picture's place)"),
     };
-    let interp = match o.get("interp").map(|v| v.as_str()) {
-        None | Some(Some("bilinear")) => Interp::Bilinear,
-        Some(Some("bicubic")) => Interp::Bicubic,
-        Some(_) => {
-            return err(
-                &format!("{here}.interp"),
-                "expected \"bilinear\" or \"bicubic\"",
-            )
-        }
-    };
-    let Some(image) = get(o, "image", here)?.as_str() else {
-        return err(&format!("{here}.image"), "expected a file name");
-    };
-    let file = base_dir.join(image);
+    let interp = interp_of(o, here)?;
+    let file = image_file(o, here, base_dir)?;
     let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), 1.0)?;
     HeightMap::new(base, rect, iw, ih, values, f64::NEG_INFINITY, interp)
         .map(|m| m.with_source(file, 1.0))
