@@ -5,6 +5,7 @@
 
 pub mod budget;
 pub mod codec;
+pub mod conversion;
 pub mod frep;
 pub mod image_io;
 pub mod metrics;

@@ -85,6 +85,80 @@ pub enum Command {
     Relief(PictureArgs),
     /// Carve an F-rep model with an image's pattern swept through it (lattice carving).
     Carve(PictureArgs),
+    /// Convert a polygon mesh (OBJ, PLY) into an implicit model: a base quadric plus
+    /// local cubic perturbations (an F-rep model file).
+    Convert(ConvertArgs),
+    /// Measure an implicit model (or an RBF baseline) against a mesh: vertex
+    /// distances, normal angles, depth buffers from several sides.
+    Deviation(DeviationArgs),
+}
+
+/// `caoen convert`.
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// The mesh (.obj or .ply).
+    pub mesh: PathBuf,
+    /// The F-rep model file to write (.json).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The most functions: the base quadric and the perturbations.
+    #[arg(long, default_value_t = 4000, value_parser = clap::value_parser!(u32).range(1..=9000))]
+    pub max_functions: u32,
+    /// Refine until every vertex is this close to the surface (a fraction of the
+    /// bounding box's longest side) and within --max-angle of its normal.
+    #[arg(long, value_name = "DEVIATION", default_value_t = 0.002, value_parser = positive_fraction)]
+    pub target: f64,
+    /// Largest angle (degrees) between a vertex normal and the surface normal that
+    /// needs no refinement.
+    #[arg(long, default_value_t = 10.0, value_parser = angle)]
+    pub max_angle: f64,
+    /// Print the result as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `caoen deviation`.
+#[derive(Debug, Args)]
+pub struct DeviationArgs {
+    /// The mesh (.obj or .ply).
+    pub mesh: PathBuf,
+    /// The F-rep model file to measure (as written by `caoen convert`).
+    #[arg(required_unless_present = "rbf", conflicts_with = "rbf")]
+    pub model: Option<PathBuf>,
+    /// Instead of a model, fit and measure the RBF baseline with N centres (vertices
+    /// and their normal offsets, a dense triharmonic interpolation).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(3..=6000))]
+    pub rbf: Option<u32>,
+    /// Number of axis views for the depth buffers (front, back, sides, top, bottom).
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u32).range(1..=6))]
+    pub views: u32,
+    /// Side of each depth buffer in pixels.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=2048))]
+    pub size: u32,
+    /// Write a picture: per view the mesh, the function and their depth difference.
+    #[arg(long, value_name = "PNG")]
+    pub picture: Option<PathBuf>,
+    /// Print the result as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn positive_fraction(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v < 1.0 => Ok(v),
+        _ => Err(format!(
+            "`{s}`: expected a number between 0 and 1 (exclusive)"
+        )),
+    }
+}
+
+fn angle(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v <= 180.0 => Ok(v),
+        _ => Err(format!(
+            "`{s}`: expected an angle in degrees, above 0 and at most 180"
+        )),
+    }
 }
 
 /// `caoen morph`.

@@ -6,6 +6,7 @@
 pub mod height_map;
 pub mod interval;
 pub mod node;
+pub mod patch_index;
 pub mod polygonise;
 pub mod pov;
 pub mod primitive;

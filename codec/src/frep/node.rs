@@ -7,6 +7,7 @@ use serde_json::Value;
 
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::{Aabb, Interval};
+use super::patch_index::PatchIndex;
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
 use crate::render::transform::Affine;
@@ -60,6 +61,8 @@ pub enum Node {
         terms: Vec<Patch>,
         /// The exponent (2 or 3).
         power: i32,
+        /// Which terms reach a point or a box (built by [`Node::perturb`]).
+        index: PatchIndex,
     },
     /// A picture swept through space along its projection: `h(u(p), v(p)) - level`
     /// (positive where the picture is brighter than `level`), for carving.
@@ -126,7 +129,7 @@ impl Patch {
     }
 
     /// The box of the region where `Q > 0`, if it is bounded (an ellipsoid's inside).
-    fn positive_box(&self) -> Option<Aabb> {
+    pub fn positive_box(&self) -> Option<Aabb> {
         let Primitive::Quadric { coefficients: c } = &self.quadric else {
             return None;
         };
@@ -166,6 +169,21 @@ impl Patch {
     }
 }
 
+thread_local! {
+    /// Scratch for the terms near a point, reused so evaluation does not allocate.
+    static CANDIDATES: std::cell::RefCell<Vec<Vec<u32>>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` with an empty scratch list (one per nesting level: perturbations nest).
+fn with_candidates<R>(f: impl FnOnce(&mut Vec<u32>) -> R) -> R {
+    let mut list = CANDIDATES
+        .with(|c| c.borrow_mut().pop())
+        .unwrap_or_default();
+    let r = f(&mut list);
+    CANDIDATES.with(|c| c.borrow_mut().push(list));
+    r
+}
+
 /// A malformed or out-of-range model, with the JSON path of the offending value.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{path}: {reason}")]
@@ -184,6 +202,18 @@ fn err<T>(path: &str, reason: impl Into<String>) -> Result<T, ModelError> {
 }
 
 impl Node {
+    /// A perturbation `base + sum_i f_i max(Q_i, 0)^power`, indexed by the patches'
+    /// supports so that a point or box only visits the patches that reach it.
+    pub fn perturb(base: Node, terms: Vec<Patch>, power: i32) -> Node {
+        let supports: Vec<Option<Aabb>> = terms.iter().map(Patch::positive_box).collect();
+        Node::Perturb {
+            base: Box::new(base),
+            index: PatchIndex::new(&supports),
+            terms,
+            power,
+        }
+    }
+
     /// The function's value at `p`.
     pub fn value(&self, p: [f64; 3]) -> f64 {
         match self {
@@ -206,11 +236,19 @@ impl Node {
                 rfunction::apply(*op, f1, f2, *a)
                     + rfunction::blend_partials(f1, f2, *a0, *a1, *a2).0
             }
-            Node::Perturb { base, terms, power } => {
+            Node::Perturb {
+                base,
+                terms,
+                power,
+                index,
+            } => {
                 // Added one by one, in the same order as value_gradient.
-                terms
-                    .iter()
-                    .fold(base.value(p), |v, t| v + t.value_gradient(p, *power).0)
+                with_candidates(|near| {
+                    index.at_point(p, near);
+                    near.iter().fold(base.value(p), |v, &t| {
+                        v + terms[t as usize].value_gradient(p, *power).0
+                    })
+                })
             }
             Node::Pattern { map, level } => map.perturbation(p).0 - level,
             Node::Relief { base, map, gain } => base.value(p) + gain * map.perturbation(p).0,
@@ -255,15 +293,23 @@ impl Node {
                     [0, 1, 2].map(|k| (d1 + e1) * g1[k] + (d2 + e2) * g2[k]),
                 )
             }
-            Node::Perturb { base, terms, power } => {
+            Node::Perturb {
+                base,
+                terms,
+                power,
+                index,
+            } => {
                 let (mut v, mut g) = base.value_gradient(p);
-                for t in terms {
-                    let (r, gr) = t.value_gradient(p, *power);
-                    v += r;
-                    for k in 0..3 {
-                        g[k] += gr[k];
+                with_candidates(|near| {
+                    index.at_point(p, near);
+                    for &t in near.iter() {
+                        let (r, gr) = terms[t as usize].value_gradient(p, *power);
+                        v += r;
+                        for k in 0..3 {
+                            g[k] += gr[k];
+                        }
                     }
-                }
+                });
                 (v, g)
             }
             Node::Pattern { map, level } => {
@@ -314,9 +360,17 @@ impl Node {
                 rfunction::interval(*op, i1, i2, *a)
                     + rfunction::blend_interval(i1, i2, *a0, *a1, *a2)
             }
-            Node::Perturb { base, terms, power } => terms
-                .iter()
-                .fold(base.interval(b), |acc, t| acc + t.interval(b, *power)),
+            Node::Perturb {
+                base,
+                terms,
+                power,
+                index,
+            } => with_candidates(|near| {
+                index.in_box(b, near);
+                near.iter().fold(base.interval(b), |acc, &t| {
+                    acc + terms[t as usize].interval(b, *power)
+                })
+            }),
             Node::Pattern { map, level } => map.perturbation_range(b) - Interval::point(*level),
             Node::Relief { base, map, gain } => {
                 base.interval(b) + map.perturbation_range(b).scale(*gain)
@@ -833,11 +887,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 .enumerate()
                 .map(|(i, t)| patch(t, &format!("{path}.patches[{i}]")))
                 .collect::<Result<Vec<_>, _>>()?;
-            Node::Perturb {
-                base: Box::new(parse(body, &here, depth + 1, count)?),
-                terms,
-                power,
-            }
+            Node::perturb(parse(body, &here, depth + 1, count)?, terms, power)
         }
         "relief" => {
             let base = parse(body, &here, depth + 1, count)?;

@@ -219,7 +219,9 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             let f = declare(operand, out, next);
             format!("{f}(x, y, z) + {}", num(*by))
         }
-        Node::Perturb { base, terms, power } => {
+        Node::Perturb {
+            base, terms, power, ..
+        } => {
             let f = declare(base, out, next);
             let mut expr = format!("{f}(x, y, z)");
             for t in terms {

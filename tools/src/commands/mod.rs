@@ -13,6 +13,7 @@ macro_rules! outln {
 pub mod bench;
 pub mod codec;
 pub mod compare;
+pub mod convert;
 pub mod demo;
 pub mod examples;
 pub mod frep;
@@ -68,6 +69,8 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Morph(args) => morph::run(&global, &args),
         Command::Relief(args) => frep::picture(&global, &args, frep::PictureUse::Relief),
         Command::Carve(args) => frep::picture(&global, &args, frep::PictureUse::Carve),
+        Command::Convert(args) => convert::convert(&global, &args),
+        Command::Deviation(args) => convert::deviation(&global, &args),
     }
 }
 

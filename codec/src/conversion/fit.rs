@@ -1,0 +1,442 @@
+//! Fitting a converted model to a mesh: the base quadric, then perturbations added
+//! level by level where the error is largest, each level's form factors solved
+//! together by least squares (`docs/conversion.md`).
+//!
+//! Constraints are the mesh's points (`F = 0`), points a short step inside and outside
+//! along the normal (`F = +d`, `F = -d`: without them a sum that is zero on the points
+//! could also be zero everywhere near them) and a coarse grid of far points whose side
+//! the mesh's winding number tells (`F` = clamped signed distance), so no spurious
+//! surface appears away from the mesh.
+
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use rayon::prelude::*;
+
+use super::model::{Bump, ImplicitField, ImplicitModel};
+use super::polygon_mesh::PolygonMesh;
+use super::quadric;
+use crate::frep::patch_index::PatchIndex;
+
+/// What the fit aims for and may spend.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConvertOptions {
+    /// The most functions (the base quadric and the perturbations).
+    pub max_functions: usize,
+    /// The deviation target: every vertex within this distance of the surface (along
+    /// the gradient), as a fraction of the bounding box's longest side.
+    pub target: f64,
+    /// Vertices whose normal is further than this from the gradient (degrees) are
+    /// refined too.
+    pub max_angle_deg: f64,
+    /// The radius of the first level of perturbations (fraction of the box).
+    pub first_radius: f64,
+    /// The smallest radius a perturbation may have (fraction of the box).
+    pub min_radius: f64,
+}
+
+impl Default for ConvertOptions {
+    fn default() -> Self {
+        ConvertOptions {
+            max_functions: 4000,
+            target: 0.002,
+            max_angle_deg: 10.0,
+            first_radius: 0.32,
+            min_radius: 0.01,
+        }
+    }
+}
+
+/// What one level of the fit did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelReport {
+    /// The perturbations' radius (unit cube).
+    pub radius: f64,
+    /// Perturbations added.
+    pub added: usize,
+    /// Mean and largest vertex distance `|F| / |grad F|` after the level.
+    pub mean_distance: f64,
+    /// Largest vertex distance after the level.
+    pub max_distance: f64,
+    /// Vertices still over the targets.
+    pub over_target: usize,
+    /// Off-surface conditions on the wrong side of the surface.
+    pub wrong_side: usize,
+}
+
+/// A fit's result and its history.
+#[derive(Debug, Clone)]
+pub struct Conversion {
+    /// The model.
+    pub model: ImplicitModel,
+    /// One report per level.
+    pub levels: Vec<LevelReport>,
+    /// Whether every vertex met the targets.
+    pub met_target: bool,
+}
+
+/// One least-squares condition `F(p) = target`, weighted.
+#[derive(Debug, Clone, Copy)]
+struct Condition {
+    p: [f64; 3],
+    target: f64,
+    weight: f64,
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn norm(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+
+/// The generalised winding number of the mesh at `q` (1 inside a closed, outward
+/// mesh, 0 outside; a fraction near holes): the sum of solid angles over 4 pi.
+pub fn winding_number(mesh: &PolygonMesh, q: [f64; 3]) -> f64 {
+    let mut sum = 0.0;
+    for t in &mesh.triangles {
+        let a = sub(mesh.positions[t[0] as usize], q);
+        let b = sub(mesh.positions[t[1] as usize], q);
+        let c = sub(mesh.positions[t[2] as usize], q);
+        let (la, lb, lc) = (norm(a), norm(b), norm(c));
+        let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0]);
+        let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+        sum += 2.0 * det.atan2(den);
+    }
+    sum / (4.0 * std::f64::consts::PI)
+}
+
+/// The surface samples: vertices (first, in order) then triangle centroids, with
+/// outward unit normals.
+fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let mut normals = mesh.outward_normals();
+    let flip = mesh.signed_volume() < 0.0;
+    let mut pts = mesh.positions.clone();
+    for t in 0..mesh.triangles.len() {
+        let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
+        pts.push([0, 1, 2].map(|k| (tri[0][k] + tri[1][k] + tri[2][k]) / 3.0));
+        let n = mesh.face_normal(t);
+        let l = norm(n).max(1e-300);
+        normals.push(n.map(|v| if flip { -v / l } else { v / l }));
+    }
+    (pts, normals)
+}
+
+/// Builds the conditions. `pts`/`normals` are the surface samples; the first
+/// `vertices` of them are mesh vertices.
+fn conditions(
+    mesh: &PolygonMesh,
+    pts: &[[f64; 3]],
+    normals: &[[f64; 3]],
+    vertices: usize,
+    step: f64,
+) -> Vec<Condition> {
+    let tree: ImmutableKdTree<f64, 3> =
+        ImmutableKdTree::new_from_slice(pts).expect("the mesh has points");
+    let nearest = |q: [f64; 3]| -> (f64, usize) {
+        let n = tree
+            .query(&q)
+            .nearest_one::<SquaredEuclidean<f64>>()
+            .execute();
+        (n.distance.sqrt(), n.item as usize)
+    };
+    let mut out: Vec<Condition> = pts
+        .iter()
+        .map(|&p| Condition {
+            p,
+            target: 0.0,
+            weight: 1.0,
+        })
+        .collect();
+    // Off-surface pairs at the vertices, at several distances so that the sign of
+    // the field is pinned from the surface out to the far grid. The smallest step
+    // halves until nothing else on the surface is nearer than the vertex (thin parts
+    // and creases); a larger one that fails that test is left out.
+    let pairs: Vec<Vec<Condition>> = (0..vertices)
+        .into_par_iter()
+        .map(|i| {
+            let mut list = Vec::new();
+            for side in [1.0, -1.0] {
+                let offset = |d: f64| [0, 1, 2].map(|k| pts[i][k] + side * d * normals[i][k]);
+                let mut d = step;
+                for _ in 0..4 {
+                    if nearest(offset(d)).0 >= 0.99 * d {
+                        list.push(Condition {
+                            p: offset(d),
+                            target: -side * d,
+                            weight: 1.0,
+                        });
+                        break;
+                    }
+                    d *= 0.5;
+                }
+                for d in [0.03, 0.07] {
+                    if d > step && nearest(offset(d)).0 >= 0.99 * d {
+                        list.push(Condition {
+                            p: offset(d),
+                            target: -side * d,
+                            weight: 0.5,
+                        });
+                    }
+                }
+            }
+            list
+        })
+        .collect();
+    out.extend(pairs.into_iter().flatten());
+    // Far points: a grid over the cube, with the side from the winding number.
+    let n = 14;
+    let grid: Vec<[f64; 3]> = (0..n * n * n)
+        .map(|i| {
+            [i % n, (i / n) % n, i / (n * n)].map(|c| -0.6 + 1.2 * (c as f64 + 0.5) / n as f64)
+        })
+        .collect();
+    let far: Vec<Option<Condition>> = grid
+        .par_iter()
+        .map(|&q| {
+            let (d, _) = nearest(q);
+            if d < 4.0 * step {
+                return None;
+            }
+            let inside = winding_number(mesh, q) > 0.5;
+            let dist = d.min(0.15);
+            Some(Condition {
+                p: q,
+                target: if inside { dist } else { -dist },
+                weight: 0.3,
+            })
+        })
+        .collect();
+    out.extend(far.into_iter().flatten());
+    out
+}
+
+/// Solves `min sum_j w_j (sum_k a_jk f_k - r_j)^2 + lambda |f|^2` by conjugate
+/// gradients on the normal equations (Jacobi-preconditioned). `rows[j]` holds the
+/// non-zero `(k, a_jk)` of condition `j`.
+fn least_squares(
+    rows: &[Vec<(u32, f64)>],
+    weights: &[f64],
+    rhs: &[f64],
+    unknowns: usize,
+) -> Vec<f64> {
+    // Columns, for the transposed product without scattering.
+    let mut cols: Vec<Vec<(u32, f64)>> = vec![Vec::new(); unknowns];
+    for (j, row) in rows.iter().enumerate() {
+        for &(k, a) in row {
+            cols[k as usize].push((j as u32, a * weights[j]));
+        }
+    }
+    let diag: Vec<f64> = cols
+        .iter()
+        .map(|c| c.iter().map(|&(j, wa)| wa * wa / weights[j as usize]).sum())
+        .collect();
+    let mean_diag = diag.iter().sum::<f64>() / unknowns.max(1) as f64;
+    let lambda = 1e-5 * mean_diag;
+    let apply = |f: &[f64]| -> Vec<f64> {
+        let af: Vec<f64> = rows
+            .par_iter()
+            .map(|row| row.iter().map(|&(k, a)| a * f[k as usize]).sum())
+            .collect();
+        cols.par_iter()
+            .enumerate()
+            .map(|(k, c)| c.iter().map(|&(j, wa)| wa * af[j as usize]).sum::<f64>() + lambda * f[k])
+            .collect()
+    };
+    let b: Vec<f64> = cols
+        .par_iter()
+        .map(|c| c.iter().map(|&(j, wa)| wa * rhs[j as usize]).sum())
+        .collect();
+    let precond: Vec<f64> = diag
+        .iter()
+        .map(|d| 1.0 / (d + lambda).max(1e-300))
+        .collect();
+    let mut x = vec![0.0; unknowns];
+    let mut r = b.clone();
+    let mut z: Vec<f64> = r.iter().zip(&precond).map(|(r, m)| r * m).collect();
+    let mut p = z.clone();
+    let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+    let b_norm: f64 = b.iter().map(|v| v * v).sum::<f64>().sqrt();
+    for _ in 0..400 {
+        let r_norm: f64 = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if r_norm <= 1e-7 * b_norm || rz == 0.0 {
+            break;
+        }
+        let ap = apply(&p);
+        let pap: f64 = p.iter().zip(&ap).map(|(a, b)| a * b).sum();
+        if pap <= 0.0 {
+            break;
+        }
+        let alpha = rz / pap;
+        for k in 0..unknowns {
+            x[k] += alpha * p[k];
+            r[k] -= alpha * ap[k];
+        }
+        for k in 0..unknowns {
+            z[k] = r[k] * precond[k];
+        }
+        let rz_new: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+        let beta = rz_new / rz;
+        rz = rz_new;
+        for k in 0..unknowns {
+            p[k] = z[k] + beta * p[k];
+        }
+    }
+    x
+}
+
+/// The per-vertex distance `|F| / |grad F|` and the angle (degrees) between the
+/// outward normal and `-grad F`.
+fn vertex_errors(model: &ImplicitModel, pts: &[[f64; 3]], normals: &[[f64; 3]]) -> Vec<(f64, f64)> {
+    pts.par_iter()
+        .zip(normals)
+        .map(|(p, n)| {
+            let (v, g) = model.value_gradient(*p);
+            let l = norm(g);
+            if l <= 1e-12 {
+                return (f64::INFINITY, 180.0);
+            }
+            let cos = (-dot(g, *n) / l).clamp(-1.0, 1.0);
+            (v.abs() / l, cos.acos().to_degrees())
+        })
+        .collect()
+}
+
+/// Converts a mesh. `progress(level, functions, report)` is called after each level.
+pub fn convert(
+    mesh: &PolygonMesh,
+    opts: &ConvertOptions,
+    progress: &mut dyn FnMut(usize, usize, &LevelReport),
+) -> Conversion {
+    let frame = mesh.unit_frame();
+    let unit = mesh.transformed(&frame);
+    let vertices = unit.positions.len();
+    let (pts, normals) = samples(&unit);
+    let base = quadric::fit_base(&pts[..vertices], &normals[..vertices]);
+    let step = (0.25 * opts.min_radius.max(0.004)).min(0.01);
+    let conds = conditions(&unit, &pts, &normals, vertices, step);
+    let mut model = ImplicitModel::new(frame, base, Vec::new());
+    let mut levels = Vec::new();
+    let mut radius = opts.first_radius;
+    let mut errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
+    let over = |e: &(f64, f64)| e.0 > opts.target || e.1 > opts.max_angle_deg;
+    let mut met = errors.iter().all(|e| !over(e));
+    let mut level = 0;
+    while !met && radius >= opts.min_radius && model.functions() < opts.max_functions {
+        // Centres: first the off-surface conditions on the wrong side (a spurious
+        // piece of surface between them and the mesh), then the vertices over the
+        // targets (every vertex on the first level), worst first, no two closer than
+        // the spacing.
+        let values: Vec<f64> = conds[vertices..]
+            .par_iter()
+            .map(|c| model.value(c.p))
+            .collect();
+        let mut wrong: Vec<(f64, usize)> = values
+            .iter()
+            .enumerate()
+            .filter(|(j, v)| conds[vertices + j].target * **v < 0.0)
+            .map(|(j, v)| ((v - conds[vertices + j].target).abs(), vertices + j))
+            .collect();
+        wrong.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut order: Vec<usize> = (0..vertices)
+            .filter(|&i| level == 0 || over(&errors[i]))
+            .collect();
+        let badness = |i: usize| errors[i].0 / opts.target + errors[i].1 / opts.max_angle_deg;
+        order.sort_by(|&a, &b| badness(b).total_cmp(&badness(a)).then(a.cmp(&b)));
+        let order: Vec<[f64; 3]> = wrong
+            .iter()
+            .map(|w| conds[w.1].p)
+            .chain(order.iter().map(|&i| unit.positions[i]))
+            .collect();
+        let spacing = 0.6 * radius;
+        let mut taken: std::collections::HashMap<[i64; 3], Vec<[f64; 3]>> = Default::default();
+        let cell = |p: [f64; 3]| p.map(|v| (v / spacing).floor() as i64);
+        let mut centres = Vec::new();
+        let room = opts.max_functions - model.functions();
+        for &p in &order {
+            if centres.len() >= room {
+                break;
+            }
+            let c = cell(p);
+            let mut near = false;
+            'look: for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        if let Some(list) = taken.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                            if list.iter().any(|&q| norm(sub(q, p)) < spacing) {
+                                near = true;
+                                break 'look;
+                            }
+                        }
+                    }
+                }
+            }
+            if !near {
+                taken.entry(c).or_default().push(p);
+                centres.push(p);
+            }
+        }
+        let new: Vec<Bump> = centres
+            .iter()
+            .map(|&p| Bump {
+                centre: p,
+                radius,
+                factor: 0.0,
+            })
+            .collect();
+        let index = PatchIndex::new(&new.iter().map(|b| Some(b.support())).collect::<Vec<_>>());
+        // The conditions the new bumps reach, with the current model's residuals.
+        let rows: Vec<(usize, Vec<(u32, f64)>, f64)> = conds
+            .par_iter()
+            .enumerate()
+            .filter_map(|(j, c)| {
+                let mut near = Vec::new();
+                index.at_point(c.p, &mut near);
+                let row: Vec<(u32, f64)> = near
+                    .iter()
+                    .filter_map(|&k| {
+                        let r = new[k as usize].kernel(c.p).0;
+                        (r > 0.0).then_some((k, r))
+                    })
+                    .collect();
+                if row.is_empty() {
+                    return None;
+                }
+                Some((j, row, c.target - model.value(c.p)))
+            })
+            .collect();
+        let weights: Vec<f64> = rows.iter().map(|r| conds[r.0].weight).collect();
+        let rhs: Vec<f64> = rows.iter().map(|r| r.2).collect();
+        let a: Vec<Vec<(u32, f64)>> = rows.into_iter().map(|r| r.1).collect();
+        let f = least_squares(&a, &weights, &rhs, new.len());
+        let mut bumps = model.bumps.clone();
+        bumps.extend(new.iter().zip(&f).map(|(b, &factor)| Bump { factor, ..*b }));
+        model = ImplicitModel::new(frame, base, bumps);
+        errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
+        let report = LevelReport {
+            radius,
+            added: new.len(),
+            mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / vertices as f64,
+            max_distance: errors.iter().map(|e| e.0).fold(0.0, f64::max),
+            over_target: errors.iter().filter(|e| over(e)).count(),
+            wrong_side: conds[vertices..]
+                .par_iter()
+                .filter(|c| c.target * model.value(c.p) < 0.0)
+                .count(),
+        };
+        progress(level, model.functions(), &report);
+        levels.push(report);
+        met = report.over_target == 0 && report.wrong_side == 0;
+        level += 1;
+        radius *= 0.5f64.sqrt();
+    }
+    Conversion {
+        model,
+        levels,
+        met_target: met,
+    }
+}

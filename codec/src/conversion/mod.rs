@@ -1,0 +1,17 @@
+//! Polygon meshes into implicit surfaces (the polygon-to-implicit paper): a base
+//! quadric plus local cubic perturbations fitted to the mesh, the deviation analysis
+//! that measures the result against the mesh, and a radial-basis-function baseline
+//! (`docs/conversion.md`).
+
+pub mod deviation;
+pub mod fit;
+pub mod mesh_file;
+pub mod model;
+pub mod polygon_mesh;
+pub mod quadric;
+pub mod rbf_baseline;
+
+pub use fit::{convert, Conversion, ConvertOptions, LevelReport};
+pub use mesh_file::{read, MeshError};
+pub use model::{Bump, ImplicitField, ImplicitModel, InUnitCube};
+pub use polygon_mesh::{PolygonMesh, Topology, UnitFrame};

@@ -1,0 +1,226 @@
+//! A polygon mesh as read from a file: positions and triangles, with what the
+//! conversion needs of it (vertex normals, the unit-cube frame, topology counts).
+
+use std::collections::HashMap;
+
+/// A triangle mesh: positions and counter-clockwise triangles (quads and polygons are
+/// split into fans when read).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PolygonMesh {
+    /// Vertex positions.
+    pub positions: Vec<[f64; 3]>,
+    /// Triangles as vertex indices.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// A similarity `p -> (p - centre) * scale` that puts a mesh in the unit cube.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UnitFrame {
+    /// The centre of the mesh's bounding box.
+    pub centre: [f64; 3],
+    /// One over the longest side of the bounding box.
+    pub scale: f64,
+}
+
+impl UnitFrame {
+    /// A point of the mesh's space in the unit cube.
+    pub fn to_unit(&self, p: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|k| (p[k] - self.centre[k]) * self.scale)
+    }
+}
+
+/// Edge and vertex counts: what tells a closed surface from an open one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Topology {
+    /// Vertices used by at least one triangle.
+    pub vertices: usize,
+    /// Distinct edges.
+    pub edges: usize,
+    /// Triangles.
+    pub faces: usize,
+    /// Edges with one triangle.
+    pub boundary_edges: usize,
+    /// Edges with more than two triangles.
+    pub non_manifold_edges: usize,
+}
+
+impl Topology {
+    /// V - E + F.
+    pub fn euler_characteristic(&self) -> i64 {
+        self.vertices as i64 - self.edges as i64 + self.faces as i64
+    }
+
+    /// Every edge has exactly two triangles.
+    pub fn is_closed(&self) -> bool {
+        self.boundary_edges == 0 && self.non_manifold_edges == 0
+    }
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let l = dot(a, a).sqrt();
+    if l > 0.0 {
+        a.map(|v| v / l)
+    } else {
+        [0.0; 3]
+    }
+}
+
+impl PolygonMesh {
+    /// The bounding box `(lo, hi)` of the positions.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The frame that centres the bounding box and scales its longest side to 1.
+    pub fn unit_frame(&self) -> UnitFrame {
+        let (lo, hi) = self.bounds();
+        let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        UnitFrame {
+            centre: [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k])),
+            scale: if side > 0.0 { 1.0 / side } else { 1.0 },
+        }
+    }
+
+    /// The mesh mapped through `frame`.
+    pub fn transformed(&self, frame: &UnitFrame) -> PolygonMesh {
+        PolygonMesh {
+            positions: self.positions.iter().map(|p| frame.to_unit(*p)).collect(),
+            triangles: self.triangles.clone(),
+        }
+    }
+
+    /// Unit vertex normals, each the angle-weighted mean of its triangles' normals (the
+    /// weighting that does not depend on how a face is split into triangles).
+    pub fn vertex_normals(&self) -> Vec<[f64; 3]> {
+        let mut n = vec![[0.0; 3]; self.positions.len()];
+        for t in &self.triangles {
+            let p = t.map(|i| self.positions[i as usize]);
+            let face = unit(cross(sub(p[1], p[0]), sub(p[2], p[0])));
+            for k in 0..3 {
+                let e1 = unit(sub(p[(k + 1) % 3], p[k]));
+                let e2 = unit(sub(p[(k + 2) % 3], p[k]));
+                let angle = dot(e1, e2).clamp(-1.0, 1.0).acos();
+                let v = &mut n[t[k] as usize];
+                for c in 0..3 {
+                    v[c] += angle * face[c];
+                }
+            }
+        }
+        n.into_iter().map(unit).collect()
+    }
+
+    /// Vertex normals turned outward: a closed mesh wound inward (negative volume) has
+    /// its normals flipped.
+    pub fn outward_normals(&self) -> Vec<[f64; 3]> {
+        let n = self.vertex_normals();
+        if self.signed_volume() < 0.0 {
+            n.into_iter().map(|v| v.map(|x| -x)).collect()
+        } else {
+            n
+        }
+    }
+
+    /// Twice each triangle's area times its unit normal: the cross product of its edges.
+    pub fn face_normal(&self, t: usize) -> [f64; 3] {
+        let p = self.triangles[t].map(|i| self.positions[i as usize]);
+        cross(sub(p[1], p[0]), sub(p[2], p[0]))
+    }
+
+    /// The signed volume (positive when the triangles wind outward).
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let p = t.map(|i| self.positions[i as usize]);
+                dot(p[0], cross(p[1], p[2])) / 6.0
+            })
+            .sum()
+    }
+
+    /// Counts of vertices, edges, faces and edges with other than two faces.
+    pub fn topology(&self) -> Topology {
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
+        let mut used = vec![false; self.positions.len()];
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                used[a as usize] = true;
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        Topology {
+            vertices: used.iter().filter(|u| **u).count(),
+            edges: edges.len(),
+            faces: self.triangles.len(),
+            boundary_edges: edges.values().filter(|c| **c == 1).count(),
+            non_manifold_edges: edges.values().filter(|c| **c > 2).count(),
+        }
+    }
+
+    /// The triangulated unit-radius icosphere subdivided `level` times, scaled by
+    /// `radii` along the axes: the test solids whose conversion is one quadric.
+    pub fn ellipsoid(radii: [f64; 3], level: u32) -> PolygonMesh {
+        let (p, t) = crate::render::mesh::icosphere(level);
+        PolygonMesh {
+            positions: p
+                .into_iter()
+                .map(|v| [v[0] * radii[0], v[1] * radii[1], v[2] * radii[2]])
+                .collect(),
+            triangles: t,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_icosphere_is_closed_with_euler_characteristic_two() {
+        let m = PolygonMesh::ellipsoid([1.0, 2.0, 3.0], 2);
+        let t = m.topology();
+        assert!(t.is_closed());
+        assert_eq!(t.euler_characteristic(), 2);
+        // Outward winding: positive volume, close to the ellipsoid's 4/3 pi abc.
+        let v = m.signed_volume();
+        assert!(v > 0.9 * 8.0 * std::f64::consts::PI && v < 8.0 * std::f64::consts::PI);
+        // Vertex normals of a sphere point along the position.
+        let s = PolygonMesh::ellipsoid([1.0; 3], 3);
+        for (p, n) in s.positions.iter().zip(s.vertex_normals()) {
+            assert!(dot(*p, n) > 0.999, "{p:?} {n:?}");
+        }
+    }
+
+    #[test]
+    fn the_unit_frame_puts_the_longest_side_at_one() {
+        let m = PolygonMesh::ellipsoid([2.0, 1.0, 0.5], 1)
+            .transformed(&PolygonMesh::ellipsoid([2.0, 1.0, 0.5], 1).unit_frame());
+        let (lo, hi) = m.bounds();
+        assert!((hi[0] - lo[0] - 1.0).abs() < 1e-12);
+        assert!((hi[0] + lo[0]).abs() < 1e-12);
+    }
+}
