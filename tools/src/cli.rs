@@ -102,11 +102,11 @@ pub struct ConvertArgs {
     #[arg(short, long)]
     pub output: PathBuf,
     /// The most functions: the base quadric and the perturbations.
-    #[arg(long, default_value_t = 4000, value_parser = clap::value_parser!(u32).range(1..=9000))]
+    #[arg(long, default_value_t = 6000, value_parser = clap::value_parser!(u32).range(1..=9000))]
     pub max_functions: u32,
     /// Refine until every vertex is this close to the surface (a fraction of the
     /// bounding box's longest side) and within --max-angle of its normal.
-    #[arg(long, value_name = "DEVIATION", default_value_t = 0.002, value_parser = positive_fraction)]
+    #[arg(long, value_name = "DEVIATION", default_value_t = 0.001, value_parser = positive_fraction)]
     pub target: f64,
     /// Largest angle (degrees) between a vertex normal and the surface normal that
     /// needs no refinement.

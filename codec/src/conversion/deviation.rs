@@ -57,10 +57,12 @@ pub fn vertex_deviation(
     mesh: &PolygonMesh,
     normals: &[[f64; 3]],
 ) -> VertexDeviation {
+    // A vertex no triangle uses has no normal and is not on the surface.
     let per: Vec<(f64, f64, bool)> = mesh
         .positions
         .par_iter()
         .zip(normals)
+        .filter(|(_, n)| **n != [0.0; 3])
         .map(|(p, n)| {
             let (x, ok) = project(field, *p);
             let d = (0..3).map(|k| (x[k] - p[k]).powi(2)).sum::<f64>().sqrt();
@@ -332,11 +334,16 @@ pub struct DepthDeviation {
     pub covered: usize,
     /// Of those, pixels where only one does.
     pub silhouette_mismatch: usize,
+    /// Mean |depth difference| over every pixel of the buffers, a pixel neither sees
+    /// counting 0 (the paper's "all points of the buffers").
+    pub mean_all: f64,
+    /// Mean |depth difference| over the pixels where both see the model.
+    pub mean_both: f64,
 }
 
 /// Compares a mesh's and a field's depth buffers.
 pub fn compare_depth(a: &DepthImage, b: &DepthImage) -> DepthDeviation {
-    let (mut sum, mut covered, mut mismatch) = (0.0, 0, 0);
+    let (mut sum, mut covered, mut mismatch, mut both) = (0.0, 0, 0, 0.0);
     for (x, y) in a.depth.iter().zip(&b.depth) {
         let (ha, hb) = (*x < FAR_DEPTH, *y < FAR_DEPTH);
         if ha || hb {
@@ -344,6 +351,8 @@ pub fn compare_depth(a: &DepthImage, b: &DepthImage) -> DepthDeviation {
             sum += (x - y).abs();
             if ha != hb {
                 mismatch += 1;
+            } else {
+                both += (x - y).abs();
             }
         }
     }
@@ -351,6 +360,8 @@ pub fn compare_depth(a: &DepthImage, b: &DepthImage) -> DepthDeviation {
         mean: sum / covered.max(1) as f64,
         covered,
         silhouette_mismatch: mismatch,
+        mean_all: sum / a.depth.len().max(1) as f64,
+        mean_both: both / (covered - mismatch).max(1) as f64,
     }
 }
 

@@ -36,11 +36,11 @@ pub struct ConvertOptions {
 impl Default for ConvertOptions {
     fn default() -> Self {
         ConvertOptions {
-            max_functions: 4000,
-            target: 0.002,
+            max_functions: 6000,
+            target: 0.001,
             max_angle_deg: 10.0,
             first_radius: 0.32,
-            min_radius: 0.01,
+            min_radius: 0.005,
         }
     }
 }
@@ -93,35 +93,57 @@ fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 
-/// The generalised winding number of the mesh at `q` (1 inside a closed, outward
-/// mesh, 0 outside; a fraction near holes): the sum of solid angles over 4 pi.
-pub fn winding_number(mesh: &PolygonMesh, q: [f64; 3]) -> f64 {
-    let mut sum = 0.0;
-    for t in &mesh.triangles {
-        let a = sub(mesh.positions[t[0] as usize], q);
-        let b = sub(mesh.positions[t[1] as usize], q);
-        let c = sub(mesh.positions[t[2] as usize], q);
-        let (la, lb, lc) = (norm(a), norm(b), norm(c));
-        let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-            + a[2] * (b[0] * c[1] - b[1] * c[0]);
-        let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
-        sum += 2.0 * det.atan2(den);
-    }
-    sum / (4.0 * std::f64::consts::PI)
-}
+/// The spacing of surface samples on large triangles (unit cube).
+const SAMPLE_SPACING: f64 = 0.015;
+/// About the most points sampled inside triangles.
+pub const MAX_SAMPLES: f64 = 400_000.0;
 
-/// The surface samples: vertices (first, in order) then triangle centroids, with
-/// outward unit normals.
+/// The surface samples: vertices (first, in order), then points inside each triangle
+/// (its centroid, or a barycentric grid at about [`SAMPLE_SPACING`] on a large one, so
+/// that a coarse mesh's flat faces hold the surface too), with outward unit normals.
 fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let mut normals = mesh.outward_normals();
-    let flip = mesh.signed_volume() < 0.0;
+    // Face normals follow the winding; turn them the way the vertex normals went.
+    let flip = normals
+        .iter()
+        .zip(mesh.vertex_normals())
+        .any(|(a, b)| dot(*a, b) < 0.0);
+    let longest = |t: usize| {
+        let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
+        (0..3)
+            .map(|k| norm(sub(tri[(k + 1) % 3], tri[k])))
+            .fold(0.0, f64::max)
+    };
+    // Wider spacing when the grid would pass MAX_SAMPLES points.
+    let count = |h: f64| -> f64 {
+        (0..mesh.triangles.len())
+            .map(|t| ((longest(t) / h).ceil().min(64.0) - 1.0).max(1.0).powi(2) / 2.0)
+            .sum()
+    };
+    let mut spacing = SAMPLE_SPACING;
+    while count(spacing) > MAX_SAMPLES {
+        spacing *= 1.25;
+    }
     let mut pts = mesh.positions.clone();
     for t in 0..mesh.triangles.len() {
         let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
-        pts.push([0, 1, 2].map(|k| (tri[0][k] + tri[1][k] + tri[2][k]) / 3.0));
         let n = mesh.face_normal(t);
         let l = norm(n).max(1e-300);
-        normals.push(n.map(|v| if flip { -v / l } else { v / l }));
+        let n = n.map(|v| if flip { -v / l } else { v / l });
+        let parts = (longest(t) / spacing).ceil().min(64.0) as usize;
+        if parts < 3 {
+            pts.push([0, 1, 2].map(|k| (tri[0][k] + tri[1][k] + tri[2][k]) / 3.0));
+            normals.push(n);
+            continue;
+        }
+        for i in 1..parts {
+            for j in 1..parts - i {
+                let (a, b) = (i as f64 / parts as f64, j as f64 / parts as f64);
+                let c = 1.0 - a - b;
+                pts.push([0, 1, 2].map(|k| a * tri[0][k] + b * tri[1][k] + c * tri[2][k]));
+                normals.push(n);
+            }
+        }
     }
     (pts, normals)
 }
@@ -156,7 +178,7 @@ fn conditions(
     // the field is pinned from the surface out to the far grid. The smallest step
     // halves until nothing else on the surface is nearer than the vertex (thin parts
     // and creases); a larger one that fails that test is left out.
-    let pairs: Vec<Vec<Condition>> = (0..vertices)
+    let pairs: Vec<Vec<Condition>> = (0..pts.len())
         .into_par_iter()
         .map(|i| {
             let mut list = Vec::new();
@@ -175,7 +197,7 @@ fn conditions(
                     d *= 0.5;
                 }
                 for d in [0.03, 0.07] {
-                    if d > step && nearest(offset(d)).0 >= 0.99 * d {
+                    if i < vertices && d > step && nearest(offset(d)).0 >= 0.99 * d {
                         list.push(Condition {
                             p: offset(d),
                             target: -side * d,
@@ -202,7 +224,7 @@ fn conditions(
             if d < 4.0 * step {
                 return None;
             }
-            let inside = winding_number(mesh, q) > 0.5;
+            let inside = mesh.winding_number(q).abs() > 0.5;
             let dist = d.min(0.15);
             Some(Condition {
                 p: q,
@@ -316,6 +338,7 @@ pub fn convert(
     let unit = mesh.transformed(&frame);
     let vertices = unit.positions.len();
     let (pts, normals) = samples(&unit);
+    let surface = pts.len();
     let base = quadric::fit_base(&pts[..vertices], &normals[..vertices]);
     let step = (0.25 * opts.min_radius.max(0.004)).min(0.01);
     let conds = conditions(&unit, &pts, &normals, vertices, step);
@@ -331,15 +354,15 @@ pub fn convert(
         // piece of surface between them and the mesh), then the vertices over the
         // targets (every vertex on the first level), worst first, no two closer than
         // the spacing.
-        let values: Vec<f64> = conds[vertices..]
+        let values: Vec<f64> = conds[surface..]
             .par_iter()
             .map(|c| model.value(c.p))
             .collect();
         let mut wrong: Vec<(f64, usize)> = values
             .iter()
             .enumerate()
-            .filter(|(j, v)| conds[vertices + j].target * **v < 0.0)
-            .map(|(j, v)| ((v - conds[vertices + j].target).abs(), vertices + j))
+            .filter(|(j, v)| conds[surface + j].target * **v < 0.0)
+            .map(|(j, v)| ((v - conds[surface + j].target).abs(), surface + j))
             .collect();
         wrong.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         let mut order: Vec<usize> = (0..vertices)
@@ -423,7 +446,7 @@ pub fn convert(
             mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / vertices as f64,
             max_distance: errors.iter().map(|e| e.0).fold(0.0, f64::max),
             over_target: errors.iter().filter(|e| over(e)).count(),
-            wrong_side: conds[vertices..]
+            wrong_side: conds[surface..]
                 .par_iter()
                 .filter(|c| c.target * model.value(c.p) < 0.0)
                 .count(),

@@ -133,15 +133,49 @@ impl PolygonMesh {
         n.into_iter().map(unit).collect()
     }
 
-    /// Vertex normals turned outward: a closed mesh wound inward (negative volume) has
-    /// its normals flipped.
+    /// Vertex normals turned outward. Which way is out is voted by the winding number
+    /// a short step behind a spread of vertices (inside, it is near 1): that works for
+    /// open meshes too, where the signed volume says nothing.
     pub fn outward_normals(&self) -> Vec<[f64; 3]> {
         let n = self.vertex_normals();
-        if self.signed_volume() < 0.0 {
+        let (lo, hi) = self.bounds();
+        let step = 1e-3 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let stride = (self.positions.len() / 64).max(1);
+        let (mut inward, mut outward) = (0, 0);
+        for i in (0..self.positions.len()).step_by(stride) {
+            if n[i] == [0.0; 3] {
+                continue;
+            }
+            let behind = [0, 1, 2].map(|k| self.positions[i][k] - step * n[i][k]);
+            let w = self.winding_number(behind).abs();
+            if w > 0.5 {
+                outward += 1;
+            } else {
+                inward += 1;
+            }
+        }
+        if inward > outward {
             n.into_iter().map(|v| v.map(|x| -x)).collect()
         } else {
             n
         }
+    }
+
+    /// The generalised winding number at `q` (1 inside a closed mesh wound outward, -1
+    /// wound inward, 0 outside; a fraction near holes): the triangles' solid angles
+    /// over 4 pi (Van Oosterom and Strackee's formula).
+    pub fn winding_number(&self, q: [f64; 3]) -> f64 {
+        let mut sum = 0.0;
+        for t in &self.triangles {
+            let a = sub(self.positions[t[0] as usize], q);
+            let b = sub(self.positions[t[1] as usize], q);
+            let c = sub(self.positions[t[2] as usize], q);
+            let (la, lb, lc) = (dot(a, a).sqrt(), dot(b, b).sqrt(), dot(c, c).sqrt());
+            let det = dot(a, cross(b, c));
+            let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+            sum += 2.0 * det.atan2(den);
+        }
+        sum / (4.0 * std::f64::consts::PI)
     }
 
     /// Twice each triangle's area times its unit normal: the cross product of its edges.

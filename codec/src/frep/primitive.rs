@@ -311,15 +311,26 @@ impl Primitive {
                 -(q[0].scale(normal[0]) + q[1].scale(normal[1]) + q[2].scale(normal[2]))
             }
             Primitive::Quadric { coefficients: c } => {
-                x.sqr().scale(c[0])
-                    + y.sqr().scale(c[1])
-                    + z.sqr().scale(c[2])
+                // Each axis's a t^2 + b t as a (t + b / 2a)^2 - b^2 / 4a: exact over
+                // the axis's interval (the plain sum of the two terms treats the same
+                // t as two independent ones), so a quadric without cross terms, such
+                // as a ball patch, is bounded exactly.
+                let axis = |t: Interval, a: f64, b: f64| -> Interval {
+                    if a == 0.0 {
+                        return t.scale(b);
+                    }
+                    let s = b / (2.0 * a);
+                    let exact = (t + k(s)).sqr().scale(a) - k(a * s * s);
+                    // Rounding of the rearranged form, kept outside the bound.
+                    let pad = 1e-12 * (exact.lo.abs().max(exact.hi.abs()) + (a * s * s).abs());
+                    Interval::new(exact.lo - pad, exact.hi + pad)
+                };
+                axis(x, c[0], c[6])
+                    + axis(y, c[1], c[7])
+                    + axis(z, c[2], c[8])
                     + (x * y).scale(c[3])
                     + (y * z).scale(c[4])
                     + (x * z).scale(c[5])
-                    + x.scale(c[6])
-                    + y.scale(c[7])
-                    + z.scale(c[8])
                     + k(c[9])
             }
             Primitive::CaoEn(c) => {

@@ -40,7 +40,8 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         format!("{}: {}", a.mesh.display(), topology_text(&mesh)),
     );
     // The fit keeps a few dozen numbers per sample and per condition.
-    let samples = (mesh.positions.len() + mesh.triangles.len()) as u64;
+    let samples = (mesh.positions.len() + mesh.triangles.len()) as u64
+        + caoen::conversion::fit::MAX_SAMPLES as u64;
     caoen::budget::check(|| "the conversion's conditions".into(), samples * 3 * 400)
         .map_err(|e| CliError::Failed(e.to_string()))?;
     let opts = conversion::ConvertOptions {
@@ -121,6 +122,8 @@ struct Measured {
     vertex: VertexDeviation,
     depth: Vec<(&'static str, DepthDeviation)>,
     mean_depth: f64,
+    mean_all: f64,
+    mean_both: f64,
 }
 
 fn measure(
@@ -155,7 +158,14 @@ fn measure(
             ));
         }
     }
-    let mean_depth = depth.iter().map(|d| d.1.mean).sum::<f64>() / depth.len() as f64;
+    let over_views = |f: fn(&DepthDeviation) -> f64| {
+        depth.iter().map(|d| f(&d.1)).sum::<f64>() / depth.len() as f64
+    };
+    let (mean_depth, mean_all, mean_both) = (
+        over_views(|d| d.mean),
+        over_views(|d| d.mean_all),
+        over_views(|d| d.mean_both),
+    );
     let picture = a.picture.as_ref().map(|_| {
         let (w, h) = (3 * size, views.len() * size);
         let mut img = image::RgbImage::new(w as u32, h as u32);
@@ -181,6 +191,8 @@ fn measure(
             vertex,
             depth,
             mean_depth,
+            mean_all,
+            mean_both,
         },
         picture,
     ))
@@ -250,7 +262,8 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
             .depth
             .iter()
             .map(|(name, d)| {
-                json!({"view": name, "mean": d.mean, "covered": d.covered,
+                json!({"view": name, "mean": d.mean, "mean_all_pixels": d.mean_all,
+                       "mean_both_cover": d.mean_both, "covered": d.covered,
                        "silhouette_mismatch": d.silhouette_mismatch})
             })
             .collect();
@@ -262,7 +275,8 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
                 "vertex_distance": {"mean": v.mean_distance, "max": v.max_distance},
                 "normal_angle_deg": {"mean": v.mean_angle_deg, "max": v.max_angle_deg},
                 "unconverged_vertices": v.unconverged,
-                "depth": {"mean": m.mean_depth, "views": views},
+                "depth": {"mean": m.mean_depth, "mean_all_pixels": m.mean_all,
+                          "mean_both_cover": m.mean_both, "views": views},
                 "seconds": seconds,
             })
             .to_string()
@@ -291,8 +305,11 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
         );
         outln!(
             out,
-            "depth buffers:   mean {:.5} over {} views ({} px)",
+            "depth buffers:   mean {:.5} where either sees the model, {:.5} where both do, \
+             {:.5} over all pixels; {} views of {} px",
             m.mean_depth,
+            m.mean_both,
+            m.mean_all,
             m.depth.len(),
             a.size
         );
