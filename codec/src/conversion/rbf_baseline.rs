@@ -8,6 +8,20 @@ use nalgebra::{DMatrix, DVector};
 use super::model::ImplicitField;
 use super::polygon_mesh::PolygonMesh;
 
+/// Why the baseline could not be fitted.
+#[derive(Debug, thiserror::Error)]
+pub enum RbfError {
+    /// The dense system is over the memory budget.
+    #[error(transparent)]
+    OverBudget(#[from] crate::budget::OverBudget),
+    /// The system has no unique solution.
+    #[error("the RBF system of {centres} centres is singular")]
+    Singular {
+        /// How many centres.
+        centres: usize,
+    },
+}
+
 /// A fitted triharmonic RBF (unit-cube coordinates).
 #[derive(Debug, Clone)]
 pub struct RbfBaseline {
@@ -34,13 +48,18 @@ pub fn fit(
     normals: &[[f64; 3]],
     max_centres: usize,
     step: f64,
-) -> Result<RbfBaseline, crate::budget::OverBudget> {
+) -> Result<RbfBaseline, RbfError> {
     let per = max_centres.max(3) / 3;
     let stride = mesh.positions.len().div_ceil(per).max(1);
     let mut centres = Vec::new();
     let mut targets = Vec::new();
+    // Coincident vertices (split at seams) would make the system singular.
+    let mut seen = std::collections::HashSet::new();
     for i in (0..mesh.positions.len()).step_by(stride) {
         let (p, n) = (mesh.positions[i], normals[i]);
+        if n == [0.0; 3] || !seen.insert(p.map(f64::to_bits)) {
+            continue;
+        }
         centres.push(p);
         targets.push(0.0);
         for side in [1.0, -1.0] {
@@ -74,7 +93,10 @@ pub fn fit(
     for i in 0..m {
         b[i] = targets[i];
     }
-    let x = a.lu().solve(&b).unwrap_or_else(|| DVector::zeros(size));
+    let x = a
+        .lu()
+        .solve(&b)
+        .ok_or_else(|| RbfError::Singular { centres: m })?;
     Ok(RbfBaseline {
         weights: x.as_slice()[..m].to_vec(),
         linear: [x[m], x[m + 1], x[m + 2], x[m + 3]],

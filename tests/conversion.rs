@@ -1,0 +1,253 @@
+//! Polygon meshes into implicit models: the conversion, its deviation analysis, the
+//! F-rep model it writes, and bad mesh files.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use caoen::conversion::deviation::vertex_deviation;
+use caoen::conversion::{convert, ConvertOptions, ImplicitField, InUnitCube, PolygonMesh};
+use common::caoen;
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("caoen-conv-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+#[test]
+fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
+    for radii in [[1.0, 1.0, 1.0], [3.0, 2.0, 1.0]] {
+        let mesh = PolygonMesh::ellipsoid(radii, 4);
+        let c = convert(&mesh, &ConvertOptions::default(), &mut |_, _, _| {});
+        assert_eq!(c.model.functions(), 1, "{radii:?}");
+        assert!(c.met_target);
+        let unit = mesh.transformed(&mesh.unit_frame());
+        let d = vertex_deviation(&c.model, &unit, &unit.outward_normals());
+        assert!(d.mean_distance < 1e-3 && d.max_distance < 1e-9, "{d:?}");
+    }
+}
+
+#[test]
+fn the_written_model_is_the_fitted_function() {
+    // A lumpy closed mesh: an ellipsoid with a dent, so perturbations are needed.
+    let mut mesh = PolygonMesh::ellipsoid([1.0, 0.8, 0.6], 3);
+    for p in &mut mesh.positions {
+        let bump = (-((p[0] - 0.5).powi(2) + p[1].powi(2) + (p[2] - 0.4).powi(2)) * 8.0).exp();
+        *p = p.map(|v| v * (1.0 - 0.3 * bump));
+    }
+    let c = convert(
+        &mesh,
+        &ConvertOptions {
+            max_functions: 400,
+            ..Default::default()
+        },
+        &mut |_, _, _| {},
+    );
+    assert!(c.model.functions() > 1 && c.model.functions() <= 400);
+    // Each level lowers the mean distance.
+    for w in c.levels.windows(2) {
+        assert!(
+            w[1].mean_distance <= w[0].mean_distance * 1.05,
+            "{:?}",
+            c.levels
+        );
+    }
+    let text = c.model.to_frep_json("lumpy", mesh.bounds()).to_string();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    // The perturbation inside the file is the fit (indexed patches included), and the
+    // whole model (cut to a box, scaled back to the mesh's coordinates) has its signs.
+    let inner = &v["model"]["transform"]["intersection"][0];
+    let perturb = caoen::frep::Node::from_json(inner, "model", Path::new(".")).unwrap();
+    let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new(".")).unwrap();
+    let whole = InUnitCube {
+        field: &node,
+        frame: mesh.unit_frame(),
+    };
+    let mut seed = 7u64;
+    for _ in 0..2000 {
+        let mut r = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let p = [r() * 0.9, r() * 0.7, r() * 0.5];
+        let (a, ga) = c.model.value_gradient(p);
+        let (b, gb) = perturb.value_gradient(p);
+        assert!((a - b).abs() < 1e-9 * (1.0 + a.abs()), "{p:?}: {a} {b}");
+        for k in 0..3 {
+            assert!((ga[k] - gb[k]).abs() < 1e-7 * (1.0 + ga[k].abs()));
+        }
+        if a.abs() > 1e-9 {
+            assert_eq!(a > 0.0, whole.value(p) > 0.0, "{p:?}");
+        }
+        // And the analytic gradient is the derivative.
+        let h = 1e-6;
+        let (mut p1, mut p2) = (p, p);
+        p1[0] += h;
+        p2[0] -= h;
+        let fd = (c.model.value(p1) - c.model.value(p2)) / (2.0 * h);
+        assert!(
+            (fd - ga[0]).abs() < 1e-5 * (1.0 + ga[0].abs()),
+            "{fd} {}",
+            ga[0]
+        );
+    }
+}
+
+#[test]
+fn spot_converts_and_measures_within_the_targets_through_the_cli() {
+    let dir = tmpdir("spot");
+    let mesh = repo("tests/data/meshes/spot.obj");
+    let model = dir.join("spot.json");
+    let out = caoen(&["convert", s(&mesh), "-o", s(&model), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("level 0:"), "progress on stderr: {stderr}");
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let functions = r["functions"].as_u64().unwrap();
+    assert!((100..=6000).contains(&functions), "{r}");
+    // No overwrite without -f.
+    let again = caoen(&["convert", s(&mesh), "-o", s(&model)]);
+    assert_eq!(again.status.code(), Some(1));
+    let picture = dir.join("dev.png");
+    let out = caoen(&[
+        "--quiet",
+        "deviation",
+        s(&mesh),
+        s(&model),
+        "--size",
+        "128",
+        "--json",
+        "--picture",
+        s(&picture),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stderr.is_empty());
+    let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let f = |path: &[&str]| path.iter().fold(&d, |v, k| &v[*k]).as_f64().unwrap();
+    assert!(f(&["vertex_distance", "mean"]) < 1e-3, "{d}");
+    assert!(f(&["normal_angle_deg", "mean"]) < 5.0, "{d}");
+    assert!(f(&["depth", "mean_all_pixels"]) < 0.005, "{d}");
+    assert!(f(&["depth", "mean"]) < 0.008, "{d}");
+    assert_eq!(d["depth"]["views"].as_array().unwrap().len(), 6);
+    let img = image::open(&picture).unwrap();
+    assert_eq!((img.width(), img.height()), (3 * 128, 6 * 128));
+    // The baseline measures through the same command, and does worse per number.
+    let out = caoen(&[
+        "--quiet",
+        "deviation",
+        s(&mesh),
+        "--rbf",
+        "300",
+        "--size",
+        "64",
+        "--views",
+        "2",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let b: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(b["normal_angle_deg"]["mean"].as_f64().unwrap() > f(&["normal_angle_deg", "mean"]));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_model_far_from_the_mesh_measures_badly() {
+    // The deviation can fail: a ball against spot.
+    let dir = tmpdir("ball");
+    let model = dir.join("ball.json");
+    std::fs::write(
+        &model,
+        r#"{"format": "caoen-frep/1", "model": {"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}}"#,
+    )
+    .unwrap();
+    let mesh = repo("tests/data/meshes/spot.obj");
+    let out = caoen(&[
+        "--quiet",
+        "deviation",
+        s(&mesh),
+        s(&model),
+        "--size",
+        "64",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(d["depth"]["mean"].as_f64().unwrap() > 0.05, "{d}");
+    assert!(
+        d["normal_angle_deg"]["mean"].as_f64().unwrap() > 20.0,
+        "{d}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn broken_meshes_fail_with_clear_errors() {
+    let dir = tmpdir("bad");
+    let expect = [
+        ("bad-index.obj", "face"),
+        ("bad-index.ply", "face 0 uses vertex 7"),
+        ("nan.obj", "non-finite"),
+        ("inf.obj", "non-finite"),
+        ("empty.obj", "no triangles"),
+        ("zero-bytes.obj", "no triangles"),
+        ("one-point.obj", "one point"),
+        ("garbage.obj", "not a valid OBJ"),
+        ("huge-count.ply", "4000000000 declared"),
+        (
+            "truncated.ply",
+            "more than the 31 bytes after the header can hold",
+        ),
+        ("no-header-end.ply", "end_header"),
+        ("not-a-mesh.ply", "no end_header"),
+        ("wrong-extension.stl", "unknown mesh format"),
+    ];
+    for (file, words) in expect {
+        let path = repo("tests/bad/mesh").join(file);
+        let out = caoen(&["convert", s(&path), "-o", s(&dir.join("m.json"))]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{file}: {err}");
+        assert!(err.contains(words), "{file}: {err}");
+        assert!(!err.contains("panicked"), "{file}: {err}");
+    }
+    assert!(!dir.join("m.json").exists());
+    let missing = caoen(&["convert", "no-such.obj", "-o", s(&dir.join("m.json"))]);
+    assert_eq!(missing.status.code(), Some(1));
+    for bad in [
+        ["--target", "0"],
+        ["--target", "nan"],
+        ["--max-functions", "0"],
+        ["--max-angle", "-1"],
+    ] {
+        let out = caoen(&["convert", "x.obj", "-o", "m.json", bad[0], bad[1]]);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+    }
+    let out = caoen(&["deviation", "x.obj"]);
+    assert_eq!(out.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}
