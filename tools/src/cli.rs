@@ -141,6 +141,9 @@ pub struct DeviationArgs {
     /// Print the result as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Print no summary (with --picture: only the picture).
+    #[arg(long, conflicts_with = "json")]
+    pub no_summary: bool,
 }
 
 fn positive_fraction(s: &str) -> Result<f64, String> {

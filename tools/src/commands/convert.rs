@@ -257,6 +257,9 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
     }
     let seconds = start.elapsed().as_secs_f64();
     let v = &m.vertex;
+    if a.no_summary {
+        return Ok(());
+    }
     if a.json {
         let views: Vec<_> = m
             .depth

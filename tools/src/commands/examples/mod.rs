@@ -6,6 +6,7 @@
 //! the command it shows (`caoen distort`, `caoen transfer`), so the committed files are
 //! exactly what produced the committed pictures.
 
+mod conversion;
 mod frep;
 mod surfaces;
 mod texture;
@@ -98,6 +99,7 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
     surfaces::write(global, dir, a.samples)?;
     texture::write(global, dir, a.samples)?;
     frep::write(global, dir, a.samples)?;
+    conversion::write(global, dir)?;
     note(
         global,
         format!(
