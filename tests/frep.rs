@@ -99,11 +99,29 @@ fn zoo() -> Vec<Node> {
         node(
             json!({"perturb": boxy.clone(), "patches": [{"bump": {"centre": [0.0, 0.3, 0.4], "radius": 0.6, "height": 0.5}}], "power": 3}),
         ),
+        node(json!({"perturb": boxy.clone(), "patches": [
+            {"polygon": {"vertices": TRIANGLE, "depth": 0.2}, "factor": 20.0},
+            {"polygon": {"vertices": [[0.7, -0.3, -0.1], [0.7, 0.3, -0.3], [0.7, 0.2, 0.25], [0.7, -0.25, 0.2]], "depth": 0.1}, "factor": -30.0}
+        ]})),
+        node(json!({"perturb": sphere.clone(), "patches": [
+            {"spherical_polygon": {"centre": [0.1, -0.2, 0.3], "radius": 0.8, "vertices": SPHERICAL_QUAD, "depth": 0.15}, "factor": 50.0},
+            {"spherical_polygon": {"centre": [0.1, -0.2, 0.3], "radius": 0.8, "vertices": [[0.0, 0.0, 1.0], [-0.6, 0.1, 0.8], [-0.1, -0.6, 0.8]], "depth": 0.1}, "factor": 40.0}
+        ], "power": 3})),
         node(
             json!({"transform": {"union": [sphere, boxy]}, "scale": [1.0, 2.0, 0.5], "rotate_deg": [10.0, 20.0, 30.0], "translate": [0.3, 0.0, -0.2]}),
         ),
     ]
 }
+
+/// A triangle on the top face (z = 0.3) of the zoo's box.
+const TRIANGLE: [[f64; 3]; 3] = [[0.0, -0.2, 0.3], [0.5, -0.1, 0.3], [0.2, 0.25, 0.3]];
+/// A spherical quad's corners, projected onto the zoo sphere from its centre.
+const SPHERICAL_QUAD: [[f64; 3]; 4] = [
+    [1.0, -0.3, -0.3],
+    [1.0, 0.3, -0.35],
+    [1.0, 0.35, 0.3],
+    [1.0, -0.3, 0.3],
+];
 
 #[test]
 fn gradients_equal_central_differences() {
@@ -292,6 +310,30 @@ fn bad_models_are_refused_with_the_path() {
             "model.scale",
         ),
         (json!({"teapot": {}}), "no node kind"),
+        (
+            json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [{"polygon": {"vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1.5]], "depth": 0.1}}]}),
+            "off the plane",
+        ),
+        (
+            json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [{"polygon": {"vertices": [[0, 0, 1], [1, 0, 1], [0.2, 0.2, 1], [0, 1, 1]], "depth": 0.1}}]}),
+            "not convex",
+        ),
+        (
+            json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [{"polygon": {"vertices": [[0, 0, 1], [1, 0, 1]], "depth": 0.1}}]}),
+            "model.patches[0].polygon.vertices: expected 3 or 4",
+        ),
+        (
+            json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [{"spherical_polygon": {"radius": 1.0, "vertices": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "depth": 1.0}}]}),
+            "below the radius",
+        ),
+        (
+            json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [{"polygon": {"vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1]], "depth": 0.0}}]}),
+            "model.patches[0].polygon.depth",
+        ),
+        (
+            json!({"perturb": {"sphere": {"radius": 1.0}}, "patches": [{"polygon": {"vertices": [[0, 0, 1], [1, 0, 1], [0, 1, 1]], "depth": 0.1}, "bump": {"radius": 1.0, "height": 1.0}}]}),
+            "give exactly one of",
+        ),
         (json!([1, 2]), "expected a node object"),
     ];
     for (v, want) in cases {
@@ -539,12 +581,131 @@ fn pov_ray_renders_the_exported_model() {
     }
 }
 
+/// Polygon patches: `Q > 0` exactly over the triangle or quad within the band (checked
+/// against an independent point-in-polygon test of the point projected onto the plane
+/// or, along its ray from the centre, onto the sphere), so the perturbation is 0
+/// outside; and `Q` reaches the depth's half at the polygon's inside, on its surface.
+#[test]
+fn polygon_patches_are_zero_outside_their_polygon() {
+    use caoen::frep::polygon_patch::PolygonSupport;
+    let planar = PolygonSupport::planar(&TRIANGLE, 0.2).unwrap();
+    let centre = [0.1, -0.2, 0.3];
+    let spherical = PolygonSupport::spherical(centre, 0.8, &SPHERICAL_QUAD, 0.15).unwrap();
+    // Is q inside the polygon `poly` (points on the plane z = 0.3, or directions),
+    // by the sign of the 2-D or 3-D triple products, independent of the support's edges?
+    let inside_planar = |p: [f64; 3]| {
+        let v = TRIANGLE;
+        (0..3).all(|i| {
+            let (a, b) = (v[i], v[(i + 1) % 3]);
+            (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]) > 0.0
+        }) && (p[2] - 0.3).abs() < 0.2
+    };
+    let inside_spherical = |p: [f64; 3]| {
+        let d = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
+        let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let v = SPHERICAL_QUAD.map(|q| [0, 1, 2].map(|k| q[k] - centre[k]));
+        let det = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
+            a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0])
+        };
+        // The quad runs anticlockwise seen from outside.
+        (0..4).all(|i| det(v[i], v[(i + 1) % 4], d) > 0.0) && (r - 0.8).abs() < 0.15
+    };
+    let mut s = Stream(0xfeed_f00d_0000_0003);
+    let (mut ins, mut outs) = (0, 0);
+    for _ in 0..200_000 {
+        let p = [0.25 + 0.6 * s.next(), 0.6 * s.next(), 0.3 + 0.3 * s.next()];
+        let q = planar.value_gradient(p).0;
+        assert_eq!(q > 0.0, inside_planar(p), "planar at {p:?}: Q = {q}");
+        let p = [
+            centre[0] + 0.75 + 0.3 * s.next(),
+            centre[1] + 0.5 * s.next(),
+            centre[2] + 0.5 * s.next(),
+        ];
+        let q = spherical.value_gradient(p).0;
+        assert_eq!(q > 0.0, inside_spherical(p), "spherical at {p:?}: Q = {q}");
+        if q > 0.0 {
+            ins += 1;
+        } else {
+            outs += 1;
+        }
+    }
+    assert!(
+        ins > 10_000 && outs > 10_000,
+        "{ins} inside, {outs} outside"
+    );
+    // The perturbed model equals its base wherever Q <= 0.
+    let base = node(json!({"sphere": {"centre": centre, "radius": 0.8}}));
+    let perturbed = node(
+        json!({"perturb": {"sphere": {"centre": centre, "radius": 0.8}},
+        "patches": [{"spherical_polygon": {"centre": centre, "radius": 0.8,
+            "vertices": SPHERICAL_QUAD, "depth": 0.15}, "factor": 50.0}]}),
+    );
+    for _ in 0..20_000 {
+        let p = [1.2 * s.next(), 1.2 * s.next(), 1.2 * s.next()];
+        if spherical.value_gradient(p).0 <= 0.0 {
+            assert_eq!(perturbed.value(p), base.value(p), "at {p:?}");
+        } else {
+            assert!(perturbed.value(p) > base.value(p), "at {p:?}");
+        }
+    }
+    // Exact gradients inside the patches (where the zoo's random points seldom fall).
+    let planar_model = node(
+        json!({"perturb": {"half_space": {"point": [0.0, 0.0, 0.3], "normal": [0.0, 0.0, 1.0]}},
+        "patches": [{"polygon": {"vertices": TRIANGLE, "depth": 0.2}, "factor": 20.0}]}),
+    );
+    let mut checked = 0;
+    for _ in 0..20_000 {
+        let p = [0.25 + 0.3 * s.next(), 0.25 * s.next(), 0.3 + 0.2 * s.next()];
+        let p2 = [
+            centre[0] + 0.8 + 0.15 * s.next(),
+            centre[1] + 0.3 * s.next(),
+            centre[2] + 0.3 * s.next(),
+        ];
+        for (m, p, support) in [(&planar_model, p, &planar), (&perturbed, p2, &spherical)] {
+            if support.value_gradient(p).0 <= 1e-4 {
+                continue;
+            }
+            let (_, g) = m.value_gradient(p);
+            let h = 1e-6;
+            for i in 0..3 {
+                let (mut a, mut b) = (p, p);
+                a[i] += h;
+                b[i] -= h;
+                let fd = (m.value(a) - m.value(b)) / (2.0 * h);
+                let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
+                assert!(
+                    (g[i] - fd).abs() <= 1e-6 * scale,
+                    "at {p:?}: {} vs {fd}",
+                    g[i]
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 5_000, "{checked}");
+    // Golden value: at the centroid, on the plane, the band is depth / 2 and each edge
+    // contributes its distance, folded by the a = 0 intersection.
+    let v = TRIANGLE;
+    let mid = [0, 1, 2].map(|k| (v[0][k] + v[1][k] + v[2][k]) / 3.0);
+    let mut want = 0.1;
+    for i in 0..3 {
+        let (a, b) = (v[i], v[(i + 1) % 3]);
+        let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        let e = ((b[0] - a[0]) * (mid[1] - a[1]) - (b[1] - a[1]) * (mid[0] - a[0])) / len;
+        want = want + e - (want * want + e * e).sqrt();
+    }
+    let q = planar.value_gradient(mid).0;
+    assert!((q - want).abs() < 1e-12, "{q} vs {want}");
+}
+
 /// POV-Ray evaluates an exported picture model to the same numbers as caoen: grey and
 /// colour images, bilinear and bicubic, planar, cylindrical and ellipsoid parameters.
 /// Colour images agree to single precision; POV-Ray's reader of grey PNGs turns some
 /// levels into the level below (170 is read as 169/255), so a grey image agrees to 1.3
 /// levels (the bicubic weights' sum of magnitudes is at most 1.25). A bicubic map read
-/// bilinearly, or a sample grid off by half a pixel, is off by more than 10^-2.
+/// bilinearly, or a sample grid off by half a pixel, is off by more than 10^-2. Polygon
+/// patches (no image) agree to rounding.
 #[test]
 fn pov_ray_reads_pictures_as_caoen_does() {
     if !has_povray() {
@@ -565,10 +726,14 @@ fn pov_ray_reads_pictures_as_caoen_does() {
             "rect": [-3.0, -0.8, 3.1, 0.9], "interp": "bicubic"}}),
         json!({"height_map": {"image": s(&colour), "base": {"ellipsoid": [0.9, 0.8, 0.7]},
             "rect": [-3.1, -1.5, 3.1, 1.5], "interp": "bicubic", "height": 0.3, "threshold": 0.05}}),
+        json!({"perturb": {"sphere": {"radius": 0.8}}, "patches": [
+            {"polygon": {"vertices": [[-0.5, -0.5, 0.2], [0.6, -0.4, 0.3], [0.1, 0.7, 0.1]], "depth": 0.3}, "factor": 20.0},
+            {"spherical_polygon": {"radius": 0.8, "vertices": SPHERICAL_QUAD, "depth": 0.3}, "factor": -30.0}
+        ], "power": 3}),
     ];
     let mut stream = Stream(0x5eed_1234_abcd_0001);
     // The grey image's tolerance; the colour images' is single precision.
-    let tolerance = [1.3 / 255.0, 1e-6, 1e-6, 1e-6];
+    let tolerance = [1.3 / 255.0, 1e-6, 1e-6, 1e-6, 1e-8];
     for (n, case) in cases.iter().enumerate() {
         let model = json!({"intersection": [case, {"sphere": {"radius": 5.0}}], "a": 1.0});
         let path = dir.join(format!("m{n}.json"));

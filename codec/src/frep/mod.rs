@@ -6,6 +6,7 @@
 pub mod height_map;
 pub mod interval;
 pub mod node;
+pub mod polygon_patch;
 pub mod polygonise;
 pub mod pov;
 pub mod primitive;
@@ -13,4 +14,4 @@ pub mod raycast;
 pub mod rfunction;
 
 pub use interval::{Aabb, Interval};
-pub use node::{ModelError, Node, Patch};
+pub use node::{ModelError, Node, Patch, Support};

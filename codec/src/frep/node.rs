@@ -7,6 +7,7 @@ use serde_json::Value;
 
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::{Aabb, Interval};
+use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
 use crate::render::transform::Affine;
@@ -98,19 +99,44 @@ pub enum Node {
     },
 }
 
-/// One quadric patch of a perturbation: `factor * max(Q, 0)^power`.
+/// One patch of a perturbation: `factor * max(Q, 0)^power`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Patch {
-    /// `Q` as a quadric primitive (its ten coefficients).
-    pub quadric: Primitive,
+    /// `Q`, positive over the patch.
+    pub support: Support,
     /// The form factor (positive adds material).
     pub factor: f64,
+}
+
+/// The function `Q` of a patch.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Support {
+    /// A quadric primitive (its ten coefficients).
+    Quadric(Primitive),
+    /// A convex triangle or quad on a plane or a sphere.
+    Polygon(PolygonSupport),
+}
+
+impl Support {
+    fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        match self {
+            Support::Quadric(q) => q.value_gradient(p),
+            Support::Polygon(s) => s.value_gradient(p),
+        }
+    }
+
+    fn interval(&self, b: &Aabb) -> Interval {
+        match self {
+            Support::Quadric(q) => q.interval(b),
+            Support::Polygon(s) => s.interval(b),
+        }
+    }
 }
 
 impl Patch {
     /// The patch's value and gradient for `power`.
     fn value_gradient(&self, p: [f64; 3], power: i32) -> (f64, [f64; 3]) {
-        let (q, g) = self.quadric.value_gradient(p);
+        let (q, g) = self.support.value_gradient(p);
         if q <= 0.0 {
             return (0.0, [0.0; 3]);
         }
@@ -120,14 +146,19 @@ impl Patch {
     }
 
     fn interval(&self, b: &Aabb, power: i32) -> Interval {
-        let q = self.quadric.interval(b);
+        let q = self.support.interval(b);
         let (lo, hi) = (q.lo.max(0.0), q.hi.max(0.0));
         Interval::new(lo.powi(power), hi.powi(power)).scale(self.factor)
     }
 
-    /// The box of the region where `Q > 0`, if it is bounded (an ellipsoid's inside).
+    /// The box of the region where `Q > 0`, if it is bounded (an ellipsoid's inside,
+    /// a polygon's band).
     fn positive_box(&self) -> Option<Aabb> {
-        let Primitive::Quadric { coefficients: c } = &self.quadric else {
+        let quadric = match &self.support {
+            Support::Polygon(s) => return Some(s.positive_box()),
+            Support::Quadric(q) => q,
+        };
+        let Primitive::Quadric { coefficients: c } = quadric else {
             return None;
         };
         // Q = x^T A x + b . x + k with A symmetric.
@@ -153,7 +184,7 @@ impl Patch {
             (a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]) / det
         };
         let centre = [0, 1, 2].map(|i| -0.5 * (0..3).map(|j| inv(i, j) * b[j]).sum::<f64>());
-        let (top, _) = self.quadric.value_gradient(centre);
+        let (top, _) = quadric.value_gradient(centre);
         if top <= 0.0 {
             return None;
         }
@@ -944,16 +975,32 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
         })
 }
 
-/// One patch: `{"quadric": [10 coefficients], "factor": f}` or a bump
+/// One patch: `{"quadric": [10 coefficients], "factor": f}`, a bump
 /// `{"bump": {"centre", "radius", "height"}}` (`Q = height (1 - |p - centre|^2 / radius^2)`,
-/// positive in the ball).
+/// positive in the ball), or a `polygon` or `spherical_polygon` (`polygon_support`).
 fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
     let w = WORLD_LIMIT;
-    let f = fields(v, path, &["quadric", "factor", "bump"])?;
+    let kinds = ["quadric", "bump", "polygon", "spherical_polygon"];
+    let f = fields(v, path, &[&kinds[..], &["factor"]].concat())?;
     let factor = match f.get("factor") {
         Some(x) => number(x, &format!("{path}.factor"), -w, w)?,
         None => 1.0,
     };
+    let given: Vec<&str> = kinds.into_iter().filter(|k| f.contains_key(*k)).collect();
+    let [kind] = given[..] else {
+        return err(
+            path,
+            format!("give exactly one of `{}`", kinds.join("`, `")),
+        );
+    };
+    if kind == "polygon" || kind == "spherical_polygon" {
+        let here = format!("{path}.{kind}");
+        let support = polygon_support(&f[kind], &here, kind == "spherical_polygon")?;
+        return Ok(Patch {
+            support: Support::Polygon(support),
+            factor,
+        });
+    }
     let coefficients = match (f.get("quadric"), f.get("bump")) {
         (Some(q), None) => numbers(q, &format!("{path}.quadric"), -w, w, "ten coefficients")?,
         (None, Some(b)) => {
@@ -990,11 +1037,61 @@ fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
                 h + k * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
             ]
         }
-        _ => return err(path, "give exactly one of `quadric` or `bump`"),
+        _ => unreachable!("exactly one kind, checked above"),
     };
     Ok(Patch {
-        quadric: Primitive::Quadric { coefficients },
+        support: Support::Quadric(Primitive::Quadric { coefficients }),
         factor,
+    })
+}
+
+/// A polygon patch's support: `{"vertices": [[x, y, z], ...], "depth": d}` (3 or 4
+/// vertices on a plane), or on a sphere with `"centre"` (default the origin) and
+/// `"radius"` as well.
+fn polygon_support(v: &Value, here: &str, spherical: bool) -> Result<PolygonSupport, ModelError> {
+    let w = WORLD_LIMIT;
+    let allowed: &[&str] = if spherical {
+        &["vertices", "depth", "centre", "radius"]
+    } else {
+        &["vertices", "depth"]
+    };
+    let g = fields(v, here, allowed)?;
+    let at = format!("{here}.vertices");
+    let Some(list) = get(g, "vertices", here)?
+        .as_array()
+        .filter(|a| (3..=4).contains(&a.len()))
+    else {
+        return err(&at, "expected 3 or 4 vertices [[x, y, z], ...]");
+    };
+    let vertices = list
+        .iter()
+        .enumerate()
+        .map(|(i, p)| vec3(p, &format!("{at}[{i}]"), -w, w))
+        .collect::<Result<Vec<_>, _>>()?;
+    let depth = number(
+        get(g, "depth", here)?,
+        &format!("{here}.depth"),
+        MIN_LENGTH,
+        w,
+    )?;
+    let made = if spherical {
+        let centre = match g.get("centre") {
+            Some(c) => vec3(c, &format!("{here}.centre"), -w, w)?,
+            None => [0.0; 3],
+        };
+        let radius = number(
+            get(g, "radius", here)?,
+            &format!("{here}.radius"),
+            MIN_LENGTH,
+            w,
+        )?;
+        PolygonSupport::spherical(centre, radius, &vertices, depth)
+    } else {
+        PolygonSupport::planar(&vertices, depth)
+    };
+    made.map_err(|reason| ModelError {
+        path: here.to_string(),
+        reason,
     })
 }
 

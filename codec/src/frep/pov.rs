@@ -13,7 +13,8 @@ use std::fmt::Write as _;
 
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::Aabb;
-use super::node::Node;
+use super::node::{Node, Support};
+use super::polygon_patch::{PolygonSupport, Surface};
 use super::primitive::Primitive;
 use super::rfunction::SetOp;
 use crate::render::camera::{Camera, Projection};
@@ -223,8 +224,14 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             let f = declare(base, out, next);
             let mut expr = format!("{f}(x, y, z)");
             for t in terms {
-                let Primitive::Quadric { coefficients: c } = &t.quadric else {
-                    unreachable!("patches are quadrics");
+                let c = match &t.support {
+                    Support::Polygon(s) => {
+                        let q = polygon_support(s);
+                        let _ = write!(expr, " + {} * pow(max({q}, 0), {power})", num(t.factor));
+                        continue;
+                    }
+                    Support::Quadric(Primitive::Quadric { coefficients: c }) => c,
+                    Support::Quadric(_) => unreachable!("quadric patches are quadrics"),
                 };
                 let q = format!(
                     "({}*x*x + {}*y*y + {}*z*z + {}*x*y + {}*y*z + {}*x*z + {}*x + {}*y + {}*z + {})",
@@ -253,6 +260,51 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
     };
     let _ = writeln!(out, "#declare {name} = function(x, y, z) {{ {body} }}");
     name
+}
+
+/// The expression of a polygon patch's `Q`: the band across its plane or sphere
+/// intersected with each edge's half-space by the `a = 0` R-function.
+fn polygon_support(s: &PolygonSupport) -> String {
+    let (surface, vertices, depth) = s.parts();
+    let across = match surface {
+        Surface::Plane { normal: n } => {
+            let v = vertices[0];
+            format!(
+                "({} * (x - {}) + {} * (y - {}) + {} * (z - {}))",
+                num(n[0]),
+                num(v[0]),
+                num(n[1]),
+                num(v[1]),
+                num(n[2]),
+                num(v[2])
+            )
+        }
+        Surface::Sphere { centre: c, radius } => format!(
+            "(sqrt((x - {0})*(x - {0}) + (y - {1})*(y - {1}) + (z - {2})*(z - {2})) - {3})",
+            num(c[0]),
+            num(c[1]),
+            num(c[2]),
+            num(radius)
+        ),
+    };
+    let mut q = format!(
+        "(({} - {across}*{across}) / {})",
+        num(depth * depth),
+        num(2.0 * depth)
+    );
+    for (n, p) in s.edge_planes() {
+        let e = format!(
+            "({} * (x - {}) + {} * (y - {}) + {} * (z - {}))",
+            num(n[0]),
+            num(p[0]),
+            num(n[1]),
+            num(p[1]),
+            num(n[2]),
+            num(p[2])
+        );
+        q = format!("caoen_intersection({q}, {e}, 0)");
+    }
+    q
 }
 
 /// Declares a picture's image as a pigment function and returns the expression of its
