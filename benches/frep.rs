@@ -5,8 +5,8 @@
 //! five runs; one POV-Ray run for the picture models, which POV-Ray renders at 128x128
 //! in tens of seconds); criterion's report of caoen's renders follows. POV-Ray's time
 //! includes its start-up and parse, which the ratio states; without `povray` on the
-//! PATH only caoen is measured. A filter argument (`cargo bench --bench frep --
-//! lattice`) limits the summary too.
+//! PATH only caoen is measured. `CAOEN_FREP_BENCH=NAME` limits the run to the models
+//! whose name contains NAME.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -51,7 +51,7 @@ fn models() -> Vec<(String, PathBuf, u32)> {
     )
     .unwrap();
     let example = |m: &str| root.join(format!("examples/frep/{m}.json"));
-    let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
+    let filter = std::env::var("CAOEN_FREP_BENCH").ok();
     let all: Vec<(String, PathBuf, u32)> = vec![
         ("blend".into(), example("blend"), SIDE),
         ("patches".into(), bumps, SIDE),

@@ -581,6 +581,237 @@ fn pov_ray_renders_the_exported_model() {
     }
 }
 
+/// The blob surface (`builtin:blob`) written to `dir/blob.json`.
+fn blob_surface(dir: &Path) -> PathBuf {
+    let path = dir.join("blob.json");
+    let o = caoen(&["surface", "export", "builtin:blob", "-o", s(&path)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    path
+}
+
+/// The inside of a closed Cao En surface as a field: the signed distance to its
+/// tessellation. Its magnitude equals the distance to the nearest of all triangles
+/// (found by brute force), its sign the generalised winding number's (the sum of the
+/// triangles' solid angles: 1 inside, 0 outside); gradients equal central differences
+/// away from the medial axis; the Lipschitz bound holds the values of random boxes;
+/// bad nodes are refused with the path.
+#[test]
+fn caoen_surface_inside_is_a_signed_distance() {
+    let dir = tmpdir("surface-field");
+    blob_surface(&dir);
+    let v = json!({"caoen_surface": {"file": "blob.json", "detail": 3}});
+    let n = Node::from_json(&v, "model", &dir).unwrap();
+    let model = caoen::surface::model_file::SurfaceModel::load(&dir.join("blob.json")).unwrap();
+    let mesh =
+        caoen::render::mesh::tessellate(&model, 3, caoen::render::mesh::NormalMode::Exact).unwrap();
+    let tri: Vec<[[f64; 3]; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| mesh.positions[i as usize]))
+        .collect();
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    // Distance from p to a triangle by minimising over a fine barycentric grid and
+    // the edges: an independent (slow, approximate from above) nearest point.
+    let seg = |p: [f64; 3], a: [f64; 3], b: [f64; 3]| {
+        let ab = sub(b, a);
+        let t = (dot(sub(p, a), ab) / dot(ab, ab)).clamp(0.0, 1.0);
+        let q = [0, 1, 2].map(|k| a[k] + t * ab[k]);
+        dot(sub(p, q), sub(p, q)).sqrt()
+    };
+    let to_triangle = |p: [f64; 3], t: &[[f64; 3]; 3]| {
+        let nrm = cross(sub(t[1], t[0]), sub(t[2], t[0]));
+        let len = dot(nrm, nrm).sqrt();
+        let nrm = nrm.map(|v| v / len);
+        let h = dot(sub(p, t[0]), nrm);
+        let q = [0, 1, 2].map(|k| p[k] - h * nrm[k]);
+        // q inside the triangle: the plane distance; else the nearest edge.
+        let inside =
+            (0..3).all(|i| dot(cross(sub(t[(i + 1) % 3], t[i]), sub(q, t[i])), nrm) >= 0.0);
+        if inside {
+            h.abs()
+        } else {
+            (0..3)
+                .map(|i| seg(p, t[i], t[(i + 1) % 3]))
+                .fold(f64::INFINITY, f64::min)
+        }
+    };
+    let winding = |p: [f64; 3]| {
+        let mut sum = 0.0;
+        for t in &tri {
+            let [a, b, c] = t.map(|v| sub(v, p));
+            let (la, lb, lc) = (dot(a, a).sqrt(), dot(b, b).sqrt(), dot(c, c).sqrt());
+            let num = dot(a, cross(b, c));
+            let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+            sum += 2.0 * num.atan2(den);
+        }
+        sum / (4.0 * std::f64::consts::PI)
+    };
+    let mut st = Stream(0x00c0_ffee_0000_0004);
+    let (mut ins, mut outs) = (0, 0);
+    for _ in 0..400 {
+        let p = [1.2 * st.next(), st.next(), st.next()];
+        let (f, _) = n.value_gradient(p);
+        let d = tri
+            .iter()
+            .map(|t| to_triangle(p, t))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (f.abs() - d).abs() < 1e-9,
+            "at {p:?}: |f| = {} vs {d}",
+            f.abs()
+        );
+        let w = winding(p);
+        assert!(
+            (w - 1.0).abs() < 1e-6 || w.abs() < 1e-6,
+            "winding {w} at {p:?}"
+        );
+        assert_eq!(f > 0.0, w > 0.5, "at {p:?}: f = {f}, winding {w}");
+        if f > 0.0 {
+            ins += 1;
+        } else {
+            outs += 1;
+        }
+    }
+    assert!(ins > 50 && outs > 50, "{ins} inside, {outs} outside");
+    assert!(n.value([0.0; 3]) > 0.3 && n.value([3.0, 0.0, 0.0]) < -1.0);
+    // Gradients (unit length, the direction away from the nearest point).
+    let mut checked = 0;
+    for _ in 0..2000 {
+        let p = [1.6 * st.next(), 1.4 * st.next(), 1.4 * st.next()];
+        let (_, g) = n.value_gradient(p);
+        let h = 1e-6;
+        let smooth = (0..3).all(|i| {
+            let (mut a, mut b) = (p, p);
+            a[i] += 2.0 * h;
+            b[i] -= 2.0 * h;
+            let (ga, gb) = (n.value_gradient(a).1, n.value_gradient(b).1);
+            (0..3).all(|j| (ga[j] - gb[j]).abs() < 1e-3)
+        });
+        if !smooth {
+            continue;
+        }
+        assert!((dot(g, g).sqrt() - 1.0).abs() < 1e-9);
+        for i in 0..3 {
+            let (mut a, mut b) = (p, p);
+            a[i] += h;
+            b[i] -= h;
+            let fd = (n.value(a) - n.value(b)) / (2.0 * h);
+            assert!((g[i] - fd).abs() < 1e-6, "at {p:?}: {} vs {fd}", g[i]);
+        }
+        checked += 1;
+    }
+    assert!(checked > 1500, "{checked}");
+    // Bounds over random boxes hold the values inside them.
+    for _ in 0..300 {
+        let c = [1.5 * st.next(), 1.5 * st.next(), 1.5 * st.next()];
+        let h = [
+            0.4 * st.next().abs(),
+            0.4 * st.next().abs(),
+            0.4 * st.next().abs(),
+        ];
+        let b = Aabb::new(
+            [0, 1, 2].map(|k| c[k] - h[k]),
+            [0, 1, 2].map(|k| c[k] + h[k]),
+        );
+        let range = n.interval(&b);
+        for _ in 0..8 {
+            let p = [0, 1, 2].map(|k| c[k] + h[k] * st.next());
+            let v = n.value(p);
+            assert!(range.lo <= v && v <= range.hi, "{v} outside {range:?}");
+        }
+    }
+    for (v, want) in [
+        (
+            json!({"caoen_surface": {"file": "missing.json"}}),
+            "model.caoen_surface.file",
+        ),
+        (
+            json!({"caoen_surface": {"file": "blob.json", "detail": 8}}),
+            "model.caoen_surface.detail",
+        ),
+        (
+            json!({"caoen_surface": {"file": "blob.json", "detail": 2.5}}),
+            "whole number",
+        ),
+        (
+            json!({"caoen_surface": {"file": "blob.json", "level": 1}}),
+            "unknown field `level`",
+        ),
+    ] {
+        let e = Node::from_json(&v, "model", &dir).unwrap_err().to_string();
+        assert!(e.contains(want), "{v}: `{e}` should mention `{want}`");
+    }
+}
+
+/// The ray-cast silhouette of a surface's inside matches the surface's own render.
+#[test]
+fn caoen_surface_field_renders_like_the_surface() {
+    let dir = tmpdir("surface-render");
+    blob_surface(&dir);
+    let camera = json!({"projection": "perspective", "fov_deg": 30.0,
+        "eye": [2.0, -3.2, 1.4], "target": [0.0, 0.0, 0.0]});
+    let scenes = [
+        json!({"format": "caoen-scene/1", "camera": camera, "objects": [{"surface": "blob.json"}]}),
+        json!({"format": "caoen-scene/1", "camera": camera,
+            "objects": [{"frep": {"caoen_surface": {"file": "blob.json", "detail": 5}}}]}),
+    ];
+    let mut masks = Vec::new();
+    for (k, (scene, method)) in scenes.iter().zip(["mesh", "ray"]).enumerate() {
+        let (path, out) = (
+            dir.join(format!("s{k}.json")),
+            dir.join(format!("s{k}.png")),
+        );
+        std::fs::write(&path, scene.to_string()).unwrap();
+        let o = caoen(&[
+            "surface",
+            "render",
+            s(&path),
+            "-o",
+            s(&out),
+            "--size",
+            "160x160",
+            "--samples",
+            "1",
+            "--method",
+            method,
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let img = image::open(&out).unwrap().to_rgb8();
+        let bg = *img.get_pixel(0, 0);
+        masks.push(
+            img.pixels()
+                .map(|q| {
+                    (0..3)
+                        .map(|c| (q[c] as i32 - bg[c] as i32).abs())
+                        .sum::<i32>()
+                        > 24
+                })
+                .collect::<Vec<bool>>(),
+        );
+    }
+    let inter = masks[0]
+        .iter()
+        .zip(&masks[1])
+        .filter(|(a, b)| **a && **b)
+        .count();
+    let union = masks[0]
+        .iter()
+        .zip(&masks[1])
+        .filter(|(a, b)| **a || **b)
+        .count();
+    let iou = inter as f64 / union as f64;
+    println!("surface mesh render vs its inside ray-cast: IoU {iou:.4} ({union} pixels)");
+    assert!(union > 160 * 160 / 20 && iou >= 0.99, "IoU {iou:.4}");
+}
+
 /// A box minus a ball at its corner: sharp set operations meeting along curves.
 fn box_minus_ball(dir: &Path) -> PathBuf {
     let path = dir.join("box-minus-ball.json");

@@ -5,6 +5,7 @@
 
 pub mod height_map;
 pub mod interval;
+pub mod mesh_field;
 pub mod node;
 pub mod polygon_patch;
 pub mod polygonise;

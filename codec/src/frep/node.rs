@@ -7,6 +7,7 @@ use serde_json::Value;
 
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::{Aabb, Interval};
+use super::mesh_field::MeshField;
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
@@ -28,6 +29,8 @@ pub enum Node {
     Primitive(Primitive),
     /// A base solid perturbed by a height map.
     HeightMap(HeightMap),
+    /// The inside of a closed Cao En surface: the signed distance to its tessellation.
+    Surface(std::sync::Arc<MeshField>),
     /// An R-function set operation folded over two or more operands, left to right.
     SetOp {
         /// Which operation.
@@ -220,6 +223,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.value_gradient(p).0,
             Node::HeightMap(h) => h.value_gradient(p).0,
+            Node::Surface(m) => m.value_gradient(p).0,
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let first = it.next().map_or(f64::NEG_INFINITY, |n| n.value(p));
@@ -257,6 +261,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.value_gradient(p),
             Node::HeightMap(h) => h.value_gradient(p),
+            Node::Surface(m) => m.value_gradient(p),
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let mut acc = it
@@ -324,6 +329,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.interval(b),
             Node::HeightMap(h) => h.interval(b),
+            Node::Surface(m) => m.interval(b),
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let first = it
@@ -364,6 +370,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.bounds(),
             Node::HeightMap(h) => h.bounds(),
+            Node::Surface(m) => Some(m.bounds()),
             Node::SetOp { op, operands, .. } => match op {
                 SetOp::Union => operands
                     .iter()
@@ -433,7 +440,7 @@ impl Node {
     /// Number of nodes.
     pub fn count(&self) -> usize {
         1 + match self {
-            Node::Primitive(_) | Node::HeightMap(_) => 0,
+            Node::Primitive(_) | Node::HeightMap(_) | Node::Surface(_) => 0,
             Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Perturb { base, terms, .. } => base.count() + terms.len(),
@@ -572,8 +579,9 @@ fn get<'a>(
     })
 }
 
-const PRIMITIVES: [&str; 10] = [
+const PRIMITIVES: [&str; 11] = [
     "cao_en_solid",
+    "caoen_surface",
     "height_map",
     "sphere",
     "box",
@@ -643,6 +651,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
         };
         let prim = match kind.as_str() {
             "height_map" => return height_map(body, &here, count.base_dir).map(Node::HeightMap),
+            "caoen_surface" => return surface_field(body, &here, count.base_dir),
             "cao_en_solid" => {
                 let solid =
                     crate::render::scene::convex_solid_from_json(body, &here).map_err(|e| {
@@ -1093,6 +1102,55 @@ fn polygon_support(v: &Value, here: &str, spherical: bool) -> Result<PolygonSupp
         path: here.to_string(),
         reason,
     })
+}
+
+/// Finest tessellation a `caoen_surface` node may ask for (an icosphere of 20 4^7
+/// triangles, 327,680).
+pub const MAX_SURFACE_DETAIL: u32 = 7;
+
+/// `{"caoen_surface": {"file": "surface.json", "detail": d}}`: a closed Cao En surface
+/// (a `caoen-surface/1` file relative to the model, three shape components) tessellated
+/// at `detail` (default 5) as the field of its inside.
+fn surface_field(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Node, ModelError> {
+    use crate::render::mesh::{tessellate, NormalMode};
+    let f = fields(v, here, &["file", "detail"])?;
+    let Some(name) = get(f, "file", here)?.as_str() else {
+        return err(&format!("{here}.file"), "expected a file name");
+    };
+    let detail = match f.get("detail") {
+        Some(d) => number(
+            d,
+            &format!("{here}.detail"),
+            0.0,
+            f64::from(MAX_SURFACE_DETAIL),
+        )?,
+        None => 5.0,
+    };
+    if detail.fract() != 0.0 {
+        return err(
+            &format!("{here}.detail"),
+            format!("{detail}: expected a whole number"),
+        );
+    }
+    let fail = |at: &str, e: String| ModelError {
+        path: at.to_string(),
+        reason: e,
+    };
+    let model = crate::surface::model_file::SurfaceModel::load(&base_dir.join(name))
+        .map_err(|e| fail(&format!("{here}.file"), e.to_string()))?;
+    if model.network.output_dim() != 3 {
+        return err(
+            &format!("{here}.file"),
+            format!(
+                "{name}: shape vectors have {} components; a solid needs 3",
+                model.network.output_dim()
+            ),
+        );
+    }
+    let mesh = tessellate(&model, detail as u32, NormalMode::Exact)
+        .map_err(|e| fail(here, e.to_string()))?;
+    let field = MeshField::new(&mesh).map_err(|e| fail(here, format!("{name}: {e}")))?;
+    Ok(Node::Surface(std::sync::Arc::new(field)))
 }
 
 /// The mean gradient length of `node` near its surface: over a 24^3 grid on the box,

@@ -47,6 +47,7 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         )
     };
     let body = match node {
+        Node::Surface(_) => unreachable!("refused by unexportable"),
         Node::HeightMap(m) => {
             let (h, base) = picture(m, out, next);
             format!("{base} + {h}")
@@ -554,6 +555,9 @@ fn unexportable(node: &Node) -> Option<String> {
     };
     match node {
         Node::HeightMap(m) | Node::Pattern { map: m, .. } => map(m),
+        Node::Surface(_) => Some(
+            "a Cao En surface's inside (a distance to its tessellation) is not exported".into(),
+        ),
         Node::Relief { base, map: m, .. } => map(m).or_else(|| unexportable(base)),
         Node::Primitive(_) => None,
         Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),
