@@ -317,12 +317,23 @@ impl MeshField {
         let d = d2.sqrt();
         let away = sub(p, q);
         let outside = dot(away, normal) > 0.0;
-        if d == 0.0 {
-            return (0.0, unit(normal).map(|v| -v));
-        }
-        let g = away.map(|v| v / d);
+        // The unit vector from the nearest point outwards: the face's normal where the
+        // nearest point is inside a face (the same vector, without the rounding of a
+        // tiny difference); near an edge or a vertex, closer than rounding can resolve
+        // (ray hits land there), the feature's pseudo-normal.
+        let out = if feature == Feature::Face || d <= 1e-9 * self.bounds.longest() {
+            unit(normal)
+        } else {
+            let g = away.map(|v| v / d);
+            if outside {
+                g
+            } else {
+                g.map(|v| -v)
+            }
+        };
+        let g = out.map(|v| -v);
         if outside {
-            (-d, g.map(|v| -v))
+            (-d, g)
         } else {
             (d, g)
         }
