@@ -1234,7 +1234,8 @@ fn grey_levels(
         reason: e.to_string(),
     })?;
     let (iw, ih) = (raster.width() as usize, raster.height() as usize);
-    let channels = raster.layout().channels().min(3);
+    // Alpha is not a colour: a grey image with alpha is its grey channel.
+    let channels = raster.layout().colour_channels();
     let values = (0..iw * ih)
         .map(|i| {
             scale

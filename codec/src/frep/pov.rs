@@ -327,7 +327,7 @@ fn picture(m: &HeightMap, out: &mut String, next: &mut usize) -> (String, String
         Interp::Bicubic => 3,
     };
     // A grey image has equal channels: one lookup instead of three.
-    let grey_image = crate::image_io::load(path).is_ok_and(|r| r.layout().channels() < 3);
+    let grey_image = crate::image_io::load(path).is_ok_and(|r| r.layout().colour_channels() == 1);
     // An absolute path: the scene file may be rendered from anywhere.
     let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
     let _ = writeln!(
