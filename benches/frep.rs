@@ -2,9 +2,11 @@
 //! model rendered by caoen's interval ray caster and by POV-Ray's isosurface (from
 //! `caoen frep export-pov`) at the same size, one sample per pixel for both (no
 //! antialiasing), both on all cores. A summary with the ratios prints first (medians of
-//! five runs); criterion's report of caoen's renders follows. POV-Ray's time includes
-//! its start-up and parse, which the ratio states; without `povray` on the PATH only
-//! caoen is measured.
+//! five runs; one POV-Ray run for the picture models, which POV-Ray renders at 128x128
+//! in tens of seconds); criterion's report of caoen's renders follows. POV-Ray's time
+//! includes its start-up and parse, which the ratio states; without `povray` on the
+//! PATH only caoen is measured. `CAOEN_FREP_BENCH=NAME` limits the run to the models
+//! whose name contains NAME.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,9 +17,11 @@ use caoen::render::Scene;
 use criterion::{criterion_group, Criterion};
 
 const SIDE: u32 = 384;
+/// The side of the picture models' renders.
+const PICTURE_SIDE: u32 = 128;
 
-/// The example models that export to POV-Ray.
-fn models() -> Vec<(String, PathBuf)> {
+/// The example models that export to POV-Ray, with the side they render at.
+fn models() -> Vec<(String, PathBuf, u32)> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = std::env::temp_dir().join(format!("caoen-bench-frep-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
@@ -46,11 +50,23 @@ fn models() -> Vec<(String, PathBuf)> {
         .to_string(),
     )
     .unwrap();
-    vec![
-        ("blend".into(), root.join("examples/frep/blend.json")),
-        ("patches".into(), bumps),
-        ("cao-en-solid".into(), solid),
-    ]
+    let example = |m: &str| root.join(format!("examples/frep/{m}.json"));
+    let filter = std::env::var("CAOEN_FREP_BENCH").ok();
+    let all: Vec<(String, PathBuf, u32)> = vec![
+        ("blend".into(), example("blend"), SIDE),
+        ("patches".into(), bumps, SIDE),
+        ("cao-en-solid".into(), solid, SIDE),
+        ("lattice".into(), example("lattice"), PICTURE_SIDE),
+        ("relief".into(), example("relief"), PICTURE_SIDE),
+        (
+            "heightfield-ellipsoid".into(),
+            example("heightfield-ellipsoid"),
+            PICTURE_SIDE,
+        ),
+    ];
+    all.into_iter()
+        .filter(|(name, _, _)| filter.as_ref().is_none_or(|f| name.contains(f.as_str())))
+        .collect()
 }
 
 fn scene(path: &Path) -> Scene {
@@ -67,10 +83,10 @@ fn scene(path: &Path) -> Scene {
     Scene::from_json(&s.to_string(), path.parent().unwrap()).unwrap()
 }
 
-fn opts() -> RenderOptions {
+fn opts(side: u32) -> RenderOptions {
     RenderOptions {
-        width: SIDE,
-        height: SIDE,
+        width: side,
+        height: side,
         samples: 1,
         method: Method::Ray,
         ..RenderOptions::default()
@@ -84,26 +100,26 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn summary() {
     let has_povray = Command::new("povray").arg("--version").output().is_ok();
-    println!("F-rep rendering, {SIDE}x{SIDE}, 1 sample per pixel, medians of 5 runs:");
-    for (name, path) in models() {
+    println!("F-rep rendering, 1 sample per pixel, medians of 5 runs:");
+    for (name, path, side) in models() {
         let s = scene(&path);
         let ours = median(
             (0..5)
                 .map(|_| {
                     let t = Instant::now();
-                    render(&s, &opts(), &|_, _| {}).unwrap();
+                    render(&s, &opts(side), &|_, _| {}).unwrap();
                     t.elapsed().as_secs_f64()
                 })
                 .collect(),
         );
         if !has_povray {
             println!(
-                "  {name}: caoen {:.1} ms (POV-Ray not installed)",
+                "  {name} ({side}x{side}): caoen {:.1} ms (POV-Ray not installed)",
                 1e3 * ours
             );
             continue;
         }
-        let camera = s.camera(SIDE, SIDE).unwrap();
+        let camera = s.camera(side, side).unwrap();
         let pov = caoen::frep::pov::export(&s, &camera).unwrap();
         let dir = std::env::temp_dir().join(format!("caoen-bench-frep-{}", std::process::id()));
         let (pov_path, out) = (
@@ -111,16 +127,17 @@ fn summary() {
             dir.join(format!("{name}.png")),
         );
         std::fs::write(&pov_path, pov).unwrap();
+        let runs = if side == SIDE { 5 } else { 1 };
         let theirs = median(
-            (0..5)
+            (0..runs)
                 .map(|_| {
                     let t = Instant::now();
                     let o = Command::new("povray")
                         .args([
                             format!("+I{}", pov_path.display()),
                             format!("+O{}", out.display()),
-                            format!("+W{SIDE}"),
-                            format!("+H{SIDE}"),
+                            format!("+W{side}"),
+                            format!("+H{side}"),
                             "-A".into(),
                             "-D".into(),
                             "-V".into(),
@@ -134,7 +151,7 @@ fn summary() {
                 .collect(),
         );
         println!(
-            "  {name}: caoen {:.1} ms, POV-Ray {:.1} ms (with start-up): caoen takes {:.2}x POV-Ray's time",
+            "  {name} ({side}x{side}): caoen {:.1} ms, POV-Ray {:.1} ms (with start-up): caoen takes {:.3}x POV-Ray's time",
             1e3 * ours,
             1e3 * theirs,
             ours / theirs
@@ -145,10 +162,10 @@ fn summary() {
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("frep_render");
     g.sample_size(10);
-    for (name, path) in models() {
+    for (name, path, side) in models() {
         let s = scene(&path);
         g.bench_function(&name, |b| {
-            b.iter(|| render(&s, &opts(), &|_, _| {}).unwrap())
+            b.iter(|| render(&s, &opts(side), &|_, _| {}).unwrap())
         });
     }
     g.finish();

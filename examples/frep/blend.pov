@@ -29,7 +29,7 @@ isosurface {
   contained_by { box { <-1.615575, -1.1155749999999998, -1.1155749999999998>, <1.4655749999999999, 1.1155749999999998, 1.1155749999999998> } }
   threshold 0
   accuracy 3.08115e-5
-  max_gradient 2.6636692970767633
+  max_gradient 2.2741360281930607
   pigment { rgb <0.6038273, 0.21404114, 0.073238954> }
   finish { ambient 1 diffuse 1 specular 0.25 roughness 0.025 }
 }

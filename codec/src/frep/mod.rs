@@ -5,8 +5,10 @@
 
 pub mod height_map;
 pub mod interval;
+pub mod mesh_field;
 pub mod node;
 pub mod patch_index;
+pub mod polygon_patch;
 pub mod polygonise;
 pub mod pov;
 pub mod primitive;
@@ -14,4 +16,4 @@ pub mod raycast;
 pub mod rfunction;
 
 pub use interval::{Aabb, Interval};
-pub use node::{ModelError, Node, Patch};
+pub use node::{ModelError, Node, Patch, Support};

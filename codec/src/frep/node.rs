@@ -8,6 +8,8 @@ use serde_json::Value;
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::{Aabb, Interval};
 use super::patch_index::PatchIndex;
+use super::mesh_field::MeshField;
+use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
 use crate::render::transform::Affine;
@@ -28,6 +30,8 @@ pub enum Node {
     Primitive(Primitive),
     /// A base solid perturbed by a height map.
     HeightMap(HeightMap),
+    /// The inside of a closed Cao En surface: the signed distance to its tessellation.
+    Surface(std::sync::Arc<MeshField>),
     /// An R-function set operation folded over two or more operands, left to right.
     SetOp {
         /// Which operation.
@@ -101,19 +105,44 @@ pub enum Node {
     },
 }
 
-/// One quadric patch of a perturbation: `factor * max(Q, 0)^power`.
+/// One patch of a perturbation: `factor * max(Q, 0)^power`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Patch {
-    /// `Q` as a quadric primitive (its ten coefficients).
-    pub quadric: Primitive,
+    /// `Q`, positive over the patch.
+    pub support: Support,
     /// The form factor (positive adds material).
     pub factor: f64,
+}
+
+/// The function `Q` of a patch.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Support {
+    /// A quadric primitive (its ten coefficients).
+    Quadric(Primitive),
+    /// A convex triangle or quad on a plane or a sphere.
+    Polygon(PolygonSupport),
+}
+
+impl Support {
+    fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        match self {
+            Support::Quadric(q) => q.value_gradient(p),
+            Support::Polygon(s) => s.value_gradient(p),
+        }
+    }
+
+    fn interval(&self, b: &Aabb) -> Interval {
+        match self {
+            Support::Quadric(q) => q.interval(b),
+            Support::Polygon(s) => s.interval(b),
+        }
+    }
 }
 
 impl Patch {
     /// The patch's value and gradient for `power`.
     fn value_gradient(&self, p: [f64; 3], power: i32) -> (f64, [f64; 3]) {
-        let (q, g) = self.quadric.value_gradient(p);
+        let (q, g) = self.support.value_gradient(p);
         if q <= 0.0 {
             return (0.0, [0.0; 3]);
         }
@@ -123,14 +152,19 @@ impl Patch {
     }
 
     fn interval(&self, b: &Aabb, power: i32) -> Interval {
-        let q = self.quadric.interval(b);
+        let q = self.support.interval(b);
         let (lo, hi) = (q.lo.max(0.0), q.hi.max(0.0));
         Interval::new(lo.powi(power), hi.powi(power)).scale(self.factor)
     }
 
-    /// The box of the region where `Q > 0`, if it is bounded (an ellipsoid's inside).
+    /// The box of the region where `Q > 0`, if it is bounded (an ellipsoid's inside,
+    /// a polygon's band).
     pub fn positive_box(&self) -> Option<Aabb> {
-        let Primitive::Quadric { coefficients: c } = &self.quadric else {
+        let quadric = match &self.support {
+            Support::Polygon(s) => return Some(s.positive_box()),
+            Support::Quadric(q) => q,
+        };
+        let Primitive::Quadric { coefficients: c } = quadric else {
             return None;
         };
         // Q = x^T A x + b . x + k with A symmetric.
@@ -156,7 +190,7 @@ impl Patch {
             (a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]) / det
         };
         let centre = [0, 1, 2].map(|i| -0.5 * (0..3).map(|j| inv(i, j) * b[j]).sum::<f64>());
-        let (top, _) = self.quadric.value_gradient(centre);
+        let (top, _) = quadric.value_gradient(centre);
         if top <= 0.0 {
             return None;
         }
@@ -219,6 +253,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.value_gradient(p).0,
             Node::HeightMap(h) => h.value_gradient(p).0,
+            Node::Surface(m) => m.value_gradient(p).0,
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let first = it.next().map_or(f64::NEG_INFINITY, |n| n.value(p));
@@ -264,6 +299,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.value_gradient(p),
             Node::HeightMap(h) => h.value_gradient(p),
+            Node::Surface(m) => m.value_gradient(p),
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let mut acc = it
@@ -339,6 +375,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.interval(b),
             Node::HeightMap(h) => h.interval(b),
+            Node::Surface(m) => m.interval(b),
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
                 let first = it
@@ -387,6 +424,7 @@ impl Node {
         match self {
             Node::Primitive(q) => q.bounds(),
             Node::HeightMap(h) => h.bounds(),
+            Node::Surface(m) => Some(m.bounds()),
             Node::SetOp { op, operands, .. } => match op {
                 SetOp::Union => operands
                     .iter()
@@ -456,7 +494,7 @@ impl Node {
     /// Number of nodes.
     pub fn count(&self) -> usize {
         1 + match self {
-            Node::Primitive(_) | Node::HeightMap(_) => 0,
+            Node::Primitive(_) | Node::HeightMap(_) | Node::Surface(_) => 0,
             Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
             Node::Perturb { base, terms, .. } => base.count() + terms.len(),
@@ -595,8 +633,9 @@ fn get<'a>(
     })
 }
 
-const PRIMITIVES: [&str; 10] = [
+const PRIMITIVES: [&str; 11] = [
     "cao_en_solid",
+    "caoen_surface",
     "height_map",
     "sphere",
     "box",
@@ -666,6 +705,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
         };
         let prim = match kind.as_str() {
             "height_map" => return height_map(body, &here, count.base_dir).map(Node::HeightMap),
+            "caoen_surface" => return surface_field(body, &here, count.base_dir),
             "cao_en_solid" => {
                 let solid =
                     crate::render::scene::convex_solid_from_json(body, &here).map_err(|e| {
@@ -994,16 +1034,32 @@ fn height_map(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Heigh
         })
 }
 
-/// One patch: `{"quadric": [10 coefficients], "factor": f}` or a bump
+/// One patch: `{"quadric": [10 coefficients], "factor": f}`, a bump
 /// `{"bump": {"centre", "radius", "height"}}` (`Q = height (1 - |p - centre|^2 / radius^2)`,
-/// positive in the ball).
+/// positive in the ball), or a `polygon` or `spherical_polygon` (`polygon_support`).
 fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
     let w = WORLD_LIMIT;
-    let f = fields(v, path, &["quadric", "factor", "bump"])?;
+    let kinds = ["quadric", "bump", "polygon", "spherical_polygon"];
+    let f = fields(v, path, &[&kinds[..], &["factor"]].concat())?;
     let factor = match f.get("factor") {
         Some(x) => number(x, &format!("{path}.factor"), -w, w)?,
         None => 1.0,
     };
+    let given: Vec<&str> = kinds.into_iter().filter(|k| f.contains_key(*k)).collect();
+    let [kind] = given[..] else {
+        return err(
+            path,
+            format!("give exactly one of `{}`", kinds.join("`, `")),
+        );
+    };
+    if kind == "polygon" || kind == "spherical_polygon" {
+        let here = format!("{path}.{kind}");
+        let support = polygon_support(&f[kind], &here, kind == "spherical_polygon")?;
+        return Ok(Patch {
+            support: Support::Polygon(support),
+            factor,
+        });
+    }
     let coefficients = match (f.get("quadric"), f.get("bump")) {
         (Some(q), None) => numbers(q, &format!("{path}.quadric"), -w, w, "ten coefficients")?,
         (None, Some(b)) => {
@@ -1040,12 +1096,111 @@ fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
                 h + k * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
             ]
         }
-        _ => return err(path, "give exactly one of `quadric` or `bump`"),
+        _ => unreachable!("exactly one kind, checked above"),
     };
     Ok(Patch {
-        quadric: Primitive::Quadric { coefficients },
+        support: Support::Quadric(Primitive::Quadric { coefficients }),
         factor,
     })
+}
+
+/// A polygon patch's support: `{"vertices": [[x, y, z], ...], "depth": d}` (3 or 4
+/// vertices on a plane), or on a sphere with `"centre"` (default the origin) and
+/// `"radius"` as well.
+fn polygon_support(v: &Value, here: &str, spherical: bool) -> Result<PolygonSupport, ModelError> {
+    let w = WORLD_LIMIT;
+    let allowed: &[&str] = if spherical {
+        &["vertices", "depth", "centre", "radius"]
+    } else {
+        &["vertices", "depth"]
+    };
+    let g = fields(v, here, allowed)?;
+    let at = format!("{here}.vertices");
+    let Some(list) = get(g, "vertices", here)?
+        .as_array()
+        .filter(|a| (3..=4).contains(&a.len()))
+    else {
+        return err(&at, "expected 3 or 4 vertices [[x, y, z], ...]");
+    };
+    let vertices = list
+        .iter()
+        .enumerate()
+        .map(|(i, p)| vec3(p, &format!("{at}[{i}]"), -w, w))
+        .collect::<Result<Vec<_>, _>>()?;
+    let depth = number(
+        get(g, "depth", here)?,
+        &format!("{here}.depth"),
+        MIN_LENGTH,
+        w,
+    )?;
+    let made = if spherical {
+        let centre = match g.get("centre") {
+            Some(c) => vec3(c, &format!("{here}.centre"), -w, w)?,
+            None => [0.0; 3],
+        };
+        let radius = number(
+            get(g, "radius", here)?,
+            &format!("{here}.radius"),
+            MIN_LENGTH,
+            w,
+        )?;
+        PolygonSupport::spherical(centre, radius, &vertices, depth)
+    } else {
+        PolygonSupport::planar(&vertices, depth)
+    };
+    made.map_err(|reason| ModelError {
+        path: here.to_string(),
+        reason,
+    })
+}
+
+/// Finest tessellation a `caoen_surface` node may ask for (an icosphere of 20 4^7
+/// triangles, 327,680).
+pub const MAX_SURFACE_DETAIL: u32 = 7;
+
+/// `{"caoen_surface": {"file": "surface.json", "detail": d}}`: a closed Cao En surface
+/// (a `caoen-surface/1` file relative to the model, three shape components) tessellated
+/// at `detail` (default 5) as the field of its inside.
+fn surface_field(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Node, ModelError> {
+    use crate::render::mesh::{tessellate, NormalMode};
+    let f = fields(v, here, &["file", "detail"])?;
+    let Some(name) = get(f, "file", here)?.as_str() else {
+        return err(&format!("{here}.file"), "expected a file name");
+    };
+    let detail = match f.get("detail") {
+        Some(d) => number(
+            d,
+            &format!("{here}.detail"),
+            0.0,
+            f64::from(MAX_SURFACE_DETAIL),
+        )?,
+        None => 5.0,
+    };
+    if detail.fract() != 0.0 {
+        return err(
+            &format!("{here}.detail"),
+            format!("{detail}: expected a whole number"),
+        );
+    }
+    let fail = |at: &str, e: String| ModelError {
+        path: at.to_string(),
+        reason: e,
+    };
+    let model = crate::surface::model_file::SurfaceModel::load(&base_dir.join(name))
+        .map_err(|e| fail(&format!("{here}.file"), e.to_string()))?;
+    if model.network.output_dim() != 3 {
+        return err(
+            &format!("{here}.file"),
+            format!(
+                "{name}: shape vectors have {} components; a solid needs 3",
+                model.network.output_dim()
+            ),
+        );
+    }
+    let mesh = tessellate(&model, detail as u32, NormalMode::Exact)
+        .map_err(|e| fail(here, e.to_string()))?;
+    let field = MeshField::new(&mesh).map_err(|e| fail(here, format!("{name}: {e}")))?;
+    Ok(Node::Surface(std::sync::Arc::new(field)))
 }
 
 /// The mean gradient length of `node` near its surface: over a 24^3 grid on the box,
@@ -1129,7 +1284,8 @@ fn grey_levels(
         reason: e.to_string(),
     })?;
     let (iw, ih) = (raster.width() as usize, raster.height() as usize);
-    let channels = raster.layout().channels().min(3);
+    // Alpha is not a colour: a grey image with alpha is its grey channel.
+    let channels = raster.layout().colour_channels();
     let values = (0..iw * ih)
         .map(|i| {
             scale

@@ -3,7 +3,7 @@
 //! Every node becomes a declared POV-Ray function of `(x, y, z)` in caoen's
 //! coordinates; the solid is an `isosurface` of the negated model function (POV-Ray's
 //! inside is below the threshold, F-rep's is `f >= 0`) with a `max_gradient` measured
-//! on a grid over the box. caoen is right-handed with z up, POV-Ray left-handed with y
+//! near the surface. caoen is right-handed with z up, POV-Ray left-handed with y
 //! up: swapping y and z maps one onto the other without mirroring the picture, so the
 //! isosurface calls the model as `f(x, z, y)` and every exported vector swaps its last
 //! two components. The camera is caoen's resolved camera (same eye, direction, up and
@@ -11,9 +11,10 @@
 
 use std::fmt::Write as _;
 
-use super::height_map::{Base, HeightMap};
+use super::height_map::{Base, HeightMap, Interp};
 use super::interval::Aabb;
-use super::node::Node;
+use super::node::{Node, Support};
+use super::polygon_patch::{PolygonSupport, Surface};
 use super::primitive::Primitive;
 use super::rfunction::SetOp;
 use crate::render::camera::{Camera, Projection};
@@ -46,6 +47,7 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         )
     };
     let body = match node {
+        Node::Surface(_) => unreachable!("refused by unexportable"),
         Node::HeightMap(m) => {
             let (h, base) = picture(m, out, next);
             format!("{base} + {h}")
@@ -225,8 +227,14 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             let f = declare(base, out, next);
             let mut expr = format!("{f}(x, y, z)");
             for t in terms {
-                let Primitive::Quadric { coefficients: c } = &t.quadric else {
-                    unreachable!("patches are quadrics");
+                let c = match &t.support {
+                    Support::Polygon(s) => {
+                        let q = polygon_support(s);
+                        let _ = write!(expr, " + {} * pow(max({q}, 0), {power})", num(t.factor));
+                        continue;
+                    }
+                    Support::Quadric(Primitive::Quadric { coefficients: c }) => c,
+                    Support::Quadric(_) => unreachable!("quadric patches are quadrics"),
                 };
                 let q = format!(
                     "({}*x*x + {}*y*y + {}*z*z + {}*x*y + {}*y*z + {}*x*z + {}*x + {}*y + {}*z + {})",
@@ -257,23 +265,76 @@ fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
     name
 }
 
+/// The expression of a polygon patch's `Q`: the band across its plane or sphere
+/// intersected with each edge's half-space by the `a = 0` R-function.
+fn polygon_support(s: &PolygonSupport) -> String {
+    let (surface, vertices, depth) = s.parts();
+    let across = match surface {
+        Surface::Plane { normal: n } => {
+            let v = vertices[0];
+            format!(
+                "({} * (x - {}) + {} * (y - {}) + {} * (z - {}))",
+                num(n[0]),
+                num(v[0]),
+                num(n[1]),
+                num(v[1]),
+                num(n[2]),
+                num(v[2])
+            )
+        }
+        Surface::Sphere { centre: c, radius } => format!(
+            "(sqrt((x - {0})*(x - {0}) + (y - {1})*(y - {1}) + (z - {2})*(z - {2})) - {3})",
+            num(c[0]),
+            num(c[1]),
+            num(c[2]),
+            num(radius)
+        ),
+    };
+    let mut q = format!(
+        "(({} - {across}*{across}) / {})",
+        num(depth * depth),
+        num(2.0 * depth)
+    );
+    for (n, p) in s.edge_planes() {
+        let e = format!(
+            "({} * (x - {}) + {} * (y - {}) + {} * (z - {}))",
+            num(n[0]),
+            num(p[0]),
+            num(n[1]),
+            num(p[1]),
+            num(n[2]),
+            num(p[2])
+        );
+        q = format!("caoen_intersection({q}, {e}, 0)");
+    }
+    q
+}
+
 /// Declares a picture's image as a pigment function and returns the expression of its
 /// thresholded height at `(x, y, z)` (caoen's axes) and of its base solid. The image is
-/// read by POV-Ray itself (bilinear, `interpolate 2`, raw grey levels with `gamma 1`);
-/// a bicubic map is exported bilinear. caoen's samples sit on the rectangle's corners,
+/// read by POV-Ray itself (`interpolate 2` bilinear or `interpolate 3` Catmull-Rom,
+/// raw grey levels with `gamma 1`). caoen's samples sit on the rectangle's corners,
 /// POV-Ray's at pixel centres: the coordinates are mapped so the samples coincide.
 fn picture(m: &HeightMap, out: &mut String, next: &mut usize) -> (String, String) {
     let name = format!("caoen_image{}", *next);
     *next += 1;
     let (path, scale) = m.source().expect("checked by unexportable");
-    let (base, [u0, v0, u1, v1], threshold, _) = m.parts();
+    let (base, [u0, v0, u1, v1], threshold, interp) = m.parts();
     let (w, h) = m.size();
     let kind = image_kind(path).expect("checked by unexportable");
+    // POV-Ray 3.7's `interpolate 3` is Catmull-Rom on the same pixel grid as caoen's
+    // bicubic (weights -t(1-t)^2/2, ..., edge pixels repeated), `interpolate 2` bilinear.
+    let mode = match interp {
+        Interp::Bilinear => 2,
+        Interp::Bicubic => 3,
+    };
+    // A grey image has equal channels: one lookup instead of three.
+    let grey_image = crate::image_io::load(path).is_ok_and(|r| r.layout().colour_channels() == 1);
     // An absolute path: the scene file may be rendered from anywhere.
     let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
     let _ = writeln!(
         out,
-        "#declare {name} = function {{ pigment {{ image_map {{ {kind} \"{}\" gamma 1.0 interpolate 2 once }} }} }}",
+        "#declare {name} = function {{ pigment {{ image_map {{ {kind} \"{}\" gamma 1.0 interpolate {mode} once }} }} }}",
         path.display()
     );
     let (u, v, g) = match base {
@@ -309,9 +370,13 @@ fn picture(m: &HeightMap, out: &mut String, next: &mut usize) -> (String, String
         num((h - 1) as f64),
         num(h as f64)
     );
-    let grey = format!(
-        "(({name}({px}, {py}, 0).red + {name}({px}, {py}, 0).green + {name}({px}, {py}, 0).blue) / 3)"
-    );
+    let grey = if grey_image {
+        format!("{name}({px}, {py}, 0).red")
+    } else {
+        format!(
+            "(({name}({px}, {py}, 0).red + {name}({px}, {py}, 0).green + {name}({px}, {py}, 0).blue) / 3)"
+        )
+    };
     let inside =
         format!("select({un}, 0, select(1 - {un}, 0, select({vn}, 0, select(1 - {vn}, 0, 1))))");
     let height = format!("({} * {grey} * {inside})", num(scale));
@@ -345,21 +410,38 @@ const R_FUNCTIONS: &str = "\
 #declare caoen_blend_intersection = function(p, q, k, b0, b1, b2) { caoen_intersection(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }
 ";
 
-/// The largest gradient length of `node` on a grid of `n^3` points over `b`, with a
-/// safety factor for what falls between the points (POV-Ray's `max_gradient`).
-pub fn max_gradient(node: &Node, b: &Aabb, n: usize) -> f64 {
-    let n = n.max(2);
+/// POV-Ray's `max_gradient` for `node` over `b`: the largest gradient length at 27
+/// points of every cell of a `2^levels`-per-side octree that the interval bound cannot
+/// keep off the surface, times 1.25 for what falls between the points. POV-Ray uses it
+/// as a Lipschitz bound when it looks for the surface along a ray, so only the gradient
+/// near the surface matters: a picture's `atan2` parameters make the gradient grow
+/// without bound near their axis, far from any surface, and a whole-box grid either
+/// samples that (a bound far too high: slow) or misses a picture's steep edges (too
+/// low: holes).
+pub fn max_gradient(node: &Node, b: &Aabb, levels: u32) -> f64 {
     let mut best: f64 = 0.0;
-    for i in 0..n {
-        for j in 0..n {
-            for k in 0..n {
-                let t = [i, j, k].map(|v| v as f64 / (n - 1) as f64);
-                let p = [0, 1, 2].map(|a| b.lo[a] + t[a] * (b.hi[a] - b.lo[a]));
-                let (_, g) = node.value_gradient(p);
-                let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                if len.is_finite() {
-                    best = best.max(len);
-                }
+    let mut stack = vec![(*b, 0u32)];
+    while let Some((cell, level)) = stack.pop() {
+        if !node.interval(&cell).contains(0.0) {
+            continue;
+        }
+        if level < levels {
+            let mid = [0, 1, 2].map(|k| 0.5 * (cell.lo[k] + cell.hi[k]));
+            for octant in 0..8 {
+                let pick = |k: usize| (octant >> k) & 1 == 1;
+                let lo = [0, 1, 2].map(|k| if pick(k) { mid[k] } else { cell.lo[k] });
+                let hi = [0, 1, 2].map(|k| if pick(k) { cell.hi[k] } else { mid[k] });
+                stack.push((Aabb::new(lo, hi), level + 1));
+            }
+            continue;
+        }
+        for i in 0..27 {
+            let t = [i % 3, (i / 3) % 3, i / 9].map(|v| 0.5 * v as f64);
+            let p = [0, 1, 2].map(|k| cell.lo[k] + t[k] * (cell.hi[k] - cell.lo[k]));
+            let (_, g) = node.value_gradient(p);
+            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+            if len.is_finite() {
+                best = best.max(len);
             }
         }
     }
@@ -450,7 +532,7 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
             v3(b.lo),
             v3(b.hi),
             num(1e-5 * b.longest()),
-            num(max_gradient(node, &b, 48)),
+            num(max_gradient(node, &b, 6)),
             m.colour[0],
             m.colour[1],
             m.colour[2],
@@ -475,6 +557,9 @@ fn unexportable(node: &Node) -> Option<String> {
     };
     match node {
         Node::HeightMap(m) | Node::Pattern { map: m, .. } => map(m),
+        Node::Surface(_) => Some(
+            "a Cao En surface's inside (a distance to its tessellation) is not exported".into(),
+        ),
         Node::Relief { base, map: m, .. } => map(m).or_else(|| unexportable(base)),
         Node::Primitive(_) => None,
         Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),

@@ -69,6 +69,13 @@ fn onto_crease(l: &dyn Leaves, a: usize, b: usize, p: [f64; 3], reach: f64) -> O
 /// The mesh with vertices on their leaves, crease vertices on the creases, and
 /// per-leaf normals; `cell` is the grid spacing the mesh came from.
 pub fn sharpen(mesh: Mesh, leaves: &dyn Leaves, cell: f64) -> Mesh {
+    sharpen_with(mesh, leaves, cell, true)
+}
+
+/// As [`sharpen`]; with `split_leaves` false a vertex on a crease is not split between its
+/// leaves (it keeps the normal of the first triangle that uses it), so a closed mesh
+/// stays closed.
+pub fn sharpen_with(mesh: Mesh, leaves: &dyn Leaves, cell: f64, split_leaves: bool) -> Mesh {
     let reach = 1.5 * cell;
     // 1. Every vertex onto its active leaf.
     let mut pos: Vec<[f64; 3]> = mesh
@@ -109,8 +116,9 @@ pub fn sharpen(mesh: Mesh, leaves: &dyn Leaves, cell: f64) -> Mesh {
         let c = [0, 1, 2]
             .map(|k| (pos[t[0] as usize][k] + pos[t[1] as usize][k] + pos[t[2] as usize][k]) / 3.0);
         let leaf = leaves.active(c);
+        let key_leaf = if split_leaves { leaf } else { 0 };
         let tri = t.map(|v| {
-            *split.entry((v, leaf)).or_insert_with(|| {
+            *split.entry((v, key_leaf)).or_insert_with(|| {
                 let p = pos[v as usize];
                 let (_, g) = leaves.leaf(leaf, p);
                 let n = norm2(g).sqrt();

@@ -274,7 +274,8 @@ fn draw(
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
             }
             (Shape::Field { node, bounds }, Method::Mesh) => {
-                let mesh = crate::frep::polygonise::mesh(node, bounds, opts.polygonise_cells);
+                let mesh =
+                    crate::frep::polygonise::render_mesh(node, bounds, opts.polygonise_cells);
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
             }
