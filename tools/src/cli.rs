@@ -112,6 +112,9 @@ pub struct ConvertArgs {
     /// needs no refinement.
     #[arg(long, default_value_t = 10.0, value_parser = angle)]
     pub max_angle: f64,
+    /// Sweeps of the local descent on the form factors after the fit (0: none).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=100))]
+    pub descent: u32,
     /// Print the result as JSON on stdout.
     #[arg(long)]
     pub json: bool,

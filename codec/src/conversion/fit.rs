@@ -31,6 +31,8 @@ pub struct ConvertOptions {
     pub first_radius: f64,
     /// The smallest radius a perturbation may have (fraction of the box).
     pub min_radius: f64,
+    /// Sweeps of the paper's local descent after the fit (0: none).
+    pub descent_sweeps: usize,
 }
 
 impl Default for ConvertOptions {
@@ -41,6 +43,7 @@ impl Default for ConvertOptions {
             max_angle_deg: 10.0,
             first_radius: 0.32,
             min_radius: 0.005,
+            descent_sweeps: 8,
         }
     }
 }
@@ -457,9 +460,71 @@ pub fn convert(
         level += 1;
         radius *= 0.5f64.sqrt();
     }
+    if opts.descent_sweeps > 0 && !model.bumps.is_empty() {
+        let bumps = descend(&model, &conds, opts.descent_sweeps);
+        model = ImplicitModel::new(frame, base, bumps);
+        let errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
+        met = errors.iter().all(|e| !over(e))
+            && conds[surface..]
+                .par_iter()
+                .all(|c| c.target * model.value(c.p) >= 0.0);
+    }
     Conversion {
         model,
         levels,
         met_target: met,
     }
+}
+
+/// The paper's local descent: each form factor in turn tries a step up and down and
+/// keeps it only if the weighted sum of `|F - target|` over the conditions drops; the
+/// step halves after a sweep. Sequential, so the result does not depend on threads.
+fn descend(model: &ImplicitModel, conds: &[Condition], sweeps: usize) -> Vec<Bump> {
+    let mut bumps = model.bumps.clone();
+    let index = PatchIndex::new(&bumps.iter().map(|b| Some(b.support())).collect::<Vec<_>>());
+    // Which conditions each perturbation reaches, with its kernel there.
+    let mut reach: Vec<Vec<(u32, f64)>> = vec![Vec::new(); bumps.len()];
+    let mut near = Vec::new();
+    for (j, c) in conds.iter().enumerate() {
+        index.at_point(c.p, &mut near);
+        for &k in &near {
+            let r = bumps[k as usize].kernel(c.p).0;
+            if r > 0.0 {
+                reach[k as usize].push((j as u32, r));
+            }
+        }
+    }
+    let mut residual: Vec<f64> = conds
+        .par_iter()
+        .map(|c| model.value(c.p) - c.target)
+        .collect();
+    let mut step: Vec<f64> = bumps.iter().map(|b| 0.1 * b.factor.abs()).collect();
+    for _ in 0..sweeps {
+        for (k, b) in bumps.iter_mut().enumerate() {
+            let cost = |delta: f64| -> f64 {
+                reach[k]
+                    .iter()
+                    .map(|&(j, r)| {
+                        let w = conds[j as usize].weight;
+                        w * ((residual[j as usize] + delta * r).abs() - residual[j as usize].abs())
+                    })
+                    .sum()
+            };
+            let s = step[k];
+            let (up, down) = (cost(s), cost(-s));
+            let delta = if up < 0.0 && up <= down {
+                s
+            } else if down < 0.0 {
+                -s
+            } else {
+                step[k] *= 0.5;
+                continue;
+            };
+            b.factor += delta;
+            for &(j, r) in &reach[k] {
+                residual[j as usize] += delta * r;
+            }
+        }
+    }
+    bumps
 }

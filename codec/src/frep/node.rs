@@ -7,8 +7,8 @@ use serde_json::Value;
 
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::{Aabb, Interval};
-use super::patch_index::PatchIndex;
 use super::mesh_field::MeshField;
+use super::patch_index::PatchIndex;
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};

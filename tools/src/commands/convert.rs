@@ -48,6 +48,7 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         max_functions: a.max_functions as usize,
         target: a.target,
         max_angle_deg: a.max_angle,
+        descent_sweeps: a.descent as usize,
         ..Default::default()
     };
     let start = Instant::now();

@@ -34,6 +34,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path) -> CliResult {
             max_functions: 6000,
             target: 0.001,
             max_angle: 10.0,
+            descent: 8,
             json: false,
         },
     )?;
