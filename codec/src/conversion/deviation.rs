@@ -7,6 +7,7 @@ use rayon::prelude::*;
 
 use super::model::ImplicitField;
 use super::polygon_mesh::PolygonMesh;
+use crate::render::vec3::dot;
 
 /// Vertex distances and normal angles.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -22,10 +23,6 @@ pub struct VertexDeviation {
     /// Vertices whose projection did not converge (their distance is the last
     /// estimate).
     pub unconverged: usize,
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Moves `p` onto the surface along the gradient (Newton steps on `F`, each at most

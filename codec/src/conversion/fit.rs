@@ -15,6 +15,7 @@ use super::model::{Bump, ImplicitField, ImplicitModel};
 use super::polygon_mesh::PolygonMesh;
 use super::quadric;
 use crate::frep::patch_index::PatchIndex;
+use crate::render::vec3::{dot, norm, sub};
 
 /// What the fit aims for and may spend.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,18 +83,6 @@ struct Condition {
     p: [f64; 3],
     target: f64,
     weight: f64,
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn norm(a: [f64; 3]) -> f64 {
-    dot(a, a).sqrt()
 }
 
 /// The spacing of surface samples on large triangles (unit cube).

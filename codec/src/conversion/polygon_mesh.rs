@@ -3,6 +3,8 @@
 
 use std::collections::HashMap;
 
+use crate::render::vec3::{cross, dot, sub, unit};
+
 /// A triangle mesh: positions and counter-clockwise triangles (quads and polygons are
 /// split into fans when read).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -53,31 +55,6 @@ impl Topology {
     /// Every edge has exactly two triangles.
     pub fn is_closed(&self) -> bool {
         self.boundary_edges == 0 && self.non_manifold_edges == 0
-    }
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn unit(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    if l > 0.0 {
-        a.map(|v| v / l)
-    } else {
-        [0.0; 3]
     }
 }
 

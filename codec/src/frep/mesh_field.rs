@@ -7,6 +7,7 @@
 
 use super::interval::{Aabb, Interval};
 use crate::render::mesh::Mesh;
+use crate::render::vec3::{cross, dot, sub, unit};
 
 /// Most triangles a mesh field may hold.
 pub const MAX_TRIANGLES: usize = 2_000_000;
@@ -37,31 +38,6 @@ pub struct MeshField {
     nodes: Vec<BvhNode>,
     order: Vec<u32>,
     bounds: Aabb,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn unit(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    if l > 0.0 {
-        a.map(|v| v / l)
-    } else {
-        [0.0; 3]
-    }
 }
 
 /// The feature of a triangle the nearest point lies on.

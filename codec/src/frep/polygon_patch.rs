@@ -18,6 +18,7 @@
 
 use super::interval::{Aabb, Interval};
 use super::rfunction::{self, SetOp};
+use crate::render::vec3::{cross, dot, sub};
 
 /// The surface a polygon patch lies on.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,22 +46,6 @@ pub struct PolygonSupport {
     /// Per edge: unit inward normal of the edge's plane and a point on it.
     edges: Vec<([f64; 3], [f64; 3])>,
     depth: f64,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 fn unit(a: [f64; 3]) -> Option<[f64; 3]> {

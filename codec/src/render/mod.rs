@@ -20,7 +20,7 @@ pub mod scene;
 pub mod shading;
 pub mod texture;
 pub mod transform;
-mod vec3;
+pub(crate) mod vec3;
 
 pub use camera::{Camera, Projection, Ray};
 pub use error::RenderError;

@@ -19,17 +19,18 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path) -> CliResult {
         force: true,
         ..global.clone()
     };
-    let mesh = tempfile::Builder::new()
-        .prefix("caoen-example-spot-")
-        .suffix(".obj")
-        .tempfile()
+    // A fixed file name: the model file is named after the mesh.
+    let tmp = tempfile::Builder::new()
+        .prefix("caoen-example-")
+        .tempdir()
         .map_err(|e| CliError::io(std::env::temp_dir(), e))?;
-    std::fs::write(mesh.path(), SPOT_OBJ).map_err(|e| CliError::io(mesh.path(), e))?;
+    let mesh = tmp.path().join("spot.obj");
+    std::fs::write(&mesh, SPOT_OBJ).map_err(|e| CliError::io(&mesh, e))?;
     let model = sub.join("spot.json");
     convert(
         &forced,
         &ConvertArgs {
-            mesh: mesh.path().to_path_buf(),
+            mesh: mesh.clone(),
             output: model.clone(),
             max_functions: 6000,
             target: 0.001,
@@ -44,7 +45,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path) -> CliResult {
             ..forced
         },
         &DeviationArgs {
-            mesh: mesh.path().to_path_buf(),
+            mesh: mesh.clone(),
             model: Some(model),
             rbf: None,
             views: 4,
