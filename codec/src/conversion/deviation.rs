@@ -32,7 +32,8 @@ pub fn project(field: &dyn ImplicitField, p: [f64; 3]) -> ([f64; 3], bool) {
     for _ in 0..40 {
         let (v, g) = field.value_gradient(x);
         let g2 = dot(g, g);
-        if !(g2 > 1e-300) {
+        // A NaN or vanishing gradient gives no direction to move along.
+        if g2.is_nan() || g2 <= 1e-300 {
             return (x, false);
         }
         let step = v / g2;

@@ -405,7 +405,9 @@ pub fn convert(
             .collect();
         let index = PatchIndex::new(&new.iter().map(|b| Some(b.support())).collect::<Vec<_>>());
         // The conditions the new bumps reach, with the current model's residuals.
-        let rows: Vec<(usize, Vec<(u32, f64)>, f64)> = conds
+        // (condition, its row of kernel values, its residual)
+        type Row = (usize, Vec<(u32, f64)>, f64);
+        let rows: Vec<Row> = conds
             .par_iter()
             .enumerate()
             .filter_map(|(j, c)| {

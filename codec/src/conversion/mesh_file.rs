@@ -119,7 +119,6 @@ pub fn read_obj(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
         Err(tobj::LoadError::MaterialParseError)

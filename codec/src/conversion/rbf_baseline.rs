@@ -93,10 +93,7 @@ pub fn fit(
     for i in 0..m {
         b[i] = targets[i];
     }
-    let x = a
-        .lu()
-        .solve(&b)
-        .ok_or_else(|| RbfError::Singular { centres: m })?;
+    let x = a.lu().solve(&b).ok_or(RbfError::Singular { centres: m })?;
     Ok(RbfBaseline {
         weights: x.as_slice()[..m].to_vec(),
         linear: [x[m], x[m + 1], x[m + 2], x[m + 3]],
