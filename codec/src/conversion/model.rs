@@ -79,20 +79,7 @@ impl Bump {
 
     /// `Q` as the ten coefficients of the paper's eq. 4.
     pub fn quadric(&self) -> [f64; 10] {
-        let k = -1.0 / (self.radius * self.radius);
-        let c = self.centre;
-        [
-            k,
-            k,
-            k,
-            0.0,
-            0.0,
-            0.0,
-            -2.0 * k * c[0],
-            -2.0 * k * c[1],
-            -2.0 * k * c[2],
-            1.0 + k * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
-        ]
+        crate::frep::node::bump_quadric(self.centre, self.radius, 1.0)
     }
 }
 

@@ -218,6 +218,24 @@ fn with_candidates<R>(f: impl FnOnce(&mut Vec<u32>) -> R) -> R {
     r
 }
 
+/// The quadric `height (1 - |p - centre|^2 / radius^2)` as ten coefficients: a bump
+/// patch, positive in the ball.
+pub fn bump_quadric(centre: [f64; 3], radius: f64, height: f64) -> [f64; 10] {
+    let (c, k) = (centre, -height / (radius * radius));
+    [
+        k,
+        k,
+        k,
+        0.0,
+        0.0,
+        0.0,
+        -2.0 * k * c[0],
+        -2.0 * k * c[1],
+        -2.0 * k * c[2],
+        height + k * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+    ]
+}
+
 /// A malformed or out-of-range model, with the JSON path of the offending value.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{path}: {reason}")]
@@ -1081,20 +1099,7 @@ fn patch(v: &Value, path: &str) -> Result<Patch, ModelError> {
                 MIN_LENGTH,
                 w,
             )?;
-            // h (1 - |p - c|^2 / r^2) expanded.
-            let k = -h / (r * r);
-            [
-                k,
-                k,
-                k,
-                0.0,
-                0.0,
-                0.0,
-                -2.0 * k * c[0],
-                -2.0 * k * c[1],
-                -2.0 * k * c[2],
-                h + k * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
-            ]
+            bump_quadric(c, r, h)
         }
         _ => unreachable!("exactly one kind, checked above"),
     };
