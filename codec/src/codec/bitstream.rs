@@ -9,7 +9,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -21,6 +21,8 @@ pub mod tag {
     pub const LUMA: u8 = b'Y';
     /// Chroma-set values: C1, C2.
     pub const CHROMA: u8 = b'C';
+    /// Detail layer: transform-coded residual of the colour channels.
+    pub const DETAIL: u8 = b'D';
     /// End of file.
     pub const END: u8 = b'E';
 }
@@ -54,9 +56,13 @@ pub struct Header {
     pub luma_count: u32,
     /// Number of chroma key points.
     pub chroma_count: u32,
+    /// Quantiser step of the detail layer's luma (or grey) coefficients.
+    pub detail_step_luma: f32,
+    /// Quantiser step of the detail layer's chroma coefficients.
+    pub detail_step_chroma: f32,
 }
 
-const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4;
+const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 4 * 2;
 
 impl Header {
     /// The tree geometry.
@@ -97,6 +103,8 @@ impl Header {
         }
         b.extend(self.luma_count.to_le_bytes());
         b.extend(self.chroma_count.to_le_bytes());
+        b.extend(self.detail_step_luma.to_le_bytes());
+        b.extend(self.detail_step_chroma.to_le_bytes());
         b
     }
 
@@ -159,10 +167,13 @@ impl Header {
             return Err(CodecError::range("flags", p[15], 0.0, 1.0));
         }
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
+        let (detail_step_luma, detail_step_chroma) = (f32_at(36), f32_at(40));
         for (name, s) in [
             ("luma quantiser step", step_luma),
             ("chroma quantiser step", step_chroma),
             ("alpha quantiser step", step_alpha),
+            ("detail luma quantiser step", detail_step_luma),
+            ("detail chroma quantiser step", detail_step_chroma),
         ] {
             if !(s.is_finite() && (1e-7..=1e4).contains(&s)) {
                 return Err(CodecError::range(name, s, 1e-7, 1e4));
@@ -182,6 +193,8 @@ impl Header {
             step_alpha,
             luma_count: u32_at(28),
             chroma_count: u32_at(32),
+            detail_step_luma,
+            detail_step_chroma,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {
@@ -220,8 +233,16 @@ fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
 }
 
 /// Assembles a file from the header and the coded payloads.
-pub fn write(header: &Header, tree: &[u8], luma: &[u8], chroma: Option<&[u8]>) -> Vec<u8> {
-    let mut out = Vec::with_capacity(64 + tree.len() + luma.len() + chroma.map_or(0, <[u8]>::len));
+pub fn write(
+    header: &Header,
+    tree: &[u8],
+    luma: &[u8],
+    chroma: Option<&[u8]>,
+    detail: &[u8],
+) -> Vec<u8> {
+    let mut out = Vec::with_capacity(
+        64 + tree.len() + luma.len() + chroma.map_or(0, <[u8]>::len) + detail.len(),
+    );
     out.extend(MAGIC);
     out.push(VERSION);
     push_section(&mut out, tag::HEADER, &header.to_bytes());
@@ -230,6 +251,7 @@ pub fn write(header: &Header, tree: &[u8], luma: &[u8], chroma: Option<&[u8]>) -
     if let Some(c) = chroma {
         push_section(&mut out, tag::CHROMA, c);
     }
+    push_section(&mut out, tag::DETAIL, detail);
     push_section(&mut out, tag::END, &[]);
     out
 }
@@ -363,9 +385,9 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
         }
     };
     let expected: &[u8] = if header.chroma_count > 0 {
-        &[tag::HEADER, tag::TREE, tag::LUMA, tag::CHROMA, tag::END]
+        &[tag::HEADER, tag::TREE, tag::LUMA, tag::CHROMA, tag::DETAIL, tag::END]
     } else {
-        &[tag::HEADER, tag::TREE, tag::LUMA, tag::END]
+        &[tag::HEADER, tag::TREE, tag::LUMA, tag::DETAIL, tag::END]
     };
     if tags != expected {
         return Err(CodecError::Format(format!(

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 use super::bitstream::{self, tag, Header, Parsed};
 use super::colour::{self, CodingPlanes};
+use super::detail::{Detail, DetailEval};
 use super::entropy::AnsSource;
 use super::geometry::Frame;
 use super::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
@@ -38,6 +39,24 @@ pub struct Decoded {
     pub luma_values: Vec<Vec<f64>>,
     /// Chroma values (C1, C2).
     pub chroma_values: Vec<Vec<f64>>,
+    /// The detail layer (`None` leaves the network's colours alone, as the encoder
+    /// needs before it has coded the layer).
+    pub detail: Option<Detail>,
+}
+
+/// Reads the detail section: one plane per colour channel.
+fn read_detail(parsed: &Parsed) -> Result<Detail, CodecError> {
+    let h = &parsed.header;
+    let mut steps = vec![h.detail_step_luma as f64];
+    if h.layout.colour_channels() == 3 {
+        steps.extend([h.detail_step_chroma as f64; 2]);
+    }
+    Detail::read(
+        parsed.payload(tag::DETAIL).unwrap_or(&[]),
+        h.width,
+        h.height,
+        steps,
+    )
 }
 
 /// Entropy-decodes one value section: `channels` planes of quantised values over
@@ -144,6 +163,7 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
     Ok(Decoded {
         luma_values: dequantise(luma_values?, &luma_steps, |v| v),
         chroma_values: dequantise(chroma_values, &chroma_steps, |v| v),
+        detail: Some(read_detail(&parsed)?),
         header,
         luma_cells,
         chroma_cells,
@@ -251,6 +271,11 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
     let mut luma = luma.into_iter();
     let mut colour: Vec<Vec<f32>> = luma.next().into_iter().collect();
     colour.extend(chroma);
+    if let Some(detail) = &d.detail {
+        let grid = Grid::pixel_centres(&frame, ow, oh);
+        let mut out: Vec<&mut [f32]> = colour.iter_mut().map(|p| p.as_mut_slice()).collect();
+        DetailEval::new(detail, &grid).add_rows(0, &mut out);
+    }
     CodingPlanes {
         colour,
         alpha: luma.next().filter(|_| h.layout.has_alpha()),
@@ -295,8 +320,9 @@ pub fn render_identity_raster_on(
             })
         },
     );
+    let detail = d.detail.as_ref().map(|d| DetailEval::new(d, &grid));
     let samples = vec![0.0f32; ow as usize * oh as usize * h.layout.channels()];
-    band_pass(h, &luma, chroma.as_ref(), (ow, oh), samples)
+    band_pass(h, &luma, chroma.as_ref(), detail.as_ref(), (ow, oh), samples)
 }
 
 /// [`decode`] by the identity fast path: equal to `render_identity_raster(&read(..)?, ..)`,
@@ -338,14 +364,16 @@ pub fn decode_interleaved(
                 Depth::Sixteen => Samples::U16(vec![0; n]),
             }
         },
-        |h, luma, chroma, (ow, oh), mut samples| {
+        |h, luma, chroma, detail, (ow, oh), mut samples| {
             let ok = match &mut samples {
-                Samples::U8(out) => band_pass_interleaved(h, luma, chroma, ow, out, |v| {
+                Samples::U8(out) => band_pass_interleaved(h, luma, chroma, detail, ow, out, |v| {
                     crate::image_io::quantise(v, 255.0) as u8
                 }),
-                Samples::U16(out) => band_pass_interleaved(h, luma, chroma, ow, out, |v| {
-                    crate::image_io::quantise(v, 65535.0) as u16
-                }),
+                Samples::U16(out) => {
+                    band_pass_interleaved(h, luma, chroma, detail, ow, out, |v| {
+                        crate::image_io::quantise(v, 65535.0) as u16
+                    })
+                }
             };
             if !ok {
                 return Err(non_finite());
@@ -405,7 +433,14 @@ fn identity_with<O: Send, R>(
     opts: &DecodeOptions,
     sample_bytes: u64,
     alloc: impl FnOnce(&Header, (u32, u32)) -> O + Send,
-    finish: impl FnOnce(&Header, &GridEval, Option<&GridEval>, (u32, u32), O) -> Result<R, CodecError>,
+    finish: impl FnOnce(
+        &Header,
+        &GridEval,
+        Option<&GridEval>,
+        Option<&DetailEval>,
+        (u32, u32),
+        O,
+    ) -> Result<R, CodecError>,
 ) -> Result<R, CodecError> {
     let parsed = bitstream::parse(bytes, opts.max_pixels)?;
     let header = &parsed.header;
@@ -415,9 +450,12 @@ fn identity_with<O: Send, R>(
     let size = (header.width, header.height);
     let (luma_steps, chroma_steps) = steps(header);
     let colour = header.layout.colour_channels() == 3;
-    let (luma_cells, samples) =
-        rayon::join(|| read_luma_cells(&parsed), || alloc(header, (ow, oh)));
+    let ((luma_cells, samples), detail) = rayon::join(
+        || rayon::join(|| read_luma_cells(&parsed), || alloc(header, (ow, oh))),
+        || read_detail(&parsed).map(|d| DetailEval::new(&d, &grid)),
+    );
     let luma_cells = luma_cells?;
+    let detail = detail?;
     // The two value sections are independent entropy-coded streams, one per thread;
     // each thread then prepares its key set's evaluator.
     let (luma, chroma) =
@@ -458,7 +496,7 @@ fn identity_with<O: Send, R>(
         )
         .with_values(values)
     });
-    finish(header, &luma, chroma.as_ref(), (ow, oh), samples)
+    finish(header, &luma, chroma.as_ref(), Some(&detail), (ow, oh), samples)
 }
 
 /// Evaluates both key sets band by band into `samples` (`ow x oh` pixels of the
@@ -468,6 +506,7 @@ fn band_pass(
     h: &Header,
     luma: &GridEval,
     chroma: Option<&GridEval>,
+    detail: Option<&DetailEval>,
     (ow, oh): (u32, u32),
     mut samples: Vec<f32>,
 ) -> Result<Raster, CodecError> {
@@ -484,7 +523,7 @@ fn band_pass(
     let finite = bands.into_par_iter().enumerate().map_init(
         || (BandScratch::default(), Vec::new()),
         |(scratch, coding), (b, mut out)| {
-            band_colours(h, luma, chroma, b, scratch, coding, &mut out);
+            band_colours(h, luma, chroma, detail, b, scratch, coding, &mut out);
             // Checked here, in cache, rather than by a pass over the whole raster. The
             // colour conversion clamps, so only a kernel sum that underflowed could
             // leave a non-finite sample; chunked folds vectorise.
@@ -503,10 +542,12 @@ fn band_pass(
 
 /// Evaluates band `b` of both key sets into `coding` and converts it to the output
 /// colours in `out` (one slice per channel, the band's pixels).
+#[allow(clippy::too_many_arguments)]
 fn band_colours(
     h: &Header,
     luma: &GridEval,
     chroma: Option<&GridEval>,
+    detail: Option<&DetailEval>,
     b: usize,
     scratch: &mut BandScratch,
     coding: &mut Vec<f32>,
@@ -526,6 +567,12 @@ fn band_colours(
     if let Some(chroma) = &chroma {
         chroma.eval_band(b, scratch, cp);
     }
+    if let Some(detail) = detail {
+        let mut colour: Vec<&mut [f32]> = std::iter::once(&mut *lp[0])
+            .chain(cp.iter_mut().map(|p| &mut **p))
+            .collect();
+        detail.add_rows(b * GridEval::BAND, &mut colour);
+    }
     let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
         .chain(cp.iter().map(|p| &**p))
         .collect();
@@ -539,6 +586,7 @@ fn band_pass_interleaved<T: Send>(
     h: &Header,
     luma: &GridEval,
     chroma: Option<&GridEval>,
+    detail: Option<&DetailEval>,
     ow: u32,
     out: &mut [T],
     convert: impl Fn(f32) -> T + Sync,
@@ -553,7 +601,7 @@ fn band_pass_interleaved<T: Send>(
                 let len = out.len() / ch;
                 planar.resize(ch * len, 0.0f32);
                 let mut planes: Vec<&mut [f32]> = planar.chunks_exact_mut(len).collect();
-                band_colours(h, luma, chroma, b, scratch, coding, &mut planes);
+                band_colours(h, luma, chroma, detail, b, scratch, coding, &mut planes);
                 let finite = planar.iter().fold(true, |ok, v| ok & v.is_finite());
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = convert(planar[(i % ch) * len + i / ch]);
@@ -607,6 +655,17 @@ pub fn render_forward(
         samples.extend(
             KeySet::new(frame, &d.chroma_cells, h.kernel).eval_grid(&d.chroma_values, &grid),
         );
+    }
+    if let Some(detail) = &d.detail {
+        // The layer's cosine series at the lattice positions, added to the colour
+        // outputs (Y, then C1 and C2 after the luma set's alpha).
+        let layer = DetailEval::new(detail, &grid).eval();
+        let colour = std::iter::once(0).chain(nl..nl + 2);
+        for (c, plane) in colour.zip(layer) {
+            for (s, v) in samples[c].iter_mut().zip(plane) {
+                *s += v;
+            }
+        }
     }
     let nc = samples.len();
     let mut planes = vec![vec![0.0f64; owu * ohu]; nc];

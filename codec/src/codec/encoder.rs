@@ -2,6 +2,8 @@
 
 use super::bitstream::{self, Header};
 use super::colour::{self, CodingPlanes};
+use super::decoder::{self, Decoded};
+use super::detail::quantise::{self as detail_quantise, Quantiser};
 use super::entropy::AnsSink;
 use super::model::{self, Model};
 use super::rate_control::EncodeSettings;
@@ -41,7 +43,12 @@ fn quantise(nbs: &[syntax::Neighbours], values: &[f64], step: f64, deadzone: f64
 }
 
 /// Entropy-codes a fitted model into a file.
-pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>, EncodeStats) {
+pub fn write_model(
+    img: &Raster,
+    planes: &CodingPlanes,
+    model: &Model,
+    s: &EncodeSettings,
+) -> (Vec<u8>, EncodeStats) {
     let (w, h) = (img.width(), img.height());
     let shape = model.shape;
     let leaf_set: std::collections::HashSet<_> = model.luma_cells.iter().copied().collect();
@@ -62,9 +69,12 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
         step_alpha: s.step_alpha as f32,
         luma_count: model.luma_cells.len() as u32,
         chroma_count: model.chroma_cells.len() as u32,
+        detail_step_luma: s.detail_step_luma as f32,
+        detail_step_chroma: s.detail_step_chroma as f32,
     };
     let mut luma = AnsSink::new();
     let nbs = syntax::neighbours(&model.luma_cells, w, h);
+    let mut luma_values = Vec::new();
     for (c, values) in model.luma_colours.iter().enumerate() {
         let step = if c == 0 {
             header.step_luma
@@ -73,21 +83,59 @@ pub fn write_model(img: &Raster, model: &Model, s: &EncodeSettings) -> (Vec<u8>,
         } as f64;
         let q = quantise(&nbs, values, step, s.deadzone);
         syntax::write_values(&model.luma_cells, &nbs, &q, &mut luma);
+        luma_values.push(q.iter().map(|&v| v as f64 * step).collect());
     }
+    let mut chroma_values = Vec::new();
     let chroma = (!model.chroma_cells.is_empty()).then(|| {
         let mut sink = AnsSink::new();
         let nbs = syntax::neighbours(&model.chroma_cells, w, h);
+        let step = header.step_chroma as f64;
         for values in &model.chroma_colours {
-            syntax::write_values(
-                &model.chroma_cells,
-                &nbs,
-                &quantise(&nbs, values, header.step_chroma as f64, s.deadzone),
-                &mut sink,
-            );
+            let q = quantise(&nbs, values, step, s.deadzone);
+            syntax::write_values(&model.chroma_cells, &nbs, &q, &mut sink);
+            chroma_values.push(q.iter().map(|&v| v as f64 * step).collect());
         }
         sink.finish()
     });
-    let bytes = bitstream::write(&header, &tree.finish(), &luma.finish(), chroma.as_deref());
+    // The detail layer codes what the decoder's network leaves of each colour channel.
+    let base = decoder::render_identity(
+        &Decoded {
+            header: header.clone(),
+            luma_cells: model.luma_cells.clone(),
+            chroma_cells: model.chroma_cells.clone(),
+            luma_values,
+            chroma_values,
+            detail: None,
+        },
+        w,
+        h,
+    );
+    let residuals: Vec<Vec<f64>> = planes
+        .colour
+        .iter()
+        .zip(&base.colour)
+        .map(|(t, r)| t.iter().zip(r).map(|(&t, &r)| t - r as f64).collect())
+        .collect();
+    let quantisers: Vec<Quantiser> = (0..residuals.len())
+        .map(|c| Quantiser {
+            step: if c == 0 {
+                header.detail_step_luma
+            } else {
+                header.detail_step_chroma
+            } as f64,
+            deadzone: s.detail_deadzone,
+        })
+        .collect();
+    let detail = detail_quantise::layer(&residuals, w, h, &quantisers);
+    let mut detail_sink = AnsSink::new();
+    detail.write(&mut detail_sink);
+    let bytes = bitstream::write(
+        &header,
+        &tree.finish(),
+        &luma.finish(),
+        chroma.as_deref(),
+        &detail_sink.finish(),
+    );
     let stats = EncodeStats {
         luma_keypoints: model.luma_cells.len(),
         chroma_keypoints: model.chroma_cells.len(),
@@ -109,6 +157,8 @@ pub fn encode_with(
         ("luma step", s.step_luma),
         ("chroma step", s.step_chroma),
         ("alpha step", s.step_alpha),
+        ("detail luma step", s.detail_step_luma),
+        ("detail chroma step", s.detail_step_chroma),
     ] {
         if !(v.is_finite() && (1e-7..=1e4).contains(&v)) {
             return Err(CodecError::Parameter {
@@ -122,6 +172,8 @@ pub fn encode_with(
     s.step_luma = s.step_luma as f32 as f64;
     s.step_chroma = s.step_chroma as f32 as f64;
     s.step_alpha = s.step_alpha as f32 as f64;
+    s.detail_step_luma = s.detail_step_luma as f32 as f64;
+    s.detail_step_chroma = s.detail_step_chroma as f32 as f64;
     let rgb;
     let planes = if !s.decorrelate && planes.colour.len() == 3 {
         rgb = CodingPlanes {
@@ -135,7 +187,7 @@ pub fn encode_with(
         planes
     };
     let model = model::build(planes, img.width(), img.height(), &s.model, progress);
-    Ok(write_model(img, &model, &s))
+    Ok(write_model(img, planes, &model, &s))
 }
 
 /// Splits an image into coding planes after checking it can be encoded.

@@ -35,6 +35,8 @@ stages! {
     analysis;
     /// Opponent colour transform and the HDR curve.
     colour;
+    /// The transform-coded detail layer over the network's colours.
+    detail;
     /// Quantisation and assembly of a file.
     encoder;
     /// Adaptive binary and multi-symbol models on the ANS coder; the bit counter.

@@ -16,6 +16,12 @@ pub struct EncodeSettings {
     pub step_alpha: f64,
     /// Dead zone of the predictive quantiser (0: plain rounding of the residual).
     pub deadzone: f64,
+    /// Quantiser step of the detail layer's luma coefficients.
+    pub detail_step_luma: f64,
+    /// Quantiser step of the detail layer's chroma coefficients.
+    pub detail_step_chroma: f64,
+    /// Dead zone of the detail layer's quantiser.
+    pub detail_deadzone: f64,
     /// Code the colour channels in opponent space (else raw RGB on one tree: an
     /// ablation switch only; such files do not decode to the right colours).
     pub decorrelate: bool,
@@ -36,9 +42,11 @@ pub const DEADZONE: f64 = 0.15;
 /// scale, and the quantiser steps in proportion to its square root, so the two
 /// sources of error shrink together.
 pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSettings {
+    let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
     let q = quality.clamp(0.0, 100.0) as f64;
-    let threshold = 10f64.powf(2.0 - 4.0 * q / 100.0);
-    let step = (STEP_FACTOR * threshold.sqrt()).clamp(2e-4, 2.0);
+    let detail = 0.15 * 10f64.powf(1.0 - 2.0 * q / 100.0);
+    let step = (env("CAOEN_BS", 0.667) * detail).clamp(2e-4, 2.0);
+    let threshold = env("CAOEN_TT", 44.0) * detail * detail;
     let e = effort.clamp(1, 9) as usize;
     let model = ModelSettings {
         split_threshold: threshold,
@@ -51,6 +59,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         },
         growth: if e >= 7 { 0.25 } else { 0.35 },
         cg_iterations: (6 + 2 * e, 15 + 6 * e),
+        min_log2: env("CAOEN_MIN", 0.0) as u8,
         ..ModelSettings::default()
     };
     EncodeSettings {
@@ -59,6 +68,9 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         step_chroma: CHROMA_STEP_RATIO * step,
         step_alpha: step,
         deadzone: DEADZONE,
+        detail_step_luma: detail,
+        detail_step_chroma: env("CAOEN_DC", 1.5) * detail,
+        detail_deadzone: env("CAOEN_DZ", 0.2),
         decorrelate: true,
     }
 }

@@ -1,0 +1,312 @@
+//! The detail layer's coefficients as coded symbols (section `D`).
+//!
+//! Per channel, blocks in raster order. A block is a *coded* bin (context: its kind,
+//! luma or chroma, and how many of its left and above neighbours were coded), then the
+//! position of its last nonzero coefficient in zig-zag order, then its coefficients from
+//! that last one back to the first. Coding backwards puts each coefficient's
+//! higher-frequency neighbours before it, so their magnitudes are its context (the
+//! scheme of AV1's level maps, simplified).
+
+use super::dct::{COEFFS, N, ZIGZAG};
+use crate::codec::entropy::{AnsSource, BinModel, Cdf, SymbolSink, CDF_FLOOR, CDF_ONE, MAX_RAW_BITS};
+use crate::codec::CodecError;
+
+/// Magnitudes `0..LITERALS` are tokens of their own; token `LITERALS` escapes.
+const LITERALS: usize = 16;
+type TokenCdf = Cdf<4>;
+/// Escape classes: bit length minus one of `m - LITERALS + 1`.
+const CLASSES: usize = 24;
+type ClassCdf = Cdf<6>;
+/// Classes of the last position: bit length of `last` (0..=6).
+const LAST_CLASSES: usize = 7;
+type LastCdf = Cdf<2>;
+/// Frequency bands by scan position.
+const BANDS: usize = 6;
+/// Neighbourhood magnitude classes.
+const MAG_CLASSES: usize = 5;
+/// Block neighbourhood classes: coded neighbours (0..=2).
+const NEIGHBOURS: usize = 3;
+/// Largest coefficient magnitude a file may hold.
+pub const MAX_LEVEL: u32 = 1 << 20;
+/// Most symbols one block can take (bins, tokens and raw bits): the decoder's bound.
+pub const MAX_SYMBOLS_PER_BLOCK: u64 = 3 + COEFFS as u64 * 4;
+
+fn band(k: usize) -> usize {
+    match k {
+        0 => 0,
+        1..=2 => 1,
+        3..=5 => 2,
+        6..=14 => 3,
+        15..=27 => 4,
+        _ => 5,
+    }
+}
+
+/// A geometric distribution of ratio `r` over `m + 1` symbols as cumulative entries
+/// `F[1..=m]`, each step at least the floor.
+fn geometric(m: usize, r: f64) -> Vec<u16> {
+    let total = CDF_ONE as f64 - (m + 1) as f64 * CDF_FLOOR as f64;
+    let norm: f64 = (0..=m).map(|i| r.powi(i as i32)).sum();
+    let mut acc = 0.0;
+    (0..m)
+        .map(|i| {
+            acc += r.powi(i as i32) / norm * total;
+            (acc.floor() as u16) + (i as u16 + 1) * CDF_FLOOR
+        })
+        .collect()
+}
+
+/// The adaptive contexts of a detail section.
+#[derive(Clone)]
+pub struct DetailContexts {
+    coded: [[BinModel; NEIGHBOURS]; 2],
+    last: [[LastCdf; NEIGHBOURS]; 2],
+    token: Vec<TokenCdf>,
+    first: Vec<TokenCdf>,
+    class: [ClassCdf; 2],
+}
+
+impl Default for DetailContexts {
+    fn default() -> Self {
+        let last = LastCdf::new(&geometric(8, 0.8));
+        let token: Vec<TokenCdf> = (0..2 * BANDS * MAG_CLASSES)
+            .map(|i| {
+                let mag = i % MAG_CLASSES;
+                TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64))
+            })
+            .collect();
+        DetailContexts {
+            coded: [[BinModel::new(2); NEIGHBOURS]; 2],
+            last: [[last; NEIGHBOURS]; 2],
+            first: vec![TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
+            token,
+            class: [ClassCdf::new(&geometric(24, 0.7)); 2],
+        }
+    }
+}
+
+/// Context of coefficient `z` (row-major) from the magnitudes already coded in its
+/// block: the two next-frequency neighbours and three beyond, each counted up to 3.
+#[inline]
+fn mag_class(levels: &[u32; COEFFS], z: usize) -> usize {
+    let (v, u) = (z / N, z % N);
+    let at = |v: usize, u: usize| {
+        if v < N && u < N {
+            levels[v * N + u].min(3)
+        } else {
+            0
+        }
+    };
+    let s = at(v, u + 1) + at(v + 1, u) + at(v + 1, u + 1) + at(v, u + 2) + at(v + 2, u);
+    (((s + 1) >> 1) as usize).min(MAG_CLASSES - 1)
+}
+
+fn write_escape(class: &mut ClassCdf, m: u32, sink: &mut impl SymbolSink) {
+    let v = m - LITERALS as u32 + 1;
+    let c = 31 - v.leading_zeros();
+    sink.symbol(class, c as usize);
+    let rest = v - (1 << c);
+    if c > MAX_RAW_BITS {
+        sink.raw(rest >> MAX_RAW_BITS, c - MAX_RAW_BITS);
+    }
+    if c > 0 {
+        let low = c.min(MAX_RAW_BITS);
+        sink.raw(rest & ((1 << low) - 1), low);
+    }
+}
+
+fn read_escape(class: &mut ClassCdf, src: &mut AnsSource) -> Result<u32, CodecError> {
+    let c = src.symbol(class)? as u32;
+    let mut rest = 0u64;
+    if c > MAX_RAW_BITS {
+        rest = (src.raw(c - MAX_RAW_BITS)? as u64) << MAX_RAW_BITS;
+    }
+    if c > 0 {
+        rest |= src.raw(c.min(MAX_RAW_BITS))? as u64;
+    }
+    let m = (1u64 << c) + rest + LITERALS as u64 - 1;
+    if m > MAX_LEVEL as u64 {
+        return Err(CodecError::range(
+            "detail coefficient",
+            m as f64,
+            0.0,
+            MAX_LEVEL as f64,
+        ));
+    }
+    Ok(m as u32)
+}
+
+/// Where a block sits among its coded neighbours: the context of its first symbols.
+#[derive(Debug, Clone, Copy)]
+pub struct BlockContext {
+    /// 0 for luma, 1 for chroma.
+    pub kind: usize,
+    /// Coded neighbours (left, above): 0..=2.
+    pub neighbours: usize,
+}
+
+/// Codes one block's quantised coefficients (row-major levels).
+pub fn write_block(
+    ctx: &mut DetailContexts,
+    at: BlockContext,
+    q: &[i32; COEFFS],
+    sink: &mut impl SymbolSink,
+) {
+    let (kind, nb) = (at.kind, at.neighbours);
+    let last = (0..COEFFS).rev().find(|&k| q[ZIGZAG[k] as usize] != 0);
+    sink.bin(&mut ctx.coded[kind][nb], last.is_some());
+    let Some(last) = last else { return };
+    let c = if last == 0 { 0 } else { 32 - (last as u32).leading_zeros() };
+    sink.symbol(&mut ctx.last[kind][nb], c as usize);
+    if c >= 2 {
+        sink.raw(last as u32 - (1 << (c - 1)), c - 1);
+    }
+    let mut levels = [0u32; COEFFS];
+    for k in (0..=last).rev() {
+        let z = ZIGZAG[k] as usize;
+        let v = q[z];
+        let m = v.unsigned_abs();
+        let b = band(k);
+        if k == last {
+            // Known nonzero: code m - 1 and the sign.
+            let t = ((m - 1) as usize).min(LITERALS);
+            sink.symbol(&mut ctx.first[kind * BANDS + b], t);
+            if t == LITERALS {
+                write_escape(&mut ctx.class[kind], m - 1, sink);
+            }
+            sink.raw(u32::from(v < 0), 1);
+        } else {
+            let mc = mag_class(&levels, z);
+            let t = (m as usize).min(LITERALS);
+            sink.signed_symbol(
+                &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc],
+                t,
+                v < 0,
+            );
+            if t == LITERALS {
+                write_escape(&mut ctx.class[kind], m, sink);
+            }
+        }
+        levels[z] = m;
+    }
+}
+
+/// Reads one block's coefficients into `q` (row-major levels); returns whether it is
+/// coded (any coefficient nonzero).
+pub fn read_block(
+    ctx: &mut DetailContexts,
+    at: BlockContext,
+    q: &mut [i32; COEFFS],
+    src: &mut AnsSource,
+) -> Result<bool, CodecError> {
+    let (kind, nb) = (at.kind, at.neighbours);
+    *q = [0; COEFFS];
+    if !src.bin(&mut ctx.coded[kind][nb])? {
+        return Ok(false);
+    }
+    let c = src.symbol(&mut ctx.last[kind][nb])? as u32;
+    if c as usize >= LAST_CLASSES {
+        return Err(CodecError::range(
+            "detail last-position class",
+            c as f64,
+            0.0,
+            (LAST_CLASSES - 1) as f64,
+        ));
+    }
+    let last = match c {
+        0 => 0,
+        1 => 1,
+        _ => (1usize << (c - 1)) + src.raw(c - 1)? as usize,
+    };
+    let mut levels = [0u32; COEFFS];
+    for k in (0..=last).rev() {
+        let z = ZIGZAG[k] as usize;
+        let b = band(k);
+        let (m, negative) = if k == last {
+            let t = src.symbol(&mut ctx.first[kind * BANDS + b])?;
+            let m = if t == LITERALS {
+                read_escape(&mut ctx.class[kind], src)?
+            } else {
+                t as u32
+            } + 1;
+            (m, src.raw(1)? == 1)
+        } else {
+            let mc = mag_class(&levels, z);
+            let (t, negative) =
+                src.signed_symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc])?;
+            let m = if t == LITERALS {
+                read_escape(&mut ctx.class[kind], src)?
+            } else {
+                t as u32
+            };
+            (m, negative)
+        };
+        if m > MAX_LEVEL {
+            return Err(CodecError::range(
+                "detail coefficient",
+                m as f64,
+                0.0,
+                MAX_LEVEL as f64,
+            ));
+        }
+        levels[z] = m;
+        q[z] = if negative { -(m as i32) } else { m as i32 };
+    }
+    Ok(true)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::entropy::AnsSink;
+
+    #[test]
+    fn initial_tables_are_valid_cdfs() {
+        for (m, r) in [(8, 0.8), (16, 0.2), (16, 0.8), (24, 0.7)] {
+            let f = geometric(m, r);
+            assert_eq!(f.len(), m);
+            assert!(f[0] >= CDF_FLOOR);
+            for w in f.windows(2) {
+                assert!(w[1] >= w[0] + CDF_FLOOR);
+            }
+            assert!(*f.last().unwrap() <= CDF_ONE - CDF_FLOOR);
+        }
+    }
+
+    #[test]
+    fn blocks_round_trip() {
+        let mut blocks = vec![[0i32; COEFFS]; 6];
+        blocks[1][0] = 3;
+        blocks[2][63] = -1;
+        blocks[2][5] = 40_000;
+        blocks[3][ZIGZAG[1] as usize] = -17;
+        blocks[3][ZIGZAG[2] as usize] = 1;
+        for (i, v) in blocks[4].iter_mut().enumerate() {
+            *v = (i as i32 % 7) - 3;
+        }
+        blocks[5][0] = -(MAX_LEVEL as i32);
+        let mut ctx = DetailContexts::default();
+        let mut sink = AnsSink::new();
+        for (i, b) in blocks.iter().enumerate() {
+            let at = BlockContext {
+                kind: i % 2,
+                neighbours: i % 3,
+            };
+            write_block(&mut ctx, at, b, &mut sink);
+        }
+        let bytes = sink.finish();
+        let mut src = AnsSource::new(&bytes, 10_000).unwrap();
+        let mut ctx = DetailContexts::default();
+        for (i, b) in blocks.iter().enumerate() {
+            let at = BlockContext {
+                kind: i % 2,
+                neighbours: i % 3,
+            };
+            let mut q = [0; COEFFS];
+            let coded = read_block(&mut ctx, at, &mut q, &mut src).unwrap();
+            assert_eq!(coded, b.iter().any(|&v| v != 0));
+            assert_eq!(&q, b);
+        }
+        assert!(src.finished_cleanly());
+    }
+}
