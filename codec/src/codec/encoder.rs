@@ -124,17 +124,16 @@ pub fn write_model(
                 header.detail_step_chroma
             } as f64,
             deadzone: s.detail_deadzone,
+            lambda: s.detail_lambda,
         })
         .collect();
-    let detail = detail_quantise::layer(&residuals, w, h, &quantisers);
-    let mut detail_sink = AnsSink::new();
-    detail.write(&mut detail_sink);
+    let (_, detail) = detail_quantise::code_layer(&residuals, (w, h), &quantisers);
     let bytes = bitstream::write(
         &header,
         &tree.finish(),
         &luma.finish(),
         chroma.as_deref(),
-        &detail_sink.finish(),
+        &detail,
     );
     let stats = EncodeStats {
         luma_keypoints: model.luma_cells.len(),

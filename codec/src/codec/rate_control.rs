@@ -22,6 +22,8 @@ pub struct EncodeSettings {
     pub detail_step_chroma: f64,
     /// Dead zone of the detail layer's quantiser.
     pub detail_deadzone: f64,
+    /// Lagrange multiplier of the detail layer's block decisions (squared steps per bit).
+    pub detail_lambda: f64,
     /// Code the colour channels in opponent space (else raw RGB on one tree: an
     /// ablation switch only; such files do not decode to the right colours).
     pub decorrelate: bool,
@@ -45,8 +47,8 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
     let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
     let q = quality.clamp(0.0, 100.0) as f64;
     let detail = 0.15 * 10f64.powf(1.0 - 2.0 * q / 100.0);
-    let step = (env("CAOEN_BS", 0.667) * detail).clamp(2e-4, 2.0);
-    let threshold = env("CAOEN_TT", 44.0) * detail * detail;
+    let step = (env("CAOEN_BS", 0.15) * detail).clamp(2e-4, 2.0);
+    let threshold = env("CAOEN_TT", 15.0) * detail * detail;
     let e = effort.clamp(1, 9) as usize;
     let model = ModelSettings {
         split_threshold: threshold,
@@ -59,7 +61,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         },
         growth: if e >= 7 { 0.25 } else { 0.35 },
         cg_iterations: (6 + 2 * e, 15 + 6 * e),
-        min_log2: env("CAOEN_MIN", 0.0) as u8,
+        min_log2: env("CAOEN_MIN", 3.0) as u8,
         ..ModelSettings::default()
     };
     EncodeSettings {
@@ -69,8 +71,9 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         step_alpha: step,
         deadzone: DEADZONE,
         detail_step_luma: detail,
-        detail_step_chroma: env("CAOEN_DC", 1.5) * detail,
+        detail_step_chroma: env("CAOEN_DC", 1.0) * detail,
         detail_deadzone: env("CAOEN_DZ", 0.2),
+        detail_lambda: env("CAOEN_LAMBDA", 0.12),
         decorrelate: true,
     }
 }

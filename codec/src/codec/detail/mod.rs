@@ -13,7 +13,7 @@ pub mod syntax;
 
 use dct::{COEFFS, N};
 
-use super::entropy::{AnsSource, SymbolSink};
+use super::entropy::AnsSource;
 use super::keyset::Grid;
 use super::CodecError;
 use syntax::{BlockContext, DetailContexts};
@@ -75,32 +75,6 @@ impl DetailPlane {
         self.levels.len()
     }
 
-    fn context(&self, bx: usize, by: usize, kind: usize) -> BlockContext {
-        let coded = |i: usize| usize::from(self.index[i] != ZERO);
-        let mut n = 0;
-        if bx > 0 {
-            n += coded(by * self.cols + bx - 1);
-        }
-        if by > 0 {
-            n += coded((by - 1) * self.cols + bx);
-        }
-        BlockContext {
-            kind,
-            neighbours: n,
-        }
-    }
-
-    /// Codes the plane (`kind` 0 luma, 1 chroma) with the section's contexts.
-    pub fn write(&self, kind: usize, ctx: &mut DetailContexts, sink: &mut impl SymbolSink) {
-        const EMPTY: [i32; COEFFS] = [0; COEFFS];
-        for by in 0..self.rows {
-            for bx in 0..self.cols {
-                let at = self.context(bx, by, kind);
-                syntax::write_block(ctx, at, self.block(bx, by).unwrap_or(&EMPTY), sink);
-            }
-        }
-    }
-
     /// Reads a `cols x rows` plane.
     pub fn read(
         cols: usize,
@@ -156,16 +130,8 @@ pub struct Detail {
 }
 
 impl Detail {
-    /// Codes every plane into one section's symbols.
-    pub fn write(&self, sink: &mut impl SymbolSink) {
-        let mut ctx = DetailContexts::default();
-        for (c, p) in self.planes.iter().enumerate() {
-            p.write(usize::from(c > 0), &mut ctx, sink);
-        }
-    }
-
     /// Reads the section of a `width x height` image with these steps (one per colour
-    /// channel).
+    /// channel): a u32 byte count of the luma stream, the luma stream, the chroma stream.
     pub fn read(
         payload: &[u8],
         width: u32,
@@ -173,17 +139,44 @@ impl Detail {
         steps: Vec<f64>,
     ) -> Result<Self, CodecError> {
         let (cols, rows) = blocks(width, height);
-        let max = syntax::MAX_SYMBOLS_PER_BLOCK * (cols * rows * steps.len()) as u64;
-        let mut src = AnsSource::new(payload, max)?;
-        let mut ctx = DetailContexts::default();
-        let planes = (0..steps.len())
-            .map(|c| DetailPlane::read(cols, rows, usize::from(c > 0), &mut ctx, &mut src))
-            .collect::<Result<Vec<_>, _>>()?;
-        if !src.finished_cleanly() {
-            return Err(CodecError::Format(
-                "detail payload does not end where its syntax does".into(),
-            ));
+        if payload.len() < 4 {
+            return Err(CodecError::Truncated {
+                what: "the detail section's stream length",
+                offset: 0,
+                need: 4,
+                available: payload.len() as u64,
+            });
         }
+        let n = u32::from_le_bytes([payload[0], payload[1], payload[2], payload[3]]) as usize;
+        if n > payload.len() - 4 {
+            return Err(CodecError::Truncated {
+                what: "the detail section's luma stream",
+                offset: 4,
+                need: n as u64,
+                available: payload.len() as u64 - 4,
+            });
+        }
+        let (luma, chroma) = payload[4..].split_at(n);
+        let per_plane = syntax::MAX_SYMBOLS_PER_BLOCK * (cols * rows) as u64;
+        let stream = |bytes: &[u8], kind: usize, planes: usize| -> Result<_, CodecError> {
+            let mut src = AnsSource::new(bytes, per_plane * planes as u64)?;
+            let mut ctx = DetailContexts::default();
+            let planes = (0..planes)
+                .map(|_| DetailPlane::read(cols, rows, kind, &mut ctx, &mut src))
+                .collect::<Result<Vec<_>, _>>()?;
+            if !src.finished_cleanly() {
+                return Err(CodecError::Format(
+                    "detail stream does not end where its syntax does".into(),
+                ));
+            }
+            Ok(planes)
+        };
+        let (l, c) = rayon::join(
+            || stream(luma, 0, 1),
+            || stream(chroma, 1, steps.len() - 1),
+        );
+        let mut planes = l?;
+        planes.extend(c?);
         Ok(Detail { planes, steps })
     }
 

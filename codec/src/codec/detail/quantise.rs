@@ -1,10 +1,17 @@
 //! The encoder's side of the detail layer: transform the network's residual block by
-//! block and quantise it.
+//! block, quantise it and choose each block's coefficients by rate and distortion.
+//!
+//! Blocks are decided in coding order with the coder's own adaptive contexts: each
+//! candidate (the dead-zone levels, the same with its last nonzero coefficients
+//! dropped, and the empty block) is priced by a [`CostSink`] on a copy of the
+//! contexts, and the one with the least `D + lambda R` is coded.
 
 use rayon::prelude::*;
 
-use super::dct::{self, COEFFS, N};
+use super::dct::{self, COEFFS, N, ZIGZAG};
+use super::syntax::{self, BlockContext, DetailContexts};
 use super::{blocks, Detail, DetailPlane};
+use crate::codec::entropy::{AnsSink, CostSink, SymbolSink};
 
 /// Quantiser of one channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -13,13 +20,18 @@ pub struct Quantiser {
     pub step: f64,
     /// Dead zone: magnitudes round down unless their fraction exceeds `0.5 + deadzone`.
     pub deadzone: f64,
+    /// Lagrange multiplier in squared steps per bit.
+    pub lambda: f64,
 }
+
+/// Most trailing coefficients the search tries dropping.
+const TRIMS: usize = 4;
 
 /// Level of coefficient `c` under `q`.
 #[inline]
 fn level(c: f64, q: Quantiser) -> i32 {
     let m = (c.abs() / q.step + 0.5 - q.deadzone).floor().max(0.0);
-    (m.min(super::syntax::MAX_LEVEL as f64) as i32) * if c < 0.0 { -1 } else { 1 }
+    (m.min(syntax::MAX_LEVEL as f64) as i32) * if c < 0.0 { -1 } else { 1 }
 }
 
 /// Block `(bx, by)` of a `width x height` plane, pixels past the image edge repeating
@@ -36,28 +48,112 @@ fn gather(plane: &[f64], width: usize, height: usize, bx: usize, by: usize) -> [
     b
 }
 
-/// Transforms and quantises one residual plane.
-pub fn plane(residual: &[f64], width: u32, height: u32, q: Quantiser) -> DetailPlane {
-    let (cols, rows) = blocks(width, height);
-    let (w, h) = (width as usize, height as usize);
-    let levels: Vec<[i32; COEFFS]> = (0..cols * rows)
-        .into_par_iter()
-        .map(|i| {
-            let c = dct::forward(&gather(residual, w, h, i % cols, i / cols));
-            std::array::from_fn(|k| level(c[k], q))
-        })
-        .collect();
-    DetailPlane::from_blocks(cols, rows, levels)
+/// Squared error of `levels` against the coefficients, in squared steps.
+fn distortion(c: &[f64; COEFFS], levels: &[i32; COEFFS], step: f64) -> f64 {
+    c.iter()
+        .zip(levels)
+        .map(|(&c, &l)| (c / step - l as f64).powi(2))
+        .sum()
 }
 
-/// The detail layer of the colour channels' residuals, one quantiser per channel.
-pub fn layer(residuals: &[Vec<f64>], width: u32, height: u32, q: &[Quantiser]) -> Detail {
-    Detail {
-        planes: residuals
-            .iter()
-            .zip(q)
-            .map(|(r, &q)| plane(r, width, height, q))
-            .collect(),
-        steps: q.iter().map(|q| q.step).collect(),
+/// Transforms, quantises and codes one residual plane (`kind` 0 luma, 1 chroma) into
+/// `sink` with the stream's contexts; returns the coded levels.
+pub fn code_plane(
+    residual: &[f64],
+    (width, height): (u32, u32),
+    q: Quantiser,
+    kind: usize,
+    ctx: &mut DetailContexts,
+    sink: &mut impl SymbolSink,
+) -> DetailPlane {
+    let (cols, rows) = blocks(width, height);
+    let (w, h) = (width as usize, height as usize);
+    let coeffs: Vec<[f64; COEFFS]> = (0..cols * rows)
+        .into_par_iter()
+        .map(|i| dct::forward(&gather(residual, w, h, i % cols, i / cols)))
+        .collect();
+    let mut chosen = Vec::with_capacity(cols * rows);
+    let mut coded = vec![false; cols * rows];
+    for (i, c) in coeffs.iter().enumerate() {
+        let (bx, by) = (i % cols, i / cols);
+        let at = BlockContext {
+            kind,
+            neighbours: usize::from(bx > 0 && coded[i - 1])
+                + usize::from(by > 0 && coded[i - cols]),
+        };
+        let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
+        let best = if levels.iter().all(|&l| l == 0) {
+            levels
+        } else {
+            let price = |l: &[i32; COEFFS]| {
+                let mut cost = CostSink::default();
+                syntax::write_block(&mut ctx.clone(), at, l, &mut cost);
+                distortion(c, l, q.step) + q.lambda * cost.cost as f64 / 256.0
+            };
+            let mut best = (price(&levels), levels);
+            let mut trimmed = levels;
+            let mut tries = 0;
+            for k in (0..COEFFS).rev() {
+                let z = ZIGZAG[k] as usize;
+                if trimmed[z] == 0 {
+                    continue;
+                }
+                if tries == TRIMS {
+                    break;
+                }
+                tries += 1;
+                trimmed[z] = 0;
+                let j = price(&trimmed);
+                if j < best.0 {
+                    best = (j, trimmed);
+                }
+            }
+            // The loop stops at the empty block only when there were few enough.
+            let empty = [0; COEFFS];
+            let j = price(&empty);
+            if j < best.0 {
+                best = (j, empty);
+            }
+            best.1
+        };
+        syntax::write_block(ctx, at, &best, sink);
+        coded[i] = best.iter().any(|&l| l != 0);
+        chosen.push(best);
     }
+    DetailPlane::from_blocks(cols, rows, chosen)
+}
+
+/// The detail layer of the colour channels' residuals (Y, or Y, C1, C2), one quantiser
+/// per channel, and its section payload.
+pub fn code_layer(
+    residuals: &[Vec<f64>],
+    size: (u32, u32),
+    q: &[Quantiser],
+) -> (Detail, Vec<u8>) {
+    // Luma and chroma are independent streams, coded (and decoded) side by side.
+    let (luma, chroma) = rayon::join(
+        || {
+            let mut sink = AnsSink::new();
+            let mut ctx = DetailContexts::default();
+            let p = code_plane(&residuals[0], size, q[0], 0, &mut ctx, &mut sink);
+            (p, sink.finish())
+        },
+        || {
+            let mut sink = AnsSink::new();
+            let mut ctx = DetailContexts::default();
+            let planes: Vec<DetailPlane> = (1..residuals.len())
+                .map(|c| code_plane(&residuals[c], size, q[c], 1, &mut ctx, &mut sink))
+                .collect();
+            (planes, sink.finish())
+        },
+    );
+    let mut payload = Vec::with_capacity(4 + luma.1.len() + chroma.1.len());
+    payload.extend((luma.1.len() as u32).to_le_bytes());
+    payload.extend(&luma.1);
+    payload.extend(&chroma.1);
+    let detail = Detail {
+        planes: std::iter::once(luma.0).chain(chroma.0).collect(),
+        steps: q.iter().map(|q| q.step).collect(),
+    };
+    (detail, payload)
 }

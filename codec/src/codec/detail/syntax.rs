@@ -57,28 +57,28 @@ fn geometric(m: usize, r: f64) -> Vec<u16> {
 }
 
 /// The adaptive contexts of a detail section.
+///
+/// Fixed-size arrays: the encoder's rate-distortion search copies them per candidate.
 #[derive(Clone)]
 pub struct DetailContexts {
     coded: [[BinModel; NEIGHBOURS]; 2],
     last: [[LastCdf; NEIGHBOURS]; 2],
-    token: Vec<TokenCdf>,
-    first: Vec<TokenCdf>,
+    token: [TokenCdf; 2 * BANDS * MAG_CLASSES],
+    first: [TokenCdf; 2 * BANDS],
     class: [ClassCdf; 2],
 }
 
 impl Default for DetailContexts {
     fn default() -> Self {
         let last = LastCdf::new(&geometric(8, 0.8));
-        let token: Vec<TokenCdf> = (0..2 * BANDS * MAG_CLASSES)
-            .map(|i| {
-                let mag = i % MAG_CLASSES;
-                TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64))
-            })
-            .collect();
+        let token = std::array::from_fn(|i| {
+            let mag = i % MAG_CLASSES;
+            TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64))
+        });
         DetailContexts {
             coded: [[BinModel::new(2); NEIGHBOURS]; 2],
             last: [[last; NEIGHBOURS]; 2],
-            first: vec![TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
+            first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
         }
