@@ -46,7 +46,7 @@ pub const DEADZONE: f64 = 0.15;
 pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSettings {
     let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
     let q = quality.clamp(0.0, 100.0) as f64;
-    let detail = 0.15 * 10f64.powf(1.0 - 2.0 * q / 100.0);
+    let detail = 1.5 * 10f64.powf(-q * (0.0003 + 0.000245 * q));
     let step = (env("CAOEN_BS", 0.15) * detail).clamp(2e-4, 2.0);
     let threshold = env("CAOEN_TT", 15.0) * detail * detail;
     let e = effort.clamp(1, 9) as usize;

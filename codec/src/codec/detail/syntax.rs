@@ -85,19 +85,30 @@ impl Default for DetailContexts {
     }
 }
 
-/// Context of coefficient `z` (row-major) from the magnitudes already coded in its
-/// block: the two next-frequency neighbours and three beyond, each counted up to 3.
-#[inline]
-fn mag_class(levels: &[u32; COEFFS], z: usize) -> usize {
-    let (v, u) = (z / N, z % N);
-    let at = |v: usize, u: usize| {
-        if v < N && u < N {
-            levels[v * N + u].min(3)
-        } else {
-            0
-        }
-    };
-    let s = at(v, u + 1) + at(v + 1, u) + at(v + 1, u + 1) + at(v, u + 2) + at(v + 2, u);
+/// Side of the padded magnitude map: two spare rows and columns past the block, so
+/// a coefficient's neighbours are plain offsets with no bounds tests.
+const PAD: usize = N + 2;
+
+/// The padded-map position of each scan position.
+const PADDED: [u8; COEFFS] = {
+    let mut p = [0u8; COEFFS];
+    let mut k = 0;
+    while k < COEFFS {
+        let z = ZIGZAG[k] as usize;
+        p[k] = ((z / N) * PAD + z % N) as u8;
+        k += 1;
+    }
+    p
+};
+
+/// Magnitudes already coded in a block, each counted up to 3, on the padded map.
+type MagnitudeMap = [u8; PAD * PAD];
+
+/// Context of the coefficient at padded position `p` from the magnitudes already
+/// coded in its block: the two next-frequency neighbours and three beyond.
+#[inline(always)]
+fn mag_class(map: &MagnitudeMap, p: usize) -> usize {
+    let s = map[p + 1] + map[p + PAD] + map[p + PAD + 1] + map[p + 2] + map[p + 2 * PAD];
     (((s + 1) >> 1) as usize).min(MAG_CLASSES - 1)
 }
 
@@ -161,9 +172,10 @@ pub fn write_block(
     if c >= 2 {
         sink.raw(last as u32 - (1 << (c - 1)), c - 1);
     }
-    let mut levels = [0u32; COEFFS];
+    let mut map: MagnitudeMap = [0; PAD * PAD];
     for k in (0..=last).rev() {
         let z = ZIGZAG[k] as usize;
+        let p = PADDED[k] as usize;
         let v = q[z];
         let m = v.unsigned_abs();
         let b = band(k);
@@ -176,7 +188,7 @@ pub fn write_block(
             }
             sink.raw(u32::from(v < 0), 1);
         } else {
-            let mc = mag_class(&levels, z);
+            let mc = mag_class(&map, p);
             let t = (m as usize).min(LITERALS);
             sink.signed_symbol(
                 &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc],
@@ -187,7 +199,7 @@ pub fn write_block(
                 write_escape(&mut ctx.class[kind], m, sink);
             }
         }
-        levels[z] = m;
+        map[p] = m.min(3) as u8;
     }
 }
 
@@ -218,9 +230,10 @@ pub fn read_block(
         1 => 1,
         _ => (1usize << (c - 1)) + src.raw(c - 1)? as usize,
     };
-    let mut levels = [0u32; COEFFS];
+    let mut map: MagnitudeMap = [0; PAD * PAD];
     for k in (0..=last).rev() {
         let z = ZIGZAG[k] as usize;
+        let p = PADDED[k] as usize;
         let b = band(k);
         let (m, negative) = if k == last {
             let t = src.symbol(&mut ctx.first[kind * BANDS + b])?;
@@ -231,7 +244,7 @@ pub fn read_block(
             } + 1;
             (m, src.raw(1)? == 1)
         } else {
-            let mc = mag_class(&levels, z);
+            let mc = mag_class(&map, p);
             let (t, negative) =
                 src.signed_symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc])?;
             let m = if t == LITERALS {
@@ -249,7 +262,7 @@ pub fn read_block(
                 MAX_LEVEL as f64,
             ));
         }
-        levels[z] = m;
+        map[p] = m.min(3) as u8;
         q[z] = if negative { -(m as i32) } else { m as i32 };
     }
     Ok(true)
