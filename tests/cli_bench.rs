@@ -139,6 +139,8 @@ fn caoen_only_accounts_for_every_point() {
         !page.contains("old table") && page.contains("### smooth"),
         "{page}"
     );
+    // Only the reference: no codec to compare by rate window.
+    assert!(!page.contains("by rate window"), "{page}");
 }
 
 /// Runs the tiny benchmark with `codecs` and checks everything the report claims
@@ -172,6 +174,11 @@ fn check_tiny_run(name: &str, codecs: &str) {
     ] {
         assert!(stdout.contains(heading), "{stdout}");
     }
+    // Each class's BD-rates by rate window: one table per class, a row per codec
+    // compared with the reference.
+    let window_head = "BD-rate vs jpeg by rate window:\n\n\
+                       | codec | 0.05–0.3 bpp | 0.3–0.8 bpp | 0.8–2 bpp |\n|---|---|---|---|\n";
+    assert_eq!(stdout.matches(window_head).count(), 3, "{stdout}");
     let v: Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     let names: Vec<&str> = codecs.split(',').collect();
 
@@ -232,13 +239,31 @@ fn check_tiny_run(name: &str, codecs: &str) {
     }
 
     // Summaries: deltas against jpeg for every other codec on both images.
+    assert!(v["metrics"].as_str().unwrap().contains("bd_rate_windows"));
     let per_image = v["per_image"].as_array().unwrap();
     assert_eq!(per_image.len(), 2 * names.len());
+    let bounds = |windows: &Value| -> Vec<(f64, f64)> {
+        windows
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| (w["lo"].as_f64().unwrap(), w["hi"].as_f64().unwrap()))
+            .collect()
+    };
+    let windows = [(0.05, 0.3), (0.3, 0.8), (0.8, 2.0)];
     for p in per_image {
+        assert_eq!(bounds(&p["bd_rate_windows"]), windows, "{p}");
+        let figures = p["bd_rate_windows"].as_array().unwrap();
         if p["codec"] == "jpeg" {
             assert!(p["bd_rate"].is_null());
+            assert!(figures.iter().all(|w| w["bd_rate"].is_null()), "{p}");
         } else {
             assert!(p["bd_rate"].is_f64() || p["bd_note"].is_string(), "{p}");
+            // A window needs the overlap the whole-range figure needs.
+            for w in figures {
+                assert!(w["bd_rate"].is_f64() || w["bd_rate"].is_null(), "{p}");
+                assert!(w["bd_rate"].is_null() || p["bd_rate"].is_f64(), "{p}");
+            }
         }
     }
     let classes = v["classes"].as_array().unwrap();
@@ -251,6 +276,35 @@ fn check_tiny_run(name: &str, codecs: &str) {
             let at = row["psnr_at"].as_array().unwrap();
             let rates: Vec<f64> = at.iter().map(|p| p["bpp"].as_f64().unwrap()).collect();
             assert_eq!(rates, [0.1, 0.25, 0.5, 1.0]);
+            // Window means: the per-image figures of the class, averaged and counted.
+            assert_eq!(bounds(&row["bd_rate_windows"]), windows, "{row}");
+            for (i, w) in row["bd_rate_windows"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .enumerate()
+            {
+                let figures: Vec<f64> = per_image
+                    .iter()
+                    .filter(|p| p["codec"] == *codec && (class == "all" || p["class"] == class))
+                    .filter_map(|p| p["bd_rate_windows"][i]["bd_rate"].as_f64())
+                    .collect();
+                assert_eq!(
+                    w["images"].as_u64().unwrap() as usize,
+                    figures.len(),
+                    "{row}"
+                );
+                match w["bd_rate"].as_f64() {
+                    None => assert!(figures.is_empty(), "{row}"),
+                    Some(m) => {
+                        let expect = figures.iter().sum::<f64>() / figures.len() as f64;
+                        assert!((m - expect).abs() < 1e-9, "{row}");
+                        // The Markdown cell of this mean.
+                        let cell = format!("{m:+.1}% ({})", figures.len());
+                        assert!(stdout.contains(&cell), "{cell}: {stdout}");
+                    }
+                }
+            }
         }
     }
 

@@ -8,6 +8,10 @@
 //!   bits than the reference for the same quality.
 //! - **BD-PSNR** (BD-quality): the average quality difference as functions of
 //!   `ln(rate)` over the rate interval both cover; positive means the test is better.
+//! - **BD-rate in a rate window** `[a, b]` ([`bd_rate_window`]): the same average,
+//!   over only the quality interval the *reference* curve spans between rates `a` and
+//!   `b`. The window is placed on the reference so that every codec compared with it
+//!   is measured over the same qualities.
 //!
 //! Each curve is first reduced to points with strictly increasing rate *and*
 //! quality ([`monotone_curve`]): a point that costs more bits than another for no
@@ -31,6 +35,8 @@ pub enum BdError {
     TooFewPoints,
     /// The curves' ranges do not overlap.
     NoOverlap,
+    /// A rate window's quality interval is empty or shorter than [`MIN_WINDOW_SPAN`].
+    NarrowWindow,
 }
 
 impl fmt::Display for BdError {
@@ -38,6 +44,7 @@ impl fmt::Display for BdError {
         f.write_str(match self {
             BdError::TooFewPoints => "fewer than two distinct RD points",
             BdError::NoOverlap => "the curves do not overlap",
+            BdError::NarrowWindow => "the rate window covers too little of the overlap",
         })
     }
 }
@@ -199,21 +206,75 @@ fn interpolants(points: &[RdPoint]) -> Result<(Pchip, Pchip), BdError> {
     }
 }
 
-/// Average difference `test - reference` of two interpolants over their common range.
-fn average_gap(reference: &Pchip, test: &Pchip) -> Result<f64, BdError> {
+/// Common range `[lo, hi]` of two interpolants' abscissae.
+fn overlap(reference: &Pchip, test: &Pchip) -> Result<(f64, f64), BdError> {
     let lo = reference.start().max(test.start());
     let hi = reference.end().min(test.end());
     if hi <= lo {
         return Err(BdError::NoOverlap);
     }
-    Ok((test.integral(lo, hi) - reference.integral(lo, hi)) / (hi - lo))
+    Ok((lo, hi))
+}
+
+/// Average difference `test - reference` of two interpolants over `[lo, hi]`.
+fn gap_over(reference: &Pchip, test: &Pchip, lo: f64, hi: f64) -> f64 {
+    (test.integral(lo, hi) - reference.integral(lo, hi)) / (hi - lo)
+}
+
+/// Average difference `test - reference` of two interpolants over their common range.
+fn average_gap(reference: &Pchip, test: &Pchip) -> Result<f64, BdError> {
+    let (lo, hi) = overlap(reference, test)?;
+    Ok(gap_over(reference, test, lo, hi))
+}
+
+/// A mean ln-rate gap as a BD-rate percentage.
+fn percent(gap: f64) -> f64 {
+    (gap.exp() - 1.0) * 100.0
 }
 
 /// BD-rate of `test` against `reference`, in percent (negative: `test` saves bits).
 pub fn bd_rate(reference: &[RdPoint], test: &[RdPoint]) -> Result<f64, BdError> {
     let (r, _) = interpolants(reference)?;
     let (t, _) = interpolants(test)?;
-    Ok((average_gap(&r, &t)?.exp() - 1.0) * 100.0)
+    Ok(percent(average_gap(&r, &t)?))
+}
+
+/// Shortest quality interval (dB) a windowed BD-rate is computed over: below it the
+/// average rests on a sliver of the curves, where a point's noise dominates.
+pub const MIN_WINDOW_SPAN: f64 = 0.05;
+
+/// BD-rate of `test` against `reference` in the rate window `[lo, hi]` (same units as
+/// the points' rates), in percent.
+///
+/// The window becomes a quality interval on the reference curve: its quality (PCHIP
+/// over `ln(rate)`) at `lo` and `hi`, both clamped to the reference's measured rates.
+/// That interval, intersected with the two curves' quality overlap, is where the
+/// ln-rate gap is averaged, exactly as [`bd_rate`] averages it over the whole
+/// overlap. An interval shorter than [`MIN_WINDOW_SPAN`] (or empty: a window beside
+/// the reference's rates, or outside the overlap) is [`BdError::NarrowWindow`].
+pub fn bd_rate_window(
+    reference: &[RdPoint],
+    test: &[RdPoint],
+    lo: f64,
+    hi: f64,
+) -> Result<f64, BdError> {
+    let (r, r_quality) = interpolants(reference)?;
+    let (t, _) = interpolants(test)?;
+    let (q_lo, q_hi) = overlap(&r, &t)?;
+    // A NaN bound would survive the clamp and then be ignored by `max`/`min`,
+    // silently widening the window to the whole overlap.
+    if lo.is_nan() || hi.is_nan() {
+        return Err(BdError::NarrowWindow);
+    }
+    let clamp = |rate: f64| rate.ln().clamp(r_quality.start(), r_quality.end());
+    // PCHIP keeps the frontier's increasing quality monotone, so the window's ends
+    // map to the interval's ends in order.
+    let a = r_quality.eval(clamp(lo)).max(q_lo);
+    let b = r_quality.eval(clamp(hi)).min(q_hi);
+    if b - a < MIN_WINDOW_SPAN {
+        return Err(BdError::NarrowWindow);
+    }
+    Ok(percent(gap_over(&r, &t, a, b)))
 }
 
 /// BD-PSNR (BD-quality) of `test` against `reference`, in quality units (dB).
@@ -290,5 +351,93 @@ mod tests {
         assert_eq!(bd_rate(&a, &b), Err(BdError::NoOverlap));
         assert_eq!(quality_at_rate(&a, 3.0), None);
         assert!((quality_at_rate(&a, 2.0).unwrap() - 35.0).abs() < 1e-9);
+    }
+
+    const RATES: [f64; 5] = [0.11, 0.27, 0.52, 0.95, 1.6];
+    const PSNR: [f64; 5] = [26.3, 29.1, 31.6, 34.0, 36.2];
+    const WINDOWS: [(f64, f64); 3] = [(0.05, 0.3), (0.3, 0.8), (0.8, 2.0)];
+
+    #[test]
+    fn constant_rate_ratio_gives_it_in_every_window() {
+        let reference = curve(&RATES, &PSNR);
+        let scaled: Vec<f64> = RATES.iter().map(|r| r * 1.2).collect();
+        let test = curve(&scaled, &PSNR);
+        for (lo, hi) in WINDOWS {
+            let got = bd_rate_window(&reference, &test, lo, hi).unwrap();
+            assert!((got - 20.0).abs() < 1e-9, "[{lo}, {hi}]: {got}");
+        }
+    }
+
+    #[test]
+    fn windows_split_the_gap_by_the_reference_rates() {
+        // Reference 1 -> 30 dB, 4 -> 40 dB (linear in ln rate: rate 2 is 35 dB); test
+        // 2 -> 30 dB, 4 -> 40 dB. The ln-rate gap is ln 2 (40 - q) / 10. Window [1, 2]
+        // is [30, 35] dB on the reference, mean gap 0.75 ln 2; window [2, 4] is
+        // [35, 40] dB, mean gap 0.25 ln 2. (On the test curve, [1, 2] would be empty.)
+        let reference = curve(&[1.0, 4.0], &[30.0, 40.0]);
+        let test = curve(&[2.0, 4.0], &[30.0, 40.0]);
+        let low = bd_rate_window(&reference, &test, 1.0, 2.0).unwrap();
+        assert!(
+            (low - (2f64.powf(0.75) - 1.0) * 100.0).abs() < 1e-10,
+            "{low}"
+        );
+        let high = bd_rate_window(&reference, &test, 2.0, 4.0).unwrap();
+        assert!(
+            (high - (2f64.powf(0.25) - 1.0) * 100.0).abs() < 1e-10,
+            "{high}"
+        );
+        // Clamped to the reference's rates: a wider window is the same interval.
+        let wider = bd_rate_window(&reference, &test, 0.5, 2.0).unwrap();
+        assert!((wider - low).abs() < 1e-10, "{wider}");
+    }
+
+    #[test]
+    fn a_window_over_the_whole_range_is_the_whole_range_bd_rate() {
+        let reference = curve(
+            &[0.12, 0.3, 0.55, 1.4, 2.0],
+            &[24.0, 28.5, 31.0, 35.5, 36.2],
+        );
+        let test = curve(&[0.1, 0.2, 0.6, 1.0, 1.8], &[25.0, 27.9, 32.4, 34.0, 36.9]);
+        let whole = bd_rate(&reference, &test).unwrap();
+        let window = bd_rate_window(&reference, &test, 0.01, 100.0).unwrap();
+        assert!((window - whole).abs() < 1e-12, "{window} vs {whole}");
+        // A part of it differs: the curves are not a constant ratio apart.
+        let part = bd_rate_window(&reference, &test, 0.3, 0.8).unwrap();
+        assert!((part - whole).abs() > 1.0, "{part} vs {whole}");
+    }
+
+    #[test]
+    fn windows_without_a_figure() {
+        let reference = curve(&[1.0, 4.0], &[30.0, 40.0]);
+        let test = curve(&[2.0, 4.0], &[30.0, 40.0]);
+        // Beside both curves' rates: both ends clamp to the same end.
+        for (lo, hi) in [(0.05, 0.3), (5.0, 10.0)] {
+            assert_eq!(
+                bd_rate_window(&reference, &test, lo, hi),
+                Err(BdError::NarrowWindow)
+            );
+        }
+        // Under 0.05 dB: rate 1.002 is 30.014 dB on the reference.
+        assert_eq!(
+            bd_rate_window(&reference, &test, 1.0, 1.002),
+            Err(BdError::NarrowWindow)
+        );
+        assert!(bd_rate_window(&reference, &test, 1.0, 1.02).is_ok());
+        // Inside the reference's rates but outside the PSNR overlap: the test reaches
+        // only 32 dB, the window [2, 4] starts at 35.
+        let low_test = curve(&[1.0, 2.0], &[20.0, 32.0]);
+        assert_eq!(
+            bd_rate_window(&reference, &low_test, 2.0, 4.0),
+            Err(BdError::NarrowWindow)
+        );
+        assert!(bd_rate_window(&reference, &low_test, 1.0, 2.0).is_ok());
+        assert_eq!(
+            bd_rate_window(&reference, &test, f64::NAN, 2.0),
+            Err(BdError::NarrowWindow)
+        );
+        assert_eq!(
+            bd_rate_window(&reference, &test[..1], 1.0, 2.0),
+            Err(BdError::TooFewPoints)
+        );
     }
 }

@@ -1,5 +1,6 @@
 //! The benchmark report: a JSON document with every measurement and the summaries,
-//! and its Markdown rendering (one table per corpus class).
+//! and its Markdown rendering (per corpus class, a table and its BD-rates by rate
+//! window).
 
 use std::fmt::Write as _;
 
@@ -19,7 +20,12 @@ luminance). ssim: Wang et al. on that luma, 11x11 Gaussian window, sigma 1.5. \
 ssimulacra2: the ssimulacra2 crate, 8/16-bit images of at least 8x8. A null PSNR means \
 identical images. bpp: 8 x encoded bytes / pixels. BD-rate/BD-PSNR: Bjontegaard with PCHIP \
 in ln(rate) over the overlap of the two curves, per image against the reference codec, \
-averaged arithmetically.";
+averaged arithmetically. bd_rate_windows: BD-rate per rate window [lo, hi] bpp: the PSNR \
+interval the reference codec's curve (PCHIP of PSNR over ln(rate)) spans between rates lo \
+and hi, clamped to the reference's measured rates, intersected with the two curves' PSNR \
+overlap; the ln-rate gap averaged over that interval as for BD-rate; no figure for an \
+image when the interval is empty or under 0.05 dB; per class the arithmetic mean over the \
+images with a figure (images: their count).";
 
 /// A codec in the report.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -88,8 +94,8 @@ impl Report {
         s
     }
 
-    /// Markdown: one table per class (and one for the whole corpus), then notes on
-    /// skipped and failed points.
+    /// Markdown: per class (and for the whole corpus) a table and the BD-rates by
+    /// rate window, then notes on skipped and failed points.
     pub fn to_markdown(&self) -> String {
         let mut md = String::new();
         let _ = writeln!(md, "Corpus: {}; rates: {}.\n", self.corpus, self.rates);
@@ -125,7 +131,7 @@ impl Report {
                 self.reference
             );
             let _ = writeln!(md, "|---|{}---|---|---|---|", "---|".repeat(rates.len()));
-            for r in rows {
+            for &r in &rows {
                 let psnr: Vec<String> = r
                     .psnr_at
                     .iter()
@@ -165,6 +171,7 @@ impl Report {
                 );
             }
             md.push('\n');
+            self.window_table(&mut md, &rows);
         }
         if !self.skipped.is_empty() {
             let _ = writeln!(md, "Skipped (the codec cannot represent the image):\n");
@@ -202,6 +209,38 @@ impl Report {
         }
         md
     }
+
+    /// The class's BD-rates by rate window, one row per codec other than the
+    /// reference (nothing when there is none).
+    fn window_table(&self, md: &mut String, rows: &[&ClassSummary]) {
+        let rows: Vec<&&ClassSummary> = rows
+            .iter()
+            .filter(|r| r.codec != self.reference && !r.bd_rate_windows.is_empty())
+            .collect();
+        let Some(first) = rows.first() else {
+            return;
+        };
+        let heads: Vec<String> = first
+            .bd_rate_windows
+            .iter()
+            .map(|w| format!("{}–{} bpp", w.lo, w.hi))
+            .collect();
+        let _ = writeln!(md, "BD-rate vs {} by rate window:\n", self.reference);
+        let _ = writeln!(md, "| codec | {} |", heads.join(" | "));
+        let _ = writeln!(md, "|---|{}", "---|".repeat(heads.len()));
+        for r in rows {
+            let cells: Vec<String> = r
+                .bd_rate_windows
+                .iter()
+                .map(|w| match w.bd_rate {
+                    Some(v) => format!("{v:+.1}% ({})", w.images),
+                    None => "–".into(),
+                })
+                .collect();
+            let _ = writeln!(md, "| {} | {} |", r.codec, cells.join(" | "));
+        }
+        md.push('\n');
+    }
 }
 
 /// Times with sensible precision.
@@ -214,5 +253,70 @@ fn fmt_ms(v: f64) -> String {
         format!("{v:.1}")
     } else {
         format!("{v:.0}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::summary::{WindowBdMean, BD_WINDOWS};
+    use super::*;
+
+    fn row(codec: &str, windows: [(Option<f64>, usize); 3]) -> ClassSummary {
+        ClassSummary {
+            class: "scene".into(),
+            codec: codec.into(),
+            images: 3,
+            psnr_at: Vec::new(),
+            bd_rate: None,
+            bd_psnr: None,
+            bd_rate_y: None,
+            bd_images: 0,
+            bd_rate_windows: BD_WINDOWS
+                .iter()
+                .zip(windows)
+                .map(|(&(lo, hi), (bd_rate, images))| WindowBdMean {
+                    lo,
+                    hi,
+                    bd_rate,
+                    images,
+                })
+                .collect(),
+            encode_ms: 1.0,
+            decode_ms: 1.0,
+        }
+    }
+
+    #[test]
+    fn window_table_has_a_row_per_compared_codec() {
+        let report = Report {
+            format: FORMAT.into(),
+            version: String::new(),
+            corpus: String::new(),
+            rates: String::new(),
+            repeat: 1,
+            reference: "jpeg".into(),
+            metrics: METRICS_NOTE.into(),
+            codecs: Vec::new(),
+            images: Vec::new(),
+            measurements: Vec::new(),
+            skipped: Vec::new(),
+            failures: Vec::new(),
+            per_image: Vec::new(),
+            classes: vec![
+                row("jpeg", [(None, 0); 3]),
+                row("webp", [(Some(12.34), 3), (Some(-5.0), 2), (None, 0)]),
+            ],
+        };
+        let md = report.to_markdown();
+        let table = "BD-rate vs jpeg by rate window:\n\n\
+                     | codec | 0.05–0.3 bpp | 0.3–0.8 bpp | 0.8–2 bpp |\n\
+                     |---|---|---|---|\n\
+                     | webp | +12.3% (3) | -5.0% (2) | – |\n";
+        assert!(md.contains(table), "{md}");
+
+        // The reference alone: no window table.
+        let mut alone = report.clone();
+        alone.classes.truncate(1);
+        assert!(!alone.to_markdown().contains("by rate window"));
     }
 }

@@ -1,15 +1,20 @@
 //! Statistics over the measurements: per-image RD curves and Bjontegaard deltas
-//! against the reference codec, and per-class PSNR at fixed rates, mean deltas and
-//! median times.
+//! against the reference codec (over the whole overlap and per rate window), and
+//! per-class PSNR at fixed rates, mean deltas and median times.
 
 use serde::{Deserialize, Serialize};
 
-use super::bd_rate::{bd_quality, bd_rate, quality_at_rate, RdPoint};
+use super::bd_rate::{bd_quality, bd_rate, bd_rate_window, quality_at_rate, RdPoint};
 use super::corpus::class_rank;
 use super::harness::{median, Measurement};
 
 /// Rates (bits per pixel) at which each class's PSNR is interpolated.
 pub const PSNR_RATES: [f64; 4] = [0.1, 0.25, 0.5, 1.0];
+
+/// Rate windows (bits per pixel, `[lo, hi]`) of the windowed BD-rates: low, middle
+/// and high rates, where codecs often rank differently. Each is placed on the
+/// reference codec's curve; see [`bd_rate_window`].
+pub const BD_WINDOWS: [(f64, f64); 3] = [(0.05, 0.3), (0.3, 0.8), (0.8, 2.0)];
 
 /// Name of the pseudo-class covering every image.
 pub const ALL_CLASSES: &str = "all";
@@ -37,6 +42,34 @@ pub struct ImageSummary {
     pub bd_rate_y: Option<f64>,
     /// Why the deltas are missing, if they are (and this is not the reference).
     pub bd_note: Option<String>,
+    /// BD-rate (RGB PSNR) in each of [`BD_WINDOWS`].
+    #[serde(default)]
+    pub bd_rate_windows: Vec<WindowBdRate>,
+}
+
+/// BD-rate of one image in one rate window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WindowBdRate {
+    /// Lower end of the window, bits per pixel.
+    pub lo: f64,
+    /// Upper end of the window, bits per pixel.
+    pub hi: f64,
+    /// Percent; `None` when the window's PSNR interval is empty or shorter than
+    /// [`MIN_WINDOW_SPAN`](super::bd_rate::MIN_WINDOW_SPAN), and for the reference.
+    pub bd_rate: Option<f64>,
+}
+
+/// Mean BD-rate of a class in one rate window.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WindowBdMean {
+    /// Lower end of the window, bits per pixel.
+    pub lo: f64,
+    /// Upper end of the window, bits per pixel.
+    pub hi: f64,
+    /// Mean over the images with a figure in this window, percent.
+    pub bd_rate: Option<f64>,
+    /// How many images that mean covers.
+    pub images: usize,
 }
 
 /// PSNR of a class at one rate.
@@ -69,6 +102,9 @@ pub struct ClassSummary {
     pub bd_rate_y: Option<f64>,
     /// Images the BD means cover.
     pub bd_images: usize,
+    /// Mean BD-rate in each of [`BD_WINDOWS`].
+    #[serde(default)]
+    pub bd_rate_windows: Vec<WindowBdMean>,
     /// Median of the images' median encode times, ms.
     pub encode_ms: f64,
     /// Median of the images' median decode times, ms.
@@ -119,6 +155,7 @@ pub fn per_image(
             }
             let (mut bd_rate_v, mut bd_psnr_v, mut bd_rate_y, mut bd_note) =
                 (None, None, None, None);
+            let mut windows = [None; BD_WINDOWS.len()];
             if codec != reference {
                 if reference_ms.is_empty() {
                     bd_note = Some(format!("no {reference} measurements for this image"));
@@ -134,6 +171,9 @@ pub fn per_image(
                         (Err(e), _) | (_, Err(e)) => bd_note = Some(e.to_string()),
                     }
                     bd_rate_y = bd_rate(&curve(&reference_ms, y), &curve(&ms, y)).ok();
+                    for (w, &(lo, hi)) in windows.iter_mut().zip(&BD_WINDOWS) {
+                        *w = bd_rate_window(&r, &t, lo, hi).ok();
+                    }
                 }
             }
             let enc: Vec<f64> = ms.iter().map(|m| m.encode_ms).collect();
@@ -149,6 +189,11 @@ pub fn per_image(
                 bd_psnr: bd_psnr_v,
                 bd_rate_y,
                 bd_note,
+                bd_rate_windows: BD_WINDOWS
+                    .iter()
+                    .zip(windows)
+                    .map(|(&(lo, hi), bd_rate)| WindowBdRate { lo, hi, bd_rate })
+                    .collect(),
             });
         }
     }
@@ -210,6 +255,22 @@ pub fn per_class(
                 summaries.iter().filter_map(|s| f(s)).collect()
             };
             let rates = pick(|s| s.bd_rate);
+            let bd_rate_windows = BD_WINDOWS
+                .iter()
+                .enumerate()
+                .map(|(i, &(lo, hi))| {
+                    let v: Vec<f64> = summaries
+                        .iter()
+                        .filter_map(|s| s.bd_rate_windows.get(i).and_then(|w| w.bd_rate))
+                        .collect();
+                    WindowBdMean {
+                        lo,
+                        hi,
+                        bd_rate: mean(&v),
+                        images: v.len(),
+                    }
+                })
+                .collect();
             let enc: Vec<f64> = summaries.iter().map(|s| s.encode_ms).collect();
             let dec: Vec<f64> = summaries.iter().map(|s| s.decode_ms).collect();
             out.push(ClassSummary {
@@ -221,10 +282,101 @@ pub fn per_class(
                 bd_psnr: mean(&pick(|s| s.bd_psnr)),
                 bd_rate_y: mean(&pick(|s| s.bd_rate_y)),
                 bd_images: rates.len(),
+                bd_rate_windows,
                 encode_ms: median(&enc),
                 decode_ms: median(&dec),
             });
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RATES: [f64; 6] = [0.08, 0.2, 0.45, 0.9, 1.5, 2.4];
+    const PSNR: [f64; 6] = [25.0, 28.4, 31.5, 34.6, 36.9, 39.0];
+
+    fn point(image: &str, codec: &str, bpp: f64, psnr: f64) -> Measurement {
+        Measurement {
+            image: image.into(),
+            class: "scene".into(),
+            codec: codec.into(),
+            target: String::new(),
+            rate_control: "fixed".into(),
+            quality: None,
+            bytes: 0,
+            bpp,
+            psnr: Some(psnr),
+            psnr_y: Some(psnr),
+            ssim: 1.0,
+            ssimulacra2: None,
+            scale: "display".into(),
+            encode_ms: 1.0,
+            decode_ms: 1.0,
+            encode_runs_ms: vec![1.0],
+            decode_runs_ms: vec![1.0],
+            file: None,
+            decoded_file: None,
+        }
+    }
+
+    /// `codec` on `image`: the points of `RATES` up to `max_rate`, each rate times `k`.
+    fn scaled(image: &str, codec: &str, k: f64, max_rate: f64) -> Vec<Measurement> {
+        RATES
+            .iter()
+            .zip(PSNR)
+            .filter(|&(&r, _)| r <= max_rate)
+            .map(|(r, q)| point(image, codec, r * k, q))
+            .collect()
+    }
+
+    #[test]
+    fn window_figures_per_image_and_their_class_means() {
+        let mut ms = scaled("a", "ref", 1.0, 10.0);
+        ms.extend(scaled("a", "test", 1.2, 10.0));
+        // Image b's curves stop at 0.45 bpp on the reference: the top window clamps
+        // to that single rate and holds nothing.
+        ms.extend(scaled("b", "ref", 1.0, 0.45));
+        ms.extend(scaled("b", "test", 0.5, 0.45));
+        let codecs = ["ref".to_string(), "test".to_string()];
+        let images = per_image(&ms, &codecs, "ref");
+
+        let windows = |image: &str, codec: &str| -> Vec<Option<f64>> {
+            let s = images
+                .iter()
+                .find(|s| s.image == image && s.codec == codec)
+                .unwrap();
+            let bounds: Vec<(f64, f64)> = s.bd_rate_windows.iter().map(|w| (w.lo, w.hi)).collect();
+            assert_eq!(bounds, BD_WINDOWS);
+            s.bd_rate_windows.iter().map(|w| w.bd_rate).collect()
+        };
+        assert_eq!(windows("a", "ref"), [None; 3]);
+        for w in windows("a", "test") {
+            assert!((w.unwrap() - 20.0).abs() < 1e-9, "{w:?}");
+        }
+        let b = windows("b", "test");
+        for w in &b[..2] {
+            assert!((w.unwrap() - -50.0).abs() < 1e-9, "{b:?}");
+        }
+        assert_eq!(b[2], None, "{b:?}");
+
+        let classes = per_class(&ms, &images, &codecs);
+        let test = classes
+            .iter()
+            .find(|c| c.class == ALL_CLASSES && c.codec == "test")
+            .unwrap();
+        let means: Vec<(Option<f64>, usize)> = test
+            .bd_rate_windows
+            .iter()
+            .map(|w| (w.bd_rate.map(|v| (v * 1e6).round() / 1e6), w.images))
+            .collect();
+        assert_eq!(means, [(Some(-15.0), 2), (Some(-15.0), 2), (Some(20.0), 1)]);
+        let reference = classes.iter().find(|c| c.codec == "ref").unwrap();
+        assert!(reference
+            .bd_rate_windows
+            .iter()
+            .all(|w| w.bd_rate.is_none() && w.images == 0));
+    }
 }
