@@ -98,6 +98,7 @@ pub fn write_model(
         sink.finish()
     });
     // The detail layer codes what the decoder's network leaves of each colour channel.
+    let t = std::time::Instant::now();
     let base = decoder::render_identity(
         &Decoded {
             header: header.clone(),
@@ -127,7 +128,9 @@ pub fn write_model(
             lambda: s.detail_lambda,
         })
         .collect();
+    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("base render {:?}", t.elapsed()); }
     let (_, detail) = detail_quantise::code_layer(&residuals, (w, h), &quantisers);
+    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("detail {:?}", t.elapsed()); }
     let bytes = bitstream::write(
         &header,
         &tree.finish(),
@@ -185,8 +188,12 @@ pub fn encode_with(
     } else {
         planes
     };
+    let t = std::time::Instant::now();
     let model = model::build(planes, img.width(), img.height(), &s.model, progress);
-    Ok(write_model(img, planes, &model, &s))
+    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("model {:?}", t.elapsed()); }
+    let r = write_model(img, planes, &model, &s);
+    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("total {:?}", t.elapsed()); }
+    Ok(r)
 }
 
 /// Splits an image into coding planes after checking it can be encoded.

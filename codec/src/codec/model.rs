@@ -205,6 +205,16 @@ fn fit(
     }
 }
 
+/// Mean of `plane` over cell `c`'s pixels inside the image.
+fn cell_mean(plane: &[f64], c: &Cell, width: u32, height: u32) -> f64 {
+    let (x0, y0, x1, y1) = c.clip(width, height);
+    let w = width as usize;
+    let sum: f64 = (y0..y1)
+        .map(|y| plane[y as usize * w + x0 as usize..y as usize * w + x1 as usize].iter().sum::<f64>())
+        .sum();
+    sum / ((x1 - x0) * (y1 - y0)) as f64
+}
+
 /// Chooses the tree and fits the colours. `progress(round, rounds)` reports progress.
 pub fn build(
     planes: &CodingPlanes,
@@ -309,6 +319,37 @@ pub fn build(
             })
             .expect("non-empty level range");
         cells = shape.walk(|c| c.log2 > level);
+    }
+    if !s.least_squares {
+        // Each leaf's mean colour over its own pixels: no weight matrix, no solve. The
+        // detail layer takes up what the smoother least-squares fit would have added.
+        let means = |cells: &[Cell], targets: &[&[f64]]| -> Vec<Vec<f64>> {
+            targets
+                .iter()
+                .map(|t| cells.iter().map(|c| cell_mean(t, c, width, height)).collect())
+                .collect()
+        };
+        let chroma_cells = if planes.colour.len() == 3 {
+            chroma_cells(&shape, &cells, s.chroma_pruned)
+        } else {
+            Vec::new()
+        };
+        let chroma_colours = if chroma_cells.is_empty() {
+            Vec::new()
+        } else {
+            means(
+                &chroma_cells,
+                &[planes.colour[1].as_slice(), planes.colour[2].as_slice()],
+            )
+        };
+        return Model {
+            shape,
+            kernel: s.kernel,
+            luma_colours: means(&cells, &luma_targets(planes)),
+            luma_cells: cells,
+            chroma_cells,
+            chroma_colours,
+        };
     }
     let fitted = fit(
         frame,

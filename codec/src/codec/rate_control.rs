@@ -53,14 +53,10 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
     let model = ModelSettings {
         split_threshold: threshold,
         target_keypoints: keypoints,
-        rounds: match e {
-            1 => 1,
-            2 => 2,
-            3..=5 => e - 1,
-            _ => e,
-        },
+        rounds: env("CAOEN_ROUNDS", e.saturating_sub(6) as f64) as usize,
         growth: if e >= 7 { 0.25 } else { 0.35 },
-        cg_iterations: (6 + 2 * e, 15 + 6 * e),
+        cg_iterations: (env("CAOEN_CG0", (6 + 2 * e) as f64) as usize, env("CAOEN_CG1", (15 + 6 * e) as f64) as usize),
+        least_squares: env("CAOEN_LS", if e <= 2 { 0.0 } else { 1.0 }) > 0.5,
         min_log2: env("CAOEN_MIN", 3.0) as u8,
         ..ModelSettings::default()
     };

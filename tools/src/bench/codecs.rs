@@ -74,7 +74,7 @@ impl Codec for Caoen {
     }
 
     fn default_qualities(&self) -> Vec<f32> {
-        vec![45.0, 55.0, 65.0, 72.0, 80.0, 90.0, 100.0]
+        vec![20.0, 30.0, 40.0, 50.0, 58.0, 65.0, 72.0, 90.0]
     }
 
     fn encode(&self, image: &Raster, setting: Setting) -> Result<Vec<u8>, String> {

@@ -292,6 +292,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 tag::TREE => "tree",
                 tag::LUMA => "luma values",
                 tag::CHROMA => "chroma values",
+                tag::DETAIL => "detail layer",
                 tag::END => "end",
                 _ => "unknown",
             };
@@ -308,7 +309,8 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
-            "step_alpha": h.step_alpha, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+            "step_alpha": h.step_alpha, "detail_step_luma": h.detail_step_luma,
+            "detail_step_chroma": h.detail_step_chroma, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
         });
         outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
@@ -359,6 +361,12 @@ pub fn info(a: &InfoArgs) -> CliResult {
         h.step_luma,
         h.step_chroma,
         h.step_alpha
+    );
+    outln!(
+        text,
+        "detail:      8x8 DCT blocks, step luma {}, chroma {}",
+        h.detail_step_luma,
+        h.detail_step_chroma
     );
     outln!(text, "sections:");
     for (t, n, o, b) in &sections {

@@ -13,7 +13,7 @@ pub mod syntax;
 
 use dct::{COEFFS, N};
 
-use super::entropy::AnsSource;
+use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
 use super::CodecError;
 use syntax::{BlockContext, DetailContexts};
@@ -130,6 +130,42 @@ pub struct Detail {
 }
 
 impl Detail {
+    /// The section payload of these levels, coded as they are (the encoder's search
+    /// writes its own): a u32 byte count of the luma stream, the luma stream (plane
+    /// 0), the chroma stream (planes 1 and 2).
+    pub fn to_payload(&self) -> Vec<u8> {
+        let stream = |planes: &[DetailPlane], kind: usize| {
+            let mut sink = AnsSink::new();
+            let mut ctx = DetailContexts::default();
+            const EMPTY: [i32; COEFFS] = [0; COEFFS];
+            for p in planes {
+                let mut coded = vec![false; p.cols * p.rows];
+                for by in 0..p.rows {
+                    for bx in 0..p.cols {
+                        let i = by * p.cols + bx;
+                        let at = BlockContext {
+                            kind,
+                            neighbours: usize::from(bx > 0 && coded[i - 1])
+                                + usize::from(by > 0 && coded[i - p.cols]),
+                        };
+                        let b = p.block(bx, by);
+                        coded[i] = b.is_some();
+                        syntax::write_block(&mut ctx, at, b.unwrap_or(&EMPTY), &mut sink);
+                    }
+                }
+            }
+            sink.finish()
+        };
+        let split = self.planes.len().min(1);
+        let luma = stream(&self.planes[..split], 0);
+        let chroma = stream(&self.planes[split..], 1);
+        let mut payload = Vec::with_capacity(4 + luma.len() + chroma.len());
+        payload.extend((luma.len() as u32).to_le_bytes());
+        payload.extend(luma);
+        payload.extend(chroma);
+        payload
+    }
+
     /// Reads the section of a `width x height` image with these steps (one per colour
     /// channel): a u32 byte count of the luma stream, the luma stream, the chroma stream.
     pub fn read(
@@ -185,14 +221,29 @@ impl Detail {
     pub const BYTES_PER_PIXEL: u64 = 2 * 4 + 2;
 }
 
+/// One plane prepared for evaluation.
+struct PlaneEval {
+    /// Dequantised coefficients of the coded blocks.
+    coeffs: Vec<[f32; COEFFS]>,
+    /// Per coded block: rows and columns of coefficients up to the last nonzero one, so
+    /// the sums skip the (usually many) high frequencies that are zero.
+    extent: Vec<(u8, u8)>,
+    /// Per block: index into `coeffs`, or [`ZERO`].
+    index: Vec<u32>,
+    /// Blocks per row.
+    cols: usize,
+}
+
 /// The detail layer prepared for evaluation on one grid.
 pub struct DetailEval {
     grid: Grid,
-    /// Per plane: dequantised coefficients of the coded blocks, and the block index.
-    planes: Vec<(Vec<[f32; COEFFS]>, Vec<u32>, usize)>,
-    /// Per block column: the grid columns it covers and their basis values.
-    columns: Vec<(usize, usize)>,
-    basis_x: Vec<[f32; N]>,
+    planes: Vec<PlaneEval>,
+    /// Per block column: its first grid column, how many it covers, and where their
+    /// basis values start in `basis_t`.
+    columns: Vec<(usize, usize, usize)>,
+    /// Per block column, the basis transposed: `basis_t[start + u n + k] = b_u` at the
+    /// column's `k`-th grid column (`n` columns), so the sum over `u` runs along rows.
+    basis_t: Vec<f32>,
     /// Per grid row: block row and basis values.
     rows: Vec<(usize, [f32; N])>,
 }
@@ -212,17 +263,23 @@ impl DetailEval {
             .planes
             .first()
             .map_or((1, 1), |p| (p.cols, p.rows));
-        let mut columns = vec![(0usize, 0usize); cols];
-        let mut basis_x = Vec::with_capacity(grid.nx);
-        let mut last = None;
+        // Grid positions increase, so each block column covers a contiguous run.
+        let mut columns = vec![(0usize, 0usize, 0usize); cols];
+        let mut per_column: Vec<Vec<[f32; N]>> = vec![Vec::new(); cols];
         for i in 0..grid.nx {
             let (b, t) = locate(grid.x(i), cols);
-            basis_x.push(dct::basis_at(t));
-            if last != Some(b) {
+            if per_column[b].is_empty() {
                 columns[b].0 = i;
-                last = Some(b);
             }
-            columns[b].1 = i + 1;
+            per_column[b].push(dct::basis_at(t));
+        }
+        let mut basis_t = Vec::with_capacity(grid.nx * N);
+        for (c, basis) in columns.iter_mut().zip(&per_column) {
+            c.1 = basis.len();
+            c.2 = basis_t.len();
+            for u in 0..N {
+                basis_t.extend(basis.iter().map(|b| b[u]));
+            }
         }
         let rows_basis = (0..grid.ny)
             .map(|j| {
@@ -234,20 +291,35 @@ impl DetailEval {
             .planes
             .iter()
             .zip(&detail.steps)
-            .map(|(p, &step)| {
-                let coeffs = p
+            .map(|(p, &step)| PlaneEval {
+                coeffs: p
                     .levels
                     .iter()
                     .map(|l| std::array::from_fn(|i| (l[i] as f64 * step) as f32))
-                    .collect();
-                (coeffs, p.index.clone(), p.cols)
+                    .collect(),
+                extent: p
+                    .levels
+                    .iter()
+                    .map(|l| {
+                        let (mut v1, mut u1) = (0, 0);
+                        for (i, &q) in l.iter().enumerate() {
+                            if q != 0 {
+                                v1 = v1.max(i / N + 1);
+                                u1 = u1.max(i % N + 1);
+                            }
+                        }
+                        (v1 as u8, u1 as u8)
+                    })
+                    .collect(),
+                index: p.index.clone(),
+                cols: p.cols,
             })
             .collect();
         DetailEval {
             grid: *grid,
             planes,
             columns,
-            basis_x,
+            basis_t,
             rows: rows_basis,
         }
     }
@@ -256,38 +328,40 @@ impl DetailEval {
     /// rows of the grid's width each.
     pub fn add_rows(&self, j0: usize, out: &mut [&mut [f32]]) {
         let nx = self.grid.nx;
-        for ((coeffs, index, cols), plane) in self.planes.iter().zip(out.iter_mut()) {
-            if coeffs.is_empty() {
+        for (p, plane) in self.planes.iter().zip(out.iter_mut()) {
+            if p.coeffs.is_empty() {
                 continue;
             }
             for (r, row) in plane.chunks_exact_mut(nx).enumerate() {
                 let (by, bv) = self.rows[j0 + r];
-                for bx in 0..*cols {
-                    let i = index[by * cols + bx];
-                    let (c0, c1) = self.columns[bx];
-                    if i == ZERO || c0 >= c1 {
+                for bx in 0..p.cols {
+                    let i = p.index[by * p.cols + bx];
+                    let (c0, n, start) = self.columns[bx];
+                    if i == ZERO || n == 0 {
                         continue;
                     }
-                    let c = &coeffs[i as usize];
+                    let c = &p.coeffs[i as usize];
+                    let (v1, u1) = p.extent[i as usize];
+                    let (v1, u1) = (v1 as usize, u1 as usize);
                     // The block's row of the series at this y: g(u) = sum_v C[v][u] b_v(y).
                     let mut g = [0f32; N];
-                    for (v, &b) in bv.iter().enumerate() {
+                    for v in 0..v1 {
+                        let b = bv[v];
                         for u in 0..N {
                             g[u] += c[v * N + u] * b;
                         }
                     }
-                    for (o, bu) in row[c0..c1].iter_mut().zip(&self.basis_x[c0..c1]) {
-                        let mut s = 0f32;
-                        for u in 0..N {
-                            s += g[u] * bu[u];
+                    let out = &mut row[c0..c0 + n];
+                    for (u, &gu) in g.iter().enumerate().take(u1) {
+                        let basis = &self.basis_t[start + u * n..start + (u + 1) * n];
+                        for (o, &b) in out.iter_mut().zip(basis) {
+                            *o += gu * b;
                         }
-                        *o += s;
                     }
                 }
             }
         }
     }
-
     /// The layer on the whole grid, one plane per channel (for the forward path).
     pub fn eval(&self) -> Vec<Vec<f32>> {
         let n = self.grid.nx * self.grid.ny;
@@ -297,5 +371,119 @@ impl DetailEval {
             self.add_rows(0, &mut out);
         }
         planes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::quantise::{code_layer, Quantiser};
+    use super::*;
+    use crate::codec::geometry::Frame;
+
+    /// A 21x13 three-channel residual with edges, texture and a flat part.
+    fn residuals() -> (Vec<Vec<f64>>, (u32, u32)) {
+        let (w, h) = (21u32, 13u32);
+        let planes = (0..3)
+            .map(|c| {
+                (0..w * h)
+                    .map(|i| {
+                        let (x, y) = ((i % w) as f64, (i / w) as f64);
+                        let edge = if x > 9.0 + c as f64 { 0.3 } else { -0.1 };
+                        let texture = 0.05 * ((x * 1.7 + y * 0.9).sin());
+                        if y > 9.0 {
+                            0.0
+                        } else {
+                            edge + texture
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        (planes, (w, h))
+    }
+
+    fn quantisers(step: f64) -> Vec<Quantiser> {
+        vec![
+            Quantiser {
+                step,
+                deadzone: 0.2,
+                lambda: 0.12,
+            };
+            3
+        ]
+    }
+
+    #[test]
+    fn the_searched_payload_is_the_plain_coding_of_its_levels_and_reads_back() {
+        let (r, (w, h)) = residuals();
+        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02));
+        assert!(detail.planes.iter().all(|p| p.coded_blocks() > 0));
+        assert_eq!(detail.to_payload(), payload);
+        let back = Detail::read(&payload, w, h, detail.steps.clone()).unwrap();
+        assert_eq!(back, detail);
+    }
+
+    #[test]
+    fn a_finer_step_leaves_less_error_and_costs_more() {
+        let (r, (w, h)) = residuals();
+        let frame = Frame::new(w, h);
+        let grid = Grid::pixel_centres(&frame, w, h);
+        let error = |step: f64| {
+            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step));
+            let layer = DetailEval::new(&detail, &grid).eval();
+            let e: f64 = r
+                .iter()
+                .zip(&layer)
+                .map(|(a, b)| a.iter().zip(b).map(|(&a, &b)| (a - b as f64).powi(2)).sum::<f64>())
+                .sum();
+            (e / (3 * w * h) as f64, payload.len())
+        };
+        let (coarse, coarse_bytes) = error(0.05);
+        let (fine, fine_bytes) = error(0.002);
+        assert!(fine < coarse / 20.0, "{fine} vs {coarse}");
+        assert!(fine < 1e-5, "{fine}");
+        assert!(fine_bytes > coarse_bytes);
+    }
+
+    #[test]
+    fn evaluation_at_pixel_centres_is_the_inverse_transform() {
+        let mut levels = [0i32; COEFFS];
+        for (i, l) in levels.iter_mut().enumerate() {
+            *l = (i as i32 * 7 % 9) - 4;
+        }
+        let plane = DetailPlane::from_blocks(1, 1, vec![levels]);
+        let detail = Detail {
+            planes: vec![plane],
+            steps: vec![0.5],
+        };
+        let frame = Frame::new(8, 8);
+        let out = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
+        let coeffs: [f64; COEFFS] = std::array::from_fn(|i| levels[i] as f64 * 0.5);
+        let reference = dct::inverse(&coeffs);
+        for i in 0..COEFFS {
+            assert!((out[0][i] as f64 - reference[i]).abs() < 1e-4, "{i}");
+        }
+    }
+
+    #[test]
+    fn a_doubled_grid_interpolates_between_pixel_centres() {
+        // A smooth (lowest-frequency) block: the series halfway between two centres is
+        // between their values.
+        let mut levels = [0i32; COEFFS];
+        levels[1] = 10;
+        let detail = Detail {
+            planes: vec![DetailPlane::from_blocks(1, 1, vec![levels])],
+            steps: vec![0.1],
+        };
+        let frame = Frame::new(8, 8);
+        let one = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
+        let two = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 16, 16)).eval();
+        // Output pixel 2i + 2 of the doubled grid sits at coded x = i + 1.25, between
+        // the centres of coded pixels i and i + 1.
+        for i in 0..7 {
+            let (a, b) = (one[0][i], one[0][i + 1]);
+            let m = two[0][2 * i + 2];
+            assert!(m <= a.max(b) + 1e-6 && m >= a.min(b) - 1e-6);
+        }
     }
 }
