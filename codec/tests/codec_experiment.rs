@@ -113,7 +113,7 @@ fn rd_points_for_files() {
 }
 
 /// Like `rd_points_for_files` but with internal settings overridden from the
-/// environment (STEPK, CSTEP, SIGMA, WEXP, RIDGE, MINLOG, GROWTH, ROUNDS), and the
+/// environment (STEPK, CSTEP, SIGMA, WEXP, RIDGE, MINLOG, ROOTLOG, GROWTH, ROUNDS, DZ, DETAIL_DZ, LAMBDA, DETAIL_CSTEP), and the
 /// section sizes printed: "RD file q bpp psnr secs tree luma chroma nluma".
 #[test]
 #[ignore]
@@ -137,7 +137,8 @@ fn rd_settings_for_files() {
             let mut s = rate_control::settings(q, effort, None);
             let cratio = s.step_chroma / s.step_luma;
             if let Some(k) = env("STEPK") {
-                let base = s.step_luma / rate_control::STEP_FACTOR;
+                // Network steps relative to the detail layer's luma step.
+                let base = s.detail_step_luma;
                 s.step_luma = k * base;
                 s.step_alpha = k * base;
                 s.step_chroma = k * base * env("CSTEP").unwrap_or(cratio);
@@ -167,6 +168,18 @@ fn rd_settings_for_files() {
             }
             if let Some(v) = env("DZ") {
                 s.deadzone = v;
+            }
+            if let Some(v) = env("DETAIL_DZ") {
+                s.detail_deadzone = v;
+            }
+            if let Some(v) = env("LAMBDA") {
+                s.detail_lambda = v;
+            }
+            if let Some(v) = env("DETAIL_CSTEP") {
+                s.detail_step_chroma = v * s.detail_step_luma;
+            }
+            if let Some(v) = env("ROOTLOG") {
+                s.model.block_log2 = v as u8;
             }
             match std::env::var("ABL").unwrap_or_default().as_str() {
                 "sampled" => s.model.least_squares = false,

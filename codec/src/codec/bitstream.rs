@@ -56,13 +56,20 @@ pub struct Header {
     pub luma_count: u32,
     /// Number of chroma key points.
     pub chroma_count: u32,
-    /// Quantiser step of the detail layer's luma (or grey) coefficients.
-    pub detail_step_luma: f32,
-    /// Quantiser step of the detail layer's chroma coefficients.
-    pub detail_step_chroma: f32,
+    /// Quantiser steps of the detail layer's luma (or grey) and chroma coefficients,
+    /// if the file has the layer (flag bit 1; a file whose layer would be all zero
+    /// leaves it out).
+    pub detail_steps: Option<[f32; 2]>,
 }
 
-const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 4 * 2;
+/// Header bytes without the detail layer's steps.
+const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4;
+/// Header bytes with them.
+const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
+/// Flag bit: chroma on the pruned tree.
+const FLAG_PRUNED: u8 = 1;
+/// Flag bit: the detail layer is present.
+const FLAG_DETAIL: u8 = 2;
 
 impl Header {
     /// The tree geometry.
@@ -97,21 +104,35 @@ impl Header {
         b.push(self.min_log2);
         b.extend(((self.kernel.sigma_factor * 1024.0).round() as u16).to_le_bytes());
         b.push((self.kernel.weight_exponent * 16.0).round() as u8);
-        b.push(u8::from(self.chroma_pruned));
+        b.push(
+            if self.chroma_pruned { FLAG_PRUNED } else { 0 }
+                | if self.detail_steps.is_some() {
+                    FLAG_DETAIL
+                } else {
+                    0
+                },
+        );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
             b.extend(s.to_le_bytes());
         }
         b.extend(self.luma_count.to_le_bytes());
         b.extend(self.chroma_count.to_le_bytes());
-        b.extend(self.detail_step_luma.to_le_bytes());
-        b.extend(self.detail_step_chroma.to_le_bytes());
+        for s in self.detail_steps.iter().flatten() {
+            b.extend(s.to_le_bytes());
+        }
         b
     }
 
     fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
-        if p.len() != HEADER_LEN {
+        let flags = p.get(15).copied().unwrap_or(0);
+        let len = if flags & FLAG_DETAIL != 0 {
+            HEADER_LEN_DETAIL
+        } else {
+            HEADER_LEN
+        };
+        if p.len() != len {
             return Err(CodecError::Format(format!(
-                "header is {} bytes, expected {HEADER_LEN}",
+                "header is {} bytes, expected {len}",
                 p.len()
             )));
         }
@@ -163,17 +184,18 @@ impl Header {
                 4.0,
             ));
         }
-        if p[15] > 1 {
-            return Err(CodecError::range("flags", p[15], 0.0, 1.0));
+        if flags > FLAG_PRUNED | FLAG_DETAIL {
+            return Err(CodecError::range("flags", flags, 0.0, 3.0));
         }
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
-        let (detail_step_luma, detail_step_chroma) = (f32_at(36), f32_at(40));
+        let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(36), f32_at(40)]);
+        let [detail_luma, detail_chroma] = detail_steps.unwrap_or([1.0; 2]);
         for (name, s) in [
             ("luma quantiser step", step_luma),
             ("chroma quantiser step", step_chroma),
             ("alpha quantiser step", step_alpha),
-            ("detail luma quantiser step", detail_step_luma),
-            ("detail chroma quantiser step", detail_step_chroma),
+            ("detail luma quantiser step", detail_luma),
+            ("detail chroma quantiser step", detail_chroma),
         ] {
             if !(s.is_finite() && (1e-7..=1e4).contains(&s)) {
                 return Err(CodecError::range(name, s, 1e-7, 1e4));
@@ -187,14 +209,13 @@ impl Header {
             block_log2,
             min_log2,
             kernel,
-            chroma_pruned: p[15] == 1,
+            chroma_pruned: flags & FLAG_PRUNED != 0,
             step_luma,
             step_chroma,
             step_alpha,
             luma_count: u32_at(28),
             chroma_count: u32_at(32),
-            detail_step_luma,
-            detail_step_chroma,
+            detail_steps,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {
@@ -238,10 +259,10 @@ pub fn write(
     tree: &[u8],
     luma: &[u8],
     chroma: Option<&[u8]>,
-    detail: &[u8],
+    detail: Option<&[u8]>,
 ) -> Vec<u8> {
     let mut out = Vec::with_capacity(
-        64 + tree.len() + luma.len() + chroma.map_or(0, <[u8]>::len) + detail.len(),
+        64 + tree.len() + luma.len() + chroma.map_or(0, <[u8]>::len) + detail.map_or(0, <[u8]>::len),
     );
     out.extend(MAGIC);
     out.push(VERSION);
@@ -251,7 +272,9 @@ pub fn write(
     if let Some(c) = chroma {
         push_section(&mut out, tag::CHROMA, c);
     }
-    push_section(&mut out, tag::DETAIL, detail);
+    if let Some(d) = detail {
+        push_section(&mut out, tag::DETAIL, d);
+    }
     push_section(&mut out, tag::END, &[]);
     out
 }
@@ -384,16 +407,19 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
             ))
         }
     };
-    let expected: &[u8] = if header.chroma_count > 0 {
-        &[tag::HEADER, tag::TREE, tag::LUMA, tag::CHROMA, tag::DETAIL, tag::END]
-    } else {
-        &[tag::HEADER, tag::TREE, tag::LUMA, tag::DETAIL, tag::END]
-    };
+    let mut expected = vec![tag::HEADER, tag::TREE, tag::LUMA];
+    if header.chroma_count > 0 {
+        expected.push(tag::CHROMA);
+    }
+    if header.detail_steps.is_some() {
+        expected.push(tag::DETAIL);
+    }
+    expected.push(tag::END);
     if tags != expected {
         return Err(CodecError::Format(format!(
             "sections {:?}, expected {:?}",
             String::from_utf8_lossy(&tags),
-            String::from_utf8_lossy(expected)
+            String::from_utf8_lossy(&expected)
         )));
     }
     Ok(Parsed { header, sections })

@@ -44,12 +44,15 @@ pub struct Decoded {
     pub detail: Option<Detail>,
 }
 
-/// Reads the detail section: one plane per colour channel.
-fn read_detail(parsed: &Parsed) -> Result<Detail, CodecError> {
+/// Reads the detail section, if the file has one: one plane per colour channel.
+fn read_detail(parsed: &Parsed) -> Result<Option<Detail>, CodecError> {
     let h = &parsed.header;
-    let mut steps = vec![h.detail_step_luma as f64];
+    let Some([luma, chroma]) = h.detail_steps else {
+        return Ok(None);
+    };
+    let mut steps = vec![luma as f64];
     if h.layout.colour_channels() == 3 {
-        steps.extend([h.detail_step_chroma as f64; 2]);
+        steps.extend([chroma as f64; 2]);
     }
     Detail::read(
         parsed.payload(tag::DETAIL).unwrap_or(&[]),
@@ -57,6 +60,7 @@ fn read_detail(parsed: &Parsed) -> Result<Detail, CodecError> {
         h.height,
         steps,
     )
+    .map(Some)
 }
 
 /// Entropy-decodes one value section: `channels` planes of quantised values over
@@ -163,7 +167,7 @@ pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
     Ok(Decoded {
         luma_values: dequantise(luma_values?, &luma_steps, |v| v),
         chroma_values: dequantise(chroma_values, &chroma_steps, |v| v),
-        detail: Some(read_detail(&parsed)?),
+        detail: read_detail(&parsed)?,
         header,
         luma_cells,
         chroma_cells,
@@ -452,7 +456,7 @@ fn identity_with<O: Send, R>(
     let colour = header.layout.colour_channels() == 3;
     let ((luma_cells, samples), detail) = rayon::join(
         || rayon::join(|| read_luma_cells(&parsed), || alloc(header, (ow, oh))),
-        || read_detail(&parsed).map(|d| DetailEval::new(&d, &grid)),
+        || read_detail(&parsed).map(|d| d.map(|d| DetailEval::new(&d, &grid))),
     );
     let luma_cells = luma_cells?;
     let detail = detail?;
@@ -496,7 +500,7 @@ fn identity_with<O: Send, R>(
         )
         .with_values(values)
     });
-    finish(header, &luma, chroma.as_ref(), Some(&detail), (ow, oh), samples)
+    finish(header, &luma, chroma.as_ref(), detail.as_ref(), (ow, oh), samples)
 }
 
 /// Evaluates both key sets band by band into `samples` (`ow x oh` pixels of the

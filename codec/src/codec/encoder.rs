@@ -69,8 +69,7 @@ pub fn write_model(
         step_alpha: s.step_alpha as f32,
         luma_count: model.luma_cells.len() as u32,
         chroma_count: model.chroma_cells.len() as u32,
-        detail_step_luma: s.detail_step_luma as f32,
-        detail_step_chroma: s.detail_step_chroma as f32,
+        detail_steps: Some([s.detail_step_luma as f32, s.detail_step_chroma as f32]),
     };
     let mut luma = AnsSink::new();
     let nbs = syntax::neighbours(&model.luma_cells, w, h);
@@ -98,7 +97,6 @@ pub fn write_model(
         sink.finish()
     });
     // The detail layer codes what the decoder's network leaves of each colour channel.
-    let t = std::time::Instant::now();
     let base = decoder::render_identity(
         &Decoded {
             header: header.clone(),
@@ -120,23 +118,30 @@ pub fn write_model(
     let quantisers: Vec<Quantiser> = (0..residuals.len())
         .map(|c| Quantiser {
             step: if c == 0 {
-                header.detail_step_luma
+                s.detail_step_luma
             } else {
-                header.detail_step_chroma
-            } as f64,
+                s.detail_step_chroma
+            },
             deadzone: s.detail_deadzone,
             lambda: s.detail_lambda,
         })
         .collect();
-    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("base render {:?}", t.elapsed()); }
-    let (_, detail) = detail_quantise::code_layer(&residuals, (w, h), &quantisers);
-    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("detail {:?}", t.elapsed()); }
+    let (detail, payload) = detail_quantise::code_layer(&residuals, (w, h), &quantisers);
+    // A layer with nothing in it is left out, header steps and all: on smooth images
+    // at low rates its few dozen bytes are a good part of the file.
+    let mut header = header;
+    let payload = if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
+        header.detail_steps = None;
+        None
+    } else {
+        Some(payload)
+    };
     let bytes = bitstream::write(
         &header,
         &tree.finish(),
         &luma.finish(),
         chroma.as_deref(),
-        &detail,
+        payload.as_deref(),
     );
     let stats = EncodeStats {
         luma_keypoints: model.luma_cells.len(),
@@ -188,12 +193,8 @@ pub fn encode_with(
     } else {
         planes
     };
-    let t = std::time::Instant::now();
     let model = model::build(planes, img.width(), img.height(), &s.model, progress);
-    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("model {:?}", t.elapsed()); }
-    let r = write_model(img, planes, &model, &s);
-    if std::env::var("CAOEN_TIME").is_ok() { eprintln!("total {:?}", t.elapsed()); }
-    Ok(r)
+    Ok(write_model(img, planes, &model, &s))
 }
 
 /// Splits an image into coding planes after checking it can be encoded.

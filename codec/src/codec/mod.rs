@@ -185,7 +185,8 @@ pub fn encode_with_progress(
         }
     };
     let Some(target) = target else {
-        let s = rate_control::settings(opts.quality, opts.effort, opts.keypoints);
+        let s = rate_control::settings(opts.quality, opts.effort, opts.keypoints)
+            .adapted_to(image.format(), image.layout().has_alpha());
         return encoder::encode_with(image, &planes, &s, progress);
     };
     let steps = 6 + opts.effort as usize;
@@ -193,10 +194,12 @@ pub fn encode_with_progress(
     let (q, _) = rate_control::search_quality(target, 0.02, steps, |q| {
         done += 1;
         progress(done, steps + 1);
-        let s = rate_control::settings(q, opts.effort, opts.keypoints);
+        let s = rate_control::settings(q, opts.effort, opts.keypoints)
+            .adapted_to(image.format(), image.layout().has_alpha());
         Ok(encoder::encode_with(image, &planes, &s, |_, _| {})?.0.len())
     })?;
-    let s = rate_control::settings(q, opts.effort, opts.keypoints);
+    let s = rate_control::settings(q, opts.effort, opts.keypoints)
+        .adapted_to(image.format(), image.layout().has_alpha());
     let out = encoder::encode_with(image, &planes, &s, |_, _| {})?;
     progress(steps + 1, steps + 1);
     Ok(out)

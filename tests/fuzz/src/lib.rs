@@ -18,6 +18,7 @@ use caoen::codec::bitstream::{self, tag, Header, Parsed};
 use caoen::codec::decoder;
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
+use caoen::codec::detail::{self, dct::COEFFS, Detail, DetailPlane};
 use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
 use caoen::image_io::{self, LoadLimits};
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
@@ -136,6 +137,7 @@ fn assert_canonical(data: &[u8], parsed: &Parsed) {
         payload(tag::TREE),
         payload(tag::LUMA),
         parsed.payload(tag::CHROMA),
+        parsed.payload(tag::DETAIL),
     );
     if again != data {
         let at = again.iter().zip(data).take_while(|(a, b)| a == b).count();
@@ -236,6 +238,7 @@ fn choose_header(c: &mut Choices) -> Header {
         ((1e-7 * 1e11f64.powf(t)) as f32).clamp(1e-7, 1e4)
     };
     let (step_luma, step_chroma, step_alpha) = (step(), step(), step());
+    let detail_steps = c.bit().then(|| [step(), step()]);
     Header {
         width,
         height,
@@ -250,6 +253,40 @@ fn choose_header(c: &mut Choices) -> Header {
         step_alpha,
         luma_count: 0,
         chroma_count: 0,
+        detail_steps,
+    }
+}
+
+/// Detail levels for every colour channel: most blocks empty, the others with a few
+/// small, large or extreme levels at chosen positions.
+fn choose_detail(c: &mut Choices, header: &Header) -> Detail {
+    let (cols, rows) = detail::blocks(header.width, header.height);
+    let channels = header.layout.colour_channels();
+    let max = detail::syntax::MAX_LEVEL as i32;
+    let planes = (0..channels)
+        .map(|_| {
+            let blocks = (0..cols * rows)
+                .map(|_| {
+                    let mut b = [0i32; COEFFS];
+                    if c.byte() % 4 == 0 {
+                        for _ in 0..1 + c.byte() % 8 {
+                            let at = usize::from(c.byte()) % COEFFS;
+                            b[at] = match c.byte() % 4 {
+                                0 | 1 => i32::from(c.byte() as i8),
+                                2 => i32::from(c.u16() as i16),
+                                _ => max,
+                            } * if c.bit() { -1 } else { 1 };
+                        }
+                    }
+                    b
+                })
+                .collect();
+            DetailPlane::from_blocks(cols, rows, blocks)
+        })
+        .collect();
+    Detail {
+        planes,
+        steps: vec![1.0; channels],
     }
 }
 
@@ -313,7 +350,17 @@ fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
         }
         sink.finish()
     });
-    let file = bitstream::write(&header, &tree.finish(), &luma.finish(), chroma.as_deref());
+    let detail = header
+        .detail_steps
+        .is_some()
+        .then(|| choose_detail(c, &header).to_payload());
+    let file = bitstream::write(
+        &header,
+        &tree.finish(),
+        &luma.finish(),
+        chroma.as_deref(),
+        detail.as_deref(),
+    );
     (file, header)
 }
 

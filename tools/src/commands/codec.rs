@@ -309,8 +309,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
-            "step_alpha": h.step_alpha, "detail_step_luma": h.detail_step_luma,
-            "detail_step_chroma": h.detail_step_chroma, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+            "step_alpha": h.step_alpha, "detail_steps": h.detail_steps, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
         });
         outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
@@ -362,12 +361,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
         h.step_chroma,
         h.step_alpha
     );
-    outln!(
-        text,
-        "detail:      8x8 DCT blocks, step luma {}, chroma {}",
-        h.detail_step_luma,
-        h.detail_step_chroma
-    );
+    match h.detail_steps {
+        Some([l, c]) => outln!(text, "detail:      8x8 DCT blocks, step luma {l}, chroma {c}"),
+        None => outln!(text, "detail:      none"),
+    }
     outln!(text, "sections:");
     for (t, n, o, b) in &sections {
         outln!(text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
