@@ -262,7 +262,10 @@ pub fn write(
     detail: Option<&[u8]>,
 ) -> Vec<u8> {
     let mut out = Vec::with_capacity(
-        64 + tree.len() + luma.len() + chroma.map_or(0, <[u8]>::len) + detail.map_or(0, <[u8]>::len),
+        64 + tree.len()
+            + luma.len()
+            + chroma.map_or(0, <[u8]>::len)
+            + detail.map_or(0, <[u8]>::len),
     );
     out.extend(MAGIC);
     out.push(VERSION);

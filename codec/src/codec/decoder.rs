@@ -326,7 +326,14 @@ pub fn render_identity_raster_on(
     );
     let detail = d.detail.as_ref().map(|d| DetailEval::new(d, &grid));
     let samples = vec![0.0f32; ow as usize * oh as usize * h.layout.channels()];
-    band_pass(h, &luma, chroma.as_ref(), detail.as_ref(), (ow, oh), samples)
+    band_pass(
+        h,
+        &luma,
+        chroma.as_ref(),
+        detail.as_ref(),
+        (ow, oh),
+        samples,
+    )
 }
 
 /// [`decode`] by the identity fast path: equal to `render_identity_raster(&read(..)?, ..)`,
@@ -373,11 +380,9 @@ pub fn decode_interleaved(
                 Samples::U8(out) => band_pass_interleaved(h, luma, chroma, detail, ow, out, |v| {
                     crate::image_io::quantise(v, 255.0) as u8
                 }),
-                Samples::U16(out) => {
-                    band_pass_interleaved(h, luma, chroma, detail, ow, out, |v| {
-                        crate::image_io::quantise(v, 65535.0) as u16
-                    })
-                }
+                Samples::U16(out) => band_pass_interleaved(h, luma, chroma, detail, ow, out, |v| {
+                    crate::image_io::quantise(v, 65535.0) as u16
+                }),
             };
             if !ok {
                 return Err(non_finite());
@@ -500,7 +505,14 @@ fn identity_with<O: Send, R>(
         )
         .with_values(values)
     });
-    finish(header, &luma, chroma.as_ref(), detail.as_ref(), (ow, oh), samples)
+    finish(
+        header,
+        &luma,
+        chroma.as_ref(),
+        detail.as_ref(),
+        (ow, oh),
+        samples,
+    )
 }
 
 /// Evaluates both key sets band by band into `samples` (`ow x oh` pixels of the

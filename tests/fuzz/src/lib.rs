@@ -16,9 +16,9 @@ use std::path::Path;
 
 use caoen::codec::bitstream::{self, tag, Header, Parsed};
 use caoen::codec::decoder;
+use caoen::codec::detail::{self, dct::COEFFS, Detail, DetailPlane};
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
-use caoen::codec::detail::{self, dct::COEFFS, Detail, DetailPlane};
 use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
 use caoen::image_io::{self, LoadLimits};
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};

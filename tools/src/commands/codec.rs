@@ -362,7 +362,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
         h.step_alpha
     );
     match h.detail_steps {
-        Some([l, c]) => outln!(text, "detail:      8x8 DCT blocks, step luma {l}, chroma {c}"),
+        Some([l, c]) => outln!(
+            text,
+            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}"
+        ),
         None => outln!(text, "detail:      none"),
     }
     outln!(text, "sections:");
