@@ -77,16 +77,28 @@ fn bad_headers_have_clear_messages() {
             e,
             CodecError::UnsupportedVersion {
                 found: 9,
-                supported: 2
+                supported: 3
             }
         ) && e.to_string().contains("version 9"),
         "{e}"
     );
+    // Files of the previous version (no detail layer) are refused, with the way out.
+    let mut old = file.clone();
+    old[4] = 2;
+    let e = decode(&old, &DecodeOptions::default()).unwrap_err();
+    assert!(
+        matches!(e, CodecError::UnsupportedVersion { found: 2, .. })
+            && e.to_string().contains("re-encode"),
+        "{e}"
+    );
+    // The header's length: 36 bytes, or 44 with the detail layer's steps.
+    let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
+    assert!(hl == 36 || hl == 44, "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
-    let crc = crc32fast::hash(&absurd[5..5 + 5 + 36]);
-    absurd[5 + 5 + 36..5 + 5 + 36 + 4].copy_from_slice(&crc.to_le_bytes());
+    let crc = crc32fast::hash(&absurd[5..5 + 5 + hl]);
+    absurd[5 + 5 + hl..5 + 5 + hl + 4].copy_from_slice(&crc.to_le_bytes());
     let e = decode(&absurd, &DecodeOptions::default()).unwrap_err();
     assert!(
         matches!(e, CodecError::OutOfRange { what: "width", value, hi, .. } if value == 2147483648.0 && hi == 16384.0),
@@ -95,7 +107,7 @@ fn bad_headers_have_clear_messages() {
     // A wrong CRC names both values.
     let mut flipped = file.clone();
     flipped[5 + 5] ^= 1;
-    let stored = u32::from_le_bytes(file[5 + 5 + 36..5 + 5 + 40].try_into().unwrap());
+    let stored = u32::from_le_bytes(file[5 + 5 + hl..5 + 5 + hl + 4].try_into().unwrap());
     let e = decode(&flipped, &DecodeOptions::default()).unwrap_err();
     assert!(
         matches!(e, CodecError::CrcMismatch { offset: 5, stored: s, computed, .. } if s == stored && computed != stored),

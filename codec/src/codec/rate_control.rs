@@ -77,7 +77,8 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         growth: if e >= 7 { 0.25 } else { 0.35 },
         cg_iterations: (6 + 2 * e, 15 + 6 * e),
         least_squares: e >= 3,
-        min_log2: MIN_CELL_LOG2,
+        // A key-point budget asks for the tree itself: let it reach single pixels.
+        min_log2: if keypoints.is_some() { 0 } else { MIN_CELL_LOG2 },
         block_log2: ROOT_LOG2,
         ..ModelSettings::default()
     };

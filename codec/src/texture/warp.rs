@@ -775,9 +775,14 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
                     let l = &ly[k * pl..(k + 1) * pl];
                     let (rx, ry) = tent(lat.step, &field.at(p[0], p[1]).1);
                     out.extend([p[0] + l[0], p[1] + l[1], rx, ry]);
-                    out.extend_from_slice(&l[2..]);
+                    // The detail layer rides with its sample: evaluated at the
+                    // sample's own position, moved with it.
+                    let detail = d.detail.as_ref().map(|det| det.at(p[0], p[1]));
+                    let dl = |c: usize| detail.as_ref().map_or(0.0, |v| v[c]);
+                    out.push(l[2] + dl(0));
+                    out.extend_from_slice(&l[3..]);
                     if let Some(c) = &cy {
-                        out.extend([c[k * 4 + 2], c[k * 4 + 3]]);
+                        out.extend([c[k * 4 + 2] + dl(1), c[k * 4 + 3] + dl(2)]);
                     }
                 }
                 Ok(out)

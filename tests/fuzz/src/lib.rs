@@ -238,7 +238,8 @@ fn choose_header(c: &mut Choices) -> Header {
         ((1e-7 * 1e11f64.powf(t)) as f32).clamp(1e-7, 1e4)
     };
     let (step_luma, step_chroma, step_alpha) = (step(), step(), step());
-    let detail_steps = c.bit().then(|| [step(), step()]);
+    let detail = [step(), step()];
+    let detail_steps = c.bit().then_some(detail);
     Header {
         width,
         height,

@@ -216,6 +216,30 @@ impl Detail {
         Ok(Detail { planes, steps })
     }
 
+    /// The layer at one position (coded pixels), one value per plane: the same series
+    /// [`DetailEval`] sums on a grid, for callers that sample anywhere (warps).
+    pub fn at(&self, x: f64, y: f64) -> Vec<f64> {
+        self.planes
+            .iter()
+            .zip(&self.steps)
+            .map(|(p, &step)| {
+                let (bx, tx) = locate(x, p.cols);
+                let (by, ty) = locate(y, p.rows);
+                let Some(l) = p.block(bx, by) else {
+                    return 0.0;
+                };
+                let (bu, bv) = (dct::basis_at(tx), dct::basis_at(ty));
+                let mut sum = 0.0;
+                for v in 0..N {
+                    for u in 0..N {
+                        sum += l[v * N + u] as f64 * bv[v] as f64 * bu[u] as f64;
+                    }
+                }
+                sum * step
+            })
+            .collect()
+    }
+
     /// Bytes per pixel the decoder holds for the layer at most (levels and their
     /// dequantised coefficients), for memory estimates.
     pub const BYTES_PER_PIXEL: u64 = 2 * 4 + 2;

@@ -14,8 +14,8 @@ use crate::codec::CodecError;
 /// Magnitudes `0..LITERALS` are tokens of their own; token `LITERALS` escapes.
 const LITERALS: usize = 16;
 type TokenCdf = Cdf<4>;
-/// Escape classes: bit length minus one of `m - LITERALS + 1`.
-const CLASSES: usize = 24;
+/// Escape classes (bit length minus one of `m - LITERALS + 1`): 25 symbols, of which
+/// levels up to [`MAX_LEVEL`] use 21.
 type ClassCdf = Cdf<6>;
 /// Classes of the last position: bit length of `last` (0..=6).
 const LAST_CLASSES: usize = 7;
