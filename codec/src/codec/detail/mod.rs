@@ -29,6 +29,17 @@ pub fn blocks(width: u32, height: u32) -> (usize, usize) {
     )
 }
 
+/// The context of block `i` (`bx`, `by`) of a plane `cols` blocks wide, from whether
+/// its left and above neighbours are coded: the one rule the reader and both writers
+/// share.
+pub fn block_context(coded: impl Fn(usize) -> bool, cols: usize, i: usize, kind: usize) -> BlockContext {
+    let (bx, by) = (i % cols, i / cols);
+    BlockContext {
+        kind,
+        neighbours: usize::from(bx > 0 && coded(i - 1)) + usize::from(by > 0 && coded(i - cols)),
+    }
+}
+
 /// One channel's quantised coefficients.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DetailPlane {
@@ -90,29 +101,14 @@ impl DetailPlane {
             levels: Vec::new(),
         };
         let mut q = [0i32; COEFFS];
-        for by in 0..rows {
-            for bx in 0..cols {
-                // The context reads only blocks already pushed (left and above).
-                let at = {
-                    let coded = |i: usize| usize::from(plane.index[i] != ZERO);
-                    let mut n = 0;
-                    if bx > 0 {
-                        n += coded(by * cols + bx - 1);
-                    }
-                    if by > 0 {
-                        n += coded((by - 1) * cols + bx);
-                    }
-                    BlockContext {
-                        kind,
-                        neighbours: n,
-                    }
-                };
-                if syntax::read_block(ctx, at, &mut q, src)? {
-                    plane.index.push(plane.levels.len() as u32);
-                    plane.levels.push(q);
-                } else {
-                    plane.index.push(ZERO);
-                }
+        for i in 0..cols * rows {
+            // The context reads only blocks already pushed (left and above).
+            let at = block_context(|j| plane.index[j] != ZERO, cols, i, kind);
+            if syntax::read_block(ctx, at, &mut q, src)? {
+                plane.index.push(plane.levels.len() as u32);
+                plane.levels.push(q);
+            } else {
+                plane.index.push(ZERO);
             }
         }
         Ok(plane)
@@ -139,19 +135,10 @@ impl Detail {
             let mut ctx = DetailContexts::default();
             const EMPTY: [i32; COEFFS] = [0; COEFFS];
             for p in planes {
-                let mut coded = vec![false; p.cols * p.rows];
-                for by in 0..p.rows {
-                    for bx in 0..p.cols {
-                        let i = by * p.cols + bx;
-                        let at = BlockContext {
-                            kind,
-                            neighbours: usize::from(bx > 0 && coded[i - 1])
-                                + usize::from(by > 0 && coded[i - p.cols]),
-                        };
-                        let b = p.block(bx, by);
-                        coded[i] = b.is_some();
-                        syntax::write_block(&mut ctx, at, b.unwrap_or(&EMPTY), &mut sink);
-                    }
+                for i in 0..p.cols * p.rows {
+                    let at = block_context(|j| p.index[j] != ZERO, p.cols, i, kind);
+                    let b = p.block(i % p.cols, i / p.cols);
+                    syntax::write_block(&mut ctx, at, b.unwrap_or(&EMPTY), &mut sink);
                 }
             }
             sink.finish()

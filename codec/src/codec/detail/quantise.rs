@@ -9,8 +9,8 @@
 use rayon::prelude::*;
 
 use super::dct::{self, COEFFS, N, ZIGZAG};
-use super::syntax::{self, BlockContext, DetailContexts};
-use super::{blocks, Detail, DetailPlane};
+use super::syntax::{self, DetailContexts};
+use super::{block_context, blocks, Detail, DetailPlane};
 use crate::codec::entropy::{AnsSink, CostSink, SymbolSink};
 
 /// Quantiser of one channel.
@@ -75,12 +75,7 @@ pub fn code_plane(
     let mut chosen = Vec::with_capacity(cols * rows);
     let mut coded = vec![false; cols * rows];
     for (i, c) in coeffs.iter().enumerate() {
-        let (bx, by) = (i % cols, i / cols);
-        let at = BlockContext {
-            kind,
-            neighbours: usize::from(bx > 0 && coded[i - 1])
-                + usize::from(by > 0 && coded[i - cols]),
-        };
+        let at = block_context(|j| coded[j], cols, i, kind);
         let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
         let best = if levels.iter().all(|&l| l == 0) {
             levels
