@@ -8,6 +8,7 @@ pub mod codec;
 pub mod conversion;
 pub mod frep;
 pub mod image_io;
+pub mod metadata;
 pub mod metrics;
 pub mod raster;
 pub mod render;
