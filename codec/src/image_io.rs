@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
 use thiserror::Error;
 
+use crate::codec::tiling::TileRect;
+use crate::codec::PixelSource;
 use crate::raster::{ChannelLayout, Raster, RasterError, SampleFormat};
 
 /// Default limit on either side, matching the codec's [`crate::codec::MAX_SIDE`].
@@ -292,6 +294,22 @@ fn decode_reader<R: std::io::BufRead + Seek>(
     by_ext: Option<ImageFormat>,
     limits: &LoadLimits,
 ) -> Result<Raster, ImageIoError> {
+    match decode_image(reader, path, magic, by_ext, limits, false)? {
+        EncodeSource::Raster(r) => Ok(r),
+        EncodeSource::Compact(image) => from_dynamic_at(image, path),
+    }
+}
+
+/// Decodes an image, kept in the decoder's own 8/16-bit form when `compact` and the
+/// image has integer samples, else as a raster.
+fn decode_image<R: std::io::BufRead + Seek>(
+    reader: R,
+    path: &Path,
+    magic: &[u8],
+    by_ext: Option<ImageFormat>,
+    limits: &LoadLimits,
+    compact: bool,
+) -> Result<EncodeSource, ImageIoError> {
     if magic.is_empty() {
         return Err(ImageIoError::Truncated {
             path: path.to_path_buf(),
@@ -299,7 +317,7 @@ fn decode_reader<R: std::io::BufRead + Seek>(
         });
     }
     if magic == EXR_MAGIC {
-        return exr_io::read_exr(reader, path, limits);
+        return exr_io::read_exr(reader, path, limits).map(EncodeSource::Raster);
     }
     let is_exr_ext = path
         .extension()
@@ -352,18 +370,127 @@ fn decode_reader<R: std::io::BufRead + Seek>(
         let (w, h) = decoder.dimensions();
         limits.check(path, u64::from(w), u64::from(h))?;
         let colour = decoder.color_type();
+        let integer = compact && is_compact(colour);
         limits.check_memory(
             path,
             (u64::from(w), u64::from(h)),
             colour.bytes_per_pixel().into(),
-            colour.channel_count().into(),
+            if integer {
+                0
+            } else {
+                colour.channel_count().into()
+            },
         )?;
         decoder
             .set_limits(limits.for_image_crate())
             .map_err(|e| image_error(path, e))?;
         DynamicImage::from_decoder(decoder).map_err(|e| image_error(path, e))
     })?;
-    from_dynamic_at(image, path)
+    if compact && is_compact(image.color()) {
+        Ok(EncodeSource::Compact(image))
+    } else {
+        from_dynamic_at(image, path).map(EncodeSource::Raster)
+    }
+}
+
+/// Whether images of this colour type are kept compact for encoding: the integer
+/// types [`from_dynamic`] converts.
+fn is_compact(c: image::ColorType) -> bool {
+    use image::ColorType as C;
+    matches!(
+        c,
+        C::L8 | C::La8 | C::Rgb8 | C::Rgba8 | C::L16 | C::La16 | C::Rgb16 | C::Rgba16
+    )
+}
+
+/// An image loaded for encoding: integer images as the decoder gave them (1 or 2
+/// bytes per sample, converted a tile at a time by the encoder), others as a raster.
+#[derive(Debug, Clone)]
+pub enum EncodeSource {
+    /// An 8- or 16-bit image.
+    Compact(DynamicImage),
+    /// A float image (or any raster).
+    Raster(Raster),
+}
+
+/// Reads an image file for encoding: like [`load_with_limits`], but an integer image
+/// stays in its compact decoded form, counted at its own size against the budget.
+pub fn load_for_encoding(path: &Path, limits: &LoadLimits) -> Result<EncodeSource, ImageIoError> {
+    let io = |source| ImageIoError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = BufReader::new(File::open(path).map_err(io)?);
+    let mut magic = [0u8; 4];
+    let got = read_up_to(&mut file, &mut magic).map_err(io)?;
+    file.rewind().map_err(io)?;
+    let by_ext = ImageFormat::from_path(path).ok();
+    decode_image(file, path, &magic[..got], by_ext, limits, true)
+}
+
+impl EncodeSource {
+    /// The image as a raster (converted whole).
+    pub fn into_raster(self) -> Result<Raster, ImageIoError> {
+        match self {
+            EncodeSource::Raster(r) => Ok(r),
+            EncodeSource::Compact(image) => from_dynamic(image),
+        }
+    }
+}
+
+impl PixelSource for EncodeSource {
+    fn width(&self) -> u32 {
+        match self {
+            EncodeSource::Compact(i) => i.width(),
+            EncodeSource::Raster(r) => r.width(),
+        }
+    }
+
+    fn height(&self) -> u32 {
+        match self {
+            EncodeSource::Compact(i) => i.height(),
+            EncodeSource::Raster(r) => r.height(),
+        }
+    }
+
+    fn layout(&self) -> ChannelLayout {
+        match self {
+            EncodeSource::Compact(i) => {
+                ChannelLayout::from_channels(i.color().channel_count().into())
+                    .expect("compact images have 1 to 4 channels")
+            }
+            EncodeSource::Raster(r) => r.layout(),
+        }
+    }
+
+    fn format(&self) -> SampleFormat {
+        match self {
+            EncodeSource::Compact(i)
+                if i.color().bytes_per_pixel() / i.color().channel_count() == 1 =>
+            {
+                SampleFormat::U8
+            }
+            EncodeSource::Compact(_) => SampleFormat::U16,
+            EncodeSource::Raster(r) => r.format(),
+        }
+    }
+
+    fn region(&self, rect: TileRect) -> Raster {
+        match self {
+            EncodeSource::Compact(i) => {
+                from_dynamic(i.crop_imm(rect.x0, rect.y0, rect.width, rect.height))
+                    .expect("integer samples convert to finite values")
+            }
+            EncodeSource::Raster(r) => r.region(rect),
+        }
+    }
+
+    fn held_bytes(&self) -> u64 {
+        match self {
+            EncodeSource::Compact(i) => i.as_bytes().len() as u64,
+            EncodeSource::Raster(r) => r.held_bytes(),
+        }
+    }
 }
 
 /// Runs a third-party decoder, turning a panic inside it into [`ImageIoError::Corrupt`]:

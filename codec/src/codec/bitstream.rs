@@ -3,26 +3,28 @@
 use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
+use super::tiling::{TileRect, Tiling, SIDE_UNIT};
 use super::{CodecError, MAX_SIDE};
+use crate::metadata::{Metadata, MAX_ITEM_BYTES};
 use crate::raster::{ChannelLayout, SampleFormat};
 
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 3;
+pub const VERSION: u8 = 4;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
     /// Header.
     pub const HEADER: u8 = b'H';
-    /// Quadtree split flags.
-    pub const TREE: u8 = b'T';
-    /// Luma-set values: Y (or grey), then alpha.
-    pub const LUMA: u8 = b'Y';
-    /// Chroma-set values: C1, C2.
-    pub const CHROMA: u8 = b'C';
-    /// Detail layer: transform-coded residual of the colour channels.
-    pub const DETAIL: u8 = b'D';
+    /// ICC colour profile (optional).
+    pub const ICC: u8 = b'I';
+    /// EXIF (optional).
+    pub const EXIF: u8 = b'X';
+    /// XMP (optional).
+    pub const XMP: u8 = b'M';
+    /// One tile: its tree, key-point values and detail blocks, in raster order of tiles.
+    pub const TILE: u8 = b'G';
     /// End of file.
     pub const END: u8 = b'E';
 }
@@ -52,10 +54,12 @@ pub struct Header {
     pub step_chroma: f32,
     /// Quantiser step of alpha.
     pub step_alpha: f32,
-    /// Number of luma key points.
+    /// Number of luma key points (all tiles).
     pub luma_count: u32,
-    /// Number of chroma key points.
+    /// Number of chroma key points (all tiles).
     pub chroma_count: u32,
+    /// Tile side in pixels (a multiple of [`SIDE_UNIT`]).
+    pub tile_side: u32,
     /// Quantiser steps of the detail layer's luma (or grey) and chroma coefficients,
     /// if the file has the layer (flag bit 1; a file whose layer would be all zero
     /// leaves it out).
@@ -63,7 +67,7 @@ pub struct Header {
 }
 
 /// Header bytes without the detail layer's steps.
-const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4;
+const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 2;
 /// Header bytes with them.
 const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
 /// Flag bit: chroma on the pruned tree.
@@ -117,6 +121,7 @@ impl Header {
         }
         b.extend(self.luma_count.to_le_bytes());
         b.extend(self.chroma_count.to_le_bytes());
+        b.extend((self.tile_side as u16).to_le_bytes());
         for s in self.detail_steps.iter().flatten() {
             b.extend(s.to_le_bytes());
         }
@@ -188,7 +193,13 @@ impl Header {
             return Err(CodecError::range("flags", flags, 0.0, 3.0));
         }
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
-        let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(36), f32_at(40)]);
+        let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(38), f32_at(42)]);
+        let tile_side = u16::from_le_bytes([p[36], p[37]]) as u32;
+        if tile_side == 0 || tile_side % SIDE_UNIT != 0 || tile_side > MAX_SIDE {
+            return Err(CodecError::Format(format!(
+                "tile side {tile_side} is not a multiple of {SIDE_UNIT} in {SIDE_UNIT}..={MAX_SIDE}"
+            )));
+        }
         let [detail_luma, detail_chroma] = detail_steps.unwrap_or([1.0; 2]);
         for (name, s) in [
             ("luma quantiser step", step_luma),
@@ -215,6 +226,7 @@ impl Header {
             step_alpha,
             luma_count: u32_at(28),
             chroma_count: u32_at(32),
+            tile_side,
             detail_steps,
         };
         let max = header.shape().max_leaves();
@@ -241,6 +253,163 @@ impl Header {
         }
         Ok(header)
     }
+
+    /// The tiles of the image.
+    pub fn tiling(&self) -> Tiling {
+        Tiling {
+            width: self.width,
+            height: self.height,
+            side: self.tile_side,
+        }
+    }
+}
+
+/// Bytes of a tile section's own header: luma and chroma key-point counts, then the
+/// lengths of the tree, luma and chroma streams (u32 LE each); the detail stream is
+/// the rest of the payload.
+const TILE_HEADER_LEN: usize = 5 * 4;
+
+/// One tile's coded streams, as the encoder produces them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TileStreams {
+    /// Luma key points in the tile.
+    pub luma_count: u32,
+    /// Chroma key points in the tile.
+    pub chroma_count: u32,
+    /// Split flags.
+    pub tree: Vec<u8>,
+    /// Luma-set values.
+    pub luma: Vec<u8>,
+    /// Chroma values (empty for grey images).
+    pub chroma: Vec<u8>,
+    /// Detail blocks (empty when the tile has no coded block).
+    pub detail: Vec<u8>,
+}
+
+impl TileStreams {
+    fn to_payload(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(
+            TILE_HEADER_LEN
+                + self.tree.len()
+                + self.luma.len()
+                + self.chroma.len()
+                + self.detail.len(),
+        );
+        for v in [
+            self.luma_count,
+            self.chroma_count,
+            self.tree.len() as u32,
+            self.luma.len() as u32,
+            self.chroma.len() as u32,
+        ] {
+            b.extend(v.to_le_bytes());
+        }
+        for s in [&self.tree, &self.luma, &self.chroma, &self.detail] {
+            b.extend_from_slice(s);
+        }
+        b
+    }
+}
+
+/// One tile's streams as found in a file.
+#[derive(Debug, Clone, Copy)]
+pub struct TilePayload<'a> {
+    /// Where the tile lies in the image.
+    pub rect: TileRect,
+    /// Luma key points in the tile.
+    pub luma_count: u32,
+    /// Chroma key points in the tile.
+    pub chroma_count: u32,
+    /// Split flags.
+    pub tree: &'a [u8],
+    /// Luma-set values.
+    pub luma: &'a [u8],
+    /// Chroma values.
+    pub chroma: &'a [u8],
+    /// Detail blocks (empty: none coded in this tile).
+    pub detail: &'a [u8],
+}
+
+impl<'a> TilePayload<'a> {
+    /// Splits and checks a tile section against the header.
+    fn parse(
+        p: &'a [u8],
+        rect: TileRect,
+        header: &Header,
+        offset: usize,
+    ) -> Result<Self, CodecError> {
+        if p.len() < TILE_HEADER_LEN {
+            return Err(CodecError::Truncated {
+                what: "a tile's counts and stream lengths",
+                offset: offset as u64,
+                need: TILE_HEADER_LEN as u64,
+                available: p.len() as u64,
+            });
+        }
+        let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+        let (luma_count, chroma_count) = (u32_at(0), u32_at(4));
+        let lens = [u32_at(8) as u64, u32_at(12) as u64, u32_at(16) as u64];
+        let body = (p.len() - TILE_HEADER_LEN) as u64;
+        if lens.iter().sum::<u64>() > body {
+            return Err(CodecError::Truncated {
+                what: "a tile's streams",
+                offset: (offset + TILE_HEADER_LEN) as u64,
+                need: lens.iter().sum(),
+                available: body,
+            });
+        }
+        let shape = TreeShape {
+            width: rect.width,
+            height: rect.height,
+            block_log2: header.block_log2,
+            min_log2: header.min_log2,
+        };
+        let max = shape.max_leaves();
+        if luma_count == 0 || luma_count as u64 > max {
+            return Err(CodecError::range(
+                "a tile's luma key point count",
+                luma_count,
+                1.0,
+                max as f64,
+            ));
+        }
+        if chroma_count as u64 > max {
+            return Err(CodecError::range(
+                "a tile's chroma key point count",
+                chroma_count,
+                0.0,
+                max as f64,
+            ));
+        }
+        if (header.layout.colour_channels() == 3) != (chroma_count > 0) {
+            return Err(CodecError::Format(
+                "chroma key points present iff the image has colour".into(),
+            ));
+        }
+        let mut rest = &p[TILE_HEADER_LEN..];
+        let mut take = |n: u64| {
+            let (a, b) = rest.split_at(n as usize);
+            rest = b;
+            a
+        };
+        let (tree, luma, chroma) = (take(lens[0]), take(lens[1]), take(lens[2]));
+        let detail = rest;
+        if header.detail_steps.is_none() && !detail.is_empty() {
+            return Err(CodecError::Format(format!(
+                "a tile carries {} bytes of detail blocks, but the header has no detail layer",
+                detail.len()
+            )));
+        }
+        Ok(TilePayload {
+            rect,
+            luma_count,
+            chroma_count,
+            tree,
+            luma,
+            chroma,
+            detail,
+        })
+    }
 }
 
 /// Appends a section: tag, payload length (u32 LE), payload, CRC-32 of all three.
@@ -253,30 +422,32 @@ fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
     out.extend(crc.to_le_bytes());
 }
 
-/// Assembles a file from the header and the coded payloads.
-pub fn write(
-    header: &Header,
-    tree: &[u8],
-    luma: &[u8],
-    chroma: Option<&[u8]>,
-    detail: Option<&[u8]>,
-) -> Vec<u8> {
-    let mut out = Vec::with_capacity(
-        64 + tree.len()
-            + luma.len()
-            + chroma.map_or(0, <[u8]>::len)
-            + detail.map_or(0, <[u8]>::len),
-    );
+/// Assembles a file from the header, the metadata and the tiles' streams (raster
+/// order of tiles).
+pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec<u8> {
+    let payloads: Vec<Vec<u8>> = tiles.iter().map(TileStreams::to_payload).collect();
+    let items = [
+        (tag::ICC, &metadata.icc),
+        (tag::EXIF, &metadata.exif),
+        (tag::XMP, &metadata.xmp),
+    ];
+    let len = 64
+        + payloads.iter().map(|p| p.len() + 9).sum::<usize>()
+        + items
+            .iter()
+            .map(|(_, m)| m.as_ref().map_or(0, |m| m.len() + 9))
+            .sum::<usize>();
+    let mut out = Vec::with_capacity(len);
     out.extend(MAGIC);
     out.push(VERSION);
     push_section(&mut out, tag::HEADER, &header.to_bytes());
-    push_section(&mut out, tag::TREE, tree);
-    push_section(&mut out, tag::LUMA, luma);
-    if let Some(c) = chroma {
-        push_section(&mut out, tag::CHROMA, c);
+    for (t, item) in items {
+        if let Some(item) = item {
+            push_section(&mut out, t, item);
+        }
     }
-    if let Some(d) = detail {
-        push_section(&mut out, tag::DETAIL, d);
+    for p in &payloads {
+        push_section(&mut out, tag::TILE, p);
     }
     push_section(&mut out, tag::END, &[]);
     out
@@ -293,22 +464,34 @@ pub struct Section<'a> {
     pub payload: &'a [u8],
 }
 
-/// A parsed file: header and section payloads (borrowed).
+/// A parsed file: header, section payloads and tiles (borrowed).
 #[derive(Debug)]
 pub struct Parsed<'a> {
     /// The header.
     pub header: Header,
     /// All sections in file order, the header and end included.
     pub sections: Vec<Section<'a>>,
+    /// The tiles in raster order, split into their streams.
+    pub tiles: Vec<TilePayload<'a>>,
 }
 
 impl<'a> Parsed<'a> {
-    /// The payload of the section with `tag`.
+    /// The payload of the (first) section with `tag`.
     pub fn payload(&self, tag: u8) -> Option<&'a [u8]> {
         self.sections
             .iter()
             .find(|s| s.tag == tag)
             .map(|s| s.payload)
+    }
+
+    /// The metadata sections' contents.
+    pub fn metadata(&self) -> Metadata {
+        let item = |t: u8| self.payload(t).map(<[u8]>::to_vec);
+        Metadata {
+            icc: item(tag::ICC),
+            exif: item(tag::EXIF),
+            xmp: item(tag::XMP),
+        }
     }
 }
 
@@ -410,20 +593,48 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
             ))
         }
     };
-    let mut expected = vec![tag::HEADER, tag::TREE, tag::LUMA];
-    if header.chroma_count > 0 {
-        expected.push(tag::CHROMA);
+    // Header, the metadata items present (each at most once, in this order), one
+    // section per tile, end.
+    let mut i = 1;
+    for t in [tag::ICC, tag::EXIF, tag::XMP] {
+        if tags.get(i) == Some(&t) {
+            let n = sections[i].payload.len();
+            if n > MAX_ITEM_BYTES {
+                return Err(CodecError::Limit {
+                    what: "metadata item bytes",
+                    value: n as u64,
+                    limit: MAX_ITEM_BYTES as u64,
+                });
+            }
+            i += 1;
+        }
     }
-    if header.detail_steps.is_some() {
-        expected.push(tag::DETAIL);
-    }
-    expected.push(tag::END);
-    if tags != expected {
+    let tiling = header.tiling();
+    let count = tiling.count();
+    let tile_tags = tags[i..].iter().take_while(|&&t| t == tag::TILE).count();
+    if tile_tags != count || i + count + 1 != tags.len() {
         return Err(CodecError::Format(format!(
-            "sections {:?}, expected {:?}",
+            "sections {:?}: expected the header, optional metadata (I, X, M in this order), {count} tile sections (G) and the end (E)",
             String::from_utf8_lossy(&tags),
-            String::from_utf8_lossy(&expected)
         )));
     }
-    Ok(Parsed { header, sections })
+    let tiles = sections[i..i + count]
+        .iter()
+        .enumerate()
+        .map(|(k, s)| TilePayload::parse(s.payload, tiling.rect(k), &header, s.offset))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (luma, chroma) = tiles.iter().fold((0u64, 0u64), |(l, c), t| {
+        (l + t.luma_count as u64, c + t.chroma_count as u64)
+    });
+    if (luma, chroma) != (header.luma_count as u64, header.chroma_count as u64) {
+        return Err(CodecError::Format(format!(
+            "the tiles hold {luma} luma and {chroma} chroma key points, the header says {} and {}",
+            header.luma_count, header.chroma_count
+        )));
+    }
+    Ok(Parsed {
+        header,
+        sections,
+        tiles,
+    })
 }

@@ -14,15 +14,17 @@
 
 use rayon::prelude::*;
 
-use super::bitstream::{self, tag, Header, Parsed};
+use super::bitstream::{self, Header, Parsed, TilePayload};
 use super::colour::{self, CodingPlanes};
-use super::detail::{Detail, DetailEval};
+use super::detail::dct::N as DCT_N;
+use super::detail::{blocks as detail_blocks, Detail, DetailEval, DetailPlane};
 use super::entropy::AnsSource;
 use super::geometry::Frame;
 use super::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
 use super::model::chroma_cells;
-use super::quadtree::Cell;
+use super::quadtree::{Cell, TreeShape};
 use super::syntax::{self, MAX_SYMBOLS_PER_VALUE};
+use super::tiling::{image_order, permute};
 use super::{CodecError, DecodeOptions, MAX_SIDE};
 use crate::raster::{ChannelLayout, Raster, SampleFormat};
 
@@ -42,25 +44,6 @@ pub struct Decoded {
     /// The detail layer (`None` leaves the network's colours alone, as the encoder
     /// needs before it has coded the layer).
     pub detail: Option<Detail>,
-}
-
-/// Reads the detail section, if the file has one: one plane per colour channel.
-fn read_detail(parsed: &Parsed) -> Result<Option<Detail>, CodecError> {
-    let h = &parsed.header;
-    let Some([luma, chroma]) = h.detail_steps else {
-        return Ok(None);
-    };
-    let mut steps = vec![luma as f64];
-    if h.layout.colour_channels() == 3 {
-        steps.extend([chroma as f64; 2]);
-    }
-    Detail::read(
-        parsed.payload(tag::DETAIL).unwrap_or(&[]),
-        h.width,
-        h.height,
-        steps,
-    )
-    .map(Some)
 }
 
 /// Entropy-decodes one value section: `channels` planes of quantised values over
@@ -101,17 +84,42 @@ fn steps(header: &Header) -> (Vec<f64>, [f64; 2]) {
     (luma, [c, c])
 }
 
-/// Decodes the tree section: the luma cells in coding order.
-fn read_luma_cells(parsed: &Parsed) -> Result<Vec<Cell>, CodecError> {
-    let header = &parsed.header;
-    let shape = header.shape();
-    let mut src = AnsSource::new(parsed.payload(tag::TREE).unwrap_or(&[]), shape.max_flags())?;
-    let cells = syntax::read_tree(&shape, header.luma_count as usize, &mut src)?;
-    if cells.len() != header.luma_count as usize {
+/// One tile's key points (image coordinates, the tile's coding order), their
+/// quantised values and its detail planes.
+struct TileDecoded {
+    luma_cells: Vec<Cell>,
+    chroma_cells: Vec<Cell>,
+    luma_values: Vec<Vec<i64>>,
+    chroma_values: Vec<Vec<i64>>,
+    detail: Option<Detail>,
+}
+
+/// The detail layer's quantiser steps, one per colour channel, if the file has it.
+fn detail_steps(header: &Header) -> Option<Vec<f64>> {
+    let [luma, chroma] = header.detail_steps?;
+    let mut steps = vec![luma as f64];
+    if header.layout.colour_channels() == 3 {
+        steps.extend([chroma as f64; 2]);
+    }
+    Some(steps)
+}
+
+/// Entropy-decodes one tile: tree, values (luma and chroma side by side) and detail.
+fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError> {
+    let r = t.rect;
+    let shape = TreeShape {
+        width: r.width,
+        height: r.height,
+        block_log2: header.block_log2,
+        min_log2: header.min_log2,
+    };
+    let mut src = AnsSource::new(t.tree, shape.max_flags())?;
+    let cells = syntax::read_tree(&shape, t.luma_count as usize, &mut src)?;
+    if cells.len() != t.luma_count as usize {
         return Err(CodecError::Format(format!(
-            "tree has {} leaves, header says {}",
+            "a tile's tree has {} leaves, its header says {}",
             cells.len(),
-            header.luma_count
+            t.luma_count
         )));
     }
     if !src.finished_cleanly() {
@@ -119,59 +127,117 @@ fn read_luma_cells(parsed: &Parsed) -> Result<Vec<Cell>, CodecError> {
             "tree payload does not end where the tree does".into(),
         ));
     }
-    Ok(cells)
-}
-
-/// The chroma cells the luma cells imply, checked against the header's count.
-fn read_chroma_cells(header: &Header, luma_cells: &[Cell]) -> Result<Vec<Cell>, CodecError> {
-    let cells = chroma_cells(&header.shape(), luma_cells, header.chroma_pruned);
-    if cells.len() != header.chroma_count as usize {
-        return Err(CodecError::Format(format!(
-            "chroma tree has {} leaves, header says {}",
-            cells.len(),
-            header.chroma_count
-        )));
-    }
-    Ok(cells)
-}
-
-/// Parses and entropy-decodes a file (no pixel evaluation).
-pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
-    let parsed = bitstream::parse(bytes, max_pixels)?;
-    let header = parsed.header.clone();
-    let luma_cells = read_luma_cells(&parsed)?;
+    let size = (r.width, r.height);
+    let (luma_steps, _) = steps(header);
     let colour = header.layout.colour_channels() == 3;
-    let (luma_steps, chroma_steps) = steps(&header);
-    let size = (header.width, header.height);
-    // The two sections are independent entropy-coded streams; each finds its
-    // neighbours while decoding (and chroma its cells first), on its own thread.
-    let (luma_values, chroma) = rayon::join(
+    // The streams are independent; each finds its neighbours while decoding (and
+    // chroma its cells first).
+    let (luma, (chroma, detail)) = rayon::join(
+        || read_section(t.luma, &cells, size, luma_steps.len()),
         || {
-            read_section(
-                parsed.payload(tag::LUMA).unwrap_or(&[]),
-                &luma_cells,
-                size,
-                luma_steps.len(),
+            rayon::join(
+                || -> Result<_, CodecError> {
+                    if !colour {
+                        return Ok((Vec::new(), Vec::new()));
+                    }
+                    let cc = chroma_cells(&shape, &cells, header.chroma_pruned);
+                    if cc.len() != t.chroma_count as usize {
+                        return Err(CodecError::Format(format!(
+                            "a tile's chroma tree has {} leaves, its header says {}",
+                            cc.len(),
+                            t.chroma_count
+                        )));
+                    }
+                    let values = read_section(t.chroma, &cc, size, 2)?;
+                    Ok((cc, values))
+                },
+                || -> Result<_, CodecError> {
+                    match detail_steps(header) {
+                        Some(steps) if !t.detail.is_empty() => {
+                            Detail::read(t.detail, r.width, r.height, steps).map(Some)
+                        }
+                        _ => Ok(None),
+                    }
+                },
             )
-        },
-        || -> Result<_, CodecError> {
-            if !colour {
-                return Ok((Vec::new(), Vec::new()));
-            }
-            let cells = read_chroma_cells(&header, &luma_cells)?;
-            let values = read_section(parsed.payload(tag::CHROMA).unwrap_or(&[]), &cells, size, 2)?;
-            Ok((cells, values))
         },
     );
     let (chroma_cells, chroma_values) = chroma?;
+    Ok(TileDecoded {
+        luma_cells: cells.into_iter().map(|c| r.to_image(c)).collect(),
+        chroma_cells: chroma_cells.into_iter().map(|c| r.to_image(c)).collect(),
+        luma_values: luma?,
+        chroma_values,
+        detail: detail?,
+    })
+}
+
+/// Entropy-decodes every tile (in parallel) and joins them into the image's key points
+/// in its coding order and its detail layer.
+pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
+    let header = parsed.header.clone();
+    let tiles = parsed
+        .tiles
+        .par_iter()
+        .map(|t| read_tile(&header, t))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (luma_steps, chroma_steps) = steps(&header);
+    let mut luma_cells = Vec::with_capacity(header.luma_count as usize);
+    let mut chroma_cells = Vec::with_capacity(header.chroma_count as usize);
+    let mut luma_values: Vec<Vec<i64>> = vec![Vec::new(); luma_steps.len()];
+    let colour = header.layout.colour_channels() == 3;
+    let mut chroma_values: Vec<Vec<i64>> = vec![Vec::new(); if colour { 2 } else { 0 }];
+    let mut details = Vec::with_capacity(tiles.len());
+    for (t, p) in tiles.into_iter().zip(&parsed.tiles) {
+        luma_cells.extend(t.luma_cells);
+        chroma_cells.extend(t.chroma_cells);
+        for (all, v) in luma_values.iter_mut().zip(t.luma_values) {
+            all.extend(v);
+        }
+        for (all, v) in chroma_values.iter_mut().zip(t.chroma_values) {
+            all.extend(v);
+        }
+        let planes: Vec<Option<DetailPlane>> = match t.detail {
+            Some(d) => d.planes.into_iter().map(Some).collect(),
+            None => Vec::new(),
+        };
+        details.push((p.rect, planes));
+    }
+    let order = image_order(&luma_cells, header.block_log2);
+    let luma_cells: Vec<Cell> = order.iter().map(|&i| luma_cells[i]).collect();
+    let luma_values = permute(&luma_values, &order);
+    let order = image_order(&chroma_cells, header.block_log2);
+    let chroma_cells: Vec<Cell> = order.iter().map(|&i| chroma_cells[i]).collect();
+    let chroma_values = permute(&chroma_values, &order);
+    let detail = detail_steps(&header).map(|steps| {
+        let (cols, rows) = detail_blocks(header.width, header.height);
+        let planes = (0..steps.len())
+            .map(|c| {
+                DetailPlane::from_tiles(
+                    cols,
+                    rows,
+                    details.iter_mut().map(|(r, planes)| {
+                        let at = (r.x0 as usize / DCT_N, r.y0 as usize / DCT_N);
+                        (at, planes.get_mut(c).and_then(Option::take))
+                    }),
+                )
+            })
+            .collect();
+        Detail { planes, steps }
+    });
     Ok(Decoded {
-        luma_values: dequantise(luma_values?, &luma_steps, |v| v),
+        luma_values: dequantise(luma_values, &luma_steps, |v| v),
         chroma_values: dequantise(chroma_values, &chroma_steps, |v| v),
-        detail: read_detail(&parsed)?,
+        detail,
         header,
         luma_cells,
         chroma_cells,
     })
+}
+
+/// Parses and entropy-decodes a file (no pixel evaluation).
+pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
+    read_parsed(&bitstream::parse(bytes, max_pixels)?)
 }
 
 fn output_size(
@@ -200,7 +266,7 @@ fn output_size(
             limit: opts.max_pixels,
         });
     }
-    crate::budget::check(
+    opts.limits.check(
         || format!("decoding {}x{} to {ow}x{oh}", header.width, header.height),
         decode_memory(header, (ow, oh), opts.supersample, sample_bytes),
     )?;
@@ -456,55 +522,32 @@ fn identity_with<O: Send, R>(
     let (ow, oh) = output_size(header, opts, sample_bytes)?;
     let frame = Frame::new(header.width, header.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
-    let size = (header.width, header.height);
-    let (luma_steps, chroma_steps) = steps(header);
-    let colour = header.layout.colour_channels() == 3;
-    let ((luma_cells, samples), detail) = rayon::join(
-        || rayon::join(|| read_luma_cells(&parsed), || alloc(header, (ow, oh))),
-        || read_detail(&parsed).map(|d| d.map(|d| DetailEval::new(&d, &grid))),
+    let (decoded, samples) = rayon::join(|| read_parsed(&parsed), || alloc(header, (ow, oh)));
+    let d = decoded?;
+    let to_f32 = |planes: Vec<Vec<f64>>| -> Vec<Vec<f32>> {
+        planes
+            .into_iter()
+            .map(|v| v.into_iter().map(|x| x as f32).collect())
+            .collect()
+    };
+    // Each key set's evaluator on its own thread, the detail layer's on a third.
+    let (luma, (chroma, detail)) = rayon::join(
+        || {
+            GridEval::new(frame, &d.luma_cells, header.kernel, &grid)
+                .with_values(to_f32(d.luma_values))
+        },
+        || {
+            rayon::join(
+                || {
+                    (!d.chroma_cells.is_empty()).then(|| {
+                        GridEval::new(frame, &d.chroma_cells, header.kernel, &grid)
+                            .with_values(to_f32(d.chroma_values))
+                    })
+                },
+                || d.detail.as_ref().map(|dl| DetailEval::new(dl, &grid)),
+            )
+        },
     );
-    let luma_cells = luma_cells?;
-    let detail = detail?;
-    // The two value sections are independent entropy-coded streams, one per thread;
-    // each thread then prepares its key set's evaluator.
-    let (luma, chroma) =
-        rayon::join(
-            || -> Result<_, CodecError> {
-                let values = read_section(
-                    parsed.payload(tag::LUMA).unwrap_or(&[]),
-                    &luma_cells,
-                    size,
-                    luma_steps.len(),
-                )?;
-                Ok(
-                    GridEval::new(frame, &luma_cells, header.kernel, &grid)
-                        .with_values(dequantise(values, &luma_steps, |v| v as f32)),
-                )
-            },
-            || -> Result<_, CodecError> {
-                if !colour {
-                    return Ok(None);
-                }
-                let cells = read_chroma_cells(header, &luma_cells)?;
-                let values =
-                    read_section(parsed.payload(tag::CHROMA).unwrap_or(&[]), &cells, size, 2)?;
-                Ok(Some((
-                    cells,
-                    dequantise(values, &chroma_steps, |v| v as f32),
-                )))
-            },
-        );
-    let luma = luma?;
-    let (chroma_cells, chroma_values) = chroma?.unzip();
-    let chroma = chroma_values.map(|values| {
-        GridEval::new(
-            frame,
-            chroma_cells.as_deref().unwrap_or(&[]),
-            header.kernel,
-            &grid,
-        )
-        .with_values(values)
-    });
     finish(
         header,
         &luma,

@@ -1,14 +1,22 @@
 //! The encoder: model, quantise, entropy-code, assemble.
 
-use super::bitstream::{self, Header};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use super::bitstream::{self, Header, TileStreams};
 use super::colour::{self, CodingPlanes};
-use super::decoder::{self, Decoded};
 use super::detail::quantise::{self as detail_quantise, Quantiser};
 use super::entropy::AnsSink;
-use super::model::{self, Model};
+use super::geometry::Frame;
+use super::keyset::{Grid, KernelParams, KeySet, MIN_SIGMA_FACTOR};
+use super::model;
+use super::quadtree::Cell;
 use super::rate_control::EncodeSettings;
+use super::source::PixelSource;
 use super::syntax::{self, MAX_VALUE};
+use super::tiling::{image_order, permute, TileRect, Tiling};
 use super::CodecError;
+use crate::metadata::{Metadata, MAX_ITEM_BYTES};
 use crate::raster::Raster;
 
 /// Statistics of one encode.
@@ -18,6 +26,8 @@ pub struct EncodeStats {
     pub luma_keypoints: usize,
     /// Chroma key points.
     pub chroma_keypoints: usize,
+    /// Tiles.
+    pub tiles: usize,
     /// Bytes of the whole file.
     pub bytes: usize,
 }
@@ -42,77 +52,172 @@ fn quantise(nbs: &[syntax::Neighbours], values: &[f64], step: f64, deadzone: f64
     out
 }
 
-/// Entropy-codes a fitted model into a file.
-pub fn write_model(
-    img: &Raster,
-    planes: &CodingPlanes,
-    model: &Model,
-    s: &EncodeSettings,
-) -> (Vec<u8>, EncodeStats) {
-    let (w, h) = (img.width(), img.height());
-    let shape = model.shape;
+/// One tile after modelling: its coded tree and values, and its key points (image
+/// coordinates, the tile's coding order) with the values the decoder will read.
+struct TileModel {
+    streams: TileStreams,
+    luma_cells: Vec<Cell>,
+    chroma_cells: Vec<Cell>,
+    luma_values: Vec<Vec<f64>>,
+    chroma_values: Vec<Vec<f64>>,
+}
+
+/// The coding planes of a tile: opponent colours, or RGB when the settings say so.
+fn coding_planes(tile: &Raster, decorrelate: bool) -> CodingPlanes {
+    let mut planes = colour::forward(tile);
+    if !decorrelate && planes.colour.len() == 3 {
+        planes.colour = (0..3)
+            .map(|c| tile.plane(c).iter().map(|&v| v as f64).collect())
+            .collect();
+    }
+    planes
+}
+
+/// Models one tile and entropy-codes its tree and values, with the tile's own contexts
+/// and neighbours: nothing outside the tile is predicted from.
+fn model_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSettings) -> TileModel {
+    let tile = src.region(rect);
+    let planes = coding_planes(&tile, s.decorrelate);
+    drop(tile);
+    let frame = Frame::window(src.width(), src.height(), (rect.x0, rect.y0), rect.width, rect.height);
+    let model = model::build_in(frame, &planes, &s.model, |_, _| {});
+    drop(planes);
+    let (w, h) = (rect.width, rect.height);
     let leaf_set: std::collections::HashSet<_> = model.luma_cells.iter().copied().collect();
     let mut tree = AnsSink::new();
-    let cells = syntax::write_tree(&shape, |c| !leaf_set.contains(c), &mut tree);
+    let cells = syntax::write_tree(&model.shape, |c| !leaf_set.contains(c), &mut tree);
     debug_assert_eq!(cells, model.luma_cells);
-    let header = Header {
-        width: w,
-        height: h,
-        layout: img.layout(),
-        format: img.format(),
-        block_log2: shape.block_log2,
-        min_log2: shape.min_log2,
-        kernel: model.kernel,
-        chroma_pruned: s.model.chroma_pruned,
-        step_luma: s.step_luma as f32,
-        step_chroma: s.step_chroma as f32,
-        step_alpha: s.step_alpha as f32,
-        luma_count: model.luma_cells.len() as u32,
-        chroma_count: model.chroma_cells.len() as u32,
-        detail_steps: Some([s.detail_step_luma as f32, s.detail_step_chroma as f32]),
-    };
     let mut luma = AnsSink::new();
     let nbs = syntax::neighbours(&model.luma_cells, w, h);
     let mut luma_values = Vec::new();
     for (c, values) in model.luma_colours.iter().enumerate() {
-        let step = if c == 0 {
-            header.step_luma
-        } else {
-            header.step_alpha
-        } as f64;
+        let step = if c == 0 { s.step_luma } else { s.step_alpha };
         let q = quantise(&nbs, values, step, s.deadzone);
         syntax::write_values(&model.luma_cells, &nbs, &q, &mut luma);
         luma_values.push(q.iter().map(|&v| v as f64 * step).collect());
     }
     let mut chroma_values = Vec::new();
-    let chroma = (!model.chroma_cells.is_empty()).then(|| {
+    let chroma = if model.chroma_cells.is_empty() {
+        Vec::new()
+    } else {
         let mut sink = AnsSink::new();
         let nbs = syntax::neighbours(&model.chroma_cells, w, h);
-        let step = header.step_chroma as f64;
         for values in &model.chroma_colours {
-            let q = quantise(&nbs, values, step, s.deadzone);
+            let q = quantise(&nbs, values, s.step_chroma, s.deadzone);
             syntax::write_values(&model.chroma_cells, &nbs, &q, &mut sink);
-            chroma_values.push(q.iter().map(|&v| v as f64 * step).collect());
+            chroma_values.push(q.iter().map(|&v| v as f64 * s.step_chroma).collect());
         }
         sink.finish()
-    });
-    // The detail layer codes what the decoder's network leaves of each colour channel.
-    let base = decoder::render_identity(
-        &Decoded {
-            header: header.clone(),
-            luma_cells: model.luma_cells.clone(),
-            chroma_cells: model.chroma_cells.clone(),
+    };
+    TileModel {
+        streams: TileStreams {
+            luma_count: model.luma_cells.len() as u32,
+            chroma_count: model.chroma_cells.len() as u32,
+            tree: tree.finish(),
+            luma: luma.finish(),
+            chroma,
+            detail: Vec::new(),
+        },
+        luma_cells: model.luma_cells.into_iter().map(|c| rect.to_image(c)).collect(),
+        chroma_cells: model.chroma_cells.into_iter().map(|c| rect.to_image(c)).collect(),
+        luma_values,
+        chroma_values,
+    }
+}
+
+/// The image's key points in its coding order, with their decoded values.
+struct Network {
+    luma_cells: Vec<Cell>,
+    chroma_cells: Vec<Cell>,
+    luma_values: Vec<Vec<f64>>,
+    chroma_values: Vec<Vec<f64>>,
+}
+
+impl Network {
+    fn gather(tiles: &mut [TileModel], block_log2: u8) -> Network {
+        let mut luma_cells = Vec::new();
+        let mut chroma_cells = Vec::new();
+        let mut luma_values: Vec<Vec<f64>> = Vec::new();
+        let mut chroma_values: Vec<Vec<f64>> = Vec::new();
+        for t in tiles.iter_mut() {
+            luma_cells.append(&mut t.luma_cells);
+            chroma_cells.append(&mut t.chroma_cells);
+            luma_values.resize(t.luma_values.len(), Vec::new());
+            chroma_values.resize(t.chroma_values.len(), Vec::new());
+            for (all, v) in luma_values.iter_mut().zip(&mut t.luma_values) {
+                all.append(v);
+            }
+            for (all, v) in chroma_values.iter_mut().zip(&mut t.chroma_values) {
+                all.append(v);
+            }
+        }
+        let order = image_order(&luma_cells, block_log2);
+        let luma_values = permute(&luma_values, &order);
+        let luma_cells = order.iter().map(|&i| luma_cells[i]).collect();
+        let order = image_order(&chroma_cells, block_log2);
+        let chroma_values = permute(&chroma_values, &order);
+        let chroma_cells = order.iter().map(|&i| chroma_cells[i]).collect();
+        Network {
+            luma_cells,
+            chroma_cells,
             luma_values,
             chroma_values,
-            detail: None,
-        },
-        w,
-        h,
-    );
+        }
+    }
+}
+
+/// The network's colours at the pixel centres of `rect`, evaluated from the key points
+/// whose support reaches it (exactly what the whole network gives there: the others
+/// contribute zero).
+fn network_colours(frame: Frame, kernel: KernelParams, net: &Network, rect: TileRect) -> Vec<Vec<f32>> {
+    let grid = Grid {
+        x0: rect.x0 as f64 + 0.5,
+        dx: 1.0,
+        nx: rect.width as usize,
+        y0: rect.y0 as f64 + 0.5,
+        dy: 1.0,
+        ny: rect.height as usize,
+    };
+    let sigma_factor = kernel.sigma_factor.max(MIN_SIGMA_FACTOR);
+    let eval = |cells: &[Cell], values: &[Vec<f64>]| -> Vec<Vec<f32>> {
+        let near: Vec<usize> = (0..cells.len())
+            .filter(|&i| {
+                let c = &cells[i];
+                let (cx, cy) = c.centre(frame.width, frame.height);
+                let r = frame.support_radius(cx, cy, sigma_factor * c.size() as f64) + 1.0;
+                cx + r >= rect.x0 as f64
+                    && cx - r <= (rect.x0 + rect.width) as f64
+                    && cy + r >= rect.y0 as f64
+                    && cy - r <= (rect.y0 + rect.height) as f64
+            })
+            .collect();
+        let sub: Vec<Cell> = near.iter().map(|&i| cells[i]).collect();
+        KeySet::new(frame, &sub, kernel).eval_grid(&permute(values, &near), &grid)
+    };
+    let mut colour = eval(&net.luma_cells, &net.luma_values[..1]);
+    if !net.chroma_cells.is_empty() {
+        colour.extend(eval(&net.chroma_cells, &net.chroma_values));
+    }
+    colour
+}
+
+/// Codes one tile's detail blocks: the residual of its pixels after the whole image's
+/// network. Returns the stream (empty when no block is coded).
+fn detail_tile(
+    src: &(impl PixelSource + ?Sized),
+    rect: TileRect,
+    s: &EncodeSettings,
+    kernel: KernelParams,
+    net: &Network,
+) -> Vec<u8> {
+    let tile = src.region(rect);
+    let planes = coding_planes(&tile, s.decorrelate);
+    drop(tile);
+    let base = network_colours(Frame::new(src.width(), src.height()), kernel, net, rect);
     let residuals: Vec<Vec<f64>> = planes
         .colour
         .iter()
-        .zip(&base.colour)
+        .zip(&base)
         .map(|(t, r)| t.iter().zip(r).map(|(&t, &r)| t - r as f64).collect())
         .collect();
     let quantisers: Vec<Quantiser> = (0..residuals.len())
@@ -126,38 +231,51 @@ pub fn write_model(
             lambda: s.detail_lambda,
         })
         .collect();
-    let (detail, payload) = detail_quantise::code_layer(&residuals, (w, h), &quantisers);
-    // A layer with nothing in it is left out, header steps and all: on smooth images
-    // at low rates its few dozen bytes are a good part of the file.
-    let mut header = header;
-    let payload = if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
-        header.detail_steps = None;
-        None
+    let (detail, payload) =
+        detail_quantise::code_layer(&residuals, (rect.width, rect.height), &quantisers);
+    if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
+        Vec::new()
     } else {
-        Some(payload)
-    };
-    let bytes = bitstream::write(
-        &header,
-        &tree.finish(),
-        &luma.finish(),
-        chroma.as_deref(),
-        payload.as_deref(),
-    );
-    let stats = EncodeStats {
-        luma_keypoints: model.luma_cells.len(),
-        chroma_keypoints: model.chroma_cells.len(),
-        bytes: bytes.len(),
-    };
-    (bytes, stats)
+        payload
+    }
 }
 
-/// Encodes with explicit settings; `progress(done, total)` reports modelling rounds.
+/// Runs `f` on tiles `0..n` with at most `workers` tiles in progress at once (each
+/// worker takes the next tile when it finishes one), results in tile order. A worker
+/// is one rayon task, so the tiles' own parallel loops share the same threads, and a
+/// thread that steals work while waiting can only pick up another worker, never a
+/// tile beyond the `workers` in progress.
+fn run_tiles<T: Send>(n: usize, workers: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let next = AtomicUsize::new(0);
+    let slots: Vec<Mutex<Option<T>>> = (0..n).map(|_| Mutex::new(None)).collect();
+    rayon::scope(|scope| {
+        for _ in 0..workers.clamp(1, n.max(1)) {
+            scope.spawn(|_| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                if i >= n {
+                    break;
+                }
+                let r = f(i);
+                *slots[i].lock().expect("no worker panicked") = Some(r);
+            });
+        }
+    });
+    slots
+        .into_iter()
+        .map(|m| m.into_inner().expect("no worker panicked").expect("every tile ran"))
+        .collect()
+}
+
+/// Encodes with explicit settings, at most `workers` tiles at once; `progress(done,
+/// total)` reports tiles modelled and coded.
 pub fn encode_with(
-    img: &Raster,
-    planes: &CodingPlanes,
+    img: &(impl PixelSource + ?Sized),
     s: &EncodeSettings,
-    progress: impl FnMut(usize, usize),
+    metadata: &Metadata,
+    workers: usize,
+    progress: impl FnMut(usize, usize) + Send,
 ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+    prepare(img)?;
     let mut s = s.clone();
     s.model.kernel = Header::quantise_kernel(s.model.kernel);
     for (name, v) in [
@@ -181,24 +299,75 @@ pub fn encode_with(
     s.step_alpha = s.step_alpha as f32 as f64;
     s.detail_step_luma = s.detail_step_luma as f32 as f64;
     s.detail_step_chroma = s.detail_step_chroma as f32 as f64;
-    let rgb;
-    let planes = if !s.decorrelate && planes.colour.len() == 3 {
-        rgb = CodingPlanes {
-            colour: (0..3)
-                .map(|c| img.plane(c).iter().map(|&v| v as f64).collect())
-                .collect(),
-            alpha: planes.alpha.clone(),
-        };
-        &rgb
-    } else {
-        planes
+    for (name, item) in [("ICC profile", &metadata.icc), ("EXIF", &metadata.exif), ("XMP", &metadata.xmp)] {
+        if let Some(item) = item.as_ref().filter(|i| i.len() > MAX_ITEM_BYTES) {
+            return Err(CodecError::Parameter {
+                name: "metadata",
+                value: format!("{name} of {} bytes", item.len()),
+                reason: "at most 16 MiB per item",
+            });
+        }
+    }
+    let (w, h) = (img.width(), img.height());
+    let tiling = Tiling::choose(w, h);
+    let n = tiling.count();
+    let done = Mutex::new((0usize, progress));
+    let step = || {
+        let mut d = done.lock().expect("progress");
+        d.0 += 1;
+        let k = d.0;
+        (d.1)(k, 2 * n);
     };
-    let model = model::build(planes, img.width(), img.height(), &s.model, progress);
-    Ok(write_model(img, planes, &model, &s))
+    let mut models = run_tiles(n, workers, |i| {
+        let m = model_tile(img, tiling.rect(i), &s);
+        step();
+        m
+    });
+    let net = Network::gather(&mut models, s.model.block_log2);
+    let kernel = s.model.kernel;
+    let details = run_tiles(n, workers, |i| {
+        let d = detail_tile(img, tiling.rect(i), &s, kernel, &net);
+        step();
+        d
+    });
+    let any_detail = details.iter().any(|d| !d.is_empty());
+    let header = Header {
+        width: w,
+        height: h,
+        layout: img.layout(),
+        format: img.format(),
+        block_log2: s.model.block_log2,
+        min_log2: s.model.min_log2,
+        kernel,
+        chroma_pruned: s.model.chroma_pruned,
+        step_luma: s.step_luma as f32,
+        step_chroma: s.step_chroma as f32,
+        step_alpha: s.step_alpha as f32,
+        luma_count: net.luma_cells.len() as u32,
+        chroma_count: net.chroma_cells.len() as u32,
+        tile_side: tiling.side,
+        // A layer with nothing in it is left out, header steps and all: on smooth
+        // images at low rates its few dozen bytes are a good part of the file.
+        detail_steps: any_detail
+            .then_some([s.detail_step_luma as f32, s.detail_step_chroma as f32]),
+    };
+    let streams: Vec<TileStreams> = models
+        .into_iter()
+        .zip(details)
+        .map(|(m, detail)| TileStreams { detail, ..m.streams })
+        .collect();
+    let bytes = bitstream::write(&header, metadata, &streams);
+    let stats = EncodeStats {
+        luma_keypoints: net.luma_cells.len(),
+        chroma_keypoints: net.chroma_cells.len(),
+        tiles: n,
+        bytes: bytes.len(),
+    };
+    Ok((bytes, stats))
 }
 
-/// Splits an image into coding planes after checking it can be encoded.
-pub fn prepare(img: &Raster) -> Result<CodingPlanes, CodecError> {
+/// Checks an image can be encoded.
+pub fn prepare(img: &(impl PixelSource + ?Sized)) -> Result<(), CodecError> {
     if img.width() > super::MAX_SIDE || img.height() > super::MAX_SIDE {
         return Err(CodecError::Limit {
             what: "image side",
@@ -206,5 +375,5 @@ pub fn prepare(img: &Raster) -> Result<CodingPlanes, CodecError> {
             limit: super::MAX_SIDE as u64,
         });
     }
-    Ok(colour::forward(img))
+    Ok(())
 }

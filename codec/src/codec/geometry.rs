@@ -10,7 +10,8 @@
 //! centre, the compact kernel `(1 - d_px^2 / (6 sigma^2))^3`: an isotropic footprint of
 //! `sigma` pixels whose support radius is `sqrt(6) sigma`.
 
-/// The embedding of one image's pixel grid.
+/// The embedding of one image's pixel grid, or of a window of it (a tile, in its own
+/// pixel coordinates, embedded where it lies in the whole image).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
     /// Width in pixels.
@@ -18,6 +19,8 @@ pub struct Frame {
     /// Height in pixels.
     pub height: u32,
     inv_scale: f64,
+    /// The whole image's centre in this frame's pixel coordinates.
+    centre: (f64, f64),
 }
 
 /// Support radius of the compact kernel in units of sigma: `sqrt(6)`.
@@ -30,15 +33,41 @@ impl Frame {
             width,
             height,
             inv_scale: 1.0 / width.max(height).max(1) as f64,
+            centre: (0.5 * width as f64, 0.5 * height as f64),
         }
+    }
+
+    /// The `width x height` window at `(x0, y0)` of a `full_width x full_height`
+    /// image: pixel `(x, y)` of the window embeds as pixel `(x0 + x, y0 + y)` of the
+    /// image, so key points fitted in a tile are the image's own.
+    pub fn window(full_width: u32, full_height: u32, (x0, y0): (u32, u32), width: u32, height: u32) -> Self {
+        let full = Frame::new(full_width, full_height);
+        Frame {
+            width,
+            height,
+            inv_scale: full.inv_scale,
+            centre: (full.centre.0 - x0 as f64, full.centre.1 - y0 as f64),
+        }
+    }
+
+    /// One over the plane scale `S` (the whole image's larger side).
+    #[inline]
+    pub fn inv_scale(&self) -> f64 {
+        self.inv_scale
+    }
+
+    /// The whole image's centre in this frame's pixel coordinates.
+    #[inline]
+    pub fn centre(&self) -> (f64, f64) {
+        self.centre
     }
 
     /// Plane coordinates of pixel position `(x, y)`.
     #[inline]
     pub fn plane(&self, x: f64, y: f64) -> (f64, f64) {
         (
-            (x - 0.5 * self.width as f64) * self.inv_scale,
-            (y - 0.5 * self.height as f64) * self.inv_scale,
+            (x - self.centre.0) * self.inv_scale,
+            (y - self.centre.1) * self.inv_scale,
         )
     }
 
@@ -61,8 +90,8 @@ impl Frame {
             (f64::INFINITY, f64::INFINITY)
         };
         (
-            u / self.inv_scale + 0.5 * self.width as f64,
-            v / self.inv_scale + 0.5 * self.height as f64,
+            u / self.inv_scale + self.centre.0,
+            v / self.inv_scale + self.centre.1,
         )
     }
 
@@ -96,6 +125,20 @@ mod tests {
             let p = f.embed(x, y);
             assert!(((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 1.0).abs() < 1e-15);
             let (bx, by) = f.unembed(&p);
+            assert!((bx - x).abs() < 1e-9 && (by - y).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_window_embeds_its_pixels_where_they_lie_in_the_image() {
+        let full = Frame::new(4032, 3024);
+        let tile = Frame::window(4032, 3024, (1536, 512), 512, 512);
+        for (x, y) in [(0.5, 0.5), (511.5, 300.25), (-40.0, 600.0)] {
+            let a = tile.embed(x, y);
+            let b = full.embed(1536.0 + x, 512.0 + y);
+            assert!(a.iter().zip(&b).all(|(p, q)| (p - q).abs() < 1e-15));
+            assert!((tile.sharpness(x, y, 3.0) - full.sharpness(1536.0 + x, 512.0 + y, 3.0)).abs() < 1e-6);
+            let (bx, by) = tile.unembed(&a);
             assert!((bx - x).abs() < 1e-9 && (by - y).abs() < 1e-9);
         }
     }

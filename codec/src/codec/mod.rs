@@ -14,6 +14,8 @@ pub mod bitstream;
 pub mod decoder;
 mod error;
 pub mod keypoint_map;
+pub mod source;
+pub mod tiling;
 
 /// Declares the internal stages: public with the `internals` feature, else crate-private.
 macro_rules! stages {
@@ -58,8 +60,42 @@ stages! {
 }
 
 pub use error::{CodecError, Tag};
+pub use source::PixelSource;
 
+use crate::budget::{OverBudget, DEFAULT_BUDGET};
+use crate::metadata::Metadata;
 use crate::raster::Raster;
+
+/// Resource limits of one encode or decode call, checked before allocating.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// The most memory the call may allocate, in bytes (its input, already held by
+    /// the caller, not counted).
+    pub max_memory: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_memory: DEFAULT_BUDGET,
+        }
+    }
+}
+
+impl Limits {
+    /// Checks an estimated need; `what` is only formatted on failure.
+    pub fn check(&self, what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
+        if need <= self.max_memory {
+            Ok(())
+        } else {
+            Err(OverBudget {
+                what: what(),
+                need,
+                budget: self.max_memory,
+            })
+        }
+    }
+}
 
 /// Encoder settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,6 +108,10 @@ pub struct EncodeOptions {
     pub target: Option<RateTarget>,
     /// Exact number of key points (luma), overriding the quality's choice.
     pub keypoints: Option<usize>,
+    /// ICC profile, EXIF and XMP stored with the image.
+    pub metadata: Metadata,
+    /// Memory limit of the call.
+    pub limits: Limits,
 }
 
 /// A rate target for the encoder's search.
@@ -90,6 +130,8 @@ impl Default for EncodeOptions {
             effort: 5,
             target: None,
             keypoints: None,
+            metadata: Metadata::default(),
+            limits: Limits::default(),
         }
     }
 }
@@ -104,6 +146,8 @@ pub struct DecodeOptions {
     pub supersample: Option<u32>,
     /// Largest output the decoder will allocate, in pixels.
     pub max_pixels: u64,
+    /// Memory limit of the call.
+    pub limits: Limits,
 }
 
 /// Default decode limit on pixels (2^26).
@@ -117,20 +161,27 @@ impl Default for DecodeOptions {
             size: None,
             supersample: None,
             max_pixels: DEFAULT_MAX_PIXELS,
+            limits: Limits::default(),
         }
     }
 }
 
-/// Encodes `image` into a caoen file.
-pub fn encode(image: &Raster, opts: &EncodeOptions) -> Result<Vec<u8>, CodecError> {
+/// Encodes `image` (a [`Raster`], or any [`PixelSource`]) into a caoen file.
+pub fn encode<S: PixelSource + ?Sized>(
+    image: &S,
+    opts: &EncodeOptions,
+) -> Result<Vec<u8>, CodecError> {
     encode_with_progress(image, opts, |_, _| {}).map(|(bytes, _)| bytes)
 }
 
 /// Encodes, reporting progress as `(done, total)` steps; also returns statistics.
-pub fn encode_with_progress(
-    image: &Raster,
+///
+/// The image is coded in tiles, as many at once as there are rayon threads and the
+/// memory limit allows; the bytes do not depend on either.
+pub fn encode_with_progress<S: PixelSource + ?Sized>(
+    image: &S,
     opts: &EncodeOptions,
-    mut progress: impl FnMut(usize, usize),
+    mut progress: impl FnMut(usize, usize) + Send,
 ) -> Result<(Vec<u8>, encoder::EncodeStats), CodecError> {
     if !(0.0..=100.0).contains(&opts.quality) {
         return Err(CodecError::Parameter {
@@ -153,28 +204,38 @@ pub fn encode_with_progress(
             reason: "at least 1",
         });
     }
+    encoder::prepare(image)?;
     let worst_quality = if opts.target.is_some() {
         100.0
     } else {
         opts.quality
     };
-    let need = encode_memory(image.width(), image.height(), worst_quality);
-    crate::budget::check(
-        || {
-            format!(
-                "encoding {}x{} at quality {worst_quality}",
-                image.width(),
-                image.height()
-            )
-        },
-        need,
-    )?;
-    let planes = encoder::prepare(image)?;
+    let (w, h) = (image.width(), image.height());
+    let settings = |q: f32| {
+        rate_control::settings(q, opts.effort, opts.keypoints)
+            .adapted_to(image.format(), image.layout().has_alpha())
+    };
+    let mut memory = encode_memory(w, h, worst_quality);
+    // Key points: at most one per smallest cell (or the requested number).
+    let smallest = 1u64 << (2 * settings(worst_quality).model.min_log2.min(31));
+    let keys = (u64::from(w) * u64::from(h) / smallest).max(1);
+    let keys = opts.keypoints.map_or(keys, |n| keys.min(n as u64));
+    memory.fixed = memory
+        .fixed
+        .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
+    let workers = memory.workers(opts.limits.max_memory, rayon::current_num_threads());
+    if workers == 0 {
+        return Err(OverBudget {
+            what: format!("encoding {w}x{h} at quality {worst_quality}"),
+            need: memory.need(1),
+            budget: opts.limits.max_memory,
+        }
+        .into());
+    }
+    let pixels = w as f64 * h as f64;
     let target = match opts.target {
         None => None,
-        Some(RateTarget::BitsPerPixel(b)) if b.is_finite() && b > 0.0 => {
-            Some(b * image.pixel_count() as f64 / 8.0)
-        }
+        Some(RateTarget::BitsPerPixel(b)) if b.is_finite() && b > 0.0 => Some(b * pixels / 8.0),
         Some(RateTarget::Bytes(n)) if n > 0 => Some(n as f64),
         Some(t) => {
             return Err(CodecError::Parameter {
@@ -184,38 +245,83 @@ pub fn encode_with_progress(
             });
         }
     };
+    let md = &opts.metadata;
     let Some(target) = target else {
-        let s = rate_control::settings(opts.quality, opts.effort, opts.keypoints)
-            .adapted_to(image.format(), image.layout().has_alpha());
-        return encoder::encode_with(image, &planes, &s, progress);
+        return encoder::encode_with(image, &settings(opts.quality), md, workers, progress);
     };
     let steps = 6 + opts.effort as usize;
     let mut done = 0;
     let (q, _) = rate_control::search_quality(target, 0.02, steps, |q| {
         done += 1;
         progress(done, steps + 1);
-        let s = rate_control::settings(q, opts.effort, opts.keypoints)
-            .adapted_to(image.format(), image.layout().has_alpha());
-        Ok(encoder::encode_with(image, &planes, &s, |_, _| {})?.0.len())
+        Ok(
+            encoder::encode_with(image, &settings(q), md, workers, |_, _| {})?
+                .0
+                .len(),
+        )
     })?;
-    let s = rate_control::settings(q, opts.effort, opts.keypoints)
-        .adapted_to(image.format(), image.layout().has_alpha());
-    let out = encoder::encode_with(image, &planes, &s, |_, _| {})?;
+    let out = encoder::encode_with(image, &settings(q), md, workers, |_, _| {})?;
     progress(steps + 1, steps + 1);
     Ok(out)
 }
 
-/// Estimated peak memory of encoding a `width x height` image at `quality`, in bytes.
+/// Bytes per key point the encoder keeps for the whole image: its cell and values as
+/// the tiles return them and once more in the image's order.
+pub const KEY_POINT_BYTES: u64 = 128;
+
+/// What an encode needs in memory: a fixed part for the whole image and a working set
+/// per tile in progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EncodeMemory {
+    /// Bytes for the whole image: key points, the tiles' streams, the file.
+    pub fixed: u64,
+    /// Bytes of one tile's working set.
+    pub per_tile: u64,
+    /// Number of tiles.
+    pub tiles: u64,
+}
+
+impl EncodeMemory {
+    /// The need with `workers` tiles in progress.
+    pub fn need(&self, workers: u64) -> u64 {
+        self.fixed
+            .saturating_add(self.per_tile.saturating_mul(workers.min(self.tiles)))
+    }
+
+    /// How many tiles may be in progress at once within `budget` and `threads`
+    /// (0: not even one fits).
+    pub fn workers(&self, budget: u64, threads: usize) -> usize {
+        let room = budget.saturating_sub(self.fixed) / self.per_tile.max(1);
+        room.min(threads.max(1) as u64).min(self.tiles) as usize
+    }
+}
+
+/// Estimated peak memory of encoding a `width x height` image at `quality`, beyond the
+/// input the caller holds.
 ///
-/// The encoder holds the coding planes, the analysis maps and, per key-point set, the
-/// fit's sparse design matrix and its transpose; the matrix grows with the number of
-/// kernels over each pixel, which rises with quality. The per-pixel figures bound peak
-/// RSS measured on noisy photo-like images (the densest trees): about 280 bytes per
-/// pixel at quality 5, 360 at 75 and 510 at 100.
-pub fn encode_memory(width: u32, height: u32, quality: f32) -> u64 {
+/// A tile's working set holds its coding planes, the analysis maps and, per key-point
+/// set, the fit's sparse design matrix and its transpose; the matrix grows with the
+/// number of kernels over each pixel, which rises with quality. The per-pixel figures
+/// bound peak RSS measured on noisy photo-like images (the densest trees): about 280
+/// bytes per pixel at quality 5, 360 at 75 and 510 at 100. The whole image keeps its
+/// coded streams (at most 2 bytes per pixel) and its key points, which [`encode`] adds
+/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell.
+pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
     let q = f64::from(quality.clamp(0.0, 100.0)) / 100.0;
     let per_pixel = (300.0 + 240.0 * q * q).ceil() as u64;
-    crate::budget::bytes(width.into(), height.into(), per_pixel).saturating_add(32 << 20)
+    let tiling = tiling::Tiling::choose(width, height);
+    let tile_pixels = (0..tiling.count())
+        .map(|i| {
+            let r = tiling.rect(i);
+            r.width as u64 * r.height as u64
+        })
+        .max()
+        .unwrap_or(0);
+    EncodeMemory {
+        fixed: crate::budget::bytes(width.into(), height.into(), 2).saturating_add(16 << 20),
+        per_tile: crate::budget::bytes(tile_pixels, 1, per_pixel),
+        tiles: tiling.count() as u64,
+    }
 }
 
 /// Decodes a caoen file.

@@ -221,9 +221,21 @@ pub fn build(
     width: u32,
     height: u32,
     s: &ModelSettings,
+    progress: impl FnMut(usize, usize),
+) -> Model {
+    build_in(Frame::new(width, height), planes, s, progress)
+}
+
+/// [`build`] for the pixels of `frame` (a whole image, or a tile of one embedded where
+/// it lies): the tree covers the frame's `width x height` pixels, cells in its own
+/// coordinates.
+pub fn build_in(
+    frame: Frame,
+    planes: &CodingPlanes,
+    s: &ModelSettings,
     mut progress: impl FnMut(usize, usize),
 ) -> Model {
-    let frame = Frame::new(width, height);
+    let (width, height) = (frame.width, frame.height);
     let shape = TreeShape {
         width,
         height,

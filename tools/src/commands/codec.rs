@@ -4,7 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use caoen::codec::bitstream::{self, tag};
-use caoen::codec::{decoder, keypoint_map, DecodeOptions, EncodeOptions, RateTarget};
+use caoen::codec::{
+    decoder, keypoint_map, DecodeOptions, EncodeOptions, Limits, PixelSource, RateTarget,
+};
 use caoen::image_io;
 use caoen::raster::Raster;
 use serde_json::json;
@@ -60,7 +62,8 @@ fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBa
 
 /// Encodes an image, writing `.cae`.
 pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
-    let img = load_image(&a.input)?;
+    let img = image_io::load_for_encoding(&a.input, &image_io::LoadLimits::default())
+        .map_err(|e| CliError::Failed(e.to_string()))?;
     let target = match (a.target_bpp, a.target_size) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage(
@@ -76,6 +79,11 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         effort: a.effort,
         target,
         keypoints: a.keypoints,
+        metadata: Default::default(),
+        // One budget for the command: what the input already holds is spent.
+        limits: Limits {
+            max_memory: caoen::budget::get().saturating_sub(img.held_bytes()),
+        },
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
     let mut outputs = Outputs::new(global.force).input(&a.input);
@@ -101,17 +109,21 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         pb.finish_and_clear();
     }
     outputs.write(&out, &bytes)?;
-    let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
+    let (width, height) = (img.width(), img.height());
+    let bpp = bytes.len() as f64 * 8.0 / (width as f64 * height as f64);
     if let (Some(map), Some(format)) = (&a.keypoint_map, map_format) {
         let decoded = decoder::read(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
-        let picture = keypoint_map::render(&img, &decoded);
+        let raster = img
+            .into_raster()
+            .map_err(|e| CliError::Failed(e.to_string()))?;
+        let picture = keypoint_map::render(&raster, &decoded);
         let png = image_io::encode(&picture, format).map_err(|e| encode_error(map, e))?;
         outputs.write_path(map, &png)?;
         note(global, format!("wrote key point map {}", map.display()));
     }
     if a.json {
         let v = json!({"input": a.input, "output": out.display(), "bytes": bytes.len(), "bpp": bpp,
-            "width": img.width(), "height": img.height(), "luma_keypoints": stats.luma_keypoints,
+            "width": width, "height": height, "tiles": stats.tiles, "luma_keypoints": stats.luma_keypoints,
             "chroma_keypoints": stats.chroma_keypoints, "seconds": secs});
         print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
     }
@@ -184,6 +196,9 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         size,
         supersample: a.supersample,
         max_pixels: a.max_pixels,
+        limits: Limits {
+            max_memory: caoen::budget::get(),
+        },
     };
     let target = a
         .output
@@ -289,10 +304,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
         .map(|s| {
             let name = match s.tag {
                 tag::HEADER => "header",
-                tag::TREE => "tree",
-                tag::LUMA => "luma values",
-                tag::CHROMA => "chroma values",
-                tag::DETAIL => "detail layer",
+                tag::ICC => "ICC profile",
+                tag::EXIF => "EXIF",
+                tag::XMP => "XMP",
+                tag::TILE => "tile",
                 tag::END => "end",
                 _ => "unknown",
             };
@@ -300,6 +315,16 @@ pub fn info(a: &InfoArgs) -> CliResult {
         })
         .collect();
     let px = h.width as f64 * h.height as f64;
+    // What the tiles' streams add up to, per kind.
+    let streams = parsed.tiles.iter().fold([0usize; 4], |acc, t| {
+        [
+            acc[0] + t.tree.len(),
+            acc[1] + t.luma.len(),
+            acc[2] + t.chroma.len(),
+            acc[3] + t.detail.len(),
+        ]
+    });
+    let tiling = h.tiling();
     let mut text = String::new();
     if a.json {
         let v = json!({
@@ -310,6 +335,8 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
             "step_alpha": h.step_alpha, "detail_steps": h.detail_steps, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+            "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
+            "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
             "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
         });
         outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
@@ -368,9 +395,30 @@ pub fn info(a: &InfoArgs) -> CliResult {
         ),
         None => outln!(text, "detail:      none"),
     }
+    outln!(
+        text,
+        "tiles:       {} ({} x {}) of {} px",
+        tiling.count(),
+        tiling.columns(),
+        tiling.rows(),
+        tiling.side
+    );
+    outln!(
+        text,
+        "streams:     tree {} bytes, luma {}, chroma {}, detail {}",
+        streams[0],
+        streams[1],
+        streams[2],
+        streams[3]
+    );
     outln!(text, "sections:");
-    for (t, n, o, b) in &sections {
+    for (t, n, o, b) in sections.iter().filter(|s| s.0 != tag::TILE as char) {
         outln!(text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
     }
+    let (count, bytes) = sections
+        .iter()
+        .filter(|s| s.0 == tag::TILE as char)
+        .fold((0, 0), |(n, b), s| (n + 1, b + s.3));
+    outln!(text, "  'G' tiles          x{count:>7}: {bytes:>8} bytes");
     print(text)
 }

@@ -49,7 +49,7 @@ pub struct DetailPlane {
     pub rows: usize,
     /// Per block: its index in `levels`, or [`ZERO`].
     index: Vec<u32>,
-    /// Row-major levels of the coded blocks.
+    /// Levels of the coded blocks.
     levels: Vec<[i32; COEFFS]>,
 }
 
@@ -65,6 +65,35 @@ impl DetailPlane {
             } else {
                 index.push(levels.len() as u32);
                 levels.push(b);
+            }
+        }
+        DetailPlane {
+            cols,
+            rows,
+            index,
+            levels,
+        }
+    }
+
+    /// The plane of a whole image, `cols x rows` blocks, from its tiles' planes, each
+    /// placed at its first block `(bx, by)`; a tile without a plane has no coded block.
+    pub fn from_tiles(
+        cols: usize,
+        rows: usize,
+        tiles: impl IntoIterator<Item = ((usize, usize), Option<DetailPlane>)>,
+    ) -> Self {
+        let mut index = vec![ZERO; cols * rows];
+        let mut levels = Vec::new();
+        for ((bx0, by0), plane) in tiles {
+            let Some(p) = plane else { continue };
+            for by in 0..p.rows {
+                for bx in 0..p.cols {
+                    let i = p.index[by * p.cols + bx];
+                    if i != ZERO {
+                        index[(by0 + by) * cols + bx0 + bx] = levels.len() as u32;
+                        levels.push(p.levels[i as usize]);
+                    }
+                }
             }
         }
         DetailPlane {

@@ -308,7 +308,7 @@ impl<'c> GridEval<'c> {
     /// adds the values.
     pub fn new(frame: Frame, cells: &'c [Cell], params: KernelParams, grid: &Grid) -> Self {
         let (nx, ny) = (grid.nx, grid.ny);
-        let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
+        let inv_scale = frame.inv_scale();
         let sigma_factor = params.sigma_factor.max(MIN_SIGMA_FACTOR);
         let levels: [LevelKernel; 32] = std::array::from_fn(|l| {
             let sigma = sigma_factor * (1u64 << l) as f64;
@@ -371,7 +371,7 @@ impl<'c> GridEval<'c> {
         let xs = (0..stride).map(|k| (k as f64 * grid.dx) as f32).collect();
         let plane_u2 = (0..stride)
             .map(|i| {
-                let u = (grid.x(i.min(nx.max(1) - 1)) - 0.5 * frame.width as f64) * inv_scale;
+                let u = (grid.x(i.min(nx.max(1) - 1)) - frame.centre().0) * inv_scale;
                 (u * u) as f32
             })
             .collect();
@@ -596,10 +596,10 @@ impl pulp::WithSimd for Conformal<'_, '_> {
         let (grid, frame) = (&e.grid, &e.frame);
         let j0 = self.b * BAND;
         let rows = BAND.min(grid.ny - j0);
-        let inv_scale = 1.0 / frame.width.max(frame.height).max(1) as f64;
+        let inv_scale = frame.inv_scale();
         self.g.clear();
         for r in 0..rows {
-            let v = (grid.y(j0 + r) - 0.5 * frame.height as f64) * inv_scale;
+            let v = (grid.y(j0 + r) - frame.centre().1) * inv_scale;
             let v2 = (v * v) as f32;
             self.g
                 .extend(e.plane_u2.iter().map(|u2| 1.0 / (1.0 + u2 + v2)));
