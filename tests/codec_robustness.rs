@@ -77,23 +77,26 @@ fn bad_headers_have_clear_messages() {
             e,
             CodecError::UnsupportedVersion {
                 found: 9,
-                supported: 3
+                supported: 4
             }
         ) && e.to_string().contains("version 9"),
         "{e}"
     );
-    // Files of the previous version (no detail layer) are refused, with the way out.
-    let mut old = file.clone();
-    old[4] = 2;
-    let e = decode(&old, &DecodeOptions::default()).unwrap_err();
-    assert!(
-        matches!(e, CodecError::UnsupportedVersion { found: 2, .. })
-            && e.to_string().contains("re-encode"),
-        "{e}"
-    );
-    // The header's length: 36 bytes, or 44 with the detail layer's steps.
+    // Files of earlier versions (untiled; before them, no detail layer) are refused,
+    // with the way out.
+    for version in [2, 3] {
+        let mut old = file.clone();
+        old[4] = version;
+        let e = decode(&old, &DecodeOptions::default()).unwrap_err();
+        assert!(
+            matches!(e, CodecError::UnsupportedVersion { found, supported: 4 } if found == version)
+                && e.to_string().contains("re-encode"),
+            "{e}"
+        );
+    }
+    // The header's length: 38 bytes, or 46 with the detail layer's steps.
     let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!(hl == 36 || hl == 44, "{hl}");
+    assert!(hl == 38 || hl == 46, "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());

@@ -199,7 +199,7 @@ fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
             "decode",
             &file,
             "--size",
-            "4096x4096",
+            "8192x4096",
             "--supersample",
             "4",
             "-o",
@@ -208,12 +208,14 @@ fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
             "64G",
         ],
         1,
-        "output samples (pixels x S^2) is 268435456, limit 67108864",
+        "output samples (pixels x S^2) is 536870912, limit 268435456",
     );
 }
 
 #[test]
-fn encoding_a_huge_flat_image_is_refused_before_work_starts() {
+fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
+    // With the default budget it encodes, tile by tile; with 250 MB the decoded input
+    // (192 MiB of 8-bit RGB) fits but not the encoder's own share.
     let dir = scratch("encode");
     let out = dir.join("b.cae");
     fails_cleanly(
@@ -222,9 +224,11 @@ fn encoding_a_huge_flat_image_is_refused_before_work_starts() {
             &bad("R4-png-8192x8192-flat.png"),
             "-o",
             &out.display().to_string(),
+            "--max-memory",
+            "250M",
         ],
         1,
-        "encoding 8192x8192 at quality 75 needs about",
+        "encoding 8192x8192 at quality 75 (the decoded input included) needs about",
     );
     assert!(!out.exists());
 }
@@ -286,7 +290,7 @@ fn container_errors_are_specific_and_printable() {
     fails_cleanly(
         &["info", &bad("R8-tag-0x1c-control-char.cae")],
         1,
-        "CRC mismatch in section 0x1c at byte 89: stored",
+        "CRC mismatch in section 0x1c at byte 93: stored",
     );
     let dir = scratch("container");
     fails_cleanly(
@@ -297,7 +301,7 @@ fn container_errors_are_specific_and_printable() {
             &dir.join("e.png").display().to_string(),
         ],
         1,
-        "the end section at byte 93 carries 4 bytes; it must be empty",
+        "the end section at byte 97 carries 4 bytes; it must be empty",
     );
     fails_cleanly(
         &["surface", "info", &bad("R10-surface-trailing-garbage.json")],

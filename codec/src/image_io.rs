@@ -20,8 +20,9 @@ use crate::raster::{ChannelLayout, Raster, RasterError, SampleFormat};
 
 /// Default limit on either side, matching the codec's [`crate::codec::MAX_SIDE`].
 pub const DEFAULT_MAX_SIDE: u32 = crate::codec::MAX_SIDE;
-/// Default limit on pixels, matching the codec's [`crate::codec::DEFAULT_MAX_PIXELS`].
-pub const DEFAULT_MAX_PIXELS: u64 = crate::codec::DEFAULT_MAX_PIXELS;
+/// Default limit on pixels of images read as textures, slices and references (2^26);
+/// the encoder reads up to [`crate::codec::DEFAULT_MAX_PIXELS`].
+pub const DEFAULT_MAX_PIXELS: u64 = 1 << 26;
 
 /// The four bytes every OpenEXR file starts with.
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];

@@ -194,8 +194,8 @@ fn rd_settings_for_files() {
                 "" => {}
                 a => panic!("unknown ablation {a}"),
             }
-            let planes = encoder::prepare(&img).unwrap();
-            let (bytes, stats) = encoder::encode_with(&img, &planes, &s, |_, _| {}).unwrap();
+            let (bytes, stats) =
+                encoder::encode_with(&img, &s, &Default::default(), 2, |_, _| {}).unwrap();
             let te = t.elapsed().as_secs_f64();
             let quality = if s.decorrelate {
                 psnr(&img, &decode(&bytes, &DecodeOptions::default()).unwrap())
@@ -214,14 +214,14 @@ fn rd_settings_for_files() {
             };
             let bpp = bytes.len() as f64 * 8.0 / img.pixel_count() as f64;
             let p = bitstream::parse(&bytes, u64::MAX).unwrap();
-            let sz = |t: u8| p.payload(t).map_or(0, |x| x.len());
+            let sz = |f: fn(&bitstream::TilePayload) -> usize| p.tiles.iter().map(f).sum::<usize>();
             println!(
                 "RD {} {q} {bpp:.4} {:.3} {te:.2} {} {} {} {}",
                 f.rsplit('/').next().unwrap(),
                 quality,
-                sz(bitstream::tag::TREE),
-                sz(bitstream::tag::LUMA),
-                sz(bitstream::tag::CHROMA),
+                sz(|t| t.tree.len()),
+                sz(|t| t.luma.len()),
+                sz(|t| t.chroma.len()),
                 stats.luma_keypoints
             );
         }

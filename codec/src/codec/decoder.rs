@@ -523,7 +523,8 @@ fn identity_with<O: Send, R>(
     let frame = Frame::new(header.width, header.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
     let (decoded, samples) = rayon::join(|| read_parsed(&parsed), || alloc(header, (ow, oh)));
-    let d = decoded?;
+    let mut d = decoded?;
+    let layer = d.detail.take();
     let to_f32 = |planes: Vec<Vec<f64>>| -> Vec<Vec<f32>> {
         planes
             .into_iter()
@@ -544,7 +545,7 @@ fn identity_with<O: Send, R>(
                             .with_values(to_f32(d.chroma_values))
                     })
                 },
-                || d.detail.as_ref().map(|dl| DetailEval::new(dl, &grid)),
+                || layer.map(|dl| DetailEval::from_layer(dl, &grid)),
             )
         },
     );

@@ -150,8 +150,9 @@ pub struct DecodeOptions {
     pub limits: Limits,
 }
 
-/// Default decode limit on pixels (2^26).
-pub const DEFAULT_MAX_PIXELS: u64 = 1 << 26;
+/// Default decode limit on pixels (2^28, 16384 x 16384: the memory budget is the limit
+/// that binds).
+pub const DEFAULT_MAX_PIXELS: u64 = 1 << 28;
 /// Largest image side the format allows.
 pub const MAX_SIDE: u32 = 16384;
 

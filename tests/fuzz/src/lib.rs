@@ -14,13 +14,16 @@
 use std::cell::RefCell;
 use std::path::Path;
 
-use caoen::codec::bitstream::{self, tag, Header, Parsed};
+use caoen::codec::bitstream::{self, Header, Parsed, TileStreams};
 use caoen::codec::decoder;
 use caoen::codec::detail::{self, dct::COEFFS, Detail, DetailPlane};
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
+use caoen::codec::quadtree::TreeShape;
+use caoen::codec::tiling::SIDE_UNIT;
 use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
 use caoen::image_io::{self, LoadLimits};
+use caoen::metadata::Metadata;
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 use caoen::render::mesh::{tessellate, NormalMode};
 use caoen::render::raytrace::RayMethod;
@@ -122,6 +125,7 @@ pub fn decode(data: &[u8]) -> Outcome {
             size: Some(size),
             supersample: Some(2),
             max_pixels: DECODE_MAX_PIXELS,
+            ..DecodeOptions::default()
         };
         let img = codec::decode(data, &opts).map_err(message)?;
         assert_decoded(&img, h, size);
@@ -131,14 +135,19 @@ pub fn decode(data: &[u8]) -> Outcome {
 
 /// The container written again from its parsed parts must be the input itself.
 fn assert_canonical(data: &[u8], parsed: &Parsed) {
-    let payload = |t| parsed.payload(t).unwrap_or(&[]);
-    let again = bitstream::write(
-        &parsed.header,
-        payload(tag::TREE),
-        payload(tag::LUMA),
-        parsed.payload(tag::CHROMA),
-        parsed.payload(tag::DETAIL),
-    );
+    let tiles: Vec<TileStreams> = parsed
+        .tiles
+        .iter()
+        .map(|t| TileStreams {
+            luma_count: t.luma_count,
+            chroma_count: t.chroma_count,
+            tree: t.tree.to_vec(),
+            luma: t.luma.to_vec(),
+            chroma: t.chroma.to_vec(),
+            detail: t.detail.to_vec(),
+        })
+        .collect();
+    let again = bitstream::write(&parsed.header, &parsed.metadata(), &tiles);
     if again != data {
         let at = again.iter().zip(data).take_while(|(a, b)| a == b).count();
         let section = parsed
@@ -218,8 +227,9 @@ impl<'a> Choices<'a> {
 /// A header within every limit of the format, its fields chosen by the fuzzer; the key
 /// point counts are filled in once the tree is drawn.
 fn choose_header(c: &mut Choices) -> Header {
-    let width = 1 + u32::from(c.byte() % 128);
-    let height = 1 + u32::from(c.byte() % 128);
+    // Up to two tiles per side.
+    let width = 1 + u32::from(c.byte());
+    let height = 1 + u32::from(c.byte());
     let layout = ChannelLayout::from_channels(1 + usize::from(c.byte() % 4)).expect("1..=4");
     let format =
         [SampleFormat::U8, SampleFormat::U16, SampleFormat::F32][usize::from(c.byte() % 3)];
@@ -254,14 +264,30 @@ fn choose_header(c: &mut Choices) -> Header {
         step_alpha,
         luma_count: 0,
         chroma_count: 0,
+        tile_side: SIDE_UNIT * (1 + u32::from(c.bit())),
         detail_steps,
+    }
+}
+
+/// Metadata items, each present or not, of the fuzzer's bytes.
+fn choose_metadata(c: &mut Choices) -> Metadata {
+    let mut item = || {
+        c.bit().then(|| {
+            let n = usize::from(c.byte());
+            (0..n).map(|_| c.byte()).collect()
+        })
+    };
+    Metadata {
+        icc: item(),
+        exif: item(),
+        xmp: item(),
     }
 }
 
 /// Detail levels for every colour channel: most blocks empty, the others with a few
 /// small, large or extreme levels at chosen positions.
-fn choose_detail(c: &mut Choices, header: &Header) -> Detail {
-    let (cols, rows) = detail::blocks(header.width, header.height);
+fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) -> Detail {
+    let (cols, rows) = detail::blocks(width, height);
     let channels = header.layout.colour_channels();
     let max = detail::syntax::MAX_LEVEL as i32;
     let planes = (0..channels)
@@ -321,47 +347,61 @@ fn choose_values(c: &mut Choices, n: usize) -> Vec<i64> {
 /// by the encoder's own syntax writers. Returns the file and its header.
 fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
     let mut header = choose_header(c);
-    let shape = header.shape();
-    let mut tree = AnsSink::new();
-    let choices = RefCell::new(c);
-    let luma_cells = syntax::write_tree(&shape, |_| choices.borrow_mut().bit(), &mut tree);
-    let c = choices.into_inner();
+    let metadata = choose_metadata(c);
+    let tiling = header.tiling();
     let colour = header.layout.colour_channels() == 3;
-    let chroma_cells = if colour {
-        model::chroma_cells(&shape, &luma_cells, header.chroma_pruned)
-    } else {
-        Vec::new()
-    };
-    header.luma_count = luma_cells.len() as u32;
-    header.chroma_count = chroma_cells.len() as u32;
-    let (w, h) = (header.width, header.height);
-    let mut luma = AnsSink::new();
-    let nbs = syntax::neighbours(&luma_cells, w, h);
     let luma_channels = 1 + usize::from(header.layout.has_alpha());
-    for _ in 0..luma_channels {
-        let v = choose_values(c, luma_cells.len());
-        syntax::write_values(&luma_cells, &nbs, &v, &mut luma);
-    }
-    let chroma = colour.then(|| {
-        let mut sink = AnsSink::new();
-        let nbs = syntax::neighbours(&chroma_cells, w, h);
-        for _ in 0..2 {
-            let v = choose_values(c, chroma_cells.len());
-            syntax::write_values(&chroma_cells, &nbs, &v, &mut sink);
+    let mut tiles = Vec::with_capacity(tiling.count());
+    for i in 0..tiling.count() {
+        let r = tiling.rect(i);
+        let shape = TreeShape {
+            width: r.width,
+            height: r.height,
+            ..header.shape()
+        };
+        let mut tree = AnsSink::new();
+        let choices = RefCell::new(&mut *c);
+        let luma_cells = syntax::write_tree(&shape, |_| choices.borrow_mut().bit(), &mut tree);
+        let chroma_cells = if colour {
+            model::chroma_cells(&shape, &luma_cells, header.chroma_pruned)
+        } else {
+            Vec::new()
+        };
+        let (w, h) = (r.width, r.height);
+        let mut luma = AnsSink::new();
+        let nbs = syntax::neighbours(&luma_cells, w, h);
+        for _ in 0..luma_channels {
+            let v = choose_values(c, luma_cells.len());
+            syntax::write_values(&luma_cells, &nbs, &v, &mut luma);
         }
-        sink.finish()
-    });
-    let detail = header
-        .detail_steps
-        .is_some()
-        .then(|| choose_detail(c, &header).to_payload());
-    let file = bitstream::write(
-        &header,
-        &tree.finish(),
-        &luma.finish(),
-        chroma.as_deref(),
-        detail.as_deref(),
-    );
+        let chroma = if colour {
+            let mut sink = AnsSink::new();
+            let nbs = syntax::neighbours(&chroma_cells, w, h);
+            for _ in 0..2 {
+                let v = choose_values(c, chroma_cells.len());
+                syntax::write_values(&chroma_cells, &nbs, &v, &mut sink);
+            }
+            sink.finish()
+        } else {
+            Vec::new()
+        };
+        // A tile of the layer may have no coded block: its stream is then empty.
+        let detail = match header.detail_steps {
+            Some(_) if c.byte() % 4 != 0 => choose_detail(c, &header, (w, h)).to_payload(),
+            _ => Vec::new(),
+        };
+        tiles.push(TileStreams {
+            luma_count: luma_cells.len() as u32,
+            chroma_count: chroma_cells.len() as u32,
+            tree: tree.finish(),
+            luma: luma.finish(),
+            chroma,
+            detail,
+        });
+    }
+    header.luma_count = tiles.iter().map(|t| t.luma_count).sum();
+    header.chroma_count = tiles.iter().map(|t| t.chroma_count).sum();
+    let file = bitstream::write(&header, &metadata, &tiles);
     (file, header)
 }
 

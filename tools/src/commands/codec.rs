@@ -62,8 +62,13 @@ fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBa
 
 /// Encodes an image, writing `.cae`.
 pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
-    let img = image_io::load_for_encoding(&a.input, &image_io::LoadLimits::default())
+    let limits = image_io::LoadLimits {
+        max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
+        ..image_io::LoadLimits::default()
+    };
+    let img = image_io::load_for_encoding(&a.input, &limits)
         .map_err(|e| CliError::Failed(e.to_string()))?;
+    let held = img.held_bytes();
     let target = match (a.target_bpp, a.target_size) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage(
@@ -82,7 +87,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         metadata: Default::default(),
         // One budget for the command: what the input already holds is spent.
         limits: Limits {
-            max_memory: caoen::budget::get().saturating_sub(img.held_bytes()),
+            max_memory: caoen::budget::get().saturating_sub(held),
         },
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
@@ -103,7 +108,16 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
             pb.set_position(done as u64);
         }
     })
-    .map_err(|e| codec_err(&a.input, e))?;
+    .map_err(|e| match e {
+        // The budget is the command's: count the decoded input back in.
+        caoen::codec::CodecError::Memory(mut over) => {
+            over.what += " (the decoded input included)";
+            over.need = over.need.saturating_add(held);
+            over.budget = caoen::budget::get();
+            codec_err(&a.input, caoen::codec::CodecError::Memory(over))
+        }
+        e => codec_err(&a.input, e),
+    })?;
     let secs = start.elapsed().as_secs_f64();
     if let Some(pb) = pb {
         pb.finish_and_clear();

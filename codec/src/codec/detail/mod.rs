@@ -296,13 +296,65 @@ fn locate(p: f64, count: usize) -> (usize, f64) {
     (b, p - (b * N) as f64)
 }
 
+impl PlaneEval {
+    /// One plane's coefficients (levels times `step`) and their extents.
+    fn new(p: &DetailPlane, step: f64) -> Self {
+        PlaneEval {
+                coeffs: p
+                    .levels
+                    .iter()
+                    .map(|l| std::array::from_fn(|i| (l[i] as f64 * step) as f32))
+                    .collect(),
+                extent: p
+                    .levels
+                    .iter()
+                    .map(|l| {
+                        let (mut v1, mut u1) = (0, 0);
+                        for (i, &q) in l.iter().enumerate() {
+                            if q != 0 {
+                                v1 = v1.max(i / N + 1);
+                                u1 = u1.max(i % N + 1);
+                            }
+                        }
+                        (v1 as u8, u1 as u8)
+                    })
+                    .collect(),
+                index: p.index.clone(),
+                cols: p.cols,
+            }
+    }
+}
+
 impl DetailEval {
     /// Prepares `detail` for evaluation at the positions of `grid` (coded pixels).
     pub fn new(detail: &Detail, grid: &Grid) -> Self {
-        let (cols, rows) = detail
+        let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
+        let mut eval = DetailEval::geometry(cols, rows, grid);
+        eval.planes = detail
             .planes
-            .first()
-            .map_or((1, 1), |p| (p.cols, p.rows));
+            .iter()
+            .zip(&detail.steps)
+            .map(|(p, &step)| PlaneEval::new(p, step))
+            .collect();
+        eval
+    }
+
+    /// [`DetailEval::new`] taking the layer, each plane's levels freed as soon as its
+    /// coefficients are made: the decoder's peak holds one plane's levels, not all.
+    pub fn from_layer(detail: Detail, grid: &Grid) -> Self {
+        let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
+        let mut eval = DetailEval::geometry(cols, rows, grid);
+        eval.planes = detail
+            .planes
+            .into_iter()
+            .zip(detail.steps)
+            .map(|(p, step)| PlaneEval::new(&p, step))
+            .collect();
+        eval
+    }
+
+    /// The evaluation geometry of `cols x rows` blocks on `grid`, without planes.
+    fn geometry(cols: usize, rows: usize, grid: &Grid) -> Self {
         // Grid positions increase, so each block column covers a contiguous run.
         let mut columns = vec![(0usize, 0usize, 0usize); cols];
         let mut per_column: Vec<Vec<[f32; N]>> = vec![Vec::new(); cols];
@@ -327,37 +379,9 @@ impl DetailEval {
                 (b, dct::basis_at(t))
             })
             .collect();
-        let planes = detail
-            .planes
-            .iter()
-            .zip(&detail.steps)
-            .map(|(p, &step)| PlaneEval {
-                coeffs: p
-                    .levels
-                    .iter()
-                    .map(|l| std::array::from_fn(|i| (l[i] as f64 * step) as f32))
-                    .collect(),
-                extent: p
-                    .levels
-                    .iter()
-                    .map(|l| {
-                        let (mut v1, mut u1) = (0, 0);
-                        for (i, &q) in l.iter().enumerate() {
-                            if q != 0 {
-                                v1 = v1.max(i / N + 1);
-                                u1 = u1.max(i % N + 1);
-                            }
-                        }
-                        (v1 as u8, u1 as u8)
-                    })
-                    .collect(),
-                index: p.index.clone(),
-                cols: p.cols,
-            })
-            .collect();
         DetailEval {
             grid: *grid,
-            planes,
+            planes: Vec::new(),
             columns,
             basis_t,
             rows: rows_basis,

@@ -1,0 +1,254 @@
+//! Tiled coding: a large image is cut into tiles that are coded independently, yet
+//! decodes as one network and one detail layer: tile edges no worse than the edges
+//! inside tiles, the same bytes for any number of workers or threads and for a compact
+//! 8-bit source, the memory limit per call, and files that lie about their tiles.
+
+use caoen::codec::bitstream::{self, tag};
+use caoen::codec::tiling::Tiling;
+use caoen::codec::{
+    decode, encode, encode_memory, inspect, CodecError, DecodeOptions, EncodeOptions, Limits,
+};
+use caoen::image_io::{self, EncodeSource};
+use caoen::raster::Raster;
+
+/// A photo-like corpus image large enough for several tiles, as the image crate holds
+/// it (8-bit RGB).
+fn natural(w: u32, h: u32) -> image::DynamicImage {
+    caoen_corpus::generate(caoen_corpus::Class::Natural, w, h, 3).to_dynamic_image()
+}
+
+/// Mean squared error per pixel (all channels, 8-bit units) of two rasters.
+fn squared_errors(a: &Raster, b: &Raster) -> Vec<f64> {
+    let n = a.pixel_count();
+    let mut se = vec![0.0; n];
+    for c in 0..a.layout().channels() {
+        for (i, (x, y)) in a.plane(c).iter().zip(b.plane(c)).enumerate() {
+            se[i] += ((x - y) as f64 * 255.0).powi(2);
+        }
+    }
+    se
+}
+
+/// Mean of `se` over the pixels on either side of every vertical and horizontal line
+/// at multiples of `period` that `keep` accepts.
+fn edge_mean(se: &[f64], w: usize, h: usize, period: usize, keep: impl Fn(usize) -> bool) -> f64 {
+    let on = |v: usize, n: usize| -> bool {
+        let t = if v % period == period - 1 { v + 1 } else { v };
+        t % period == 0 && t > 0 && t < n && keep(t)
+    };
+    let (mut sum, mut count) = (0.0, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            if on(x, w) || on(y, h) {
+                sum += se[y * w + x];
+                count += 1;
+            }
+        }
+    }
+    sum / count as f64
+}
+
+#[test]
+fn tile_edges_are_no_worse_than_the_edges_inside_tiles() {
+    let (w, h) = (1280u32, 1088u32);
+    let img = image_io::from_dynamic(natural(w, h)).unwrap();
+    let tiling = Tiling::choose(w, h);
+    assert!(tiling.count() >= 6, "{tiling:?}");
+    let side = tiling.side as usize;
+    for quality in [20.0, 75.0, 95.0] {
+        let opts = EncodeOptions {
+            quality,
+            ..EncodeOptions::default()
+        };
+        let bytes = encode(&img, &opts).unwrap();
+        assert_eq!(inspect(&bytes).unwrap().tiles.len(), tiling.count());
+        let out = decode(&bytes, &DecodeOptions::default()).unwrap();
+        let se = squared_errors(&img, &out);
+        let (w, h) = (w as usize, h as usize);
+        let mean = se.iter().sum::<f64>() / se.len() as f64;
+        let tiles = edge_mean(&se, w, h, side, |_| true);
+        // Root edges (every 32 px) that are not tile edges: what any block edge costs.
+        let roots = edge_mean(&se, w, h, 32, |t| t % side != 0);
+        assert!(
+            tiles <= 1.1 * roots,
+            "q{quality}: tile edges {tiles:.3}, root edges inside tiles {roots:.3}, image {mean:.3}"
+        );
+        assert!(
+            tiles <= 1.25 * mean,
+            "q{quality}: tile edges {tiles:.3}, image {mean:.3}"
+        );
+    }
+}
+
+#[test]
+fn bytes_do_not_depend_on_workers_threads_or_the_source_form() {
+    let (w, h) = (1100u32, 700u32);
+    let dynamic = natural(w, h);
+    let raster = image_io::from_dynamic(dynamic.clone()).unwrap();
+    let compact = EncodeSource::Compact(dynamic);
+    let opts = EncodeOptions::default();
+    let reference = encode(&raster, &opts).unwrap();
+    assert!(inspect(&reference).unwrap().tiles.len() > 1);
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        assert_eq!(
+            pool.install(|| encode(&raster, &opts).unwrap()),
+            reference,
+            "{threads} threads"
+        );
+        assert_eq!(
+            pool.install(|| encode(&compact, &opts).unwrap()),
+            reference,
+            "compact source, {threads} threads"
+        );
+    }
+    // A budget for exactly one tile at a time: the same file.
+    let one = encode_memory(w, h, opts.quality);
+    let limited = EncodeOptions {
+        limits: Limits {
+            max_memory: one.need(1) + (64 << 20),
+        },
+        ..opts.clone()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(4)
+        .build()
+        .unwrap();
+    assert_eq!(
+        pool.install(|| encode(&raster, &limited).unwrap()),
+        reference
+    );
+}
+
+#[test]
+fn a_budget_too_small_for_one_tile_is_refused_before_any_work() {
+    let img = image_io::from_dynamic(natural(600, 600)).unwrap();
+    let opts = EncodeOptions {
+        limits: Limits {
+            max_memory: 1 << 20,
+        },
+        ..EncodeOptions::default()
+    };
+    match encode(&img, &opts) {
+        Err(CodecError::Memory(e)) => {
+            assert_eq!(e.budget, 1 << 20);
+            assert!(e.need > e.budget);
+            assert!(e.what.contains("600x600"), "{}", e.what);
+        }
+        other => panic!("{other:?}"),
+    }
+    let d = DecodeOptions {
+        limits: Limits { max_memory: 1000 },
+        ..DecodeOptions::default()
+    };
+    let bytes = encode(&img, &EncodeOptions::default()).unwrap();
+    assert!(matches!(decode(&bytes, &d), Err(CodecError::Memory(_))));
+}
+
+#[test]
+fn the_encode_estimate_stays_bounded_per_pixel_for_large_images() {
+    // A tile's working set does not grow with the image: at camera sizes the estimate
+    // is a few bytes per pixel beyond the tiles in progress.
+    for (w, h) in [(4032u32, 3024u32), (8064, 6048), (16384, 16384)] {
+        let m = encode_memory(w, h, 75.0);
+        let px = w as u64 * h as u64;
+        assert!(m.fixed <= 3 * px + (16 << 20), "{w}x{h}: {m:?}");
+        assert_eq!(m.per_tile, encode_memory(4032, 3024, 75.0).per_tile);
+        assert!(m.need(2) < 24 * px, "{w}x{h}: {m:?}");
+    }
+}
+
+/// Rewrites the sections of a file (tag, payload) with fresh CRCs.
+fn rebuild(sections: &[(u8, Vec<u8>)]) -> Vec<u8> {
+    let mut out = bitstream::MAGIC.to_vec();
+    out.push(bitstream::VERSION);
+    for (t, p) in sections {
+        let start = out.len();
+        out.push(*t);
+        out.extend((p.len() as u32).to_le_bytes());
+        out.extend(p);
+        let crc = crc32fast::hash(&out[start..]);
+        out.extend(crc.to_le_bytes());
+    }
+    out
+}
+
+#[test]
+fn files_that_lie_about_their_tiles_are_refused() {
+    let img = image_io::from_dynamic(natural(1100, 600)).unwrap();
+    let bytes = encode(&img, &EncodeOptions::default()).unwrap();
+    let parsed = inspect(&bytes).unwrap();
+    let sections: Vec<(u8, Vec<u8>)> = parsed
+        .sections
+        .iter()
+        .map(|s| (s.tag, s.payload.to_vec()))
+        .collect();
+    let first_tile = sections.iter().position(|s| s.0 == tag::TILE).unwrap();
+    let expect_err = |s: &[(u8, Vec<u8>)], what: &str| {
+        let file = rebuild(s);
+        let e = decode(&file, &DecodeOptions::default()).unwrap_err();
+        assert!(e.to_string().contains(what), "{what}: {e}");
+    };
+    // A tile missing.
+    let mut s = sections.clone();
+    s.remove(first_tile);
+    expect_err(&s, "tile sections");
+    // A tile's key-point count that disagrees with the header's total.
+    let mut s = sections.clone();
+    let n = u32::from_le_bytes(s[first_tile].1[0..4].try_into().unwrap());
+    s[first_tile].1[0..4].copy_from_slice(&(n + 1).to_le_bytes());
+    expect_err(&s, "the header says");
+    // A stream length past the tile's payload.
+    let mut s = sections.clone();
+    s[first_tile].1[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+    expect_err(&s, "tile's streams");
+    // A tile side that is not a multiple of 128.
+    let mut s = sections.clone();
+    s[0].1[36..38].copy_from_slice(&300u16.to_le_bytes());
+    expect_err(&s, "tile side");
+    // A metadata item out of order.
+    let mut s = sections.clone();
+    s.insert(first_tile, (tag::EXIF, b"II*\0".to_vec()));
+    s.insert(first_tile, (tag::XMP, b"<x/>".to_vec()));
+    expect_err(&s, "sections");
+}
+
+#[test]
+fn metadata_items_travel_through_the_file_untouched() {
+    let img = image_io::from_dynamic(natural(200, 120)).unwrap();
+    let metadata = caoen::metadata::Metadata {
+        icc: Some((0..=255u8).collect()),
+        exif: Some(b"MM\0*\0\0\0\x08\0\0".to_vec()),
+        xmp: None,
+    };
+    let opts = EncodeOptions {
+        metadata: metadata.clone(),
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&img, &opts).unwrap();
+    let parsed = inspect(&bytes).unwrap();
+    assert_eq!(parsed.metadata(), metadata);
+    // The pixels do not depend on it.
+    let plain = encode(&img, &EncodeOptions::default()).unwrap();
+    assert_eq!(
+        decode(&bytes, &DecodeOptions::default()).unwrap(),
+        decode(&plain, &DecodeOptions::default()).unwrap()
+    );
+    let too_big = EncodeOptions {
+        metadata: caoen::metadata::Metadata {
+            xmp: Some(vec![b' '; caoen::metadata::MAX_ITEM_BYTES + 1]),
+            ..Default::default()
+        },
+        ..EncodeOptions::default()
+    };
+    assert!(matches!(
+        encode(&img, &too_big),
+        Err(CodecError::Parameter {
+            name: "metadata",
+            ..
+        })
+    ));
+}
