@@ -1,8 +1,23 @@
 //! Image metadata carried through the codec beside the pixels: the ICC colour profile,
 //! EXIF and XMP, stored verbatim in their own container sections (`docs/format.md`).
+//!
+//! EXIF is read only as far as its orientation: a bounded walker over the TIFF
+//! structure that never follows an offset outside the block, never allocates by a
+//! declared count, and stops a directory chain that loops.
+
+use thiserror::Error;
 
 /// Largest metadata item (one ICC profile, EXIF block or XMP packet) read or stored.
 pub const MAX_ITEM_BYTES: usize = 16 << 20;
+
+/// Longest chain of TIFF directories (IFD0, IFD1, ...) followed; cameras write two.
+pub const MAX_IFDS: usize = 64;
+
+/// The TIFF tag of the EXIF orientation.
+pub const ORIENTATION_TAG: u16 = 0x0112;
+
+/// The TIFF field type SHORT (an unsigned 16-bit value), the orientation's type.
+const TYPE_SHORT: u16 = 3;
 
 /// The metadata of one image, each item as the bytes its own standard defines.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -19,5 +34,477 @@ impl Metadata {
     /// Whether no item is present.
     pub fn is_empty(&self) -> bool {
         self.icc.is_none() && self.exif.is_none() && self.xmp.is_none()
+    }
+
+    /// The items a policy keeps.
+    pub fn filtered(&self, policy: MetadataPolicy) -> Metadata {
+        match policy {
+            MetadataPolicy::None => Metadata::default(),
+            MetadataPolicy::Icc => Metadata {
+                icc: self.icc.clone(),
+                ..Metadata::default()
+            },
+            MetadataPolicy::All => self.clone(),
+        }
+    }
+
+    /// Rejects an item over [`MAX_ITEM_BYTES`].
+    pub fn check_sizes(&self) -> Result<(), MetadataError> {
+        for (item, bytes) in [
+            (Item::Icc, &self.icc),
+            (Item::Exif, &self.exif),
+            (Item::Xmp, &self.xmp),
+        ] {
+            if let Some(b) = bytes {
+                check_size(item, b.len() as u64)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The EXIF orientation (1 to 8), if the EXIF has a valid one.
+    pub fn orientation(&self) -> Result<Option<u16>, MetadataError> {
+        self.exif.as_deref().map_or(Ok(None), orientation)
+    }
+}
+
+/// Which metadata items are kept (`--metadata none|icc|all`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum MetadataPolicy {
+    /// None: the pixels alone.
+    None,
+    /// The colour profile alone, which the pixels need to mean the right colours.
+    Icc,
+    /// ICC, EXIF and XMP.
+    #[default]
+    All,
+}
+
+impl MetadataPolicy {
+    /// Parses `none`, `icc` or `all`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "none" => Some(MetadataPolicy::None),
+            "icc" => Some(MetadataPolicy::Icc),
+            "all" => Some(MetadataPolicy::All),
+            _ => None,
+        }
+    }
+}
+
+/// One kind of metadata item, for error messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Item {
+    /// The ICC profile.
+    Icc,
+    /// The EXIF block.
+    Exif,
+    /// The XMP packet.
+    Xmp,
+}
+
+impl std::fmt::Display for Item {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Item::Icc => "ICC profile",
+            Item::Exif => "EXIF",
+            Item::Xmp => "XMP packet",
+        })
+    }
+}
+
+/// Why a metadata item could not be read.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum MetadataError {
+    /// The item (as declared, or as read) is over [`MAX_ITEM_BYTES`].
+    #[error("{item} of {bytes} bytes is over the limit of {max} bytes")]
+    TooLarge {
+        /// Which item.
+        item: Item,
+        /// Its declared or actual size.
+        bytes: u64,
+        /// The limit.
+        max: usize,
+    },
+    /// A compressed item inflates past [`MAX_ITEM_BYTES`].
+    #[error("{item} inflates past the limit of {max} bytes")]
+    InflatesTooLarge {
+        /// Which item.
+        item: Item,
+        /// The limit.
+        max: usize,
+    },
+    /// The EXIF block does not start with a TIFF header.
+    #[error("EXIF does not start with a TIFF header (II*\\0 or MM\\0*) but with {start:02x?}")]
+    NotTiff {
+        /// Its first bytes (up to 4).
+        start: Vec<u8>,
+    },
+    /// An EXIF offset or directory reaches past the end of the block.
+    #[error("EXIF {what} at offset {offset} needs {need} bytes, the block has {len}")]
+    OutOfBounds {
+        /// What was being read.
+        what: &'static str,
+        /// Where it starts.
+        offset: u64,
+        /// Bytes it needs from there.
+        need: u64,
+        /// The block's length.
+        len: usize,
+    },
+    /// The EXIF directory chain comes back to a directory already read.
+    #[error("EXIF directory chain loops back to offset {offset}")]
+    IfdLoop {
+        /// The directory met twice.
+        offset: u64,
+    },
+    /// The EXIF directory chain is longer than [`MAX_IFDS`].
+    #[error("EXIF directory chain is longer than {max} directories")]
+    TooManyIfds {
+        /// The limit.
+        max: usize,
+    },
+    /// The file's container around the item is damaged.
+    #[error("{item}: {reason}")]
+    Corrupt {
+        /// Which item, or the container.
+        item: &'static str,
+        /// What is wrong, with the offending values.
+        reason: String,
+    },
+}
+
+/// Rejects an item size over [`MAX_ITEM_BYTES`].
+pub fn check_size(item: Item, bytes: u64) -> Result<(), MetadataError> {
+    if bytes > MAX_ITEM_BYTES as u64 {
+        return Err(MetadataError::TooLarge {
+            item,
+            bytes,
+            max: MAX_ITEM_BYTES,
+        });
+    }
+    Ok(())
+}
+
+/// A TIFF structure with its byte order; every read is bounds-checked.
+struct Tiff<'a> {
+    data: &'a [u8],
+    little: bool,
+}
+
+impl<'a> Tiff<'a> {
+    fn new(data: &'a [u8]) -> Result<Self, MetadataError> {
+        let little = match data.get(..4) {
+            Some(b"II*\0") => true,
+            Some(b"MM\0*") => false,
+            _ => {
+                return Err(MetadataError::NotTiff {
+                    start: data[..data.len().min(4)].to_vec(),
+                })
+            }
+        };
+        Ok(Tiff { data, little })
+    }
+
+    fn bytes<const N: usize>(&self, what: &'static str, at: u64) -> Result<[u8; N], MetadataError> {
+        let out = usize::try_from(at)
+            .ok()
+            .and_then(|a| self.data.get(a..a.checked_add(N)?))
+            .ok_or(MetadataError::OutOfBounds {
+                what,
+                offset: at,
+                need: N as u64,
+                len: self.data.len(),
+            })?;
+        let mut b = [0; N];
+        b.copy_from_slice(out);
+        Ok(b)
+    }
+
+    fn u16(&self, what: &'static str, at: u64) -> Result<u16, MetadataError> {
+        let b = self.bytes::<2>(what, at)?;
+        Ok(if self.little {
+            u16::from_le_bytes(b)
+        } else {
+            u16::from_be_bytes(b)
+        })
+    }
+
+    fn u32(&self, what: &'static str, at: u64) -> Result<u32, MetadataError> {
+        let b = self.bytes::<4>(what, at)?;
+        Ok(if self.little {
+            u32::from_le_bytes(b)
+        } else {
+            u32::from_be_bytes(b)
+        })
+    }
+
+    fn first_ifd(&self) -> Result<u64, MetadataError> {
+        self.u32("header", 4).map(u64::from)
+    }
+
+    /// The number of entries of the directory at `ifd`, once all of them are known to
+    /// lie inside the block.
+    fn entry_count(&self, ifd: u64) -> Result<u64, MetadataError> {
+        let n = u64::from(self.u16("directory", ifd)?);
+        let need = 2 + 12 * n;
+        if ifd.saturating_add(need) > self.data.len() as u64 {
+            return Err(MetadataError::OutOfBounds {
+                what: "directory",
+                offset: ifd,
+                need,
+                len: self.data.len(),
+            });
+        }
+        Ok(n)
+    }
+
+    /// The offset of the next directory (0: none). A block that ends right after a
+    /// directory's entries, without the link, is read as the end of the chain.
+    fn next_ifd(&self, ifd: u64, count: u64) -> u64 {
+        self.u32("link", ifd + 2 + 12 * count).map_or(0, u64::from)
+    }
+
+    /// Where the orientation's value sits in IFD0, and the value, when the tag is
+    /// there as one SHORT.
+    fn orientation_slot(&self) -> Result<Option<(u64, u16)>, MetadataError> {
+        let ifd = self.first_ifd()?;
+        let count = self.entry_count(ifd)?;
+        for i in 0..count {
+            let entry = ifd + 2 + 12 * i;
+            if self.u16("entry", entry)? != ORIENTATION_TAG {
+                continue;
+            }
+            let kind = self.u16("entry", entry + 2)?;
+            let n = self.u32("entry", entry + 4)?;
+            if kind != TYPE_SHORT || n != 1 {
+                return Ok(None);
+            }
+            return Ok(Some((entry + 8, self.u16("entry", entry + 8)?)));
+        }
+        Ok(None)
+    }
+}
+
+/// The offsets of the TIFF directories in an EXIF block's chain (IFD0, IFD1, ...), each
+/// checked to lie inside the block; a loop or a chain over [`MAX_IFDS`] is an error.
+pub fn ifd_chain(exif: &[u8]) -> Result<Vec<u64>, MetadataError> {
+    let tiff = Tiff::new(exif)?;
+    let mut seen = Vec::new();
+    let mut ifd = tiff.first_ifd()?;
+    while ifd != 0 {
+        if seen.contains(&ifd) {
+            return Err(MetadataError::IfdLoop { offset: ifd });
+        }
+        if seen.len() == MAX_IFDS {
+            return Err(MetadataError::TooManyIfds { max: MAX_IFDS });
+        }
+        let count = tiff.entry_count(ifd)?;
+        seen.push(ifd);
+        ifd = tiff.next_ifd(ifd, count);
+    }
+    Ok(seen)
+}
+
+/// The EXIF orientation (1 to 8) from IFD0 of a TIFF-structured EXIF block: `None`
+/// when the tag is absent, not a single SHORT, or out of range. Only IFD0 is read, so
+/// a damaged chain after it does not matter here.
+pub fn orientation(exif: &[u8]) -> Result<Option<u16>, MetadataError> {
+    let slot = Tiff::new(exif)?.orientation_slot()?;
+    Ok(slot.map(|(_, v)| v).filter(|v| (1..=8).contains(v)))
+}
+
+/// Sets the EXIF orientation in place to 1 (upright as stored), returning the value it
+/// had; an EXIF without the tag is left as it is.
+pub fn reset_orientation(exif: &mut [u8]) -> Result<Option<u16>, MetadataError> {
+    let tiff = Tiff::new(exif)?;
+    let little = tiff.little;
+    let Some((at, old)) = tiff.orientation_slot()? else {
+        return Ok(None);
+    };
+    // `orientation_slot` read two bytes there, so the range is inside the block.
+    let at = at as usize;
+    let one = if little {
+        1u16.to_le_bytes()
+    } else {
+        1u16.to_be_bytes()
+    };
+    exif[at..at + 2].copy_from_slice(&one);
+    Ok(Some(old))
+}
+
+/// A copy of an EXIF block saying orientation 1; unreadable blocks are copied as they
+/// are (nothing can be rewritten in them).
+pub fn with_orientation_one(exif: &[u8]) -> Vec<u8> {
+    let mut out = exif.to_vec();
+    let _ = reset_orientation(&mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A TIFF block with IFD0 holding `entries` (tag, type, count, value) and linking
+    /// to `next`.
+    fn tiff(little: bool, entries: &[(u16, u16, u32, u32)], next: u32) -> Vec<u8> {
+        let mut out = Vec::new();
+        let u16b = |v: u16| {
+            if little {
+                v.to_le_bytes()
+            } else {
+                v.to_be_bytes()
+            }
+        };
+        let u32b = |v: u32| {
+            if little {
+                v.to_le_bytes()
+            } else {
+                v.to_be_bytes()
+            }
+        };
+        out.extend_from_slice(if little { b"II*\0" } else { b"MM\0*" });
+        out.extend_from_slice(&u32b(8));
+        out.extend_from_slice(&u16b(entries.len() as u16));
+        for &(tag, kind, count, value) in entries {
+            out.extend_from_slice(&u16b(tag));
+            out.extend_from_slice(&u16b(kind));
+            out.extend_from_slice(&u32b(count));
+            if kind == TYPE_SHORT && count == 1 {
+                // A SHORT sits in the first two bytes of the value field.
+                out.extend_from_slice(&u16b(value as u16));
+                out.extend_from_slice(&[0, 0]);
+            } else {
+                out.extend_from_slice(&u32b(value));
+            }
+        }
+        out.extend_from_slice(&u32b(next));
+        out
+    }
+
+    #[test]
+    fn orientation_in_both_byte_orders() {
+        for little in [true, false] {
+            let exif = tiff(
+                little,
+                &[(0x010f, 2, 4, 0), (ORIENTATION_TAG, TYPE_SHORT, 1, 6)],
+                0,
+            );
+            assert_eq!(orientation(&exif), Ok(Some(6)), "little endian: {little}");
+            let reset = with_orientation_one(&exif);
+            assert_eq!(orientation(&reset), Ok(Some(1)));
+            assert_eq!(reset.len(), exif.len());
+            let changed = exif.iter().zip(&reset).filter(|(a, b)| a != b).count();
+            assert_eq!(changed, 1, "only the value's low byte changes");
+        }
+    }
+
+    #[test]
+    fn absent_or_odd_orientation_is_none() {
+        let none = tiff(true, &[(0x010f, 2, 4, 0)], 0);
+        assert_eq!(orientation(&none), Ok(None));
+        let long = tiff(true, &[(ORIENTATION_TAG, 4, 1, 6)], 0);
+        assert_eq!(orientation(&long), Ok(None));
+        let nine = tiff(false, &[(ORIENTATION_TAG, TYPE_SHORT, 1, 9)], 0);
+        assert_eq!(orientation(&nine), Ok(None));
+        let mut same = none.clone();
+        assert_eq!(reset_orientation(&mut same), Ok(None));
+        assert_eq!(same, none);
+    }
+
+    #[test]
+    fn cyclic_chain_is_an_error_and_orientation_still_reads() {
+        // IFD0 at 8 links to itself.
+        let exif = tiff(true, &[(ORIENTATION_TAG, TYPE_SHORT, 1, 3)], 8);
+        assert_eq!(ifd_chain(&exif), Err(MetadataError::IfdLoop { offset: 8 }));
+        assert_eq!(orientation(&exif), Ok(Some(3)));
+        // Two directories linking to each other.
+        let mut two = tiff(true, &[(ORIENTATION_TAG, TYPE_SHORT, 1, 3)], 26);
+        two.extend_from_slice(&[0, 0, 8, 0, 0, 0]);
+        assert_eq!(two.len(), 32);
+        assert_eq!(ifd_chain(&two), Err(MetadataError::IfdLoop { offset: 8 }));
+        let chain = ifd_chain(&tiff(true, &[], 0)).expect("one directory");
+        assert_eq!(chain, vec![8]);
+    }
+
+    #[test]
+    fn long_chain_stops_at_the_limit() {
+        // Directories of no entries, each linking to the next, MAX_IFDS + 1 of them.
+        let mut exif = b"II*\0".to_vec();
+        exif.extend_from_slice(&8u32.to_le_bytes());
+        for i in 0..=MAX_IFDS as u32 {
+            exif.extend_from_slice(&0u16.to_le_bytes());
+            exif.extend_from_slice(&(8 + 6 * (i + 1)).to_le_bytes());
+        }
+        exif.extend_from_slice(&[0; 6]);
+        assert_eq!(
+            ifd_chain(&exif),
+            Err(MetadataError::TooManyIfds { max: MAX_IFDS })
+        );
+    }
+
+    #[test]
+    fn truncated_and_huge_counts_are_errors() {
+        let exif = tiff(true, &[(ORIENTATION_TAG, TYPE_SHORT, 1, 6)], 0);
+        for cut in 0..exif.len() - 4 {
+            let r = orientation(&exif[..cut]);
+            assert!(r.is_err(), "cut at {cut}: {r:?}");
+        }
+        // The link may be missing: the chain ends there.
+        assert_eq!(orientation(&exif[..exif.len() - 4]), Ok(Some(6)));
+        // 65535 entries declared in a 26-byte block.
+        let mut huge = exif.clone();
+        huge[8..10].copy_from_slice(&u16::MAX.to_le_bytes());
+        assert!(matches!(
+            orientation(&huge),
+            Err(MetadataError::OutOfBounds { need: 786_422, .. })
+        ));
+        assert!(ifd_chain(&huge).is_err());
+        // IFD0 far past the end, and at the very top of the offset range.
+        for off in [1000u32, u32::MAX] {
+            let mut far = exif.clone();
+            far[4..8].copy_from_slice(&off.to_le_bytes());
+            assert!(matches!(
+                orientation(&far),
+                Err(MetadataError::OutOfBounds { .. })
+            ));
+        }
+        assert!(matches!(
+            orientation(b"JFIF"),
+            Err(MetadataError::NotTiff { .. })
+        ));
+        assert!(matches!(
+            orientation(b""),
+            Err(MetadataError::NotTiff { .. })
+        ));
+    }
+
+    #[test]
+    fn filtering_keeps_what_the_policy_names() {
+        let all = Metadata {
+            icc: Some(vec![1]),
+            exif: Some(vec![2]),
+            xmp: Some(vec![3]),
+        };
+        assert!(all.filtered(MetadataPolicy::None).is_empty());
+        let icc = all.filtered(MetadataPolicy::Icc);
+        assert_eq!(
+            (icc.icc.as_deref(), icc.exif, icc.xmp),
+            (Some(&[1u8][..]), None, None)
+        );
+        assert_eq!(all.filtered(MetadataPolicy::All), all);
+        assert_eq!(MetadataPolicy::parse("icc"), Some(MetadataPolicy::Icc));
+        assert_eq!(MetadataPolicy::parse("ICC"), None);
+        let big = Metadata {
+            xmp: Some(vec![0; MAX_ITEM_BYTES + 1]),
+            ..Metadata::default()
+        };
+        assert!(matches!(
+            big.check_sizes(),
+            Err(MetadataError::TooLarge {
+                item: Item::Xmp,
+                ..
+            })
+        ));
     }
 }
