@@ -6,6 +6,7 @@ use std::time::Instant;
 use caoen::codec::bitstream::{self, tag};
 use caoen::codec::{decoder, keypoint_map, DecodeOptions, EncodeOptions, RateTarget};
 use caoen::image_io;
+use caoen::metadata::Metadata;
 use caoen::raster::Raster;
 use serde_json::json;
 
@@ -22,10 +23,57 @@ fn read_input(path: &Path) -> CliResult<Vec<u8>> {
     caoen::budget::read(path).map_err(|e| CliError::io(path, e))
 }
 
-/// Loads an image file into a raster, with a clear error naming the file.
+/// Loads an image file into a raster, upright by its EXIF orientation, with a clear
+/// error naming the file.
 pub fn load_image(path: &Path) -> CliResult<Raster> {
+    load_image_with_metadata(path).map(|(raster, _)| raster)
+}
+
+/// [`load_image`] with the file's metadata (its EXIF saying orientation 1).
+pub fn load_image_with_metadata(path: &Path) -> CliResult<(Raster, Metadata)> {
     // Image errors name their file already.
-    image_io::load(path).map_err(|e| CliError::Failed(e.to_string()))
+    image_io::load_with_metadata(path, &image_io::LoadLimits::default())
+        .map_err(|e| CliError::Failed(e.to_string()))
+}
+
+/// The metadata a `.cae` file carries.
+// MERGE(metadata): once the container stores metadata (sections 'I', 'X', 'M'), this
+// is `parsed.metadata()`; until then files carry none.
+fn stored_metadata(_parsed: &bitstream::Parsed<'_>) -> Metadata {
+    Metadata::default()
+}
+
+/// Each metadata item's presence and size (and the EXIF orientation), as JSON.
+fn metadata_json(meta: &Metadata) -> serde_json::Value {
+    let size = |item: &Option<Vec<u8>>| item.as_ref().map(|b| json!({"bytes": b.len()}));
+    let mut exif = size(&meta.exif);
+    if let (Some(v), Some(bytes)) = (exif.as_mut(), meta.exif.as_deref()) {
+        v["orientation"] = caoen::metadata::orientation(bytes).ok().flatten().into();
+    }
+    json!({"icc": size(&meta.icc), "exif": exif, "xmp": size(&meta.xmp)})
+}
+
+/// Each metadata item's presence and size (and the EXIF orientation), as one line.
+fn metadata_text(meta: &Metadata) -> String {
+    if meta.is_empty() {
+        return "none".into();
+    }
+    let mut parts = Vec::new();
+    if let Some(icc) = &meta.icc {
+        parts.push(format!("ICC profile {} bytes", icc.len()));
+    }
+    if let Some(exif) = &meta.exif {
+        let orientation = match caoen::metadata::orientation(exif) {
+            Ok(Some(o)) => format!("orientation {o}"),
+            Ok(None) => "no orientation".into(),
+            Err(e) => format!("unreadable: {e}"),
+        };
+        parts.push(format!("EXIF {} bytes ({orientation})", exif.len()));
+    }
+    if let Some(xmp) = &meta.xmp {
+        parts.push(format!("XMP {} bytes", xmp.len()));
+    }
+    parts.join(", ")
 }
 
 /// An error encoding an image in memory for the output `path`: named after the output
@@ -60,7 +108,8 @@ fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBa
 
 /// Encodes an image, writing `.cae`.
 pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
-    let img = load_image(&a.input)?;
+    let (img, metadata) = load_image_with_metadata(&a.input)?;
+    let kept = metadata.filtered(a.metadata.policy(a.strip));
     let target = match (a.target_bpp, a.target_size) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage(
@@ -76,6 +125,8 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         effort: a.effort,
         target,
         keypoints: a.keypoints,
+        // MERGE(metadata): connect when `EncodeOptions.metadata` lands:
+        // metadata: kept.clone(),
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
     let mut outputs = Outputs::new(global.force).input(&a.input);
@@ -112,7 +163,8 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     if a.json {
         let v = json!({"input": a.input, "output": out.display(), "bytes": bytes.len(), "bpp": bpp,
             "width": img.width(), "height": img.height(), "luma_keypoints": stats.luma_keypoints,
-            "chroma_keypoints": stats.chroma_keypoints, "seconds": secs});
+            "chroma_keypoints": stats.chroma_keypoints, "seconds": secs,
+            "metadata": metadata_json(&kept)});
         print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
     }
     note(
@@ -227,6 +279,13 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
                     .map_or(0, |_| image_io::encode_memory(ow, oh, channels, format)),
             ),
         };
+    let kept = stored_metadata(&parsed).filtered(a.metadata.policy(a.strip));
+    // The metadata is copied into the output, and the output once more to make room.
+    let meta_bytes = [&kept.icc, &kept.exif, &kept.xmp]
+        .iter()
+        .map(|m| m.as_ref().map_or(0, |b| b.len() as u64))
+        .sum::<u64>();
+    let need = need.saturating_add(2 * meta_bytes);
     caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
     let png = image_io::PngCompression::parse(&a.png_compression).expect("clap checked it");
@@ -240,7 +299,10 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             let img = decoder::decode_interleaved(&bytes, &opts, d)
                 .map_err(|e| codec_err(&a.input, e))?;
             let size = (img.width, img.height);
-            (Some(image_io::encode_png_interleaved(&img, png)), size)
+            (
+                Some(image_io::encode_png_interleaved_with(&img, png, &kept)),
+                size,
+            )
         }
         None => {
             let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
@@ -248,7 +310,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             (
                 target
                     .as_ref()
-                    .map(|_| image_io::encode_with(&img, format, png)),
+                    .map(|_| image_io::encode_with_metadata(&img, format, png, &kept)),
                 size,
             )
         }
@@ -300,6 +362,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
         })
         .collect();
     let px = h.width as f64 * h.height as f64;
+    let meta = stored_metadata(&parsed);
     let mut text = String::new();
     if a.json {
         let v = json!({
@@ -310,6 +373,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
             "step_alpha": h.step_alpha, "detail_steps": h.detail_steps, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+            "metadata": metadata_json(&meta),
             "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
         });
         outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
@@ -368,6 +432,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
         ),
         None => outln!(text, "detail:      none"),
     }
+    outln!(text, "metadata:    {}", metadata_text(&meta));
     outln!(text, "sections:");
     for (t, n, o, b) in &sections {
         outln!(text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
