@@ -809,4 +809,152 @@ mod tests {
             })
         ));
     }
+
+    fn jpeg_with(segments: &[(u8, Vec<u8>)]) -> Vec<u8> {
+        let mut out = vec![0xff, 0xd8];
+        for (marker, payload) in segments {
+            out.extend_from_slice(&[0xff, *marker]);
+            out.extend_from_slice(&(payload.len() as u16 + 2).to_be_bytes());
+            out.extend_from_slice(payload);
+        }
+        out.extend_from_slice(&[0xff, 0xd9]);
+        out
+    }
+
+    fn icc_chunk(seq: u8, count: u8, data: &[u8]) -> (u8, Vec<u8>) {
+        let mut p = b"ICC_PROFILE\0".to_vec();
+        p.extend_from_slice(&[seq, count]);
+        p.extend_from_slice(data);
+        (0xe2, p)
+    }
+
+    #[test]
+    fn jpeg_icc_chunks_join_in_sequence_order() {
+        let mut profile = vec![0u8; 300];
+        profile[..4].copy_from_slice(&300u32.to_be_bytes());
+        profile
+            .iter_mut()
+            .skip(4)
+            .enumerate()
+            .for_each(|(i, b)| *b = i as u8);
+        let (a, b) = profile.split_at(100);
+        let jpeg = jpeg_with(&[icc_chunk(2, 2, b), icc_chunk(1, 2, a)]);
+        let meta = read_container(&jpeg).unwrap();
+        assert_eq!(meta.icc, Some(profile.clone()));
+        // A chunk missing, or counts that disagree.
+        for bad in [
+            jpeg_with(&[icc_chunk(1, 2, a)]),
+            jpeg_with(&[icc_chunk(1, 2, a), icc_chunk(2, 3, b)]),
+            jpeg_with(&[icc_chunk(1, 2, a), icc_chunk(1, 2, a)]),
+        ] {
+            assert!(
+                matches!(
+                    read_container(&bad),
+                    Err(MetadataError::Corrupt {
+                        item: "ICC profile",
+                        ..
+                    })
+                ),
+                "{:?}",
+                read_container(&bad)
+            );
+        }
+    }
+
+    #[test]
+    fn jpeg_exif_and_xmp_segments() {
+        let exif = tiff(false, &[(ORIENTATION_TAG, TYPE_SHORT, 1, 8)], 0);
+        let xmp = b"<x:xmpmeta/>".to_vec();
+        let jpeg = jpeg_with(&[
+            (0xe0, b"JFIF\0\x01\x02".to_vec()),
+            (0xe1, [b"Exif\0\0".as_slice(), &exif].concat()),
+            (
+                0xe1,
+                [b"http://ns.adobe.com/xap/1.0/\0".as_slice(), &xmp].concat(),
+            ),
+        ]);
+        let meta = read_container(&jpeg).unwrap();
+        assert_eq!(meta.exif, Some(exif));
+        assert_eq!(meta.xmp, Some(xmp));
+        assert_eq!(meta.icc, None);
+        assert_eq!(meta.orientation(), Ok(Some(8)));
+        // Every prefix of the file is read without a panic.
+        for cut in 0..jpeg.len() {
+            let _ = read_container(&jpeg[..cut]);
+        }
+    }
+
+    #[test]
+    fn webp_chunks_with_padding() {
+        let mut riff = b"RIFF\0\0\0\0WEBP".to_vec();
+        for (kind, data) in [
+            (b"VP8X", vec![0u8; 10]),
+            (b"ICCP", vec![1, 2, 3]),
+            (
+                b"EXIF",
+                [b"Exif\0\0".as_slice(), b"MM\0*\0\0\0\x08\0\0"].concat(),
+            ),
+            (b"XMP ", b"<x/>".to_vec()),
+        ] {
+            riff.extend_from_slice(kind);
+            riff.extend_from_slice(&(data.len() as u32).to_le_bytes());
+            riff.extend_from_slice(&data);
+            if data.len() % 2 == 1 {
+                riff.push(0);
+            }
+        }
+        let meta = read_container(&riff).unwrap();
+        assert_eq!(meta.icc, Some(vec![1, 2, 3]));
+        assert_eq!(meta.exif.as_deref(), Some(&b"MM\0*\0\0\0\x08\0\0"[..]));
+        assert_eq!(meta.xmp, Some(b"<x/>".to_vec()));
+        let mut lying = riff.clone();
+        lying[16..20].copy_from_slice(&1000u32.to_le_bytes());
+        assert!(matches!(
+            read_container(&lying),
+            Err(MetadataError::Corrupt { item: "WebP", .. })
+        ));
+        let mut huge = riff[..12].to_vec();
+        huge.extend_from_slice(b"ICCP");
+        huge.extend_from_slice(&u32::MAX.to_le_bytes());
+        assert!(matches!(
+            read_container(&huge),
+            Err(MetadataError::TooLarge {
+                item: Item::Icc,
+                bytes: 4_294_967_295,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn png_chunks_read_back() {
+        let meta = Metadata {
+            icc: Some(vec![
+                0, 0, 0, 20, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9,
+            ]),
+            exif: Some(tiff(true, &[(ORIENTATION_TAG, TYPE_SHORT, 1, 1)], 0)),
+            xmp: Some(b"<x/>".to_vec()),
+        };
+        let mut png = PNG_SIGNATURE.to_vec();
+        png_chunk(&mut png, b"IHDR", &[0; 13]);
+        png_chunk(&mut png, b"IEND", &[]);
+        insert_png_chunks(&mut png, &meta).unwrap();
+        assert_eq!(read_container(&png).unwrap(), meta);
+        for cut in 0..png.len() {
+            let _ = read_container(&png[..cut]);
+        }
+        // A compressed XMP packet is inflated.
+        let mut data = b"XML:com.adobe.xmp\0\x01\0\0\0".to_vec();
+        data.extend_from_slice(&miniz_oxide::deflate::compress_to_vec_zlib(
+            b"<x:packed/>",
+            6,
+        ));
+        let mut png = PNG_SIGNATURE.to_vec();
+        png_chunk(&mut png, b"IHDR", &[0; 13]);
+        png_chunk(&mut png, b"iTXt", &data);
+        assert_eq!(
+            read_container(&png).unwrap().xmp,
+            Some(b"<x:packed/>".to_vec())
+        );
+    }
 }
