@@ -443,3 +443,50 @@ mod regenerate {
         write("exif-declares-2gib.png", truncated);
     }
 }
+
+#[test]
+fn cli_refuses_hostile_metadata_in_one_line() {
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_caoen"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let dir = std::env::temp_dir().join(format!("caoen-metadata-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, words) in [
+        ("icc-declares-100mb.jpg", "100000000"),
+        ("icc-declares-100mb.png", "100000000"),
+        ("icc-inflates-past-limit.png", "inflates"),
+        ("exif-declares-2gib.png", "2147483632"),
+        ("exif-huge-count.png", "786422"),
+        ("app1-length-past-end.jpg", "16384"),
+        ("app1-length-short.jpg", "offset"),
+    ] {
+        let out_file = dir.join(format!("{name}.cae"));
+        let out = run(&[
+            "encode",
+            bad(name).to_str().unwrap(),
+            "-o",
+            out_file.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{name}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{name}: {err}");
+        assert!(err.contains(name) && err.contains(words), "{name}: {err}");
+        assert!(!out_file.exists());
+    }
+    let out_file = dir.join("cyclic.cae");
+    let out = run(&[
+        "encode",
+        bad("exif-cyclic-ifd.jpg").to_str().unwrap(),
+        "-o",
+        out_file.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -252,7 +252,8 @@ impl OutputFormat {
     }
 }
 
-/// Reads an image file with the default limits.
+/// Reads an image file with the default limits, its pixels as stored (no EXIF
+/// orientation applied: [`load_with_metadata`] turns them upright).
 pub fn load(path: &Path) -> Result<Raster, ImageIoError> {
     load_with_limits(path, &LoadLimits::default())
 }
