@@ -231,6 +231,7 @@ fn exr_carries_metadata_as_byte_attributes() {
             other => panic!("{name}: {other:?}"),
         }
     }
+    assert_eq!(image_io::read_metadata(&bytes).unwrap(), meta);
     assert_eq!(
         image_io::load_from_memory(&bytes, &LoadLimits::default()).unwrap(),
         raster

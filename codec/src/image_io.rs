@@ -273,13 +273,17 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Raster, Imag
     decode_reader(file, path, &magic[..got], by_ext, limits, 1)
 }
 
-/// The metadata of an image file held in memory (see [`crate::metadata::read_container`]):
-/// JPEG, PNG and WebP carry it, other formats give none.
+/// The metadata of an image file held in memory: JPEG, PNG and WebP as
+/// [`crate::metadata::read_container`] reads them, OpenEXR from the attributes
+/// [`encode_with_metadata`] writes; other formats give none.
 pub fn read_metadata(bytes: &[u8]) -> Result<Metadata, ImageIoError> {
     read_metadata_at(bytes, Path::new("<memory>"))
 }
 
 fn read_metadata_at(bytes: &[u8], path: &Path) -> Result<Metadata, ImageIoError> {
+    if bytes.starts_with(&EXR_MAGIC) {
+        return exr_io::read_metadata(bytes, path);
+    }
     crate::metadata::read_container(bytes).map_err(|source| ImageIoError::Metadata {
         path: path.to_path_buf(),
         source,
@@ -1089,11 +1093,44 @@ mod exr_io {
         attributes
     }
 
+    /// The metadata attributes of the first layer's header.
+    pub(super) fn read_metadata(bytes: &[u8], path: &Path) -> Result<Metadata, ImageIoError> {
+        use exr::meta::attribute::AttributeValue;
+        let meta = guarded(path, || {
+            MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| corrupt(path, e))
+        })?;
+        let mut out = Metadata::default();
+        let Some(header) = meta.headers.first() else {
+            return Ok(out);
+        };
+        let other = &header.own_attributes.other;
+        for (name, item) in [
+            ("iccProfile", &mut out.icc),
+            ("exif", &mut out.exif),
+            ("xmp", &mut out.xmp),
+        ] {
+            if let Some(AttributeValue::Bytes { bytes, .. }) = other.get(&Text::new_or_panic(name))
+            {
+                *item = Some(bytes.to_vec());
+            }
+        }
+        out.check_sizes().map_err(|source| ImageIoError::Metadata {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(out)
+    }
+
     pub(super) fn write_exr_with(
         raster: &Raster,
         path: &Path,
         meta: &Metadata,
     ) -> Result<Vec<u8>, ImageIoError> {
+        meta.check_sizes()
+            .map_err(|source| ImageIoError::Metadata {
+                path: path.to_path_buf(),
+                source,
+            })?;
         let names: &[&str] = match raster.layout() {
             ChannelLayout::Grey => &["Y"],
             ChannelLayout::GreyAlpha => &["Y", "A"],
