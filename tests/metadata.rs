@@ -306,12 +306,22 @@ fn hostile_files_give_clear_errors() {
         metadata_error(&bad("exif-declares-2gib.png")),
         too_large(Item::Exif, 0x7fff_fff0)
     );
-    for name in ["app1-length-past-end.jpg", "app1-length-short.jpg"] {
-        let e = metadata_error(&bad(name));
-        assert!(
-            matches!(&e, MetadataError::Corrupt { item: "JPEG", reason } if reason.contains("offset")),
-            "{name}: {e}"
-        );
+    let e = metadata_error(&bad("app1-length-past-end.jpg"));
+    assert!(
+        matches!(&e, MetadataError::Corrupt { item: "JPEG", reason } if reason.contains("16384")),
+        "{e}"
+    );
+    // A segment length too short cuts the EXIF to its first bytes, which are no TIFF
+    // header; the scan stops at the stray bytes after it.
+    let bytes = std::fs::read(bad("app1-length-short.jpg")).unwrap();
+    let meta = image_io::read_metadata(&bytes).unwrap();
+    assert_eq!(meta.exif.as_deref(), Some(&b"II"[..]));
+    match image_io::load_with_metadata(&bad("app1-length-short.jpg"), &LoadLimits::default()) {
+        Err(ImageIoError::Metadata {
+            source: MetadataError::NotTiff { start },
+            ..
+        }) => assert_eq!(start, b"II"),
+        other => panic!("{other:?}"),
     }
     // A readable container whose EXIF declares 65535 directory entries in 26 bytes:
     // reading the items is fine, the orientation is not.
@@ -462,7 +472,7 @@ fn cli_refuses_hostile_metadata_in_one_line() {
         ("exif-declares-2gib.png", "2147483632"),
         ("exif-huge-count.png", "786422"),
         ("app1-length-past-end.jpg", "16384"),
-        ("app1-length-short.jpg", "offset"),
+        ("app1-length-short.jpg", "TIFF header"),
     ] {
         let out_file = dir.join(format!("{name}.cae"));
         let out = run(&[

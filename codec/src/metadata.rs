@@ -378,11 +378,10 @@ fn read_jpeg(b: &[u8]) -> Result<Metadata, MetadataError> {
     let mut icc_total = 0u64;
     let mut pos = 2;
     while let Some(&byte) = b.get(pos) {
+        // Stray bytes between segments: the pixel decoder skips them, so the metadata
+        // read so far stands and the scan stops.
         if byte != 0xff {
-            return Err(corrupt(
-                "JPEG",
-                format!("expected a marker at offset {pos}, found byte {byte:#04x}"),
-            ));
+            break;
         }
         while b.get(pos) == Some(&0xff) {
             pos += 1;
@@ -956,5 +955,87 @@ mod tests {
             read_container(&png).unwrap().xmp,
             Some(b"<x:packed/>".to_vec())
         );
+    }
+
+    /// A JPEG, a PNG and a WebP each carrying all three items.
+    fn samples() -> [Vec<u8>; 3] {
+        let exif = tiff(
+            true,
+            &[(0x010f, 2, 4, 0), (ORIENTATION_TAG, TYPE_SHORT, 1, 6)],
+            0,
+        );
+        let jpeg = jpeg_with(&[
+            (0xe1, [b"Exif\0\0".as_slice(), &exif].concat()),
+            (0xe1, b"http://ns.adobe.com/xap/1.0/\0<x/>".to_vec()),
+            icc_chunk(1, 1, &[0, 0, 0, 8, 1, 2, 3, 4]),
+        ]);
+        let meta = Metadata {
+            icc: Some(vec![0, 0, 0, 8, 1, 2, 3, 4]),
+            exif: Some(exif.clone()),
+            xmp: Some(b"<x/>".to_vec()),
+        };
+        let mut png = PNG_SIGNATURE.to_vec();
+        png_chunk(&mut png, b"IHDR", &[0; 13]);
+        png_chunk(&mut png, b"IEND", &[]);
+        insert_png_chunks(&mut png, &meta).unwrap();
+        let mut webp = b"RIFF\0\0\0\0WEBP".to_vec();
+        for (kind, data) in [
+            (b"ICCP", &meta.icc),
+            (b"EXIF", &meta.exif),
+            (b"XMP ", &meta.xmp),
+        ] {
+            let data = data.as_ref().unwrap();
+            webp.extend_from_slice(kind);
+            webp.extend_from_slice(&(data.len() as u32).to_le_bytes());
+            webp.extend_from_slice(data);
+        }
+        [jpeg, png, webp]
+    }
+
+    fn exercise(bytes: &[u8]) {
+        if let Ok(meta) = read_container(bytes) {
+            assert!(meta.check_sizes().is_ok());
+            if let Some(mut exif) = meta.exif {
+                let before = orientation(&exif);
+                let _ = ifd_chain(&exif);
+                let reset = reset_orientation(&mut exif);
+                assert_eq!(before.is_ok(), reset.is_ok());
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(3000))]
+
+        #[test]
+        fn damaged_containers_never_panic(
+            which in 0usize..3,
+            flips in proptest::collection::vec((0usize..4096, proptest::prelude::any::<u8>()), 1..6),
+            cut in 0usize..4096,
+        ) {
+            let mut b = samples()[which].clone();
+            for (at, v) in flips {
+                let n = b.len();
+                b[at % n] = v;
+            }
+            b.truncate(cut.max(2));
+            exercise(&b);
+        }
+
+        #[test]
+        fn any_exif_block_is_walked_safely(
+            little in proptest::prelude::any::<bool>(),
+            body in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..300),
+        ) {
+            let mut exif = if little { b"II*\0".to_vec() } else { b"MM\0*".to_vec() };
+            exif.extend_from_slice(&body);
+            let o = orientation(&exif);
+            let _ = ifd_chain(&exif);
+            let mut copy = exif.clone();
+            let old = reset_orientation(&mut copy);
+            if let (Ok(Some(v)), Ok(Some(w))) = (o, old) {
+                proptest::prop_assert_eq!(v, w);
+            }
+        }
     }
 }
