@@ -501,3 +501,25 @@ fn cli_refuses_hostile_metadata_in_one_line() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn rotated_copy_counts_against_the_memory_budget() {
+    // 12.2 megapixels of 8-bit RGB: decoding takes 15 bytes a pixel (the decoder's 3 and
+    // the raster's 12), turning it a quarter 3 more, so 200 MiB lies between the two.
+    let encode = |name: &str| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_caoen"))
+            .args(["encode", "--max-memory", "200MiB", "-o", "-"])
+            .arg(shared(name))
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{name}");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let upright = encode("012mp-bus.jpg");
+    assert!(upright.contains("encoding 4032x3024"), "{upright}");
+    let turned = encode("012mp-bus-orientation6.jpg");
+    assert!(
+        turned.contains("decoding 3024x4032 needs about 209.3 MiB"),
+        "{turned}"
+    );
+}
