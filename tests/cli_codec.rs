@@ -372,3 +372,112 @@ fn supersampling_anti_aliases_downscaled_decodes() {
     println!("quarter-size decode against the box-filtered full decode: S=1 {one:.2} dB, S=2 {two:.2} dB");
     assert!(two > one + 1.0, "S=1 {one:.2} dB, S=2 {two:.2} dB");
 }
+
+/// A 48x24 JPEG stored on its side (EXIF orientation 6) with a 200-byte ICC profile
+/// and an XMP packet: displayed, it is 24x48 with its red quarter at the top right.
+fn oriented_jpeg(dir: &Path) -> PathBuf {
+    let img = image::RgbImage::from_fn(48, 24, |x, y| {
+        if x < 24 && y < 12 {
+            image::Rgb([220, 30, 30])
+        } else {
+            image::Rgb([30, 30, 220])
+        }
+    });
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 95)
+        .encode_image(&img)
+        .unwrap();
+    let segment = |marker: u8, payload: &[u8]| {
+        let mut out = vec![0xff, marker];
+        out.extend_from_slice(&(payload.len() as u16 + 2).to_be_bytes());
+        out.extend_from_slice(payload);
+        out
+    };
+    // IFD0 holding the orientation, 6.
+    let mut exif = b"Exif\0\0II*\0\x08\0\0\0\x01\0".to_vec();
+    exif.extend_from_slice(&[0x12, 0x01, 3, 0, 1, 0, 0, 0, 6, 0, 0, 0, 0, 0, 0, 0]);
+    let mut icc = vec![7u8; 200];
+    icc[..4].copy_from_slice(&200u32.to_be_bytes());
+    let icc = [b"ICC_PROFILE\0\x01\x01".as_slice(), &icc].concat();
+    let xmp = b"http://ns.adobe.com/xap/1.0/\0<x:xmpmeta xmlns:x=\"adobe:ns:meta/\"/>";
+    let bytes = [
+        &jpeg[..2],
+        &segment(0xe1, &exif),
+        &segment(0xe2, &icc),
+        &segment(0xe1, xmp),
+        &jpeg[2..],
+    ]
+    .concat();
+    let p = dir.join("sideways.jpg");
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+fn encode_json(args: &[&str]) -> serde_json::Value {
+    let out = caoen(&[&["encode", "--json", "--quiet"], args].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn encode_turns_photos_upright_and_keeps_the_metadata_asked_for() {
+    let d = tmpdir("metadata");
+    let jpg = oriented_jpeg(&d);
+    let cae = d.join("up.cae");
+    let j = encode_json(&[s(&jpg), "-o", s(&cae), "-q", "90"]);
+    assert_eq!(
+        (j["width"].as_u64(), j["height"].as_u64()),
+        (Some(24), Some(48))
+    );
+    let m = &j["metadata"];
+    assert_eq!(m["icc"]["bytes"], 200);
+    assert_eq!(m["exif"]["orientation"], 1, "kept EXIF says upright");
+    assert!(m["xmp"]["bytes"].as_u64().unwrap() > 10);
+    let icc = encode_json(&[s(&jpg), "-o", s(&d.join("icc.cae")), "--metadata", "icc"]);
+    let m = &icc["metadata"];
+    assert_eq!(
+        (
+            m["icc"]["bytes"].as_u64(),
+            m["exif"].is_null(),
+            m["xmp"].is_null()
+        ),
+        (Some(200), true, true)
+    );
+    for strip in [&["--strip"][..], &["--metadata", "none"]] {
+        let out = d.join(format!("strip{}.cae", strip.len()));
+        let none = encode_json(&[&[s(&jpg), "-o", s(&out)], strip].concat());
+        let m = &none["metadata"];
+        assert!(m["icc"].is_null() && m["exif"].is_null() && m["xmp"].is_null());
+    }
+    // The decoded picture is upright: red top right, blue top left.
+    let png = d.join("up.png");
+    assert!(caoen(&["decode", s(&cae), "-o", s(&png), "--strip"])
+        .status
+        .success());
+    let img = rgb8(&png);
+    assert_eq!(img.dimensions(), (24, 48));
+    let (tr, tl) = (img.get_pixel(18, 6), img.get_pixel(6, 6));
+    assert!(tr[0] > 150 && tr[2] < 100, "top right {tr:?}");
+    assert!(tl[0] < 100 && tl[2] > 150, "top left {tl:?}");
+    // compare reads the JPEG upright too, so the two line up.
+    let cmp = caoen(&["compare", s(&jpg), s(&png), "--json"]);
+    assert!(
+        cmp.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cmp.stderr)
+    );
+    let info = caoen(&["info", s(&cae)]);
+    assert!(String::from_utf8_lossy(&info.stdout).contains("metadata:"));
+    let info = caoen(&["info", s(&cae), "--json"]);
+    let j: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert!(j["metadata"].is_object());
+    // A bad choice and a contradiction are usage errors.
+    let bad = caoen(&["encode", s(&jpg), "--metadata", "some"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let both = caoen(&["encode", s(&jpg), "--strip", "--metadata", "icc"]);
+    assert_eq!(both.status.code(), Some(2));
+}

@@ -16,6 +16,7 @@ use thiserror::Error;
 
 use crate::codec::tiling::TileRect;
 use crate::codec::PixelSource;
+use crate::metadata::Metadata;
 use crate::raster::{ChannelLayout, Raster, RasterError, SampleFormat};
 
 /// Default limit on either side, matching the codec's [`crate::codec::MAX_SIDE`].
@@ -109,6 +110,15 @@ pub enum ImageIoError {
         source: crate::budget::OverBudget,
     },
 
+    /// A metadata item (ICC profile, EXIF, XMP) is damaged or over its size limit.
+    #[error("{}: {source}", path.display())]
+    Metadata {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with the item.
+        source: crate::metadata::MetadataError,
+    },
+
     // --- The caller's fault ---------------------------------------------------------
     /// The output path's extension names no format we write.
     #[error("{}: cannot write this format (use .png or .exr)", path.display())]
@@ -170,7 +180,8 @@ impl LoadLimits {
     }
 
     /// Checks the memory a decode takes against the budget: the decoder's buffer of
-    /// `decoded_bytes` per pixel, and the raster's `channels` floats per pixel.
+    /// `decoded_bytes` per pixel (counted twice when `decoded_bytes` include a rotated
+    /// copy), and the raster's `channels` floats per pixel.
     fn check_memory(
         &self,
         path: &Path,
@@ -244,7 +255,8 @@ impl OutputFormat {
     }
 }
 
-/// Reads an image file with the default limits.
+/// Reads an image file with the default limits, its pixels as stored (no EXIF
+/// orientation applied: [`load_with_metadata`] turns them upright).
 pub fn load(path: &Path) -> Result<Raster, ImageIoError> {
     load_with_limits(path, &LoadLimits::default())
 }
@@ -261,7 +273,87 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Raster, Imag
     let got = read_up_to(&mut file, &mut magic).map_err(io)?;
     file.rewind().map_err(io)?;
     let by_ext = ImageFormat::from_path(path).ok();
-    decode_reader(file, path, &magic[..got], by_ext, limits)
+    decode_reader(file, path, &magic[..got], by_ext, limits, 1)
+}
+
+/// The metadata of an image file held in memory: JPEG, PNG and WebP as
+/// [`crate::metadata::read_container`] reads them, OpenEXR from the attributes
+/// [`encode_with_metadata`] writes; other formats give none.
+pub fn read_metadata(bytes: &[u8]) -> Result<Metadata, ImageIoError> {
+    read_metadata_at(bytes, Path::new("<memory>"))
+}
+
+fn read_metadata_at(bytes: &[u8], path: &Path) -> Result<Metadata, ImageIoError> {
+    if bytes.starts_with(&EXR_MAGIC) {
+        return exr_io::read_metadata(bytes, path);
+    }
+    crate::metadata::read_container(bytes).map_err(|source| ImageIoError::Metadata {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Reads an image file and its metadata. The pixels are turned upright by the EXIF
+/// orientation, and the kept EXIF says orientation 1, so the two agree.
+pub fn load_with_metadata(
+    path: &Path,
+    limits: &LoadLimits,
+) -> Result<(Raster, Metadata), ImageIoError> {
+    let bytes = crate::budget::read(path).map_err(|source| ImageIoError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let (image, meta) = oriented(
+        &bytes,
+        path,
+        ImageFormat::from_path(path).ok(),
+        limits,
+        false,
+    )?;
+    Ok((image.into_raster()?, meta))
+}
+
+/// [`load_with_metadata`] of an image held in memory.
+pub fn load_from_memory_with_metadata(
+    bytes: &[u8],
+    limits: &LoadLimits,
+) -> Result<(Raster, Metadata), ImageIoError> {
+    let (image, meta) = oriented(bytes, Path::new("<memory>"), None, limits, false)?;
+    Ok((image.into_raster()?, meta))
+}
+
+/// Decodes an image held in memory upright, with its metadata (EXIF orientation reset
+/// to 1); `compact` as in [`load_for_encoding`].
+fn oriented(
+    bytes: &[u8],
+    path: &Path,
+    by_ext: Option<ImageFormat>,
+    limits: &LoadLimits,
+    compact: bool,
+) -> Result<(EncodeSource, Metadata), ImageIoError> {
+    let mut meta = read_metadata_at(bytes, path)?;
+    let mut orientation = 1;
+    if let Some(exif) = meta.exif.as_mut() {
+        orientation = crate::metadata::orientation(exif)
+            .map_err(|source| ImageIoError::Metadata {
+                path: path.to_path_buf(),
+                source,
+            })?
+            .unwrap_or(1);
+        // `orientation` read the slot, so the reset cannot fail.
+        let _ = crate::metadata::reset_orientation(exif);
+    }
+    let head = &bytes[..bytes.len().min(4)];
+    let image = decode_image(
+        Cursor::new(bytes),
+        path,
+        head,
+        by_ext,
+        limits,
+        compact,
+        orientation,
+    )?;
+    Ok((image, meta))
 }
 
 /// Decodes an image held in memory (format from its magic bytes).
@@ -273,6 +365,7 @@ pub fn load_from_memory(bytes: &[u8], limits: &LoadLimits) -> Result<Raster, Ima
         head,
         None,
         limits,
+        1,
     )
 }
 
@@ -294,8 +387,9 @@ fn decode_reader<R: std::io::BufRead + Seek>(
     magic: &[u8],
     by_ext: Option<ImageFormat>,
     limits: &LoadLimits,
+    orientation: u16,
 ) -> Result<Raster, ImageIoError> {
-    match decode_image(reader, path, magic, by_ext, limits, false)? {
+    match decode_image(reader, path, magic, by_ext, limits, false, orientation)? {
         EncodeSource::Raster(r) => Ok(r),
         EncodeSource::Compact(image) => from_dynamic_at(image, path),
     }
@@ -310,6 +404,7 @@ fn decode_image<R: std::io::BufRead + Seek>(
     by_ext: Option<ImageFormat>,
     limits: &LoadLimits,
     compact: bool,
+    orientation: u16,
 ) -> Result<EncodeSource, ImageIoError> {
     if magic.is_empty() {
         return Err(ImageIoError::Truncated {
@@ -372,10 +467,13 @@ fn decode_image<R: std::io::BufRead + Seek>(
         limits.check(path, u64::from(w), u64::from(h))?;
         let colour = decoder.color_type();
         let integer = compact && is_compact(colour);
+        // Orientations 5 to 8 swap the axes, which takes a rotated copy beside the
+        // decoded image; the others flip in place.
+        let copies = if (5..=8).contains(&orientation) { 2 } else { 1 };
         limits.check_memory(
             path,
             (u64::from(w), u64::from(h)),
-            colour.bytes_per_pixel().into(),
+            copies * u64::from(colour.bytes_per_pixel()),
             if integer {
                 0
             } else {
@@ -385,7 +483,14 @@ fn decode_image<R: std::io::BufRead + Seek>(
         decoder
             .set_limits(limits.for_image_crate())
             .map_err(|e| image_error(path, e))?;
-        DynamicImage::from_decoder(decoder).map_err(|e| image_error(path, e))
+        let mut image = DynamicImage::from_decoder(decoder).map_err(|e| image_error(path, e))?;
+        if let Some(o) = u8::try_from(orientation)
+            .ok()
+            .and_then(image::metadata::Orientation::from_exif)
+        {
+            image.apply_orientation(o);
+        }
+        Ok(image)
     })?;
     if compact && is_compact(image.color()) {
         Ok(EncodeSource::Compact(image))
@@ -414,19 +519,24 @@ pub enum EncodeSource {
     Raster(Raster),
 }
 
-/// Reads an image file for encoding: like [`load_with_limits`], but an integer image
-/// stays in its compact decoded form, counted at its own size against the budget.
-pub fn load_for_encoding(path: &Path, limits: &LoadLimits) -> Result<EncodeSource, ImageIoError> {
-    let io = |source| ImageIoError::Io {
+/// Reads an image file for encoding, upright, with its metadata: like
+/// [`load_with_metadata`], but an integer image stays in its compact decoded form,
+/// counted at its own size against the budget.
+pub fn load_for_encoding(
+    path: &Path,
+    limits: &LoadLimits,
+) -> Result<(EncodeSource, Metadata), ImageIoError> {
+    let bytes = crate::budget::read(path).map_err(|source| ImageIoError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let mut file = BufReader::new(File::open(path).map_err(io)?);
-    let mut magic = [0u8; 4];
-    let got = read_up_to(&mut file, &mut magic).map_err(io)?;
-    file.rewind().map_err(io)?;
-    let by_ext = ImageFormat::from_path(path).ok();
-    decode_image(file, path, &magic[..got], by_ext, limits, true)
+    })?;
+    oriented(
+        &bytes,
+        path,
+        ImageFormat::from_path(path).ok(),
+        limits,
+        true,
+    )
 }
 
 impl EncodeSource {
@@ -750,6 +860,35 @@ pub fn encode_with(
     }
 }
 
+/// [`encode_with`] carrying metadata: PNG gets iCCP, eXIf and iTXt (XMP) chunks,
+/// OpenEXR gets `iccProfile`, `exif` and `xmp` byte attributes.
+pub fn encode_with_metadata(
+    raster: &Raster,
+    format: OutputFormat,
+    png: PngCompression,
+    meta: &Metadata,
+) -> Result<Vec<u8>, ImageIoError> {
+    let mem = Path::new("<memory>");
+    match format {
+        OutputFormat::Png8 | OutputFormat::Png16 => {
+            let mut out = encode_png(raster, format, mem, png)?;
+            add_png_metadata(&mut out, meta, mem)?;
+            Ok(out)
+        }
+        OutputFormat::Exr => exr_io::write_exr_with(raster, mem, meta),
+    }
+}
+
+fn add_png_metadata(png: &mut Vec<u8>, meta: &Metadata, path: &Path) -> Result<(), ImageIoError> {
+    if meta.is_empty() {
+        return Ok(());
+    }
+    crate::metadata::insert_png_chunks(png, meta).map_err(|source| ImageIoError::Metadata {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
 /// Estimated memory of [`encode`] beside the raster itself, in bytes: the interleaved
 /// samples (twice for 16-bit, which is built through a temporary) and the encoded file,
 /// counted at its uncompressed size.
@@ -869,6 +1008,17 @@ pub fn encode_png_interleaved(
             write_png(&bytes, image.width, image.height, color, mem, level)
         }
     }
+}
+
+/// [`encode_png_interleaved`] carrying metadata (iCCP, eXIf and iTXt XMP chunks).
+pub fn encode_png_interleaved_with(
+    image: &crate::codec::decoder::Interleaved,
+    level: PngCompression,
+    meta: &Metadata,
+) -> Result<Vec<u8>, ImageIoError> {
+    let mut out = encode_png_interleaved(image, level)?;
+    add_png_metadata(&mut out, meta, Path::new("<memory>"))?;
+    Ok(out)
 }
 
 /// Writes a raster with the format its path's extension asks for (`.png`: 8-bit for
@@ -1071,6 +1221,69 @@ mod exr_io {
     }
 
     pub(super) fn write_exr(raster: &Raster, path: &Path) -> Result<Vec<u8>, ImageIoError> {
+        write_exr_with(raster, path, &Metadata::default())
+    }
+
+    /// The layer attributes that carry metadata: untyped bytes with a MIME type hint.
+    fn metadata_attributes(meta: &Metadata) -> LayerAttributes {
+        use exr::meta::attribute::AttributeValue;
+        let mut attributes = LayerAttributes::default();
+        for (name, hint, item) in [
+            ("iccProfile", "application/vnd.iccprofile", &meta.icc),
+            ("exif", "image/tiff", &meta.exif),
+            ("xmp", "application/rdf+xml", &meta.xmp),
+        ] {
+            if let Some(bytes) = item {
+                attributes.other.insert(
+                    Text::new_or_panic(name),
+                    AttributeValue::Bytes {
+                        type_hint: Text::new_or_panic(hint),
+                        bytes: bytes.as_slice().into(),
+                    },
+                );
+            }
+        }
+        attributes
+    }
+
+    /// The metadata attributes of the first layer's header.
+    pub(super) fn read_metadata(bytes: &[u8], path: &Path) -> Result<Metadata, ImageIoError> {
+        use exr::meta::attribute::AttributeValue;
+        let meta = guarded(path, || {
+            MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| corrupt(path, e))
+        })?;
+        let mut out = Metadata::default();
+        let Some(header) = meta.headers.first() else {
+            return Ok(out);
+        };
+        let other = &header.own_attributes.other;
+        for (name, item) in [
+            ("iccProfile", &mut out.icc),
+            ("exif", &mut out.exif),
+            ("xmp", &mut out.xmp),
+        ] {
+            if let Some(AttributeValue::Bytes { bytes, .. }) = other.get(&Text::new_or_panic(name))
+            {
+                *item = Some(bytes.to_vec());
+            }
+        }
+        out.check_sizes().map_err(|source| ImageIoError::Metadata {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(out)
+    }
+
+    pub(super) fn write_exr_with(
+        raster: &Raster,
+        path: &Path,
+        meta: &Metadata,
+    ) -> Result<Vec<u8>, ImageIoError> {
+        meta.check_sizes()
+            .map_err(|source| ImageIoError::Metadata {
+                path: path.to_path_buf(),
+                source,
+            })?;
         let names: &[&str] = match raster.layout() {
             ChannelLayout::Grey => &["Y"],
             ChannelLayout::GreyAlpha => &["Y", "A"],
@@ -1084,7 +1297,7 @@ mod exr_io {
             .collect();
         let layer = Layer::new(
             (raster.width() as usize, raster.height() as usize),
-            LayerAttributes::default(),
+            metadata_attributes(meta),
             Encoding::SMALL_LOSSLESS,
             AnyChannels::sort(channels),
         );

@@ -452,9 +452,40 @@ pub struct EncodeArgs {
     /// Also write the analysis and the chosen key points over the image as a PNG.
     #[arg(long, value_name = "PNG")]
     pub keypoint_map: Option<PathBuf>,
+    /// Metadata kept in the file: all (ICC profile, EXIF, XMP), icc (the colour
+    /// profile alone) or none. Pixels are turned upright by the EXIF orientation
+    /// whatever is kept, and kept EXIF says orientation 1.
+    #[arg(long, value_enum, default_value_t = MetadataArg::All)]
+    pub metadata: MetadataArg,
+    /// Keep no metadata (the same as --metadata none).
+    #[arg(long, conflicts_with = "metadata")]
+    pub strip: bool,
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Which metadata items a file keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum MetadataArg {
+    /// None.
+    None,
+    /// The ICC colour profile alone.
+    Icc,
+    /// ICC profile, EXIF and XMP.
+    All,
+}
+
+impl MetadataArg {
+    /// The policy, with `--strip` meaning none.
+    pub fn policy(self, strip: bool) -> caoen::metadata::MetadataPolicy {
+        use caoen::metadata::MetadataPolicy as P;
+        match (strip, self) {
+            (true, _) | (false, MetadataArg::None) => P::None,
+            (false, MetadataArg::Icc) => P::Icc,
+            (false, MetadataArg::All) => P::All,
+        }
+    }
 }
 
 /// Parses `WxH` (or `WXH`) into two sides in `1..=max_side`.
@@ -505,6 +536,13 @@ pub struct DecodeArgs {
     /// smallest files, several times slower).
     #[arg(long, value_parser = ["fast", "default", "best"], default_value = "fast")]
     pub png_compression: String,
+    /// Metadata the file carries written into the output: all (ICC profile, EXIF,
+    /// XMP as PNG iCCP, eXIf and iTXt chunks or EXR attributes), icc, or none.
+    #[arg(long, value_enum, default_value_t = MetadataArg::All)]
+    pub metadata: MetadataArg,
+    /// Write no metadata (the same as --metadata none).
+    #[arg(long, conflicts_with = "metadata")]
+    pub strip: bool,
 }
 
 /// `caoen info`.

@@ -497,6 +497,29 @@ pub fn container(data: &[u8]) -> Outcome {
     }
 }
 
+/// The image's metadata and its upright pixels: items within their size limit, the kept
+/// EXIF saying orientation 1 (or none), and as many pixels as the image stores.
+fn image_metadata(data: &[u8]) {
+    let Ok((upright, meta)) = image_io::load_from_memory_with_metadata(data, &IMAGE_LIMITS) else {
+        return;
+    };
+    assert!(meta.check_sizes().is_ok(), "metadata over its size limit");
+    if let Some(exif) = &meta.exif {
+        let o = caoen::metadata::orientation(exif);
+        assert!(
+            matches!(o, Ok(Some(1) | None)),
+            "kept EXIF orientation {o:?}"
+        );
+    }
+    if let Ok(stored) = image_io::load_from_memory(data, &IMAGE_LIMITS) {
+        assert_eq!(
+            upright.pixel_count(),
+            stored.pixel_count(),
+            "upright and stored pixel counts"
+        );
+    }
+}
+
 /// Limits of the image target: small, so a run takes milliseconds; the limit checks are
 /// the same code at any size.
 const IMAGE_LIMITS: LoadLimits = LoadLimits {
@@ -511,6 +534,7 @@ const ENCODE_MAX_PIXELS: usize = 256;
 /// for tiny images encodes it at the lowest effort and decodes the result, which must
 /// have the image's size, layout and format.
 pub fn image(data: &[u8]) -> Outcome {
+    image_metadata(data);
     let img = image_io::load_from_memory(data, &IMAGE_LIMITS).map_err(message)?;
     assert!(
         img.width() <= IMAGE_LIMITS.max_side

@@ -8,6 +8,7 @@ use caoen::codec::{
     decoder, keypoint_map, DecodeOptions, EncodeOptions, Limits, PixelSource, RateTarget,
 };
 use caoen::image_io;
+use caoen::metadata::Metadata;
 use caoen::raster::Raster;
 use serde_json::json;
 
@@ -24,10 +25,55 @@ fn read_input(path: &Path) -> CliResult<Vec<u8>> {
     caoen::budget::read(path).map_err(|e| CliError::io(path, e))
 }
 
-/// Loads an image file into a raster, with a clear error naming the file.
+/// Loads an image file into a raster, upright by its EXIF orientation, with a clear
+/// error naming the file.
 pub fn load_image(path: &Path) -> CliResult<Raster> {
+    load_image_with_metadata(path).map(|(raster, _)| raster)
+}
+
+/// [`load_image`] with the file's metadata (its EXIF saying orientation 1).
+pub fn load_image_with_metadata(path: &Path) -> CliResult<(Raster, Metadata)> {
     // Image errors name their file already.
-    image_io::load(path).map_err(|e| CliError::Failed(e.to_string()))
+    image_io::load_with_metadata(path, &image_io::LoadLimits::default())
+        .map_err(|e| CliError::Failed(e.to_string()))
+}
+
+/// The metadata a `.cae` file carries.
+fn stored_metadata(parsed: &bitstream::Parsed<'_>) -> Metadata {
+    parsed.metadata()
+}
+
+/// Each metadata item's presence and size (and the EXIF orientation), as JSON.
+fn metadata_json(meta: &Metadata) -> serde_json::Value {
+    let size = |item: &Option<Vec<u8>>| item.as_ref().map(|b| json!({"bytes": b.len()}));
+    let mut exif = size(&meta.exif);
+    if let (Some(v), Some(bytes)) = (exif.as_mut(), meta.exif.as_deref()) {
+        v["orientation"] = caoen::metadata::orientation(bytes).ok().flatten().into();
+    }
+    json!({"icc": size(&meta.icc), "exif": exif, "xmp": size(&meta.xmp)})
+}
+
+/// Each metadata item's presence and size (and the EXIF orientation), as one line.
+fn metadata_text(meta: &Metadata) -> String {
+    if meta.is_empty() {
+        return "none".into();
+    }
+    let mut parts = Vec::new();
+    if let Some(icc) = &meta.icc {
+        parts.push(format!("ICC profile {} bytes", icc.len()));
+    }
+    if let Some(exif) = &meta.exif {
+        let orientation = match caoen::metadata::orientation(exif) {
+            Ok(Some(o)) => format!("orientation {o}"),
+            Ok(None) => "no orientation".into(),
+            Err(e) => format!("unreadable: {e}"),
+        };
+        parts.push(format!("EXIF {} bytes ({orientation})", exif.len()));
+    }
+    if let Some(xmp) = &meta.xmp {
+        parts.push(format!("XMP {} bytes", xmp.len()));
+    }
+    parts.join(", ")
 }
 
 /// An error encoding an image in memory for the output `path`: named after the output
@@ -66,9 +112,10 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
         ..image_io::LoadLimits::default()
     };
-    let img = image_io::load_for_encoding(&a.input, &limits)
+    let (img, metadata) = image_io::load_for_encoding(&a.input, &limits)
         .map_err(|e| CliError::Failed(e.to_string()))?;
     let held = img.held_bytes();
+    let kept = metadata.filtered(a.metadata.policy(a.strip));
     let target = match (a.target_bpp, a.target_size) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage(
@@ -84,7 +131,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         effort: a.effort,
         target,
         keypoints: a.keypoints,
-        metadata: Default::default(),
+        metadata: kept.clone(),
         // One budget for the command: what the input already holds is spent.
         limits: Limits {
             max_memory: caoen::budget::get().saturating_sub(held),
@@ -138,7 +185,8 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     if a.json {
         let v = json!({"input": a.input, "output": out.display(), "bytes": bytes.len(), "bpp": bpp,
             "width": width, "height": height, "tiles": stats.tiles, "luma_keypoints": stats.luma_keypoints,
-            "chroma_keypoints": stats.chroma_keypoints, "seconds": secs});
+            "chroma_keypoints": stats.chroma_keypoints, "seconds": secs,
+            "metadata": metadata_json(&kept)});
         print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
     }
     note(
@@ -256,6 +304,13 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
                     .map_or(0, |_| image_io::encode_memory(ow, oh, channels, format)),
             ),
         };
+    let kept = stored_metadata(&parsed).filtered(a.metadata.policy(a.strip));
+    // The metadata is copied into the output, and the output once more to make room.
+    let meta_bytes = [&kept.icc, &kept.exif, &kept.xmp]
+        .iter()
+        .map(|m| m.as_ref().map_or(0, |b| b.len() as u64))
+        .sum::<u64>();
+    let need = need.saturating_add(2 * meta_bytes);
     caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
     let png = image_io::PngCompression::parse(&a.png_compression).expect("clap checked it");
@@ -269,7 +324,10 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             let img = decoder::decode_interleaved(&bytes, &opts, d)
                 .map_err(|e| codec_err(&a.input, e))?;
             let size = (img.width, img.height);
-            (Some(image_io::encode_png_interleaved(&img, png)), size)
+            (
+                Some(image_io::encode_png_interleaved_with(&img, png, &kept)),
+                size,
+            )
         }
         None => {
             let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
@@ -277,7 +335,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             (
                 target
                     .as_ref()
-                    .map(|_| image_io::encode_with(&img, format, png)),
+                    .map(|_| image_io::encode_with_metadata(&img, format, png, &kept)),
                 size,
             )
         }
@@ -339,6 +397,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
         ]
     });
     let tiling = h.tiling();
+    let meta = stored_metadata(&parsed);
     let mut text = String::new();
     if a.json {
         let v = json!({
@@ -351,6 +410,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "step_alpha": h.step_alpha, "detail_steps": h.detail_steps, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
+            "metadata": metadata_json(&meta),
             "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
         });
         outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
@@ -425,6 +485,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
         streams[2],
         streams[3]
     );
+    outln!(text, "metadata:    {}", metadata_text(&meta));
     outln!(text, "sections:");
     for (t, n, o, b) in sections.iter().filter(|s| s.0 != tag::TILE as char) {
         outln!(text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");

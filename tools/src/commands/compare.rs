@@ -4,7 +4,6 @@
 use std::path::Path;
 
 use caoen::codec::{self, DecodeOptions};
-use caoen::image_io;
 use caoen::metrics::{self, Comparison};
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 use serde_json::json;
@@ -30,8 +29,8 @@ pub fn load_any(path: &Path) -> CliResult<Raster> {
         codec::decode(&bytes, &DecodeOptions::default())
             .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
     } else {
-        // The error names the file already.
-        image_io::load(path).map_err(|e| CliError::Failed(e.to_string()))
+        // Upright by the EXIF orientation, as `caoen encode` reads it.
+        crate::commands::codec::load_image(path)
     }
 }
 
