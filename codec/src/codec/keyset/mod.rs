@@ -400,6 +400,23 @@ impl Weights {
             });
     }
 
+    /// `A^T u` for `K` interleaved channels into `out` (`n * K` values), adding in
+    /// pixel order: each key point's sum in the order of its row of the transpose.
+    pub fn scatter_t<const K: usize>(&self, u: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        let (u, _) = u.as_chunks::<K>();
+        let (out, _) = out.as_chunks_mut::<K>();
+        for (p, up) in u.iter().enumerate().take(self.row_start.len() - 1) {
+            let (s, e) = (self.row_start[p], self.row_start[p + 1]);
+            for (&i, &a) in self.col[s..e].iter().zip(&self.val[s..e]) {
+                let o = &mut out[i as usize];
+                for c in 0..K {
+                    o[c] += a * up[c];
+                }
+            }
+        }
+    }
+
     /// The transpose in CSR form (rows = key points), for `A^T u`.
     pub fn transpose(&self, n: usize) -> Weights {
         let mut count = vec![0usize; n + 1];
