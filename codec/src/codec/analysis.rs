@@ -77,14 +77,22 @@ impl Analysis {
         let residual = (min_log2..=max_log2)
             .map(|l| {
                 let s = 1usize << l;
+                // Dividing by a power of two is multiplying by its reciprocal, bit for
+                // bit: whole windows (all but the edges) take the multiply.
+                let inv_area = 1.0 / (s * s) as f64;
                 let mut energy = vec![0.0; w * h];
                 for (plane, integral) in planes.iter().zip(&integrals) {
                     for y in 0..h {
                         let (y0, y1) = (y.saturating_sub(s / 2), (y + s - s / 2).min(h));
                         for x in 0..w {
                             let (x0, x1) = (x.saturating_sub(s / 2), (x + s - s / 2).min(w));
-                            let mean =
-                                integral.rect(x0, y0, x1, y1) / ((x1 - x0) * (y1 - y0)) as f64;
+                            let area = (x1 - x0) * (y1 - y0);
+                            let sum = integral.rect(x0, y0, x1, y1);
+                            let mean = if area == s * s {
+                                sum * inv_area
+                            } else {
+                                sum / area as f64
+                            };
                             let d = plane[y * w + x] - mean;
                             energy[y * w + x] += d * d;
                         }
@@ -154,6 +162,32 @@ mod tests {
             })
             .collect();
         let full = Analysis::new(&planes, w, h, 5);
+        // Every window's mean by plain division, against the reciprocal the fast loop
+        // uses on whole windows.
+        for l in 0..=5u8 {
+            let s = 1usize << l;
+            let mut energy = vec![0.0; w * h];
+            for plane in &planes {
+                let integral = Integral::new(plane, w, h);
+                for y in 0..h {
+                    let (y0, y1) = (y.saturating_sub(s / 2), (y + s - s / 2).min(h));
+                    for x in 0..w {
+                        let (x0, x1) = (x.saturating_sub(s / 2), (x + s - s / 2).min(w));
+                        let mean = integral.rect(x0, y0, x1, y1) / ((x1 - x0) * (y1 - y0)) as f64;
+                        let d = plane[y * w + x] - mean;
+                        energy[y * w + x] += d * d;
+                    }
+                }
+            }
+            let want = Integral::new(&energy, w, h);
+            assert!(
+                want.sums
+                    .iter()
+                    .zip(&full.residual[l as usize].sums)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "level {l}"
+            );
+        }
         let lean = Analysis::levels(&planes, w, h, 2, 5);
         for log2 in 2..=7u8 {
             for (x0, y0, x1, y1) in [(0, 0, 32, 32), (8, 16, 16, 24), (32, 32, 64, 64), (40, 0, 45, 4)] {
