@@ -492,6 +492,32 @@ impl Weights {
         }
     }
 
+    /// `A^T A v` for `K` interleaved channels into `out` (`n * K` values): per pixel,
+    /// its value summed as [`Weights::apply`] does, then scattered as
+    /// [`Weights::scatter_t`] does.
+    pub fn gram<const K: usize>(&self, v: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        let (v, _) = v.as_chunks::<K>();
+        let (out, _) = out.as_chunks_mut::<K>();
+        for p in 0..self.row_start.len() - 1 {
+            let (s, e) = (self.row_start[p], self.row_start[p + 1]);
+            let (cols, vals) = (&self.col[s..e], &self.val[s..e]);
+            let mut acc = [0.0; K];
+            for (&i, &a) in cols.iter().zip(vals) {
+                let vi = &v[i as usize];
+                for c in 0..K {
+                    acc[c] += a * vi[c];
+                }
+            }
+            for (&i, &a) in cols.iter().zip(vals) {
+                let o = &mut out[i as usize];
+                for c in 0..K {
+                    o[c] += a * acc[c];
+                }
+            }
+        }
+    }
+
     /// The transpose in CSR form (rows = key points), for `A^T u`.
     pub fn transpose(&self, n: usize) -> Weights {
         let mut count = vec![0usize; n + 1];
