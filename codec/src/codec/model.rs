@@ -162,14 +162,12 @@ fn fit(
     s: &ModelSettings,
     planes: &CodingPlanes,
     cells: &[Cell],
-    iters: usize,
-    tolerance: f64,
+    solve: (usize, f64),
     measure: bool,
 ) -> Fitted {
     let (w, h) = (frame.width as usize, frame.height as usize);
     let luma = KeySet::new(frame, cells, s.kernel);
     let targets = luma_targets(planes);
-    let solve = (iters, tolerance);
     let (luma_colours, luma_recon) =
         fit_set(&luma, &targets, s.ridge, solve, s.least_squares, measure);
     let mut err = vec![0.0; if measure { w * h } else { 0 }];
@@ -293,8 +291,7 @@ pub fn build_in(
             s,
             planes,
             &cells,
-            s.cg_iterations.0,
-            ROUND_TOLERANCE,
+            (s.cg_iterations.0, ROUND_TOLERANCE),
             true,
         );
         let mut order: Vec<usize> = (0..cells.len())
@@ -380,8 +377,7 @@ pub fn build_in(
         s,
         planes,
         &cells,
-        s.cg_iterations.1,
-        FINAL_TOLERANCE,
+        (s.cg_iterations.1, FINAL_TOLERANCE),
         false,
     );
     Model {
