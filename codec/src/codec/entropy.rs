@@ -74,7 +74,7 @@ impl BinModel {
     #[inline]
     pub fn cost(&self, bit: bool) -> u32 {
         let p0 = self.p0 as u32;
-        cost_of(if bit { ONE - p0 } else { p0 })
+        cost_table(if bit { ONE - p0 } else { p0 })
     }
 }
 
@@ -234,7 +234,7 @@ impl<const W: usize> Cdf<W> {
     #[inline]
     pub fn cost(&self, s: usize) -> u32 {
         // cost_of works in 2^-16 units.
-        cost_of(self.interval(s).1 << (PRECISION - CDF_PRECISION))
+        cost_table(self.interval(s).1 << (PRECISION - CDF_PRECISION))
     }
 
     /// The interval of token `t` with sign `negative` (see [`SymbolSink::signed_symbol`]).
@@ -246,7 +246,7 @@ impl<const W: usize> Cdf<W> {
     /// Cost of coding token `t` with sign `negative` now, in 1/256 bits.
     #[inline]
     pub fn signed_cost(&self, t: usize, negative: bool) -> u32 {
-        cost_of(self.signed_interval(t, negative).1 << (PRECISION - CDF_PRECISION))
+        cost_table(self.signed_interval(t, negative).1 << (PRECISION - CDF_PRECISION))
     }
 
     /// The probability of `s` now, in units of 2^-15 (for tests).
@@ -285,6 +285,20 @@ fn cost_of(p: u32) -> u32 {
     let log2p = (e << 10) | frac;
     let cost = ((PRECISION as u32) << 10).saturating_sub(log2p);
     ((cost + 2) >> 2).max(1)
+}
+
+/// [`cost_of`] for every probability `1..=ONE`, looked up: the rate-distortion search
+/// prices several candidates per block, and the squaring loop dominated its time.
+static COST_TABLE: std::sync::LazyLock<Box<[u16]>> = std::sync::LazyLock::new(|| {
+    (0..=ONE)
+        .map(|p| if p == 0 { 0 } else { cost_of(p) as u16 })
+        .collect()
+});
+
+/// [`cost_of`] through [`COST_TABLE`].
+#[inline]
+fn cost_table(p: u32) -> u32 {
+    COST_TABLE[p as usize] as u32
 }
 
 /// The fixed two-symbol distribution handed to the coder.
@@ -579,6 +593,89 @@ impl SymbolSink for CostSink {
     fn signed_symbol<const W: usize>(&mut self, m: &mut Cdf<W>, t: usize, negative: bool) {
         self.cost += m.signed_cost(t, negative) as u64;
         m.update(t);
+    }
+
+    #[inline]
+    fn raw(&mut self, _v: u32, bits: u32) {
+        self.cost += 256 * bits as u64;
+    }
+}
+
+/// A [`CostSink`] that leaves the models it is handed untouched: their adapted states
+/// live in a small overlay keyed by the model's address, so pricing a candidate needs
+/// no copy of every context, only of those it touches. Costs equal [`CostSink`]'s on a
+/// copy of the models.
+#[derive(Debug, Default, Clone)]
+pub struct OverlayCostSink {
+    /// Accumulated cost in 1/256 bits.
+    pub cost: u64,
+    bins: Vec<(usize, BinModel)>,
+    /// Address, entries (the first `W` of them used) and count seen.
+    cdfs: Vec<(usize, [u64; OVERLAY_W], u16)>,
+}
+
+/// Widest [`Cdf`] the overlay holds.
+const OVERLAY_W: usize = 8;
+
+impl OverlayCostSink {
+    /// Forgets the cost and every adapted state, for the next candidate.
+    pub fn reset(&mut self) {
+        self.cost = 0;
+        self.bins.clear();
+        self.cdfs.clear();
+    }
+
+    /// Prices `s` on the overlay's state of `m` and adapts that state.
+    #[inline]
+    fn price<const W: usize>(&mut self, m: &Cdf<W>, s: usize, cost: impl Fn(&Cdf<W>) -> u32) {
+        const { assert!(W <= OVERLAY_W) };
+        let key = m as *const Cdf<W> as usize;
+        match self.cdfs.iter_mut().find(|e| e.0 == key) {
+            Some(e) => {
+                let mut local = Cdf::<W> {
+                    w: std::array::from_fn(|i| e.1[i]),
+                    seen: e.2,
+                };
+                self.cost += cost(&local) as u64;
+                local.update(s);
+                e.1[..W].copy_from_slice(&local.w);
+                e.2 = local.seen;
+            }
+            None => {
+                let mut local = *m;
+                self.cost += cost(&local) as u64;
+                local.update(s);
+                let mut w = [0; OVERLAY_W];
+                w[..W].copy_from_slice(&local.w);
+                self.cdfs.push((key, w, local.seen));
+            }
+        }
+    }
+}
+
+impl SymbolSink for OverlayCostSink {
+    #[inline]
+    fn bin(&mut self, m: &mut BinModel, bit: bool) {
+        let key = m as *const BinModel as usize;
+        let e = match self.bins.iter().position(|e| e.0 == key) {
+            Some(i) => &mut self.bins[i].1,
+            None => {
+                self.bins.push((key, *m));
+                &mut self.bins.last_mut().expect("just pushed").1
+            }
+        };
+        self.cost += e.cost(bit) as u64;
+        e.update(bit);
+    }
+
+    #[inline]
+    fn symbol<const W: usize>(&mut self, m: &mut Cdf<W>, s: usize) {
+        self.price(m, s, |c| c.cost(s));
+    }
+
+    #[inline]
+    fn signed_symbol<const W: usize>(&mut self, m: &mut Cdf<W>, t: usize, negative: bool) {
+        self.price(m, t, |c| c.signed_cost(t, negative));
     }
 
     #[inline]
@@ -925,6 +1022,13 @@ mod tests {
         m.p0 = 32768;
         m.update(true);
         assert_eq!(m.p0, 32768 - 512);
+    }
+
+    #[test]
+    fn cost_lookup_equals_the_logarithm_algorithm() {
+        for p in 1..=ONE {
+            assert_eq!(cost_table(p), cost_of(p), "p {p}");
+        }
     }
 
     #[test]

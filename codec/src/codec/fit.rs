@@ -17,10 +17,10 @@ use super::keyset::Weights;
 /// Reductions are split into chunks of this many values, summed in order.
 const CHUNK: usize = 4096;
 
-/// The problem for one key-point set: its weights and their transpose.
+/// The problem for one key-point set: its weights, key-point masses and the
+/// preconditioner's diagonal.
 pub struct LeastSquares<'a> {
     a: &'a Weights,
-    at: Weights,
     n: usize,
     mass: Vec<f64>,
     diag: Vec<f64>,
@@ -38,20 +38,16 @@ fn det_sum(len: usize, f: impl Fn(usize) -> f64 + Sync) -> f64 {
 impl<'a> LeastSquares<'a> {
     /// Prepares the system for `n` key points.
     pub fn new(a: &'a Weights, n: usize) -> Self {
-        let at = a.transpose(n);
+        // Column sums in pixel order: the same sums, in the same order, as over the
+        // rows of the transpose.
         let mut mass = vec![0.0; n];
         let mut diag = vec![0.0; n];
-        mass.par_iter_mut()
-            .zip(diag.par_iter_mut())
-            .enumerate()
-            .for_each(|(i, (m, d))| {
-                let vals = &at.val[at.row_start[i]..at.row_start[i + 1]];
-                *m = vals.iter().sum();
-                *d = vals.iter().map(|v| v * v).sum();
-            });
+        for (&i, &v) in a.col.iter().zip(&a.val) {
+            mass[i as usize] += v;
+            diag[i as usize] += v * v;
+        }
         LeastSquares {
             a,
-            at,
             n,
             mass,
             diag,
@@ -59,17 +55,51 @@ impl<'a> LeastSquares<'a> {
     }
 
     /// `A^T u` for `k` interleaved channels.
+    ///
+    /// Scattered in pixel order, which adds each key point's terms in the order a
+    /// transposed matrix would hold them (so the same bits as
+    /// `a.transpose(n).apply(u, k, out)`), without building the transpose: at a few
+    /// conjugate-gradient steps the transpose cost more than it saved.
     fn apply_t(&self, u: &[f64], k: usize, out: &mut [f64]) {
-        self.at.apply(u, k, out);
+        match k {
+            1 => self.a.scatter_t::<1>(u, out),
+            2 => self.a.scatter_t::<2>(u, out),
+            3 => self.a.scatter_t::<3>(u, out),
+            4 => self.a.scatter_t::<4>(u, out),
+            _ => self.a.transpose(self.n).apply(u, k, out),
+        }
+    }
+
+    /// `A^T A v` for `k` interleaved channels (`ax` is scratch).
+    ///
+    /// One pass over the matrix: each pixel's `A v` is scattered back as soon as it is
+    /// summed, the same sums in the same order as [`Weights::apply`] then
+    /// [`LeastSquares::apply_t`], so the same bits, with half the memory traffic.
+    fn apply_normal(&self, v: &[f64], k: usize, ax: &mut [f64], out: &mut [f64]) {
+        match k {
+            1 => self.a.gram::<1>(v, out),
+            2 => self.a.gram::<2>(v, out),
+            3 => self.a.gram::<3>(v, out),
+            4 => self.a.gram::<4>(v, out),
+            _ => {
+                self.a.apply(v, k, ax);
+                self.apply_t(ax, k, out);
+            }
+        }
     }
 
     /// Locally averaged colours `(A^T b) / n` per channel: the prior and the warm start.
     pub fn prior(&self, targets: &[&[f64]]) -> Vec<Vec<f64>> {
+        self.project(targets).prior
+    }
+
+    /// `A^T b` of `targets` and the prior made from it, for [`LeastSquares::solve_projected`].
+    pub fn project(&self, targets: &[&[f64]]) -> Projection {
         let k = targets.len();
         let b = interleave(targets);
         let mut atb = vec![0.0; self.n * k];
         self.apply_t(&b, k, &mut atb);
-        (0..k)
+        let prior = (0..k)
             .map(|c| {
                 (0..self.n)
                     .map(|i| {
@@ -81,7 +111,19 @@ impl<'a> LeastSquares<'a> {
                     })
                     .collect()
             })
-            .collect()
+            .collect();
+        Projection { prior, atb, k }
+    }
+
+    /// [`LeastSquares::solve`] toward and from the projection's prior.
+    pub fn solve_projected(
+        &self,
+        p: &Projection,
+        ridge: f64,
+        iterations: usize,
+        tolerance: f64,
+    ) -> Vec<Vec<f64>> {
+        self.solve_rhs(&p.atb, p.k, &p.prior, &p.prior, ridge, iterations, tolerance)
     }
 
     /// Solves for `targets` (pixel planes), starting from `start` (one vector per
@@ -96,12 +138,29 @@ impl<'a> LeastSquares<'a> {
         iterations: usize,
         tolerance: f64,
     ) -> Vec<Vec<f64>> {
-        let (n, k) = (self.n, targets.len());
-        let pixels = self.a.row_start.len() - 1;
+        let k = targets.len();
         let b = interleave(targets);
+        let mut atb = vec![0.0; self.n * k];
+        self.apply_t(&b, k, &mut atb);
+        self.solve_rhs(&atb, k, prior, start, ridge, iterations, tolerance)
+    }
+
+    /// [`LeastSquares::solve`] given `A^T b` for `k` interleaved channels.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_rhs(
+        &self,
+        atb: &[f64],
+        k: usize,
+        prior: &[Vec<f64>],
+        start: &[Vec<f64>],
+        ridge: f64,
+        iterations: usize,
+        tolerance: f64,
+    ) -> Vec<Vec<f64>> {
+        let n = self.n;
+        let pixels = self.a.row_start.len() - 1;
         // rhs = A^T b + ridge * n .* prior
-        let mut rhs = vec![0.0; n * k];
-        self.apply_t(&b, k, &mut rhs);
+        let mut rhs = atb.to_vec();
         for i in 0..n {
             for c in 0..k {
                 rhs[i * k + c] += ridge * self.mass[i] * prior[c][i];
@@ -111,11 +170,11 @@ impl<'a> LeastSquares<'a> {
             .map(|i| 1.0 / (self.diag[i] + ridge * self.mass[i]).max(1e-12))
             .collect();
         let mut x = interleave(&start.iter().map(Vec::as_slice).collect::<Vec<_>>());
-        let mut ax = vec![0.0; pixels * k];
+        // Only the unfused product (more than four channels) keeps `A v` whole.
+        let mut ax = vec![0.0; if k > 4 { pixels * k } else { 0 }];
         let mut scratch = vec![0.0; n * k];
         let apply_m = |v: &[f64], ax: &mut Vec<f64>, out: &mut Vec<f64>| {
-            self.a.apply(v, k, ax);
-            self.apply_t(ax, k, out);
+            self.apply_normal(v, k, ax, out);
             out.par_chunks_mut(k)
                 .zip(v.par_chunks(k))
                 .enumerate()
@@ -193,6 +252,14 @@ impl<'a> LeastSquares<'a> {
     }
 }
 
+/// `A^T b` of some targets and the prior made from it.
+pub struct Projection {
+    /// Locally averaged colours per channel.
+    pub prior: Vec<Vec<f64>>,
+    atb: Vec<f64>,
+    k: usize,
+}
+
 fn interleave(planes: &[&[f64]]) -> Vec<f64> {
     let k = planes.len();
     let len = planes.first().map_or(0, |p| p.len());
@@ -211,6 +278,60 @@ mod tests {
     use crate::codec::geometry::Frame;
     use crate::codec::keyset::{KernelParams, KeySet};
     use crate::codec::quadtree::TreeShape;
+
+    #[test]
+    fn scattered_transpose_products_equal_the_transpose_bit_for_bit() {
+        let (w, h) = (37u32, 29u32);
+        let shape = TreeShape {
+            width: w,
+            height: h,
+            block_log2: 4,
+            min_log2: 1,
+        };
+        let cells = shape.walk(|c| (c.x0 / 2 + c.y0 / 3 + c.log2 as u32) % 3 != 0);
+        let ks = KeySet::new(
+            Frame::new(w, h),
+            &cells,
+            KernelParams {
+                sigma_factor: 0.5,
+                weight_exponent: 1.0,
+            },
+        );
+        let a = ks.pixel_weights();
+        let (n, pixels) = (ks.len(), (w * h) as usize);
+        let at = a.transpose(n);
+        let ls = LeastSquares::new(&a, n);
+        for i in 0..n {
+            let vals = &at.val[at.row_start[i]..at.row_start[i + 1]];
+            assert_eq!(ls.mass[i].to_bits(), vals.iter().sum::<f64>().to_bits());
+            let d: f64 = vals.iter().map(|v| v * v).sum();
+            assert_eq!(ls.diag[i].to_bits(), d.to_bits());
+        }
+        for k in 1..=5 {
+            let u: Vec<f64> = (0..pixels * k)
+                .map(|i| ((i * 7919) % 101) as f64 / 7.0 - 7.0)
+                .collect();
+            let mut want = vec![0.0; n * k];
+            at.apply(&u, k, &mut want);
+            let mut got = vec![f64::NAN; n * k];
+            ls.apply_t(&u, k, &mut got);
+            assert!(
+                got.iter().zip(&want).all(|(g, w)| g.to_bits() == w.to_bits()),
+                "k {k}"
+            );
+            // The fused normal product against its two halves.
+            let v: Vec<f64> = (0..n * k).map(|i| ((i * 31) % 17) as f64 - 8.5).collect();
+            let mut av = vec![0.0; pixels * k];
+            a.apply(&v, k, &mut av);
+            at.apply(&av, k, &mut want);
+            let mut scratch = vec![0.0; pixels * k];
+            ls.apply_normal(&v, k, &mut scratch, &mut got);
+            assert!(
+                got.iter().zip(&want).all(|(g, w)| g.to_bits() == w.to_bits()),
+                "normal product, k {k}"
+            );
+        }
+    }
 
     #[test]
     fn fit_reproduces_an_image_the_model_can_represent() {

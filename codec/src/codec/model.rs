@@ -111,7 +111,8 @@ struct Fitted {
     chroma_cells: Vec<Cell>,
     luma_colours: Vec<Vec<f64>>,
     chroma_colours: Vec<Vec<f64>>,
-    /// Per luma leaf: squared error over its pixels, all channels.
+    /// Per luma leaf: squared error over its pixels, all channels (empty unless
+    /// measured).
     leaf_error: Vec<f64>,
 }
 
@@ -123,22 +124,27 @@ fn luma_targets(planes: &CodingPlanes) -> Vec<&[f64]> {
     t
 }
 
+/// The colours of one key-point set, and with `reconstruct` the planes they render
+/// (else none: only the refinement rounds measure the fit's error).
 fn fit_set(
     ks: &KeySet,
     targets: &[&[f64]],
     ridge: f64,
-    iterations: usize,
-    tolerance: f64,
+    (iterations, tolerance): (usize, f64),
     least_squares: bool,
+    reconstruct: bool,
 ) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let a = ks.pixel_weights();
     let ls = LeastSquares::new(&a, ks.len());
-    let prior = ls.prior(targets);
+    let projection = ls.project(targets);
     let colours = if least_squares {
-        ls.solve(targets, &prior, &prior, ridge, iterations, tolerance)
+        ls.solve_projected(&projection, ridge, iterations, tolerance)
     } else {
-        prior
+        projection.prior
     };
+    if !reconstruct {
+        return (colours, Vec::new());
+    }
     let mut recon = vec![0.0; a.row_start.len() - 1];
     let recons = colours
         .iter()
@@ -156,15 +162,15 @@ fn fit(
     s: &ModelSettings,
     planes: &CodingPlanes,
     cells: &[Cell],
-    iters: usize,
-    tolerance: f64,
+    solve: (usize, f64),
+    measure: bool,
 ) -> Fitted {
     let (w, h) = (frame.width as usize, frame.height as usize);
     let luma = KeySet::new(frame, cells, s.kernel);
     let targets = luma_targets(planes);
     let (luma_colours, luma_recon) =
-        fit_set(&luma, &targets, s.ridge, iters, tolerance, s.least_squares);
-    let mut err = vec![0.0; w * h];
+        fit_set(&luma, &targets, s.ridge, solve, s.least_squares, measure);
+    let mut err = vec![0.0; if measure { w * h } else { 0 }];
     for (t, r) in targets.iter().zip(&luma_recon) {
         for i in 0..w * h {
             err[i] += (t[i] - r[i]).powi(2);
@@ -174,7 +180,7 @@ fn fit(
         let cc = chroma_cells(shape, cells, s.chroma_pruned);
         let ks = KeySet::new(frame, &cc, s.kernel);
         let t = [planes.colour[1].as_slice(), planes.colour[2].as_slice()];
-        let (colours, recons) = fit_set(&ks, &t, s.ridge, iters, tolerance, s.least_squares);
+        let (colours, recons) = fit_set(&ks, &t, s.ridge, solve, s.least_squares, measure);
         for (t, r) in t.iter().zip(&recons) {
             for i in 0..w * h {
                 err[i] += (t[i] - r[i]).powi(2);
@@ -184,7 +190,7 @@ fn fit(
     } else {
         (Vec::new(), Vec::new())
     };
-    let leaf_error = cells
+    let leaf_error = if measure { cells } else { &[] }
         .iter()
         .map(|c| {
             let (x0, y0, x1, y1) = c.clip(frame.width, frame.height);
@@ -242,10 +248,12 @@ pub fn build_in(
         block_log2: s.block_log2,
         min_log2: s.min_log2,
     };
-    let analysis = Analysis::new(
+    // The walk asks only about cells that may split: above the smallest size.
+    let analysis = Analysis::levels(
         &planes.colour,
         width as usize,
         height as usize,
+        s.min_log2 + 1,
         s.block_log2,
     );
     let mut split: HashSet<Cell> = HashSet::new();
@@ -283,8 +291,8 @@ pub fn build_in(
             s,
             planes,
             &cells,
-            s.cg_iterations.0,
-            ROUND_TOLERANCE,
+            (s.cg_iterations.0, ROUND_TOLERANCE),
+            true,
         );
         let mut order: Vec<usize> = (0..cells.len())
             .filter(|&i| cells[i].log2 > s.min_log2 && fitted.leaf_error[i] > 0.0)
@@ -369,8 +377,8 @@ pub fn build_in(
         s,
         planes,
         &cells,
-        s.cg_iterations.1,
-        FINAL_TOLERANCE,
+        (s.cg_iterations.1, FINAL_TOLERANCE),
+        false,
     );
     Model {
         shape,

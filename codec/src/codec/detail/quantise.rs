@@ -3,15 +3,15 @@
 //!
 //! Blocks are decided in coding order with the coder's own adaptive contexts: each
 //! candidate (the dead-zone levels, the same with its last nonzero coefficients
-//! dropped, and the empty block) is priced by a [`CostSink`] on a copy of the
-//! contexts, and the one with the least `D + lambda R` is coded.
+//! dropped, and the empty block) is priced by an [`OverlayCostSink`] (the cost on a
+//! copy of the contexts), and the one with the least `D + lambda R` is coded.
 
 use rayon::prelude::*;
 
 use super::dct::{self, COEFFS, N, ZIGZAG};
 use super::syntax::{self, DetailContexts};
 use super::{block_context, blocks, Detail, DetailPlane};
-use crate::codec::entropy::{AnsSink, CostSink, SymbolSink};
+use crate::codec::entropy::{AnsSink, OverlayCostSink, SymbolSink};
 
 /// Quantiser of one channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,15 +74,16 @@ pub fn code_plane(
         .collect();
     let mut chosen = Vec::with_capacity(cols * rows);
     let mut coded = vec![false; cols * rows];
+    let mut cost = OverlayCostSink::default();
     for (i, c) in coeffs.iter().enumerate() {
         let at = block_context(|j| coded[j], cols, i, kind);
         let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
         let best = if levels.iter().all(|&l| l == 0) {
             levels
         } else {
-            let price = |l: &[i32; COEFFS]| {
-                let mut cost = CostSink::default();
-                syntax::write_block(&mut ctx.clone(), at, l, &mut cost);
+            let mut price = |l: &[i32; COEFFS]| {
+                cost.reset();
+                syntax::write_block(ctx, at, l, &mut cost);
                 distortion(c, l, q.step) + q.lambda * cost.cost as f64 / 256.0
             };
             let mut best = (price(&levels), levels);

@@ -58,8 +58,8 @@ fn geometric(m: usize, r: f64) -> Vec<u16> {
 
 /// The adaptive contexts of a detail section.
 ///
-/// Fixed-size arrays: the encoder's rate-distortion search copies them per candidate.
-#[derive(Clone)]
+/// Fixed-size arrays, cheap to copy.
+#[derive(Clone, PartialEq)]
 pub struct DetailContexts {
     coded: [[BinModel; NEIGHBOURS]; 2],
     last: [[LastCdf; NEIGHBOURS]; 2],
@@ -271,7 +271,39 @@ pub fn read_block(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::entropy::AnsSink;
+    use crate::codec::entropy::{AnsSink, CostSink, OverlayCostSink};
+
+    #[test]
+    fn overlay_pricing_equals_pricing_a_copy_and_leaves_the_contexts_alone() {
+        let mut ctx = DetailContexts::default();
+        let mut overlay = OverlayCostSink::default();
+        let mut sink = AnsSink::new();
+        let mut seed = 12345u64;
+        for i in 0..400 {
+            let mut q = [0i32; COEFFS];
+            // Sparse, mostly small levels with occasional escapes, as the quantiser makes.
+            for (k, v) in q.iter_mut().enumerate() {
+                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let r = (seed >> 33) as u32;
+                if r % (2 + k as u32 / 4) == 0 {
+                    let m = if r % 97 == 0 { (r >> 8) % 5000 } else { (r >> 8) % 4 };
+                    *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
+                }
+            }
+            let at = BlockContext {
+                kind: i % 2,
+                neighbours: i % 3,
+            };
+            let mut copy = CostSink::default();
+            write_block(&mut ctx.clone(), at, &q, &mut copy);
+            let before = ctx.clone();
+            overlay.reset();
+            write_block(&mut ctx, at, &q, &mut overlay);
+            assert!(ctx == before, "block {i}: pricing changed the contexts");
+            assert_eq!(overlay.cost, copy.cost, "block {i}");
+            write_block(&mut ctx, at, &q, &mut sink);
+        }
+    }
 
     #[test]
     fn initial_tables_are_valid_cdfs() {

@@ -260,7 +260,82 @@ impl KeySet {
     }
 
     /// Normalised weights of every pixel centre (the fit's design matrix).
+    ///
+    /// The same kernels, in the same order and with the same arithmetic, as
+    /// [`KeySet::kernels_at`] per pixel (so the same bits), with each key point's
+    /// parameters packed together and bands of rows written straight into their
+    /// entries.
     pub fn pixel_weights(&self) -> Weights {
+        /// Rows per parallel task.
+        const BAND: usize = 16;
+        let (w, h) = (self.frame.width as usize, self.frame.height as usize);
+        let buckets = self.buckets();
+        // Source point, sharpness and weight per key point: one cache line per candidate.
+        let packed: Vec<[f64; 5]> = self
+            .sources()
+            .iter()
+            .zip(&self.q)
+            .zip(&self.weight)
+            .map(|((s, &q), &wt)| [s[0], s[1], s[2], q, wt])
+            .collect();
+        let bands: Vec<(Vec<u32>, Vec<f64>, Vec<u32>)> = (0..h.div_ceil(BAND))
+            .into_par_iter()
+            .map(|band| {
+                let rows = band * BAND..((band + 1) * BAND).min(h);
+                let mut cols = Vec::with_capacity(rows.len() * w * 8);
+                let mut vals = Vec::with_capacity(rows.len() * w * 8);
+                let mut lens = Vec::with_capacity(rows.len() * w);
+                for y in rows {
+                    let by = y / BUCKET as usize;
+                    for x in 0..w {
+                        let p = self.frame.embed(x as f64 + 0.5, y as f64 + 0.5);
+                        let b = by * buckets.cols as usize + x / BUCKET as usize;
+                        let items =
+                            &buckets.items[buckets.start[b] as usize..buckets.start[b + 1] as usize];
+                        let first = vals.len();
+                        let mut sum = 0.0;
+                        for &i in items {
+                            let c = &packed[i as usize];
+                            let s = p[0] * c[0] + p[1] * c[1] + p[2] * c[2];
+                            let k = c[4] * Blend::Compact.value(s, c[3]);
+                            if k != 0.0 {
+                                sum += k;
+                                cols.push(i);
+                                vals.push(k);
+                            }
+                        }
+                        let inv = if sum > 0.0 { 1.0 / sum } else { 0.0 };
+                        for v in &mut vals[first..] {
+                            *v *= inv;
+                        }
+                        lens.push((vals.len() - first) as u32);
+                    }
+                }
+                (cols, vals, lens)
+            })
+            .collect();
+        let nnz: usize = bands.iter().map(|r| r.0.len()).sum();
+        let mut out = Weights {
+            row_start: Vec::with_capacity(w * h + 1),
+            col: Vec::with_capacity(nnz),
+            val: Vec::with_capacity(nnz),
+        };
+        out.row_start.push(0);
+        let mut last = 0;
+        for (cols, vals, lens) in bands {
+            out.col.extend(cols);
+            out.val.extend(vals);
+            out.row_start.extend(lens.iter().map(|&l| {
+                last += l as usize;
+                last
+            }));
+        }
+        out
+    }
+
+    /// [`KeySet::pixel_weights`] through [`KeySet::kernels_at`]: its reference.
+    #[cfg(test)]
+    fn pixel_weights_per_pixel(&self) -> Weights {
         let (w, h) = (self.frame.width as usize, self.frame.height as usize);
         let rows: Vec<(Vec<u32>, Vec<f64>, Vec<usize>)> = (0..h)
             .into_par_iter()
@@ -400,6 +475,49 @@ impl Weights {
             });
     }
 
+    /// `A^T u` for `K` interleaved channels into `out` (`n * K` values), adding in
+    /// pixel order: each key point's sum in the order of its row of the transpose.
+    pub fn scatter_t<const K: usize>(&self, u: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        let (u, _) = u.as_chunks::<K>();
+        let (out, _) = out.as_chunks_mut::<K>();
+        for (p, up) in u.iter().enumerate().take(self.row_start.len() - 1) {
+            let (s, e) = (self.row_start[p], self.row_start[p + 1]);
+            for (&i, &a) in self.col[s..e].iter().zip(&self.val[s..e]) {
+                let o = &mut out[i as usize];
+                for c in 0..K {
+                    o[c] += a * up[c];
+                }
+            }
+        }
+    }
+
+    /// `A^T A v` for `K` interleaved channels into `out` (`n * K` values): per pixel,
+    /// its value summed as [`Weights::apply`] does, then scattered as
+    /// [`Weights::scatter_t`] does.
+    pub fn gram<const K: usize>(&self, v: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        let (v, _) = v.as_chunks::<K>();
+        let (out, _) = out.as_chunks_mut::<K>();
+        for p in 0..self.row_start.len() - 1 {
+            let (s, e) = (self.row_start[p], self.row_start[p + 1]);
+            let (cols, vals) = (&self.col[s..e], &self.val[s..e]);
+            let mut acc = [0.0; K];
+            for (&i, &a) in cols.iter().zip(vals) {
+                let vi = &v[i as usize];
+                for c in 0..K {
+                    acc[c] += a * vi[c];
+                }
+            }
+            for (&i, &a) in cols.iter().zip(vals) {
+                let o = &mut out[i as usize];
+                for c in 0..K {
+                    o[c] += a * acc[c];
+                }
+            }
+        }
+    }
+
     /// The transpose in CSR form (rows = key points), for `A^T u`.
     pub fn transpose(&self, n: usize) -> Weights {
         let mut count = vec![0usize; n + 1];
@@ -536,6 +654,20 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn pixel_weights_equal_the_per_pixel_kernels_bit_for_bit() {
+        for (w, h, seed, sigma) in [(53, 37, 7, 0.4), (1, 1, 1, 0.3), (17, 40, 5, 0.7), (130, 70, 6, 0.5)] {
+            let ks = random_keyset(w, h, seed, sigma);
+            let (fast, slow) = (ks.pixel_weights(), ks.pixel_weights_per_pixel());
+            assert_eq!(fast.row_start, slow.row_start, "{w}x{h}");
+            assert_eq!(fast.col, slow.col, "{w}x{h}");
+            assert!(
+                fast.val.iter().zip(&slow.val).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{w}x{h}"
+            );
         }
     }
 
