@@ -22,6 +22,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CAOEN = os.environ.get("CAOEN", os.path.join(ROOT, "target", "release", "caoen"))
 PHOTO = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "..", "shared", "large", "012mp-bus.jpg")
 WORK = sys.argv[2] if len(sys.argv) > 2 else tempfile.mkdtemp()
+os.makedirs(WORK, exist_ok=True)
 QUALITIES = [20, 50, 75, 90]
 TILE = 512
 CORNERS = [(2048, 1024), (2560, 512)]

@@ -195,7 +195,7 @@ impl Header {
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
         let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(38), f32_at(42)]);
         let tile_side = u16::from_le_bytes([p[36], p[37]]) as u32;
-        if tile_side == 0 || tile_side % SIDE_UNIT != 0 || tile_side > MAX_SIDE {
+        if tile_side == 0 || !tile_side.is_multiple_of(SIDE_UNIT) || tile_side > MAX_SIDE {
             return Err(CodecError::Format(format!(
                 "tile side {tile_side} is not a multiple of {SIDE_UNIT} in {SIDE_UNIT}..={MAX_SIDE}"
             )));
