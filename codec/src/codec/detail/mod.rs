@@ -47,31 +47,54 @@ pub struct DetailPlane {
     pub cols: usize,
     /// Block rows.
     pub rows: usize,
-    /// Per block: its index in `levels`, or [`ZERO`].
+    /// Per block: its index in `spans`, or [`ZERO`].
     index: Vec<u32>,
-    /// Levels of the coded blocks.
-    levels: Vec<[i32; COEFFS]>,
+    /// Per coded block: where its levels start in `levels`, and its extent `(v1, u1)`:
+    /// the rows and columns up to the last nonzero ones.
+    spans: Vec<(u32, u8, u8)>,
+    /// The coded blocks' levels, each block's `v1 x u1` corner row-major: most of a
+    /// block's high frequencies are zero, so this holds a fraction of 64 per block.
+    levels: Vec<i32>,
 }
 
 impl DetailPlane {
     /// A plane of `cols x rows` blocks from per-block levels (all-zero blocks dropped).
     pub fn from_blocks(cols: usize, rows: usize, blocks: Vec<[i32; COEFFS]>) -> Self {
         debug_assert_eq!(blocks.len(), cols * rows);
-        let mut index = Vec::with_capacity(blocks.len());
-        let mut levels = Vec::new();
-        for b in blocks {
-            if b.iter().all(|&v| v == 0) {
-                index.push(ZERO);
-            } else {
-                index.push(levels.len() as u32);
-                levels.push(b);
-            }
+        let mut plane = DetailPlane::empty(cols, rows);
+        for b in &blocks {
+            plane.push(b);
         }
+        plane
+    }
+
+    fn empty(cols: usize, rows: usize) -> Self {
         DetailPlane {
             cols,
             rows,
-            index,
-            levels,
+            index: Vec::with_capacity(cols * rows),
+            spans: Vec::new(),
+            levels: Vec::new(),
+        }
+    }
+
+    /// Appends the next block in raster order.
+    fn push(&mut self, l: &[i32; COEFFS]) {
+        let (mut v1, mut u1) = (0, 0);
+        for (i, &q) in l.iter().enumerate() {
+            if q != 0 {
+                v1 = v1.max(i / N + 1);
+                u1 = u1.max(i % N + 1);
+            }
+        }
+        if v1 == 0 {
+            self.index.push(ZERO);
+            return;
+        }
+        self.index.push(self.spans.len() as u32);
+        self.spans.push((self.levels.len() as u32, v1 as u8, u1 as u8));
+        for v in 0..v1 {
+            self.levels.extend_from_slice(&l[v * N..v * N + u1]);
         }
     }
 
@@ -83,6 +106,7 @@ impl DetailPlane {
         tiles: impl IntoIterator<Item = ((usize, usize), Option<DetailPlane>)>,
     ) -> Self {
         let mut index = vec![ZERO; cols * rows];
+        let mut spans = Vec::new();
         let mut levels = Vec::new();
         for ((bx0, by0), plane) in tiles {
             let Some(p) = plane else { continue };
@@ -90,8 +114,11 @@ impl DetailPlane {
                 for bx in 0..p.cols {
                     let i = p.index[by * p.cols + bx];
                     if i != ZERO {
-                        index[(by0 + by) * cols + bx0 + bx] = levels.len() as u32;
-                        levels.push(p.levels[i as usize]);
+                        let (at, v1, u1) = p.spans[i as usize];
+                        let n = v1 as usize * u1 as usize;
+                        index[(by0 + by) * cols + bx0 + bx] = spans.len() as u32;
+                        spans.push((levels.len() as u32, v1, u1));
+                        levels.extend_from_slice(&p.levels[at as usize..at as usize + n]);
                     }
                 }
             }
@@ -100,19 +127,29 @@ impl DetailPlane {
             cols,
             rows,
             index,
+            spans,
             levels,
         }
     }
 
     /// The levels of block `(bx, by)`, if it has a nonzero one.
-    pub fn block(&self, bx: usize, by: usize) -> Option<&[i32; COEFFS]> {
+    pub fn block(&self, bx: usize, by: usize) -> Option<[i32; COEFFS]> {
         let i = self.index[by * self.cols + bx];
-        (i != ZERO).then(|| &self.levels[i as usize])
+        (i != ZERO).then(|| {
+            let (at, v1, u1) = self.spans[i as usize];
+            let (v1, u1) = (v1 as usize, u1 as usize);
+            let mut b = [0; COEFFS];
+            for v in 0..v1 {
+                let row = at as usize + v * u1;
+                b[v * N..v * N + u1].copy_from_slice(&self.levels[row..row + u1]);
+            }
+            b
+        })
     }
 
     /// Number of blocks with a nonzero coefficient.
     pub fn coded_blocks(&self) -> usize {
-        self.levels.len()
+        self.spans.len()
     }
 
     /// Reads a `cols x rows` plane.
@@ -123,19 +160,14 @@ impl DetailPlane {
         ctx: &mut DetailContexts,
         src: &mut AnsSource,
     ) -> Result<Self, CodecError> {
-        let mut plane = DetailPlane {
-            cols,
-            rows,
-            index: Vec::with_capacity(cols * rows),
-            levels: Vec::new(),
-        };
+        let mut plane = DetailPlane::empty(cols, rows);
         let mut q = [0i32; COEFFS];
         for i in 0..cols * rows {
             // The context reads only blocks already pushed (left and above).
             let at = block_context(|j| plane.index[j] != ZERO, cols, i, kind);
             if syntax::read_block(ctx, at, &mut q, src)? {
-                plane.index.push(plane.levels.len() as u32);
-                plane.levels.push(q);
+                // A coded block has a nonzero level (the syntax codes its last one).
+                plane.push(&q);
             } else {
                 plane.index.push(ZERO);
             }
@@ -167,7 +199,7 @@ impl Detail {
                 for i in 0..p.cols * p.rows {
                     let at = block_context(|j| p.index[j] != ZERO, p.cols, i, kind);
                     let b = p.block(i % p.cols, i / p.cols);
-                    syntax::write_block(&mut ctx, at, b.unwrap_or(&EMPTY), &mut sink);
+                    syntax::write_block(&mut ctx, at, &b.unwrap_or(EMPTY), &mut sink);
                 }
             }
             sink.finish()
@@ -263,12 +295,14 @@ impl Detail {
 
 /// One plane prepared for evaluation.
 struct PlaneEval {
-    /// Dequantised coefficients of the coded blocks.
-    coeffs: Vec<[f32; COEFFS]>,
-    /// Per coded block: rows and columns of coefficients up to the last nonzero one, so
-    /// the sums skip the (usually many) high frequencies that are zero.
-    extent: Vec<(u8, u8)>,
-    /// Per block: index into `coeffs`, or [`ZERO`].
+    /// Dequantised coefficients of the coded blocks, each block's `v1 x u1` corner up
+    /// to its last nonzero row and column (row-major), one after the other: most
+    /// blocks' high frequencies are zero, so a decoder holds a fraction of 64 values
+    /// per block.
+    coeffs: Vec<f32>,
+    /// Per coded block: where its corner starts in `coeffs`, and `(v1, u1)`.
+    extent: Vec<(u32, u8, u8)>,
+    /// Per block: index into `extent`, or [`ZERO`].
     index: Vec<u32>,
     /// Blocks per row.
     cols: usize,
@@ -300,28 +334,11 @@ impl PlaneEval {
     /// One plane's coefficients (levels times `step`) and their extents.
     fn new(p: &DetailPlane, step: f64) -> Self {
         PlaneEval {
-                coeffs: p
-                    .levels
-                    .iter()
-                    .map(|l| std::array::from_fn(|i| (l[i] as f64 * step) as f32))
-                    .collect(),
-                extent: p
-                    .levels
-                    .iter()
-                    .map(|l| {
-                        let (mut v1, mut u1) = (0, 0);
-                        for (i, &q) in l.iter().enumerate() {
-                            if q != 0 {
-                                v1 = v1.max(i / N + 1);
-                                u1 = u1.max(i % N + 1);
-                            }
-                        }
-                        (v1 as u8, u1 as u8)
-                    })
-                    .collect(),
-                index: p.index.clone(),
-                cols: p.cols,
-            }
+            coeffs: p.levels.iter().map(|&q| (q as f64 * step) as f32).collect(),
+            extent: p.spans.clone(),
+            index: p.index.clone(),
+            cols: p.cols,
+        }
     }
 }
 
@@ -393,7 +410,7 @@ impl DetailEval {
     pub fn add_rows(&self, j0: usize, out: &mut [&mut [f32]]) {
         let nx = self.grid.nx;
         for (p, plane) in self.planes.iter().zip(out.iter_mut()) {
-            if p.coeffs.is_empty() {
+            if p.extent.is_empty() {
                 continue;
             }
             for (r, row) in plane.chunks_exact_mut(nx).enumerate() {
@@ -404,15 +421,15 @@ impl DetailEval {
                     if i == ZERO || n == 0 {
                         continue;
                     }
-                    let c = &p.coeffs[i as usize];
-                    let (v1, u1) = p.extent[i as usize];
+                    let (at, v1, u1) = p.extent[i as usize];
                     let (v1, u1) = (v1 as usize, u1 as usize);
+                    let c = &p.coeffs[at as usize..at as usize + v1 * u1];
                     // The block's row of the series at this y: g(u) = sum_v C[v][u] b_v(y).
                     let mut g = [0f32; N];
                     for v in 0..v1 {
                         let b = bv[v];
-                        for u in 0..N {
-                            g[u] += c[v * N + u] * b;
+                        for u in 0..u1 {
+                            g[u] += c[v * u1 + u] * b;
                         }
                     }
                     let out = &mut row[c0..c0 + n];
