@@ -642,7 +642,10 @@ impl pulp::WithSimd for BandPass<'_, '_, '_> {
             }
             let (sum, planes) = self.acc.split_at_mut(plane);
             for s in sum.iter_mut() {
-                *s = if *s > 0.0 { 1.0 / *s } else { 0.0 };
+                // A sum so small (extreme weight exponents) that its reciprocal
+                // overflows single precision counts as no kernel at all.
+                let r = 1.0 / *s;
+                *s = if *s > 0.0 && r.is_finite() { r } else { 0.0 };
             }
             for (o, a) in group.iter_mut().zip(planes.chunks_exact(plane)) {
                 for ((o, a), inv) in o
