@@ -1118,6 +1118,11 @@ fn has_povray() -> bool {
         .output();
     let ok = probe.is_ok_and(|o| o.status.success() || !o.stderr.is_empty());
     if !ok {
+        // In CI the tool is installed by .ci/run: its absence is a failure, not a skip.
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "POV-Ray is missing in CI"
+        );
         eprintln!("skipped: POV-Ray is not installed (.ci/run installs it)");
     }
     ok

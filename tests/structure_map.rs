@@ -17,8 +17,9 @@ const DATA: [&str; 7] = [
     "tools/assets/",
 ];
 
-/// Not part of the repository: build output and version control.
-const SKIP: [&str; 3] = [".git", "target", "tests/fuzz/target"];
+/// Not part of the repository: build output, version control and what the README's
+/// first command (`cargo run --release`) writes (git-ignored).
+const SKIP: [&str; 4] = [".git", "target", "tests/fuzz/target", "caoen-demo"];
 
 fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
     for e in std::fs::read_dir(dir).unwrap() {

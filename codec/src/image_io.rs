@@ -299,18 +299,27 @@ pub fn load_with_metadata(
     path: &Path,
     limits: &LoadLimits,
 ) -> Result<(Raster, Metadata), ImageIoError> {
+    let (image, meta) = read_oriented(path, limits, false)?;
+    Ok((image.into_raster()?, meta))
+}
+
+/// Reads a whole file and decodes it upright with its metadata ([`oriented`]).
+fn read_oriented(
+    path: &Path,
+    limits: &LoadLimits,
+    compact: bool,
+) -> Result<(EncodeSource, Metadata), ImageIoError> {
     let bytes = crate::budget::read(path).map_err(|source| ImageIoError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let (image, meta) = oriented(
+    oriented(
         &bytes,
         path,
         ImageFormat::from_path(path).ok(),
         limits,
-        false,
-    )?;
-    Ok((image.into_raster()?, meta))
+        compact,
+    )
 }
 
 /// [`load_with_metadata`] of an image held in memory.
@@ -526,17 +535,7 @@ pub fn load_for_encoding(
     path: &Path,
     limits: &LoadLimits,
 ) -> Result<(EncodeSource, Metadata), ImageIoError> {
-    let bytes = crate::budget::read(path).map_err(|source| ImageIoError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    oriented(
-        &bytes,
-        path,
-        ImageFormat::from_path(path).ok(),
-        limits,
-        true,
-    )
+    read_oriented(path, limits, true)
 }
 
 impl EncodeSource {

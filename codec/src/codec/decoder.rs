@@ -24,7 +24,7 @@ use super::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
 use super::model::chroma_cells;
 use super::quadtree::{Cell, TreeShape};
 use super::syntax::{self, MAX_SYMBOLS_PER_VALUE};
-use super::tiling::{image_order, permute};
+use super::tiling::into_image_order;
 use super::{CodecError, DecodeOptions, MAX_SIDE};
 use crate::raster::{ChannelLayout, Raster, SampleFormat};
 
@@ -203,12 +203,9 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
         };
         details.push((p.rect, planes));
     }
-    let order = image_order(&luma_cells, header.block_log2);
-    let luma_cells: Vec<Cell> = order.iter().map(|&i| luma_cells[i]).collect();
-    let luma_values = permute(&luma_values, &order);
-    let order = image_order(&chroma_cells, header.block_log2);
-    let chroma_cells: Vec<Cell> = order.iter().map(|&i| chroma_cells[i]).collect();
-    let chroma_values = permute(&chroma_values, &order);
+    let (luma_cells, luma_values) = into_image_order(&luma_cells, &luma_values, header.block_log2);
+    let (chroma_cells, chroma_values) =
+        into_image_order(&chroma_cells, &chroma_values, header.block_log2);
     let detail = detail_steps(&header).map(|steps| {
         let (cols, rows) = detail_blocks(header.width, header.height);
         let planes = (0..steps.len())

@@ -14,7 +14,7 @@ use super::quadtree::Cell;
 use super::rate_control::EncodeSettings;
 use super::source::PixelSource;
 use super::syntax::{self, MAX_VALUE};
-use super::tiling::{image_order, permute, TileRect, Tiling};
+use super::tiling::{into_image_order, permute, TileRect, Tiling};
 use super::CodecError;
 use crate::metadata::{Metadata, MAX_ITEM_BYTES};
 use crate::raster::Raster;
@@ -151,12 +151,9 @@ impl Network {
                 all.append(v);
             }
         }
-        let order = image_order(&luma_cells, block_log2);
-        let luma_values = permute(&luma_values, &order);
-        let luma_cells = order.iter().map(|&i| luma_cells[i]).collect();
-        let order = image_order(&chroma_cells, block_log2);
-        let chroma_values = permute(&chroma_values, &order);
-        let chroma_cells = order.iter().map(|&i| chroma_cells[i]).collect();
+        let (luma_cells, luma_values) = into_image_order(&luma_cells, &luma_values, block_log2);
+        let (chroma_cells, chroma_values) =
+            into_image_order(&chroma_cells, &chroma_values, block_log2);
         Network {
             luma_cells,
             chroma_cells,

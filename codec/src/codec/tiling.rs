@@ -110,6 +110,20 @@ pub fn image_order(cells: &[Cell], block_log2: u8) -> Vec<usize> {
     order
 }
 
+/// Cells gathered tile by tile and their values (one list per channel), put in the
+/// image's coding order ([`image_order`]).
+pub fn into_image_order<T: Copy>(
+    cells: &[Cell],
+    values: &[Vec<T>],
+    block_log2: u8,
+) -> (Vec<Cell>, Vec<Vec<T>>) {
+    let order = image_order(cells, block_log2);
+    (
+        order.iter().map(|&i| cells[i]).collect(),
+        permute(values, &order),
+    )
+}
+
 /// `values` (one list per channel, one value per cell) permuted by `order`.
 pub fn permute<T: Copy>(values: &[Vec<T>], order: &[usize]) -> Vec<Vec<T>> {
     values
