@@ -172,7 +172,7 @@ fn gradients_equal_central_differences() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(common::proptest_config(200))]
     /// The interval over a box holds the function at every point of the box.
     #[test]
     fn intervals_hold_the_values(

@@ -1,6 +1,8 @@
 //! Compact-support evaluation through the spatial index (and the SIMD batch kernel)
 //! equals brute force, and batch evaluation is independent of the thread count.
 
+mod common;
+
 use caoen::surface::{Blend, Domain, KeyPoint, Network};
 use proptest::prelude::*;
 
@@ -56,7 +58,7 @@ fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(64))]
+    #![proptest_config(common::proptest_config(64))]
     #[test]
     fn indexed_evaluation_equals_brute_force(seed in any::<u64>(), m in 2usize..=6, p in 1usize..=6,
                                             n in 1usize..400, mixed in any::<bool>(), ordered in any::<bool>()) {

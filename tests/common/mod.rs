@@ -1,4 +1,7 @@
-//! Helpers shared by the end-to-end tests.
+//! Helpers shared by the end-to-end and property tests.
+
+// Each test crate includes this module and uses only part of it.
+#![allow(dead_code)]
 
 use std::process::{Command, Output};
 
@@ -8,4 +11,18 @@ pub fn caoen(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("run caoen")
+}
+
+/// Property-test settings with `cases` cases and a fixed seed, so that every run (and CI)
+/// draws the same cases; set `PROPTEST_RNG_SEED` to explore others.
+pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
+    let base = proptest::test_runner::Config::with_cases(cases);
+    if std::env::var_os("PROPTEST_RNG_SEED").is_some() {
+        base
+    } else {
+        proptest::test_runner::Config {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(0xca0e),
+            ..base
+        }
+    }
 }
