@@ -7,7 +7,7 @@
 //! a file written by `caoen` that it cannot read back. A hang is caught by the fuzzer's
 //! timeout (and by the replay test's time bound).
 //!
-//! The binaries in `src/bin/` are one call each; `tests/fuzz_replay.rs` compiles this
+//! The binaries in `src/bin/` are one call each; `codec/tests/fuzz_replay.rs` compiles this
 //! same file into the main workspace to replay seeds and findings without AFL.
 #![forbid(unsafe_code)]
 

@@ -3,6 +3,8 @@
 //! marching-tetrahedra meshes. Also: the depth buffer leaves no holes, and renders do
 //! not depend on the number of threads.
 
+mod common;
+
 use caoen::render::camera::{Camera, Projection};
 use caoen::render::csg::CsgNode;
 use caoen::render::framebuffer::GBuffer;
@@ -107,7 +109,7 @@ fn depth_buffer_and_mesh_depth_maps_agree() {
     // passes in front of another inside a pixel, the depth buffer keeps the nearer
     // object's sample while the centre ray of the rasteriser sees the farther one, so
     // the many inner silhouettes of a compound scene cost about one percent here.
-    let scene = Scene::load("examples/teapot/teapot.scene.json".as_ref()).unwrap();
+    let scene = Scene::load(&common::repo_path("examples/teapot/teapot.scene.json")).unwrap();
     compare_depths(&scene, &scene.camera(W, H).unwrap(), "teapot", 0.98);
 }
 
@@ -212,7 +214,7 @@ fn ray_traced_silhouettes_match_the_polygonised_solids() {
         );
     }
     // The CSG example: a cube minus an icosahedron.
-    let scene = Scene::load("examples/csg.scene.json".as_ref()).unwrap();
+    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
     let Shape::Solid { solids, csg } = &scene.objects[0].shape else {
         panic!("a solid")
     };
@@ -221,8 +223,8 @@ fn ray_traced_silhouettes_match_the_polygonised_solids() {
 
 #[test]
 fn renders_do_not_depend_on_the_thread_count() {
-    let scene = Scene::load("examples/csg.scene.json".as_ref()).unwrap();
-    let tex = Scene::load("examples/textured.scene.json".as_ref()).unwrap();
+    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
+    let tex = Scene::load(&common::repo_path("examples/textured.scene.json")).unwrap();
     for (s, m) in [
         (&scene, Method::Ray),
         (&scene, Method::Mesh),

@@ -5,11 +5,13 @@
 //! finding must end in an error or in a success the targets' checks accept.
 //! See `docs/fuzzing.md`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 
-#[path = "fuzz/src/lib.rs"]
+#[path = "../../tests/fuzz/src/lib.rs"]
 // `single_thread` is for the fuzz binaries only.
 #[allow(dead_code)]
 mod harness;
@@ -67,7 +69,7 @@ fn replay_one(body: harness::Target, path: &Path) -> Option<String> {
 /// Replays every seed and finding of `target`; fails naming each file that panicked or
 /// hung. Returns the number of files replayed.
 fn replay(target: &str) -> usize {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = common::repo_root();
     let (_, body) = harness::TARGETS
         .iter()
         .find(|(name, _)| *name == target)

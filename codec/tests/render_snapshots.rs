@@ -3,6 +3,8 @@
 //!
 //! Set `CAOEN_UPDATE_SNAPSHOTS=1` to rewrite the stored images after a deliberate change.
 
+mod common;
+
 use std::path::PathBuf;
 
 use caoen::render::framebuffer::RgbImage;
@@ -14,7 +16,7 @@ use caoen::surface::gallery;
 const MIN_PSNR_DB: f64 = 35.0;
 
 fn snapshot_path(name: &str) -> PathBuf {
-    PathBuf::from("tests/snapshots").join(format!("{name}.png"))
+    common::repo_path("tests/snapshots").join(format!("{name}.png"))
 }
 
 /// PSNR in dB between two 8-bit sRGB images of the same size (infinity when equal).
@@ -97,7 +99,7 @@ fn snapshot_ring_depth_buffer() {
 
 #[test]
 fn snapshot_csg_ray_traced() {
-    let scene = Scene::load("examples/csg.scene.json".as_ref()).unwrap();
+    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
     check(
         "csg-ray",
         &render(&scene, &opts(Method::Ray), &|_, _| {})
@@ -108,7 +110,7 @@ fn snapshot_csg_ray_traced() {
 
 #[test]
 fn snapshot_textured_depth_buffer() {
-    let scene = Scene::load("examples/textured.scene.json".as_ref()).unwrap();
+    let scene = Scene::load(&common::repo_path("examples/textured.scene.json")).unwrap();
     check(
         "textured-depth",
         &render(&scene, &opts(Method::Depth), &|_, _| {})
@@ -119,7 +121,7 @@ fn snapshot_textured_depth_buffer() {
 
 #[test]
 fn snapshot_teapot_mesh() {
-    let scene = Scene::load("examples/teapot/teapot.scene.json".as_ref()).unwrap();
+    let scene = Scene::load(&common::repo_path("examples/teapot/teapot.scene.json")).unwrap();
     check(
         "teapot-mesh",
         &render(&scene, &opts(Method::Mesh), &|_, _| {})
@@ -140,7 +142,7 @@ fn the_psnr_check_rejects_a_different_render() {
     let textured = image::open(snapshot_path("textured-depth"))
         .unwrap()
         .to_rgb8();
-    let mut plain = Scene::load("examples/textured.scene.json".as_ref()).unwrap();
+    let mut plain = Scene::load(&common::repo_path("examples/textured.scene.json")).unwrap();
     plain.objects[0].material.texture = None;
     let plain = render(&plain, &opts(Method::Depth), &|_, _| {})
         .unwrap()

@@ -1,6 +1,8 @@
 //! Ray tracing implicit solids: closed-form crossings, CSG on rays with known answers,
 //! and the fast crossing search against the paper's method.
 
+mod common;
+
 use caoen::render::camera::Ray;
 use caoen::render::csg::CsgNode;
 use caoen::render::raytrace::{ImplicitTracer, RayMethod};
@@ -342,10 +344,7 @@ fn csg_example_mesh_agrees_with_the_ray_tracer() {
     // and more (8-bit sRGB PSNR, as `caoen compare` measures).
     use caoen::render::renderer::{render, Method, RenderOptions};
     use caoen::render::Scene;
-    let scene = Scene::load(
-        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/csg.scene.json"),
-    )
-    .unwrap();
+    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
     let shot = |method| {
         let opts = RenderOptions {
             width: 512,
