@@ -742,7 +742,7 @@ pub struct SurfaceMeshArgs {
     #[arg(long, value_enum, default_value_t = NormalsArg::Exact)]
     pub normals: NormalsArg,
     /// Texture image on the domain (overrides the model's own); an OBJ output then also
-    /// gets a material library (.mtl) and the texture as <stem>-texture.png.
+    /// gets a material library (.mtl) and the texture as STEM-texture.png (STEM: the output name without extension).
     #[arg(long, value_name = "FILE")]
     pub texture: Option<PathBuf>,
 }
