@@ -4,6 +4,7 @@
 //! the `caoen-corpus` binary is a thin wrapper around the same two items.
 
 use std::collections::HashSet;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -112,14 +113,23 @@ impl CorpusArgs {
     }
 }
 
+/// The path an error on standard output names (`caoen corpus --list | head`).
+pub const STDOUT: &str = "standard output";
+
 /// Run the command: generate, write files and manifest, optionally a contact sheet.
 pub fn run(args: &CorpusArgs) -> Result<(), CorpusError> {
     let specs = args.specs()?;
     if args.list {
+        let stdout_error = |source| CorpusError::Io {
+            path: STDOUT.into(),
+            source,
+        };
+        let mut out = std::io::stdout().lock();
         for s in &specs {
-            println!("{}\t{}", s.file_name(), s.class.variant_name(s.seed));
+            writeln!(out, "{}\t{}", s.file_name(), s.class.variant_name(s.seed))
+                .map_err(stdout_error)?;
         }
-        return Ok(());
+        return out.flush().map_err(stdout_error);
     }
     let out = args
         .out

@@ -32,6 +32,12 @@ fn main() -> ExitCode {
     };
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
+        // A reader that went away (`caoen-corpus --list | head`) chose to stop reading.
+        Err(caoen_corpus::CorpusError::Io { source, .. })
+            if source.kind() == std::io::ErrorKind::BrokenPipe =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("caoen-corpus: error: {e}");
             ExitCode::FAILURE

@@ -57,7 +57,14 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
                 force: global.force,
                 ..args
             };
-            caoen_corpus::cli::run(&args).map_err(|e| CliError::Failed(e.to_string()))
+            caoen_corpus::cli::run(&args).map_err(|e| match e {
+                caoen_corpus::CorpusError::Io { path, source }
+                    if path == std::path::Path::new(caoen_corpus::cli::STDOUT) =>
+                {
+                    CliError::io(crate::output::STDOUT, source)
+                }
+                e => CliError::Failed(e.to_string()),
+            })
         }
         Command::Examples(args) => examples::run(&global, &args),
         Command::Compare(args) => compare::run(&global, &args),
