@@ -21,16 +21,20 @@
 //! - **SSIM**: Wang et al. 2004 on the same luma plane, 11x11 Gaussian window
 //!   (sigma 1.5), `K1 = 0.01`, `K2 = 0.03`, dynamic range 1, averaged over the
 //!   valid window positions (no padding, no downsampling). See [`ssim`].
+//! - **MS-SSIM** (`ms_ssim`): Wang et al. 2003 on the same luma plane, five dyadic
+//!   scales of SSIM's window, the paper's exponents. See [`ms_ssim`].
 //! - **SSIMULACRA2** (`ssimulacra2`): the `ssimulacra2` crate on the colour channels
 //!   as sRGB (grey replicated to RGB); `None` for HDR images, which it is not defined
 //!   for, and for images smaller than 8x8, which it rejects.
 //!
 //! All sums run sequentially in `f64`: the same inputs give the same bits on every run.
 
+mod ms_ssim;
 mod psnr;
 mod ssim;
 mod ssimulacra;
 
+pub use ms_ssim::{ms_ssim, ms_ssim_planes, MS_SSIM_WEIGHTS};
 pub use psnr::{mse, psnr_from_mse};
 pub use ssim::{ssim, ssim_planes, SSIM_C1, SSIM_C2, SSIM_SIGMA, SSIM_WINDOW};
 pub use ssimulacra::ssimulacra2;
@@ -107,6 +111,8 @@ pub struct Comparison {
     pub psnr_y: f64,
     /// SSIM of the luma plane, at most 1.
     pub ssim: f64,
+    /// MS-SSIM of the luma plane, at most 1.
+    pub ms_ssim: f64,
     /// SSIMULACRA2 score (100 = identical), when defined.
     pub ssimulacra2: Option<f64>,
     /// Alpha PSNR in dB, when both images have alpha.
@@ -200,6 +206,7 @@ pub fn compare(reference: &Raster, test: &Raster) -> Result<Comparison, MetricEr
     let (ya, yb) = (luma_plane(reference, scale), luma_plane(test, scale));
     let mse_y = mse(&ya, &yb);
     let ssim = ssim_planes(&ya, &yb, reference.width(), reference.height());
+    let ms_ssim = ms_ssim_planes(&ya, &yb, reference.width(), reference.height());
     let psnr_alpha = (reference.layout().has_alpha() && test.layout().has_alpha()).then(|| {
         let (ca, cb) = (
             reference.layout().channels() - 1,
@@ -214,6 +221,7 @@ pub fn compare(reference: &Raster, test: &Raster) -> Result<Comparison, MetricEr
         mse_y,
         psnr_y: psnr_from_mse(mse_y, 1.0),
         ssim,
+        ms_ssim,
         ssimulacra2: ssimulacra2(reference, test)?,
         psnr_alpha,
     })

@@ -62,13 +62,18 @@ fn window_len(n: usize) -> usize {
 ///
 /// Panics if a plane's length is not `width * height`: a caller bug.
 pub fn ssim_planes(a: &[f32], b: &[f32], width: u32, height: u32) -> f64 {
-    let (w, h) = (width as usize, height as usize);
+    ssim_and_contrast_structure(a, b, width as usize, height as usize).0
+}
+
+/// Mean SSIM and mean contrast-structure term `(2 cov + C2) / (var_a + var_b + C2)` of
+/// two `w x h` planes (MS-SSIM uses the second at every scale but the coarsest).
+pub(super) fn ssim_and_contrast_structure(a: &[f32], b: &[f32], w: usize, h: usize) -> (f64, f64) {
     assert!(
         a.len() == w * h && b.len() == w * h,
         "ssim_planes: plane sizes do not match {w}x{h}"
     );
     if w == 0 || h == 0 {
-        return 1.0;
+        return (1.0, 1.0);
     }
     let (kx, ky) = (gaussian(window_len(w)), gaussian(window_len(h)));
     let (ow, oh) = (w - kx.len() + 1, h - ky.len() + 1);
@@ -114,15 +119,17 @@ pub fn ssim_planes(a: &[f32], b: &[f32], width: u32, height: u32) -> f64 {
         &moments[3],
         &moments[4],
     );
-    let total: f64 = (0..ow * oh)
-        .map(|i| {
-            let (ma, mb) = (mx[i], my[i]);
-            let va = xx[i] - ma * ma;
-            let vb = yy[i] - mb * mb;
-            let cov = xy[i] - ma * mb;
-            ((2.0 * ma * mb + SSIM_C1) * (2.0 * cov + SSIM_C2))
-                / ((ma * ma + mb * mb + SSIM_C1) * (va + vb + SSIM_C2))
-        })
-        .sum();
-    total / (ow * oh) as f64
+    let (mut total, mut total_cs) = (0.0, 0.0);
+    for i in 0..ow * oh {
+        let (ma, mb) = (mx[i], my[i]);
+        let va = xx[i] - ma * ma;
+        let vb = yy[i] - mb * mb;
+        let cov = xy[i] - ma * mb;
+        let cs = (2.0 * cov + SSIM_C2) / (va + vb + SSIM_C2);
+        total += ((2.0 * ma * mb + SSIM_C1) * (2.0 * cov + SSIM_C2))
+            / ((ma * ma + mb * mb + SSIM_C1) * (va + vb + SSIM_C2));
+        total_cs += cs;
+    }
+    let n = (ow * oh) as f64;
+    (total / n, total_cs / n)
 }

@@ -67,6 +67,7 @@ pub fn comparison_json(c: &Comparison) -> serde_json::Value {
         "psnr": finite(c.psnr),
         "psnr_y": finite(c.psnr_y),
         "ssim": c.ssim,
+        "ms_ssim": c.ms_ssim,
         "ssimulacra2": c.ssimulacra2,
         "psnr_alpha": c.psnr_alpha.map(finite),
         "mse": c.mse,
@@ -124,6 +125,7 @@ pub fn run(global: &GlobalArgs, args: &CompareArgs) -> CliResult {
         outln!(text, "PSNR         {}{scale}", db(c.psnr));
         outln!(text, "Y-PSNR       {}", db(c.psnr_y));
         outln!(text, "SSIM         {:.6}", c.ssim);
+        outln!(text, "MS-SSIM      {:.6}", c.ms_ssim);
         match c.ssimulacra2 {
             Some(s) => outln!(text, "SSIMULACRA2  {s:.3}"),
             None => outln!(text, "SSIMULACRA2  n/a (HDR or smaller than 8x8)"),
