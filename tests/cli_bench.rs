@@ -52,7 +52,7 @@ fn usage_errors_exit_2() {
     let cases: [(&[&str], &str); 5] = [
         (&["bench", "--rates", "fast"], "bad rate"),
         (&["bench", "--rates", "q120"], "bad quality"),
-        (&["bench", "--codecs", "avif"], "not available"),
+        (&["bench", "--codecs", "heic"], "unknown codec `heic`"),
         (
             &["bench", "--codecs", "caoen", "--reference", "webp"],
             "not among",
@@ -368,5 +368,56 @@ fn every_peer_round_trips_every_layout() {
     let hdr = Raster::new(2, 2, ChannelLayout::Rgb, SampleFormat::F32, vec![2.0; 12]).unwrap();
     for name in ["jpeg", "mozjpeg", "jpeg-image", "webp"] {
         assert!(by_name(name, None).unwrap().supports(&hdr).is_err());
+    }
+}
+
+/// The command-line peers (AVIF 4:2:0 and 4:4:4, JPEG XL) on every layout: the decoded
+/// image has the input's layout and size, encodes repeat byte for byte, bad files fail.
+#[test]
+fn command_line_peers_round_trip_every_layout() {
+    use caoen::raster::{ChannelLayout, Raster, SampleFormat};
+    use caoen_cli::bench::codecs::{by_name, Setting};
+    let (w, h) = (17u32, 9u32);
+    for name in ["avif", "avif444", "jxl"] {
+        let codec = match by_name(name, None) {
+            Ok(c) => c,
+            Err(why) => {
+                assert!(why.contains("not on PATH"), "{why}");
+                if !common::tool_present(false, &format!("{name}'s tools")) {
+                    continue;
+                }
+                unreachable!()
+            }
+        };
+        for layout in [
+            ChannelLayout::Grey,
+            ChannelLayout::GreyAlpha,
+            ChannelLayout::Rgb,
+            ChannelLayout::Rgba,
+        ] {
+            // Smooth ramps, a different one per channel: 4:2:0 and quality 90 keep them.
+            let pixels = (w * h) as usize;
+            let samples = (0..pixels * layout.channels())
+                .map(|i| {
+                    let (c, p) = (i / pixels, i % pixels);
+                    let (x, y) = ((p % w as usize) as f32, (p / w as usize) as f32);
+                    ((40.0 + 9.0 * x + (4.0 + c as f32) * y) / 255.0).min(1.0)
+                })
+                .collect();
+            let img = Raster::new(w, h, layout, SampleFormat::U8, samples).unwrap();
+            codec.supports(&img).unwrap();
+            let (bytes, ms) = codec.encode_timed(&img, Setting::Quality(90.0)).unwrap();
+            assert!(ms > 0.0 && !bytes.is_empty());
+            let (back, _) = codec.decode_timed(&bytes, &img).unwrap();
+            assert_eq!(back.layout(), layout, "{name}");
+            assert_eq!((back.width(), back.height()), (w, h));
+            let psnr = caoen::metrics::psnr(&img, &back).unwrap();
+            assert!(psnr > 35.0, "{name} {layout:?}: {psnr} dB at quality 90");
+            assert_eq!(codec.encode(&img, Setting::Quality(90.0)).unwrap(), bytes);
+            let err = codec.decode(b"garbage", &img).unwrap_err();
+            assert!(err.contains("failed"), "{name}: {err}");
+        }
+        let hdr = Raster::new(2, 2, ChannelLayout::Rgb, SampleFormat::F32, vec![2.0; 12]).unwrap();
+        assert!(codec.supports(&hdr).is_err());
     }
 }

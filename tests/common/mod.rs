@@ -26,3 +26,16 @@ pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
         }
     }
 }
+
+/// Whether a real tool a test needs is there (`ok`). `.ci/run` installs every such tool,
+/// so under `CI=true` its absence fails the test; elsewhere the test is skipped, saying so.
+pub fn tool_present(ok: bool, what: &str) -> bool {
+    if !ok {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "{what} is missing in CI"
+        );
+        eprintln!("skipped: {what} is not installed (.ci/run installs it)");
+    }
+    ok
+}

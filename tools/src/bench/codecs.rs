@@ -1,9 +1,14 @@
 //! The codecs a benchmark runs: a common interface, caoen through its facade, and
-//! the registry of names (`caoen`, and with the `peers` feature `jpeg`, `mozjpeg`,
-//! `jpeg-image`, `webp`).
+//! the registry of names (`caoen`; the command-line peers `avif`, `avif444`, `jxl` when
+//! their tools are installed; with the `peers` feature `jpeg`, `mozjpeg`, `jpeg-image`,
+//! `webp`).
+
+use std::time::Instant;
 
 use caoen::codec::{self, DecodeOptions, EncodeOptions, RateTarget};
 use caoen::raster::{Raster, SampleFormat};
+
+use super::external::EXTERNAL_NAMES;
 
 /// One point of a codec's settings sweep.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -37,6 +42,19 @@ pub trait Codec: Send + Sync {
     /// Decodes with the codec's own decoder, into the reference image's colour
     /// layout (a codec that stores grey as RGB converts back).
     fn decode(&self, bytes: &[u8], reference: &Raster) -> Result<Raster, String>;
+    /// Encodes and times the encoder, ms: the whole call, unless the codec has parts
+    /// that are not its encoder's (a command-line peer's file hand-over).
+    fn encode_timed(&self, image: &Raster, setting: Setting) -> Result<(Vec<u8>, f64), String> {
+        let start = Instant::now();
+        let bytes = self.encode(image, setting)?;
+        Ok((bytes, start.elapsed().as_secs_f64() * 1e3))
+    }
+    /// Decodes and times the decoder, ms, as [`Codec::encode_timed`] does.
+    fn decode_timed(&self, bytes: &[u8], reference: &Raster) -> Result<(Raster, f64), String> {
+        let start = Instant::now();
+        let image = self.decode(bytes, reference)?;
+        Ok((image, start.elapsed().as_secs_f64() * 1e3))
+    }
 }
 
 /// caoen through `caoen::codec::{encode, decode}`.
@@ -94,7 +112,7 @@ impl Codec for Caoen {
     }
 }
 
-/// Names of every codec this build has.
+/// Names of every codec this build has (the command-line peers need their tools).
 pub fn available() -> Vec<&'static str> {
     let peers: &[&'static str] = if cfg!(feature = "peers") {
         &PEER_NAMES
@@ -103,18 +121,12 @@ pub fn available() -> Vec<&'static str> {
     };
     std::iter::once("caoen")
         .chain(peers.iter().copied())
+        .chain(EXTERNAL_NAMES)
         .collect()
 }
 
 /// Names of the peer codecs the `peers` feature adds.
 pub const PEER_NAMES: [&str; 4] = ["jpeg", "mozjpeg", "jpeg-image", "webp"];
-
-/// Peers that may be asked for but do not build here.
-pub const UNAVAILABLE: [(&str, &str); 1] = [(
-    "avif",
-    "no AVIF encoder and decoder pair builds offline from crates.io without system \
-     libraries (dav1d/libavif) or an hour-long rav1e build; see docs/benchmarks.md",
-)];
 
 /// The codec called `name`, configured from the benchmark's options.
 pub fn by_name(name: &str, caoen_effort: Option<u8>) -> Result<Box<dyn Codec>, String> {
@@ -123,8 +135,8 @@ pub fn by_name(name: &str, caoen_effort: Option<u8>) -> Result<Box<dyn Codec>, S
             effort: caoen_effort,
         }));
     }
-    if let Some((_, why)) = UNAVAILABLE.iter().find(|(n, _)| *n == name) {
-        return Err(format!("codec `{name}` is not available: {why}"));
+    if let Some(c) = super::external::by_name(name)? {
+        return Ok(c);
     }
     #[cfg(feature = "peers")]
     if let Some(c) = super::peers::by_name(name) {
@@ -138,9 +150,9 @@ pub fn by_name(name: &str, caoen_effort: Option<u8>) -> Result<Box<dyn Codec>, S
         ));
     }
     Err(format!(
-        "unknown codec `{name}` (known: {}, {}, avif)",
-        "caoen",
-        PEER_NAMES.join(", ")
+        "unknown codec `{name}` (known: caoen, {}, {})",
+        PEER_NAMES.join(", "),
+        EXTERNAL_NAMES.join(", ")
     ))
 }
 

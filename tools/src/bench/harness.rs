@@ -8,7 +8,6 @@
 use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;
-use std::time::Instant;
 
 use caoen::image_io::{self, OutputFormat};
 use caoen::metrics;
@@ -125,6 +124,9 @@ pub struct Measurement {
     pub psnr_y: Option<f64>,
     /// SSIM of the luma plane.
     pub ssim: f64,
+    /// MS-SSIM of the luma plane.
+    #[serde(default)]
+    pub ms_ssim: Option<f64>,
     /// SSIMULACRA2, when defined (not for HDR or images under 8x8).
     pub ssimulacra2: Option<f64>,
     /// Metric scale: `display` or `log-hdr` (see `caoen::metrics`).
@@ -193,10 +195,6 @@ pub fn median(values: &[f64]) -> f64 {
     }
 }
 
-fn ms_since(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
 /// Number of rate points a codec runs per image.
 pub fn points_per_image(codec: &dyn Codec, rates: &Rates) -> usize {
     match rates {
@@ -221,9 +219,8 @@ impl Encoder<'_> {
         if let Some(hit) = self.cache.get(&key) {
             return Ok(hit.clone());
         }
-        let t = Instant::now();
-        let bytes = self.codec.encode(self.image, Setting::Quality(q))?;
-        let entry = (bytes, ms_since(t));
+        let (bytes, ms) = self.codec.encode_timed(self.image, Setting::Quality(q))?;
+        let entry = (bytes, ms);
         self.cache.insert(key, entry.clone());
         Ok(entry)
     }
@@ -343,9 +340,8 @@ fn measure_point(
             (b, ms, Some(q), "fixed")
         }
         RatePoint::Bpp(t) if codec.native_rate_control() => {
-            let start = Instant::now();
-            let b = codec.encode(&image.raster, Setting::Bpp(t))?;
-            (b, ms_since(start), None, "native")
+            let (b, ms) = codec.encode_timed(&image.raster, Setting::Bpp(t))?;
+            (b, ms, None, "native")
         }
         RatePoint::Bpp(t) => {
             let q = enc.search(t)?;
@@ -364,9 +360,8 @@ fn measure_point(
     };
     let mut encode_runs = vec![first_ms];
     for _ in 1..repeat {
-        let t = Instant::now();
-        let again = codec.encode(&image.raster, setting)?;
-        encode_runs.push(ms_since(t));
+        let (again, ms) = codec.encode_timed(&image.raster, setting)?;
+        encode_runs.push(ms);
         if again != bytes {
             return Err("the encoder is not deterministic: a repeated encode differs".into());
         }
@@ -374,9 +369,8 @@ fn measure_point(
     let mut decode_runs = Vec::with_capacity(repeat);
     let mut decoded = None;
     for _ in 0..repeat {
-        let t = Instant::now();
-        let d = codec.decode(&bytes, &image.raster)?;
-        decode_runs.push(ms_since(t));
+        let (d, ms) = codec.decode_timed(&bytes, &image.raster)?;
+        decode_runs.push(ms);
         decoded = Some(d);
     }
     let decoded = decoded.expect("at least one decode ran");
@@ -413,6 +407,7 @@ fn measure_point(
         psnr: finite(c.psnr),
         psnr_y: finite(c.psnr_y),
         ssim: c.ssim,
+        ms_ssim: Some(c.ms_ssim),
         ssimulacra2: c.ssimulacra2,
         scale: c.scale.name().into(),
         encode_ms: median(&encode_runs),

@@ -4,6 +4,7 @@
 //! - [`corpus`]: the images (a corpus directory or the generated default corpus);
 //! - [`codecs`]: the codec interface, caoen through its facade, the registry;
 //! - `peers` (feature `peers`): JPEG (mozjpeg library, `image` crate) and WebP;
+//! - [`external`]: AVIF and JPEG XL through their command-line tools;
 //! - [`harness`]: the sweep, rate search, timing and measuring;
 //! - [`bd_rate`]: PCHIP and the Bjontegaard deltas;
 //! - [`summary`]: per-image and per-class statistics;
@@ -13,6 +14,7 @@
 pub mod bd_rate;
 pub mod codecs;
 pub mod corpus;
+pub mod external;
 pub mod harness;
 #[cfg(feature = "peers")]
 pub mod peers;
@@ -31,8 +33,10 @@ pub struct BenchArgs {
     /// manifest.json; or any directory of images). Default: the default corpus,
     /// generated in memory.
     pub corpus: Option<PathBuf>,
-    /// Codecs, comma-separated: caoen; with the `peers` feature also jpeg (libjpeg-turbo
-    /// settings, optimised Huffman), mozjpeg, jpeg-image (the image crate), webp.
+    /// Codecs, comma-separated: caoen; avif (avifenc/avifdec, aom speed 6, 4:2:0), avif444
+    /// and jxl (cjxl/djxl, effort 7) when their tools are installed; with the `peers`
+    /// feature also jpeg (libjpeg-turbo settings, optimised Huffman), mozjpeg, jpeg-image
+    /// (the image crate), webp.
     /// Default: caoen,jpeg,webp with peers, caoen without.
     #[arg(long, value_delimiter = ',')]
     pub codecs: Option<Vec<String>>,

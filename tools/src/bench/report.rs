@@ -25,7 +25,9 @@ interval the reference codec's curve (PCHIP of PSNR over ln(rate)) spans between
 and hi, clamped to the reference's measured rates, intersected with the two curves' PSNR \
 overlap; the ln-rate gap averaged over that interval as for BD-rate; no figure for an \
 image when the interval is empty or under 0.05 dB; per class the arithmetic mean over the \
-images with a figure (images: their count).";
+images with a figure (images: their count). ms_ssim: MS-SSIM of the same luma (Wang et \
+al. 2003, five scales). perceptual: BD-rates and window BD-rates as above with MS-SSIM in \
+dB (-10 log10(1 - MS-SSIM)) or the SSIMULACRA2 score in place of PSNR.";
 
 /// A codec in the report.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -172,6 +174,7 @@ impl Report {
             }
             md.push('\n');
             self.window_table(&mut md, &rows);
+            self.metric_table(&mut md, &rows);
         }
         if !self.skipped.is_empty() {
             let _ = writeln!(md, "Skipped (the codec cannot represent the image):\n");
@@ -243,6 +246,71 @@ impl Report {
     }
 }
 
+impl Report {
+    /// The class's BD-rates by each metric, overall and by rate window, one row per
+    /// codec other than the reference and metric (nothing when there is none).
+    fn metric_table(&self, md: &mut String, rows: &[&ClassSummary]) {
+        let rows: Vec<&&ClassSummary> = rows
+            .iter()
+            .filter(|r| r.codec != self.reference && !r.perceptual.is_empty())
+            .collect();
+        let Some(first) = rows.first() else {
+            return;
+        };
+        let heads: Vec<String> = first
+            .bd_rate_windows
+            .iter()
+            .map(|w| format!("{}–{} bpp", w.lo, w.hi))
+            .collect();
+        let _ = writeln!(md, "BD-rate vs {} by metric:\n", self.reference);
+        let _ = writeln!(md, "| codec | metric | overall | {} |", heads.join(" | "));
+        let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(heads.len()));
+        let cell = |v: Option<f64>, images: usize| match v {
+            Some(v) => format!("{v:+.1}% ({images})"),
+            None => "–".into(),
+        };
+        for r in rows {
+            let psnr: Vec<String> = r
+                .bd_rate_windows
+                .iter()
+                .map(|w| cell(w.bd_rate, w.images))
+                .collect();
+            let _ = writeln!(
+                md,
+                "| {} | RGB PSNR | {} | {} |",
+                r.codec,
+                cell(r.bd_rate, r.bd_images),
+                psnr.join(" | ")
+            );
+            for p in &r.perceptual {
+                let windows: Vec<String> = p
+                    .windows
+                    .iter()
+                    .map(|w| cell(w.bd_rate, w.images))
+                    .collect();
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {} | {} |",
+                    r.codec,
+                    metric_title(&p.metric),
+                    cell(p.bd_rate, p.images),
+                    windows.join(" | ")
+                );
+            }
+        }
+        md.push('\n');
+    }
+}
+
+/// How a metric is named in the tables.
+fn metric_title(name: &str) -> &str {
+    match name {
+        "ms-ssim" => "MS-SSIM",
+        "ssimulacra2" => "SSIMULACRA2",
+        other => other,
+    }
+}
+
 /// Times with sensible precision.
 fn fmt_ms(v: f64) -> String {
     if !v.is_finite() {
@@ -281,6 +349,7 @@ mod tests {
                     images,
                 })
                 .collect(),
+            perceptual: Vec::new(),
             encode_ms: 1.0,
             decode_ms: 1.0,
         }

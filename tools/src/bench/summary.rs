@@ -16,6 +16,19 @@ pub const PSNR_RATES: [f64; 4] = [0.1, 0.25, 0.5, 1.0];
 /// reference codec's curve; see [`bd_rate_window`].
 pub const BD_WINDOWS: [(f64, f64); 3] = [(0.05, 0.3), (0.3, 0.8), (0.8, 2.0)];
 
+/// The perceptual metrics with BD-rates beside RGB PSNR: each name and the quality
+/// a measurement gives it, increasing with fidelity. MS-SSIM goes in decibels,
+/// `-10 log10(1 - MS-SSIM)`, as BD-rates by MS-SSIM usually are (a perfect score has
+/// none); SSIMULACRA2 as its score.
+pub const PERCEPTUAL: [(&str, fn(&Measurement) -> Option<f64>); 2] = [
+    ("ms-ssim", |m| {
+        m.ms_ssim
+            .map(|v| -10.0 * (1.0 - v).log10())
+            .filter(|v| v.is_finite())
+    }),
+    ("ssimulacra2", |m| m.ssimulacra2),
+];
+
 /// Name of the pseudo-class covering every image.
 pub const ALL_CLASSES: &str = "all";
 
@@ -45,6 +58,33 @@ pub struct ImageSummary {
     /// BD-rate (RGB PSNR) in each of [`BD_WINDOWS`].
     #[serde(default)]
     pub bd_rate_windows: Vec<WindowBdRate>,
+    /// BD-rates by each of [`PERCEPTUAL`]'s metrics, overall and per window.
+    #[serde(default)]
+    pub perceptual: Vec<MetricBdRate>,
+}
+
+/// BD-rate of one image by one perceptual metric.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricBdRate {
+    /// Metric name (one of [`PERCEPTUAL`]).
+    pub metric: String,
+    /// Percent over the curves' overlap; `None` for the reference or without overlap.
+    pub bd_rate: Option<f64>,
+    /// In each of [`BD_WINDOWS`].
+    pub windows: Vec<WindowBdRate>,
+}
+
+/// Mean BD-rate of a class by one perceptual metric.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MetricBdMean {
+    /// Metric name (one of [`PERCEPTUAL`]).
+    pub metric: String,
+    /// Mean over the images with a figure, percent.
+    pub bd_rate: Option<f64>,
+    /// How many images that mean covers.
+    pub images: usize,
+    /// In each of [`BD_WINDOWS`].
+    pub windows: Vec<WindowBdMean>,
 }
 
 /// BD-rate of one image in one rate window.
@@ -105,6 +145,9 @@ pub struct ClassSummary {
     /// Mean BD-rate in each of [`BD_WINDOWS`].
     #[serde(default)]
     pub bd_rate_windows: Vec<WindowBdMean>,
+    /// Mean BD-rates by each of [`PERCEPTUAL`]'s metrics, overall and per window.
+    #[serde(default)]
+    pub perceptual: Vec<MetricBdMean>,
     /// Median of the images' median encode times, ms.
     pub encode_ms: f64,
     /// Median of the images' median decode times, ms.
@@ -125,6 +168,36 @@ pub fn curve(ms: &[&Measurement], quality: impl Fn(&Measurement) -> Option<f64>)
 
 fn mean(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+/// Figures for each of [`BD_WINDOWS`], in order.
+fn window_rates(rates: [Option<f64>; BD_WINDOWS.len()]) -> Vec<WindowBdRate> {
+    BD_WINDOWS
+        .iter()
+        .zip(rates)
+        .map(|(&(lo, hi), bd_rate)| WindowBdRate { lo, hi, bd_rate })
+        .collect()
+}
+
+/// Class means of per-image window figures: `window(s, i)` is image `s`'s figure in
+/// window `i`.
+fn window_means(
+    summaries: &[&ImageSummary],
+    window: impl Fn(&ImageSummary, usize) -> Option<f64>,
+) -> Vec<WindowBdMean> {
+    BD_WINDOWS
+        .iter()
+        .enumerate()
+        .map(|(i, &(lo, hi))| {
+            let v: Vec<f64> = summaries.iter().filter_map(|s| window(s, i)).collect();
+            WindowBdMean {
+                lo,
+                hi,
+                bd_rate: mean(&v),
+                images: v.len(),
+            }
+        })
+        .collect()
 }
 
 /// Per-image summaries, in measurement order of images and the given codec order.
@@ -156,6 +229,14 @@ pub fn per_image(
             let (mut bd_rate_v, mut bd_psnr_v, mut bd_rate_y, mut bd_note) =
                 (None, None, None, None);
             let mut windows = [None; BD_WINDOWS.len()];
+            let mut perceptual: Vec<MetricBdRate> = PERCEPTUAL
+                .iter()
+                .map(|(metric, _)| MetricBdRate {
+                    metric: metric.to_string(),
+                    bd_rate: None,
+                    windows: window_rates([None; BD_WINDOWS.len()]),
+                })
+                .collect();
             if codec != reference {
                 if reference_ms.is_empty() {
                     bd_note = Some(format!("no {reference} measurements for this image"));
@@ -174,6 +255,13 @@ pub fn per_image(
                     for (w, &(lo, hi)) in windows.iter_mut().zip(&BD_WINDOWS) {
                         *w = bd_rate_window(&r, &t, lo, hi).ok();
                     }
+                    for (p, (_, quality)) in perceptual.iter_mut().zip(PERCEPTUAL) {
+                        let (r, t) = (curve(&reference_ms, quality), curve(&ms, quality));
+                        p.bd_rate = bd_rate(&r, &t).ok();
+                        p.windows = window_rates(
+                            BD_WINDOWS.map(|(lo, hi)| bd_rate_window(&r, &t, lo, hi).ok()),
+                        );
+                    }
                 }
             }
             let enc: Vec<f64> = ms.iter().map(|m| m.encode_ms).collect();
@@ -189,11 +277,8 @@ pub fn per_image(
                 bd_psnr: bd_psnr_v,
                 bd_rate_y,
                 bd_note,
-                bd_rate_windows: BD_WINDOWS
-                    .iter()
-                    .zip(windows)
-                    .map(|(&(lo, hi), bd_rate)| WindowBdRate { lo, hi, bd_rate })
-                    .collect(),
+                bd_rate_windows: window_rates(windows),
+                perceptual,
             });
         }
     }
@@ -255,19 +340,27 @@ pub fn per_class(
                 summaries.iter().filter_map(|s| f(s)).collect()
             };
             let rates = pick(|s| s.bd_rate);
-            let bd_rate_windows = BD_WINDOWS
+            let bd_rate_windows = window_means(&summaries, |s, i| {
+                s.bd_rate_windows.get(i).and_then(|w| w.bd_rate)
+            });
+            let perceptual = PERCEPTUAL
                 .iter()
                 .enumerate()
-                .map(|(i, &(lo, hi))| {
+                .map(|(k, (metric, _))| {
                     let v: Vec<f64> = summaries
                         .iter()
-                        .filter_map(|s| s.bd_rate_windows.get(i).and_then(|w| w.bd_rate))
+                        .filter_map(|s| s.perceptual.get(k).and_then(|p| p.bd_rate))
                         .collect();
-                    WindowBdMean {
-                        lo,
-                        hi,
+                    MetricBdMean {
+                        metric: metric.to_string(),
                         bd_rate: mean(&v),
                         images: v.len(),
+                        windows: window_means(&summaries, |s, i| {
+                            s.perceptual
+                                .get(k)
+                                .and_then(|p| p.windows.get(i))
+                                .and_then(|w| w.bd_rate)
+                        }),
                     }
                 })
                 .collect();
@@ -283,6 +376,7 @@ pub fn per_class(
                 bd_rate_y: mean(&pick(|s| s.bd_rate_y)),
                 bd_images: rates.len(),
                 bd_rate_windows,
+                perceptual,
                 encode_ms: median(&enc),
                 decode_ms: median(&dec),
             });
@@ -311,6 +405,7 @@ mod tests {
             psnr: Some(psnr),
             psnr_y: Some(psnr),
             ssim: 1.0,
+            ms_ssim: None,
             ssimulacra2: None,
             scale: "display".into(),
             encode_ms: 1.0,
