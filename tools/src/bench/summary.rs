@@ -16,11 +16,14 @@ pub const PSNR_RATES: [f64; 4] = [0.1, 0.25, 0.5, 1.0];
 /// reference codec's curve; see [`bd_rate_window`].
 pub const BD_WINDOWS: [(f64, f64); 3] = [(0.05, 0.3), (0.3, 0.8), (0.8, 2.0)];
 
+/// The quality a measurement gives a metric, when it has one.
+pub type QualityOf = fn(&Measurement) -> Option<f64>;
+
 /// The perceptual metrics with BD-rates beside RGB PSNR: each name and the quality
 /// a measurement gives it, increasing with fidelity. MS-SSIM goes in decibels,
 /// `-10 log10(1 - MS-SSIM)`, as BD-rates by MS-SSIM usually are (a perfect score has
 /// none); SSIMULACRA2 as its score.
-pub const PERCEPTUAL: [(&str, fn(&Measurement) -> Option<f64>); 2] = [
+pub const PERCEPTUAL: [(&str, QualityOf); 2] = [
     ("ms-ssim", |m| {
         m.ms_ssim
             .map(|v| -10.0 * (1.0 - v).log10())
