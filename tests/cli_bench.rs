@@ -24,7 +24,6 @@ fn s(p: &Path) -> &str {
 }
 
 /// Two small corpus images (a scene and a natural texture) with their manifest.
-#[cfg(feature = "peers")]
 fn tiny_corpus(dir: &Path) -> PathBuf {
     let corpus = dir.join("corpus");
     let out = caoen(&[
@@ -420,4 +419,57 @@ fn command_line_peers_round_trip_every_layout() {
         let hdr = Raster::new(2, 2, ChannelLayout::Rgb, SampleFormat::F32, vec![2.0; 12]).unwrap();
         assert!(codec.supports(&hdr).is_err());
     }
+}
+
+/// Folders and files that would make the bench read outside its corpus, write into it,
+/// or drop the user's text are refused before any encoding, with what is wrong.
+#[test]
+fn lying_corpora_and_unspliceable_markdown_are_refused() {
+    let d = tmpdir("refusals");
+    let corpus = tiny_corpus(&d);
+    let manifest = corpus.join("manifest.json");
+    let good = std::fs::read_to_string(&manifest).unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["bench", s(&corpus), "--codecs", "caoen", "--rates", "q50"];
+        args.extend_from_slice(extra);
+        caoen(&args)
+    };
+
+    std::fs::write(&manifest, &good[..good.len() / 2]).unwrap();
+    let out = run(&[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("manifest.json"), "{err}");
+
+    let first = good.split("\"file\": \"").nth(1).unwrap();
+    let name = &first[..first.find('"').unwrap()];
+    std::fs::write(&manifest, good.replace(name, "../../x.png")).unwrap();
+    let out = run(&[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("outside the corpus folder"), "{err}");
+    std::fs::write(&manifest, &good).unwrap();
+
+    let before: Vec<_> = std::fs::read_dir(&corpus)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    let out = run(&["--keep", s(&corpus)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("corpus folder"), "{err}");
+    let after: Vec<_> = std::fs::read_dir(&corpus)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(before, after);
+
+    let md = d.join("notes.md");
+    let text = "# My notes\n\n<!-- caoen bench: begin -->\nold tables\n";
+    std::fs::write(&md, text).unwrap();
+    let out = run(&["--markdown", s(&md), "-f"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("no end marker"), "{err}");
+    assert_eq!(std::fs::read_to_string(&md).unwrap(), text);
 }

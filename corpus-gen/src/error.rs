@@ -20,6 +20,17 @@ pub enum CorpusError {
     #[error("{0} already exists and is not listed in the corpus manifest; refusing to overwrite it (pass --force)")]
     WouldOverwrite(PathBuf),
 
+    /// A manifest entry names a file outside the manifest's folder.
+    #[error(
+        "{manifest}: entry {entry:?} is outside the corpus folder (entries are file names in it)"
+    )]
+    OutsideFolder {
+        /// The manifest.
+        manifest: PathBuf,
+        /// The offending entry.
+        entry: String,
+    },
+
     /// A filesystem operation failed.
     #[error("I/O error on {path}: {source}")]
     Io {

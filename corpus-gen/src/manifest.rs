@@ -106,6 +106,43 @@ impl Manifest {
         }
     }
 
+    /// Read `dir/manifest.json` for a reader of the corpus: `Ok(None)` if there is none
+    /// or it is another program's; an error if it does not parse, or if an entry names
+    /// a file outside `dir` (an absolute path, or one with `..` or a root).
+    pub fn read_for_reading(dir: &Path) -> Result<Option<Manifest>, CorpusError> {
+        let path = dir.join(MANIFEST_NAME);
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(CorpusError::io(path, e)),
+        };
+        let value: serde_json::Value =
+            serde_json::from_str(&text).map_err(|source| CorpusError::Manifest {
+                path: path.clone(),
+                source,
+            })?;
+        if value.get("generator").and_then(|g| g.as_str()) != Some(GENERATOR) {
+            return Ok(None);
+        }
+        let m: Manifest =
+            serde_json::from_value(value).map_err(|source| CorpusError::Manifest {
+                path: path.clone(),
+                source,
+            })?;
+        for e in &m.images {
+            let inside = Path::new(&e.file)
+                .components()
+                .all(|c| matches!(c, std::path::Component::Normal(_)));
+            if !inside || e.file.is_empty() {
+                return Err(CorpusError::OutsideFolder {
+                    manifest: path,
+                    entry: e.file.clone(),
+                });
+            }
+        }
+        Ok(Some(m))
+    }
+
     /// Write `dir/manifest.json` (via a temporary file and a rename).
     pub fn write_to_dir(&self, dir: &Path) -> Result<(), CorpusError> {
         let path = dir.join(MANIFEST_NAME);

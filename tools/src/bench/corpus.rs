@@ -107,7 +107,7 @@ pub fn load(source: &Source, classes: &[String]) -> Result<Vec<BenchImage>, Stri
 }
 
 fn load_dir(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<BenchImage>, String> {
-    let manifest = Manifest::read_from_dir(dir).map_err(|e| e.to_string())?;
+    let manifest = Manifest::read_for_reading(dir).map_err(|e| e.to_string())?;
     let entries: Vec<(String, String)> = match manifest {
         Some(m) => m
             .images

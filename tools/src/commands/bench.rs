@@ -32,14 +32,32 @@ pub const MARKDOWN_END: &str = "<!-- caoen bench: end -->";
 /// The new contents of a `--markdown` file: an existing file holding both markers
 /// keeps everything outside them (so `docs/benchmarks.md` is regenerated in place),
 /// any other file is replaced by the tables.
-fn splice_markdown(path: &std::path::Path, tables: &str) -> String {
-    let old = std::fs::read_to_string(path).unwrap_or_default();
+fn splice_markdown(old: &str, tables: &str) -> String {
     match (old.find(MARKDOWN_BEGIN), old.find(MARKDOWN_END)) {
         (Some(b), Some(e)) if b < e => {
             format!("{}{MARKDOWN_BEGIN}\n\n{tables}{}", &old[..b], &old[e..])
         }
         _ => tables.to_string(),
     }
+}
+
+/// Refuses a `--markdown` file whose markers cannot be spliced: one without the
+/// other, or the end before the beginning. Replacing it would drop the user's text
+/// around the one marker, so it is refused before any work.
+fn check_markers(path: &std::path::Path, old: &str) -> CliResult {
+    let (b, e) = (old.find(MARKDOWN_BEGIN), old.find(MARKDOWN_END));
+    let problem = match (b, e) {
+        (None, None) => return Ok(()),
+        (Some(b), Some(e)) if b < e => return Ok(()),
+        (Some(_), None) => "the begin marker but no end marker",
+        (None, Some(_)) => "the end marker but no begin marker",
+        _ => "the end marker before the begin marker",
+    };
+    Err(CliError::Usage(format!(
+        "--markdown {}: the file has {problem} ({MARKDOWN_BEGIN} ... {MARKDOWN_END}); \
+         the tables go between the two, so fix the markers or choose another file",
+        path.display()
+    )))
 }
 
 /// Runs `caoen bench`.
@@ -105,6 +123,27 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
                 .unwrap_or_else(|_| c.clone())
         })
         .collect();
+    let existing_markdown = match &args.markdown {
+        Some(path) => match std::fs::read_to_string(path) {
+            Ok(text) => {
+                check_markers(path, &text)?;
+                text
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+            Err(e) => return Err(CliError::io(path, e)),
+        },
+        None => String::new(),
+    };
+    if let (Some(keep), Source::Dir(corpus)) = (&args.keep, &source) {
+        let same = |a: &std::path::Path, b: &std::path::Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+        if same(keep, corpus) {
+            return Err(CliError::Usage(format!(
+                "--keep {}: that is the corpus folder; the encoded and decoded files go to \
+                 a folder of their own",
+                keep.display()
+            )));
+        }
+    }
     if let Some(dir) = &args.keep {
         std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, e))?;
     }
@@ -227,7 +266,10 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(path) = &args.markdown {
-        outputs.write_path(path, splice_markdown(path, &markdown).as_bytes())?;
+        outputs.write_path(
+            path,
+            splice_markdown(&existing_markdown, &markdown).as_bytes(),
+        )?;
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(base) = &args.plot {
