@@ -481,3 +481,49 @@ fn encode_turns_photos_upright_and_keeps_the_metadata_asked_for() {
     let both = caoen(&["encode", s(&jpg), "--strip", "--metadata", "icc"]);
     assert_eq!(both.status.code(), Some(2));
 }
+
+/// A stream whose magic number is wrong is refused after those bytes: `/dev/zero`, and a
+/// pipe that stays open and never ends, get the magic error without being read on.
+#[test]
+fn a_wrong_magic_number_stops_the_reading() {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    for cmd in [&["info", "-"][..], &["decode", "-", "-o", "-"][..]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_caoen"))
+            .args(cmd)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut stdin = child.stdin.take().unwrap();
+        stdin.write_all(b"RIFF\0\0\0\0WEBP").unwrap();
+        stdin.flush().unwrap();
+        // The pipe stays open: a reader that went on would wait here for ever.
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status;
+            }
+            if std::time::Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("{cmd:?} went on reading past a wrong magic number");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        drop(stdin);
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(status.code(), Some(1), "{cmd:?}: {err}");
+        assert!(err.contains("not a caoen file"), "{cmd:?}: {err}");
+    }
+    for cmd in [
+        &["info", "/dev/zero"][..],
+        &["decode", "/dev/zero", "-o", "-"][..],
+    ] {
+        let out = caoen(cmd);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{cmd:?}: {err}");
+        assert!(err.contains("magic"), "{cmd:?}: {err}");
+    }
+}

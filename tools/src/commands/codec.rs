@@ -17,12 +17,40 @@ use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::{print, Outputs, Target};
 
+/// Reads a `.cae` input within the memory budget. The first four bytes are read on
+/// their own: a file that does not start with the magic number is handed to the
+/// decoder as those bytes alone (which it refuses), so `/dev/zero` or an endless pipe
+/// is not read any further.
 fn read_input(path: &Path) -> CliResult<Vec<u8>> {
-    if path.as_os_str() == "-" {
-        return caoen::budget::read_all(std::io::stdin().lock(), None)
-            .map_err(|e| CliError::io("<stdin>", e));
+    use std::io::Read;
+    let name = if path.as_os_str() == "-" {
+        Path::new("<stdin>")
+    } else {
+        path
+    };
+    let (mut reader, len): (Box<dyn Read>, Option<u64>) = if path.as_os_str() == "-" {
+        (Box::new(std::io::stdin().lock()), None)
+    } else {
+        let file = std::fs::File::open(path).map_err(|e| CliError::io(path, e))?;
+        let len = file
+            .metadata()
+            .ok()
+            .filter(|m| m.is_file())
+            .map(|m| m.len());
+        (Box::new(file), len)
+    };
+    let mut head = Vec::with_capacity(bitstream::MAGIC.len());
+    (&mut reader)
+        .take(bitstream::MAGIC.len() as u64)
+        .read_to_end(&mut head)
+        .map_err(|e| CliError::io(name, e))?;
+    if head != bitstream::MAGIC {
+        return Ok(head);
     }
-    caoen::budget::read(path).map_err(|e| CliError::io(path, e))
+    let rest = caoen::budget::read_all(reader, len.map(|l| l.saturating_sub(head.len() as u64)))
+        .map_err(|e| CliError::io(name, e))?;
+    head.extend(rest);
+    Ok(head)
 }
 
 /// Loads an image file into a raster, upright by its EXIF orientation, with a clear
