@@ -229,17 +229,6 @@ fn rgb8(p: &Path) -> image::RgbImage {
     image::open(p).unwrap().to_rgb8()
 }
 
-fn psnr8(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
-    let mse = a
-        .as_raw()
-        .iter()
-        .zip(b.as_raw())
-        .map(|(x, y)| (*x as f64 - *y as f64).powi(2))
-        .sum::<f64>()
-        / a.as_raw().len() as f64;
-    10.0 * (255.0 * 255.0 / mse).log10()
-}
-
 #[test]
 fn png_compression_levels_keep_the_pixels() {
     let d = tmpdir("png-levels");
@@ -364,8 +353,8 @@ fn supersampling_anti_aliases_downscaled_decodes() {
         }
         image::Rgb(sum.map(|v| enc(v / 16.0)))
     });
-    let one = psnr8(&reference, &rgb8(&dec("q1.png", &["--scale", "0.25"])));
-    let two = psnr8(
+    let one = common::psnr_rgb8(&reference, &rgb8(&dec("q1.png", &["--scale", "0.25"])));
+    let two = common::psnr_rgb8(
         &reference,
         &rgb8(&dec("q2.png", &["--scale", "0.25", "--supersample", "2"])),
     );

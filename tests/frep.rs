@@ -415,14 +415,7 @@ fn cli_render_mesh_and_errors() {
         caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
         caoen::render::framebuffer::RgbImage::load(&mesh).unwrap(),
     );
-    let mse: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] as f64 - q[k] as f64).powi(2)))
-        .sum::<f64>()
-        / (3 * a.pixels.len()) as f64;
-    let psnr = 10.0 * (1.0 / mse).log10();
+    let psnr = common::psnr_render(&a, &b);
     println!("ray vs mesh render: {psnr:.1} dB");
     assert!(psnr > 35.0, "{psnr:.1} dB");
     let o = caoen(&["frep", "mesh", s(&model), "-o", s(&obj), "--cells", "48"]);
@@ -864,14 +857,7 @@ fn sharp_set_operations_mesh_with_sharp_creases() {
         caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
         caoen::render::framebuffer::RgbImage::load(&mesh).unwrap(),
     );
-    let mse: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] as f64 - q[k] as f64).powi(2)))
-        .sum::<f64>()
-        / (3 * a.pixels.len()) as f64;
-    let psnr = 10.0 * (1.0 / mse).log10();
+    let psnr = common::psnr_render(&a, &b);
     println!("box minus ball, ray vs mesh render: {psnr:.1} dB");
     assert!(psnr >= 35.0, "{psnr:.1} dB");
 

@@ -26,17 +26,6 @@ fn checker() -> Texture {
     Texture::checker(256, 128, 16, 8, [0.9, 0.85, 0.7], [0.05, 0.1, 0.3]).unwrap()
 }
 
-fn psnr(a: &RgbImage, b: &RgbImage) -> f64 {
-    let mse: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |k| (p[k] as f64 - q[k] as f64).powi(2)))
-        .sum::<f64>()
-        / (3 * a.pixels.len()) as f64;
-    10.0 * (1.0 / mse).log10()
-}
-
 #[test]
 fn uv_domain_inverts_domain_uv() {
     for domain in [
@@ -58,13 +47,13 @@ fn checkerboard_round_trip_a_b_a() {
     let tex = checker();
     let on_b = transfer(&a, &b, &tex, 256, 128).unwrap();
     let back = transfer(&b, &a, &Texture::new(on_b).unwrap(), 256, 128).unwrap();
-    let p = psnr(tex.image(), &back);
+    let p = common::psnr_render(tex.image(), &back);
     println!("A -> B -> A checkerboard (same texture size): PSNR {p} dB");
     assert!(p > 35.0, "{p}");
     // Through a finer texture grid on B: resampled twice.
     let on_b = transfer(&a, &b, &tex, 512, 256).unwrap();
     let back = transfer(&b, &a, &Texture::new(on_b).unwrap(), 256, 128).unwrap();
-    let p2 = psnr(tex.image(), &back);
+    let p2 = common::psnr_render(tex.image(), &back);
     println!("A -> B (512x256) -> A checkerboard: PSNR {p2:.2} dB");
     assert!(p2 > 20.0, "{p2}");
 }
@@ -804,7 +793,10 @@ fn cli_projected_picture_round_trip_a_b_a() {
     args.extend(common);
     ok(&args);
     let (back, direct, reference) = (load_rgb(&back), load_rgb(&direct), load_rgb(&reference));
-    let (to_direct, to_reference) = (psnr(&direct, &back), psnr(&reference, &back));
+    let (to_direct, to_reference) = (
+        common::psnr_render(&direct, &back),
+        common::psnr_render(&reference, &back),
+    );
     println!("A -> B -> A: {to_direct:.1} dB against A directly, {to_reference:.1} dB against the 4x bake");
     assert!(to_direct >= 35.0 && to_reference >= 35.0);
 }
@@ -846,7 +838,10 @@ fn baked_checker_has_no_stair_steps() {
         bake_texture_space(&blob, &blob, &solid, 256, 256, 1).unwrap(),
         2,
     );
-    let (f, p) = (psnr(&reference, &filtered), psnr(&reference, &point));
+    let (f, p) = (
+        common::psnr_render(&reference, &filtered),
+        common::psnr_render(&reference, &point),
+    );
     println!("against the 4x reference: filtered bake {f:.2} dB, point-sampled bake {p:.2} dB");
     assert!(f >= 35.0, "{f:.2} dB");
     assert!(f > p + 0.3, "filtering gains {:.2} dB", f - p);

@@ -39,3 +39,22 @@ pub fn tool_present(ok: bool, what: &str) -> bool {
     }
     ok
 }
+
+/// RGB PSNR (peak 1) of two renders, through `caoen::metrics`.
+pub fn psnr_render(
+    a: &caoen::render::framebuffer::RgbImage,
+    b: &caoen::render::framebuffer::RgbImage,
+) -> f64 {
+    let flat = |i: &caoen::render::framebuffer::RgbImage| -> Vec<f32> {
+        i.pixels.iter().flatten().copied().collect()
+    };
+    caoen::metrics::psnr_from_mse(caoen::metrics::mse(&flat(a), &flat(b)), 1.0)
+}
+
+/// RGB PSNR of two 8-bit images, through `caoen::metrics`.
+pub fn psnr_rgb8(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+    let flat = |i: &image::RgbImage| -> Vec<f32> {
+        i.as_raw().iter().map(|&v| f32::from(v) / 255.0).collect()
+    };
+    caoen::metrics::psnr_from_mse(caoen::metrics::mse(&flat(a), &flat(b)), 1.0)
+}
