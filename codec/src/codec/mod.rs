@@ -60,6 +60,7 @@ stages! {
 }
 
 pub use error::{CodecError, Tag};
+pub use quadtree::Cell;
 pub use source::PixelSource;
 
 use crate::budget::{OverBudget, DEFAULT_BUDGET};
@@ -112,6 +113,19 @@ pub struct EncodeOptions {
     pub metadata: Metadata,
     /// Memory limit of the call.
     pub limits: Limits,
+}
+
+/// Statistics of one encode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeStats {
+    /// Luma key points.
+    pub luma_keypoints: usize,
+    /// Chroma key points.
+    pub chroma_keypoints: usize,
+    /// Tiles.
+    pub tiles: usize,
+    /// Bytes of the whole file.
+    pub bytes: usize,
 }
 
 /// A rate target for the encoder's search.
@@ -183,7 +197,7 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     image: &S,
     opts: &EncodeOptions,
     mut progress: impl FnMut(usize, usize) + Send,
-) -> Result<(Vec<u8>, encoder::EncodeStats), CodecError> {
+) -> Result<(Vec<u8>, EncodeStats), CodecError> {
     if !(0.0..=100.0).contains(&opts.quality) {
         return Err(CodecError::Parameter {
             name: "quality",
