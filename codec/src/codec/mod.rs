@@ -3,9 +3,10 @@
 //! bitstream and the reconstruction, `docs/codec-ablation.md` for the model's choices
 //! and what each measured.
 //!
-//! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
-
-//! Beside the facade, the CLI's tools need three stages: [`bitstream`] (the container,
+//! These calls are all most callers need: [`encode`], [`decode`], [`inspect`], also
+//! re-exported at the crate root with their options and error.
+//!
+//! Beside them, the CLI's tools need three stages: [`bitstream`] (the container,
 //! for `caoen info`), [`decoder`] (the decoded key points, for distortion and integer
 //! output) and [`keypoint_map`]. The other stages are the codec's internals: public only
 //! with the `internals` feature, for the fuzz targets and experiments.
