@@ -33,7 +33,7 @@ pub enum EncodeSource {
 }
 
 /// Reads an image file for encoding, upright, with its metadata: like
-/// [`load_with_metadata`], but an integer image stays in its compact decoded form,
+/// [`load_with_metadata`](super::load_with_metadata), but an integer image stays in its compact decoded form,
 /// counted at its own size against the budget.
 pub fn load_for_encoding(
     path: &Path,

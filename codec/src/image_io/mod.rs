@@ -1,4 +1,4 @@
-//! Image files in and out of a [`Raster`]: everything the `image` crate reads (PNG,
+//! Image files in and out of a [`Raster`](crate::raster::Raster): everything the `image` crate reads (PNG,
 //! JPEG, BMP, GIF, TIFF, WebP, PNM, TGA, QOI, Radiance HDR; 8/16-bit, grey, grey+alpha,
 //! RGB, RGBA) and OpenEXR (float, through the `exr` crate); PNG (8 or 16-bit) and
 //! OpenEXR (32-bit float) out; and `.cae` files read by the `image` crate itself once

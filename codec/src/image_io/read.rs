@@ -36,7 +36,7 @@ pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Raster, Imag
 
 /// The metadata of an image file held in memory: JPEG, PNG and WebP as
 /// [`crate::metadata::read_container`] reads them, OpenEXR from the attributes
-/// [`encode_with_metadata`] writes; other formats give none.
+/// [`encode_with_metadata`](super::encode_with_metadata) writes; other formats give none.
 pub fn read_metadata(bytes: &[u8]) -> Result<Metadata, ImageIoError> {
     read_metadata_at(bytes, Path::new("<memory>"))
 }
