@@ -288,7 +288,7 @@ mod tests {
             block_log2: 4,
             min_log2: 1,
         };
-        let cells = shape.walk(|c| (c.x0 / 2 + c.y0 / 3 + c.log2 as u32) % 3 != 0);
+        let cells = shape.walk(|c| !(c.x0 / 2 + c.y0 / 3 + c.log2 as u32).is_multiple_of(3));
         let ks = KeySet::new(
             Frame::new(w, h),
             &cells,

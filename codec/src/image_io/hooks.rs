@@ -158,13 +158,10 @@ impl ImageDecoder for CaeDecoder {
             ChannelLayout::Rgb => &[0, 1, 2],
             ChannelLayout::Rgba => &[0, 1, 2, 3],
         };
-        let mut out = buf.chunks_exact_mut(4);
-        for i in 0..n {
-            for &c in sources {
-                if let Some(o) = out.next() {
-                    o.copy_from_slice(&planes[c][i].to_ne_bytes());
-                }
-            }
+        let planes = &planes;
+        let samples = (0..n).flat_map(|i| sources.iter().map(move |&c| planes[c][i]));
+        for (out, v) in buf.chunks_exact_mut(4).zip(samples) {
+            out.copy_from_slice(&v.to_ne_bytes());
         }
         Ok(())
     }

@@ -295,7 +295,7 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
             let blocks = (0..cols * rows)
                 .map(|_| {
                     let mut b = [0i32; COEFFS];
-                    if c.byte() % 4 == 0 {
+                    if c.byte().is_multiple_of(4) {
                         for _ in 0..1 + c.byte() % 8 {
                             let at = usize::from(c.byte()) % COEFFS;
                             b[at] = match c.byte() % 4 {
@@ -387,7 +387,9 @@ fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
         };
         // A tile of the layer may have no coded block: its stream is then empty.
         let detail = match header.detail_steps {
-            Some(_) if c.byte() % 4 != 0 => choose_detail(c, &header, (w, h)).to_payload(),
+            Some(_) if !c.byte().is_multiple_of(4) => {
+                choose_detail(c, &header, (w, h)).to_payload()
+            }
             _ => Vec::new(),
         };
         tiles.push(TileStreams {

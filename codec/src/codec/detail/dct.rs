@@ -143,10 +143,10 @@ mod tests {
     #[test]
     fn the_continuous_basis_meets_the_transform_at_pixel_centres() {
         let t = table();
-        for i in 0..N {
+        for (i, row) in t.iter().enumerate() {
             let b = basis_at(i as f64 + 0.5);
-            for u in 0..N {
-                assert!((b[u] as f64 - t[i][u]).abs() < 1e-6);
+            for (&bu, &tu) in b.iter().zip(row) {
+                assert!((bu as f64 - tu).abs() < 1e-6);
             }
         }
     }

@@ -285,8 +285,8 @@ mod tests {
             for (k, v) in q.iter_mut().enumerate() {
                 seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                 let r = (seed >> 33) as u32;
-                if r % (2 + k as u32 / 4) == 0 {
-                    let m = if r % 97 == 0 { (r >> 8) % 5000 } else { (r >> 8) % 4 };
+                if r.is_multiple_of(2 + k as u32 / 4) {
+                    let m = if r.is_multiple_of(97) { (r >> 8) % 5000 } else { (r >> 8) % 4 };
                     *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
                 }
             }
