@@ -126,7 +126,7 @@ pub enum CodecError {
         tiles: usize,
     },
     /// A count in the file disagrees with the count its header declares.
-    #[error("invalid caoen file: {what}: {found} {unit}, its header says {declared}")]
+    #[error("invalid caoen file: {what}: {found} {unit}, {declared} declared")]
     CountMismatch {
         /// What holds them (a tile's tree, a tile's chroma tree, the tiles).
         what: &'static str,
