@@ -231,3 +231,9 @@ impl Raster {
         Raster { format, ..self }
     }
 }
+
+/// A sample in [0, 1] on an integer scale of `max`, rounded: the one quantiser of
+/// every 8- and 16-bit output (files and the decoder's interleaved samples alike).
+pub(crate) fn quantise(v: f32, max: f32) -> f32 {
+    (v.clamp(0.0, 1.0) * max).round()
+}

@@ -187,33 +187,57 @@ fn files_that_lie_about_their_tiles_are_refused() {
         .map(|s| (s.tag, s.payload.to_vec()))
         .collect();
     let first_tile = sections.iter().position(|s| s.0 == tag::TILE).unwrap();
-    let expect_err = |s: &[(u8, Vec<u8>)], what: &str| {
+    let expect_err = |s: &[(u8, Vec<u8>)], what: &str, is: fn(&CodecError) -> bool| {
         let file = rebuild(s);
         let e = decode(&file, &DecodeOptions::default()).unwrap_err();
-        assert!(e.to_string().contains(what), "{what}: {e}");
+        assert!(is(&e), "{what}: {e:?}");
     };
     // A tile missing.
     let mut s = sections.clone();
     s.remove(first_tile);
-    expect_err(&s, "tile sections");
+    expect_err(&s, "a tile missing", |e| {
+        matches!(e, CodecError::SectionOrder { .. })
+    });
     // A tile's key-point count that disagrees with the header's total.
     let mut s = sections.clone();
     let n = u32::from_le_bytes(s[first_tile].1[0..4].try_into().unwrap());
     s[first_tile].1[0..4].copy_from_slice(&(n + 1).to_le_bytes());
-    expect_err(&s, "the header says");
+    expect_err(&s, "a key-point count", |e| {
+        matches!(e, CodecError::CountMismatch { unit: "key points", found, declared, .. }
+            if found == &(declared + 1))
+    });
     // A stream length past the tile's payload.
     let mut s = sections.clone();
     s[first_tile].1[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
-    expect_err(&s, "tile's streams");
+    expect_err(&s, "a stream past the payload", |e| {
+        matches!(
+            e,
+            CodecError::Truncated {
+                what: "a tile's streams",
+                ..
+            }
+        )
+    });
     // A tile side that is not a multiple of 128.
     let mut s = sections.clone();
     s[0].1[36..38].copy_from_slice(&300u16.to_le_bytes());
-    expect_err(&s, "tile side");
+    expect_err(&s, "a tile side", |e| {
+        matches!(
+            e,
+            CodecError::TileSide {
+                side: 300,
+                unit: 128,
+                ..
+            }
+        )
+    });
     // A metadata item out of order.
     let mut s = sections.clone();
     s.insert(first_tile, (tag::EXIF, b"II*\0".to_vec()));
     s.insert(first_tile, (tag::XMP, b"<x/>".to_vec()));
-    expect_err(&s, "sections");
+    expect_err(&s, "metadata out of order", |e| {
+        matches!(e, CodecError::SectionOrder { .. })
+    });
 }
 
 #[test]

@@ -369,3 +369,40 @@ mod regenerate {
         write("wrong-magic.exr", &wrong);
     }
 }
+
+/// The decoder's interleaved 8- and 16-bit samples written as PNG equal the decoded
+/// raster written as PNG, for every layout and at sizes whose last band is short.
+#[test]
+fn interleaved_decode_writes_the_same_png_as_the_raster() {
+    use caoen::codec::decoder::{decode_interleaved, Depth};
+    use caoen::codec::{decode, encode, DecodeOptions, EncodeOptions};
+    let (w, h) = (45u32, 37u32);
+    for (layout, format) in [
+        (ChannelLayout::Grey, SampleFormat::U8),
+        (ChannelLayout::GreyAlpha, SampleFormat::U16),
+        (ChannelLayout::Rgb, SampleFormat::U8),
+        (ChannelLayout::Rgba, SampleFormat::U16),
+        (ChannelLayout::Rgb, SampleFormat::F32),
+    ] {
+        let bytes = encode(&ramp(w, h, layout, format), &EncodeOptions::default()).unwrap();
+        for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
+            let opts = DecodeOptions {
+                size: Some((ow, oh)),
+                ..DecodeOptions::default()
+            };
+            let decoded = decode(&bytes, &opts).unwrap();
+            for (depth, png) in [
+                (Depth::Eight, OutputFormat::Png8),
+                (Depth::Sixteen, OutputFormat::Png16),
+            ] {
+                let direct = decode_interleaved(&bytes, &opts, depth).unwrap();
+                assert_eq!((direct.width, direct.height), (ow, oh));
+                assert_eq!(
+                    image_io::encode_png_interleaved(&direct, Default::default()).unwrap(),
+                    image_io::encode(&decoded, png).unwrap(),
+                    "{layout:?} {format:?} {depth:?} at {ow}x{oh}"
+                );
+            }
+        }
+    }
+}

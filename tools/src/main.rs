@@ -7,11 +7,14 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn fail(e: &caoen_cli::failure::CliError) -> ExitCode {
+    let mut message = e.to_string();
+    // The library states the need and the budget; how to raise the budget is this
+    // program's to say, since the budget is its option.
+    if message.contains(caoen::budget::OVER_BUDGET) {
+        message.push_str(" (raise it with --max-memory)");
+    }
     // One line, whatever a file put into the message.
-    eprintln!(
-        "error: {}",
-        caoen::surface::error::printable(&e.to_string())
-    );
+    eprintln!("error: {}", caoen::surface::error::printable(&message));
     ExitCode::from(e.exit_code())
 }
 

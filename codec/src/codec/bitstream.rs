@@ -136,10 +136,10 @@ impl Header {
             HEADER_LEN
         };
         if p.len() != len {
-            return Err(CodecError::Format(format!(
-                "header is {} bytes, expected {len}",
-                p.len()
-            )));
+            return Err(CodecError::HeaderLength {
+                found: p.len() as u64,
+                expected: len as u64,
+            });
         }
         let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
         let f32_at = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
@@ -196,9 +196,11 @@ impl Header {
         let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(38), f32_at(42)]);
         let tile_side = u16::from_le_bytes([p[36], p[37]]) as u32;
         if tile_side == 0 || !tile_side.is_multiple_of(SIDE_UNIT) || tile_side > MAX_SIDE {
-            return Err(CodecError::Format(format!(
-                "tile side {tile_side} is not a multiple of {SIDE_UNIT} in {SIDE_UNIT}..={MAX_SIDE}"
-            )));
+            return Err(CodecError::TileSide {
+                side: tile_side,
+                unit: SIDE_UNIT,
+                max: MAX_SIDE,
+            });
         }
         let [detail_luma, detail_chroma] = detail_steps.unwrap_or([1.0; 2]);
         for (name, s) in [
@@ -247,9 +249,11 @@ impl Header {
             ));
         }
         if (header.layout.colour_channels() == 3) != (header.chroma_count > 0) {
-            return Err(CodecError::Format(
-                "chroma key points present iff the image has colour".into(),
-            ));
+            return Err(CodecError::ChromaPresence {
+                what: "the header",
+                chroma: header.chroma_count,
+                channels: header.layout.colour_channels(),
+            });
         }
         Ok(header)
     }
@@ -382,9 +386,11 @@ impl<'a> TilePayload<'a> {
             ));
         }
         if (header.layout.colour_channels() == 3) != (chroma_count > 0) {
-            return Err(CodecError::Format(
-                "chroma key points present iff the image has colour".into(),
-            ));
+            return Err(CodecError::ChromaPresence {
+                what: "a tile",
+                chroma: chroma_count,
+                channels: header.layout.colour_channels(),
+            });
         }
         let mut rest = &p[TILE_HEADER_LEN..];
         let mut take = |n: u64| {
@@ -395,10 +401,9 @@ impl<'a> TilePayload<'a> {
         let (tree, luma, chroma) = (take(lens[0]), take(lens[1]), take(lens[2]));
         let detail = rest;
         if header.detail_steps.is_none() && !detail.is_empty() {
-            return Err(CodecError::Format(format!(
-                "a tile carries {} bytes of detail blocks, but the header has no detail layer",
-                detail.len()
-            )));
+            return Err(CodecError::DetailWithoutLayer {
+                bytes: detail.len() as u64,
+            });
         }
         Ok(TilePayload {
             rect,
@@ -564,9 +569,10 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
             });
         }
         if tag == tag::END && len != 0 {
-            return Err(CodecError::Format(format!(
-                "the end section at byte {pos} carries {len} bytes; it must be empty"
-            )));
+            return Err(CodecError::EndNotEmpty {
+                offset: pos as u64,
+                len: len as u64,
+            });
         }
         sections.push(Section {
             tag,
@@ -579,18 +585,17 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
         }
     }
     if pos != bytes.len() {
-        return Err(CodecError::Format(format!(
-            "{} bytes of trailing data after the end section",
-            bytes.len() - pos
-        )));
+        return Err(CodecError::TrailingData {
+            bytes: (bytes.len() - pos) as u64,
+        });
     }
     let tags: Vec<u8> = sections.iter().map(|s| s.tag).collect();
     let header = match tags.first() {
         Some(&tag::HEADER) => Header::parse(sections[0].payload, max_pixels)?,
-        _ => {
-            return Err(CodecError::Format(
-                "the first section must be the header".into(),
-            ))
+        first => {
+            return Err(CodecError::HeaderNotFirst {
+                first: first.map(|&t| Tag(t)),
+            })
         }
     };
     // Header, the metadata items present (each at most once, in this order), one
@@ -613,10 +618,7 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
     let count = tiling.count();
     let tile_tags = tags[i..].iter().take_while(|&&t| t == tag::TILE).count();
     if tile_tags != count || i + count + 1 != tags.len() {
-        return Err(CodecError::Format(format!(
-            "sections {:?}: expected the header, optional metadata (I, X, M in this order), {count} tile sections (G) and the end (E)",
-            String::from_utf8_lossy(&tags),
-        )));
+        return Err(CodecError::SectionOrder { tags, tiles: count });
     }
     let tiles = sections[i..i + count]
         .iter()
@@ -627,10 +629,17 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
         (l + t.luma_count as u64, c + t.chroma_count as u64)
     });
     if (luma, chroma) != (header.luma_count as u64, header.chroma_count as u64) {
-        return Err(CodecError::Format(format!(
-            "the tiles hold {luma} luma and {chroma} chroma key points, the header says {} and {}",
-            header.luma_count, header.chroma_count
-        )));
+        let (what, found, declared) = if luma != header.luma_count as u64 {
+            ("the tiles", luma, header.luma_count)
+        } else {
+            ("the tiles' chroma", chroma, header.chroma_count)
+        };
+        return Err(CodecError::CountMismatch {
+            what,
+            unit: "key points",
+            found,
+            declared: declared as u64,
+        });
     }
     Ok(Parsed {
         header,

@@ -15,22 +15,9 @@ use super::rate_control::EncodeSettings;
 use super::source::PixelSource;
 use super::syntax::{self, MAX_VALUE};
 use super::tiling::{into_image_order, permute, TileRect, Tiling};
-use super::CodecError;
+use super::{CodecError, EncodeStats};
 use crate::metadata::{Metadata, MAX_ITEM_BYTES};
 use crate::raster::Raster;
-
-/// Statistics of one encode.
-#[derive(Debug, Clone, PartialEq)]
-pub struct EncodeStats {
-    /// Luma key points.
-    pub luma_keypoints: usize,
-    /// Chroma key points.
-    pub chroma_keypoints: usize,
-    /// Tiles.
-    pub tiles: usize,
-    /// Bytes of the whole file.
-    pub bytes: usize,
-}
 
 /// Quantises one channel in coding order against the decoder's own prediction, with
 /// a dead zone: the residual's magnitude is rounded down unless its fraction exceeds

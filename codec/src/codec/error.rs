@@ -63,9 +63,104 @@ pub enum CodecError {
         /// Largest allowed.
         hi: f64,
     },
-    /// The file is malformed in some other way (section order, syntax, counts).
-    #[error("invalid caoen file: {0}")]
-    Format(String),
+    /// The header section is not the length its flags call for.
+    #[error("invalid caoen file: header is {found} bytes, expected {expected}")]
+    HeaderLength {
+        /// The section's length.
+        found: u64,
+        /// The length the header's flags call for.
+        expected: u64,
+    },
+    /// The header's tile side is not a multiple of the side unit within the range.
+    #[error("invalid caoen file: tile side {side} is not a multiple of {unit} in {unit}..={max}")]
+    TileSide {
+        /// The coded side.
+        side: u32,
+        /// The unit every side is a multiple of.
+        unit: u32,
+        /// The largest side.
+        max: u32,
+    },
+    /// Chroma key points in a grey image, or none in a colour one.
+    #[error("invalid caoen file: chroma key points present iff the image has colour ({what} has {chroma} chroma key points, the image has {channels} colour channels)")]
+    ChromaPresence {
+        /// The header or a tile.
+        what: &'static str,
+        /// Its chroma key point count.
+        chroma: u32,
+        /// The image's colour channels.
+        channels: usize,
+    },
+    /// A tile carries detail blocks, but the header has no detail layer.
+    #[error("invalid caoen file: a tile carries {bytes} bytes of detail blocks, but the header has no detail layer")]
+    DetailWithoutLayer {
+        /// Bytes of detail blocks in the tile.
+        bytes: u64,
+    },
+    /// The end section has a payload.
+    #[error("invalid caoen file: the end section at byte {offset} carries {len} bytes; it must be empty")]
+    EndNotEmpty {
+        /// Where the end section starts.
+        offset: u64,
+        /// Its payload's length.
+        len: u64,
+    },
+    /// Bytes follow the end section.
+    #[error("invalid caoen file: {bytes} bytes of trailing data after the end section")]
+    TrailingData {
+        /// How many.
+        bytes: u64,
+    },
+    /// The first section is not the header.
+    #[error("invalid caoen file: the first section must be the header, found {}", first.map_or("none".to_string(), |t| t.to_string()))]
+    HeaderNotFirst {
+        /// The first section's tag, if there is a section.
+        first: Option<Tag>,
+    },
+    /// The sections are not in the order the format prescribes.
+    #[error("invalid caoen file: sections {:?}: expected the header, optional metadata (I, X, M in this order), {tiles} tile sections (G) and the end (E)", String::from_utf8_lossy(tags))]
+    SectionOrder {
+        /// The sections' tags in file order.
+        tags: Vec<u8>,
+        /// The number of tile sections the header's size calls for.
+        tiles: usize,
+    },
+    /// A count in the file disagrees with the count its header declares.
+    #[error("invalid caoen file: {what}: {found} {unit}, {declared} declared")]
+    CountMismatch {
+        /// What holds them (a tile's tree, a tile's chroma tree, the tiles).
+        what: &'static str,
+        /// What is counted.
+        unit: &'static str,
+        /// How many the file holds.
+        found: u64,
+        /// How many the header declares.
+        declared: u64,
+    },
+    /// An entropy-coded payload's length is not a whole number of coder words.
+    #[error("invalid caoen file: entropy-coded payload of {bytes} bytes is not whole words")]
+    PayloadNotWords {
+        /// The payload's length.
+        bytes: u64,
+    },
+    /// An entropy-coded payload does not hold a valid coder state.
+    #[error("invalid caoen file: entropy-coded payload is malformed")]
+    PayloadMalformed,
+    /// A payload's syntax asks for more symbols than the payload may hold.
+    #[error("invalid caoen file: entropy-coded payload runs past its syntax")]
+    PayloadOverrun,
+    /// A payload holds data past the end of its syntax.
+    #[error("invalid caoen file: {stream} does not end where its syntax does")]
+    PayloadLeftover {
+        /// Which stream (tree, values, detail blocks).
+        stream: &'static str,
+    },
+    /// The decoded samples do not make a raster.
+    #[error("invalid caoen file: decoded raster: {0}")]
+    DecodedRaster(#[source] crate::raster::RasterError),
+    /// The key points evaluate to NaN or infinity somewhere.
+    #[error("invalid caoen file: the key points evaluate to a non-finite colour")]
+    NonFinite,
 
     // --- Not implemented here -------------------------------------------------------
     /// The file is of a format version this decoder does not read.
@@ -76,9 +171,6 @@ pub enum CodecError {
         /// The version this decoder reads.
         supported: u8,
     },
-    /// The file is valid but uses something this decoder does not implement.
-    #[error("unsupported: {0}")]
-    Unsupported(String),
 
     // --- The caller's fault ---------------------------------------------------------
     /// A caller-supplied parameter is out of range.

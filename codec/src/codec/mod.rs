@@ -3,9 +3,10 @@
 //! bitstream and the reconstruction, `docs/codec-ablation.md` for the model's choices
 //! and what each measured.
 //!
-//! This facade is all most callers need: [`encode`], [`decode`], [`inspect`].
-
-//! Beside the facade, the CLI's tools need three stages: [`bitstream`] (the container,
+//! These calls are all most callers need: [`encode`], [`decode`], [`inspect`], also
+//! re-exported at the crate root with their options and error.
+//!
+//! Beside them, the CLI's tools need three stages: [`bitstream`] (the container,
 //! for `caoen info`), [`decoder`] (the decoded key points, for distortion and integer
 //! output) and [`keypoint_map`]. The other stages are the codec's internals: public only
 //! with the `internals` feature, for the fuzz targets and experiments.
@@ -60,6 +61,7 @@ stages! {
 }
 
 pub use error::{CodecError, Tag};
+pub use quadtree::Cell;
 pub use source::PixelSource;
 
 use crate::budget::{OverBudget, DEFAULT_BUDGET};
@@ -112,6 +114,19 @@ pub struct EncodeOptions {
     pub metadata: Metadata,
     /// Memory limit of the call.
     pub limits: Limits,
+}
+
+/// Statistics of one encode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EncodeStats {
+    /// Luma key points.
+    pub luma_keypoints: usize,
+    /// Chroma key points.
+    pub chroma_keypoints: usize,
+    /// Tiles.
+    pub tiles: usize,
+    /// Bytes of the whole file.
+    pub bytes: usize,
 }
 
 /// A rate target for the encoder's search.
@@ -183,7 +198,7 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     image: &S,
     opts: &EncodeOptions,
     mut progress: impl FnMut(usize, usize) + Send,
-) -> Result<(Vec<u8>, encoder::EncodeStats), CodecError> {
+) -> Result<(Vec<u8>, EncodeStats), CodecError> {
     if !(0.0..=100.0).contains(&opts.quality) {
         return Err(CodecError::Parameter {
             name: "quality",

@@ -2,13 +2,13 @@
 //! domain (paper section 9, "Distortion").
 //!
 //! The image is embedded on the unit sphere exactly as the codec embeds it
-//! ([`Frame::embed`], inverse stereographic projection), so the warp is a network
+//! (`Frame::embed`, inverse stereographic projection), so the warp is a network
 //! `S^2 -> R^2` whose output is the pixel *displacement* `(dx, dy)` added to the input
 //! position. Its key points are the control points (source = the original position)
 //! and identity anchors on a coarse grid including the border (source = the grid node,
 //! target displacement zero) so far-away regions stay put. Blend: exponential
 //! (a Gaussian of the pixel distance with a footprint `sigma`, through
-//! [`Frame::sharpness`]), normalised.
+//! `Frame::sharpness`), normalised.
 //!
 //! The shape vectors are not the raw displacements: with a normalised blend the
 //! network at a key point is a weighted mean of all shapes, so the shapes are solved
@@ -629,7 +629,7 @@ const BAND: usize = 16;
 /// has the input's size, layout and format.
 ///
 /// Each sample takes the input bilinearly at its lattice position, moves by the warp
-/// (interpolated from the node [`Field`]) and is splatted linearly; pixels no tent
+/// (interpolated from the node `Field`) and is splatted linearly; pixels no tent
 /// reached are filled from their neighbours. Identity moves reproduce the input exactly.
 pub fn warp_raster(img: &Raster, warp: &Warp, s: u32) -> Result<Raster, TextureError> {
     let s = check_supersample(s)?;

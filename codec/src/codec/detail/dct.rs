@@ -145,8 +145,8 @@ mod tests {
         let t = table();
         for (i, row) in t.iter().enumerate() {
             let b = basis_at(i as f64 + 0.5);
-            for (bu, tu) in b.iter().zip(row) {
-                assert!((*bu as f64 - tu).abs() < 1e-6);
+            for (&bu, &tu) in b.iter().zip(row) {
+                assert!((bu as f64 - tu).abs() < 1e-6);
             }
         }
     }

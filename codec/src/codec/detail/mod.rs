@@ -249,9 +249,9 @@ impl Detail {
                 .map(|_| DetailPlane::read(cols, rows, kind, &mut ctx, &mut src))
                 .collect::<Result<Vec<_>, _>>()?;
             if !src.finished_cleanly() {
-                return Err(CodecError::Format(
-                    "detail stream does not end where its syntax does".into(),
-                ));
+                return Err(CodecError::PayloadLeftover {
+                    stream: "detail stream",
+                });
             }
             Ok(planes)
         };

@@ -1,0 +1,208 @@
+//! Parsing: the container's sections entropy-decoded into the key points, their
+//! values and the detail layer, tiles in parallel.
+
+use rayon::prelude::*;
+
+use super::Decoded;
+use crate::codec::bitstream::{self, Header, Parsed, TilePayload};
+use crate::codec::detail::dct::N as DCT_N;
+use crate::codec::detail::{blocks as detail_blocks, Detail, DetailPlane};
+use crate::codec::entropy::AnsSource;
+use crate::codec::model::chroma_cells;
+use crate::codec::quadtree::{Cell, TreeShape};
+use crate::codec::syntax::{self, MAX_SYMBOLS_PER_VALUE};
+use crate::codec::tiling::into_image_order;
+use crate::codec::CodecError;
+
+/// Entropy-decodes one value section: `channels` planes of quantised values over
+/// `cells`.
+fn read_section(
+    payload: &[u8],
+    cells: &[Cell],
+    (width, height): (u32, u32),
+    channels: usize,
+) -> Result<Vec<Vec<i64>>, CodecError> {
+    let max_symbols = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * channels as u64;
+    let mut src = AnsSource::new(payload, max_symbols)?;
+    let values = syntax::read_channels(cells, width, height, channels, &mut src)?;
+    if !src.finished_cleanly() {
+        return Err(CodecError::PayloadLeftover {
+            stream: "entropy-coded payload",
+        });
+    }
+    Ok(values)
+}
+
+/// Quantised planes times their steps: the key points' values.
+fn dequantise<T>(planes: Vec<Vec<i64>>, steps: &[f64], to: impl Fn(f64) -> T) -> Vec<Vec<T>> {
+    planes
+        .into_iter()
+        .zip(steps)
+        .map(|(v, &step)| v.into_iter().map(|q| to(q as f64 * step)).collect())
+        .collect()
+}
+
+/// The quantiser steps of the luma set's channels (Y, then alpha) and of chroma.
+fn steps(header: &Header) -> (Vec<f64>, [f64; 2]) {
+    let mut luma = vec![header.step_luma as f64];
+    if header.layout.has_alpha() {
+        luma.push(header.step_alpha as f64);
+    }
+    let c = header.step_chroma as f64;
+    (luma, [c, c])
+}
+
+/// One tile's key points (image coordinates, the tile's coding order), their
+/// quantised values and its detail planes.
+struct TileDecoded {
+    luma_cells: Vec<Cell>,
+    chroma_cells: Vec<Cell>,
+    luma_values: Vec<Vec<i64>>,
+    chroma_values: Vec<Vec<i64>>,
+    detail: Option<Detail>,
+}
+
+/// The detail layer's quantiser steps, one per colour channel, if the file has it.
+fn detail_steps(header: &Header) -> Option<Vec<f64>> {
+    let [luma, chroma] = header.detail_steps?;
+    let mut steps = vec![luma as f64];
+    if header.layout.colour_channels() == 3 {
+        steps.extend([chroma as f64; 2]);
+    }
+    Some(steps)
+}
+
+/// Entropy-decodes one tile: tree, values (luma and chroma side by side) and detail.
+fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError> {
+    let r = t.rect;
+    let shape = TreeShape {
+        width: r.width,
+        height: r.height,
+        block_log2: header.block_log2,
+        min_log2: header.min_log2,
+    };
+    let mut src = AnsSource::new(t.tree, shape.max_flags())?;
+    let cells = syntax::read_tree(&shape, t.luma_count as usize, &mut src)?;
+    if cells.len() != t.luma_count as usize {
+        return Err(CodecError::CountMismatch {
+            what: "a tile's tree",
+            unit: "leaves",
+            found: cells.len() as u64,
+            declared: t.luma_count.into(),
+        });
+    }
+    if !src.finished_cleanly() {
+        return Err(CodecError::PayloadLeftover {
+            stream: "tree payload",
+        });
+    }
+    let size = (r.width, r.height);
+    let (luma_steps, _) = steps(header);
+    let colour = header.layout.colour_channels() == 3;
+    // The streams are independent; each finds its neighbours while decoding (and
+    // chroma its cells first).
+    let (luma, (chroma, detail)) = rayon::join(
+        || read_section(t.luma, &cells, size, luma_steps.len()),
+        || {
+            rayon::join(
+                || -> Result<_, CodecError> {
+                    if !colour {
+                        return Ok((Vec::new(), Vec::new()));
+                    }
+                    let cc = chroma_cells(&shape, &cells, header.chroma_pruned);
+                    if cc.len() != t.chroma_count as usize {
+                        return Err(CodecError::CountMismatch {
+                            what: "a tile's chroma tree",
+                            unit: "leaves",
+                            found: cc.len() as u64,
+                            declared: t.chroma_count.into(),
+                        });
+                    }
+                    let values = read_section(t.chroma, &cc, size, 2)?;
+                    Ok((cc, values))
+                },
+                || -> Result<_, CodecError> {
+                    match detail_steps(header) {
+                        Some(steps) if !t.detail.is_empty() => {
+                            Detail::read(t.detail, r.width, r.height, steps).map(Some)
+                        }
+                        _ => Ok(None),
+                    }
+                },
+            )
+        },
+    );
+    let (chroma_cells, chroma_values) = chroma?;
+    Ok(TileDecoded {
+        luma_cells: cells.into_iter().map(|c| r.to_image(c)).collect(),
+        chroma_cells: chroma_cells.into_iter().map(|c| r.to_image(c)).collect(),
+        luma_values: luma?,
+        chroma_values,
+        detail: detail?,
+    })
+}
+
+/// Entropy-decodes every tile (in parallel) and joins them into the image's key points
+/// in its coding order and its detail layer.
+pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
+    let header = parsed.header.clone();
+    let tiles = parsed
+        .tiles
+        .par_iter()
+        .map(|t| read_tile(&header, t))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (luma_steps, chroma_steps) = steps(&header);
+    let mut luma_cells = Vec::with_capacity(header.luma_count as usize);
+    let mut chroma_cells = Vec::with_capacity(header.chroma_count as usize);
+    let mut luma_values: Vec<Vec<i64>> = vec![Vec::new(); luma_steps.len()];
+    let colour = header.layout.colour_channels() == 3;
+    let mut chroma_values: Vec<Vec<i64>> = vec![Vec::new(); if colour { 2 } else { 0 }];
+    let mut details = Vec::with_capacity(tiles.len());
+    for (t, p) in tiles.into_iter().zip(&parsed.tiles) {
+        luma_cells.extend(t.luma_cells);
+        chroma_cells.extend(t.chroma_cells);
+        for (all, v) in luma_values.iter_mut().zip(t.luma_values) {
+            all.extend(v);
+        }
+        for (all, v) in chroma_values.iter_mut().zip(t.chroma_values) {
+            all.extend(v);
+        }
+        let planes: Vec<Option<DetailPlane>> = match t.detail {
+            Some(d) => d.planes.into_iter().map(Some).collect(),
+            None => Vec::new(),
+        };
+        details.push((p.rect, planes));
+    }
+    let (luma_cells, luma_values) = into_image_order(&luma_cells, &luma_values, header.block_log2);
+    let (chroma_cells, chroma_values) =
+        into_image_order(&chroma_cells, &chroma_values, header.block_log2);
+    let detail = detail_steps(&header).map(|steps| {
+        let (cols, rows) = detail_blocks(header.width, header.height);
+        let planes = (0..steps.len())
+            .map(|c| {
+                DetailPlane::from_tiles(
+                    cols,
+                    rows,
+                    details.iter_mut().map(|(r, planes)| {
+                        let at = (r.x0 as usize / DCT_N, r.y0 as usize / DCT_N);
+                        (at, planes.get_mut(c).and_then(Option::take))
+                    }),
+                )
+            })
+            .collect();
+        Detail { planes, steps }
+    });
+    Ok(Decoded {
+        luma_values: dequantise(luma_values, &luma_steps, |v| v),
+        chroma_values: dequantise(chroma_values, &chroma_steps, |v| v),
+        detail,
+        header,
+        luma_cells,
+        chroma_cells,
+    })
+}
+
+/// Parses and entropy-decodes a file (no pixel evaluation).
+pub fn read(bytes: &[u8], max_pixels: u64) -> Result<Decoded, CodecError> {
+    read_parsed(&bitstream::parse(bytes, max_pixels)?)
+}
