@@ -56,7 +56,7 @@ enum MoveJson {
 /// finite.
 pub fn parse_moves(text: &str) -> Result<Vec<Move>, TextureError> {
     let v: Vec<MoveJson> =
-        serde_json::from_str(text).map_err(|e| TextureError::Invalid(e.to_string()))?;
+        serde_json::from_str(text).map_err(|source| TextureError::MovesJson { source })?;
     let moves: Vec<Move> = v
         .into_iter()
         .map(|m| match m {
@@ -64,13 +64,23 @@ pub fn parse_moves(text: &str) -> Result<Vec<Move>, TextureError> {
             MoveJson::Pair([from, to]) => Move { from, to },
         })
         .collect();
-    if moves
-        .iter()
-        .any(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
-    {
-        return Err(TextureError::Invalid("a move is not finite".into()));
-    }
+    check_moves(&moves)?;
     Ok(moves)
+}
+
+/// Refuses a move with a NaN or infinite coordinate, naming it.
+fn check_moves(moves: &[Move]) -> Result<(), TextureError> {
+    match moves
+        .iter()
+        .position(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
+    {
+        Some(index) => Err(TextureError::NonFiniteMove {
+            index,
+            from: moves[index].from,
+            to: moves[index].to,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Options of the warp network.
@@ -158,28 +168,28 @@ impl Warp {
         opts: &WarpOptions,
     ) -> Result<Self, TextureError> {
         if width == 0 || height == 0 {
-            return Err(TextureError::Invalid(format!(
-                "empty image {width}x{height}"
-            )));
+            return Err(TextureError::EmptyImage { width, height });
         }
-        for m in moves {
-            if !m.from.iter().chain(&m.to).all(|v| v.is_finite()) {
-                return Err(TextureError::Invalid(format!("move {m:?} is not finite")));
-            }
+        check_moves(moves)?;
+        let option = |name, value, allowed| TextureError::WarpOption {
+            name,
+            value,
+            allowed,
+        };
+        if !(opts.sigma_factor > 0.0 && opts.sigma_factor.is_finite()) {
+            return Err(option("sigma_factor", opts.sigma_factor, "finite and > 0"));
         }
-        let valid = opts.sigma_factor > 0.0
-            && opts.sigma_factor.is_finite()
-            && (0.0..0.5).contains(&opts.rigid_factor)
-            && opts.anchor_cells > 0;
-        if !valid {
-            return Err(TextureError::Invalid("bad warp options".into()));
+        if !(0.0..0.5).contains(&opts.rigid_factor) {
+            return Err(option("rigid_factor", opts.rigid_factor, "0 <= r < 0.5"));
+        }
+        if opts.anchor_cells == 0 {
+            return Err(option("anchor_cells", 0.0, ">= 1"));
         }
         if moves.len() > MAX_KEY_POINTS / 8 {
-            return Err(TextureError::Invalid(format!(
-                "{} moves: at most {}",
-                moves.len(),
-                MAX_KEY_POINTS / 8
-            )));
+            return Err(TextureError::TooManyMoves {
+                moves: moves.len(),
+                max: MAX_KEY_POINTS / 8,
+            });
         }
         // Merge near-duplicate control points.
         let mut merged: Vec<(Move, usize)> = Vec::new();
@@ -229,10 +239,10 @@ impl Warp {
             }
         }
         if kp.len() > MAX_KEY_POINTS {
-            return Err(TextureError::Invalid(format!(
-                "{} key points: at most {MAX_KEY_POINTS}",
-                kp.len()
-            )));
+            return Err(TextureError::TooManyKeyPoints {
+                key_points: kp.len(),
+                max: MAX_KEY_POINTS,
+            });
         }
         let n = kp.len();
         let sources: Vec<[f64; 3]> = kp.iter().map(|k| frame.embed(k.0[0], k.0[1])).collect();
@@ -252,7 +262,7 @@ impl Warp {
             opts.blend,
             &targets,
         )
-        .map_err(|e| TextureError::Invalid(format!("control points too close to solve: {e}")))?;
+        .map_err(|source| TextureError::Unsolvable { source })?;
         let min_sigma = kp.iter().map(|k| k.2).fold(f64::INFINITY, f64::min);
         Ok(Warp {
             frame,
@@ -471,7 +481,12 @@ fn check_supersample(s: u32) -> Result<usize, TextureError> {
     if (1..=8).contains(&s) {
         Ok(s as usize)
     } else {
-        Err(TextureError::Invalid(format!("supersample {s}: 1..=8")))
+        Err(TextureError::Count {
+            what: "supersample",
+            value: s.into(),
+            min: 1,
+            max: 8,
+        })
     }
 }
 
@@ -635,7 +650,10 @@ pub fn warp_raster(img: &Raster, warp: &Warp, s: u32) -> Result<Raster, TextureE
     let s = check_supersample(s)?;
     let (w, h) = (img.width() as usize, img.height() as usize);
     if (warp.frame.width as usize, warp.frame.height as usize) != (w, h) {
-        return Err(TextureError::Invalid("warp and image sizes differ".into()));
+        return Err(TextureError::SizeMismatch {
+            warp: (warp.frame.width, warp.frame.height),
+            image: (img.width(), img.height()),
+        });
     }
     let nc = img.layout().channels();
     let lat = Lattice::new(s);
@@ -729,7 +747,10 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
     let hd = &d.header;
     let frame = Frame::new(hd.width, hd.height);
     if frame != warp.frame {
-        return Err(TextureError::Invalid("warp and image sizes differ".into()));
+        return Err(TextureError::SizeMismatch {
+            warp: (warp.frame.width, warp.frame.height),
+            image: (hd.width, hd.height),
+        });
     }
     let network = |cells: &[Cell], values: &[Vec<f64>]| -> Result<Network, TextureError> {
         let ks = KeySet::new(frame, cells, hd.kernel);
