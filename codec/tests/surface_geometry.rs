@@ -3,7 +3,9 @@
 use caoen::surface::gallery::{blob, ring, six_point};
 use caoen::surface::morph::{morph, pad_to};
 use caoen::surface::projection::{axis_generators, perspective_error, PerspectiveCamera};
-use caoen::surface::{Blend, ConvexSolid, Domain, KeyPoint, Network, Plane, SurfaceModel};
+use caoen::surface::{
+    Blend, ConvexSolid, Domain, KeyPoint, Network, Plane, SurfaceError, SurfaceModel,
+};
 
 struct Rng(u64);
 impl Rng {
@@ -175,13 +177,22 @@ fn unbounded_or_invalid_polyhedra_are_rejected() {
             offset: 1.0,
         },
     ];
-    assert!(ConvexSolid::from_planes(&half_spaces, [0.0; 3], Blend::Power, 8.0, 2.0).is_err());
+    assert!(matches!(
+        ConvexSolid::from_planes(&half_spaces, [0.0; 3], Blend::Power, 8.0, 2.0),
+        Err(SurfaceError::Parameter { reason, .. }) if reason.contains("bounded")
+    ));
     let outside = [Plane {
         normal: [1.0, 0.0, 0.0],
         offset: -1.0,
     }];
-    assert!(ConvexSolid::from_planes(&outside, [0.0; 3], Blend::Power, 8.0, 2.0).is_err());
-    assert!(ConvexSolid::from_face_feet(&[], [0.0; 3], Blend::Power, 8.0, 2.0).is_err());
+    assert!(matches!(
+        ConvexSolid::from_planes(&outside, [0.0; 3], Blend::Power, 8.0, 2.0),
+        Err(SurfaceError::Parameter { value, .. }) if value == -1.0
+    ));
+    assert!(matches!(
+        ConvexSolid::from_face_feet(&[], [0.0; 3], Blend::Power, 8.0, 2.0),
+        Err(SurfaceError::Empty)
+    ));
 }
 
 #[test]
@@ -248,8 +259,14 @@ fn domains_embed_on_the_unit_sphere_and_project_back() {
             assert!(x.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-12));
         }
     }
-    assert!(Domain::Ball.point(&[1.0, 1.0, 0.0]).is_err());
-    assert!(Domain::Sphere { dim: 1 }.validate().is_err());
+    assert!(matches!(
+        Domain::Ball.point(&[1.0, 1.0, 0.0]),
+        Err(SurfaceError::Parameter { .. })
+    ));
+    assert!(matches!(
+        Domain::Sphere { dim: 1 }.validate(),
+        Err(SurfaceError::Parameter { .. })
+    ));
 }
 
 #[test]
@@ -340,16 +357,37 @@ fn bad_model_files_name_the_field() {
 #[test]
 fn nan_inputs_and_empty_models_are_errors() {
     let model = blob().unwrap();
-    assert!(model.network.eval(&[f64::NAN, 0.0, 1.0]).is_err());
-    assert!(model.network.eval(&[0.0, 1.0]).is_err());
-    assert!(model
-        .network
-        .eval_batch(&[0.0, 0.0, 1.0, f64::INFINITY, 0.0, 0.0])
-        .is_err());
-    assert!(model.network.eval_with_jacobian(&[f64::NAN; 3]).is_err());
-    assert!(Network::new(3, 3, &[], false).is_err());
+    assert!(matches!(
+        model.network.eval(&[f64::NAN, 0.0, 1.0]),
+        Err(SurfaceError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        model.network.eval(&[0.0, 1.0]),
+        Err(SurfaceError::Dimension {
+            expected: 3,
+            got: 2,
+            ..
+        })
+    ));
+    assert!(matches!(
+        model
+            .network
+            .eval_batch(&[0.0, 0.0, 1.0, f64::INFINITY, 0.0, 0.0]),
+        Err(SurfaceError::NonFinite { value, .. }) if value == f64::INFINITY
+    ));
+    assert!(matches!(
+        model.network.eval_with_jacobian(&[f64::NAN; 3]),
+        Err(SurfaceError::NonFinite { .. })
+    ));
+    assert!(matches!(
+        Network::new(3, 3, &[], false),
+        Err(SurfaceError::Empty)
+    ));
     let bad_q = KeyPoint::new(vec![1.0, 0.0, 0.0], vec![1.0], Blend::Power, f64::NAN);
-    assert!(Network::new(3, 1, &[bad_q], false).is_err());
+    assert!(matches!(
+        Network::new(3, 1, &[bad_q], false),
+        Err(SurfaceError::Parameter { what, .. }) if what == "key_points[0].q"
+    ));
 }
 
 #[test]
@@ -373,7 +411,8 @@ fn interpolating_networks_hit_their_targets_exactly() {
     }
     // Two key points at the same source cannot both be met: a clear error.
     let dup = [sources[..3].to_vec(), sources[..3].to_vec()].concat();
-    assert!(
-        Network::interpolating(3, 1, dup, vec![30.0; 2], Blend::Exponential, &[0.0, 1.0]).is_err()
-    );
+    assert!(matches!(
+        Network::interpolating(3, 1, dup, vec![30.0; 2], Blend::Exponential, &[0.0, 1.0]),
+        Err(SurfaceError::Parameter { what, .. }) if what == "interpolation system"
+    ));
 }

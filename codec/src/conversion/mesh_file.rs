@@ -23,15 +23,77 @@ pub enum MeshError {
         /// The I/O error.
         source: std::io::Error,
     },
-    /// The file is not a well-formed OBJ or PLY file.
-    #[error("{path}: not a valid {format} file: {message}")]
-    Parse {
+    /// The OBJ parser refused the file.
+    #[error("{path}: not a valid OBJ file: {source}")]
+    Obj {
         /// The file.
         path: String,
-        /// "OBJ" or "PLY".
-        format: &'static str,
         /// What the parser said.
-        message: String,
+        #[source]
+        source: tobj::LoadError,
+    },
+    /// The PLY parser refused the file.
+    #[error("{path}: not a valid PLY file: {source}")]
+    Ply {
+        /// The file.
+        path: String,
+        /// What the parser said.
+        #[source]
+        source: ply_rs_bw::parser::ParseError,
+    },
+    /// A PLY header without its `end_header` line.
+    #[error("{path}: not a valid PLY file: no end_header line")]
+    NoEndHeader {
+        /// The file.
+        path: String,
+    },
+    /// A PLY header that is not UTF-8 text.
+    #[error("{path}: not a valid PLY file: header is not text")]
+    HeaderNotText {
+        /// The file.
+        path: String,
+    },
+    /// A PLY element whose count is not a number.
+    #[error("{path}: not a valid PLY file: element {element}: count `{count}`")]
+    BadCount {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The count as written.
+        count: String,
+    },
+    /// A PLY file without a `vertex` element.
+    #[error("{path}: not a valid PLY file: no `vertex` element")]
+    NoVertices {
+        /// The file.
+        path: String,
+    },
+    /// A PLY vertex without one of its coordinates.
+    #[error("{path}: not a valid PLY file: vertex {vertex} has no numeric `{axis}`")]
+    NoCoordinate {
+        /// The file.
+        path: String,
+        /// The vertex (from 0).
+        vertex: usize,
+        /// The missing property: `x`, `y` or `z`.
+        axis: &'static str,
+    },
+    /// A PLY face without its list of vertex indices.
+    #[error("{path}: not a valid PLY file: face {face} has no `vertex_indices` list")]
+    NoIndexList {
+        /// The file.
+        path: String,
+        /// The face (from 0).
+        face: usize,
+    },
+    /// A PLY face whose vertex indices are not integers.
+    #[error("{path}: not a valid PLY file: face {face}: vertex indices are not integers")]
+    IndicesNotIntegers {
+        /// The file.
+        path: String,
+        /// The face (from 0).
+        face: usize,
     },
     /// The file's name does not say OBJ or PLY.
     #[error("{path}: unknown mesh format (expected a name ending in .obj or .ply)")]
@@ -61,21 +123,44 @@ pub enum MeshError {
         /// The coordinate.
         value: f64,
     },
-    /// No triangles, or all vertices at one point.
-    #[error("{path}: {what}")]
-    Empty {
+    /// No triangle with three distinct corners.
+    #[error("{path}: the mesh has no triangles")]
+    NoTriangles {
         /// The file.
         path: String,
-        /// What is missing.
-        what: String,
     },
-    /// A declared count is impossible or over the limits.
-    #[error("{path}: {what}")]
-    TooLarge {
+    /// Every vertex at one point: the mesh has no extent.
+    #[error("{path}: all vertices are at one point")]
+    SinglePoint {
         /// The file.
         path: String,
-        /// What was declared, with the limit.
-        what: String,
+    },
+    /// A PLY element declared with more than [`MAX_ELEMENTS`].
+    #[error("{path}: element {element}: {declared} declared, over the limit of {max}")]
+    TooManyElements {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The count its header declares.
+        declared: u64,
+        /// The limit.
+        max: u64,
+    },
+    /// A PLY header declaring more elements than the bytes after it can hold.
+    #[error(
+        "{path}: element {element}: {declared} declared, more than the {body} bytes after \
+         the header can hold"
+    )]
+    ShortBody {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The count its header declares.
+        declared: u64,
+        /// Bytes from the header's end to the file's end.
+        body: u64,
     },
     /// The memory budget does not hold the mesh.
     #[error("{path}: {source}")]
@@ -123,10 +208,9 @@ pub fn read_obj(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
     let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
         Err(tobj::LoadError::MaterialParseError)
     })
-    .map_err(|e| MeshError::Parse {
+    .map_err(|source| MeshError::Obj {
         path: name.into(),
-        format: "OBJ",
-        message: e.to_string(),
+        source,
     })?;
     let mut mesh = PolygonMesh::default();
     let mut face = 0;
@@ -172,20 +256,13 @@ fn scalar_bytes(t: &str) -> Option<u64> {
 /// takes at least its scalars' bytes (binary) or two characters (ASCII), so a short
 /// file cannot declare billions of elements.
 fn check_ply_header(bytes: &[u8], name: &str) -> Result<(), MeshError> {
-    let too_large = |what: String| MeshError::TooLarge {
-        path: name.into(),
-        what,
-    };
-    let parse = |message: &str| MeshError::Parse {
-        path: name.into(),
-        format: "PLY",
-        message: message.into(),
-    };
+    let path = || name.to_string();
     let end = bytes
         .windows(10)
         .position(|w| w == b"end_header")
-        .ok_or_else(|| parse("no end_header line"))?;
-    let header = std::str::from_utf8(&bytes[..end]).map_err(|_| parse("header is not text"))?;
+        .ok_or_else(|| MeshError::NoEndHeader { path: path() })?;
+    let header = std::str::from_utf8(&bytes[..end])
+        .map_err(|_| MeshError::HeaderNotText { path: path() })?;
     let body = (bytes.len() - end) as u64;
     let ascii = header.lines().any(|l| l.trim() == "format ascii 1.0");
     let mut elements: Vec<(String, u64, u64)> = Vec::new();
@@ -193,13 +270,18 @@ fn check_ply_header(bytes: &[u8], name: &str) -> Result<(), MeshError> {
         let w: Vec<&str> = line.split_whitespace().collect();
         match w.as_slice() {
             ["element", el, count] => {
-                let n: u64 = count
-                    .parse()
-                    .map_err(|_| parse(&format!("element {el}: count `{count}`")))?;
+                let n: u64 = count.parse().map_err(|_| MeshError::BadCount {
+                    path: path(),
+                    element: el.to_string(),
+                    count: count.to_string(),
+                })?;
                 if n > MAX_ELEMENTS {
-                    return Err(too_large(format!(
-                        "element {el}: {n} declared, over the limit of {MAX_ELEMENTS}"
-                    )));
+                    return Err(MeshError::TooManyElements {
+                        path: path(),
+                        element: el.to_string(),
+                        declared: n,
+                        max: MAX_ELEMENTS,
+                    });
                 }
                 elements.push((el.to_string(), n, 0));
             }
@@ -221,9 +303,12 @@ fn check_ply_header(bytes: &[u8], name: &str) -> Result<(), MeshError> {
         let per = if ascii { 2 } else { (*size).max(1) };
         need = need.saturating_add(n.saturating_mul(per));
         if need > body {
-            return Err(too_large(format!(
-                "element {el}: {n} declared, more than the {body} bytes after the header can hold"
-            )));
+            return Err(MeshError::ShortBody {
+                path: path(),
+                element: el.clone(),
+                declared: *n,
+                body,
+            });
         }
     }
     // The parser keeps each element as a map of named properties (~100 bytes a value).
@@ -251,16 +336,11 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
     let parser = ply_rs_bw::parser::Parser::<ply_rs_bw::ply::DefaultElement>::new();
     let ply = parser
         .read_ply(&mut std::io::Cursor::new(bytes))
-        .map_err(|e| MeshError::Parse {
+        .map_err(|source| MeshError::Ply {
             path: name.into(),
-            format: "PLY",
-            message: e.to_string(),
+            source,
         })?;
-    let parse = |message: String| MeshError::Parse {
-        path: name.into(),
-        format: "PLY",
-        message,
-    };
+    let path = || name.to_string();
     let scalar = |p: &Property| -> Option<f64> {
         Some(match *p {
             Property::Char(v) => f64::from(v),
@@ -278,14 +358,18 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
     let vertices = ply
         .payload
         .get("vertex")
-        .ok_or_else(|| parse("no `vertex` element".into()))?;
+        .ok_or_else(|| MeshError::NoVertices { path: path() })?;
     for (i, v) in vertices.iter().enumerate() {
         let mut p = [0.0; 3];
-        for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+        for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
             p[k] = v
-                .get(*axis)
+                .get(axis)
                 .and_then(scalar)
-                .ok_or_else(|| parse(format!("vertex {i} has no numeric `{axis}`")))?;
+                .ok_or_else(|| MeshError::NoCoordinate {
+                    path: path(),
+                    vertex: i,
+                    axis,
+                })?;
         }
         mesh.positions.push(p);
     }
@@ -295,7 +379,10 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
         let list = face
             .get("vertex_indices")
             .or_else(|| face.get("vertex_index"))
-            .ok_or_else(|| parse(format!("face {f} has no `vertex_indices` list")))?;
+            .ok_or_else(|| MeshError::NoIndexList {
+                path: path(),
+                face: f,
+            })?;
         let idx: Vec<i64> = match list {
             Property::ListChar(l) => l.iter().map(|&v| i64::from(v)).collect(),
             Property::ListUChar(l) => l.iter().map(|&v| i64::from(v)).collect(),
@@ -303,7 +390,12 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
             Property::ListUShort(l) => l.iter().map(|&v| i64::from(v)).collect(),
             Property::ListInt(l) => l.iter().map(|&v| i64::from(v)).collect(),
             Property::ListUInt(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            _ => return Err(parse(format!("face {f}: vertex indices are not integers"))),
+            _ => {
+                return Err(MeshError::IndicesNotIntegers {
+                    path: path(),
+                    face: f,
+                })
+            }
         };
         if let Some(&bad) = idx.iter().find(|&&i| i < 0 || i as usize >= count) {
             return Err(MeshError::BadIndex {
@@ -337,17 +429,11 @@ fn finish(mut mesh: PolygonMesh, name: &str) -> Result<PolygonMesh, MeshError> {
     mesh.triangles
         .retain(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
     if mesh.triangles.is_empty() {
-        return Err(MeshError::Empty {
-            path: name.into(),
-            what: "the mesh has no triangles".into(),
-        });
+        return Err(MeshError::NoTriangles { path: name.into() });
     }
     let (lo, hi) = mesh.bounds();
     if (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
-        return Err(MeshError::Empty {
-            path: name.into(),
-            what: "all vertices are at one point".into(),
-        });
+        return Err(MeshError::SinglePoint { path: name.into() });
     }
     Ok(mesh)
 }
@@ -363,7 +449,7 @@ mod tests {
         assert_eq!(m.triangles.len(), 2);
         assert!(matches!(
             read_obj(b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 9\n", "b.obj"),
-            Err(MeshError::Parse { .. } | MeshError::BadIndex { .. })
+            Err(MeshError::Obj { .. } | MeshError::BadIndex { .. })
         ));
         assert!(matches!(
             read_obj(b"v 0 0 nan\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", "n.obj"),
@@ -371,7 +457,7 @@ mod tests {
         ));
         assert!(matches!(
             read_obj(b"v 0 0 0\n", "e.obj"),
-            Err(MeshError::Empty { .. })
+            Err(MeshError::NoTriangles { .. })
         ));
     }
 
@@ -399,7 +485,10 @@ mod tests {
         let huge = b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
         assert!(matches!(
             read_ply(huge, "h.ply"),
-            Err(MeshError::TooLarge { .. })
+            Err(MeshError::TooManyElements {
+                declared: 4_000_000_000,
+                ..
+            })
         ));
         let bad = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n";
         assert!(matches!(

@@ -9,18 +9,6 @@ pub mod transfer;
 pub mod warp;
 pub mod warp3d;
 
-use thiserror::Error;
+mod error;
 
-/// Why a texture operation failed.
-#[derive(Debug, Error)]
-pub enum TextureError {
-    /// Bad input or parameters.
-    #[error("{0}")]
-    Invalid(String),
-    /// A network could not be built or evaluated.
-    #[error(transparent)]
-    Surface(#[from] crate::surface::SurfaceError),
-    /// A raster could not be built.
-    #[error(transparent)]
-    Raster(#[from] crate::raster::RasterError),
-}
+pub use error::TextureError;

@@ -67,9 +67,11 @@ impl Projected {
     ) -> Result<Self, TextureError> {
         for k in 0..3 {
             if !(lo[k].is_finite() && hi[k].is_finite() && hi[k] - lo[k] > 0.0) {
-                return Err(TextureError::Invalid(format!(
-                    "projection box {lo:?}..{hi:?}: each side must be finite and > 0"
-                )));
+                return Err(TextureError::BadBox {
+                    what: "projection box",
+                    lo,
+                    hi,
+                });
             }
         }
         Ok(Projected {
@@ -124,8 +126,7 @@ pub fn surface_box(
     model: &crate::surface::SurfaceModel,
 ) -> Result<([f64; 3], [f64; 3]), TextureError> {
     use crate::render::mesh::{tessellate, NormalMode};
-    let mesh = tessellate(model, 4, NormalMode::Exact)
-        .map_err(|e| TextureError::Invalid(e.to_string()))?;
+    let mesh = tessellate(model, 4, NormalMode::Exact)?;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in &mesh.positions {
         for k in 0..3 {
@@ -135,10 +136,9 @@ pub fn surface_box(
     }
     let largest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
     if !(largest.is_finite() && largest > 0.0) {
-        return Err(TextureError::Invalid(format!(
-            "surface `{}` has no extent to project a picture onto",
-            model.name
-        )));
+        return Err(TextureError::NoExtent {
+            surface: model.name.clone(),
+        });
     }
     for k in 0..3 {
         let pad = (1e-6 * largest - (hi[k] - lo[k])).max(0.0) / 2.0;

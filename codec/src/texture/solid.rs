@@ -63,9 +63,11 @@ impl Solid {
         colours: [[f32; 3]; 2],
     ) -> Result<Solid, TextureError> {
         if !(scale.is_finite() && scale > 0.0) {
-            return Err(TextureError::Invalid(format!(
-                "solid texture scale {scale}: must be positive"
-            )));
+            return Err(TextureError::Parameter {
+                what: "solid texture scale",
+                value: scale,
+                allowed: "must be positive",
+            });
         }
         Ok(match kind {
             "checker" => Solid::Checker { scale, colours },
@@ -73,10 +75,9 @@ impl Solid {
             "rings" => Solid::Rings { scale, colours },
             "marble" => Solid::Marble { scale, colours },
             _ => {
-                return Err(TextureError::Invalid(format!(
-                    "unknown solid texture {kind:?}: one of {} or a volume spec (.json)",
-                    PROCEDURAL.join(", ")
-                )))
+                return Err(TextureError::UnknownSolid {
+                    name: kind.to_string(),
+                })
             }
         })
     }
@@ -228,25 +229,20 @@ impl Volume {
         match n {
             Some(n) if n > 0 && n <= MAX_VOXELS => {}
             _ => {
-                return Err(TextureError::Invalid(format!(
-                    "volume of {}x{}x{} voxels: must be non-empty and at most {MAX_VOXELS}",
-                    size[0], size[1], size[2]
-                )))
+                return Err(TextureError::VolumeSize {
+                    size,
+                    max: MAX_VOXELS,
+                })
             }
         }
         if voxels.len() != n.unwrap_or(0) {
-            return Err(TextureError::Invalid(format!(
-                "volume of {}x{}x{} voxels given {} values",
-                size[0],
-                size[1],
-                size[2],
-                voxels.len()
-            )));
+            return Err(TextureError::VoxelCount {
+                size,
+                values: voxels.len(),
+            });
         }
         if !(0..3).all(|k| min[k].is_finite() && max[k].is_finite() && min[k] < max[k]) {
-            return Err(TextureError::Invalid(format!(
-                "volume box {min:?}..{max:?}: need finite min < max on every axis"
-            )));
+            return Err(TextureError::VolumeBox { min, max });
         }
         Ok(Volume {
             size,
@@ -265,15 +261,14 @@ impl Volume {
         max: [f64; 3],
         wrap: VolumeWrap,
     ) -> Result<Self, TextureError> {
-        let first = slices
-            .first()
-            .ok_or_else(|| TextureError::Invalid("volume: the slice stack is empty".into()))?;
+        let first = slices.first().ok_or(TextureError::NoSlices)?;
         for (k, s) in slices.iter().enumerate() {
             if (s.width, s.height) != (first.width, first.height) {
-                return Err(TextureError::Invalid(format!(
-                    "volume: slice {k} is {}x{}, slice 0 is {}x{}: all slices must have one size",
-                    s.width, s.height, first.width, first.height
-                )));
+                return Err(TextureError::SliceSize {
+                    slice: k,
+                    size: (s.width, s.height),
+                    first: (first.width, first.height),
+                });
             }
         }
         let voxels = slices
@@ -314,28 +309,48 @@ impl Volume {
         fn clamp() -> VolumeWrap {
             VolumeWrap::Clamp
         }
-        let at = |e: String| TextureError::Invalid(format!("{}: {e}", spec.display()));
-        let text = crate::budget::read_to_string(spec).map_err(|e| at(e.to_string()))?;
-        let s: Spec = serde_json::from_str(&text).map_err(|e| at(e.to_string()))?;
+        let at = |e: TextureError| TextureError::InVolumeSpec {
+            path: spec.to_path_buf(),
+            source: Box::new(e),
+        };
+        let text = crate::budget::read_to_string(spec).map_err(|source| TextureError::Io {
+            path: spec.to_path_buf(),
+            source,
+        })?;
+        let s: Spec = serde_json::from_str(&text)
+            .map_err(|source| at(TextureError::VolumeJson { source }))?;
         if s.slices.is_empty() {
-            return Err(at("the slice stack is empty (\"slices\": [])".into()));
+            return Err(at(TextureError::NoSlices));
         }
         let dir = spec.parent().unwrap_or(Path::new(""));
         let mut images = Vec::with_capacity(s.slices.len());
         let mut voxels = 0usize;
         for (k, name) in s.slices.iter().enumerate() {
             let path = dir.join(name);
-            let bytes = crate::budget::read(&path)
-                .map_err(|e| at(format!("slice {k} ({}): {e}", path.display())))?;
-            let img = RgbImage::decode(&bytes)
-                .map_err(|e| at(format!("slice {k} ({}): {e}", path.display())))?;
+            let bytes = crate::budget::read(&path).map_err(|source| {
+                at(TextureError::SliceRead {
+                    slice: k,
+                    path: path.clone(),
+                    source,
+                })
+            })?;
+            let img = RgbImage::decode(&bytes).map_err(|source| {
+                at(TextureError::SliceDecode {
+                    slice: k,
+                    path: path.clone(),
+                    source,
+                })
+            })?;
             voxels = voxels.saturating_add(img.pixels.len());
             if voxels > MAX_VOXELS {
-                return Err(at(format!("more than {MAX_VOXELS} voxels")));
+                return Err(at(TextureError::TooManyVoxels {
+                    slice: k,
+                    max: MAX_VOXELS,
+                }));
             }
             images.push(img);
         }
-        Volume::from_slices(&images, s.min, s.max, s.wrap).map_err(|e| at(e.to_string()))
+        Volume::from_slices(&images, s.min, s.max, s.wrap).map_err(at)
     }
 
     /// Voxels per axis.
@@ -388,10 +403,8 @@ impl Volume {
 /// Parses two colours `RRGGBB,RRGGBB` (gamma-encoded sRGB hex, an optional `#` each)
 /// into linear light.
 pub fn parse_colours(s: &str) -> Result<[[f32; 3]; 2], TextureError> {
-    let bad = || {
-        TextureError::Invalid(format!(
-            "colours {s:?}: expected two sRGB hex colours RRGGBB,RRGGBB"
-        ))
+    let bad = || TextureError::Colours {
+        text: s.to_string(),
     };
     let (a, b) = s.split_once(',').ok_or_else(bad)?;
     let one = |c: &str| -> Result<[f32; 3], TextureError> {

@@ -40,6 +40,20 @@ pub fn uv_domain(domain: &Domain, uv: [f64; 2]) -> Option<Vec<f64>> {
     }
 }
 
+/// Most texels a texture grid may have (2^26).
+pub const MAX_TEXELS: u64 = 1 << 26;
+
+fn check_texture_size(width: u32, height: u32) -> Result<(), TextureError> {
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > MAX_TEXELS {
+        return Err(TextureError::TextureSize {
+            width,
+            height,
+            max: MAX_TEXELS,
+        });
+    }
+    Ok(())
+}
+
 /// Carries `texture`, laid on `from`, onto `to`'s texture grid of `width x height`
 /// texels (linear light). The models must share their domain.
 pub fn transfer(
@@ -50,23 +64,15 @@ pub fn transfer(
     height: u32,
 ) -> Result<RgbImage, TextureError> {
     if from.domain != to.domain {
-        return Err(TextureError::Invalid(format!(
-            "the surfaces do not share a domain ({:?} vs {:?}); transfer goes through \
-             corresponding domain points",
-            from.domain, to.domain
-        )));
+        return Err(TextureError::DomainMismatch {
+            from: from.domain,
+            to: to.domain,
+        });
     }
-    let wrap = Wrap::of(&from.domain).ok_or_else(|| {
-        TextureError::Invalid(format!(
-            "domain {:?} has no texture coordinates (sphere S^2 and torus do)",
-            from.domain
-        ))
+    let wrap = Wrap::of(&from.domain).ok_or(TextureError::NoTextureCoordinates {
+        domain: from.domain,
     })?;
-    if width == 0 || height == 0 || width as u64 * height as u64 > 1 << 26 {
-        return Err(TextureError::Invalid(format!(
-            "texture size {width}x{height}"
-        )));
-    }
+    check_texture_size(width, height)?;
     // A texel of the new grid spans this many texels of the texture (both grids cover
     // the whole domain), so a smaller grid reads a coarser pyramid level.
     let footprint = (f64::from(texture.image().width) / f64::from(width))
@@ -209,31 +215,27 @@ fn bake(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<RgbImage, TextureError> {
     if space.domain != to.domain {
-        return Err(TextureError::Invalid(format!(
-            "the texture-space network's domain {:?} is not the surface's {:?}",
-            space.domain, to.domain
-        )));
+        return Err(TextureError::SpaceDomainMismatch {
+            space: space.domain,
+            surface: to.domain,
+        });
     }
     if space.network.output_dim() < 3 {
-        return Err(TextureError::Invalid(
-            "the texture-space network must output 3-D points".into(),
-        ));
+        return Err(TextureError::SpaceNotPositions {
+            components: space.network.output_dim(),
+        });
     }
     if Wrap::of(&to.domain).is_none() {
-        return Err(TextureError::Invalid(format!(
-            "domain {:?} has no texture coordinates",
-            to.domain
-        )));
+        return Err(TextureError::NoTextureCoordinates { domain: to.domain });
     }
-    if width == 0 || height == 0 || width as u64 * height as u64 > 1 << 26 {
-        return Err(TextureError::Invalid(format!(
-            "texture size {width}x{height}"
-        )));
-    }
+    check_texture_size(width, height)?;
     if !(1..=MAX_BAKE_SAMPLES).contains(&samples) {
-        return Err(TextureError::Invalid(format!(
-            "bake samples {samples}: allowed 1..={MAX_BAKE_SAMPLES}"
-        )));
+        return Err(TextureError::Count {
+            what: "bake samples",
+            value: samples.into(),
+            min: 1,
+            max: MAX_BAKE_SAMPLES.into(),
+        });
     }
     let (w, s) = (width as usize, samples as usize);
     let grid_width = w * s;

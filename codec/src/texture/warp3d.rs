@@ -20,6 +20,9 @@ pub struct Move3 {
     pub to: [f64; 3],
 }
 
+/// Most moves a surface warp takes (each one adds a key point to a dense solve).
+pub const MAX_MOVES: usize = 256;
+
 /// A warp of 3-D space around a box.
 #[derive(Debug, Clone)]
 pub struct Warp3 {
@@ -35,15 +38,31 @@ impl Warp3 {
     /// Builds the warp for the box `lo..hi` (anchors on a 4-cell grid over the box
     /// grown by a quarter on each side) so every control point lands on its target.
     pub fn new(lo: [f64; 3], hi: [f64; 3], moves: &[Move3]) -> Result<Self, TextureError> {
-        if !lo.iter().chain(&hi).all(|v| v.is_finite())
-            || moves
-                .iter()
-                .any(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
-        {
-            return Err(TextureError::Invalid("non-finite box or move".into()));
+        if !lo.iter().chain(&hi).all(|v| v.is_finite()) {
+            return Err(TextureError::BadBox {
+                what: "warp box",
+                lo,
+                hi,
+            });
         }
-        if moves.is_empty() || moves.len() > 256 {
-            return Err(TextureError::Invalid("1..=256 moves".into()));
+        if let Some(index) = moves
+            .iter()
+            .position(|m| !m.from.iter().chain(&m.to).all(|v| v.is_finite()))
+        {
+            return Err(TextureError::NonFiniteMove3 {
+                index,
+                from: moves[index].from,
+                to: moves[index].to,
+            });
+        }
+        if moves.is_empty() {
+            return Err(TextureError::NoMoves { max: MAX_MOVES });
+        }
+        if moves.len() > MAX_MOVES {
+            return Err(TextureError::TooManyMoves {
+                moves: moves.len(),
+                max: MAX_MOVES,
+            });
         }
         let size = (0..3)
             .map(|k| hi[k] - lo[k])
@@ -55,11 +74,12 @@ impl Warp3 {
         let g = 1.5 * size / cells as f64;
         let mut kp: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
         let froms: Vec<[f64; 3]> = moves.iter().map(|m| m.from).collect();
-        for (m, nearest) in moves.iter().zip(nearest_other(&froms)) {
+        for (index, (m, nearest)) in moves.iter().zip(nearest_other(&froms)).enumerate() {
             if nearest < 1e-9 * size {
-                return Err(TextureError::Invalid(
-                    "two moves start at the same point".into(),
-                ));
+                return Err(TextureError::CoincidentMoves {
+                    index,
+                    from: m.from,
+                });
             }
             let d = [0, 1, 2].map(|k| m.to[k] - m.from[k]);
             kp.push((m.from, d, 0.6 * nearest.min(g)));
@@ -101,7 +121,7 @@ impl Warp3 {
             Blend::Exponential,
             &targets,
         )
-        .map_err(|e| TextureError::Invalid(format!("control points too close to solve: {e}")))?;
+        .map_err(|source| TextureError::Unsolvable { source })?;
         Ok(Warp3 {
             lo,
             hi,
@@ -170,9 +190,7 @@ impl Warp3 {
     pub fn apply_to_model(&self, model: &SurfaceModel) -> Result<SurfaceModel, TextureError> {
         let p = model.network.output_dim();
         if p < 3 {
-            return Err(TextureError::Invalid(format!(
-                "the model's shapes have {p} components; a 3-D warp needs positions"
-            )));
+            return Err(TextureError::NotPositions { components: p });
         }
         let mut shapes = model.network.shapes().to_vec();
         for s in shapes.chunks_exact_mut(p) {

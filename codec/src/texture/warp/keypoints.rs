@@ -1,0 +1,107 @@
+//! Warping a decoded `.cae` file: its key points' displacements set from the warp, the
+//! file evaluated by forward mapping on the same lattice and splat as images.
+
+use rayon::prelude::*;
+
+use super::resample::{check_supersample, tent, Field, Lattice, Splat, BAND};
+use super::Warp;
+use crate::codec::decoder::{self, Decoded};
+use crate::codec::geometry::Frame;
+use crate::codec::keyset::KeySet;
+use crate::codec::quadtree::Cell;
+use crate::raster::Raster;
+use crate::surface::Network;
+use crate::texture::TextureError;
+
+/// Distorts a decoded caoen file: every key point's displacement `(dx, dy)` is set to
+/// the warp's displacement at its centre, and the file is evaluated by forward mapping
+/// (`docs/format.md`, "Reconstruction") with `s x s` samples per pixel on the same
+/// lattice and linear splat as [`warp_raster`](super::warp_raster) (so identity moves give the decoder's
+/// identity path). Unlike the decoder's forward path, samples may land in any row.
+pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureError> {
+    let s = check_supersample(s)?;
+    let hd = &d.header;
+    let frame = Frame::new(hd.width, hd.height);
+    if frame != warp.frame {
+        return Err(TextureError::SizeMismatch {
+            warp: (warp.frame.width, warp.frame.height),
+            image: (hd.width, hd.height),
+        });
+    }
+    let network = |cells: &[Cell], values: &[Vec<f64>]| -> Result<Network, TextureError> {
+        let ks = KeySet::new(frame, cells, hd.kernel);
+        let p = 2 + values.len();
+        let mut shapes = Vec::with_capacity(cells.len() * p);
+        for (i, c) in cells.iter().enumerate() {
+            let (cx, cy) = c.centre(hd.width, hd.height);
+            shapes.extend(warp.displacement(cx, cy));
+            shapes.extend(values.iter().map(|v| v[i]));
+        }
+        Ok(ks.network(p, shapes)?)
+    };
+    let luma = network(&d.luma_cells, &d.luma_values)?;
+    let chroma = if d.chroma_cells.is_empty() {
+        None
+    } else {
+        Some(network(&d.chroma_cells, &d.chroma_values)?)
+    };
+    let (w, h) = (hd.width as usize, hd.height as usize);
+    let nl = d.luma_values.len();
+    let nc = nl + chroma.as_ref().map_or(0, |_| 2);
+    let lat = Lattice::new(s);
+    let spacing = Field::spacing(warp, lat.step);
+    let stride = 4 + nc;
+    let pl = 2 + nl;
+    let mut acc = Splat::new(w, h, nc);
+    for band in (0..h).step_by(BAND) {
+        let rows: Vec<Vec<f64>> = (band..(band + BAND).min(h))
+            .into_par_iter()
+            .map(|y| -> Result<_, TextureError> {
+                let pts = lat.row(w, y);
+                let dom: Vec<f64> = pts
+                    .chunks_exact(2)
+                    .flat_map(|p| frame.embed(p[0], p[1]))
+                    .collect();
+                let ly = luma.eval_batch(&dom)?;
+                let cy = chroma.as_ref().map(|n| n.eval_batch(&dom)).transpose()?;
+                // The tents follow the warp's stretch (the file's own displacements
+                // interpolate the same field between its key points).
+                let field = Field::band(warp, spacing, pts[1], pts[pts.len() - 1]);
+                let mut out = Vec::with_capacity(pts.len() / 2 * stride);
+                for (k, p) in pts.chunks_exact(2).enumerate() {
+                    let l = &ly[k * pl..(k + 1) * pl];
+                    let (rx, ry) = tent(lat.step, &field.at(p[0], p[1]).1);
+                    out.extend([p[0] + l[0], p[1] + l[1], rx, ry]);
+                    // The detail layer rides with its sample: evaluated at the
+                    // sample's own position, moved with it.
+                    let detail = d.detail.as_ref().map(|det| det.at(p[0], p[1]));
+                    let dl = |c: usize| detail.as_ref().map_or(0.0, |v| v[c]);
+                    out.push(l[2] + dl(0));
+                    out.extend_from_slice(&l[3..]);
+                    if let Some(c) = &cy {
+                        out.extend([c[k * 4 + 2] + dl(1), c[k * 4 + 3] + dl(2)]);
+                    }
+                }
+                Ok(out)
+            })
+            .collect::<Result<_, _>>()?;
+        for row in &rows {
+            for v in row.chunks_exact(stride) {
+                acc.add(v[0], v[1], v[2], v[3], &v[4..]);
+            }
+        }
+    }
+    let planes = acc.finish();
+    let alpha = hd.layout.has_alpha().then(|| planes[1].clone());
+    let mut colour = vec![planes[0].clone()];
+    if nc > nl {
+        colour.push(planes[nl].clone());
+        colour.push(planes[nl + 1].clone());
+    }
+    Ok(decoder::to_raster(
+        hd,
+        crate::codec::colour::CodingPlanes { colour, alpha },
+        hd.width,
+        hd.height,
+    ))
+}
