@@ -6,8 +6,8 @@
 //! bound over a box is the value at the centre plus or minus the half-diagonal.
 
 use super::interval::{Aabb, Interval};
-use crate::render::mesh::Mesh;
-use crate::render::vec3::{cross, dot, sub, unit};
+use crate::geometry::mesh::Mesh;
+use crate::geometry::vector::{cross, dot, sub, unit};
 
 /// Most triangles a mesh field may hold.
 pub const MAX_TRIANGLES: usize = 2_000_000;

@@ -3,6 +3,7 @@
 //! offsets and transforms; rendered by interval ray casting and polygonisation, and
 //! exported to POV-Ray (`docs/frep.md`).
 
+pub mod convex_solid;
 pub mod height_map;
 pub mod interval;
 pub mod mesh_field;

@@ -12,7 +12,7 @@ use super::patch_index::PatchIndex;
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
-use crate::render::transform::Affine;
+use crate::geometry::transform::Affine;
 
 /// Deepest nesting a model may have.
 pub const MAX_DEPTH: usize = 64;
@@ -726,13 +726,14 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
             "caoen_surface" => return surface_field(body, &here, count.base_dir),
             "cao_en_solid" => {
                 let solid =
-                    crate::render::scene::convex_solid_from_json(body, &here).map_err(|e| {
-                        // The scene's message starts with the path already.
-                        let text = e.to_string();
-                        let reason = text.strip_prefix(here.as_str()).unwrap_or(&text);
+                    super::convex_solid::convex_solid_from_json(body, &here).map_err(|e| {
+                        let reason = match e.expected.as_str() {
+                            "" => e.found,
+                            expected => format!("{}, expected {expected}", e.found),
+                        };
                         ModelError {
-                            path: here.clone(),
-                            reason: reason.trim_start_matches([':', ' ']).to_string(),
+                            path: e.field,
+                            reason,
                         }
                     })?;
                 Primitive::CaoEn(super::primitive::CaoEnSolid::new(&solid))
@@ -1167,7 +1168,7 @@ pub const MAX_SURFACE_DETAIL: u32 = 7;
 /// (a `caoen-surface/1` file relative to the model, three shape components) tessellated
 /// at `detail` (default 5) as the field of its inside.
 fn surface_field(v: &Value, here: &str, base_dir: &std::path::Path) -> Result<Node, ModelError> {
-    use crate::render::mesh::{tessellate, NormalMode};
+    use crate::surface::tessellate::{tessellate, NormalMode};
     let f = fields(v, here, &["file", "detail"])?;
     let Some(name) = get(f, "file", here)?.as_str() else {
         return err(&format!("{here}.file"), "expected a file name");

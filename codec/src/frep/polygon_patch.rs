@@ -18,7 +18,7 @@
 
 use super::interval::{Aabb, Interval};
 use super::rfunction::{self, SetOp};
-use crate::render::vec3::{cross, dot, sub};
+use crate::geometry::vector::{cross, dot, sub, try_normalise};
 
 /// The surface a polygon patch lies on.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,11 +48,6 @@ pub struct PolygonSupport {
     depth: f64,
 }
 
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let l = dot(a, a).sqrt();
-    (l > 0.0 && l.is_finite()).then(|| a.map(|v| v / l))
-}
-
 impl PolygonSupport {
     /// A planar convex polygon of 3 or 4 vertices, `depth` the band's half-width across
     /// the plane. The vertices may run either way round; they must lie on one plane (to
@@ -65,7 +60,7 @@ impl PolygonSupport {
         for i in 0..v.len() {
             n = [0, 1, 2].map(|k| n[k] + cross(v[i], v[(i + 1) % v.len()])[k]);
         }
-        let normal = unit(n).ok_or("the vertices are collinear or repeated")?;
+        let normal = try_normalise(n).ok_or("the vertices are collinear or repeated")?;
         let size = (1..v.len())
             .map(|i| dot(sub(v[i], v[0]), sub(v[i], v[0])).sqrt())
             .fold(0.0, f64::max);
@@ -78,7 +73,8 @@ impl PolygonSupport {
         let edges = (0..v.len())
             .map(|i| {
                 let e = sub(v[(i + 1) % v.len()], v[i]);
-                let inward = unit(cross(normal, e)).ok_or(format!("edge {i} has no length"))?;
+                let inward =
+                    try_normalise(cross(normal, e)).ok_or(format!("edge {i} has no length"))?;
                 Ok((inward, v[i]))
             })
             .collect::<Result<Vec<_>, String>>()?;
@@ -103,17 +99,19 @@ impl PolygonSupport {
         let dirs = vertices
             .iter()
             .enumerate()
-            .map(|(i, p)| unit(sub(*p, centre)).ok_or(format!("vertex {i} is at the centre")))
+            .map(|(i, p)| {
+                try_normalise(sub(*p, centre)).ok_or(format!("vertex {i} is at the centre"))
+            })
             .collect::<Result<Vec<_>, String>>()?;
         // Oriented so the vertices' mean direction is inside every edge's wedge.
-        let mean = unit(
+        let mean = try_normalise(
             dirs.iter()
                 .fold([0.0; 3], |a, d| [a[0] + d[0], a[1] + d[1], a[2] + d[2]]),
         )
         .ok_or("the vertices' directions cancel out")?;
         let mut edges = Vec::with_capacity(dirs.len());
         for i in 0..dirs.len() {
-            let m = unit(cross(dirs[i], dirs[(i + 1) % dirs.len()]))
+            let m = try_normalise(cross(dirs[i], dirs[(i + 1) % dirs.len()]))
                 .ok_or(format!("edge {i} has no length or spans half the sphere"))?;
             edges.push((m, centre));
         }

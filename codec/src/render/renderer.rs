@@ -19,16 +19,17 @@ use super::csg::{Boundary, CsgNode, Span};
 use super::depth_buffer::{depth_buffer, DepthBufferOptions};
 use super::error::{RenderError, Result};
 use super::framebuffer::{DepthMap, GBuffer, Hit, RgbImage};
-use super::mesh::{tessellate, Mesh, NormalMode};
-use super::polygonise::polygonise;
 use super::raster::rasterise;
-use super::raytrace::{ImplicitTracer, RayMethod};
 use super::scene::{Scene, Shape};
 use super::shading::shade;
 use super::texture::{domain_uv, Wrap};
-use super::transform::Affine;
-use super::vec3::scale;
+use crate::geometry::mesh::Mesh;
+use crate::geometry::polygonise::polygonise;
+use crate::geometry::transform::Affine;
+use crate::geometry::vector::{dot, scale};
 use crate::surface::normals::{point_and_normal, NormalNetwork};
+use crate::surface::tessellate::{tessellate, NormalMode};
+use crate::surface::tracer::{ImplicitTracer, RayMethod};
 use crate::surface::{ConvexSolid, SurfaceModel};
 
 /// The rendering method (paper section 7).
@@ -318,7 +319,7 @@ fn draw(
 fn network_projection(
     mesh: &mut Mesh,
     model: &SurfaceModel,
-    place: &super::transform::Affine,
+    place: &crate::geometry::transform::Affine,
     camera: &Camera,
 ) -> Result<[f64; 3]> {
     use super::camera::Projection;
@@ -486,7 +487,7 @@ fn centre_sample(
             }
             let d = place.point(d);
             let d = [d[0] - place.t[0], d[1] - place.t[1], d[2] - place.t[2]];
-            [dot3(sj[0], d), dot3(sj[1], d)]
+            [dot(sj[0], d), dot(sj[1], d)]
         };
         let (a, b) = (push(&ta), push(&tb));
         let det = a[0] * b[1] - b[0] * a[1];
@@ -507,10 +508,6 @@ fn centre_sample(
     // `best` starts as the original sample, so refinement never makes a pixel worse; a
     // step that slid onto another sheet of the surface would not get closer.
     Ok(best)
-}
-
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// The signed field of a CSG expression: `ln(f_i / s_i)` per solid (negative inside;
@@ -605,7 +602,7 @@ fn leaf_signs(node: &CsgNode, sign: f64, out: &mut [f64], seen: &mut [bool]) {
     }
 }
 
-impl super::crease::Leaves for CsgLeaves<'_> {
+impl crate::geometry::crease::Leaves for CsgLeaves<'_> {
     fn leaf(&self, i: usize, p: [f64; 3]) -> (f64, [f64; 3]) {
         let (f, g) = self.tracers[i].value_gradient(p);
         let f = f.max(1e-300);
@@ -649,7 +646,7 @@ pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) ->
         signs,
     };
     let cell = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
-    super::crease::sharpen(mesh, &leaves, cell)
+    crate::geometry::crease::sharpen(mesh, &leaves, cell)
 }
 
 /// Ray traces a CSG expression of convex solids through every pixel of `camera`;
@@ -741,7 +738,7 @@ pub fn trace_field(
 pub fn first_span(
     tracers: &[ImplicitTracer],
     csg: &CsgNode,
-    ray: &super::camera::Ray,
+    ray: &crate::geometry::ray::Ray,
     method: RayMethod,
     scratch: &mut Vec<[f64; 2]>,
 ) -> Option<Span> {

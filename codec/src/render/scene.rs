@@ -15,8 +15,10 @@ use super::error::{RenderError, Result};
 use super::framebuffer::srgb_to_linear;
 use super::shading::{Light, Lighting, Material};
 use super::texture::{Texture, Wrap};
-use super::transform::Affine;
-use crate::surface::{gallery, Blend, ConvexSolid, Plane, SurfaceModel};
+pub use crate::frep::convex_solid::{polyhedron_normals, polyhedron_solid, POLYHEDRA};
+use crate::frep::convex_solid::{scale_of, FileSolid, ScaleSpec, SCALE_RANGE};
+use crate::geometry::transform::Affine;
+use crate::surface::{gallery, ConvexSolid, SurfaceModel};
 
 /// The format tag every scene file starts with.
 pub const SCENE_FORMAT_TAG: &str = "caoen-scene/1";
@@ -234,7 +236,11 @@ impl Scene {
         for o in &self.objects {
             match &o.shape {
                 Shape::Surface { model, place, .. } => {
-                    let mesh = super::mesh::tessellate(model, 2, super::mesh::NormalMode::Exact)?;
+                    let mesh = crate::surface::tessellate::tessellate(
+                        model,
+                        2,
+                        crate::surface::tessellate::NormalMode::Exact,
+                    )?;
                     mesh.positions.iter().for_each(|p| add(place.point(*p)));
                 }
                 Shape::Solid { solids, csg } => {
@@ -270,7 +276,11 @@ impl Scene {
         for o in &self.objects {
             match &o.shape {
                 Shape::Surface { model, place, .. } => {
-                    let mesh = super::mesh::tessellate(model, 2, super::mesh::NormalMode::Exact)?;
+                    let mesh = crate::surface::tessellate::tessellate(
+                        model,
+                        2,
+                        crate::surface::tessellate::NormalMode::Exact,
+                    )?;
                     for p in &mesh.positions {
                         r = r.max(dist(place.point(*p)));
                     }
@@ -335,18 +345,18 @@ impl Scene {
 /// Farthest distance from `c` of the solid's surface, estimated along 162 directions
 /// from its centre (plus 2% for the surface between them).
 fn solid_extent(solid: &ConvexSolid, c: [f64; 3]) -> f64 {
-    let tracer = super::raytrace::ImplicitTracer::new(solid);
+    let tracer = crate::surface::tracer::ImplicitTracer::new(solid);
     let centre = solid.centre();
-    let (dirs, _) = super::mesh::icosphere(2);
+    let (dirs, _) = crate::geometry::mesh::icosphere(2);
     let mut scratch = Vec::new();
     let mut r: f64 = 0.0;
     for d in dirs {
-        let ray = super::camera::Ray {
+        let ray = crate::geometry::ray::Ray {
             origin: centre,
             dir: d,
         };
         let t = tracer
-            .crossings(&ray, super::raytrace::RayMethod::Paper, &mut scratch)
+            .crossings(&ray, crate::surface::tracer::RayMethod::Paper, &mut scratch)
             .map_or(solid.bounding_radius(), |x| x.t_out);
         let p = ray.at(t);
         r = r.max(((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt());
@@ -367,110 +377,6 @@ pub fn texture_wrap(model: &SurfaceModel) -> Result<Wrap> {
     })
 }
 
-/// Face normals of the built-in polyhedra (unit length; every face at distance 1).
-pub fn polyhedron_normals(name: &str) -> Option<Vec<[f64; 3]>> {
-    let phi = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut n: Vec<[f64; 3]> = Vec::new();
-    let signs = [-1.0, 1.0];
-    let cyclic = |v: [f64; 3]| [v, [v[2], v[0], v[1]], [v[1], v[2], v[0]]];
-    match name {
-        "tetrahedron" => n.extend([[1., 1., 1.], [1., -1., -1.], [-1., 1., -1.], [-1., -1., 1.]]),
-        "cube" => n.extend([
-            [1., 0., 0.],
-            [-1., 0., 0.],
-            [0., 1., 0.],
-            [0., -1., 0.],
-            [0., 0., 1.],
-            [0., 0., -1.],
-        ]),
-        "octahedron" => {
-            for a in signs {
-                for b in signs {
-                    for c in signs {
-                        n.push([a, b, c]);
-                    }
-                }
-            }
-        }
-        "dodecahedron" => {
-            for a in signs {
-                for b in signs {
-                    n.extend(cyclic([0.0, a, b * phi]));
-                }
-            }
-        }
-        "icosahedron" => {
-            for a in signs {
-                for b in signs {
-                    for c in signs {
-                        n.push([a, b, c]);
-                    }
-                    n.extend(cyclic([0.0, a / phi, b * phi]));
-                }
-            }
-        }
-        _ => return None,
-    }
-    Some(
-        n.into_iter()
-            .map(|v| {
-                let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                [v[0] / l, v[1] / l, v[2] / l]
-            })
-            .collect(),
-    )
-}
-
-/// Names accepted by [`polyhedron_normals`].
-pub const POLYHEDRA: [&str; 5] = [
-    "tetrahedron",
-    "cube",
-    "octahedron",
-    "dodecahedron",
-    "icosahedron",
-];
-
-/// A convex implicit solid from a built-in polyhedron with inradius `radius` around
-/// `centre`, stretched by `scale` and turned by `rotate_deg` about the centre.
-#[allow(clippy::too_many_arguments)]
-pub fn polyhedron_solid(
-    name: &str,
-    radius: f64,
-    centre: [f64; 3],
-    scale: [f64; 3],
-    rotate_deg: [f64; 3],
-    blend: Blend,
-    q: f64,
-    level: f64,
-) -> Result<ConvexSolid> {
-    let normals = polyhedron_normals(name).ok_or_else(|| {
-        RenderError::parameter(
-            "polyhedron",
-            format!("unknown `{name}`; known: {}", POLYHEDRA.join(", ")),
-        )
-    })?;
-    let (lo, hi) = SCALE_RANGE;
-    if !(lo..=hi).contains(&radius) {
-        return Err(RenderError::parameter(
-            "radius",
-            format!("{radius:e} is outside [{lo:e}, {hi:e}]"),
-        ));
-    }
-    let a = Affine::from_parts(scale, rotate_deg, [0.0; 3]);
-    let mut planes = Vec::with_capacity(normals.len());
-    for n in normals {
-        let m = a
-            .plane_normal(n)
-            .ok_or_else(|| RenderError::parameter("scale", "must be non-zero on every axis"))?;
-        let off = radius + m[0] * centre[0] + m[1] * centre[1] + m[2] * centre[2];
-        planes.push(Plane {
-            normal: m,
-            offset: off,
-        });
-    }
-    Ok(ConvexSolid::from_planes(&planes, centre, blend, q, level)?)
-}
-
 // ---- the file format -------------------------------------------------------------
 
 /// Largest colour component or light and material coefficient: far above white, far
@@ -478,8 +384,6 @@ pub fn polyhedron_solid(
 const MAX_COEFFICIENT: f64 = 1e3;
 /// Largest shininess exponent.
 const MAX_SHININESS: f64 = 1e4;
-/// Smallest and largest scale factor of a transform or solid.
-const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
 
 fn check_number(what: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
     if v >= lo && v <= hi {
@@ -672,13 +576,6 @@ struct FileMaterial {
     texture: Option<String>,
 }
 
-#[derive(Deserialize)]
-#[serde(untagged)]
-enum ScaleSpec {
-    Uniform(f64),
-    PerAxis([f64; 3]),
-}
-
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct FileTransform {
@@ -690,26 +587,10 @@ struct FileTransform {
     translate: Option<[f64; 3]>,
 }
 
-fn scale_of(path: &str, s: &Option<ScaleSpec>) -> Result<[f64; 3]> {
-    let v = match s {
-        None => [1.0; 3],
-        Some(ScaleSpec::Uniform(k)) => [*k; 3],
-        Some(ScaleSpec::PerAxis(v)) => *v,
-    };
-    let (lo, hi) = SCALE_RANGE;
-    if v.iter().all(|x| (lo..=hi).contains(&x.abs())) {
-        Ok(v)
-    } else {
-        Err(RenderError::Scene(format!(
-            "{path}.scale: each factor's size must be in [{lo:e}, {hi:e}], got {v:?}"
-        )))
-    }
-}
-
 impl FileTransform {
     fn resolve(&self, path: &str) -> Result<Affine> {
         Ok(Affine::from_parts(
-            scale_of(path, &self.scale)?,
+            scale_of(path, &self.scale).map_err(|e| RenderError::Scene(e.to_string()))?,
             check_vec(
                 &format!("{path}.rotate_deg"),
                 self.rotate_deg.unwrap_or([0.0; 3]),
@@ -719,124 +600,6 @@ impl FileTransform {
                 self.translate.unwrap_or([0.0; 3]),
             )?,
         ))
-    }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FilePlane {
-    normal: [f64; 3],
-    offset: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileSolid {
-    #[serde(default)]
-    polyhedron: Option<String>,
-    #[serde(default)]
-    planes: Option<Vec<FilePlane>>,
-    #[serde(default)]
-    radius: Option<f64>,
-    #[serde(default)]
-    centre: Option<[f64; 3]>,
-    #[serde(default)]
-    scale: Option<ScaleSpec>,
-    #[serde(default)]
-    rotate_deg: Option<[f64; 3]>,
-    #[serde(default = "default_blend")]
-    blend: Blend,
-    #[serde(default = "default_solid_q")]
-    q: f64,
-    #[serde(default = "default_level")]
-    level: f64,
-}
-
-fn default_blend() -> Blend {
-    Blend::Exponential
-}
-fn default_solid_q() -> f64 {
-    8.0
-}
-fn default_level() -> f64 {
-    2.0
-}
-
-/// A convex Cao En solid from its scene-file form (`{"polyhedron": ..., "q": ...}` or
-/// `{"planes": [...], ...}`, `docs/rendering.md`); `path` names it in errors.
-pub fn convex_solid_from_json(v: &serde_json::Value, path: &str) -> Result<ConvexSolid> {
-    let file: FileSolid = serde_json::from_value(v.clone())
-        .map_err(|e| RenderError::Scene(format!("{path}: {e}")))?;
-    file.resolve(path)
-}
-
-impl FileSolid {
-    fn resolve(&self, path: &str) -> Result<ConvexSolid> {
-        let centre = check_vec(&format!("{path}.centre"), self.centre.unwrap_or([0.0; 3]))?;
-        if !(self.q.is_finite() && self.q > 0.0) {
-            return Err(RenderError::Scene(format!(
-                "{path}.q: {} must be finite and > 0",
-                self.q
-            )));
-        }
-        if !(self.level.is_finite() && self.level > 1.0) {
-            return Err(RenderError::Scene(format!(
-                "{path}.level: {} must be finite and > 1",
-                self.level
-            )));
-        }
-        match (&self.polyhedron, &self.planes) {
-            (Some(name), None) => {
-                let radius = self.radius.unwrap_or(1.0);
-                polyhedron_solid(
-                    name,
-                    radius,
-                    centre,
-                    scale_of(path, &self.scale)?,
-                    check_vec(
-                        &format!("{path}.rotate_deg"),
-                        self.rotate_deg.unwrap_or([0.0; 3]),
-                    )?,
-                    self.blend,
-                    self.q,
-                    self.level,
-                )
-                .map_err(|e| match e {
-                    RenderError::Parameter { what, reason } => {
-                        RenderError::Scene(format!("{path}.{what}: {reason}"))
-                    }
-                    other => RenderError::Scene(format!("{path}: {other}")),
-                })
-            }
-            (None, Some(planes)) => {
-                if self.radius.is_some() || self.scale.is_some() || self.rotate_deg.is_some() {
-                    return Err(RenderError::Scene(format!(
-                        "{path}: radius, scale and rotate_deg apply to a `polyhedron`, not to `planes`"
-                    )));
-                }
-                let planes: Vec<Plane> = planes
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| {
-                        let n = check_vec(&format!("{path}.planes[{i}].normal"), p.normal)?;
-                        let limit = crate::surface::implicit::WORLD_LIMIT;
-                        let offset = check_number(
-                            &format!("{path}.planes[{i}].offset"),
-                            p.offset,
-                            -limit,
-                            limit,
-                        )?;
-                        Ok(Plane { normal: n, offset })
-                    })
-                    .collect::<Result<_>>()?;
-                ConvexSolid::from_planes(&planes, centre, self.blend, self.q, self.level)
-                    .map_err(field(path))
-            }
-            _ => Err(RenderError::Scene(format!(
-                "{path}: give exactly one of `polyhedron` ({}) or `planes`",
-                POLYHEDRA.join(", ")
-            ))),
-        }
     }
 }
 
@@ -876,7 +639,10 @@ impl FileCsg {
             let p = format!("{path}.operands[{i}]");
             nodes.push(match (&o.solid, &o.csg) {
                 (Some(s), None) => {
-                    solids.push(s.resolve(&format!("{p}.solid"))?);
+                    solids.push(
+                        s.resolve(&format!("{p}.solid"))
+                            .map_err(|e| RenderError::Scene(e.to_string()))?,
+                    );
                     CsgNode::Solid(solids.len() as u32 - 1)
                 }
                 (None, Some(c)) => c.resolve(&format!("{p}.csg"), solids)?,
@@ -1064,7 +830,10 @@ impl FileObject {
             }
             let mut solids = Vec::new();
             let csg = if let Some(s) = &self.solid {
-                solids.push(s.resolve(&format!("{path}.solid"))?);
+                solids.push(
+                    s.resolve(&format!("{path}.solid"))
+                        .map_err(|e| RenderError::Scene(e.to_string()))?,
+                );
                 CsgNode::Solid(0)
             } else {
                 self.csg
