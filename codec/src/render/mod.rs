@@ -15,6 +15,7 @@ pub mod pov;
 pub mod raster;
 pub mod renderer;
 pub mod scene;
+pub mod scene_file;
 pub mod shading;
 pub mod texture;
 

@@ -4,6 +4,7 @@
 use std::f64::consts::TAU;
 use std::path::Path;
 
+use caoen::geometry::vector::normalise;
 use caoen::render::renderer::{render, Method};
 use caoen::render::texture::Texture;
 use caoen::render::Scene;
