@@ -118,11 +118,11 @@ impl fmt::Display for FieldError {
         if !self.field.is_empty() {
             write!(f, "{}: ", self.field)?;
         }
-        f.write_str(&self.found)?;
-        if !self.expected.is_empty() {
-            write!(f, ", expected {}", self.expected)?;
+        match (self.found.is_empty(), self.expected.is_empty()) {
+            (true, _) => write!(f, "expected {}", self.expected),
+            (false, true) => f.write_str(&self.found),
+            (false, false) => write!(f, "{}, expected {}", self.found, self.expected),
         }
-        Ok(())
     }
 }
 
