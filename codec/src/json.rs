@@ -32,6 +32,19 @@ impl FieldError {
         }
     }
 
+    /// `reason` about the value at `field`: a leading `expected ...` (and a `, found ...`
+    /// after it) is what was expected, anything else what was found.
+    pub fn from_reason(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        let reason = reason.into();
+        match reason.strip_prefix("expected ") {
+            Some(rest) => match rest.split_once(", found ") {
+                Some((expected, found)) => Self::new(field, expected, found),
+                None => Self::new(field, rest, ""),
+            },
+            None => Self::new(field, "", reason),
+        }
+    }
+
     /// A number outside `[lo, hi]`.
     pub fn out_of_range(field: impl Into<String>, value: f64, lo: f64, hi: f64) -> Self {
         Self::new(

@@ -16,17 +16,9 @@ use super::rfunction::SetOp;
 use crate::geometry::transform::Affine;
 use crate::json::FieldError;
 
-/// `reason` about the value at `path` as a field error: a leading `expected ...` (and
-/// a `, found ...` after it) is what was expected, anything else what was found.
+/// `reason` about the value at `path`.
 pub(super) fn bad(path: &str, reason: impl Into<String>) -> FieldError {
-    let reason = reason.into();
-    match reason.strip_prefix("expected ") {
-        Some(rest) => match rest.split_once(", found ") {
-            Some((expected, found)) => FieldError::new(path, expected, found),
-            None => FieldError::new(path, rest, ""),
-        },
-        None => FieldError::new(path, "", reason),
-    }
+    FieldError::from_reason(path, reason)
 }
 
 pub(super) fn err<T>(path: &str, reason: impl Into<String>) -> Result<T, FieldError> {

@@ -163,9 +163,7 @@ impl Scene {
             }
         }
         if !lo[0].is_finite() {
-            return Err(RenderError::Scene(
-                "the scene has no bounded geometry".into(),
-            ));
+            return Err(RenderError::NoGeometry);
         }
         let c = [
             0.5 * (lo[0] + hi[0]),

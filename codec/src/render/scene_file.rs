@@ -16,7 +16,13 @@ use super::shading::{Light, Lighting, Material};
 use super::texture::Texture;
 use crate::frep::convex_solid::{scale_of, FileSolid, ScaleSpec, SCALE_RANGE};
 use crate::geometry::transform::Affine;
+use crate::json::FieldError;
 use crate::surface::{gallery, ConvexSolid, SurfaceModel};
+
+/// A field error of the scene file: `reason` about the value at `field`.
+fn bad(field: impl Into<String>, reason: impl Into<String>) -> RenderError {
+    RenderError::Field(FieldError::from_reason(field, reason))
+}
 
 impl Scene {
     /// Whether `text` looks like a scene file (its format tag), as opposed to a model.
@@ -40,7 +46,7 @@ impl Scene {
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Scene::from_json(&text, &base)
             .map_err(|e| match e {
-                RenderError::Scene(msg) => RenderError::Scene(format!("{}: {msg}", path.display())),
+                RenderError::Field(f) => RenderError::Field(f.in_file(path)),
                 other => other,
             })
             .map_err(RenderError::printable)
@@ -54,21 +60,17 @@ impl Scene {
 
     fn parse_json(text: &str, base_dir: &Path) -> Result<Scene> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let file: FileScene = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
-            let path = e.path().to_string();
-            RenderError::Scene(if path == "." {
-                e.inner().to_string()
-            } else {
-                format!("{path}: {}", e.inner())
-            })
-        })?;
+        let file: FileScene = serde_path_to_error::deserialize(&mut *de)
+            .map_err(|e| RenderError::Field(FieldError::from_path_error("", &e)))?;
         // Data after the value is a damaged or concatenated file, not a scene to trust.
-        de.end()
-            .map_err(|e| RenderError::Scene(format!("after the scene: {e}")))?;
+        de.end().map_err(|e| {
+            RenderError::Field(FieldError::parse("", &format!("after the scene: {e}")))
+        })?;
         if file.format != SCENE_FORMAT_TAG {
-            return Err(RenderError::Scene(format!(
-                "format: expected \"{SCENE_FORMAT_TAG}\", found \"{}\"",
-                file.format
+            return Err(RenderError::Field(FieldError::new(
+                "format",
+                format!("\"{SCENE_FORMAT_TAG}\""),
+                format!("\"{}\"", file.format),
             )));
         }
         let camera = file.camera.unwrap_or_default().resolve()?;
@@ -90,9 +92,7 @@ impl Scene {
             }
         };
         if file.objects.is_empty() {
-            return Err(RenderError::Scene(
-                "objects: a scene needs at least one object".into(),
-            ));
+            return Err(bad("objects", "a scene needs at least one object"));
         }
         let objects = file
             .objects
@@ -117,21 +117,17 @@ const MAX_COEFFICIENT: f64 = 1e3;
 const MAX_SHININESS: f64 = 1e4;
 
 fn check_number(what: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
-    if v >= lo && v <= hi {
-        Ok(v)
-    } else {
-        Err(RenderError::Scene(format!(
-            "{what}: {v:e} is outside [{lo:e}, {hi:e}]"
-        )))
-    }
+    Ok(crate::json::check_number(what, v, lo, hi)?)
 }
 
 fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
     if c.iter().all(|v| (0.0..=MAX_COEFFICIENT).contains(v)) {
         Ok(srgb_to_linear(c))
     } else {
-        Err(RenderError::Scene(format!(
-            "{what}: colour components must be in [0, {MAX_COEFFICIENT:e}], got {c:?}"
+        Err(RenderError::Field(FieldError::new(
+            what,
+            format!("colour components in [0, {MAX_COEFFICIENT:e}]"),
+            format!("{c:?}"),
         )))
     }
 }
@@ -143,14 +139,16 @@ fn check_vec(what: &str, v: [f64; 3]) -> Result<[f64; 3]> {
     if v.iter().all(|x| x.abs() <= limit) {
         Ok(v)
     } else {
-        Err(RenderError::Scene(format!(
-            "{what}: components must be within [-{limit:e}, {limit:e}], got {v:?}"
+        Err(RenderError::Field(FieldError::new(
+            what,
+            format!("components within [-{limit:e}, {limit:e}]"),
+            format!("{v:?}"),
         )))
     }
 }
 
 fn field<E: std::fmt::Display>(path: &str) -> impl Fn(E) -> RenderError + '_ {
-    move |e| RenderError::Scene(format!("{path}: {e}"))
+    move |e| RenderError::Field(FieldError::new(path, "", e.to_string()))
 }
 
 #[derive(Deserialize)]
@@ -214,23 +212,17 @@ impl FileCamera {
         let projection = match self.projection {
             FileProjection::Perspective => {
                 if self.height.is_some() {
-                    return Err(RenderError::Scene(
-                        "camera.height: only for orthographic cameras".into(),
-                    ));
+                    return Err(bad("camera.height", "only for orthographic cameras"));
                 }
                 let fov = self.fov_deg.unwrap_or(30.0);
                 if !(fov > 0.0 && fov < 179.0) {
-                    return Err(RenderError::Scene(format!(
-                        "camera.fov_deg: {fov} is not in (0, 179)"
-                    )));
+                    return Err(bad("camera.fov_deg", format!("{fov} is not in (0, 179)")));
                 }
                 Projection::Perspective { fov_y_deg: fov }
             }
             FileProjection::Orthographic => {
                 if self.fov_deg.is_some() {
-                    return Err(RenderError::Scene(
-                        "camera.fov_deg: only for perspective cameras".into(),
-                    ));
+                    return Err(bad("camera.fov_deg", "only for perspective cameras"));
                 }
                 let h = self.height.unwrap_or(0.0);
                 if self.height.is_some() {
@@ -272,9 +264,7 @@ impl FileLight {
     fn resolve(&self, path: &str) -> Result<Light> {
         let d = check_vec(&format!("{path}.direction"), self.direction)?;
         if d == [0.0; 3] {
-            return Err(RenderError::Scene(format!(
-                "{path}.direction: must be non-zero"
-            )));
+            return Err(bad(format!("{path}.direction"), "must be non-zero"));
         }
         check_number(
             &format!("{path}.intensity"),
@@ -321,7 +311,7 @@ struct FileTransform {
 impl FileTransform {
     fn resolve(&self, path: &str) -> Result<Affine> {
         Ok(Affine::from_parts(
-            scale_of(path, &self.scale).map_err(|e| RenderError::Scene(e.to_string()))?,
+            scale_of(path, &self.scale)?,
             check_vec(
                 &format!("{path}.rotate_deg"),
                 self.rotate_deg.unwrap_or([0.0; 3]),
@@ -361,27 +351,18 @@ struct FileOperand {
 impl FileCsg {
     fn resolve(&self, path: &str, solids: &mut Vec<ConvexSolid>) -> Result<CsgNode> {
         if self.operands.len() < 2 {
-            return Err(RenderError::Scene(format!(
-                "{path}.operands: need at least two"
-            )));
+            return Err(bad(format!("{path}.operands"), "need at least two"));
         }
         let mut nodes = Vec::with_capacity(self.operands.len());
         for (i, o) in self.operands.iter().enumerate() {
             let p = format!("{path}.operands[{i}]");
             nodes.push(match (&o.solid, &o.csg) {
                 (Some(s), None) => {
-                    solids.push(
-                        s.resolve(&format!("{p}.solid"))
-                            .map_err(|e| RenderError::Scene(e.to_string()))?,
-                    );
+                    solids.push(s.resolve(&format!("{p}.solid"))?);
                     CsgNode::Solid(solids.len() as u32 - 1)
                 }
                 (None, Some(c)) => c.resolve(&format!("{p}.csg"), solids)?,
-                _ => {
-                    return Err(RenderError::Scene(format!(
-                        "{p}: give exactly one of `solid` or `csg`"
-                    )))
-                }
+                _ => return Err(bad(p, "give exactly one of `solid` or `csg`")),
             });
         }
         Ok(match self.op {
@@ -427,9 +408,10 @@ struct FileBounds {
 pub fn load_surface(spec: &str, base: &Path) -> Result<(SurfaceModel, Option<PathBuf>)> {
     if let Some(name) = spec.strip_prefix("builtin:") {
         let model = gallery::by_name(name).ok_or_else(|| {
-            RenderError::Scene(format!(
-                "unknown built-in model `{name}`; known: {}",
-                gallery::NAMES.join(", ")
+            RenderError::Field(FieldError::new(
+                "",
+                format!("one of the built-in models {}", gallery::NAMES.join(", ")),
+                format!("unknown built-in model `{name}`"),
             ))
         })??;
         return Ok((model, None));
@@ -469,48 +451,42 @@ impl FileObject {
             self.frep.is_some(),
         ];
         if kinds.iter().filter(|k| **k).count() != 1 {
-            return Err(RenderError::Scene(format!(
-                "{path}: give exactly one of `surface`, `solid`, `csg` or `frep`"
-            )));
+            return Err(bad(
+                path,
+                "give exactly one of `surface`, `solid`, `csg` or `frep`",
+            ));
         }
         if self.bounds.is_some() && self.frep.is_none() {
-            return Err(RenderError::Scene(format!(
-                "{path}.bounds: only for `frep` objects"
-            )));
+            return Err(bad(format!("{path}.bounds"), "only for `frep` objects"));
         }
         if self.surface.is_none() && (self.transform.is_some() || self.detail.is_some()) {
-            return Err(RenderError::Scene(format!(
-                "{path}: `transform` and `detail` apply to surfaces (solids take centre, scale, rotate_deg)"
-            )));
+            return Err(bad(path, "`transform` and `detail` apply to surfaces (solids take centre, scale, rotate_deg)"));
         }
         let shape = if let Some(v) = &self.frep {
             if fm.texture.is_some() {
-                return Err(RenderError::Scene(format!(
-                    "{mp}.texture: F-rep solids have no domain to carry a texture"
-                )));
+                return Err(bad(
+                    format!("{mp}.texture"),
+                    "F-rep solids have no domain to carry a texture",
+                ));
             }
             if self.transform.is_some() || self.detail.is_some() {
-                return Err(RenderError::Scene(format!(
-                    "{path}: an F-rep object is placed by a `transform` node inside `frep`"
-                )));
+                return Err(bad(
+                    path,
+                    "an F-rep object is placed by a `transform` node inside `frep`",
+                ));
             }
-            let node = crate::frep::Node::from_json(v, &format!("{path}.frep"), base)
-                .map_err(|e| RenderError::Scene(e.to_string()))?;
+            let node = crate::frep::Node::from_json(v, &format!("{path}.frep"), base)?;
             let bounds = match &self.bounds {
                 Some(b) => {
                     let lo = check_vec(&format!("{path}.bounds.min"), b.min)?;
                     let hi = check_vec(&format!("{path}.bounds.max"), b.max)?;
                     if (0..3).any(|k| !(lo[k] < hi[k])) {
-                        return Err(RenderError::Scene(format!(
-                            "{path}.bounds: min must be below max on every axis"
-                        )));
+                        return Err(bad(format!("{path}.bounds"), "min must be below max on every axis"));
                     }
                     crate::frep::Aabb::new(lo, hi)
                 }
                 None => node.bounds().filter(|b| b.is_bounded() && b.longest() > 0.0).ok_or_else(|| {
-                    RenderError::Scene(format!(
-                        "{path}: the model's extent is unbounded (a half-space or quadric); give `bounds`: {{\"min\": [..], \"max\": [..]}}"
-                    ))
+                    bad(path, format!("the model's extent is unbounded (a half-space or quadric); give `bounds`: {{\"min\": [..], \"max\": [..]}}"))
                 })?,
             };
             Shape::Field {
@@ -519,8 +495,8 @@ impl FileObject {
             }
         } else if let Some(spec) = &self.surface {
             let (model, file) = load_surface(spec, base).map_err(|e| match e {
-                RenderError::Scene(m) => RenderError::Scene(format!("{path}.surface: {m}")),
-                other => RenderError::Scene(format!("{path}.surface: {other}")),
+                RenderError::Field(f) => RenderError::Field(f.under(&format!("{path}.surface"))),
+                other => bad(format!("{path}.surface"), other.to_string()),
             })?;
             let texture = match &fm.texture {
                 Some(t) => Some(base.join(t)),
@@ -536,9 +512,10 @@ impl FileObject {
             }
             if let Some(d) = self.detail {
                 if d > 9 {
-                    return Err(RenderError::Scene(format!(
-                        "{path}.detail: {d} must be at most 9"
-                    )));
+                    return Err(bad(
+                        format!("{path}.detail"),
+                        format!("{d} must be at most 9"),
+                    ));
                 }
             }
             let place = match &self.transform {
@@ -546,7 +523,7 @@ impl FileObject {
                 None => Affine::IDENTITY,
             };
             if place.det().abs() < 1e-300 {
-                return Err(RenderError::Scene(format!("{path}.transform: singular")));
+                return Err(bad(format!("{path}.transform"), "singular"));
             }
             Shape::Surface {
                 model,
@@ -555,16 +532,14 @@ impl FileObject {
             }
         } else {
             if fm.texture.is_some() {
-                return Err(RenderError::Scene(format!(
-                    "{mp}.texture: solids have no domain to carry a texture"
-                )));
+                return Err(bad(
+                    format!("{mp}.texture"),
+                    "solids have no domain to carry a texture",
+                ));
             }
             let mut solids = Vec::new();
             let csg = if let Some(s) = &self.solid {
-                solids.push(
-                    s.resolve(&format!("{path}.solid"))
-                        .map_err(|e| RenderError::Scene(e.to_string()))?,
-                );
+                solids.push(s.resolve(&format!("{path}.solid"))?);
                 CsgNode::Solid(0)
             } else {
                 self.csg
