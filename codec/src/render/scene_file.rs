@@ -486,7 +486,7 @@ impl FileObject {
                     crate::frep::Aabb::new(lo, hi)
                 }
                 None => node.bounds().filter(|b| b.is_bounded() && b.longest() > 0.0).ok_or_else(|| {
-                    bad(path, format!("the model's extent is unbounded (a half-space or quadric); give `bounds`: {{\"min\": [..], \"max\": [..]}}"))
+                    bad(path, "the model's extent is unbounded (a half-space or quadric); give `bounds`: {\"min\": [..], \"max\": [..]}")
                 })?,
             };
             Shape::Field {
