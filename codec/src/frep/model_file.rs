@@ -578,5 +578,5 @@ fn polygon_support(v: &Value, here: &str, spherical: bool) -> Result<PolygonSupp
     } else {
         PolygonSupport::planar(&vertices, depth)
     };
-    made.map_err(|reason| bad(here, reason))
+    made.map_err(|e| bad(here, e.to_string()))
 }
