@@ -442,21 +442,32 @@ pub fn max_gradient(node: &Node, b: &Aabb, levels: u32) -> f64 {
     1.25 * best.max(1e-6)
 }
 
+/// What in a model POV-Ray cannot draw.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Unexportable {
+    /// A picture that exists only in memory.
+    #[error("a picture built in memory has no file for POV-Ray to read")]
+    InMemoryPicture,
+    /// A picture in a format POV-Ray does not read.
+    #[error("POV-Ray does not read {} (PNG, JPEG, GIF, TIFF, PPM)", .0.display())]
+    PictureFormat(std::path::PathBuf),
+    /// The inside of a Cao En surface.
+    #[error("a Cao En surface's inside (a distance to its tessellation) is not exported")]
+    SurfaceInside,
+}
+
 /// Why a node cannot be exported, if it cannot: a picture POV-Ray cannot read.
-pub(crate) fn unexportable(node: &Node) -> Option<String> {
+pub(crate) fn unexportable(node: &Node) -> Option<Unexportable> {
     let map = |m: &HeightMap| match m.source() {
-        None => Some("a picture built in memory has no file for POV-Ray to read".to_string()),
-        Some((p, _)) if image_kind(p).is_none() => Some(format!(
-            "POV-Ray does not read {} (PNG, JPEG, GIF, TIFF, PPM)",
-            p.display()
-        )),
+        None => Some(Unexportable::InMemoryPicture),
+        Some((p, _)) if image_kind(p).is_none() => {
+            Some(Unexportable::PictureFormat(p.to_path_buf()))
+        }
         Some(_) => None,
     };
     match node {
         Node::HeightMap(m) | Node::Pattern { map: m, .. } => map(m),
-        Node::Surface(_) => Some(
-            "a Cao En surface's inside (a distance to its tessellation) is not exported".into(),
-        ),
+        Node::Surface(_) => Some(Unexportable::SurfaceInside),
         Node::Relief { base, map: m, .. } => map(m).or_else(|| unexportable(base)),
         Node::Primitive(_) => None,
         Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),

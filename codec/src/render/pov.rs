@@ -9,11 +9,34 @@ use std::fmt::Write as _;
 
 use super::camera::{Camera, Projection};
 use super::scene::{Scene, Shape};
-use crate::frep::pov::{declare, max_gradient, num, unexportable, v3, R_FUNCTIONS};
+use crate::frep::pov::{declare, max_gradient, num, unexportable, v3, Unexportable, R_FUNCTIONS};
+
+/// Why a scene cannot be exported.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PovError {
+    /// An object that is not an F-rep solid.
+    #[error("object {index} (`{name}`) is not an F-rep solid; only F-rep objects are exported")]
+    NotFrep {
+        /// The object's position in the scene.
+        index: usize,
+        /// The object's name.
+        name: String,
+    },
+    /// An F-rep object holding something POV-Ray cannot draw.
+    #[error("object {index} (`{name}`): {why}")]
+    Unexportable {
+        /// The object's position in the scene.
+        index: usize,
+        /// The object's name.
+        name: String,
+        /// What cannot be drawn.
+        why: Unexportable,
+    },
+}
 
 /// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface;
 /// surfaces and convex solids are not exported (an error names the first).
-pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
+pub fn export(scene: &Scene, camera: &Camera) -> Result<String, PovError> {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -77,13 +100,17 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
     let mut next = 0;
     for (i, obj) in scene.objects.iter().enumerate() {
         let Shape::Field { node, bounds } = &obj.shape else {
-            return Err(format!(
-                "object {i} (`{}`) is not an F-rep solid; only F-rep objects are exported",
-                obj.name
-            ));
+            return Err(PovError::NotFrep {
+                index: i,
+                name: obj.name.clone(),
+            });
         };
         if let Some(why) = unexportable(node) {
-            return Err(format!("object {i} (`{}`): {why}", obj.name));
+            return Err(PovError::Unexportable {
+                index: i,
+                name: obj.name.clone(),
+                why,
+            });
         }
         let top = declare(node, &mut out, &mut next);
         // A little margin so the container never clips the surface.
