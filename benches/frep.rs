@@ -120,7 +120,7 @@ fn summary() {
             continue;
         }
         let camera = s.camera(side, side).unwrap();
-        let pov = caoen::frep::pov::export(&s, &camera).unwrap();
+        let pov = caoen::render::pov::export(&s, &camera).unwrap();
         let dir = std::env::temp_dir().join(format!("caoen-bench-frep-{}", std::process::id()));
         let (pov_path, out) = (
             dir.join(format!("{name}.pov")),

@@ -13,12 +13,12 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use caoen::geometry::transform::Affine;
 use caoen::render::camera::{Camera, Projection};
 use caoen::render::depth_buffer::{depth_buffer, DepthBufferOptions};
 use caoen::render::mesh::{icosphere, tessellate, NormalMode};
 use caoen::render::raytrace::{ray_sphere, ImplicitTracer, RayMethod};
 use caoen::render::scene::polyhedron_solid;
-use caoen::render::transform::Affine;
 use caoen::surface::{gallery, Blend};
 use criterion::{criterion_group, Criterion, Throughput};
 

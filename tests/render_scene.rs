@@ -83,7 +83,7 @@ fn bad_scene_files_name_the_field() {
         .contains("lights[0].direction"));
     assert!(matches!(
         Scene::from_json("{", Path::new(".")),
-        Err(RenderError::Scene(_))
+        Err(RenderError::Field(_))
     ));
 }
 

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::model::ImplicitField;
 use super::polygon_mesh::PolygonMesh;
-use crate::render::vec3::dot;
+use crate::geometry::vector::dot;
 
 /// Vertex distances and normal angles.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,7 +15,7 @@ use super::model::{Bump, ImplicitField, ImplicitModel};
 use super::polygon_mesh::PolygonMesh;
 use super::quadric;
 use crate::frep::patch_index::PatchIndex;
-use crate::render::vec3::{dot, norm, sub};
+use crate::geometry::vector::{dot, norm, sub};
 
 /// What the fit aims for and may spend.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 
-use crate::render::vec3::{cross, dot, sub, unit};
+use crate::geometry::vector::{cross, dot, sub, unit};
 
 /// A triangle mesh: positions and counter-clockwise triangles (quads and polygons are
 /// split into fans when read).
@@ -195,7 +195,7 @@ impl PolygonMesh {
     /// The triangulated unit-radius icosphere subdivided `level` times, scaled by
     /// `radii` along the axes: the test solids whose conversion is one quadric.
     pub fn ellipsoid(radii: [f64; 3], level: u32) -> PolygonMesh {
-        let (p, t) = crate::render::mesh::icosphere(level);
+        let (p, t) = crate::geometry::mesh::icosphere(level);
         PolygonMesh {
             positions: p
                 .into_iter()

@@ -6,8 +6,8 @@
 //! bound over a box is the value at the centre plus or minus the half-diagonal.
 
 use super::interval::{Aabb, Interval};
-use crate::render::mesh::Mesh;
-use crate::render::vec3::{cross, dot, sub, unit};
+use crate::geometry::mesh::Mesh;
+use crate::geometry::vector::{cross, dot, sub, unit};
 
 /// Most triangles a mesh field may hold.
 pub const MAX_TRIANGLES: usize = 2_000_000;
@@ -100,20 +100,34 @@ fn box_distance2(p: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
         .sum()
 }
 
+/// Why a mesh has no inside to measure.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MeshFieldError {
+    /// No triangles, or more than the limit.
+    #[error("{0} triangles: expected 1 to {MAX_TRIANGLES}")]
+    TriangleCount(usize),
+    /// An edge not used exactly once each way.
+    #[error("the mesh is not closed and consistently oriented")]
+    NotClosed,
+    /// A vertex with an infinite or NaN coordinate.
+    #[error("the mesh has non-finite vertices")]
+    NonFinite,
+}
+
 impl MeshField {
     /// The field of `mesh`, which must be closed with every edge used once each way
     /// (outward-facing triangles, anticlockwise seen from outside).
-    pub fn new(mesh: &Mesh) -> Result<Self, String> {
+    pub fn new(mesh: &Mesh) -> Result<Self, MeshFieldError> {
         let n = mesh.triangles.len();
         if n == 0 || n > MAX_TRIANGLES {
-            return Err(format!("{n} triangles: expected 1 to {MAX_TRIANGLES}"));
+            return Err(MeshFieldError::TriangleCount(n));
         }
         if !mesh.is_closed_and_consistent() {
-            return Err("the mesh is not closed and consistently oriented".into());
+            return Err(MeshFieldError::NotClosed);
         }
         let positions = mesh.positions.clone();
         if positions.iter().flatten().any(|v| !v.is_finite()) {
-            return Err("the mesh has non-finite vertices".into());
+            return Err(MeshFieldError::NonFinite);
         }
         let mut triangles = mesh.triangles.clone();
         // Outward winding: a positive enclosed volume (a surface's tessellation may run

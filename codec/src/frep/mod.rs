@@ -3,9 +3,12 @@
 //! offsets and transforms; rendered by interval ray casting and polygonisation, and
 //! exported to POV-Ray (`docs/frep.md`).
 
+pub mod assets;
+pub mod convex_solid;
 pub mod height_map;
 pub mod interval;
 pub mod mesh_field;
+pub mod model_file;
 pub mod node;
 pub mod patch_index;
 pub mod polygon_patch;
@@ -16,4 +19,4 @@ pub mod raycast;
 pub mod rfunction;
 
 pub use interval::{Aabb, Interval};
-pub use node::{ModelError, Node, Patch, Support};
+pub use node::{Node, Patch, Support};

@@ -18,7 +18,63 @@
 
 use super::interval::{Aabb, Interval};
 use super::rfunction::{self, SetOp};
-use crate::render::vec3::{cross, dot, sub};
+use crate::geometry::vector::{cross, dot, sub, try_normalise};
+
+/// Why a polygon patch cannot be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PatchError {
+    /// Not a triangle or a quad.
+    #[error("{0} vertices: a patch is a triangle (3) or a quad (4)")]
+    VertexCount(usize),
+    /// The vertices span no plane.
+    #[error("the vertices are collinear or repeated")]
+    Degenerate,
+    /// A vertex off the plane of the others.
+    #[error("vertex {vertex} is {offset:e} off the plane of the others")]
+    OffPlane {
+        /// Which vertex.
+        vertex: usize,
+        /// Its distance from the plane.
+        offset: f64,
+    },
+    /// Two consecutive vertices coincide.
+    #[error("edge {0} has no length")]
+    ZeroEdge(usize),
+    /// A spherical band reaching the sphere's centre.
+    #[error(
+        "depth {depth} must be below the radius {radius} (the band must not reach the centre)"
+    )]
+    TooDeep {
+        /// The band's half-width.
+        depth: f64,
+        /// The sphere's radius.
+        radius: f64,
+    },
+    /// A spherical patch's vertex at the sphere's centre.
+    #[error("vertex {0} is at the centre")]
+    AtCentre(usize),
+    /// A spherical patch whose vertices' directions sum to zero.
+    #[error("the vertices' directions cancel out")]
+    Cancelling,
+    /// A spherical edge of no length or across half the sphere.
+    #[error("edge {0} has no length or spans half the sphere")]
+    SphericalEdge(usize),
+    /// A band width that is not positive and finite.
+    #[error("depth {0} must be positive")]
+    Depth(f64),
+    /// A vertex outside another edge.
+    #[error(
+        "not convex: vertex {vertex} is not inside edge {edge} (from vertex {edge} to {next})"
+    )]
+    NotConvex {
+        /// The vertex outside.
+        vertex: usize,
+        /// The edge it is outside of.
+        edge: usize,
+        /// The edge's second vertex.
+        next: usize,
+    },
+}
 
 /// The surface a polygon patch lies on.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,16 +104,11 @@ pub struct PolygonSupport {
     depth: f64,
 }
 
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let l = dot(a, a).sqrt();
-    (l > 0.0 && l.is_finite()).then(|| a.map(|v| v / l))
-}
-
 impl PolygonSupport {
     /// A planar convex polygon of 3 or 4 vertices, `depth` the band's half-width across
     /// the plane. The vertices may run either way round; they must lie on one plane (to
     /// 10^-9 of the polygon's size) and make a convex polygon.
-    pub fn planar(vertices: &[[f64; 3]], depth: f64) -> Result<Self, String> {
+    pub fn planar(vertices: &[[f64; 3]], depth: f64) -> Result<Self, PatchError> {
         check_count(vertices)?;
         let v = vertices;
         // Newell's normal: robust for a quad and oriented by the vertex order.
@@ -65,23 +116,26 @@ impl PolygonSupport {
         for i in 0..v.len() {
             n = [0, 1, 2].map(|k| n[k] + cross(v[i], v[(i + 1) % v.len()])[k]);
         }
-        let normal = unit(n).ok_or("the vertices are collinear or repeated")?;
+        let normal = try_normalise(n).ok_or(PatchError::Degenerate)?;
         let size = (1..v.len())
             .map(|i| dot(sub(v[i], v[0]), sub(v[i], v[0])).sqrt())
             .fold(0.0, f64::max);
         for (i, p) in v.iter().enumerate() {
             let off = dot(normal, sub(*p, v[0]));
             if off.abs() > 1e-9 * size {
-                return Err(format!("vertex {i} is {off:e} off the plane of the others"));
+                return Err(PatchError::OffPlane {
+                    vertex: i,
+                    offset: off,
+                });
             }
         }
         let edges = (0..v.len())
             .map(|i| {
                 let e = sub(v[(i + 1) % v.len()], v[i]);
-                let inward = unit(cross(normal, e)).ok_or(format!("edge {i} has no length"))?;
+                let inward = try_normalise(cross(normal, e)).ok_or(PatchError::ZeroEdge(i))?;
                 Ok((inward, v[i]))
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, PatchError>>()?;
         Self::new(Surface::Plane { normal }, v.to_vec(), edges, depth)
     }
 
@@ -93,28 +147,26 @@ impl PolygonSupport {
         radius: f64,
         vertices: &[[f64; 3]],
         depth: f64,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, PatchError> {
         check_count(vertices)?;
         if depth >= radius {
-            return Err(format!(
-                "depth {depth} must be below the radius {radius} (the band must not reach the centre)"
-            ));
+            return Err(PatchError::TooDeep { depth, radius });
         }
         let dirs = vertices
             .iter()
             .enumerate()
-            .map(|(i, p)| unit(sub(*p, centre)).ok_or(format!("vertex {i} is at the centre")))
-            .collect::<Result<Vec<_>, String>>()?;
+            .map(|(i, p)| try_normalise(sub(*p, centre)).ok_or(PatchError::AtCentre(i)))
+            .collect::<Result<Vec<_>, PatchError>>()?;
         // Oriented so the vertices' mean direction is inside every edge's wedge.
-        let mean = unit(
+        let mean = try_normalise(
             dirs.iter()
                 .fold([0.0; 3], |a, d| [a[0] + d[0], a[1] + d[1], a[2] + d[2]]),
         )
-        .ok_or("the vertices' directions cancel out")?;
+        .ok_or(PatchError::Cancelling)?;
         let mut edges = Vec::with_capacity(dirs.len());
         for i in 0..dirs.len() {
-            let m = unit(cross(dirs[i], dirs[(i + 1) % dirs.len()]))
-                .ok_or(format!("edge {i} has no length or spans half the sphere"))?;
+            let m = try_normalise(cross(dirs[i], dirs[(i + 1) % dirs.len()]))
+                .ok_or(PatchError::SphericalEdge(i))?;
             edges.push((m, centre));
         }
         if dot(edges[0].0, mean) < 0.0 {
@@ -134,9 +186,9 @@ impl PolygonSupport {
         vertices: Vec<[f64; 3]>,
         edges: Vec<([f64; 3], [f64; 3])>,
         depth: f64,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, PatchError> {
         if !(depth > 0.0 && depth.is_finite()) {
-            return Err(format!("depth {depth} must be positive"));
+            return Err(PatchError::Depth(depth));
         }
         // Convex (and consistently oriented): every vertex on the inner side of every
         // edge, strictly for the vertices not on the edge.
@@ -151,10 +203,11 @@ impl PolygonSupport {
                     continue;
                 }
                 if dot(*n, sub(*p, *q)) <= 1e-9 * size {
-                    return Err(format!(
-                        "not convex: vertex {j} is not inside edge {i} (from vertex {i} to {})",
-                        (i + 1) % k
-                    ));
+                    return Err(PatchError::NotConvex {
+                        vertex: j,
+                        edge: i,
+                        next: (i + 1) % k,
+                    });
                 }
             }
         }
@@ -275,12 +328,9 @@ fn linear(n: [f64; 3], q: [f64; 3], b: &Aabb) -> Interval {
     Interval::new(lo, hi)
 }
 
-fn check_count(vertices: &[[f64; 3]]) -> Result<(), String> {
+fn check_count(vertices: &[[f64; 3]]) -> Result<(), PatchError> {
     if !(3..=4).contains(&vertices.len()) {
-        return Err(format!(
-            "{} vertices: a patch is a triangle (3) or a quad (4)",
-            vertices.len()
-        ));
+        return Err(PatchError::VertexCount(vertices.len()));
     }
     Ok(())
 }

@@ -9,9 +9,9 @@ use super::interval::Aabb;
 use super::node::Node;
 use super::primitive::Primitive;
 use super::rfunction::SetOp;
-use crate::render::crease::{sharpen_with, Leaves};
-use crate::render::mesh::Mesh;
-use crate::render::polygonise::polygonise;
+use crate::geometry::crease::{sharpen_with, Leaves};
+use crate::geometry::mesh::Mesh;
+use crate::geometry::polygonise::polygonise;
 
 /// One smooth piece of a field below its sharp set operations.
 #[derive(Debug, Clone, Copy)]

@@ -1,13 +1,9 @@
-//! POV-Ray export: a `.pov` scene that POV-Ray renders as the same model.
-//!
-//! Every node becomes a declared POV-Ray function of `(x, y, z)` in caoen's
-//! coordinates; the solid is an `isosurface` of the negated model function (POV-Ray's
-//! inside is below the threshold, F-rep's is `f >= 0`) with a `max_gradient` measured
-//! near the surface. caoen is right-handed with z up, POV-Ray left-handed with y
-//! up: swapping y and z maps one onto the other without mirroring the picture, so the
-//! isosurface calls the model as `f(x, z, y)` and every exported vector swaps its last
-//! two components. The camera is caoen's resolved camera (same eye, direction, up and
-//! field of view), the lights are parallel lights along the same directions.
+//! POV-Ray export of F-rep models: every node becomes a declared POV-Ray function of
+//! `(x, y, z)` in caoen's coordinates, and `max_gradient` is measured near the
+//! surface. caoen is right-handed with z up, POV-Ray left-handed with y up: swapping y
+//! and z maps one onto the other without mirroring the picture, so every exported
+//! vector swaps its last two components (the scene's isosurface calls the model as
+//! `f(x, z, y)`; `render::pov`).
 
 use std::fmt::Write as _;
 
@@ -17,16 +13,14 @@ use super::node::{Node, Support};
 use super::polygon_patch::{PolygonSupport, Surface};
 use super::primitive::Primitive;
 use super::rfunction::SetOp;
-use crate::render::camera::{Camera, Projection};
-use crate::render::scene::{Scene, Shape};
 
 /// A vector in POV-Ray's axes.
-fn v3(p: [f64; 3]) -> String {
+pub(crate) fn v3(p: [f64; 3]) -> String {
     format!("<{}, {}, {}>", num(p[0]), num(p[2]), num(p[1]))
 }
 
 /// A number POV-Ray reads back exactly (shortest round-trip form; exponents as `e`).
-fn num(x: f64) -> String {
+pub(crate) fn num(x: f64) -> String {
     let s = format!("{x:?}");
     if s.contains("inf") || s.contains("NaN") {
         // Validated models never hold these; a finite stand-in keeps the file parseable.
@@ -36,7 +30,7 @@ fn num(x: f64) -> String {
 }
 
 /// Declares the functions of `node` and its operands; returns the name of its own.
-fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
+pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
     let name = format!("caoen_f{}", *next);
     *next += 1;
     let q = |c: &[f64; 3]| {
@@ -403,7 +397,7 @@ fn image_kind(path: &std::path::Path) -> Option<&'static str> {
 
 /// The R-functions the exported functions call (`a = 1` is max/min exactly, as
 /// in caoen).
-const R_FUNCTIONS: &str = "\
+pub(crate) const R_FUNCTIONS: &str = "\
 #declare caoen_union = function(p, q, k) { select(k - 1, (p + q + sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), max(p, q)) }
 #declare caoen_intersection = function(p, q, k) { select(k - 1, (p + q - sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), min(p, q)) }
 #declare caoen_blend_union = function(p, q, k, b0, b1, b2) { caoen_union(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }
@@ -448,118 +442,32 @@ pub fn max_gradient(node: &Node, b: &Aabb, levels: u32) -> f64 {
     1.25 * best.max(1e-6)
 }
 
-/// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface;
-/// surfaces and convex solids are not exported (an error names the first).
-pub fn export(scene: &Scene, camera: &Camera) -> Result<String, String> {
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "// POV-Ray 3.7 scene written by caoen (frep export-pov): the model's function\n\
-         // negated as an isosurface, axes swapped (caoen z up = POV-Ray y up).\n\
-         #version 3.7;\n\
-         global_settings {{ assumed_gamma 1.0 }}"
-    );
-    let bg = scene.background;
-    let _ = writeln!(
-        out,
-        "background {{ rgb <{}, {}, {}> }}",
-        bg[0], bg[1], bg[2]
-    );
-    let aspect = camera.width as f64 / camera.height as f64;
-    let target = [0, 1, 2].map(|k| camera.eye[k] + camera.forward[k]);
-    match camera.projection {
-        Projection::Perspective { fov_y_deg } => {
-            let half_h = (0.5 * fov_y_deg.to_radians()).tan();
-            let fov_x = 2.0 * (half_h * aspect).atan().to_degrees();
-            let _ = writeln!(
-                out,
-                "camera {{\n  perspective\n  location {}\n  right x*{}\n  up y\n  sky {}\n  angle {}\n  look_at {}\n}}",
-                v3(camera.eye),
-                num(aspect),
-                v3(camera.up),
-                num(fov_x),
-                v3(target)
-            );
-        }
-        Projection::Orthographic { height } => {
-            let _ = writeln!(
-                out,
-                "camera {{\n  orthographic\n  location {}\n  right x*{}\n  up y*{}\n  sky {}\n  look_at {}\n}}",
-                v3(camera.eye),
-                num(height * aspect),
-                num(height),
-                v3(camera.up),
-                v3(target)
-            );
-        }
-    }
-    let amb = scene.lighting.ambient;
-    let _ = writeln!(
-        out,
-        "global_settings {{ ambient_light rgb <{}, {}, {}> }}",
-        amb[0], amb[1], amb[2]
-    );
-    for l in &scene.lighting.lights {
-        let far = l.direction.map(|v| v * 1e4);
-        let _ = writeln!(
-            out,
-            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0> }}",
-            v3(far),
-            l.radiance[0],
-            l.radiance[1],
-            l.radiance[2]
-        );
-    }
-    out.push_str(R_FUNCTIONS);
-    let mut next = 0;
-    for (i, obj) in scene.objects.iter().enumerate() {
-        let Shape::Field { node, bounds } = &obj.shape else {
-            return Err(format!(
-                "object {i} (`{}`) is not an F-rep solid; only F-rep objects are exported",
-                obj.name
-            ));
-        };
-        if let Some(why) = unexportable(node) {
-            return Err(format!("object {i} (`{}`): {why}", obj.name));
-        }
-        let top = declare(node, &mut out, &mut next);
-        // A little margin so the container never clips the surface.
-        let b = bounds.padded(1e-3 * bounds.longest());
-        let m = &obj.material;
-        let _ = writeln!(
-            out,
-            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  pigment {{ rgb <{}, {}, {}> }}\n  finish {{ ambient {} diffuse {} specular {} roughness {} }}\n}}",
-            v3(b.lo),
-            v3(b.hi),
-            num(1e-5 * b.longest()),
-            num(max_gradient(node, &b, 6)),
-            m.colour[0],
-            m.colour[1],
-            m.colour[2],
-            m.ambient,
-            m.diffuse,
-            m.specular,
-            num(1.0 / m.shininess.max(1.0) as f64)
-        );
-    }
-    Ok(out)
+/// What in a model POV-Ray cannot draw.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Unexportable {
+    /// A picture that exists only in memory.
+    #[error("a picture built in memory has no file for POV-Ray to read")]
+    InMemoryPicture,
+    /// A picture in a format POV-Ray does not read.
+    #[error("POV-Ray does not read {} (PNG, JPEG, GIF, TIFF, PPM)", .0.display())]
+    PictureFormat(std::path::PathBuf),
+    /// The inside of a Cao En surface.
+    #[error("a Cao En surface's inside (a distance to its tessellation) is not exported")]
+    SurfaceInside,
 }
 
 /// Why a node cannot be exported, if it cannot: a picture POV-Ray cannot read.
-fn unexportable(node: &Node) -> Option<String> {
+pub(crate) fn unexportable(node: &Node) -> Option<Unexportable> {
     let map = |m: &HeightMap| match m.source() {
-        None => Some("a picture built in memory has no file for POV-Ray to read".to_string()),
-        Some((p, _)) if image_kind(p).is_none() => Some(format!(
-            "POV-Ray does not read {} (PNG, JPEG, GIF, TIFF, PPM)",
-            p.display()
-        )),
+        None => Some(Unexportable::InMemoryPicture),
+        Some((p, _)) if image_kind(p).is_none() => {
+            Some(Unexportable::PictureFormat(p.to_path_buf()))
+        }
         Some(_) => None,
     };
     match node {
         Node::HeightMap(m) | Node::Pattern { map: m, .. } => map(m),
-        Node::Surface(_) => Some(
-            "a Cao En surface's inside (a distance to its tessellation) is not exported".into(),
-        ),
+        Node::Surface(_) => Some(Unexportable::SurfaceInside),
         Node::Relief { base, map: m, .. } => map(m).or_else(|| unexportable(base)),
         Node::Primitive(_) => None,
         Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),

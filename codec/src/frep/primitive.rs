@@ -16,7 +16,8 @@
 use std::sync::Arc;
 
 use super::interval::{Aabb, Interval};
-use crate::render::raytrace::ImplicitTracer;
+use crate::geometry::vector::sub;
+use crate::surface::tracer::ImplicitTracer;
 
 /// A convex Cao En solid (the implicit form, formula 17) as an F-rep function:
 /// `ln(s / f(p))`, positive inside `f < s`. The logarithm makes the function nearly
@@ -116,10 +117,6 @@ pub enum Primitive {
         /// North-south exponent `e1` and east-west exponent `e2` (1, 1: an ellipsoid).
         exponents: [f64; 2],
     },
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// `|x|^e` and its derivative, finite at 0 for `e < 1` (clamped slope).

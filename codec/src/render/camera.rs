@@ -6,7 +6,8 @@
 //! method (depth buffer, mesh rasteriser, ray tracer) writes comparable depths.
 
 use super::error::{RenderError, Result};
-use super::vec3::{add, cross, dot, norm, scale, sub, unit};
+pub use crate::geometry::ray::Ray;
+use crate::geometry::vector::{add, cross, dot, norm, scale, sub, unit};
 
 /// How the camera projects.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -21,22 +22,6 @@ pub enum Projection {
         /// World units spanned by the image height.
         height: f64,
     },
-}
-
-/// A ray `origin + t dir`, `dir` of unit length.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ray {
-    /// Start point.
-    pub origin: [f64; 3],
-    /// Unit direction.
-    pub dir: [f64; 3],
-}
-
-impl Ray {
-    /// The point at parameter `t`.
-    pub fn at(&self, t: f64) -> [f64; 3] {
-        add(self.origin, scale(self.dir, t))
-    }
 }
 
 /// Nearest depth a perspective camera accepts (points closer are not drawn).

@@ -5,6 +5,21 @@
 //! lists: a sweep over the interval ends in ray order, keeping which operand the ray is
 //! inside. Every end remembers the solid it lies on and whether that solid's normal
 //! must be flipped (a subtracted solid's surface faces into the result).
+//!
+//! Expressions over convex solids are drawn by ray tracing their intervals, or meshed
+//! from their signed field by marching tetrahedra with sharp rims.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use rayon::prelude::*;
+
+use super::camera::Camera;
+use super::framebuffer::Hit;
+use crate::geometry::mesh::Mesh;
+use crate::geometry::polygonise::polygonise;
+use crate::geometry::vector::scale;
+use crate::surface::tracer::{ImplicitTracer, RayMethod};
+use crate::surface::ConvexSolid;
 
 /// One end of a ray interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -154,4 +169,220 @@ fn combine(a: &[Span], b: &[Span], op: Op) -> Vec<Span> {
         }
     }
     out
+}
+
+/// The signed field of a CSG expression: `ln(f_i / s_i)` per solid (negative inside;
+/// the logarithm of a sum of exponentials is nearly piecewise linear, which suits the
+/// linear interpolation of marching tetrahedra), min for union, max for intersection,
+/// `max(a, -b)` for difference.
+pub fn csg_field(tracers: &[ImplicitTracer], levels: &[f64], node: &CsgNode, x: [f64; 3]) -> f64 {
+    match node {
+        CsgNode::Solid(i) => {
+            let i = *i as usize;
+            (tracers[i].value(x).max(1e-300) / levels[i]).ln()
+        }
+        CsgNode::Union(c) => c
+            .iter()
+            .map(|n| csg_field(tracers, levels, n, x))
+            .fold(f64::INFINITY, f64::min),
+        CsgNode::Intersection(c) => c
+            .iter()
+            .map(|n| csg_field(tracers, levels, n, x))
+            .fold(f64::NEG_INFINITY, f64::max),
+        CsgNode::Difference(c) => {
+            let mut it = c.iter();
+            let first = it
+                .next()
+                .map_or(f64::INFINITY, |n| csg_field(tracers, levels, n, x));
+            it.fold(first, |acc, n| acc.max(-csg_field(tracers, levels, n, x)))
+        }
+    }
+}
+
+/// The leaves of a CSG expression over convex solids, for sharpening its mesh.
+struct CsgLeaves<'a> {
+    tracers: &'a [ImplicitTracer],
+    levels: &'a [f64],
+    csg: &'a CsgNode,
+    /// The sign each solid's field enters the expression with (-1 for subtracted).
+    signs: Vec<f64>,
+}
+
+impl CsgLeaves<'_> {
+    /// The expression's value at `x` and the solid it comes from.
+    fn eval(&self, node: &CsgNode, x: [f64; 3]) -> (f64, usize) {
+        match node {
+            CsgNode::Solid(i) => {
+                let i = *i as usize;
+                (
+                    (self.tracers[i].value(x).max(1e-300) / self.levels[i]).ln(),
+                    i,
+                )
+            }
+            CsgNode::Union(c) => c
+                .iter()
+                .map(|n| self.eval(n, x))
+                .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a }),
+            CsgNode::Intersection(c) => c
+                .iter()
+                .map(|n| self.eval(n, x))
+                .fold((f64::NEG_INFINITY, 0), |a, b| if b.0 > a.0 { b } else { a }),
+            CsgNode::Difference(c) => {
+                let mut it = c.iter();
+                let first = it.next().map_or((f64::INFINITY, 0), |n| self.eval(n, x));
+                it.fold(first, |a, n| {
+                    let (v, i) = self.eval(n, x);
+                    if -v > a.0 {
+                        (-v, i)
+                    } else {
+                        a
+                    }
+                })
+            }
+        }
+    }
+}
+
+fn leaf_signs(node: &CsgNode, sign: f64, out: &mut [f64], seen: &mut [bool]) {
+    match node {
+        CsgNode::Solid(i) => {
+            let i = *i as usize;
+            if !seen[i] {
+                seen[i] = true;
+                out[i] = sign;
+            }
+        }
+        CsgNode::Union(c) | CsgNode::Intersection(c) => {
+            c.iter().for_each(|n| leaf_signs(n, sign, out, seen))
+        }
+        CsgNode::Difference(c) => {
+            for (k, n) in c.iter().enumerate() {
+                leaf_signs(n, if k == 0 { sign } else { -sign }, out, seen);
+            }
+        }
+    }
+}
+
+impl crate::geometry::crease::Leaves for CsgLeaves<'_> {
+    fn leaf(&self, i: usize, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let (f, g) = self.tracers[i].value_gradient(p);
+        let f = f.max(1e-300);
+        let s = self.signs[i];
+        (s * (f / self.levels[i]).ln(), g.map(|v| s * v / f))
+    }
+
+    fn active(&self, p: [f64; 3]) -> usize {
+        self.eval(self.csg, p).1
+    }
+}
+
+/// The mesh of a CSG expression over convex solids: marching tetrahedra, then vertices
+/// moved onto their solids and onto the rims where two solids meet, with each face's
+/// normals from its own solid (sharp rims, `render::crease`).
+pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) -> Mesh {
+    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
+    let levels: Vec<f64> = solids.iter().map(|s| s.level()).collect();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for i in csg.solids() {
+        let (c, r) = (
+            solids[i as usize].centre(),
+            solids[i as usize].bounding_radius(),
+        );
+        for k in 0..3 {
+            lo[k] = lo[k].min(c[k] - r);
+            hi[k] = hi[k].max(c[k] + r);
+        }
+    }
+    // One cell of margin so the surface never touches the box.
+    let pad = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
+    let lo = lo.map(|v| v - pad);
+    let hi = hi.map(|v| v + pad);
+    let mesh = polygonise(&|x| csg_field(&tracers, &levels, csg, x), lo, hi, cells);
+    let mut signs = vec![1.0; solids.len()];
+    leaf_signs(csg, 1.0, &mut signs, &mut vec![false; solids.len()]);
+    let leaves = CsgLeaves {
+        tracers: &tracers,
+        levels: &levels,
+        csg,
+        signs,
+    };
+    let cell = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
+    crate::geometry::crease::sharpen(mesh, &leaves, cell)
+}
+
+/// Ray traces a CSG expression of convex solids through every pixel of `camera`;
+/// returns the hits and the number of rays.
+pub fn trace_solids(
+    solids: &[ConvexSolid],
+    csg: &CsgNode,
+    camera: &Camera,
+    method: RayMethod,
+    object: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> (Vec<Option<Hit>>, usize) {
+    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
+    let (w, h) = (camera.width as usize, camera.height as usize);
+    let done = AtomicU64::new(0);
+    let rows: Vec<Vec<Option<Hit>>> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut scratch = Vec::new();
+            let row = (0..w)
+                .map(|x| {
+                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                    let span = first_span(&tracers, csg, &ray, method, &mut scratch)?;
+                    let (bd, t) = if span.enter.t > 0.0 {
+                        (span.enter, span.enter.t)
+                    } else {
+                        (span.exit, span.exit.t)
+                    };
+                    let p = ray.at(t);
+                    let mut n = tracers[bd.solid as usize].normal(p);
+                    if bd.flip {
+                        n = scale(n, -1.0);
+                    }
+                    Some(Hit {
+                        depth: camera.depth(p),
+                        normal: n.map(|v| v as f32),
+                        uv: [f32::NAN; 2],
+                        object,
+                    })
+                })
+                .collect();
+            progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
+            row
+        })
+        .collect();
+    (rows.into_iter().flatten().collect(), w * h)
+}
+
+/// The first CSG interval along `ray` that is not entirely behind its origin.
+pub fn first_span(
+    tracers: &[ImplicitTracer],
+    csg: &CsgNode,
+    ray: &crate::geometry::ray::Ray,
+    method: RayMethod,
+    scratch: &mut Vec<[f64; 2]>,
+) -> Option<Span> {
+    let leaves: Vec<Option<Span>> = tracers
+        .iter()
+        .enumerate()
+        .map(|(i, tr)| {
+            tr.crossings(ray, method, scratch).map(|c| Span {
+                enter: Boundary {
+                    t: c.t_in,
+                    solid: i as u32,
+                    flip: false,
+                },
+                exit: Boundary {
+                    t: c.t_out,
+                    solid: i as u32,
+                    flip: false,
+                },
+            })
+        })
+        .collect();
+    csg.spans(&|i| leaves.get(i as usize).copied().flatten())
+        .into_iter()
+        .find(|s| s.exit.t > 0.0)
 }

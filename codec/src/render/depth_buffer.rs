@@ -22,8 +22,8 @@ use rayon::prelude::*;
 
 use super::camera::Camera;
 use super::error::{RenderError, Result};
-use super::mesh::icosphere;
-use super::transform::Affine;
+use crate::geometry::mesh::icosphere;
+use crate::geometry::transform::Affine;
 use crate::surface::{Domain, SurfaceModel};
 
 /// Depth-buffer parameters.

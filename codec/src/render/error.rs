@@ -10,9 +10,12 @@ pub enum RenderError {
     /// A surface model or solid is invalid.
     #[error(transparent)]
     Surface(#[from] SurfaceError),
-    /// A scene file (or a file it references) is malformed; the message names the field.
+    /// A scene file (or a file it references) is malformed; the error names the field.
     #[error("scene file: {0}")]
-    Scene(String),
+    Field(#[from] crate::json::FieldError),
+    /// A scene with nothing bounded to frame.
+    #[error("scene file: the scene has no bounded geometry")]
+    NoGeometry,
     /// A render parameter is out of range.
     #[error("{what}: {reason}")]
     Parameter {
@@ -60,7 +63,7 @@ impl RenderError {
     pub(crate) fn printable(self) -> Self {
         use crate::surface::error::printable;
         match self {
-            RenderError::Scene(m) => RenderError::Scene(printable(&m)),
+            RenderError::Field(f) => RenderError::Field(f.printable()),
             RenderError::Parameter { what, reason } => RenderError::Parameter {
                 what: printable(&what),
                 reason: printable(&reason),

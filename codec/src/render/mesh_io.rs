@@ -3,7 +3,7 @@
 
 use std::io::{self, Write};
 
-use super::mesh::Mesh;
+use crate::geometry::mesh::Mesh;
 
 /// Writes `mesh` as OBJ. With `material = Some((mtl_file, name))` the OBJ references the
 /// material library and uses the named material.

@@ -5,23 +5,22 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod camera;
-pub mod crease;
 pub mod csg;
 pub mod depth_buffer;
 pub mod error;
 pub mod framebuffer;
 pub mod mesh;
 pub mod mesh_io;
-pub mod polygonise;
+pub mod pov;
 pub mod raster;
-pub mod raytrace;
 pub mod renderer;
 pub mod scene;
+pub mod scene_file;
 pub mod shading;
 pub mod texture;
-pub mod transform;
-pub(crate) mod vec3;
 
+/// Ray tracing of convex implicit solids (the tracer belongs to the solids).
+pub use crate::surface::tracer as raytrace;
 pub use camera::{Camera, Projection, Ray};
 pub use error::RenderError;
 pub use framebuffer::{DepthMap, GBuffer, Hit, RgbImage};

@@ -10,7 +10,8 @@ use rayon::prelude::*;
 
 use super::camera::{Camera, Projection};
 use super::framebuffer::{GBuffer, Hit};
-use super::mesh::Mesh;
+use crate::geometry::mesh::Mesh;
+use crate::geometry::vector::normalise_f32;
 
 /// Rows per parallel band.
 const BAND: u32 = 16;
@@ -129,7 +130,7 @@ pub fn rasterise(mesh: &Mesh, camera: &Camera, object: u32, buf: &mut GBuffer) -
                         };
                         rows[i] = Some(Hit {
                             depth,
-                            normal: normalise32(normal),
+                            normal: normalise_f32(normal),
                             uv,
                             object,
                         });
@@ -138,13 +139,4 @@ pub fn rasterise(mesh: &Mesh, camera: &Camera, object: u32, buf: &mut GBuffer) -
             }
         });
     drawn
-}
-
-fn normalise32(n: [f32; 3]) -> [f32; 3] {
-    let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    if l > 0.0 {
-        n.map(|v| v / l)
-    } else {
-        n
-    }
 }

@@ -15,21 +15,21 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use rayon::prelude::*;
 
 use super::camera::Camera;
-use super::csg::{Boundary, CsgNode, Span};
+pub use super::csg::{csg_field, first_span, polygonise_solids, trace_solids};
 use super::depth_buffer::{depth_buffer, DepthBufferOptions};
 use super::error::{RenderError, Result};
 use super::framebuffer::{DepthMap, GBuffer, Hit, RgbImage};
-use super::mesh::{tessellate, Mesh, NormalMode};
-use super::polygonise::polygonise;
 use super::raster::rasterise;
-use super::raytrace::{ImplicitTracer, RayMethod};
 use super::scene::{Scene, Shape};
 use super::shading::shade;
 use super::texture::{domain_uv, Wrap};
-use super::transform::Affine;
-use super::vec3::scale;
+use crate::geometry::mesh::Mesh;
+use crate::geometry::transform::Affine;
+use crate::geometry::vector::{dot, scale};
 use crate::surface::normals::{point_and_normal, NormalNetwork};
-use crate::surface::{ConvexSolid, SurfaceModel};
+use crate::surface::tessellate::{tessellate, NormalMode};
+use crate::surface::tracer::RayMethod;
+use crate::surface::SurfaceModel;
 
 /// The rendering method (paper section 7).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -318,7 +318,7 @@ fn draw(
 fn network_projection(
     mesh: &mut Mesh,
     model: &SurfaceModel,
-    place: &super::transform::Affine,
+    place: &crate::geometry::transform::Affine,
     camera: &Camera,
 ) -> Result<[f64; 3]> {
     use super::camera::Projection;
@@ -486,7 +486,7 @@ fn centre_sample(
             }
             let d = place.point(d);
             let d = [d[0] - place.t[0], d[1] - place.t[1], d[2] - place.t[2]];
-            [dot3(sj[0], d), dot3(sj[1], d)]
+            [dot(sj[0], d), dot(sj[1], d)]
         };
         let (a, b) = (push(&ta), push(&tb));
         let det = a[0] * b[1] - b[0] * a[1];
@@ -507,195 +507,6 @@ fn centre_sample(
     // `best` starts as the original sample, so refinement never makes a pixel worse; a
     // step that slid onto another sheet of the surface would not get closer.
     Ok(best)
-}
-
-fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// The signed field of a CSG expression: `ln(f_i / s_i)` per solid (negative inside;
-/// the logarithm of a sum of exponentials is nearly piecewise linear, which suits the
-/// linear interpolation of marching tetrahedra), min for union, max for intersection,
-/// `max(a, -b)` for difference.
-pub fn csg_field(tracers: &[ImplicitTracer], levels: &[f64], node: &CsgNode, x: [f64; 3]) -> f64 {
-    match node {
-        CsgNode::Solid(i) => {
-            let i = *i as usize;
-            (tracers[i].value(x).max(1e-300) / levels[i]).ln()
-        }
-        CsgNode::Union(c) => c
-            .iter()
-            .map(|n| csg_field(tracers, levels, n, x))
-            .fold(f64::INFINITY, f64::min),
-        CsgNode::Intersection(c) => c
-            .iter()
-            .map(|n| csg_field(tracers, levels, n, x))
-            .fold(f64::NEG_INFINITY, f64::max),
-        CsgNode::Difference(c) => {
-            let mut it = c.iter();
-            let first = it
-                .next()
-                .map_or(f64::INFINITY, |n| csg_field(tracers, levels, n, x));
-            it.fold(first, |acc, n| acc.max(-csg_field(tracers, levels, n, x)))
-        }
-    }
-}
-
-/// The leaves of a CSG expression over convex solids, for sharpening its mesh.
-struct CsgLeaves<'a> {
-    tracers: &'a [ImplicitTracer],
-    levels: &'a [f64],
-    csg: &'a CsgNode,
-    /// The sign each solid's field enters the expression with (-1 for subtracted).
-    signs: Vec<f64>,
-}
-
-impl CsgLeaves<'_> {
-    /// The expression's value at `x` and the solid it comes from.
-    fn eval(&self, node: &CsgNode, x: [f64; 3]) -> (f64, usize) {
-        match node {
-            CsgNode::Solid(i) => {
-                let i = *i as usize;
-                (
-                    (self.tracers[i].value(x).max(1e-300) / self.levels[i]).ln(),
-                    i,
-                )
-            }
-            CsgNode::Union(c) => c
-                .iter()
-                .map(|n| self.eval(n, x))
-                .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a }),
-            CsgNode::Intersection(c) => c
-                .iter()
-                .map(|n| self.eval(n, x))
-                .fold((f64::NEG_INFINITY, 0), |a, b| if b.0 > a.0 { b } else { a }),
-            CsgNode::Difference(c) => {
-                let mut it = c.iter();
-                let first = it.next().map_or((f64::INFINITY, 0), |n| self.eval(n, x));
-                it.fold(first, |a, n| {
-                    let (v, i) = self.eval(n, x);
-                    if -v > a.0 {
-                        (-v, i)
-                    } else {
-                        a
-                    }
-                })
-            }
-        }
-    }
-}
-
-fn leaf_signs(node: &CsgNode, sign: f64, out: &mut [f64], seen: &mut [bool]) {
-    match node {
-        CsgNode::Solid(i) => {
-            let i = *i as usize;
-            if !seen[i] {
-                seen[i] = true;
-                out[i] = sign;
-            }
-        }
-        CsgNode::Union(c) | CsgNode::Intersection(c) => {
-            c.iter().for_each(|n| leaf_signs(n, sign, out, seen))
-        }
-        CsgNode::Difference(c) => {
-            for (k, n) in c.iter().enumerate() {
-                leaf_signs(n, if k == 0 { sign } else { -sign }, out, seen);
-            }
-        }
-    }
-}
-
-impl super::crease::Leaves for CsgLeaves<'_> {
-    fn leaf(&self, i: usize, p: [f64; 3]) -> (f64, [f64; 3]) {
-        let (f, g) = self.tracers[i].value_gradient(p);
-        let f = f.max(1e-300);
-        let s = self.signs[i];
-        (s * (f / self.levels[i]).ln(), g.map(|v| s * v / f))
-    }
-
-    fn active(&self, p: [f64; 3]) -> usize {
-        self.eval(self.csg, p).1
-    }
-}
-
-/// The mesh of a CSG expression over convex solids: marching tetrahedra, then vertices
-/// moved onto their solids and onto the rims where two solids meet, with each face's
-/// normals from its own solid (sharp rims, `render::crease`).
-pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) -> Mesh {
-    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
-    let levels: Vec<f64> = solids.iter().map(|s| s.level()).collect();
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for i in csg.solids() {
-        let (c, r) = (
-            solids[i as usize].centre(),
-            solids[i as usize].bounding_radius(),
-        );
-        for k in 0..3 {
-            lo[k] = lo[k].min(c[k] - r);
-            hi[k] = hi[k].max(c[k] + r);
-        }
-    }
-    // One cell of margin so the surface never touches the box.
-    let pad = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
-    let lo = lo.map(|v| v - pad);
-    let hi = hi.map(|v| v + pad);
-    let mesh = polygonise(&|x| csg_field(&tracers, &levels, csg, x), lo, hi, cells);
-    let mut signs = vec![1.0; solids.len()];
-    leaf_signs(csg, 1.0, &mut signs, &mut vec![false; solids.len()]);
-    let leaves = CsgLeaves {
-        tracers: &tracers,
-        levels: &levels,
-        csg,
-        signs,
-    };
-    let cell = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max) / cells as f64;
-    super::crease::sharpen(mesh, &leaves, cell)
-}
-
-/// Ray traces a CSG expression of convex solids through every pixel of `camera`;
-/// returns the hits and the number of rays.
-pub fn trace_solids(
-    solids: &[ConvexSolid],
-    csg: &CsgNode,
-    camera: &Camera,
-    method: RayMethod,
-    object: u32,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> (Vec<Option<Hit>>, usize) {
-    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
-    let (w, h) = (camera.width as usize, camera.height as usize);
-    let done = AtomicU64::new(0);
-    let rows: Vec<Vec<Option<Hit>>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut scratch = Vec::new();
-            let row = (0..w)
-                .map(|x| {
-                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                    let span = first_span(&tracers, csg, &ray, method, &mut scratch)?;
-                    let (bd, t) = if span.enter.t > 0.0 {
-                        (span.enter, span.enter.t)
-                    } else {
-                        (span.exit, span.exit.t)
-                    };
-                    let p = ray.at(t);
-                    let mut n = tracers[bd.solid as usize].normal(p);
-                    if bd.flip {
-                        n = scale(n, -1.0);
-                    }
-                    Some(Hit {
-                        depth: camera.depth(p),
-                        normal: n.map(|v| v as f32),
-                        uv: [f32::NAN; 2],
-                        object,
-                    })
-                })
-                .collect();
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
-            row
-        })
-        .collect();
-    (rows.into_iter().flatten().collect(), w * h)
 }
 
 /// Ray casts an F-rep solid through every pixel of `camera` (interval subdivision,
@@ -735,37 +546,6 @@ pub fn trace_field(
         })
         .collect();
     (rows.into_iter().flatten().collect(), w * h)
-}
-
-/// The first CSG interval along `ray` that is not entirely behind its origin.
-pub fn first_span(
-    tracers: &[ImplicitTracer],
-    csg: &CsgNode,
-    ray: &super::camera::Ray,
-    method: RayMethod,
-    scratch: &mut Vec<[f64; 2]>,
-) -> Option<Span> {
-    let leaves: Vec<Option<Span>> = tracers
-        .iter()
-        .enumerate()
-        .map(|(i, tr)| {
-            tr.crossings(ray, method, scratch).map(|c| Span {
-                enter: Boundary {
-                    t: c.t_in,
-                    solid: i as u32,
-                    flip: false,
-                },
-                exit: Boundary {
-                    t: c.t_out,
-                    solid: i as u32,
-                    flip: false,
-                },
-            })
-        })
-        .collect();
-    csg.spans(&|i| leaves.get(i as usize).copied().flatten())
-        .into_iter()
-        .find(|s| s.exit.t > 0.0)
 }
 
 /// Shades every subpixel of `buf`.

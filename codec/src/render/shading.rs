@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use super::texture::{Texture, Wrap};
-use super::vec3::{add, dot, unit};
+use crate::geometry::vector::{add, dot, unit};
 
 /// A directional light.
 #[derive(Debug, Clone, Copy, PartialEq)]

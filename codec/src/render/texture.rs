@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::error::{RenderError, Result};
 use super::framebuffer::RgbImage;
-use super::mesh::sphere_uv;
+use crate::surface::tessellate::sphere_uv;
 use crate::surface::Domain;
 
 /// How texture coordinates behave outside [0, 1].

@@ -48,9 +48,31 @@ pub enum SurfaceError {
         /// Largest allowed value.
         hi: f64,
     },
-    /// A surface description file could not be read or is malformed.
+    /// A surface description file is malformed; the error names the field.
     #[error("surface file: {0}")]
-    File(String),
+    Field(#[from] crate::json::FieldError),
+    /// A surface description file could not be read or written (the error is kept as
+    /// its kind and text so that surface errors stay `Clone` and `PartialEq`).
+    #[error("surface file: {}: {message}", path.display())]
+    Io {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The kind of failure.
+        kind: std::io::ErrorKind,
+        /// The operating system's description.
+        message: String,
+    },
+}
+
+impl SurfaceError {
+    /// An I/O failure on `path`.
+    pub fn io(path: &std::path::Path, e: std::io::Error) -> Self {
+        SurfaceError::Io {
+            path: path.to_path_buf(),
+            kind: e.kind(),
+            message: e.to_string(),
+        }
+    }
 }
 
 /// Result alias of the surface core.
@@ -117,7 +139,7 @@ impl SurfaceError {
     /// The same error with any text from a file made printable.
     pub(crate) fn printable(self) -> Self {
         match self {
-            SurfaceError::File(m) => SurfaceError::File(printable(&m)),
+            SurfaceError::Field(f) => SurfaceError::Field(f.printable()),
             SurfaceError::Dimension {
                 what,
                 expected,

@@ -10,6 +10,7 @@
 use super::blend::Blend;
 use super::error::{check_finite, check_range, Result, SurfaceError};
 use super::network::{KeyPoint, Network};
+use crate::geometry::vector::dot;
 
 /// A half-space `normal . x <= offset`, `normal` of any non-zero length.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,10 +29,6 @@ pub struct ConvexSolid {
     level: f64,
     feet: Vec<[f64; 3]>,
     bounding_radius: f64,
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 impl ConvexSolid {

@@ -13,6 +13,8 @@ pub mod network;
 pub mod normals;
 pub mod projection;
 mod support_index;
+pub mod tessellate;
+pub mod tracer;
 
 pub use blend::Blend;
 pub use domain::{Domain, ParamGrid};

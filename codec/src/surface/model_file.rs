@@ -3,6 +3,7 @@
 //! The format is specified in `docs/surface-format.md`. Loading checks every field
 //! and names the offending one in its error (`key_points[3].q: ...`).
 
+use crate::json::FieldError;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -163,32 +164,28 @@ impl SurfaceModel {
 
     fn parse_json(text: &str) -> Result<Self> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let file: FileModel = serde_path_to_error::deserialize(&mut *de).map_err(|e| {
-            let path = e.path().to_string();
-            SurfaceError::File(if path == "." {
-                e.inner().to_string()
-            } else {
-                format!("{path}: {}", e.inner())
-            })
-        })?;
+        let file: FileModel = serde_path_to_error::deserialize(&mut *de)
+            .map_err(|e| SurfaceError::Field(FieldError::from_path_error("", &e)))?;
         // Data after the value is a damaged or concatenated file, not a model to trust.
         de.end()
-            .map_err(|e| SurfaceError::File(format!("after the model: {e}")))?;
+            .map_err(|e| FieldError::parse("", &format!("after the model: {e}")))?;
         if file.format != FORMAT_TAG {
-            return Err(SurfaceError::File(format!(
-                "format: expected \"{FORMAT_TAG}\", found \"{}\"",
-                file.format
-            )));
+            return Err(FieldError::new(
+                "format",
+                format!("\"{FORMAT_TAG}\""),
+                format!("\"{}\"", file.format),
+            )
+            .into());
         }
         file.domain
             .validate()
-            .map_err(|e| SurfaceError::File(e.to_string()))?;
+            .map_err(|e| FieldError::new("domain", "", e.to_string()))?;
         let domain = file.domain;
         let mut kps = Vec::with_capacity(file.key_points.len());
         let mut p = None;
         for (i, k) in file.key_points.into_iter().enumerate() {
-            let field = |what: &str, msg: String| {
-                SurfaceError::File(format!("key_points[{i}].{what}: {msg}"))
+            let field = |what: &str, msg: String| -> SurfaceError {
+                FieldError::from_reason(format!("key_points[{i}].{what}"), msg).into()
             };
             let source = match (k.source, k.param) {
                 (Some(s), None) => s,
@@ -232,16 +229,19 @@ impl SurfaceModel {
             });
         }
         let p = p.ok_or_else(|| {
-            SurfaceError::File("key_points: empty model, need at least one key point".into())
+            FieldError::new("key_points", "at least one key point", "an empty model")
         })?;
         let network = Network::new(domain.ambient_dim(), p, &kps, file.normalised)
-            .map_err(|e| SurfaceError::File(e.to_string()))?;
-        check_ranges(&network).map_err(|e| SurfaceError::File(e.to_string()))?;
+            .map_err(|e| FieldError::new("key_points", "", e.to_string()))?;
+        check_ranges(&network).map_err(|e| FieldError::new("key_points", "", e.to_string()))?;
         if let Some(t) = &file.texture {
             if t.trim().is_empty() {
-                return Err(SurfaceError::File(
-                    "texture: empty file name (omit the field for no texture)".into(),
-                ));
+                return Err(FieldError::new(
+                    "texture",
+                    "a file name (omit the field for no texture)",
+                    "an empty name",
+                )
+                .into());
             }
         }
         Ok(SurfaceModel {
@@ -297,19 +297,15 @@ impl SurfaceModel {
 
     /// Loads a model from a file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = crate::budget::read_to_string(path)
-            .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())).printable())?;
+        let text = crate::budget::read_to_string(path).map_err(|e| SurfaceError::io(path, e))?;
         Self::from_json(&text).map_err(|e| match e {
-            SurfaceError::File(msg) => {
-                SurfaceError::File(format!("{}: {msg}", path.display())).printable()
-            }
+            SurfaceError::Field(f) => SurfaceError::Field(f.in_file(path).printable()),
             other => other,
         })
     }
 
     /// Saves the model to a file.
     pub fn save(&self, path: &Path) -> Result<()> {
-        std::fs::write(path, self.to_json() + "\n")
-            .map_err(|e| SurfaceError::File(format!("{}: {e}", path.display())))
+        std::fs::write(path, self.to_json() + "\n").map_err(|e| SurfaceError::io(path, e))
     }
 }

@@ -6,22 +6,7 @@ use super::domain::Domain;
 use super::error::{Result, SurfaceError};
 use super::network::Network;
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn unit(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if n > 0.0 {
-        [v[0] / n, v[1] / n, v[2] / n]
-    } else {
-        [0.0; 3]
-    }
-}
+use crate::geometry::vector::{cross, normalise};
 
 fn check_surface(net: &Network, domain: &Domain) -> Result<()> {
     if net.output_dim() != 3 {
@@ -60,7 +45,7 @@ pub fn point_and_normal(net: &Network, domain: &Domain, x: &[f64]) -> Result<([f
 
 /// The exact unit normal at domain point `x` (zero where the map is singular).
 pub fn exact_normal(net: &Network, domain: &Domain, x: &[f64]) -> Result<[f64; 3]> {
-    Ok(unit(point_and_normal(net, domain, x)?.1))
+    Ok(normalise(point_and_normal(net, domain, x)?.1))
 }
 
 /// Normals interpolated over the domain by a second network (the paper's smoothing):
@@ -88,7 +73,7 @@ impl NormalNetwork {
     /// The interpolated unit normal at domain point `x`.
     pub fn normal(&self, x: &[f64]) -> Result<[f64; 3]> {
         let n = self.network.eval(x)?;
-        Ok(unit([n[0], n[1], n[2]]))
+        Ok(normalise([n[0], n[1], n[2]]))
     }
 
     /// The network that interpolates the normals.

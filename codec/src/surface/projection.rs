@@ -8,6 +8,7 @@
 
 use super::error::{check_finite, check_len, Result, SurfaceError};
 use super::network::Network;
+use crate::geometry::vector::dot_n;
 
 /// A network with one generator per axis: output `j` is `y(x) . axes[j]`.
 pub fn axis_generators(net: &Network, axes: &[&[f64]]) -> Result<Network> {
@@ -50,16 +51,12 @@ pub struct PerspectiveCamera {
     pub focal: f64,
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
 impl PerspectiveCamera {
     /// A camera at `eye` looking at `target`, `up` roughly up.
     pub fn look_at(eye: [f64; 3], target: [f64; 3], up: [f64; 3], focal: f64) -> Result<Self> {
         let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
         let norm = |v: [f64; 3]| {
-            let n = dot(&v, &v).sqrt();
+            let n = dot_n(&v, &v).sqrt();
             [v[0] / n, v[1] / n, v[2] / n]
         };
         let cross = |a: [f64; 3], b: [f64; 3]| {
@@ -71,7 +68,7 @@ impl PerspectiveCamera {
         };
         let f = sub(target, eye);
         let right = cross(f, up);
-        if dot(&f, &f) == 0.0 || dot(&right, &right) < 1e-24 || focal.is_nan() || focal <= 0.0 {
+        if dot_n(&f, &f) == 0.0 || dot_n(&right, &right) < 1e-24 || focal.is_nan() || focal <= 0.0 {
             return Err(SurfaceError::Parameter {
                 what: "camera".into(),
                 value: focal,
@@ -94,10 +91,10 @@ impl PerspectiveCamera {
     /// True perspective projection of a 3-D point: `(u, v, depth)`.
     pub fn project(&self, y: &[f64]) -> [f64; 3] {
         let r = [y[0] - self.eye[0], y[1] - self.eye[1], y[2] - self.eye[2]];
-        let d = dot(&r, &self.forward);
+        let d = dot_n(&r, &self.forward);
         [
-            self.focal * dot(&r, &self.right) / d,
-            self.focal * dot(&r, &self.up) / d,
+            self.focal * dot_n(&r, &self.right) / d,
+            self.focal * dot_n(&r, &self.up) / d,
             d,
         ]
     }

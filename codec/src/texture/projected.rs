@@ -125,7 +125,7 @@ impl Projected {
 pub fn surface_box(
     model: &crate::surface::SurfaceModel,
 ) -> Result<([f64; 3], [f64; 3]), TextureError> {
-    use crate::render::mesh::{tessellate, NormalMode};
+    use crate::surface::tessellate::{tessellate, NormalMode};
     let mesh = tessellate(model, 4, NormalMode::Exact)?;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in &mesh.positions {
@@ -193,7 +193,7 @@ mod tests {
             [-0.6, 0.0, -0.8],
             [0.0, 1.0, 0.0],
         ] {
-            let want = crate::render::mesh::sphere_uv(&x);
+            let want = crate::surface::tessellate::sphere_uv(&x);
             let got = p.uv(x.map(|v| 1.7 * v));
             assert!((got[0] - want[0]).abs() < 1e-12 && (got[1] - want[1]).abs() < 1e-12);
         }

@@ -182,7 +182,7 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     let scene = load(&a.model)?;
     let (width, height) = parse_size(&a.size)?;
     let camera = scene.camera(width, height)?;
-    let text = caoen::frep::pov::export(&scene, &camera)
+    let text = caoen::render::pov::export(&scene, &camera)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?;
     outputs.write_path(&a.output, text.as_bytes())?;
     note(

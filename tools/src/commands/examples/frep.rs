@@ -36,7 +36,8 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     pair.blit(&mesh.image, 320, 0);
     save_png(global, &sub, "blend.png", &pair)?;
     let camera = scene.camera(512, 512)?;
-    let pov = caoen::frep::pov::export(&scene, &camera).map_err(CliError::Failed)?;
+    let pov =
+        caoen::render::pov::export(&scene, &camera).map_err(|e| CliError::Failed(e.to_string()))?;
     replace_file(&sub.join("blend.pov"), pov.as_bytes())?;
 
     // The distort example's scene as a height map on each base, thresholded at 0.1:

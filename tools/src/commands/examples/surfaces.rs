@@ -4,6 +4,7 @@
 use std::f64::consts::TAU;
 use std::path::Path;
 
+use caoen::geometry::vector::normalise;
 use caoen::render::renderer::{render, Method};
 use caoen::render::texture::Texture;
 use caoen::render::Scene;
@@ -20,11 +21,6 @@ fn kp(source: [f64; 3], shape: [f64; 3], q: f64) -> KeyPoint {
     KeyPoint::new(source.to_vec(), shape.to_vec(), Blend::Exponential, q)
 }
 
-fn unit(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
-}
-
 /// Six axis points and eight cube diagonals, each pulled to `shape(direction)`.
 pub(super) fn fourteen_point(
     name: &str,
@@ -38,7 +34,7 @@ pub(super) fn fourteen_point(
     for sx in [-1.0, 1.0] {
         for sy in [-1.0, 1.0] {
             for sz in [-1.0, 1.0] {
-                let d = unit([sx, sy, sz]);
+                let d = normalise([sx, sy, sz]);
                 kps.push(kp(d, shape(d), q));
             }
         }

@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use super::mesh::Mesh;
+use super::vector::{dot, norm, normalise, sub};
 
 /// A field made of leaves by min and max: at every point its value is one leaf's.
 pub trait Leaves: Sync {
@@ -21,22 +22,18 @@ pub trait Leaves: Sync {
     fn active(&self, p: [f64; 3]) -> usize;
 }
 
-fn norm2(g: [f64; 3]) -> f64 {
-    g[0] * g[0] + g[1] * g[1] + g[2] * g[2]
-}
-
 /// Newton steps onto leaf `i`'s zero set; None if a step fails or leaves `reach`.
 fn onto_leaf(l: &dyn Leaves, i: usize, p: [f64; 3], reach: f64) -> Option<[f64; 3]> {
     let mut q = p;
     for _ in 0..6 {
         let (f, g) = l.leaf(i, q);
-        let n2 = norm2(g);
+        let n2 = dot(g, g);
         if !(n2 > 0.0 && f.is_finite()) {
             return None;
         }
         q = [0, 1, 2].map(|k| q[k] - f * g[k] / n2);
     }
-    let d = norm2([0, 1, 2].map(|k| q[k] - p[k])).sqrt();
+    let d = norm(sub(q, p));
     (d <= reach).then_some(q)
 }
 
@@ -49,9 +46,9 @@ fn onto_crease(l: &dyn Leaves, a: usize, b: usize, p: [f64; 3], reach: f64) -> O
         let (fa, ga) = l.leaf(a, q);
         let (fb, gb) = l.leaf(b, q);
         let (aa, ab, bb) = (
-            norm2(ga),
+            dot(ga, ga),
             ga[0] * gb[0] + ga[1] * gb[1] + ga[2] * gb[2],
-            norm2(gb),
+            dot(gb, gb),
         );
         let det = aa * bb - ab * ab;
         if !(det > 1e-12 * aa * bb && fa.is_finite() && fb.is_finite()) {
@@ -62,7 +59,7 @@ fn onto_crease(l: &dyn Leaves, a: usize, b: usize, p: [f64; 3], reach: f64) -> O
         let lb = (aa * fb - ab * fa) / det;
         q = [0, 1, 2].map(|k| q[k] - la * ga[k] - lb * gb[k]);
     }
-    let d = norm2([0, 1, 2].map(|k| q[k] - p[k])).sqrt();
+    let d = norm(sub(q, p));
     (d <= reach).then_some(q)
 }
 
@@ -121,9 +118,8 @@ pub fn sharpen_with(mesh: Mesh, leaves: &dyn Leaves, cell: f64, split_leaves: bo
             *split.entry((v, key_leaf)).or_insert_with(|| {
                 let p = pos[v as usize];
                 let (_, g) = leaves.leaf(leaf, p);
-                let n = norm2(g).sqrt();
                 positions.push(p);
-                normals.push(if n > 0.0 { g.map(|x| x / n) } else { [0.0; 3] });
+                normals.push(normalise(g));
                 (positions.len() - 1) as u32
             })
         });

@@ -19,9 +19,12 @@
 //!   a convex function never overshoots a root. Where convexity does not hold it falls
 //!   back to the paper's method. Tests check it finds the paper's crossings.
 
-use super::camera::Ray;
-use super::vec3::{dot, sub, unit};
-use crate::surface::{Blend, ConvexSolid};
+// `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::{Blend, ConvexSolid};
+use crate::geometry::ray::Ray;
+use crate::geometry::vector::{dot, sub, unit};
 
 /// How crossings are found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

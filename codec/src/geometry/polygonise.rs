@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use super::mesh::Mesh;
-use super::vec3::{cross, dot, sub, unit};
+use super::vector::{cross, dot, sub, unit};
 
 /// The six tetrahedra of a cube (corner `k` at offset `(k & 1, k >> 1 & 1, k >> 2 & 1)`).
 const TETS: [[usize; 4]; 6] = [

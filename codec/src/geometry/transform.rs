@@ -4,7 +4,7 @@
 //! unnormalised network `sum k_i` is not 1, so moving the shape vectors would not move
 //! the surface rigidly.
 
-use super::vec3::{cross, dot, unit};
+use super::vector::{cross, dot, unit};
 
 /// `x -> m x + t`.
 #[derive(Debug, Clone, Copy, PartialEq)]
