@@ -117,7 +117,7 @@ mod tests {
         let s2 = ms_ssim_planes(&a, &noisy(0.08), w as u32, h as u32);
         assert!(1.0 > s1 && s1 > s2 && s2 > 0.0, "{s1} {s2}");
         let t = texture(5, 3);
-        let v = ms_ssim_planes(&t, &vec![0.5; 15], 5, 3);
+        let v = ms_ssim_planes(&t, &[0.5; 15], 5, 3);
         assert!(v.is_finite() && (0.0..=1.0).contains(&v), "{v}");
     }
 }

@@ -138,9 +138,9 @@ pub enum TextureError {
         slice: usize,
         /// Its file.
         path: PathBuf,
-        /// The decoder's failure.
+        /// The decoder's failure (boxed: it would double the size of every error).
         #[source]
-        source: crate::render::RenderError,
+        source: Box<crate::render::RenderError>,
     },
     /// A volume spec is not valid JSON of its form.
     #[error("{source}")]

@@ -338,7 +338,7 @@ impl Volume {
                 at(TextureError::SliceDecode {
                     slice: k,
                     path: path.clone(),
-                    source,
+                    source: Box::new(source),
                 })
             })?;
             voxels = voxels.saturating_add(img.pixels.len());

@@ -5,8 +5,8 @@
 //! *empty* key point that changes nothing even under normalisation, where a zero shape
 //! vector alone would still add to the denominator; morphing pads with such points.
 //!
-//! Single inputs and the Jacobian are evaluated here; [`batch`] evaluates many inputs
-//! in parallel, and [`kernel`] holds the per-input sums (SIMD and scalar).
+//! Single inputs and the Jacobian are evaluated here; `batch` evaluates many inputs
+//! in parallel, and `kernel` holds the per-input sums (SIMD and scalar).
 
 mod batch;
 mod kernel;

@@ -23,8 +23,8 @@
 //! moves) is detected as a non-positive Jacobian determinant on a sampled grid; the
 //! result is still defined (overlapping samples average).
 //!
-//! Here the network and its solve; [`jacobian`] the exact Jacobian and the fold check,
-//! [`resample`] the forward mapping of images, [`keypoints`] that of `.cae` key points.
+//! Here the network and its solve; `jacobian` the exact Jacobian and the fold check,
+//! `resample` the forward mapping of images, `keypoints` that of `.cae` key points.
 
 mod jacobian;
 mod keypoints;
