@@ -30,13 +30,23 @@ pub enum RenderError {
     /// An image would not fit the memory budget.
     #[error(transparent)]
     Memory(#[from] crate::budget::OverBudget),
-    /// Reading or writing a file or an image failed.
-    #[error("{path}: {message}")]
+    /// Reading a file failed.
+    #[error("{}: {source}", path.display())]
     Io {
         /// The file involved.
-        path: String,
-        /// What failed.
-        message: String,
+        path: std::path::PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Encoding a rendered image into a file format failed.
+    #[error("writing {format}: {source}")]
+    Encode {
+        /// The format (`PNG`, `OpenEXR`).
+        format: &'static str,
+        /// The encoder's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
 }
 
@@ -49,11 +59,11 @@ impl RenderError {
         }
     }
 
-    /// An I/O or image-codec error on `path`.
-    pub fn io(path: impl AsRef<std::path::Path>, message: impl std::fmt::Display) -> Self {
+    /// An I/O error on `path`.
+    pub fn io(path: impl AsRef<std::path::Path>, source: std::io::Error) -> Self {
         RenderError::Io {
-            path: path.as_ref().display().to_string(),
-            message: message.to_string(),
+            path: path.as_ref().to_path_buf(),
+            source,
         }
     }
 }
@@ -67,10 +77,6 @@ impl RenderError {
             RenderError::Parameter { what, reason } => RenderError::Parameter {
                 what: printable(&what),
                 reason: printable(&reason),
-            },
-            RenderError::Io { path, message } => RenderError::Io {
-                path: printable(&path),
-                message: printable(&message),
             },
             RenderError::Surface(e) => RenderError::Surface(e.printable()),
             other => other,

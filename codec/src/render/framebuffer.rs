@@ -158,10 +158,13 @@ impl RgbImage {
     /// The image as an 8-bit sRGB PNG file.
     pub fn encode_png(&self) -> Result<Vec<u8>> {
         let buf = image::RgbImage::from_raw(self.width, self.height, self.to_srgb8())
-            .ok_or_else(|| RenderError::io("<image>", "pixel count does not match size"))?;
+            .expect("to_srgb8 gives three samples per pixel");
         let mut bytes = Cursor::new(Vec::new());
         buf.write_to(&mut bytes, image::ImageFormat::Png)
-            .map_err(|e| RenderError::io("<png>", e))?;
+            .map_err(|e| RenderError::Encode {
+                format: "PNG",
+                source: Box::new(e),
+            })?;
         Ok(bytes.into_inner())
     }
 
@@ -272,10 +275,13 @@ impl DepthMap {
     pub fn encode_png16(&self) -> Result<Vec<u8>> {
         let buf: image::ImageBuffer<image::Luma<u16>, Vec<u16>> =
             image::ImageBuffer::from_raw(self.width, self.height, self.to_u16())
-                .ok_or_else(|| RenderError::io("<depth>", "pixel count does not match size"))?;
+                .expect("to_u16 gives one sample per pixel");
         let mut bytes = Cursor::new(Vec::new());
         buf.write_to(&mut bytes, image::ImageFormat::Png)
-            .map_err(|e| RenderError::io("<png>", e))?;
+            .map_err(|e| RenderError::Encode {
+                format: "PNG",
+                source: Box::new(e),
+            })?;
         Ok(bytes.into_inner())
     }
 
@@ -292,7 +298,10 @@ impl DepthMap {
         let mut bytes = Cursor::new(Vec::new());
         img.write()
             .to_buffered(&mut bytes)
-            .map_err(|e| RenderError::io("<exr>", e))?;
+            .map_err(|e| RenderError::Encode {
+                format: "OpenEXR",
+                source: Box::new(e),
+            })?;
         Ok(bytes.into_inner())
     }
 }
