@@ -66,7 +66,7 @@ pub(super) fn height_map(
     let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), height)?;
     HeightMap::new(base, rect, iw, ih, values, threshold, interp)
         .map(|m| m.with_source(file, height))
-        .map_err(|e| bad(here, e))
+        .map_err(|e| bad(here, e.to_string()))
 }
 
 /// Finest tessellation a `caoen_surface` node may ask for (an icosphere of 20 4^7
@@ -156,7 +156,7 @@ pub(super) fn picture(
     let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), 1.0)?;
     HeightMap::new(base, rect, iw, ih, values, f64::NEG_INFINITY, interp)
         .map(|m| m.with_source(file, 1.0))
-        .map_err(|e| bad(here, e))
+        .map_err(|e| bad(here, e.to_string()))
 }
 
 /// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.

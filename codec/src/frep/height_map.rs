@@ -147,6 +147,30 @@ fn catmull_rom(t: f64) -> ([f64; 4], [f64; 4]) {
     )
 }
 
+/// Why samples cannot make a height map.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HeightMapError {
+    /// Fewer than 2x2 samples, or not `width * height` of them.
+    #[error("{width}x{height} samples ({values} values): need at least 2x2")]
+    Samples {
+        /// Samples per row.
+        width: usize,
+        /// Rows.
+        height: usize,
+        /// Values given.
+        values: usize,
+    },
+    /// The parameter rectangle is empty, inverted or not finite.
+    #[error("rectangle {rect:?}: need u0 < u1 and v0 < v1")]
+    Rect {
+        /// `[u0, v0, u1, v1]`.
+        rect: [f64; 4],
+    },
+    /// A height is not finite, or the threshold is NaN or +infinity.
+    #[error("heights must be finite and the threshold below infinity")]
+    NotFinite,
+}
+
 impl HeightMap {
     /// A height map of `width x height` samples (row 0 at `v1`) over `rect`
     /// (`[u0, v0, u1, v1]`, `u0 < u1`, `v0 < v1`) of `base`'s parameters.
@@ -158,19 +182,20 @@ impl HeightMap {
         values: Vec<f64>,
         threshold: f64,
         interp: Interp,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, HeightMapError> {
         if width < 2 || height < 2 || values.len() != width * height {
-            return Err(format!(
-                "{width}x{height} samples ({} values): need at least 2x2",
-                values.len()
-            ));
+            return Err(HeightMapError::Samples {
+                width,
+                height,
+                values: values.len(),
+            });
         }
         if !(rect[0] < rect[2] && rect[1] < rect[3]) || rect.iter().any(|v| !v.is_finite()) {
-            return Err(format!("rectangle {rect:?}: need u0 < u1 and v0 < v1"));
+            return Err(HeightMapError::Rect { rect });
         }
         if values.iter().any(|v| !v.is_finite()) || threshold.is_nan() || threshold == f64::INFINITY
         {
-            return Err("heights must be finite and the threshold below infinity".into());
+            return Err(HeightMapError::NotFinite);
         }
         Ok(HeightMap {
             base,
