@@ -37,6 +37,11 @@ fn read_input(path: &Path) -> CliResult<Vec<u8>> {
             .ok()
             .filter(|m| m.is_file())
             .map(|m| m.len());
+        // A regular file's size is known: one too large is refused before any read.
+        if let Some(len) = len {
+            caoen::budget::check(|| "reading the file".into(), len)
+                .map_err(|e| CliError::io(path, std::io::Error::other(e)))?;
+        }
         (Box::new(file), len)
     };
     let mut head = Vec::with_capacity(bitstream::MAGIC.len());
