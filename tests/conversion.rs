@@ -217,6 +217,7 @@ fn broken_meshes_fail_with_clear_errors() {
         ("empty.obj", "no triangles"),
         ("zero-bytes.obj", "no triangles"),
         ("one-point.obj", "one point"),
+        ("zero-area.obj", "no area"),
         ("garbage.obj", "not a valid OBJ"),
         ("huge-count.ply", "4000000000 declared"),
         (

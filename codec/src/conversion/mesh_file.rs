@@ -7,6 +7,7 @@ use std::path::Path;
 use thiserror::Error;
 
 use super::polygon_mesh::PolygonMesh;
+use crate::geometry::vector::{cross, norm, sub};
 
 /// The most vertices or triangles a mesh may have (2^31: indices stay in `u32`
 /// arithmetic with room to spare).
@@ -134,6 +135,14 @@ pub enum MeshError {
     SinglePoint {
         /// The file.
         path: String,
+    },
+    /// Every triangle has (next to) zero area: the mesh has no surface to convert.
+    #[error("{path}: the mesh has no area: its {triangles} triangles are all degenerate (collinear corners)")]
+    NoArea {
+        /// The file.
+        path: String,
+        /// How many triangles it has.
+        triangles: usize,
     },
     /// A PLY element declared with more than [`MAX_ELEMENTS`].
     #[error("{path}: element {element}: {declared} declared, over the limit of {max}")]
@@ -434,6 +443,22 @@ fn finish(mut mesh: PolygonMesh, name: &str) -> Result<PolygonMesh, MeshError> {
     let (lo, hi) = mesh.bounds();
     if (0..3).all(|k| hi[k] - lo[k] <= 0.0) {
         return Err(MeshError::SinglePoint { path: name.into() });
+    }
+    // Relative to the box: collinear corners leave only rounding-level areas.
+    let diagonal2: f64 = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum();
+    let area: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            norm(cross(sub(b, a), sub(c, a))) / 2.0
+        })
+        .sum();
+    if area <= 1e-12 * diagonal2 {
+        return Err(MeshError::NoArea {
+            path: name.into(),
+            triangles: mesh.triangles.len(),
+        });
     }
     Ok(mesh)
 }
