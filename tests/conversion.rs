@@ -34,6 +34,18 @@ fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
         let unit = mesh.transformed(&mesh.unit_frame());
         let d = vertex_deviation(&c.model, &unit, &unit.outward_normals());
         assert!(d.mean_distance < 1e-3 && d.max_distance < 1e-9, "{d:?}");
+        // What convert writes, the model reader reads: the base alone, no empty `perturb`.
+        let text = c.model.to_frep_json("quadric", mesh.bounds()).to_string();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new("."))
+            .unwrap_or_else(|e| panic!("{radii:?}: {e}"));
+        for p in &mesh.positions {
+            assert!(
+                node.value(*p).abs() < 1e-6,
+                "{radii:?} at {p:?}: {}",
+                node.value(*p)
+            );
+        }
     }
 }
 

@@ -128,12 +128,19 @@ impl ImplicitModel {
                        "factor": b.factor})
             })
             .collect();
+        // The base alone when nothing perturbs it: the model file's `perturb` needs at
+        // least one patch.
+        let fitted = if patches.is_empty() {
+            json!({"quadric": self.base})
+        } else {
+            json!({"perturb": {"quadric": self.base}, "patches": patches, "power": 3})
+        };
         let (lo, hi) = mesh_box;
         let size = [0, 1, 2].map(|k| (hi[k] - lo[k]) * self.frame.scale + 0.04);
         let model = json!({
             "transform": {
                 "intersection": [
-                    {"perturb": {"quadric": self.base}, "patches": patches, "power": 3},
+                    fitted,
                     {"box": {"centre": [0.0, 0.0, 0.0], "size": size}}
                 ],
                 "a": 1
