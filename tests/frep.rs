@@ -1544,4 +1544,35 @@ fn cli_relief_and_carve() {
         s(&dir.join("x.obj")),
     ]);
     assert_eq!(o.status.code(), Some(2));
+    // A model without its optional name renders straight to a picture too.
+    let unnamed = dir.join("unnamed.json");
+    std::fs::write(
+        &unnamed,
+        json!({"format": "caoen-frep/1", "model": {"sphere": {"radius": 1.0}}}).to_string(),
+    )
+    .unwrap();
+    for cmd in ["relief", "carve"] {
+        let png = dir.join(format!("unnamed-{cmd}.png"));
+        let o = caoen(&[
+            cmd,
+            s(&img),
+            "--on",
+            s(&unnamed),
+            "-o",
+            s(&png),
+            "--size",
+            "48x36",
+            "--samples",
+            "1",
+        ]);
+        assert!(
+            o.status.success(),
+            "{cmd}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(
+            caoen::render::framebuffer::RgbImage::load(&png).is_ok(),
+            "{cmd}"
+        );
+    }
 }

@@ -319,9 +319,11 @@ fn write_model(
             object[k] = model[k].clone();
         }
     }
-    let mut scene = serde_json::json!({
-        "format": "caoen-scene/1", "name": model["name"], "objects": [object]
-    });
+    let mut scene = serde_json::json!({"format": "caoen-scene/1", "objects": [object]});
+    // The name is optional in a model file, and a string when present.
+    if model["name"].is_string() {
+        scene["name"] = model["name"].clone();
+    }
     if !model["camera"].is_null() {
         scene["camera"] = model["camera"].clone();
     }
