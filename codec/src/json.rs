@@ -99,21 +99,7 @@ impl FieldError {
     /// The error with control characters in its texts escaped, so that it prints as
     /// one line whatever the file held.
     pub fn printable(self) -> Self {
-        let clean = |s: String| -> String {
-            if s.chars().any(char::is_control) {
-                s.chars()
-                    .map(|c| {
-                        if c.is_control() {
-                            c.escape_default().to_string()
-                        } else {
-                            c.to_string()
-                        }
-                    })
-                    .collect()
-            } else {
-                s
-            }
-        };
+        let clean = |s: String| printable(&s);
         FieldError {
             file: self.file,
             field: clean(self.field),
@@ -161,4 +147,21 @@ pub fn check_vec(field: &str, v: [f64; 3], limit: f64) -> Result<[f64; 3], Field
             format!("{v:?}"),
         ))
     }
+}
+
+/// `text` with control characters escaped (`\n`, `\u{1b}`): names and values taken
+/// from a file go into one-line messages, and must not drive the terminal.
+pub fn printable(text: &str) -> String {
+    if !text.chars().any(char::is_control) {
+        return text.to_string();
+    }
+    text.chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }

@@ -3,6 +3,12 @@
 // Each test crate includes this module and uses only part of it.
 #![allow(dead_code)]
 
+// The library's tests and these share the property-test settings.
+#[path = "../../codec/tests/common/proptest_seed.rs"]
+mod proptest_seed;
+#[allow(unused_imports)] // Only the property-test crates call it.
+pub use proptest_seed::proptest_config;
+
 use std::process::{Command, Output};
 
 /// Runs the `caoen` binary built for these tests with `args`.
@@ -11,20 +17,6 @@ pub fn caoen(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("run caoen")
-}
-
-/// Property-test settings with `cases` cases and a fixed seed, so that every run (and CI)
-/// draws the same cases; set `PROPTEST_RNG_SEED` to explore others.
-pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
-    let base = proptest::test_runner::Config::with_cases(cases);
-    if std::env::var_os("PROPTEST_RNG_SEED").is_some() {
-        base
-    } else {
-        proptest::test_runner::Config {
-            rng_seed: proptest::test_runner::RngSeed::Fixed(0xca0e),
-            ..base
-        }
-    }
 }
 
 /// Whether a real tool a test needs is there (`ok`). `.ci/run` installs every such tool,

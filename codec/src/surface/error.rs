@@ -118,22 +118,7 @@ pub(crate) fn check_range(
     }
 }
 
-/// `text` with control characters escaped (`\n`, `\u{1b}`): names and values taken
-/// from a file go into one-line messages, and must not drive the terminal.
-pub fn printable(text: &str) -> String {
-    if !text.chars().any(char::is_control) {
-        return text.to_string();
-    }
-    text.chars()
-        .map(|c| {
-            if c.is_control() {
-                c.escape_default().to_string()
-            } else {
-                c.to_string()
-            }
-        })
-        .collect()
-}
+pub use crate::json::printable;
 
 impl SurfaceError {
     /// The same error with any text from a file made printable.

@@ -223,11 +223,7 @@ impl Report {
         let Some(first) = rows.first() else {
             return;
         };
-        let heads: Vec<String> = first
-            .bd_rate_windows
-            .iter()
-            .map(|w| format!("{}–{} bpp", w.lo, w.hi))
-            .collect();
+        let heads = window_heads(first);
         let _ = writeln!(md, "BD-rate vs {} by rate window:\n", self.reference);
         let _ = writeln!(md, "| codec | {} |", heads.join(" | "));
         let _ = writeln!(md, "|---|{}", "---|".repeat(heads.len()));
@@ -235,10 +231,7 @@ impl Report {
             let cells: Vec<String> = r
                 .bd_rate_windows
                 .iter()
-                .map(|w| match w.bd_rate {
-                    Some(v) => format!("{v:+.1}% ({})", w.images),
-                    None => "–".into(),
-                })
+                .map(|w| bd_cell(w.bd_rate, w.images))
                 .collect();
             let _ = writeln!(md, "| {} | {} |", r.codec, cells.join(" | "));
         }
@@ -257,48 +250,56 @@ impl Report {
         let Some(first) = rows.first() else {
             return;
         };
-        let heads: Vec<String> = first
-            .bd_rate_windows
-            .iter()
-            .map(|w| format!("{}–{} bpp", w.lo, w.hi))
-            .collect();
+        let heads = window_heads(first);
         let _ = writeln!(md, "BD-rate vs {} by metric:\n", self.reference);
         let _ = writeln!(md, "| codec | metric | overall | {} |", heads.join(" | "));
         let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(heads.len()));
-        let cell = |v: Option<f64>, images: usize| match v {
-            Some(v) => format!("{v:+.1}% ({images})"),
-            None => "–".into(),
-        };
         for r in rows {
             let psnr: Vec<String> = r
                 .bd_rate_windows
                 .iter()
-                .map(|w| cell(w.bd_rate, w.images))
+                .map(|w| bd_cell(w.bd_rate, w.images))
                 .collect();
             let _ = writeln!(
                 md,
                 "| {} | RGB PSNR | {} | {} |",
                 r.codec,
-                cell(r.bd_rate, r.bd_images),
+                bd_cell(r.bd_rate, r.bd_images),
                 psnr.join(" | ")
             );
             for p in &r.perceptual {
                 let windows: Vec<String> = p
                     .windows
                     .iter()
-                    .map(|w| cell(w.bd_rate, w.images))
+                    .map(|w| bd_cell(w.bd_rate, w.images))
                     .collect();
                 let _ = writeln!(
                     md,
                     "| {} | {} | {} | {} |",
                     r.codec,
                     metric_title(&p.metric),
-                    cell(p.bd_rate, p.images),
+                    bd_cell(p.bd_rate, p.images),
                     windows.join(" | ")
                 );
             }
         }
         md.push('\n');
+    }
+}
+
+/// The column heads of the rate windows.
+fn window_heads(row: &ClassSummary) -> Vec<String> {
+    row.bd_rate_windows
+        .iter()
+        .map(|w| format!("{}–{} bpp", w.lo, w.hi))
+        .collect()
+}
+
+/// A BD-rate cell: the percentage and how many images it covers, or a dash.
+fn bd_cell(v: Option<f64>, images: usize) -> String {
+    match v {
+        Some(v) => format!("{v:+.1}% ({images})"),
+        None => "–".into(),
     }
 }
 
