@@ -94,9 +94,10 @@ fn bad_headers_have_clear_messages() {
             "{e}"
         );
     }
-    // The header's length: 38 bytes, or 46 with the detail layer's steps.
+    // The header's length: 38 bytes, 46 with the detail layer's steps, 48 with its
+    // deblocking.
     let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!(hl == 38 || hl == 46, "{hl}");
+    assert!([38, 46, 48].contains(&hl), "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
@@ -116,6 +117,29 @@ fn bad_headers_have_clear_messages() {
         matches!(e, CodecError::CrcMismatch { offset: 5, stored: s, computed, .. } if s == stored && computed != stored),
         "{e}"
     );
+    // Deblocking parameters out of range, or deblocking without the detail layer.
+    assert_eq!(hl, 48, "the small file's detail layer is deblocked");
+    let with_header = |edit: &dyn Fn(&mut [u8])| {
+        let mut f = file.clone();
+        edit(&mut f[10..10 + hl]);
+        let crc = crc32fast::hash(&f[5..5 + 5 + hl]);
+        f[5 + 5 + hl..5 + 5 + hl + 4].copy_from_slice(&crc.to_le_bytes());
+        decode(&f, &DecodeOptions::default()).unwrap_err()
+    };
+    for (at, value) in [(46, 0u8), (47, 0), (47, 17)] {
+        let e = with_header(&|h: &mut [u8]| h[at] = value);
+        assert!(
+            matches!(e, CodecError::Deblock { strength, radius } if [strength, radius][at - 46] == value),
+            "{e}"
+        );
+    }
+    let e = with_header(&|h: &mut [u8]| h[15] &= !2);
+    assert!(
+        matches!(e, CodecError::Flags { flags } if flags & 4 != 0),
+        "{e}"
+    );
+    let e = with_header(&|h: &mut [u8]| h[15] |= 8);
+    assert!(e.to_string().contains("header flags"), "{e}");
     // A cut file says where and how much is missing.
     let e = decode(&file[..file.len() - 3], &DecodeOptions::default()).unwrap_err();
     assert!(matches!(e, CodecError::Truncated { .. }), "{e}");

@@ -1,5 +1,6 @@
 //! The container: magic, version, then CRC-checked sections (see `docs/format.md`).
 
+use super::detail::deblock::Deblock;
 use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
@@ -64,16 +65,22 @@ pub struct Header {
     /// if the file has the layer (flag bit 1; a file whose layer would be all zero
     /// leaves it out).
     pub detail_steps: Option<[f32; 2]>,
+    /// Deblocking of the detail layer (flag bit 2, only with the layer).
+    pub deblock: Option<Deblock>,
 }
 
 /// Header bytes without the detail layer's steps.
 const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 2;
 /// Header bytes with them.
 const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
+/// Header bytes with them and the deblocking parameters.
+const HEADER_LEN_DEBLOCK: usize = HEADER_LEN_DETAIL + 2;
 /// Flag bit: chroma on the pruned tree.
 const FLAG_PRUNED: u8 = 1;
 /// Flag bit: the detail layer is present.
 const FLAG_DETAIL: u8 = 2;
+/// Flag bit: the detail layer is deblocked (only with [`FLAG_DETAIL`]).
+const FLAG_DEBLOCK: u8 = 4;
 
 impl Header {
     /// The tree geometry.
@@ -114,6 +121,11 @@ impl Header {
                     FLAG_DETAIL
                 } else {
                     0
+                }
+                | if self.deblock.is_some() {
+                    FLAG_DEBLOCK
+                } else {
+                    0
                 },
         );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
@@ -125,12 +137,22 @@ impl Header {
         for s in self.detail_steps.iter().flatten() {
             b.extend(s.to_le_bytes());
         }
+        if let Some(d) = self.deblock {
+            b.extend([d.strength, d.radius]);
+        }
         b
     }
 
     fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
         let flags = p.get(15).copied().unwrap_or(0);
-        let len = if flags & FLAG_DETAIL != 0 {
+        if flags > FLAG_PRUNED | FLAG_DETAIL | FLAG_DEBLOCK
+            || (flags & FLAG_DEBLOCK != 0 && flags & FLAG_DETAIL == 0)
+        {
+            return Err(CodecError::Flags { flags });
+        }
+        let len = if flags & FLAG_DEBLOCK != 0 {
+            HEADER_LEN_DEBLOCK
+        } else if flags & FLAG_DETAIL != 0 {
             HEADER_LEN_DETAIL
         } else {
             HEADER_LEN
@@ -189,11 +211,18 @@ impl Header {
                 4.0,
             ));
         }
-        if flags > FLAG_PRUNED | FLAG_DETAIL {
-            return Err(CodecError::range("flags", flags, 0.0, 3.0));
-        }
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
         let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(38), f32_at(42)]);
+        let deblock = (flags & FLAG_DEBLOCK != 0).then(|| Deblock {
+            strength: p[46],
+            radius: p[47],
+        });
+        if let Some(d) = deblock.filter(|d| !d.is_valid()) {
+            return Err(CodecError::Deblock {
+                strength: d.strength,
+                radius: d.radius,
+            });
+        }
         let tile_side = u16::from_le_bytes([p[36], p[37]]) as u32;
         if tile_side == 0 || !tile_side.is_multiple_of(SIDE_UNIT) || tile_side > MAX_SIDE {
             return Err(CodecError::TileSide {
@@ -230,6 +259,7 @@ impl Header {
             chroma_count: u32_at(32),
             tile_side,
             detail_steps,
+            deblock,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

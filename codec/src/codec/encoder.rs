@@ -334,6 +334,7 @@ pub fn encode_with(
         // images at low rates its few dozen bytes are a good part of the file.
         detail_steps: any_detail
             .then_some([s.detail_step_luma as f32, s.detail_step_chroma as f32]),
+        deblock: s.deblock.filter(|_| any_detail),
     };
     let streams: Vec<TileStreams> = models
         .into_iter()

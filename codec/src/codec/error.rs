@@ -71,6 +71,21 @@ pub enum CodecError {
         /// The length the header's flags call for.
         expected: u64,
     },
+    /// The header's flags name a bit this version does not define, or deblocking without
+    /// the detail layer.
+    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking, which needs bit 1)")]
+    Flags {
+        /// The flags byte.
+        flags: u8,
+    },
+    /// The header's deblocking parameters are out of their ranges.
+    #[error("invalid caoen file: deblocking strength {strength} (1..=255) or radius {radius} (1..=16 quarter pixels) out of range")]
+    Deblock {
+        /// Threshold in hundredths of the quantiser step.
+        strength: u8,
+        /// Ramp reach in quarter pixels.
+        radius: u8,
+    },
     /// The header's tile side is not a multiple of the side unit within the range.
     #[error("invalid caoen file: tile side {side} is not a multiple of {unit} in {unit}..={max}")]
     TileSide {

@@ -1,6 +1,7 @@
 //! From user-facing knobs (quality, effort, rate targets) to encoder settings, and the
 //! search that lands a rate target.
 
+use super::detail::deblock::Deblock;
 use super::model::ModelSettings;
 
 /// Everything the encoder needs besides the image.
@@ -24,6 +25,8 @@ pub struct EncodeSettings {
     pub detail_deadzone: f64,
     /// Lagrange multiplier of the detail layer's block decisions (squared steps per bit).
     pub detail_lambda: f64,
+    /// Deblocking of the detail layer the file asks of the decoder (none: off).
+    pub deblock: Option<Deblock>,
     /// Code the colour channels in opponent space (else raw RGB on one tree: an
     /// ablation switch only; such files do not decode to the right colours).
     pub decorrelate: bool,
@@ -97,6 +100,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         detail_step_chroma: DETAIL_CHROMA_RATIO * detail,
         detail_deadzone: DETAIL_DEADZONE,
         detail_lambda: DETAIL_LAMBDA,
+        deblock: Some(Deblock::DEFAULT),
         decorrelate: true,
     }
 }

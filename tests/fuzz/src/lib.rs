@@ -16,7 +16,7 @@ use std::path::Path;
 
 use caoen::codec::bitstream::{self, Header, Parsed, TileStreams};
 use caoen::codec::decoder;
-use caoen::codec::detail::{self, dct::COEFFS, Detail, DetailPlane};
+use caoen::codec::detail::{self, dct::COEFFS, deblock::Deblock, Detail, DetailPlane};
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
 use caoen::codec::quadtree::TreeShape;
@@ -250,6 +250,11 @@ fn choose_header(c: &mut Choices) -> Header {
     let (step_luma, step_chroma, step_alpha) = (step(), step(), step());
     let detail = [step(), step()];
     let detail_steps = c.bit().then_some(detail);
+    // Valid parameters: the header's own checks are what the byte-level targets probe.
+    let deblock = (detail_steps.is_some() && c.bit()).then(|| Deblock {
+        strength: c.byte().max(1),
+        radius: 1 + c.byte() % Deblock::MAX_RADIUS,
+    });
     Header {
         width,
         height,
@@ -266,6 +271,7 @@ fn choose_header(c: &mut Choices) -> Header {
         chroma_count: 0,
         tile_side: SIDE_UNIT * (1 + u32::from(c.bit())),
         detail_steps,
+        deblock,
     }
 }
 
@@ -314,6 +320,7 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
     Detail {
         planes,
         steps: vec![1.0; channels],
+        deblock: header.deblock,
     }
 }
 

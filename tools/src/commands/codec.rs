@@ -440,7 +440,9 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
-            "step_alpha": h.step_alpha, "detail_steps": h.detail_steps, "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+            "step_alpha": h.step_alpha, "detail_steps": h.detail_steps,
+            "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
+            "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
             "metadata": metadata_json(&meta),
@@ -498,7 +500,15 @@ pub fn info(a: &InfoArgs) -> CliResult {
     match h.detail_steps {
         Some([l, c]) => outln!(
             text,
-            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}"
+            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}, {}",
+            match h.deblock {
+                Some(d) => format!(
+                    "deblocked (steps up to {}% of the step, {} px ramps)",
+                    d.strength,
+                    d.radius as f64 / 4.0
+                ),
+                None => "not deblocked".to_string(),
+            }
         ),
         None => outln!(text, "detail:      none"),
     }

@@ -190,7 +190,11 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
                 )
             })
             .collect();
-        Detail { planes, steps }
+        Detail {
+            planes,
+            steps,
+            deblock: header.deblock,
+        }
     });
     Ok(Decoded {
         luma_values: dequantise(luma_values, &luma_steps, |v| v),

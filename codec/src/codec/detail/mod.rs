@@ -8,10 +8,12 @@
 //! defined everywhere in its block, not a table of pixels.
 
 pub mod dct;
+pub mod deblock;
 pub mod quantise;
 pub mod syntax;
 
 use dct::{COEFFS, N};
+use deblock::{edge_basis, edge_weight, gate, Deblock};
 
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
@@ -184,6 +186,8 @@ pub struct Detail {
     pub planes: Vec<DetailPlane>,
     /// Step per plane.
     pub steps: Vec<f64>,
+    /// Deblocking applied where the layer is evaluated ([`deblock`]), if any.
+    pub deblock: Option<Deblock>,
 }
 
 impl Detail {
@@ -261,11 +265,16 @@ impl Detail {
         );
         let mut planes = l?;
         planes.extend(c?);
-        Ok(Detail { planes, steps })
+        Ok(Detail {
+            planes,
+            steps,
+            deblock: None,
+        })
     }
 
-    /// The layer at one position (coded pixels), one value per plane: the same series
-    /// [`DetailEval`] sums on a grid, for callers that sample anywhere (warps).
+    /// The layer at one position (coded pixels), one value per plane: the same
+    /// function [`DetailEval`] sums on a grid, deblocking included, for callers that
+    /// sample anywhere (warps), and the scalar reference its tests compare with.
     pub fn at(&self, x: f64, y: f64) -> Vec<f64> {
         self.planes
             .iter()
@@ -273,17 +282,33 @@ impl Detail {
             .map(|(p, &step)| {
                 let (bx, tx) = locate(x, p.cols);
                 let (by, ty) = locate(y, p.rows);
-                let Some(l) = p.block(bx, by) else {
-                    return 0.0;
+                let series = |bx: usize, by: usize, tx: f64, ty: f64| {
+                    let Some(l) = p.block(bx, by) else {
+                        return 0.0;
+                    };
+                    let (bu, bv) = (dct::basis_at(tx), dct::basis_at(ty));
+                    let mut sum = 0.0;
+                    for v in 0..N {
+                        for u in 0..N {
+                            sum += l[v * N + u] as f64 * bv[v] as f64 * bu[u] as f64;
+                        }
+                    }
+                    sum * step
                 };
-                let (bu, bv) = (dct::basis_at(tx), dct::basis_at(ty));
-                let mut sum = 0.0;
-                for v in 0..N {
-                    for u in 0..N {
-                        sum += l[v * N + u] as f64 * bv[v] as f64 * bu[u] as f64;
+                let mut value = series(bx, by, tx, ty);
+                if let Some(d) = self.deblock {
+                    let (t, r) = (d.threshold(step), d.radius_px());
+                    let edge = N as f64;
+                    if let Some((e, w)) = edge_weight(x, p.cols, r) {
+                        let step = series(e, by, 0.0, ty) - series(e - 1, by, edge, ty);
+                        value += (w * gate(step as f32, t)) as f64;
+                    }
+                    if let Some((e, w)) = edge_weight(y, p.rows, r) {
+                        let step = series(bx, e, tx, 0.0) - series(bx, e - 1, tx, edge);
+                        value += (w * gate(step as f32, t)) as f64;
                     }
                 }
-                sum * step
+                value
             })
             .collect()
     }
@@ -320,6 +345,21 @@ pub struct DetailEval {
     basis_t: Vec<f32>,
     /// Per grid row: block row and basis values.
     rows: Vec<(usize, [f32; N])>,
+    /// Grid columns near a vertical block edge: `(column, edge block column, weight)`.
+    vcols: Vec<(usize, usize, f32)>,
+    /// Per grid row near a horizontal block edge: `(edge block row, weight)`.
+    hrows: Vec<Option<(usize, f32)>>,
+    /// Per plane: the step below which a step across an edge is smoothed (none
+    /// without deblocking).
+    thresholds: Vec<f32>,
+}
+
+/// Each plane's deblocking threshold, or none.
+fn thresholds(detail: &Detail) -> Vec<f32> {
+    match detail.deblock {
+        Some(d) => detail.steps.iter().map(|&s| d.threshold(s)).collect(),
+        None => Vec::new(),
+    }
 }
 
 /// Block index and in-block position of coordinate `p` (pixels), clamped to the
@@ -346,7 +386,8 @@ impl DetailEval {
     /// Prepares `detail` for evaluation at the positions of `grid` (coded pixels).
     pub fn new(detail: &Detail, grid: &Grid) -> Self {
         let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
-        let mut eval = DetailEval::geometry(cols, rows, grid);
+        let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock);
+        eval.thresholds = thresholds(detail);
         eval.planes = detail
             .planes
             .iter()
@@ -360,7 +401,8 @@ impl DetailEval {
     /// coefficients are made: the decoder's peak holds one plane's levels, not all.
     pub fn from_layer(detail: Detail, grid: &Grid) -> Self {
         let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
-        let mut eval = DetailEval::geometry(cols, rows, grid);
+        let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock);
+        eval.thresholds = thresholds(&detail);
         eval.planes = detail
             .planes
             .into_iter()
@@ -371,7 +413,7 @@ impl DetailEval {
     }
 
     /// The evaluation geometry of `cols x rows` blocks on `grid`, without planes.
-    fn geometry(cols: usize, rows: usize, grid: &Grid) -> Self {
+    fn geometry(cols: usize, rows: usize, grid: &Grid, deblock: Option<Deblock>) -> Self {
         // Grid positions increase, so each block column covers a contiguous run.
         let mut columns = vec![(0usize, 0usize, 0usize); cols];
         let mut per_column: Vec<Vec<[f32; N]>> = vec![Vec::new(); cols];
@@ -396,12 +438,20 @@ impl DetailEval {
                 (b, dct::basis_at(t))
             })
             .collect();
+        let r = deblock.map_or(0.0, Deblock::radius_px);
+        let vcols = (0..grid.nx)
+            .filter_map(|i| edge_weight(grid.x(i), cols, r).map(|(e, w)| (i, e, w)))
+            .collect();
+        let hrows = (0..grid.ny).map(|j| edge_weight(grid.y(j), rows, r)).collect();
         DetailEval {
             grid: *grid,
             planes: Vec::new(),
             columns,
             basis_t,
             rows: rows_basis,
+            vcols,
+            hrows,
+            thresholds: Vec::new(),
         }
     }
 
@@ -409,16 +459,22 @@ impl DetailEval {
     /// rows of the grid's width each.
     pub fn add_rows(&self, j0: usize, out: &mut [&mut [f32]]) {
         let nx = self.grid.nx;
-        for (p, plane) in self.planes.iter().zip(out.iter_mut()) {
+        for (pi, (p, plane)) in self.planes.iter().zip(out.iter_mut()).enumerate() {
             if p.extent.is_empty() {
                 continue;
             }
+            let t = self.thresholds.get(pi).copied().unwrap_or(0.0);
+            let mut el = vec![0f32; p.cols];
+            let mut er = vec![0f32; p.cols];
+            let mut delta = vec![0f32; nx];
             for (r, row) in plane.chunks_exact_mut(nx).enumerate() {
                 let (by, bv) = self.rows[j0 + r];
+                el.fill(0.0);
+                er.fill(0.0);
                 for bx in 0..p.cols {
                     let i = p.index[by * p.cols + bx];
                     let (c0, n, start) = self.columns[bx];
-                    if i == ZERO || n == 0 {
+                    if i == ZERO {
                         continue;
                     }
                     let (at, v1, u1) = p.extent[i as usize];
@@ -432,12 +488,73 @@ impl DetailEval {
                             g[u] += c[v * u1 + u] * b;
                         }
                     }
+                    if t > 0.0 {
+                        // The row's values at the block's left and right edges.
+                        for (u, &gu) in g.iter().enumerate().take(u1) {
+                            el[bx] += gu * edge_basis(u, false);
+                            er[bx] += gu * edge_basis(u, true);
+                        }
+                    }
+                    if n == 0 {
+                        continue;
+                    }
                     let out = &mut row[c0..c0 + n];
                     for (u, &gu) in g.iter().enumerate().take(u1) {
                         let basis = &self.basis_t[start + u * n..start + (u + 1) * n];
                         for (o, &b) in out.iter_mut().zip(basis) {
                             *o += gu * b;
                         }
+                    }
+                }
+                if t <= 0.0 {
+                    continue;
+                }
+                for &(i, e, w) in &self.vcols {
+                    row[i] += w * gate(el[e] - er[e - 1], t);
+                }
+                if let Some((e, w)) = self.hrows[j0 + r] {
+                    delta.fill(0.0);
+                    for bx in 0..p.cols {
+                        let (c0, n, start) = self.columns[bx];
+                        if n == 0 {
+                            continue;
+                        }
+                        let mut h = [0f32; N];
+                        let below = p.index[e * p.cols + bx];
+                        let above = p.index[(e - 1) * p.cols + bx];
+                        if below == ZERO && above == ZERO {
+                            continue;
+                        }
+                        // The step's series along x: the block below at its top edge
+                        // minus the block above at its bottom edge.
+                        for (idx, above) in [(below, false), (above, true)] {
+                            if idx == ZERO {
+                                continue;
+                            }
+                            let (at, v1, u1) = p.extent[idx as usize];
+                            let (v1, u1) = (v1 as usize, u1 as usize);
+                            let c = &p.coeffs[at as usize..at as usize + v1 * u1];
+                            for v in 0..v1 {
+                                let b = edge_basis(v, above);
+                                let b = if above { -b } else { b };
+                                for u in 0..u1 {
+                                    h[u] += c[v * u1 + u] * b;
+                                }
+                            }
+                        }
+                        let out = &mut delta[c0..c0 + n];
+                        for (u, &hu) in h.iter().enumerate() {
+                            if hu == 0.0 {
+                                continue;
+                            }
+                            let basis = &self.basis_t[start + u * n..start + (u + 1) * n];
+                            for (o, &b) in out.iter_mut().zip(basis) {
+                                *o += hu * b;
+                            }
+                        }
+                    }
+                    for (o, &d) in row.iter_mut().zip(&delta) {
+                        *o += w * gate(d, t);
                     }
                 }
             }
@@ -536,6 +653,7 @@ mod tests {
         let detail = Detail {
             planes: vec![plane],
             steps: vec![0.5],
+            deblock: None,
         };
         let frame = Frame::new(8, 8);
         let out = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
@@ -555,6 +673,7 @@ mod tests {
         let detail = Detail {
             planes: vec![DetailPlane::from_blocks(1, 1, vec![levels])],
             steps: vec![0.1],
+            deblock: None,
         };
         let frame = Frame::new(8, 8);
         let one = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
@@ -566,5 +685,62 @@ mod tests {
             let m = two[0][2 * i + 2];
             assert!(m <= a.max(b) + 1e-6 && m >= a.min(b) - 1e-6);
         }
+    }
+
+    /// The layer coded coarsely, so that its blocks step at their edges.
+    fn deblocked(strength: u8, radius: u8) -> (Detail, (u32, u32)) {
+        let (r, (w, h)) = residuals();
+        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3));
+        detail.deblock = Some(Deblock { strength, radius });
+        (detail, (w, h))
+    }
+
+    #[test]
+    fn deblocked_grid_evaluation_equals_the_scalar_reference_at_any_scale() {
+        for (strength, radius) in [(25, 16), (255, 16), (60, 3)] {
+            let (detail, (w, h)) = deblocked(strength, radius);
+            let frame = Frame::new(w, h);
+            for (ow, oh) in [(w, h), (3 * w, 2 * h + 1), (w / 2, h / 2)] {
+                let grid = Grid::pixel_centres(&frame, ow, oh);
+                let layer = DetailEval::new(&detail, &grid).eval();
+                for j in 0..grid.ny {
+                    for i in 0..grid.nx {
+                        let at = detail.at(grid.x(i), grid.y(j));
+                        for (c, plane) in layer.iter().enumerate() {
+                            let fast = plane[j * grid.nx + i] as f64;
+                            assert!((fast - at[c]).abs() < 1e-4, "{ow}x{oh} ({i}, {j}) plane {c}: {fast} vs {}", at[c]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn deblocking_joins_small_steps_and_leaves_the_series_away_from_edges() {
+        let (detail, _) = deblocked(255, 16);
+        let plain = Detail {
+            deblock: None,
+            ..detail.clone()
+        };
+        let mut joined = 0;
+        for c in 0..detail.planes.len() {
+            for y in [0.5, 2.0, 3.5] {
+                // Across the edge at x = 8 the deblocked layer is continuous where the
+                // step is within the threshold (255% of the step: every step here).
+                let (l, r) = (detail.at(8.0 - 1e-7, y)[c], detail.at(8.0 + 1e-7, y)[c]);
+                let (pl, pr) = (plain.at(8.0 - 1e-7, y)[c], plain.at(8.0 + 1e-7, y)[c]);
+                if (pr - pl).abs() > 1e-3 {
+                    joined += 1;
+                    assert!((l - r).abs() < 1e-4, "plane {c} y {y}: {l} vs {r}");
+                    assert!((l - 0.5 * (pl + pr)).abs() < 1e-4);
+                }
+                // Four pixels from every edge (and these rows are that far from the
+                // edge at y = 8) the layer is the plain series.
+                let (a, b) = (detail.at(4.0, y)[c], plain.at(4.0, y)[c]);
+                assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+            }
+        }
+        assert!(joined > 0, "the coarse layer steps somewhere");
     }
 }

@@ -150,6 +150,7 @@ pub fn code_layer(
     let detail = Detail {
         planes: std::iter::once(luma.0).chain(chroma.0).collect(),
         steps: q.iter().map(|q| q.step).collect(),
+        deblock: None,
     };
     (detail, payload)
 }
