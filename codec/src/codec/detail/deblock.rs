@@ -28,11 +28,12 @@ pub struct Deblock {
 }
 
 impl Deblock {
-    /// The encoder's setting: steps up to a quarter of the quantiser step, ramps of
-    /// four pixels (the best mean RGB PSNR on photographs; `docs/codec-ablation.md`).
+    /// The encoder's setting: steps up to a fifth of the quantiser step, ramps of
+    /// three pixels (on photographs the best RGB PSNR, MS-SSIM and SSIMULACRA2 of the
+    /// settings tried together; `docs/codec-ablation.md`).
     pub const DEFAULT: Deblock = Deblock {
-        strength: 25,
-        radius: 16,
+        strength: 20,
+        radius: 12,
     };
     /// Largest radius in quarter pixels: half a block, so a position is near at most
     /// one edge per axis.
