@@ -35,6 +35,8 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
     let mut outputs = Outputs::new(global.force).input(&a.mesh);
     outputs.check_path(&a.output)?;
     let mesh = read_mesh(&a.mesh)?;
+    conversion::mesh_file::check_convertible(&mesh, &a.mesh.display().to_string())
+        .map_err(|e| CliError::Failed(e.to_string()))?;
     note(
         global,
         format!("{}: {}", a.mesh.display(), topology_text(&mesh)),
