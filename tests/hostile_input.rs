@@ -538,9 +538,7 @@ fn carve_and_relief_refuse_to_write_a_model_render_would_refuse() {
     // The shell adds two levels: past the limit, refused before anything is written.
     let out = dir.join("carve.json").display().to_string();
     fails_cleanly(
-        &[
-            "carve", &small, "--on", &on, "-o", &out, "--shell", "0.1",
-        ],
+        &["carve", &small, "--on", &on, "-o", &out, "--shell", "0.1"],
         1,
         "nested deeper than 64 levels",
     );
@@ -595,7 +593,12 @@ fn ply_files_must_hold_exactly_what_their_header_declares() {
     let dir = scratch("ply");
     let out = dir.join("m.json").display().to_string();
     fails_cleanly(
-        &["convert", &bad("M1-ply-declares-fewer-faces.ply"), "-o", &out],
+        &[
+            "convert",
+            &bad("M1-ply-declares-fewer-faces.ply"),
+            "-o",
+            &out,
+        ],
         1,
         "after the 1837 elements the header declares",
     );

@@ -25,7 +25,10 @@ fn peak(args: &[&str]) -> Option<(u64, i32, String)> {
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     let kb: u64 = err
         .lines()
-        .find_map(|l| l.trim().strip_prefix("Maximum resident set size (kbytes): "))?
+        .find_map(|l| {
+            l.trim()
+                .strip_prefix("Maximum resident set size (kbytes): ")
+        })?
         .trim()
         .parse()
         .ok()?;
@@ -84,9 +87,11 @@ fn estimates_are_upper_bounds_of_the_peak() {
     )
     .expect("model");
     let texture = dir.join("t.png");
-    image::RgbImage::from_fn(4000, 4000, |x, y| image::Rgb([x as u8, y as u8, (x ^ y) as u8]))
-        .save(&texture)
-        .expect("texture");
+    image::RgbImage::from_fn(4000, 4000, |x, y| {
+        image::Rgb([x as u8, y as u8, (x ^ y) as u8])
+    })
+    .save(&texture)
+    .expect("texture");
     let o = |n: &str| dir.join(n).display().to_string();
     let (big, sphere, texture) = (
         big.display().to_string(),
@@ -167,5 +172,8 @@ fn estimates_are_upper_bounds_of_the_peak() {
         }
     }
     std::fs::remove_dir_all(&dir).ok();
-    assert!(failures.is_empty(), "estimates below the peak: {failures:?}");
+    assert!(
+        failures.is_empty(),
+        "estimates below the peak: {failures:?}"
+    );
 }

@@ -82,9 +82,7 @@ fn base_model() -> impl Strategy<Value = PathBuf> {
                 s + t,
                 t.min(s)
             ),
-            _ => format!(
-                r#"{{"cylinder": {{"centre": {c:?}, "radius": {s}, "length": {t}}}}}"#
-            ),
+            _ => format!(r#"{{"cylinder": {{"centre": {c:?}, "radius": {s}, "length": {t}}}}}"#),
         };
         let path = file("base", "frep.json");
         std::fs::write(

@@ -619,7 +619,12 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
     let path = || name.to_string();
     let (format, elements, start) = ply_header(bytes, name)?;
     let body = &bytes[start..];
-    check_ply_counts(&elements, format == PlyFormat::Ascii, body.len() as u64, name)?;
+    check_ply_counts(
+        &elements,
+        format == PlyFormat::Ascii,
+        body.len() as u64,
+        name,
+    )?;
     let mut mesh = PolygonMesh::default();
     // Faces are checked against the vertex count once every element is read (a file
     // may declare faces first).
@@ -633,7 +638,11 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
     };
     let mut saw_vertices = false;
     for el in &elements {
-        let find = |names: &[&str]| el.properties.iter().position(|p| names.contains(&p.name.as_str()));
+        let find = |names: &[&str]| {
+            el.properties
+                .iter()
+                .position(|p| names.contains(&p.name.as_str()))
+        };
         let sink = match el.name.as_str() {
             "vertex" => {
                 saw_vertices = true;
@@ -661,10 +670,18 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
                 let list = match list {
                     Some(i) if el.properties[i].count.is_some() => i,
                     _ if el.count == 0 => usize::MAX,
-                    _ => return Err(MeshError::NoIndexList { path: path(), face: 0 }),
+                    _ => {
+                        return Err(MeshError::NoIndexList {
+                            path: path(),
+                            face: 0,
+                        })
+                    }
                 };
                 if !el.properties.get(list).is_none_or(|p| p.item.is_integer()) {
-                    return Err(MeshError::IndicesNotIntegers { path: path(), face: 0 });
+                    return Err(MeshError::IndicesNotIntegers {
+                        path: path(),
+                        face: 0,
+                    });
                 }
                 if el.name == "face" {
                     Sink::Faces { list }
@@ -679,7 +696,8 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
             reader.element(el, index, &mut values)?;
             match sink {
                 Sink::Vertex { x, y, z } => {
-                    mesh.positions.push([values[x][0], values[y][0], values[z][0]]);
+                    mesh.positions
+                        .push([values[x][0], values[y][0], values[z][0]]);
                 }
                 Sink::Faces { list } => {
                     faces.push((index, values[list].iter().map(|&v| v as i64).collect()));
@@ -745,7 +763,12 @@ struct PlyReader<'a> {
 
 impl PlyReader<'_> {
     /// Reads element `index` of `el` into `values` (one list per property).
-    fn element(&mut self, el: &PlyElement, index: u64, values: &mut [Vec<f64>]) -> Result<(), MeshError> {
+    fn element(
+        &mut self,
+        el: &PlyElement,
+        index: u64,
+        values: &mut [Vec<f64>],
+    ) -> Result<(), MeshError> {
         if self.format == PlyFormat::Ascii {
             return self.ascii_element(el, index, values);
         }
@@ -761,7 +784,10 @@ impl PlyReader<'_> {
             let n = match p.count {
                 None => 1,
                 Some(c) => {
-                    let b = self.body.get(self.pos..self.pos + c.bytes()).ok_or_else(missing)?;
+                    let b = self
+                        .body
+                        .get(self.pos..self.pos + c.bytes())
+                        .ok_or_else(missing)?;
                     self.pos += c.bytes();
                     let n = c.read(b, big);
                     self.list_length(el, index, n, p.item.bytes())?
@@ -779,7 +805,13 @@ impl PlyReader<'_> {
     }
 
     /// A list length as read, checked against the bytes left (at least `min` each).
-    fn list_length(&self, el: &PlyElement, index: u64, n: f64, min: usize) -> Result<usize, MeshError> {
+    fn list_length(
+        &self,
+        el: &PlyElement,
+        index: u64,
+        n: f64,
+        min: usize,
+    ) -> Result<usize, MeshError> {
         let left = (self.body.len() - self.pos) as f64;
         if !(n >= 0.0 && n * min as f64 <= left) {
             return Err(MeshError::BadListLength {
@@ -793,11 +825,19 @@ impl PlyReader<'_> {
     }
 
     /// One ASCII element: one line, every number used.
-    fn ascii_element(&mut self, el: &PlyElement, index: u64, values: &mut [Vec<f64>]) -> Result<(), MeshError> {
+    fn ascii_element(
+        &mut self,
+        el: &PlyElement,
+        index: u64,
+        values: &mut [Vec<f64>],
+    ) -> Result<(), MeshError> {
         // Blank lines between elements carry nothing.
         let line = loop {
             let rest = &self.body[self.pos..];
-            let len = rest.iter().position(|&b| b == b'\n').map_or(rest.len(), |n| n + 1);
+            let len = rest
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(rest.len(), |n| n + 1);
             let line = &rest[..len];
             self.pos += len;
             if len == 0 || !line.iter().all(u8::is_ascii_whitespace) {
@@ -999,7 +1039,11 @@ mod tests {
         let extra = format!("{head}0 0 0 9\n1 0 0\n0 1 0\n3 0 1 2\n");
         assert!(matches!(
             read_ply(extra.as_bytes(), "e.ply"),
-            Err(MeshError::ExtraValues { index: 0, extra: 1, .. })
+            Err(MeshError::ExtraValues {
+                index: 0,
+                extra: 1,
+                ..
+            })
         ));
         let more = format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n");
         assert!(matches!(
@@ -1032,7 +1076,10 @@ mod tests {
             bin.extend_from_slice(&i.to_be_bytes());
         }
         let m = read_ply(&bin, "t.ply").unwrap();
-        assert_eq!(m.triangles, vec![[1, 0, 2], [2, 0, 3], [3, 0, 1], [1, 2, 3]]);
+        assert_eq!(
+            m.triangles,
+            vec![[1, 0, 2], [2, 0, 3], [3, 0, 1], [1, 2, 3]]
+        );
         assert!(m.topology().is_closed());
         // One byte too many is a header that lies.
         bin.push(0);

@@ -83,7 +83,11 @@ fn load_map(
     interp: super::height_map::Interp,
 ) -> Result<HeightMap, FieldError> {
     let key = std::fs::canonicalize(file).unwrap_or_else(|_| file.to_path_buf());
-    let lock = || LOADED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let lock = || {
+        LOADED
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    };
     // The lock is not held while an image loads (the decoder may run on other threads).
     let handle = {
         let mut loaded = lock();

@@ -72,7 +72,12 @@ impl SamplesHandle {
 }
 
 impl Samples {
-    fn new(width: usize, height: usize, values: Vec<f64>, held: crate::budget::Reservation) -> Self {
+    fn new(
+        width: usize,
+        height: usize,
+        values: Vec<f64>,
+        held: crate::budget::Reservation,
+    ) -> Self {
         let mut pyramid = vec![(
             width,
             height,

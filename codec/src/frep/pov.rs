@@ -457,7 +457,10 @@ pub fn max_gradient_with(
     let best = cells
         .par_chunks(64)
         .map(|chunk| {
-            let best = chunk.iter().map(|c| cell_gradient(node, c)).fold(0.0, f64::max);
+            let best = chunk
+                .iter()
+                .map(|c| cell_gradient(node, c))
+                .fold(0.0, f64::max);
             let d = done.fetch_add(chunk.len() as u64, std::sync::atomic::Ordering::Relaxed)
                 + chunk.len() as u64;
             progress(d, total);
