@@ -433,7 +433,7 @@ fn the_mesh_render_path_checks_the_polygonising_budget_first() {
             "64x48",
         ],
         1,
-        "polygonising on 1024^3 cells needs about 8.0 GiB",
+        "polygonising on 1024^3 cells needs about 16.1 GiB",
     );
     assert!(!Path::new(&out).exists());
 }
