@@ -210,7 +210,7 @@ impl Warp3 {
         for (index, s) in shapes.chunks_exact_mut(p).enumerate() {
             let m = self.map([s[0], s[1], s[2]]);
             // The warp extrapolates past its box: keep the result readable.
-            if let Some(&value) = m.iter().find(|v| !(v.abs() <= MAX_SHAPE)) {
+            if let Some(&value) = m.iter().find(|v| v.is_nan() || v.abs() > MAX_SHAPE) {
                 return Err(TextureError::WarpedOutOfRange {
                     index,
                     value,
