@@ -930,7 +930,10 @@ pub const MIN_CONVERT_EXTENT: f64 = 1e-5;
 /// reads back.
 pub fn check_convertible(mesh: &PolygonMesh, name: &str) -> Result<(), MeshError> {
     for (vertex, p) in mesh.positions.iter().enumerate() {
-        if let Some(&value) = p.iter().find(|v| v.is_nan() || v.abs() > MAX_CONVERT_COORDINATE) {
+        if let Some(&value) = p
+            .iter()
+            .find(|v| v.is_nan() || v.abs() > MAX_CONVERT_COORDINATE)
+        {
             return Err(MeshError::OutsideWorld {
                 path: name.into(),
                 vertex,
