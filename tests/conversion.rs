@@ -219,6 +219,15 @@ fn a_model_far_from_the_mesh_measures_badly() {
 }
 
 #[test]
+fn triangle_strips_in_a_ply_are_read_as_triangles() {
+    let m = caoen::conversion::read(&repo("tests/data/meshes/tetra-strips.ply")).unwrap();
+    assert_eq!(m.triangles.len(), 4);
+    let t = m.topology();
+    assert!(t.is_closed(), "{t:?}");
+    assert_eq!(t.euler_characteristic(), 2);
+}
+
+#[test]
 fn broken_meshes_fail_with_clear_errors() {
     let dir = tmpdir("bad");
     let expect = [
@@ -234,7 +243,7 @@ fn broken_meshes_fail_with_clear_errors() {
         ("huge-count.ply", "4000000000 declared"),
         (
             "truncated.ply",
-            "more than the 31 bytes after the header can hold",
+            "more than the 20 bytes after the header can hold",
         ),
         ("no-header-end.ply", "end_header"),
         ("not-a-mesh.ply", "no end_header"),

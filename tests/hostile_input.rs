@@ -334,3 +334,278 @@ fn files_larger_than_the_budget_are_not_read() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Runs `args`, which must succeed; returns its stderr.
+fn succeeds(args: &[&str]) -> String {
+    let o = run(args);
+    assert!(
+        !o.stderr.contains("panicked"),
+        "{args:?} panicked:\n{}",
+        o.stderr
+    );
+    assert_eq!(o.code, 0, "{args:?}: {}", o.stderr);
+    o.stderr
+}
+
+/// Asserts `args` either succeeds or fails cleanly (exit 1, one printable line
+/// naming `needle`): both are within the rules, the hostile part is what happens
+/// otherwise (a panic, an abort past the address space, a hang).
+fn bounded(args: &[&str], needle: &str) -> bool {
+    let o = run(args);
+    if o.code == 0 {
+        assert!(!o.stderr.contains("panicked"), "{args:?}: {}", o.stderr);
+        return true;
+    }
+    fails_cleanly(args, 1, needle);
+    false
+}
+
+#[test]
+fn convert_refuses_meshes_whose_model_it_could_not_read_back() {
+    let dir = scratch("convert-range");
+    let out = dir.join("n.json").display().to_string();
+    fails_cleanly(
+        &["convert", &bad("D1-convert-needle-2e6.obj"), "-o", &out],
+        1,
+        "a mesh to convert must lie within +-4e5",
+    );
+    fails_cleanly(
+        &["convert", &bad("D1b-convert-offset-1e15.obj"), "-o", &out],
+        1,
+        "has coordinate 1e15",
+    );
+    assert!(!Path::new(&out).exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
+    let dir = scratch("distort");
+    let out = dir.join("d.json").display().to_string();
+    fails_cleanly(
+        &[
+            "distort",
+            "builtin:blob",
+            "--move",
+            "1,0,0:1e300,0,0",
+            "-o",
+            &out,
+        ],
+        1,
+        "reaches past 1e6",
+    );
+    assert!(!Path::new(&out).exists());
+    // A long move within the range: written and read back, or refused before writing.
+    if bounded(
+        &[
+            "distort",
+            "builtin:blob",
+            "--move",
+            "1,0,0:9e5,0,0",
+            "-o",
+            &out,
+        ],
+        "the largest coordinate a surface model holds",
+    ) {
+        succeeds(&["surface", "info", &out]);
+    } else {
+        assert!(!Path::new(&out).exists());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_mesh_render_path_checks_the_polygonising_budget_first() {
+    let dir = scratch("mesh-render");
+    let out = dir.join("m.png").display().to_string();
+    fails_cleanly(
+        &[
+            "frep",
+            "render",
+            &bad("D3-D5-unnamed-sphere.frep.json"),
+            "-o",
+            &out,
+            "--method",
+            "mesh",
+            "--cells",
+            "1024",
+            "--size",
+            "64x48",
+        ],
+        1,
+        "polygonising on 1024^3 cells needs about 16.1 GiB",
+    );
+    assert!(!Path::new(&out).exists());
+}
+
+#[test]
+fn pov_export_of_a_ten_thousand_node_union_finishes() {
+    let dir = scratch("pov");
+    let model = dir.join("u.frep.json");
+    let spheres: Vec<String> = (0..9999)
+        .map(|i| {
+            format!(
+                r#"{{"sphere": {{"centre": [{}, 0, 0], "radius": 0.5}}}}"#,
+                f64::from(i) * 0.001
+            )
+        })
+        .collect();
+    std::fs::write(
+        &model,
+        format!(
+            r#"{{"format": "caoen-frep/1", "model": {{"union": [{}]}}}}"#,
+            spheres.join(", ")
+        ),
+    )
+    .expect("model");
+    let out = dir.join("u.pov");
+    succeeds(&[
+        "frep",
+        "export-pov",
+        &model.display().to_string(),
+        "-o",
+        &out.display().to_string(),
+    ]);
+    let text = std::fs::read_to_string(&out).expect("written");
+    assert_eq!(text.matches("#declare caoen_f").count(), 10_000);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn one_budget_counts_every_height_map_a_model_loads() {
+    let dir = scratch("height-maps");
+    let out = dir.join("d7.png");
+    let o = out.display().to_string();
+    let args = [
+        "frep",
+        "render",
+        &bad("D7-heightmap-x3-bomb.json"),
+        "-o",
+        &o,
+        "--size",
+        "32x24",
+        "--samples",
+        "1",
+    ];
+    // Within the 2 GiB address space: the three maps of one image share its samples.
+    if bounded(&args, "over the memory budget of 2.0 GiB") {
+        assert!(out.exists());
+    }
+    // Twelve maps of twelve copies of one image cannot share: the budget counts them
+    // together and refuses the one that does not fit.
+    let grey = image::GrayImage::from_fn(2000, 2000, |x, y| image::Luma([((x ^ y) & 255) as u8]));
+    let copies: Vec<String> = (0..12)
+        .map(|i| {
+            let p = dir.join(format!("b{i}.png"));
+            grey.save(&p).expect("copy");
+            format!(
+                r#"{{"height_map": {{"image": "{}", "base": {{"ellipsoid": [1, 1, 1]}}, "rect": [-3.14159, -1.5707, 3.14159, 1.5707]}}}}"#,
+                p.display()
+            )
+        })
+        .collect();
+    let model = dir.join("d7x12.json");
+    std::fs::write(
+        &model,
+        format!(
+            r#"{{"format": "caoen-frep/1", "model": {{"union": [{}]}}}}"#,
+            copies.join(", ")
+        ),
+    )
+    .expect("model");
+    fails_cleanly(
+        &[
+            "frep",
+            "render",
+            &model.display().to_string(),
+            "-o",
+            &dir.join("d12.png").display().to_string(),
+            "--size",
+            "32x24",
+            "--max-memory",
+            "512M",
+        ],
+        1,
+        "MiB already loaded) needs about",
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn carve_and_relief_refuse_to_write_a_model_render_would_refuse() {
+    let dir = scratch("nesting");
+    let (small, on) = (bad("small.png"), bad("D8-nest64.frep.json"));
+    // The shell adds two levels: past the limit, refused before anything is written.
+    let out = dir.join("carve.json").display().to_string();
+    fails_cleanly(
+        &["carve", &small, "--on", &on, "-o", &out, "--shell", "0.1"],
+        1,
+        "nested deeper than 64 levels",
+    );
+    assert!(!Path::new(&out).exists());
+    // A relief adds one level, which fits: what is written renders.
+    let out = dir.join("relief.json").display().to_string();
+    if bounded(
+        &["relief", &small, "--on", &on, "-o", &out],
+        "nested deeper than 64 levels",
+    ) {
+        succeeds(&[
+            "frep",
+            "render",
+            &out,
+            "-o",
+            &dir.join("r.png").display().to_string(),
+            "--size",
+            "16x12",
+            "--samples",
+            "1",
+        ]);
+    } else {
+        assert!(!Path::new(&out).exists());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn transfer_bakes_a_bounded_grid_by_default() {
+    let dir = scratch("transfer");
+    let out = dir.join("t.png");
+    succeeds(&[
+        "transfer",
+        "--texture",
+        &bad("bomb8000.png"),
+        "--from",
+        "builtin:octahedron",
+        "--to",
+        "builtin:blob",
+        "-o",
+        &out.display().to_string(),
+        "--size",
+        "32x24",
+    ]);
+    let back = caoen::image_io::load(&out).expect("reads back");
+    assert_eq!((back.width(), back.height()), (32, 24));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn ply_files_must_hold_exactly_what_their_header_declares() {
+    let dir = scratch("ply");
+    let out = dir.join("m.json").display().to_string();
+    fails_cleanly(
+        &[
+            "convert",
+            &bad("M1-ply-declares-fewer-faces.ply"),
+            "-o",
+            &out,
+        ],
+        1,
+        "after the 1837 elements the header declares",
+    );
+    fails_cleanly(
+        &["convert", &bad("M2-ply-ascii-extra-tokens.ply"), "-o", &out],
+        1,
+        "vertex 0 has 2 more numbers than its properties take",
+    );
+    assert!(!Path::new(&out).exists());
+}

@@ -9,6 +9,10 @@
 //! `--max-memory`): the checks sit deep inside loaders that scenes, textures and volume
 //! slices reach through many layers, and one number for the whole process is what a
 //! user can reason about.
+//!
+//! What a command keeps while it works (the samples of every height map a model loads,
+//! each texture) is held as a [`Reservation`]; every [`check`] counts the memory held
+//! so, so one command's loads together stay within one budget.
 
 use std::io::Read;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -19,6 +23,9 @@ use thiserror::Error;
 pub const DEFAULT_BUDGET: u64 = 2 << 30;
 
 static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BUDGET);
+
+/// Bytes held by live [`Reservation`]s.
+static HELD: AtomicU64 = AtomicU64::new(0);
 
 /// The words of every [`OverBudget`] message before the budget: a program that sets
 /// the budget from its own option can find them to say how to raise it.
@@ -46,18 +53,63 @@ pub fn get() -> u64 {
     BUDGET.load(Ordering::Relaxed)
 }
 
-/// Checks an estimated need against the budget; `what` is only formatted on failure.
+/// Checks an estimated need, on top of the memory held by live reservations, against
+/// the budget; `what` is only formatted on failure.
 pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
     let budget = get();
-    if need <= budget {
+    let held = held();
+    if need.saturating_add(held) <= budget {
         Ok(())
     } else {
         Err(OverBudget {
-            what: what(),
-            need,
+            what: if held == 0 {
+                what()
+            } else {
+                format!("{} (with {} already loaded)", what(), human(held))
+            },
+            need: need.saturating_add(held),
             budget,
         })
     }
+}
+
+/// Bytes held by live reservations: what the loads so far keep.
+pub fn held() -> u64 {
+    HELD.load(Ordering::Relaxed)
+}
+
+/// Memory a loaded asset keeps, counted by every [`check`] until it is dropped.
+#[derive(Debug, Default)]
+pub struct Reservation {
+    bytes: u64,
+}
+
+impl Reservation {
+    /// The bytes reserved.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+}
+
+impl Drop for Reservation {
+    fn drop(&mut self) {
+        HELD.fetch_sub(self.bytes, Ordering::Relaxed);
+    }
+}
+
+/// Two reservations are alike whatever they hold: they are bookkeeping, not content.
+impl PartialEq for Reservation {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// Checks `need` like [`check`] and, when it fits, holds it until the reservation is
+/// dropped.
+pub fn reserve(what: impl FnOnce() -> String, need: u64) -> Result<Reservation, OverBudget> {
+    check(what, need)?;
+    HELD.fetch_add(need, Ordering::Relaxed);
+    Ok(Reservation { bytes: need })
 }
 
 /// `a * b * c` bytes, saturating: an estimate that overflows is over any budget.
@@ -194,6 +246,19 @@ mod tests {
         assert!(matches!(parse_size("1e400"), Err(SizeError::Unit { .. })));
         assert!(matches!(parse_size("2X"), Err(SizeError::Unit { unit, .. }) if unit == "X"));
         assert!(matches!(parse_size("NaN"), Err(SizeError::Number { .. })));
+    }
+
+    #[test]
+    fn reservations_count_in_every_check_until_dropped() {
+        // Relative to what other tests hold: the counter is process-wide.
+        let before = held();
+        let r = reserve(|| "a map".into(), 1000).unwrap();
+        assert_eq!(r.bytes(), 1000);
+        assert!(held() >= before + 1000);
+        let e = check(|| "more".into(), get() - 999).unwrap_err();
+        assert!(e.what.starts_with("more (with "), "{}", e.what);
+        drop(r);
+        assert!(reserve(|| "too much".into(), u64::MAX).is_err());
     }
 
     #[test]

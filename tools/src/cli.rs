@@ -354,8 +354,9 @@ pub struct TransferArgs {
     #[arg(long, value_name = "KIND", default_value = "spherical",
           value_parser = ["planar", "cylindrical", "spherical", "domain"])]
     pub project: String,
-    /// Texture grid WIDTHxHEIGHT baked for B from a projected picture (default: the
-    /// picture's size; with --texture-space, --texture-size).
+    /// Texture grid WIDTHxHEIGHT baked for B from the picture (default: the picture's
+    /// size, scaled down to at most twice the longer output side and at most 4096 a
+    /// side; with --texture-space, --texture-size).
     #[arg(long, value_name = "WxH")]
     pub bake_size: Option<String>,
     /// Points per texel side averaged when baking a projected picture or a solid

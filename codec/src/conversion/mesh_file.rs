@@ -1,5 +1,5 @@
 //! Reading polygon meshes: Wavefront OBJ (through `tobj`) and PLY, ASCII or binary
-//! (through `ply-rs-bw`). Counts a PLY header declares are checked against the bytes
+//! (read here, strictly). Counts a PLY header declares are checked against the bytes
 //! that follow it and against the memory budget before the parser allocates anything.
 
 use std::path::Path;
@@ -33,14 +33,78 @@ pub enum MeshError {
         #[source]
         source: tobj::LoadError,
     },
-    /// The PLY parser refused the file.
-    #[error("{path}: not a valid PLY file: {source}")]
-    Ply {
+    /// A PLY header line that is not understood.
+    #[error("{path}: not a valid PLY file: header line {line}: `{text}`")]
+    BadHeaderLine {
         /// The file.
         path: String,
-        /// What the parser said.
-        #[source]
-        source: ply_rs_bw::parser::ParseError,
+        /// The line (from 1).
+        line: usize,
+        /// The line as written (control characters replaced).
+        text: String,
+    },
+    /// A PLY element ends before all its declared values are read.
+    #[error("{path}: not a valid PLY file: {element} {index} is cut short (property `{property}` missing)")]
+    MissingValues {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The element (from 0).
+        index: u64,
+        /// The first property without a value.
+        property: String,
+    },
+    /// An ASCII PLY element line carries more numbers than its properties take.
+    #[error("{path}: not a valid PLY file: {element} {index} has {extra} more numbers than its properties take")]
+    ExtraValues {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The element (from 0).
+        index: u64,
+        /// How many numbers are left over.
+        extra: usize,
+    },
+    /// A PLY value that is not a number of its declared type.
+    #[error("{path}: not a valid PLY file: {element} {index}: `{token}` is not a {ty}")]
+    BadValue {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The element (from 0).
+        index: u64,
+        /// The text found (control characters replaced).
+        token: String,
+        /// The declared type.
+        ty: &'static str,
+    },
+    /// A PLY list whose length is negative or over what the file holds.
+    #[error("{path}: not a valid PLY file: {element} {index}: list length {length}")]
+    BadListLength {
+        /// The file.
+        path: String,
+        /// The element's name.
+        element: String,
+        /// The element (from 0).
+        index: u64,
+        /// The length as read.
+        length: f64,
+    },
+    /// Data after the last element the header declares: the header lies about a count.
+    #[error(
+        "{path}: not a valid PLY file: {bytes} bytes after the {declared} elements the \
+         header declares (a count that is too small?)"
+    )]
+    TrailingData {
+        /// The file.
+        path: String,
+        /// Bytes left over.
+        bytes: u64,
+        /// Elements declared, all kinds together.
+        declared: u64,
     },
     /// A PLY header without its `end_header` line.
     #[error("{path}: not a valid PLY file: no end_header line")]
@@ -143,6 +207,34 @@ pub enum MeshError {
         path: String,
         /// How many triangles it has.
         triangles: usize,
+    },
+    /// A vertex too far from the origin for a converted model's frame.
+    #[error(
+        "{path}: vertex {vertex} has coordinate {value:e}; a mesh to convert must lie \
+         within +-{max:e} (scale it down first)"
+    )]
+    OutsideWorld {
+        /// The file.
+        path: String,
+        /// The vertex (from 0).
+        vertex: usize,
+        /// The coordinate.
+        value: f64,
+        /// The largest coordinate magnitude allowed.
+        max: f64,
+    },
+    /// A mesh whose box is too small for a converted model's frame.
+    #[error(
+        "{path}: the mesh is {extent:e} across; a mesh to convert must be at least \
+         {min:e} across (scale it up first)"
+    )]
+    TooSmall {
+        /// The file.
+        path: String,
+        /// The longest side of its box.
+        extent: f64,
+        /// The smallest allowed.
+        min: f64,
     },
     /// A PLY element declared with more than [`MAX_ELEMENTS`].
     #[error("{path}: element {element}: {declared} declared, over the limit of {max}")]
@@ -250,34 +342,163 @@ pub fn read_obj(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
     finish(mesh, name)
 }
 
-/// The bytes each value of a PLY scalar type takes in a binary file.
-fn scalar_bytes(t: &str) -> Option<u64> {
-    Some(match t {
-        "char" | "uchar" | "int8" | "uint8" => 1,
-        "short" | "ushort" | "int16" | "uint16" => 2,
-        "int" | "uint" | "float" | "int32" | "uint32" | "float32" => 4,
-        "double" | "float64" => 8,
-        _ => return None,
-    })
+/// A PLY scalar type: its name in messages and its size in a binary file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
 }
 
-/// Checks the counts a PLY header declares against the bytes after it: each element
-/// takes at least its scalars' bytes (binary) or two characters (ASCII), so a short
-/// file cannot declare billions of elements.
-fn check_ply_header(bytes: &[u8], name: &str) -> Result<(), MeshError> {
+impl Scalar {
+    fn parse(t: &str) -> Option<Scalar> {
+        Some(match t {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn bytes(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Scalar::I8 => "char",
+            Scalar::U8 => "uchar",
+            Scalar::I16 => "short",
+            Scalar::U16 => "ushort",
+            Scalar::I32 => "int",
+            Scalar::U32 => "uint",
+            Scalar::F32 => "float",
+            Scalar::F64 => "double",
+        }
+    }
+
+    fn is_integer(self) -> bool {
+        !matches!(self, Scalar::F32 | Scalar::F64)
+    }
+
+    /// One binary value; `big` for big-endian files.
+    fn read(self, b: &[u8], big: bool) -> f64 {
+        macro_rules! get {
+            ($t:ty, $n:expr) => {{
+                let a: [u8; $n] = b[..$n].try_into().expect("sized by the caller");
+                if big {
+                    <$t>::from_be_bytes(a)
+                } else {
+                    <$t>::from_le_bytes(a)
+                }
+            }};
+        }
+        match self {
+            Scalar::I8 => f64::from(b[0] as i8),
+            Scalar::U8 => f64::from(b[0]),
+            Scalar::I16 => f64::from(get!(i16, 2)),
+            Scalar::U16 => f64::from(get!(u16, 2)),
+            Scalar::I32 => f64::from(get!(i32, 4)),
+            Scalar::U32 => f64::from(get!(u32, 4)),
+            Scalar::F32 => f64::from(get!(f32, 4)),
+            Scalar::F64 => get!(f64, 8),
+        }
+    }
+
+    /// One ASCII value, `None` when the token is not of this type.
+    fn parse_token(self, t: &str) -> Option<f64> {
+        if self.is_integer() {
+            let v: i64 = t.parse().ok()?;
+            let (lo, hi) = match self {
+                Scalar::I8 => (i64::from(i8::MIN), i64::from(i8::MAX)),
+                Scalar::U8 => (0, i64::from(u8::MAX)),
+                Scalar::I16 => (i64::from(i16::MIN), i64::from(i16::MAX)),
+                Scalar::U16 => (0, i64::from(u16::MAX)),
+                Scalar::I32 => (i64::from(i32::MIN), i64::from(i32::MAX)),
+                _ => (0, i64::from(u32::MAX)),
+            };
+            (lo..=hi).contains(&v).then_some(v as f64)
+        } else {
+            t.parse().ok()
+        }
+    }
+}
+
+/// A property of a PLY element: a scalar, or a list (count type, item type).
+#[derive(Debug, Clone)]
+struct PlyProperty {
+    name: String,
+    count: Option<Scalar>,
+    item: Scalar,
+}
+
+/// A PLY element as its header declares it.
+#[derive(Debug, Clone)]
+struct PlyElement {
+    name: String,
+    count: u64,
+    properties: Vec<PlyProperty>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PlyFormat {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// Parses a PLY header; returns the format, the elements and the offset of the body.
+fn ply_header(bytes: &[u8], name: &str) -> Result<(PlyFormat, Vec<PlyElement>, usize), MeshError> {
     let path = || name.to_string();
     let end = bytes
         .windows(10)
         .position(|w| w == b"end_header")
         .ok_or_else(|| MeshError::NoEndHeader { path: path() })?;
+    // The body starts after the line break that ends `end_header` (LF or CR LF).
+    let mut body = end + 10;
+    if bytes.get(body) == Some(&b'\r') {
+        body += 1;
+    }
+    if bytes.get(body) == Some(&b'\n') {
+        body += 1;
+    }
     let header = std::str::from_utf8(&bytes[..end])
         .map_err(|_| MeshError::HeaderNotText { path: path() })?;
-    let body = (bytes.len() - end) as u64;
-    let ascii = header.lines().any(|l| l.trim() == "format ascii 1.0");
-    let mut elements: Vec<(String, u64, u64)> = Vec::new();
-    for line in header.lines() {
+    let mut format = None;
+    let mut elements: Vec<PlyElement> = Vec::new();
+    for (i, line) in header.lines().enumerate() {
+        let bad = || MeshError::BadHeaderLine {
+            path: path(),
+            line: i + 1,
+            text: crate::json::printable(line),
+        };
         let w: Vec<&str> = line.split_whitespace().collect();
         match w.as_slice() {
+            ["ply"] | [] => {}
+            ["comment", ..] | ["obj_info", ..] => {}
+            ["format", f, "1.0"] => {
+                format = Some(match *f {
+                    "ascii" => PlyFormat::Ascii,
+                    "binary_little_endian" => PlyFormat::Little,
+                    "binary_big_endian" => PlyFormat::Big,
+                    _ => return Err(bad()),
+                })
+            }
             ["element", el, count] => {
                 let n: u64 = count.parse().map_err(|_| MeshError::BadCount {
                     path: path(),
@@ -292,40 +513,83 @@ fn check_ply_header(bytes: &[u8], name: &str) -> Result<(), MeshError> {
                         max: MAX_ELEMENTS,
                     });
                 }
-                elements.push((el.to_string(), n, 0));
+                elements.push(PlyElement {
+                    name: el.to_string(),
+                    count: n,
+                    properties: Vec::new(),
+                });
             }
-            ["property", "list", count_type, _, _] => {
-                if let Some(e) = elements.last_mut() {
-                    e.2 += scalar_bytes(count_type).unwrap_or(1);
+            ["property", "list", count_type, item_type, prop] => {
+                let (Some(c), Some(t), Some(e)) = (
+                    Scalar::parse(count_type),
+                    Scalar::parse(item_type),
+                    elements.last_mut(),
+                ) else {
+                    return Err(bad());
+                };
+                if !c.is_integer() {
+                    return Err(bad());
                 }
+                e.properties.push(PlyProperty {
+                    name: prop.to_string(),
+                    count: Some(c),
+                    item: t,
+                });
             }
-            ["property", t, _] => {
-                if let Some(e) = elements.last_mut() {
-                    e.2 += scalar_bytes(t).unwrap_or(1);
-                }
+            ["property", t, prop] => {
+                let (Some(t), Some(e)) = (Scalar::parse(t), elements.last_mut()) else {
+                    return Err(bad());
+                };
+                e.properties.push(PlyProperty {
+                    name: prop.to_string(),
+                    count: None,
+                    item: t,
+                });
             }
-            _ => {}
+            _ => return Err(bad()),
         }
     }
+    let Some(format) = format else {
+        return Err(MeshError::BadHeaderLine {
+            path: path(),
+            line: 2,
+            text: "(no `format` line)".into(),
+        });
+    };
+    Ok((format, elements, body.min(bytes.len())))
+}
+
+/// Checks the counts a PLY header declares against the bytes after it (each element
+/// takes at least its scalars' bytes, or two characters in ASCII, so a short file
+/// cannot declare billions of elements) and the mesh it can make against the budget.
+fn check_ply_counts(
+    elements: &[PlyElement],
+    ascii: bool,
+    body: u64,
+    name: &str,
+) -> Result<(), MeshError> {
     let mut need = 0u64;
-    for (el, n, size) in &elements {
-        let per = if ascii { 2 } else { (*size).max(1) };
-        need = need.saturating_add(n.saturating_mul(per));
+    for el in elements {
+        let size: u64 = el
+            .properties
+            .iter()
+            .map(|p| p.count.unwrap_or(p.item).bytes() as u64)
+            .sum();
+        let per = if ascii { 2 } else { size.max(1) };
+        need = need.saturating_add(el.count.saturating_mul(per));
         if need > body {
             return Err(MeshError::ShortBody {
-                path: path(),
-                element: el.clone(),
-                declared: *n,
+                path: name.into(),
+                element: el.name.clone(),
+                declared: el.count,
                 body,
             });
         }
     }
-    // The parser keeps each element as a map of named properties (~100 bytes a value).
-    let values: u64 = elements
-        .iter()
-        .map(|(_, n, size)| n.saturating_mul((*size).max(1)))
-        .fold(0, u64::saturating_add);
-    budget(name, values.saturating_mul(100))
+    // The mesh made from the body: a vertex is 24 bytes from at least 3 body bytes, a
+    // triangle 12 bytes from at least one (a one-byte index in a strip), so at most 12
+    // bytes a body byte, plus the tables of the elements kept.
+    budget(name, body.saturating_mul(12))
 }
 
 fn budget(name: &str, need: u64) -> Result<(), MeshError> {
@@ -337,82 +601,134 @@ fn budget(name: &str, need: u64) -> Result<(), MeshError> {
     })
 }
 
+/// Where a PLY element's values go.
+enum Sink {
+    Vertex { x: usize, y: usize, z: usize },
+    Faces { list: usize },
+    Strips { list: usize },
+    Skip,
+}
+
 /// Parses a PLY file: `vertex` elements with `x`, `y`, `z`, `face` elements with a
-/// `vertex_indices` (or `vertex_index`) list; other properties are ignored.
+/// `vertex_indices` (or `vertex_index`) list (polygons become fans), `tristrips`
+/// elements with a `vertex_indices` list (triangle strips, -1 restarts a strip); other
+/// elements and properties are read and ignored. The file must hold exactly what its
+/// header declares: a short element, extra numbers on an ASCII line or data after the
+/// last element are refused.
 pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
-    use ply_rs_bw::ply::Property;
-    check_ply_header(bytes, name)?;
-    let parser = ply_rs_bw::parser::Parser::<ply_rs_bw::ply::DefaultElement>::new();
-    let ply = parser
-        .read_ply(&mut std::io::Cursor::new(bytes))
-        .map_err(|source| MeshError::Ply {
-            path: name.into(),
-            source,
-        })?;
     let path = || name.to_string();
-    let scalar = |p: &Property| -> Option<f64> {
-        Some(match *p {
-            Property::Char(v) => f64::from(v),
-            Property::UChar(v) => f64::from(v),
-            Property::Short(v) => f64::from(v),
-            Property::UShort(v) => f64::from(v),
-            Property::Int(v) => f64::from(v),
-            Property::UInt(v) => f64::from(v),
-            Property::Float(v) => f64::from(v),
-            Property::Double(v) => v,
-            _ => return None,
-        })
-    };
+    let (format, elements, start) = ply_header(bytes, name)?;
+    let body = &bytes[start..];
+    check_ply_counts(
+        &elements,
+        format == PlyFormat::Ascii,
+        body.len() as u64,
+        name,
+    )?;
     let mut mesh = PolygonMesh::default();
-    let vertices = ply
-        .payload
-        .get("vertex")
-        .ok_or_else(|| MeshError::NoVertices { path: path() })?;
-    for (i, v) in vertices.iter().enumerate() {
-        let mut p = [0.0; 3];
-        for (k, axis) in ["x", "y", "z"].into_iter().enumerate() {
-            p[k] = v
-                .get(axis)
-                .and_then(scalar)
-                .ok_or_else(|| MeshError::NoCoordinate {
-                    path: path(),
-                    vertex: i,
-                    axis,
-                })?;
+    // Faces are checked against the vertex count once every element is read (a file
+    // may declare faces first).
+    let mut faces: Vec<(u64, Vec<i64>)> = Vec::new();
+    let mut strips: Vec<(u64, Vec<i64>)> = Vec::new();
+    let mut reader = PlyReader {
+        body,
+        pos: 0,
+        format,
+        name,
+    };
+    let mut saw_vertices = false;
+    for el in &elements {
+        let find = |names: &[&str]| {
+            el.properties
+                .iter()
+                .position(|p| names.contains(&p.name.as_str()))
+        };
+        let sink = match el.name.as_str() {
+            "vertex" => {
+                saw_vertices = true;
+                let axis = |a: &'static str| {
+                    find(&[a])
+                        .filter(|&i| el.properties[i].count.is_none())
+                        .ok_or(MeshError::NoCoordinate {
+                            path: path(),
+                            vertex: 0,
+                            axis: a,
+                        })
+                };
+                if el.count == 0 {
+                    Sink::Skip
+                } else {
+                    Sink::Vertex {
+                        x: axis("x")?,
+                        y: axis("y")?,
+                        z: axis("z")?,
+                    }
+                }
+            }
+            "face" | "tristrips" => {
+                let list = find(&["vertex_indices", "vertex_index"]);
+                let list = match list {
+                    Some(i) if el.properties[i].count.is_some() => i,
+                    _ if el.count == 0 => usize::MAX,
+                    _ => {
+                        return Err(MeshError::NoIndexList {
+                            path: path(),
+                            face: 0,
+                        })
+                    }
+                };
+                if !el.properties.get(list).is_none_or(|p| p.item.is_integer()) {
+                    return Err(MeshError::IndicesNotIntegers {
+                        path: path(),
+                        face: 0,
+                    });
+                }
+                if el.name == "face" {
+                    Sink::Faces { list }
+                } else {
+                    Sink::Strips { list }
+                }
+            }
+            _ => Sink::Skip,
+        };
+        let mut values: Vec<Vec<f64>> = vec![Vec::new(); el.properties.len()];
+        for index in 0..el.count {
+            reader.element(el, index, &mut values)?;
+            match sink {
+                Sink::Vertex { x, y, z } => {
+                    mesh.positions
+                        .push([values[x][0], values[y][0], values[z][0]]);
+                }
+                Sink::Faces { list } => {
+                    faces.push((index, values[list].iter().map(|&v| v as i64).collect()));
+                }
+                Sink::Strips { list } => {
+                    strips.push((index, values[list].iter().map(|&v| v as i64).collect()));
+                }
+                Sink::Skip => {}
+            }
         }
-        mesh.positions.push(p);
+    }
+    reader.finish(elements.iter().map(|e| e.count).sum())?;
+    if !saw_vertices {
+        return Err(MeshError::NoVertices { path: path() });
     }
     let count = mesh.positions.len();
-    let faces = ply.payload.get("face").map(Vec::as_slice).unwrap_or(&[]);
-    for (f, face) in faces.iter().enumerate() {
-        let list = face
-            .get("vertex_indices")
-            .or_else(|| face.get("vertex_index"))
-            .ok_or_else(|| MeshError::NoIndexList {
+    let check = |face: u64, i: i64| {
+        if i < 0 || i as usize >= count {
+            Err(MeshError::BadIndex {
                 path: path(),
-                face: f,
-            })?;
-        let idx: Vec<i64> = match list {
-            Property::ListChar(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            Property::ListUChar(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            Property::ListShort(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            Property::ListUShort(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            Property::ListInt(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            Property::ListUInt(l) => l.iter().map(|&v| i64::from(v)).collect(),
-            _ => {
-                return Err(MeshError::IndicesNotIntegers {
-                    path: path(),
-                    face: f,
-                })
-            }
-        };
-        if let Some(&bad) = idx.iter().find(|&&i| i < 0 || i as usize >= count) {
-            return Err(MeshError::BadIndex {
-                path: name.into(),
-                face: f,
-                index: bad,
+                face: face as usize,
+                index: i,
                 vertices: count,
-            });
+            })
+        } else {
+            Ok(i as u32)
+        }
+    };
+    for (f, idx) in &faces {
+        for &i in idx {
+            check(*f, i)?;
         }
         // A polygon becomes a fan around its first corner.
         for k in 1..idx.len().saturating_sub(1) {
@@ -420,7 +736,222 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
                 .push([idx[0] as u32, idx[k] as u32, idx[k + 1] as u32]);
         }
     }
+    for (f, idx) in &strips {
+        // Each run between -1 markers is a strip; every other triangle is turned
+        // around so all keep the first one's winding.
+        for run in idx.split(|&i| i == -1) {
+            for &i in run {
+                check(*f, i)?;
+            }
+            for k in 0..run.len().saturating_sub(2) {
+                let (a, b, c) = (run[k] as u32, run[k + 1] as u32, run[k + 2] as u32);
+                mesh.triangles
+                    .push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+            }
+        }
+    }
     finish(mesh, name)
+}
+
+/// Reads a PLY body element by element.
+struct PlyReader<'a> {
+    body: &'a [u8],
+    pos: usize,
+    format: PlyFormat,
+    name: &'a str,
+}
+
+impl PlyReader<'_> {
+    /// Reads element `index` of `el` into `values` (one list per property).
+    fn element(
+        &mut self,
+        el: &PlyElement,
+        index: u64,
+        values: &mut [Vec<f64>],
+    ) -> Result<(), MeshError> {
+        if self.format == PlyFormat::Ascii {
+            return self.ascii_element(el, index, values);
+        }
+        let big = self.format == PlyFormat::Big;
+        for (p, out) in el.properties.iter().zip(values.iter_mut()) {
+            out.clear();
+            let missing = || MeshError::MissingValues {
+                path: self.name.into(),
+                element: el.name.clone(),
+                index,
+                property: p.name.clone(),
+            };
+            let n = match p.count {
+                None => 1,
+                Some(c) => {
+                    let b = self
+                        .body
+                        .get(self.pos..self.pos + c.bytes())
+                        .ok_or_else(missing)?;
+                    self.pos += c.bytes();
+                    let n = c.read(b, big);
+                    self.list_length(el, index, n, p.item.bytes())?
+                }
+            };
+            let size = p.item.bytes();
+            let b = self
+                .body
+                .get(self.pos..self.pos + n * size)
+                .ok_or_else(missing)?;
+            self.pos += n * size;
+            out.extend(b.chunks_exact(size).map(|v| p.item.read(v, big)));
+        }
+        Ok(())
+    }
+
+    /// A list length as read, checked against the bytes left (at least `min` each).
+    fn list_length(
+        &self,
+        el: &PlyElement,
+        index: u64,
+        n: f64,
+        min: usize,
+    ) -> Result<usize, MeshError> {
+        let left = (self.body.len() - self.pos) as f64;
+        if !(n >= 0.0 && n * min as f64 <= left) {
+            return Err(MeshError::BadListLength {
+                path: self.name.into(),
+                element: el.name.clone(),
+                index,
+                length: n,
+            });
+        }
+        Ok(n as usize)
+    }
+
+    /// One ASCII element: one line, every number used.
+    fn ascii_element(
+        &mut self,
+        el: &PlyElement,
+        index: u64,
+        values: &mut [Vec<f64>],
+    ) -> Result<(), MeshError> {
+        // Blank lines between elements carry nothing.
+        let line = loop {
+            let rest = &self.body[self.pos..];
+            let len = rest
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(rest.len(), |n| n + 1);
+            let line = &rest[..len];
+            self.pos += len;
+            if len == 0 || !line.iter().all(u8::is_ascii_whitespace) {
+                break line;
+            }
+        };
+        let line = String::from_utf8_lossy(line);
+        let mut tokens = line.split_ascii_whitespace();
+        for (p, out) in el.properties.iter().zip(values.iter_mut()) {
+            out.clear();
+            let mut next = |ty: Scalar| -> Result<f64, MeshError> {
+                let t = tokens.next().ok_or_else(|| MeshError::MissingValues {
+                    path: self.name.into(),
+                    element: el.name.clone(),
+                    index,
+                    property: p.name.clone(),
+                })?;
+                ty.parse_token(t).ok_or_else(|| MeshError::BadValue {
+                    path: self.name.into(),
+                    element: el.name.clone(),
+                    index,
+                    token: crate::json::printable(&t.chars().take(40).collect::<String>()),
+                    ty: ty.name(),
+                })
+            };
+            let n = match p.count {
+                None => 1,
+                Some(c) => {
+                    let n = next(c)?;
+                    // Each item takes at least two characters of what is left.
+                    let left = (self.body.len() - self.pos + line.len()) as f64;
+                    if !(n >= 0.0 && 2.0 * n <= left) {
+                        return Err(MeshError::BadListLength {
+                            path: self.name.into(),
+                            element: el.name.clone(),
+                            index,
+                            length: n,
+                        });
+                    }
+                    n as usize
+                }
+            };
+            for _ in 0..n {
+                let v = next(p.item)?;
+                out.push(v);
+            }
+        }
+        let extra = tokens.count();
+        if extra > 0 {
+            return Err(MeshError::ExtraValues {
+                path: self.name.into(),
+                element: el.name.clone(),
+                index,
+                extra,
+            });
+        }
+        Ok(())
+    }
+
+    /// Refuses anything after the last element (whitespace only in ASCII).
+    fn finish(&self, declared: u64) -> Result<(), MeshError> {
+        let rest = &self.body[self.pos..];
+        let left = if self.format == PlyFormat::Ascii {
+            rest.iter().filter(|b| !b.is_ascii_whitespace()).count()
+        } else {
+            rest.len()
+        };
+        if left > 0 {
+            return Err(MeshError::TrailingData {
+                path: self.name.into(),
+                bytes: rest.len() as u64,
+                declared,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Largest coordinate magnitude of a mesh to convert. The model file holds `scale`
+/// (the mesh's longest side) up to 1e6 and `translate` up to 1e6 (the world limit):
+/// within +-4e5 both hold, with room for the box around the mesh and for rounding.
+pub const MAX_CONVERT_COORDINATE: f64 = 4e5;
+
+/// Smallest longest side of a mesh to convert (the model file's smallest `scale` is
+/// 1e-6; the factor of ten leaves room for rounding).
+pub const MIN_CONVERT_EXTENT: f64 = 1e-5;
+
+/// Checks that `mesh` fits the frame a converted model file can describe (see
+/// [`MAX_CONVERT_COORDINATE`], [`MIN_CONVERT_EXTENT`]), so the model convert writes
+/// reads back.
+pub fn check_convertible(mesh: &PolygonMesh, name: &str) -> Result<(), MeshError> {
+    for (vertex, p) in mesh.positions.iter().enumerate() {
+        if let Some(&value) = p
+            .iter()
+            .find(|v| v.is_nan() || v.abs() > MAX_CONVERT_COORDINATE)
+        {
+            return Err(MeshError::OutsideWorld {
+                path: name.into(),
+                vertex,
+                value,
+                max: MAX_CONVERT_COORDINATE,
+            });
+        }
+    }
+    let (lo, hi) = mesh.bounds();
+    let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    if extent < MIN_CONVERT_EXTENT {
+        return Err(MeshError::TooSmall {
+            path: name.into(),
+            extent,
+            min: MIN_CONVERT_EXTENT,
+        });
+    }
+    Ok(())
 }
 
 /// Rejects non-finite coordinates and empty or degenerate meshes; drops triangles
@@ -503,6 +1034,62 @@ mod tests {
         let b = read_ply(&bin, "b.ply").unwrap();
         assert_eq!(a, b);
         assert_eq!(a.triangles, vec![[0, 1, 2]]);
+    }
+
+    #[test]
+    fn ply_bodies_hold_exactly_what_the_header_declares() {
+        let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        let extra = format!("{head}0 0 0 9\n1 0 0\n0 1 0\n3 0 1 2\n");
+        assert!(matches!(
+            read_ply(extra.as_bytes(), "e.ply"),
+            Err(MeshError::ExtraValues {
+                index: 0,
+                extra: 1,
+                ..
+            })
+        ));
+        let more = format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n");
+        assert!(matches!(
+            read_ply(more.as_bytes(), "m.ply"),
+            Err(MeshError::TrailingData { declared: 4, .. })
+        ));
+        let short = format!("{head}0 0 0\n1 0\n0 1 0\n3 0 1 2\n");
+        assert!(matches!(
+            read_ply(short.as_bytes(), "s.ply"),
+            Err(MeshError::MissingValues { index: 1, .. })
+        ));
+        let word = format!("{head}0 0 0\n1 0 x\n0 1 0\n3 0 1 2\n");
+        assert!(matches!(
+            read_ply(word.as_bytes(), "w.ply"),
+            Err(MeshError::BadValue { index: 1, .. })
+        ));
+    }
+
+    #[test]
+    fn binary_triangle_strips_restart_at_minus_one_and_keep_the_winding() {
+        let mut bin = b"ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty double x\nproperty double y\nproperty double z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n".to_vec();
+        for p in [[0.0f64, 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 0., 1.]] {
+            for v in p {
+                bin.extend_from_slice(&v.to_be_bytes());
+            }
+        }
+        let strip = [1i32, 0, 2, 3, -1, 3, 0, 1, -1, 1, 2, 3];
+        bin.extend_from_slice(&(strip.len() as i32).to_be_bytes());
+        for i in strip {
+            bin.extend_from_slice(&i.to_be_bytes());
+        }
+        let m = read_ply(&bin, "t.ply").unwrap();
+        assert_eq!(
+            m.triangles,
+            vec![[1, 0, 2], [2, 0, 3], [3, 0, 1], [1, 2, 3]]
+        );
+        assert!(m.topology().is_closed());
+        // One byte too many is a header that lies.
+        bin.push(0);
+        assert!(matches!(
+            read_ply(&bin, "t.ply"),
+            Err(MeshError::TrailingData { bytes: 1, .. })
+        ));
     }
 
     #[test]

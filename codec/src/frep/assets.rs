@@ -4,7 +4,7 @@
 
 use serde_json::Value;
 
-use super::height_map::{Base, HeightMap};
+use super::height_map::{Base, HeightMap, SamplesHandle, SAMPLE_BYTES};
 use super::interval::Aabb;
 use super::mesh_field::MeshField;
 use super::model_file::{bad, err, fields, get, image_file, interp_of, number, numbers, vec3};
@@ -63,10 +63,52 @@ pub(super) fn height_map(
     };
     let interp = interp_of(f, here)?;
     let file = image_file(f, here, base_dir)?;
-    let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), height)?;
-    HeightMap::new(base, rect, iw, ih, values, threshold, interp)
-        .map(|m| m.with_source(file, height))
-        .map_err(|e| bad(here, e.to_string()))
+    load_map(&file, here, height, base, rect, threshold, interp)
+}
+
+/// Samples of the height maps and pictures loaded and still alive, by file and scale:
+/// a model that names one image many times holds its samples once.
+static LOADED: std::sync::Mutex<Vec<(std::path::PathBuf, u64, SamplesHandle)>> =
+    std::sync::Mutex::new(Vec::new());
+
+/// A height map of `file`'s grey levels times `scale`, sharing the samples of a live
+/// map of the same file and scale.
+fn load_map(
+    file: &std::path::Path,
+    here: &str,
+    scale: f64,
+    base: Base,
+    rect: [f64; 4],
+    threshold: f64,
+    interp: super::height_map::Interp,
+) -> Result<HeightMap, FieldError> {
+    let key = std::fs::canonicalize(file).unwrap_or_else(|_| file.to_path_buf());
+    let lock = || {
+        LOADED
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    };
+    // The lock is not held while an image loads (the decoder may run on other threads).
+    let handle = {
+        let mut loaded = lock();
+        loaded.retain(|(_, _, h)| h.is_alive());
+        loaded
+            .iter()
+            .find(|(p, s, _)| *p == key && *s == scale.to_bits())
+            .map(|(_, _, h)| h.clone())
+    };
+    let shared = handle.and_then(|h| HeightMap::from_shared(base, rect, &h, threshold, interp));
+    let map = match shared {
+        Some(m) => m.map_err(|e| bad(here, e.to_string()))?,
+        None => {
+            let (iw, ih, values) = grey_levels(file, &format!("{here}.image"), scale)?;
+            let m = HeightMap::new(base, rect, iw, ih, values, threshold, interp)
+                .map_err(|e| bad(here, e.to_string()))?;
+            lock().push((key, scale.to_bits(), m.samples_handle()));
+            m
+        }
+    };
+    Ok(map.with_source(file.to_path_buf(), scale))
 }
 
 /// Finest tessellation a `caoen_surface` node may ask for (an icosphere of 20 4^7
@@ -153,10 +195,7 @@ pub(super) fn picture(
     };
     let interp = interp_of(o, here)?;
     let file = image_file(o, here, base_dir)?;
-    let (iw, ih, values) = grey_levels(&file, &format!("{here}.image"), 1.0)?;
-    HeightMap::new(base, rect, iw, ih, values, f64::NEG_INFINITY, interp)
-        .map(|m| m.with_source(file, 1.0))
-        .map_err(|e| bad(here, e.to_string()))
+    load_map(&file, here, 1.0, base, rect, f64::NEG_INFINITY, interp)
 }
 
 /// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.
@@ -169,6 +208,16 @@ fn grey_levels(
     let (iw, ih) = (raster.width() as usize, raster.height() as usize);
     // Alpha is not a colour: a grey image with alpha is its grey channel.
     let channels = raster.layout().colour_channels();
+    // The samples and their pyramid, while the decoded image still lives.
+    crate::budget::check(
+        || format!("{}: a {iw}x{ih} height map", path.display()),
+        crate::budget::bytes(
+            iw as u64,
+            ih as u64,
+            SAMPLE_BYTES + 4 * raster.layout().channels() as u64,
+        ),
+    )
+    .map_err(|e| bad(at, e.to_string()))?;
     let values = (0..iw * ih)
         .map(|i| {
             scale

@@ -43,6 +43,10 @@ pub enum Interp {
 /// One pyramid level: width, height, and (min, max) per block.
 type Level = (usize, usize, Vec<(f64, f64)>);
 
+/// Bytes a sample keeps: its value (8) and its min/max pair in the pyramid's first
+/// level (16) and the levels above (16/3).
+pub const SAMPLE_BYTES: u64 = 30;
+
 /// Samples with a min/max pyramid for range queries.
 #[derive(Debug, PartialEq)]
 struct Samples {
@@ -51,10 +55,29 @@ struct Samples {
     values: Vec<f64>,
     /// Level `k` holds the min and max of blocks of `2^k x 2^k` samples.
     pyramid: Vec<Level>,
+    /// The memory budget's count of the above, while they live.
+    held: crate::budget::Reservation,
+}
+
+/// A handle on a map's samples that does not keep them alive: maps of the same image
+/// share one copy while any of them lives.
+#[derive(Debug, Clone, Default)]
+pub struct SamplesHandle(std::sync::Weak<Samples>);
+
+impl SamplesHandle {
+    /// Whether the samples are still alive.
+    pub fn is_alive(&self) -> bool {
+        self.0.strong_count() > 0
+    }
 }
 
 impl Samples {
-    fn new(width: usize, height: usize, values: Vec<f64>) -> Self {
+    fn new(
+        width: usize,
+        height: usize,
+        values: Vec<f64>,
+        held: crate::budget::Reservation,
+    ) -> Self {
         let mut pyramid = vec![(
             width,
             height,
@@ -85,6 +108,7 @@ impl Samples {
             height,
             values,
             pyramid,
+            held,
         }
     }
 
@@ -166,6 +190,12 @@ pub enum HeightMapError {
         /// `[u0, v0, u1, v1]`.
         rect: [f64; 4],
     },
+    /// The samples do not fit the memory budget.
+    #[error("{source}")]
+    OverBudget {
+        /// The budget check.
+        source: crate::budget::OverBudget,
+    },
     /// A height is not finite, or the threshold is NaN or +infinity.
     #[error("heights must be finite and the threshold below infinity")]
     NotFinite,
@@ -197,14 +227,49 @@ impl HeightMap {
         {
             return Err(HeightMapError::NotFinite);
         }
+        let held = crate::budget::reserve(
+            || format!("a {width}x{height} height map"),
+            crate::budget::bytes(width as u64, height as u64, SAMPLE_BYTES),
+        )
+        .map_err(|source| HeightMapError::OverBudget { source })?;
         Ok(HeightMap {
             base,
             rect,
             threshold,
             interp,
-            samples: Arc::new(Samples::new(width, height, values)),
+            samples: Arc::new(Samples::new(width, height, values, held)),
             source: None,
         })
+    }
+
+    /// A handle on this map's samples, for [`HeightMap::from_shared`].
+    pub fn samples_handle(&self) -> SamplesHandle {
+        SamplesHandle(Arc::downgrade(&self.samples))
+    }
+
+    /// A map on the samples behind `handle` (no copy), if they are still alive.
+    pub fn from_shared(
+        base: Base,
+        rect: [f64; 4],
+        handle: &SamplesHandle,
+        threshold: f64,
+        interp: Interp,
+    ) -> Option<Result<Self, HeightMapError>> {
+        let samples = handle.0.upgrade()?;
+        if !(rect[0] < rect[2] && rect[1] < rect[3]) || rect.iter().any(|v| !v.is_finite()) {
+            return Some(Err(HeightMapError::Rect { rect }));
+        }
+        if threshold.is_nan() || threshold == f64::INFINITY {
+            return Some(Err(HeightMapError::NotFinite));
+        }
+        Some(Ok(HeightMap {
+            base,
+            rect,
+            threshold,
+            interp,
+            samples,
+            source: None,
+        }))
     }
 
     /// The same map, remembering the image file it was read from and the height of

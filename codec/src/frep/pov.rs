@@ -173,18 +173,18 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
         },
         Node::SetOp { op, a, operands } => {
             let names: Vec<String> = operands.iter().map(|n| declare(n, out, next)).collect();
-            let mut acc = format!("{}(x, y, z)", names[0]);
+            // The left fold f(f(f(f0, f1), f2), f3) written front to back: every opening
+            // first, then each operand with its closing (linear in the operands).
+            let (r_function, sign) = match op {
+                SetOp::Union => ("caoen_union(", ""),
+                SetOp::Intersection => ("caoen_intersection(", ""),
+                SetOp::Difference => ("caoen_intersection(", "-"),
+            };
+            let a = num(*a);
+            let mut acc = r_function.repeat(names.len() - 1);
+            let _ = write!(acc, "{}(x, y, z)", names[0]);
             for n in &names[1..] {
-                let other = format!("{n}(x, y, z)");
-                acc = match op {
-                    SetOp::Union => format!("caoen_union({acc}, {other}, {})", num(*a)),
-                    SetOp::Intersection => {
-                        format!("caoen_intersection({acc}, {other}, {})", num(*a))
-                    }
-                    SetOp::Difference => {
-                        format!("caoen_intersection({acc}, -{other}, {})", num(*a))
-                    }
-                };
+                let _ = write!(acc, ", {sign}{n}(x, y, z), {a})");
             }
             acc
         }
@@ -405,41 +405,96 @@ pub(crate) const R_FUNCTIONS: &str = "\
 ";
 
 /// POV-Ray's `max_gradient` for `node` over `b`: the largest gradient length at 27
-/// points of every cell of a `2^levels`-per-side octree that the interval bound cannot
-/// keep off the surface, times 1.25 for what falls between the points. POV-Ray uses it
+/// points of every cell of a `2^levels`-per-side octree (shallower for a large model,
+/// see [`MAX_GRADIENT_WORK`]) that the interval bound cannot keep off the surface,
+/// times 1.25 for what falls between the points. POV-Ray uses it
 /// as a Lipschitz bound when it looks for the surface along a ray, so only the gradient
 /// near the surface matters: a picture's `atan2` parameters make the gradient grow
 /// without bound near their axis, far from any surface, and a whole-box grid either
 /// samples that (a bound far too high: slow) or misses a picture's steep edges (too
 /// low: holes).
 pub fn max_gradient(node: &Node, b: &Aabb, levels: u32) -> f64 {
+    max_gradient_with(node, b, levels, &|_, _| {})
+}
+
+/// Node evaluations (points times the model's node count) the search for the largest
+/// gradient may spend: past it the octree stops short of `levels`, so a 10,000-node
+/// model takes about as long as a 100-node one (its cells are coarser; the 27 points a
+/// cell and the factor 1.25 cover what falls between).
+pub const MAX_GRADIENT_WORK: u64 = 40_000_000;
+
+/// [`max_gradient`], calling `progress(done, total)` as the finest cells are measured
+/// (in parallel).
+pub fn max_gradient_with(
+    node: &Node,
+    b: &Aabb,
+    levels: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> f64 {
+    use rayon::prelude::*;
+    let per_point = node.count() as u64;
+    // Breadth first: each level keeps the cells the interval bound cannot keep off the
+    // surface, and goes one deeper while the next level's points fit the work cap
+    // (about half of a cell's eight children meet a surface).
+    let mut cells = vec![*b];
+    let mut level = 0;
+    loop {
+        cells = cells
+            .into_par_iter()
+            .filter(|c| node.interval(c).contains(0.0))
+            .collect();
+        let next = (cells.len() as u64)
+            .saturating_mul(4 * 27)
+            .saturating_mul(per_point);
+        if level >= levels || cells.is_empty() || next > MAX_GRADIENT_WORK {
+            break;
+        }
+        cells = cells.iter().flat_map(octants).collect();
+        level += 1;
+    }
+    let total = cells.len() as u64;
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let best = cells
+        .par_chunks(64)
+        .map(|chunk| {
+            let best = chunk
+                .iter()
+                .map(|c| cell_gradient(node, c))
+                .fold(0.0, f64::max);
+            let d = done.fetch_add(chunk.len() as u64, std::sync::atomic::Ordering::Relaxed)
+                + chunk.len() as u64;
+            progress(d, total);
+            best
+        })
+        .reduce(|| 0.0, f64::max);
+    1.25 * best.max(1e-6)
+}
+
+/// The eight octants of `cell`.
+fn octants(cell: &Aabb) -> impl Iterator<Item = Aabb> + '_ {
+    let mid = [0, 1, 2].map(|k| 0.5 * (cell.lo[k] + cell.hi[k]));
+    (0..8).map(move |octant| {
+        let pick = |k: usize| (octant >> k) & 1 == 1;
+        let lo = [0, 1, 2].map(|k| if pick(k) { mid[k] } else { cell.lo[k] });
+        let hi = [0, 1, 2].map(|k| if pick(k) { cell.hi[k] } else { mid[k] });
+        Aabb::new(lo, hi)
+    })
+}
+
+/// The largest gradient length at 27 points of `cell` (corners, edge and face middles,
+/// centre).
+fn cell_gradient(node: &Node, cell: &Aabb) -> f64 {
     let mut best: f64 = 0.0;
-    let mut stack = vec![(*b, 0u32)];
-    while let Some((cell, level)) = stack.pop() {
-        if !node.interval(&cell).contains(0.0) {
-            continue;
-        }
-        if level < levels {
-            let mid = [0, 1, 2].map(|k| 0.5 * (cell.lo[k] + cell.hi[k]));
-            for octant in 0..8 {
-                let pick = |k: usize| (octant >> k) & 1 == 1;
-                let lo = [0, 1, 2].map(|k| if pick(k) { mid[k] } else { cell.lo[k] });
-                let hi = [0, 1, 2].map(|k| if pick(k) { cell.hi[k] } else { mid[k] });
-                stack.push((Aabb::new(lo, hi), level + 1));
-            }
-            continue;
-        }
-        for i in 0..27 {
-            let t = [i % 3, (i / 3) % 3, i / 9].map(|v| 0.5 * v as f64);
-            let p = [0, 1, 2].map(|k| cell.lo[k] + t[k] * (cell.hi[k] - cell.lo[k]));
-            let (_, g) = node.value_gradient(p);
-            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-            if len.is_finite() {
-                best = best.max(len);
-            }
+    for i in 0..27 {
+        let t = [i % 3, (i / 3) % 3, i / 9].map(|v| 0.5 * v as f64);
+        let p = [0, 1, 2].map(|k| cell.lo[k] + t[k] * (cell.hi[k] - cell.lo[k]));
+        let (_, g) = node.value_gradient(p);
+        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        if len.is_finite() {
+            best = best.max(len);
         }
     }
-    1.25 * best.max(1e-6)
+    best
 }
 
 /// What in a model POV-Ray cannot draw.

@@ -9,7 +9,9 @@ use std::fmt::Write as _;
 
 use super::camera::{Camera, Projection};
 use super::scene::{Scene, Shape};
-use crate::frep::pov::{declare, max_gradient, num, unexportable, v3, Unexportable, R_FUNCTIONS};
+use crate::frep::pov::{
+    declare, max_gradient_with, num, unexportable, v3, Unexportable, R_FUNCTIONS,
+};
 
 /// Why a scene cannot be exported.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -37,6 +39,16 @@ pub enum PovError {
 /// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface;
 /// surfaces and convex solids are not exported (an error names the first).
 pub fn export(scene: &Scene, camera: &Camera) -> Result<String, PovError> {
+    export_with(scene, camera, &|_, _| {})
+}
+
+/// [`export`], calling `progress(done, total)` while the objects' `max_gradient` is
+/// measured (most of the time a large model takes).
+pub fn export_with(
+    scene: &Scene,
+    camera: &Camera,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<String, PovError> {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -122,7 +134,7 @@ pub fn export(scene: &Scene, camera: &Camera) -> Result<String, PovError> {
             v3(b.lo),
             v3(b.hi),
             num(1e-5 * b.longest()),
-            num(max_gradient(node, &b, 6)),
+            num(max_gradient_with(node, &b, 6, progress)),
             m.colour[0],
             m.colour[1],
             m.colour[2],

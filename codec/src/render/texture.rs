@@ -52,6 +52,9 @@ pub fn domain_uv(domain: &Domain, x: &[f64]) -> Option<[f64; 2]> {
 pub struct Texture {
     /// Level 0 is the image; level `k + 1` halves each side of level `k` (rounding up).
     levels: Vec<RgbImage>,
+    /// The memory budget's count of the levels while the texture lives (clones share
+    /// the image's count).
+    held: std::sync::Arc<crate::budget::Reservation>,
 }
 
 /// One pyramid level from the level below: each texel the mean of (up to) 2x2 texels.
@@ -139,6 +142,12 @@ impl Texture {
         if image.width == 0 || image.height == 0 {
             return Err(RenderError::parameter("texture", "image is empty"));
         }
+        // 12 bytes a texel, a third more for the pyramid: counted while it lives, so a
+        // scene's textures and everything else one command loads share one budget.
+        let held = crate::budget::reserve(
+            || format!("a {}x{} texture", image.width, image.height),
+            crate::budget::bytes(u64::from(image.width), u64::from(image.height), 16),
+        )?;
         let mut levels = vec![image];
         loop {
             let top = levels.last().expect("level 0 exists");
@@ -148,7 +157,10 @@ impl Texture {
             let next = halve(top);
             levels.push(next);
         }
-        Ok(Texture { levels })
+        Ok(Texture {
+            levels,
+            held: std::sync::Arc::new(held),
+        })
     }
 
     /// Loads an image file (any format the checked loader reads).

@@ -38,6 +38,28 @@ pub enum TextureError {
         /// Its target.
         to: [f64; 3],
     },
+    /// A move on a surface reaches past the coordinates a surface model may hold.
+    #[error("move {index} ({from:?} -> {to:?}) reaches past {max:e}, the largest coordinate a surface model holds")]
+    MoveOutOfRange {
+        /// The move's position in its list (from 0).
+        index: usize,
+        /// Its start.
+        from: [f64; 3],
+        /// Its target.
+        to: [f64; 3],
+        /// The largest coordinate magnitude allowed.
+        max: f64,
+    },
+    /// The warp moves a key point's shape past the coordinates a surface model holds.
+    #[error("the warp moves key point {index} to {value:e}, past {max:e}, the largest coordinate a surface model holds")]
+    WarpedOutOfRange {
+        /// The key point (from 0).
+        index: usize,
+        /// The coordinate it would take.
+        value: f64,
+        /// The largest coordinate magnitude allowed.
+        max: f64,
+    },
     /// Two moves on a surface start at the same point, so no warp takes both.
     #[error("two moves start at the same point (move {index}, from {from:?})")]
     CoincidentMoves {

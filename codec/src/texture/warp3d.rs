@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use super::warp::{dist, nearest_other, FoldReport};
 use super::TextureError;
+use crate::surface::model_file::MAX_SHAPE;
 use crate::surface::{Blend, Network, SurfaceModel};
 
 /// One 3-D control point move.
@@ -53,6 +54,19 @@ impl Warp3 {
                 index,
                 from: moves[index].from,
                 to: moves[index].to,
+            });
+        }
+        // A surface model holds coordinates up to MAX_SHAPE: a move past them could only
+        // write a model its own reader refuses.
+        if let Some(index) = moves
+            .iter()
+            .position(|m| m.from.iter().chain(&m.to).any(|v| v.abs() > MAX_SHAPE))
+        {
+            return Err(TextureError::MoveOutOfRange {
+                index,
+                from: moves[index].from,
+                to: moves[index].to,
+                max: MAX_SHAPE,
             });
         }
         if moves.is_empty() {
@@ -193,8 +207,16 @@ impl Warp3 {
             return Err(TextureError::NotPositions { components: p });
         }
         let mut shapes = model.network.shapes().to_vec();
-        for s in shapes.chunks_exact_mut(p) {
+        for (index, s) in shapes.chunks_exact_mut(p).enumerate() {
             let m = self.map([s[0], s[1], s[2]]);
+            // The warp extrapolates past its box: keep the result readable.
+            if let Some(&value) = m.iter().find(|v| v.is_nan() || v.abs() > MAX_SHAPE) {
+                return Err(TextureError::WarpedOutOfRange {
+                    index,
+                    value,
+                    max: MAX_SHAPE,
+                });
+            }
             s[..3].copy_from_slice(&m);
         }
         let mut out = model.clone();

@@ -87,9 +87,26 @@ pub fn load(path: &Path) -> CliResult<Scene> {
     Scene::from_json(&scene.to_string(), &base).map_err(|e| failed(e.to_string()))
 }
 
+/// Checks polygonising on `cells`^3 cells against the memory budget, before the model
+/// is loaded: `frep mesh` and the mesh render path allocate the same grid.
+fn check_cells(cells: u32) -> CliResult {
+    let cells = u64::from(cells);
+    // The grid (its values and the polygoniser's bookkeeping per corner) dominates;
+    // vertices and triangles follow the area. 16 bytes a corner bound the peak measured
+    // (874 MiB for 400 cells, where 8 bytes a corner estimated 496 MiB).
+    caoen::budget::check(
+        || format!("polygonising on {cells}^3 cells"),
+        (cells + 2).pow(3).saturating_mul(16),
+    )
+    .map_err(|e| CliError::Failed(e.to_string()))
+}
+
 fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
     let mut outputs = Outputs::new(global.force).input(&a.model);
     outputs.check_path(&a.output)?;
+    if matches!(a.method, FrepMethodArg::Mesh) {
+        check_cells(a.cells)?;
+    }
     let scene = load(&a.model)?;
     let (width, height) = parse_size(&a.size)?;
     let opts = RenderOptions {
@@ -137,14 +154,17 @@ fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
             fields.len()
         )));
     };
-    let cells = a.cells as u64;
-    // Grid values (8 bytes per corner) dominate; vertices and triangles follow the area.
-    caoen::budget::check(
-        || format!("polygonising on {cells}^3 cells"),
-        (cells + 2).pow(3).saturating_mul(8),
-    )
-    .map_err(|e| CliError::Failed(e.to_string()))?;
+    check_cells(a.cells)?;
     let m = caoen::frep::polygonise::mesh(node, bounds, a.cells as usize);
+    // An empty mesh is no mesh file any reader takes (and no model the user meant).
+    if m.triangles.is_empty() {
+        return Err(CliError::Failed(format!(
+            "{}: no surface found on {} cells along the longest side (the model is empty \
+             or thinner than a cell); nothing written",
+            a.model.display(),
+            a.cells
+        )));
+    }
     let ext = a
         .output
         .extension()
@@ -182,8 +202,13 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     let scene = load(&a.model)?;
     let (width, height) = parse_size(&a.size)?;
     let camera = scene.camera(width, height)?;
-    let text = caoen::render::pov::export(&scene, &camera)
-        .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?;
+    let bar = crate::commands::render::progress_bar(global, "measuring max_gradient");
+    let text = caoen::render::pov::export_with(&scene, &camera, &|done, total| {
+        bar.set_length(total);
+        bar.set_position(done);
+    })
+    .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?;
+    bar.finish_and_clear();
     outputs.write_path(&a.output, text.as_bytes())?;
     note(
         global,
@@ -307,12 +332,6 @@ fn write_model(
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if ext.as_deref() == Some("json") {
-        let text = serde_json::to_string_pretty(model).expect("json values serialise") + "\n";
-        outputs.write_path(output, text.as_bytes())?;
-        note(global, format!("wrote {}", output.display()));
-        return Ok(());
-    }
     let mut object = serde_json::json!({"frep": model["model"]});
     for k in ["material", "bounds"] {
         if !model[k].is_null() {
@@ -329,6 +348,15 @@ fn write_model(
     }
     let scene = Scene::from_json(&scene.to_string(), base)
         .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
+    // The model is loaded as render would load it before a JSON file is written, so
+    // every file written here reads back (nesting, node count and asset limits).
+    if ext.as_deref() == Some("json") {
+        drop(scene);
+        let text = serde_json::to_string_pretty(model).expect("json values serialise") + "\n";
+        outputs.write_path(output, text.as_bytes())?;
+        note(global, format!("wrote {}", output.display()));
+        return Ok(());
+    }
     let (width, height) = parse_size(size)?;
     let opts = RenderOptions {
         width,
@@ -448,6 +476,8 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
             }
         ));
     }
+    // The base model's assets are loaded again with the new model: not twice at once.
+    drop(scene);
     write_model(
         global, &outputs, &model, &a.output, &a.size, a.samples, &base_dir,
     )

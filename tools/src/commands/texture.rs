@@ -296,6 +296,28 @@ fn check_bake(width: u32, height: u32) -> CliResult {
     .map_err(|e| CliError::Failed(e.to_string()))
 }
 
+/// The longest side of a default bake grid.
+pub const MAX_DEFAULT_BAKE: u32 = 4096;
+
+/// The default bake grid for a `width x height` picture rendered at `output`: the
+/// picture's size, scaled down (keeping its shape) so the longer side is at most twice
+/// the longer output side (finer texels are not seen) and at most
+/// [`MAX_DEFAULT_BAKE`]; at least 64 a side where the picture has that many.
+pub fn default_bake(width: u32, height: u32, output: (u32, u32)) -> (u32, u32) {
+    let cap = output
+        .0
+        .max(output.1)
+        .saturating_mul(2)
+        .clamp(64, MAX_DEFAULT_BAKE);
+    let longer = width.max(height);
+    if longer <= cap {
+        return (width, height);
+    }
+    let s = f64::from(cap) / f64::from(longer);
+    let side = |v: u32| ((f64::from(v) * s).round() as u32).clamp(1.min(v), cap);
+    (side(width).max(1), side(height).max(1))
+}
+
 /// `caoen transfer`.
 pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult {
     let ext = a
@@ -371,7 +393,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             let tex = load_texture(texture)?;
             let (tw, th) = match &a.bake_size {
                 Some(s) => crate::commands::render::parse_size(s)?,
-                None => (tex.image().width, tex.image().height),
+                None => default_bake(tex.image().width, tex.image().height, size),
             };
             check_bake(tw, th)?;
             let moved = match ProjectionKind::parse(&a.project) {
