@@ -2,8 +2,9 @@
 //! with exact dielectric Fresnel weights, to a bounded depth.
 //!
 //! Every object answers "where does this ray next cross your surface" in the geometry
-//! it is drawn with: F-rep solids by interval ray casting, convex solids and their CSG
-//! by the crossing search, Cao En surfaces by a triangle hierarchy over their
+//! it is drawn with: F-rep solids by interval ray casting (one that is a convex Cao En
+//! solid alone by its crossing search), convex solids and their CSG by the crossing
+//! search, Cao En surfaces by a triangle hierarchy over their
 //! tessellation whose crossing is then moved onto the surface itself by Newton steps
 //! on the domain (so the normal there is the network's exact normal), and, under the
 //! mesh method, every object by the mesh it was rasterised as.
@@ -71,6 +72,8 @@ enum Target<'a> {
         csg: &'a CsgNode,
         method: RayMethod,
     },
+    /// An F-rep solid that is a convex Cao En solid alone: its own crossing search.
+    Convex(&'a ImplicitTracer),
     /// An F-rep solid.
     Field {
         caster: Caster<'a>,
@@ -133,9 +136,12 @@ impl<'a> RayScene<'a> {
                     csg,
                     method: ray_method,
                 },
-                (None, Shape::Field { node, bounds }) => Target::Field {
-                    caster: Caster::new(node, *bounds, Default::default()),
-                    node,
+                (None, Shape::Field { node, bounds }) => match convex_solid(node) {
+                    Some(tracer) => Target::Convex(tracer),
+                    None => Target::Field {
+                        caster: Caster::new(node, *bounds, Default::default()),
+                        node,
+                    },
                 },
             });
         }
@@ -260,6 +266,23 @@ impl<'a> RayScene<'a> {
                     object,
                 })
             }
+            Target::Convex(tracer) => {
+                let ray = Ray {
+                    origin: add(origin, scale(dir, eps)),
+                    dir,
+                };
+                let c = SCRATCH.with(|s| tracer.crossings(&ray, RayMethod::Fast, &mut s.borrow_mut()))?;
+                let t = if c.t_in > 0.0 { c.t_in } else { c.t_out };
+                if !(t > 0.0 && t + eps < limit) {
+                    return None;
+                }
+                Some(SurfaceHit {
+                    t: t + eps,
+                    normal: tracer.normal(ray.at(t)),
+                    uv: [f32::NAN; 2],
+                    object,
+                })
+            }
             Target::Field { caster, node } => {
                 let t_enter = caster.first_hit(origin, dir, eps, limit)?;
                 // Starting inside: the crossing is where the first span ends.
@@ -287,10 +310,30 @@ impl<'a> RayScene<'a> {
     /// How much of a directional light reaches `p` along `to_light`: 0 behind an opaque
     /// surface, scaled by `transmit` at every crossing of a transmitting one.
     pub fn light_through(&self, p: [f64; 3], to_light: [f64; 3]) -> f32 {
+        let transmits = |i: usize| self.scene.objects[i].material.transmit > 0.0;
+        // Any opaque surface on the way blocks the light, whichever is nearest.
+        for (i, target) in self.targets.iter().enumerate() {
+            if !transmits(i)
+                && self
+                    .hit_target(target, i as u32, p, to_light, f64::INFINITY)
+                    .is_some()
+            {
+                return 0.0;
+            }
+        }
         let mut through = 1.0f32;
         let mut origin = p;
         for _ in 0..MAX_SHADOW_CROSSINGS {
-            let Some(h) = self.hit(origin, to_light) else {
+            let mut next: Option<SurfaceHit> = None;
+            for (i, target) in self.targets.iter().enumerate() {
+                let limit = next.map_or(f64::INFINITY, |b| b.t);
+                if transmits(i) {
+                    if let Some(h) = self.hit_target(target, i as u32, origin, to_light, limit) {
+                        next = Some(h);
+                    }
+                }
+            }
+            let Some(h) = next else {
                 return through;
             };
             let m = &self.scene.objects[h.object as usize].material;
@@ -472,6 +515,17 @@ fn refine_crossing(
         (x, t)
     } else {
         (x0.to_vec(), t0)
+    }
+}
+
+/// The implicit form of an F-rep model that is one convex Cao En solid (formula 17),
+/// which its own crossing search traces far faster than interval casting.
+pub fn convex_solid(node: &crate::frep::Node) -> Option<&ImplicitTracer> {
+    match node {
+        crate::frep::Node::Primitive(crate::frep::primitive::Primitive::CaoEn(c)) => {
+            Some(c.tracer())
+        }
+        _ => None,
     }
 }
 

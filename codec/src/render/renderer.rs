@@ -520,7 +520,8 @@ fn centre_sample(
 }
 
 /// Ray casts an F-rep solid through every pixel of `camera` (interval subdivision,
-/// normals from the exact gradient); returns the hits and the number of rays.
+/// normals from the exact gradient; a convex Cao En solid alone by its crossing
+/// search); returns the hits and the number of rays.
 pub fn trace_field(
     node: &crate::frep::Node,
     bounds: &crate::frep::Aabb,
@@ -528,6 +529,17 @@ pub fn trace_field(
     object: u32,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (Vec<Option<Hit>>, usize) {
+    if let Some(tracer) = super::rays::convex_solid(node) {
+        let solid = [tracer.clone()];
+        return super::csg::trace_tracers(
+            &solid,
+            &super::csg::CsgNode::Solid(0),
+            camera,
+            crate::surface::tracer::RayMethod::Fast,
+            object,
+            progress,
+        );
+    }
     let caster = crate::frep::raycast::Caster::new(node, *bounds, Default::default());
     let (w, h) = (camera.width as usize, camera.height as usize);
     let done = AtomicU64::new(0);
