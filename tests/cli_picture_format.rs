@@ -39,7 +39,14 @@ fn render_commands_write_the_format_the_extension_names() {
     ] {
         let out = dir.join(format!("surface-{name}"));
         let o = caoen(&[
-            "surface", "render", "builtin:blob", "-o", s(&out), "--size", "64x48", "--samples",
+            "surface",
+            "render",
+            "builtin:blob",
+            "-o",
+            s(&out),
+            "--size",
+            "64x48",
+            "--samples",
             "1",
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -49,7 +56,15 @@ fn render_commands_write_the_format_the_extension_names() {
 
         let out = dir.join(format!("frep-{name}"));
         let o = caoen(&[
-            "frep", "render", s(&model), "-o", s(&out), "--size", "40x30", "--samples", "1",
+            "frep",
+            "render",
+            s(&model),
+            "-o",
+            s(&out),
+            "--size",
+            "40x30",
+            "--samples",
+            "1",
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert_eq!(sniff(&out), want, "{name}");
@@ -80,7 +95,11 @@ fn other_extensions_are_refused_before_the_work() {
         vec!["frep", "render", s(&missing), "-o"],
         vec!["heightfield", s(&missing), "-o"],
     ] {
-        for (out, ext) in [("x.bmp", "`.bmp`"), ("x.tiff", "`.tiff`"), ("x", "no extension")] {
+        for (out, ext) in [
+            ("x.bmp", "`.bmp`"),
+            ("x.tiff", "`.tiff`"),
+            ("x", "no extension"),
+        ] {
             let out = dir.join(out);
             let mut a = args.clone();
             a.push(s(&out));

@@ -59,11 +59,13 @@ fn exact_normal_directions_match_finite_differences() {
         let mut checked = 0;
         while checked < 10_000 / 3 + 1 {
             let raw: Vec<f64> = (0..m).map(|_| s.next()).collect();
-            let Ok(x) = domain.project(&raw) else { continue };
+            let Ok(x) = domain.project(&raw) else {
+                continue;
+            };
             let (_, n) = point_and_normal(net, domain, &x).unwrap();
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             // Singular points (no tangent plane) have no direction to compare.
-            if !(len > 1e-3) {
+            if len.is_nan() || len <= 1e-3 {
                 continue;
             }
             let exact = n.map(|v| v / len);
@@ -89,7 +91,8 @@ fn exact_normal_directions_match_finite_differences() {
             } else {
                 d
             };
-            let err = |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max);
+            let err =
+                |a: [f64; 3], b: [f64; 3]| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max);
             worst = worst.max(err(reflect(d, exact), reflect(d, fd)));
             for eta in [1.0 / 1.5, 1.5] {
                 match (refract(d, exact, eta), refract(d, fd, eta)) {
@@ -166,8 +169,16 @@ fn mirror_and_glass_golden_values() {
 #[test]
 fn bad_material_fields_name_the_field() {
     for (material, top, field) in [
-        (json!({"reflect": 1.5}), json!({}), "objects[0].material.reflect"),
-        (json!({"transmit": -0.1}), json!({}), "objects[0].material.transmit"),
+        (
+            json!({"reflect": 1.5}),
+            json!({}),
+            "objects[0].material.reflect",
+        ),
+        (
+            json!({"transmit": -0.1}),
+            json!({}),
+            "objects[0].material.transmit",
+        ),
         (json!({"ior": 0.5}), json!({}), "objects[0].material.ior"),
         (json!({}), json!({"max_depth": 0}), "max_depth"),
         (json!({}), json!({"max_depth": 65}), "max_depth"),
@@ -180,7 +191,9 @@ fn bad_material_fields_name_the_field() {
         for (k, x) in top.as_object().unwrap() {
             v[k] = x.clone();
         }
-        let e = Scene::from_json(&v.to_string(), Path::new(".")).unwrap_err().to_string();
+        let e = Scene::from_json(&v.to_string(), Path::new("."))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(field), "{field}: {e}");
     }
 }
@@ -235,11 +248,27 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
         dir.join(format!("{stem}-caoen.png")),
         dir.join(format!("{stem}-povray.png")),
     );
-    let o = caoen(&["frep", "export-pov", s(scene), "-o", s(&pov), "--size", "512x512"]);
+    let o = caoen(&[
+        "frep",
+        "export-pov",
+        s(scene),
+        "-o",
+        s(&pov),
+        "--size",
+        "512x512",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let started = std::time::Instant::now();
     let o = caoen(&[
-        "frep", "render", s(scene), "-o", s(&ours), "--size", "512x512", "--samples", samples,
+        "frep",
+        "render",
+        s(scene),
+        "-o",
+        s(&ours),
+        "--size",
+        "512x512",
+        "--samples",
+        samples,
     ]);
     let ours_s = started.elapsed().as_secs_f64();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -257,7 +286,11 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
         .output()
         .unwrap();
     let theirs_s = started.elapsed().as_secs_f64();
-    assert!(o.status.success(), "povray: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "povray: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let (a, b) = (
         image::open(&ours).unwrap().to_rgb8(),
         image::open(&theirs).unwrap().to_rgb8(),
@@ -265,7 +298,12 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
     let mask = |img: &image::RgbImage| {
         let bg = *img.get_pixel(0, 0);
         img.pixels()
-            .map(|q| (0..3).map(|k| (q[k] as i32 - bg[k] as i32).abs()).sum::<i32>() > 24)
+            .map(|q| {
+                (0..3)
+                    .map(|k| (q[k] as i32 - bg[k] as i32).abs())
+                    .sum::<i32>()
+                    > 24
+            })
             .collect::<Vec<bool>>()
     };
     let (ma, mb) = (mask(&a), mask(&b));
@@ -274,7 +312,10 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
     let mut sum = 0.0;
     for (i, (pa, pb)) in a.pixels().zip(b.pixels()).enumerate() {
         if ma[i] && mb[i] {
-            sum += (0..3).map(|k| (pa[k] as f64 - pb[k] as f64).abs()).sum::<f64>() / 3.0;
+            sum += (0..3)
+                .map(|k| (pa[k] as f64 - pb[k] as f64).abs())
+                .sum::<f64>()
+                / 3.0;
         }
     }
     (

@@ -181,7 +181,9 @@ impl<'a> RayScene<'a> {
                 let [a, b, c] = mesh.triangles[h.triangle as usize].map(|v| v as usize);
                 let w = [1.0 - h.bary[0] - h.bary[1], h.bary[0], h.bary[1]];
                 let n = [0, 1, 2].map(|k| {
-                    w[0] * mesh.normals[a][k] + w[1] * mesh.normals[b][k] + w[2] * mesh.normals[c][k]
+                    w[0] * mesh.normals[a][k]
+                        + w[1] * mesh.normals[b][k]
+                        + w[2] * mesh.normals[c][k]
                 });
                 let uv = if mesh.corner_uvs.len() == mesh.triangles.len() {
                     let cu = mesh.corner_uvs[h.triangle as usize];
@@ -226,7 +228,8 @@ impl<'a> RayScene<'a> {
                     let n = point_and_normal(&model.network, &model.domain, &x)
                         .map(|(_, n)| place.normal(n))
                         .unwrap_or([0.0; 3]);
-                    let uv = domain_uv(&model.domain, &x).map_or([f32::NAN; 2], |u| u.map(|v| v as f32));
+                    let uv =
+                        domain_uv(&model.domain, &x).map_or([f32::NAN; 2], |u| u.map(|v| v as f32));
                     return Some(SurfaceHit {
                         t,
                         normal: unit_or_zero(n),
@@ -245,7 +248,8 @@ impl<'a> RayScene<'a> {
                     origin: add(origin, scale(dir, eps)),
                     dir,
                 };
-                let span = SCRATCH.with(|s| first_span(tracers, csg, &ray, *method, &mut s.borrow_mut()))?;
+                let span = SCRATCH
+                    .with(|s| first_span(tracers, csg, &ray, *method, &mut s.borrow_mut()))?;
                 let bd = if span.enter.t > 0.0 {
                     span.enter
                 } else {
@@ -271,7 +275,8 @@ impl<'a> RayScene<'a> {
                     origin: add(origin, scale(dir, eps)),
                     dir,
                 };
-                let c = SCRATCH.with(|s| tracer.crossings(&ray, RayMethod::Fast, &mut s.borrow_mut()))?;
+                let c = SCRATCH
+                    .with(|s| tracer.crossings(&ray, RayMethod::Fast, &mut s.borrow_mut()))?;
                 let t = if c.t_in > 0.0 { c.t_in } else { c.t_out };
                 if !(t > 0.0 && t + eps < limit) {
                     return None;
@@ -565,7 +570,8 @@ pub fn fresnel(c: f64, n: f64) -> f64 {
         return 1.0;
     }
     let g = g2.sqrt();
-    let f = 0.5 * ((g - c) / (g + c)).powi(2)
+    let f = 0.5
+        * ((g - c) / (g + c)).powi(2)
         * (1.0 + ((c * (g + c) - 1.0) / (c * (g - c) + 1.0)).powi(2));
     f.clamp(0.0, 1.0)
 }

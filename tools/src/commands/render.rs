@@ -4,10 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use caoen::render::framebuffer::PictureFormat;
 use caoen::render::mesh::NormalMode;
 use caoen::render::raytrace::RayMethod;
 use caoen::render::scene::texture_wrap;
-use caoen::render::framebuffer::PictureFormat;
 use caoen::render::texture::Texture;
 use caoen::render::{render, Method, Projection, RenderError, RenderOptions, Rendered, Scene};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};

@@ -118,11 +118,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
 /// formula 17) and a red ball on a slab under a key and a fill light, with shadows;
 /// its render and its POV-Ray export.
 fn write_mirror_glass(global: &GlobalArgs, sub: &Path, n: u32) -> CliResult {
-    save_json(
-        sub,
-        "mirror-glass.json",
-        &mirror_glass_scene(),
-    )?;
+    save_json(sub, "mirror-glass.json", &mirror_glass_scene())?;
     let scene = crate::commands::frep::load(&sub.join("mirror-glass.json"))?;
     let r = render(&scene, &opts(400, 300, n, Method::Ray), &|_, _| {})?;
     save_png(global, sub, "mirror-glass.png", &r.image)?;
