@@ -210,7 +210,7 @@ fn cli_render_rejects_bad_usage_with_exit_code_2() {
             "--size",
             "12",
         ],
-        vec!["surface", "render", "builtin:blob", "-o", "x.jpg"],
+        vec!["surface", "render", "builtin:blob", "-o", "x.bmp"],
         vec![
             "surface",
             "render",

@@ -12,7 +12,7 @@ camera {
   angle 29.999999999999996
   look_at <3.999093615345797, 3.259274892276638, -6.518549784553276>
 }
-global_settings { ambient_light rgb <0.06, 0.06, 0.06> }
+global_settings { ambient_light rgb <0.06, 0.06, 0.06> max_trace_level 5 adc_bailout 1/255 }
 light_source { <-6666.666666666666, 6666.666666666666, -3333.333333333333> color rgb <1, 0.96, 0.9> parallel point_at <0, 0, 0> }
 light_source { <9407.208683835972, 1881.4417367671945, -2822.1626051507915> color rgb <0.175, 0.2, 0.25> parallel point_at <0, 0, 0> }
 #declare caoen_union = function(p, q, k) { select(k - 1, (p + q + sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), max(p, q)) }
@@ -30,6 +30,6 @@ isosurface {
   threshold 0
   accuracy 3.08115e-5
   max_gradient 2.2741360281930607
-  pigment { rgb <0.6038273, 0.21404114, 0.073238954> }
+  pigment { rgbt <0.6038273, 0.21404114, 0.073238954, 0> }
   finish { ambient 1 diffuse 1 specular 0.25 roughness 0.025 }
 }

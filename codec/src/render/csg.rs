@@ -321,6 +321,18 @@ pub fn trace_solids(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (Vec<Option<Hit>>, usize) {
     let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
+    trace_tracers(&tracers, csg, camera, method, object, progress)
+}
+
+/// [`trace_solids`] for solids already in their implicit form.
+pub fn trace_tracers(
+    tracers: &[ImplicitTracer],
+    csg: &CsgNode,
+    camera: &Camera,
+    method: RayMethod,
+    object: u32,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> (Vec<Option<Hit>>, usize) {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let done = AtomicU64::new(0);
     let rows: Vec<Vec<Option<Hit>>> = (0..h)
@@ -330,7 +342,7 @@ pub fn trace_solids(
             let row = (0..w)
                 .map(|x| {
                     let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                    let span = first_span(&tracers, csg, &ray, method, &mut scratch)?;
+                    let span = first_span(tracers, csg, &ray, method, &mut scratch)?;
                     let (bd, t) = if span.enter.t > 0.0 {
                         (span.enter, span.enter.t)
                     } else {

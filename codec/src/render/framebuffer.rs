@@ -7,6 +7,37 @@ use palette::{LinSrgb, Srgb};
 
 use super::error::{RenderError, Result};
 
+/// JPEG quality of written pictures (high: renders have smooth gradients).
+const JPEG_QUALITY: u8 = 92;
+
+/// The file formats a picture is written in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PictureFormat {
+    /// PNG, lossless.
+    Png,
+    /// JPEG (baseline, quality 92).
+    Jpeg,
+}
+
+impl PictureFormat {
+    /// The extensions written, for messages.
+    pub const EXTENSIONS: &'static str = ".png, .jpg or .jpeg";
+
+    /// The format a file name's extension asks for (any case); the extension found
+    /// (empty without one) when it names none.
+    pub fn from_path(path: &std::path::Path) -> std::result::Result<Self, String> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        match ext.as_str() {
+            "png" => Ok(PictureFormat::Png),
+            "jpg" | "jpeg" => Ok(PictureFormat::Jpeg),
+            _ => Err(ext),
+        }
+    }
+}
+
 /// The nearest surface seen through one (sub)pixel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
@@ -153,6 +184,28 @@ impl RgbImage {
             out.extend_from_slice(&linear_to_srgb8(*p));
         }
         out
+    }
+
+    /// The image as a file of `format` (8-bit sRGB).
+    pub fn encode(&self, format: PictureFormat) -> Result<Vec<u8>> {
+        match format {
+            PictureFormat::Png => self.encode_png(),
+            PictureFormat::Jpeg => {
+                let mut bytes = Vec::new();
+                image::codecs::jpeg::JpegEncoder::new_with_quality(&mut bytes, JPEG_QUALITY)
+                    .encode(
+                        &self.to_srgb8(),
+                        self.width,
+                        self.height,
+                        image::ExtendedColorType::Rgb8,
+                    )
+                    .map_err(|e| RenderError::Encode {
+                        format: "JPEG",
+                        source: Box::new(e),
+                    })?;
+                Ok(bytes)
+            }
+        }
     }
 
     /// The image as an 8-bit sRGB PNG file.

@@ -4,6 +4,7 @@
 // `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bvh;
 pub mod camera;
 pub mod csg;
 pub mod depth_buffer;
@@ -13,6 +14,7 @@ pub mod mesh;
 pub mod mesh_io;
 pub mod pov;
 pub mod raster;
+pub mod rays;
 pub mod renderer;
 pub mod scene;
 pub mod scene_file;

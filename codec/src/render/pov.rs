@@ -3,7 +3,9 @@
 //! Every F-rep object is an `isosurface` of the negated model function (POV-Ray's
 //! inside is below the threshold, F-rep's is `f >= 0`), its function declared by
 //! `frep::pov`. The camera is caoen's resolved camera (same eye, direction, up and
-//! field of view), the lights are parallel lights along the same directions.
+//! field of view), the lights are parallel lights along the same directions, shadows
+//! as the scene has them. Materials map to POV-Ray's finish, pigment transmit and
+//! interior so that its reflection, refraction and shadows are `render::rays`'s.
 
 use std::fmt::Write as _;
 
@@ -94,18 +96,19 @@ pub fn export_with(
     let amb = scene.lighting.ambient;
     let _ = writeln!(
         out,
-        "global_settings {{ ambient_light rgb <{}, {}, {}> }}",
-        amb[0], amb[1], amb[2]
+        "global_settings {{ ambient_light rgb <{}, {}, {}> max_trace_level {} adc_bailout 1/255 }}",
+        amb[0], amb[1], amb[2], scene.max_depth
     );
     for l in &scene.lighting.lights {
         let far = l.direction.map(|v| v * 1e4);
         let _ = writeln!(
             out,
-            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0> }}",
+            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0>{} }}",
             v3(far),
             l.radiance[0],
             l.radiance[1],
-            l.radiance[2]
+            l.radiance[2],
+            if scene.shadows { "" } else { " shadowless" }
         );
     }
     out.push_str(R_FUNCTIONS);
@@ -130,7 +133,7 @@ pub fn export_with(
         let m = &obj.material;
         let _ = writeln!(
             out,
-            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  pigment {{ rgb <{}, {}, {}> }}\n  finish {{ ambient {} diffuse {} specular {} roughness {} }}\n}}",
+            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  pigment {{ rgbt <{}, {}, {}, {}> }}\n  finish {{ ambient {} diffuse {} specular {} roughness {}{} }}{}\n}}",
             v3(b.lo),
             v3(b.hi),
             num(1e-5 * b.longest()),
@@ -138,11 +141,34 @@ pub fn export_with(
             m.colour[0],
             m.colour[1],
             m.colour[2],
+            m.transmit,
             m.ambient,
             m.diffuse,
             m.specular,
-            num(1.0 / m.shininess.max(1.0) as f64)
+            num(1.0 / m.shininess.max(1.0) as f64),
+            reflection(m),
+            if m.transmit > 0.0 {
+                format!("\n  interior {{ ior {} }}", num(m.ior))
+            } else {
+                String::new()
+            }
         );
     }
     Ok(out)
+}
+
+/// The finish's reflection: constant for an opaque mirror; for a transmitting material
+/// Fresnel-weighted up to `reflect`, with the transmitted light reduced by what is
+/// reflected (`conserve_energy`), as `render::rays` computes it.
+fn reflection(m: &super::shading::Material) -> String {
+    if m.transmit > 0.0 {
+        format!(
+            " reflection {{ 0, {} fresnel on }} conserve_energy",
+            m.reflect
+        )
+    } else if m.reflect > 0.0 {
+        format!(" reflection {{ {} }}", m.reflect)
+    } else {
+        String::new()
+    }
 }

@@ -20,12 +20,12 @@ use super::depth_buffer::{depth_buffer, DepthBufferOptions};
 use super::error::{RenderError, Result};
 use super::framebuffer::{DepthMap, GBuffer, Hit, RgbImage};
 use super::raster::rasterise;
+use super::rays::RayScene;
 use super::scene::{Scene, Shape};
-use super::shading::shade;
 use super::texture::{domain_uv, Wrap};
 use crate::geometry::mesh::Mesh;
 use crate::geometry::transform::Affine;
-use crate::geometry::vector::{dot, scale};
+use crate::geometry::vector::{dot, sub};
 use crate::surface::normals::{point_and_normal, NormalNetwork};
 use crate::surface::tessellate::{tessellate, NormalMode};
 use crate::surface::tracer::RayMethod;
@@ -186,8 +186,10 @@ pub fn render(
         stage: AtomicU64::new(0),
         report: progress,
     };
-    let (buf, stats) = draw(scene, &camera, opts, &prog)?;
-    let image = shade_buffer(scene, &camera, &buf).downsample(n);
+    let (buf, stats, meshes) = draw(scene, &camera, opts, &prog)?;
+    let radius = scene.bounds()?.1;
+    let rays = RayScene::new(scene, meshes, opts.ray_method, radius)?;
+    let image = shade_buffer(scene, &camera, &buf, &rays).downsample(n);
     prog.next();
     Ok(Rendered {
         image,
@@ -212,15 +214,17 @@ pub fn render_gbuffer(
         stage: AtomicU64::new(0),
         report: &|_, _| {},
     };
-    draw(scene, camera, opts, &prog)
+    draw(scene, camera, opts, &prog).map(|(buf, stats, _)| (buf, stats))
 }
 
+/// Draws every object into a nearest-hit buffer; also returns each object's mesh when
+/// it was drawn as one, for the secondary rays to meet the same geometry.
 fn draw(
     scene: &Scene,
     camera: &Camera,
     opts: &RenderOptions,
     prog: &Progress,
-) -> Result<(GBuffer, RenderStats)> {
+) -> Result<(GBuffer, RenderStats, Vec<Option<Mesh>>)> {
     // Per sample: the hit buffer, a surface's depth-buffer image, the shaded colour and
     // the depth map.
     let per_sample = std::mem::size_of::<Option<super::framebuffer::Hit>>() as u64 + 48 + 12 + 8;
@@ -232,7 +236,9 @@ fn draw(
     let mut stats = RenderStats::default();
     // Network camera: largest distance, their sum and the vertex count.
     let mut network_error = [0.0f64; 3];
+    let mut meshes = Vec::with_capacity(scene.objects.len());
     for (oi, obj) in scene.objects.iter().enumerate() {
+        let mut drawn = None;
         let id = oi as u32;
         match (&obj.shape, opts.method) {
             (
@@ -255,6 +261,7 @@ fn draw(
                 }
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
+                drawn = Some(mesh);
             }
             (Shape::Surface { model, place, .. }, _) => {
                 let img =
@@ -272,12 +279,14 @@ fn draw(
                 let mesh = polygonise_solids(solids, csg, opts.polygonise_cells);
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
+                drawn = Some(mesh);
             }
             (Shape::Field { node, bounds }, Method::Mesh) => {
                 let mesh =
                     crate::frep::polygonise::render_mesh(node, bounds, opts.polygonise_cells);
                 prog.within(1, 2);
                 stats.triangles += rasterise(&mesh, camera, id, &mut buf);
+                drawn = Some(mesh);
             }
             (Shape::Field { node, bounds }, _) => {
                 let (hits, rays) = trace_field(node, bounds, camera, id, &|d, t| prog.within(d, t));
@@ -301,6 +310,7 @@ fn draw(
                 }
             }
         }
+        meshes.push(drawn);
         prog.next();
     }
     if opts.network_camera {
@@ -309,7 +319,7 @@ fn draw(
         let [max, sum, count] = network_error;
         stats.projection_error = Some([max / per, sum / count.max(1.0) / per]);
     }
-    Ok((buf, stats))
+    Ok((buf, stats, meshes))
 }
 
 /// Moves every vertex of a placed mesh to where the paper's camera network puts it on
@@ -510,7 +520,8 @@ fn centre_sample(
 }
 
 /// Ray casts an F-rep solid through every pixel of `camera` (interval subdivision,
-/// normals from the exact gradient); returns the hits and the number of rays.
+/// normals from the exact gradient; a convex Cao En solid alone by its crossing
+/// search); returns the hits and the number of rays.
 pub fn trace_field(
     node: &crate::frep::Node,
     bounds: &crate::frep::Aabb,
@@ -518,6 +529,17 @@ pub fn trace_field(
     object: u32,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (Vec<Option<Hit>>, usize) {
+    if let Some(tracer) = super::rays::convex_solid(node) {
+        let solid = [tracer.clone()];
+        return super::csg::trace_tracers(
+            &solid,
+            &super::csg::CsgNode::Solid(0),
+            camera,
+            crate::surface::tracer::RayMethod::Fast,
+            object,
+            progress,
+        );
+    }
     let caster = crate::frep::raycast::Caster::new(node, *bounds, Default::default());
     let (w, h) = (camera.width as usize, camera.height as usize);
     let done = AtomicU64::new(0);
@@ -548,8 +570,8 @@ pub fn trace_field(
     (rows.into_iter().flatten().collect(), w * h)
 }
 
-/// Shades every subpixel of `buf`.
-fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer) -> RgbImage {
+/// Shades every subpixel of `buf`, with shadow, reflected and refracted rays.
+fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer, rays: &RayScene) -> RgbImage {
     let w = buf.width as usize;
     let pixels = buf
         .hits
@@ -566,12 +588,18 @@ fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer) -> RgbImage {
                         .albedo_filtered(h.uv, uv_steps(buf, i, h, *wrap)),
                     None => obj.material.colour,
                 };
-                shade(
-                    &scene.lighting,
-                    &obj.material,
-                    albedo,
+                // The hit point from its depth along the viewing direction.
+                let along = dot(ray.dir, camera.forward);
+                let t = (h.depth - dot(sub(ray.origin, camera.eye), camera.forward)) / along;
+                rays.shade(
+                    ray.at(t),
+                    ray.dir,
                     h.normal.map(|v| v as f64),
-                    scale(ray.dir, -1.0),
+                    h.object,
+                    albedo,
+                    1,
+                    1.0,
+                    None,
                 )
             }
         })

@@ -100,7 +100,16 @@ pub struct Scene {
     pub lighting: Lighting,
     /// Objects, drawn in this order (ties in depth keep the earlier object).
     pub objects: Vec<SceneObject>,
+    /// Whether lights cast shadows.
+    pub shadows: bool,
+    /// Longest chain of rays (the primary ray counts 1), POV-Ray's `max_trace_level`.
+    pub max_depth: u32,
 }
+
+/// Default longest chain of rays (POV-Ray's default `max_trace_level`).
+pub const DEFAULT_MAX_DEPTH: u32 = 5;
+/// Largest `max_depth` a scene may ask for.
+pub const MAX_MAX_DEPTH: u32 = 64;
 
 impl Scene {
     /// A scene of one surface with the default camera, lights and material; the model's
@@ -125,6 +134,8 @@ impl Scene {
                 },
                 material,
             }],
+            shadows: true,
+            max_depth: DEFAULT_MAX_DEPTH,
         })
     }
 

@@ -11,7 +11,10 @@ use super::camera::Projection;
 use super::csg::CsgNode;
 use super::error::{RenderError, Result};
 use super::framebuffer::srgb_to_linear;
-use super::scene::{texture_wrap, CameraSpec, Scene, SceneObject, Shape, SCENE_FORMAT_TAG};
+use super::scene::{
+    texture_wrap, CameraSpec, Scene, SceneObject, Shape, DEFAULT_MAX_DEPTH, MAX_MAX_DEPTH,
+    SCENE_FORMAT_TAG,
+};
 use super::shading::{Light, Lighting, Material};
 use super::texture::Texture;
 use crate::frep::convex_solid::{scale_of, FileSolid, ScaleSpec, SCALE_RANGE};
@@ -100,12 +103,25 @@ impl Scene {
             .enumerate()
             .map(|(i, o)| o.resolve(&format!("objects[{i}]"), base_dir))
             .collect::<Result<_>>()?;
+        let max_depth = match file.max_depth {
+            None => DEFAULT_MAX_DEPTH,
+            Some(d) if (1..=u64::from(MAX_MAX_DEPTH)).contains(&d) => d as u32,
+            Some(d) => {
+                return Err(RenderError::Field(FieldError::new(
+                    "max_depth",
+                    format!("an integer in 1..={MAX_MAX_DEPTH}"),
+                    d.to_string(),
+                )))
+            }
+        };
         Ok(Scene {
             name: file.name,
             camera,
             background: check_colour("background", file.background)?,
             lighting,
             objects,
+            shadows: file.shadows.unwrap_or(true),
+            max_depth,
         })
     }
 }
@@ -115,6 +131,8 @@ impl Scene {
 const MAX_COEFFICIENT: f64 = 1e3;
 /// Largest shininess exponent.
 const MAX_SHININESS: f64 = 1e4;
+/// Largest index of refraction (well above any real material's).
+const MAX_IOR: f64 = 10.0;
 
 fn check_number(what: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
     Ok(crate::json::check_number(what, v, lo, hi)?)
@@ -165,6 +183,10 @@ struct FileScene {
     ambient: Option<[f64; 3]>,
     #[serde(default)]
     lights: Option<Vec<FileLight>>,
+    #[serde(default)]
+    shadows: Option<bool>,
+    #[serde(default)]
+    max_depth: Option<u64>,
     objects: Vec<FileObject>,
 }
 
@@ -295,6 +317,12 @@ struct FileMaterial {
     shininess: Option<f64>,
     #[serde(default)]
     texture: Option<String>,
+    #[serde(default)]
+    reflect: Option<f64>,
+    #[serde(default)]
+    transmit: Option<f64>,
+    #[serde(default)]
+    ior: Option<f64>,
 }
 
 #[derive(Deserialize, Default)]
@@ -443,6 +471,17 @@ impl FileObject {
                 };
                 *dst = check_number(&format!("{mp}.{what}"), v, 0.0, hi)? as f32;
             }
+        }
+        for (what, v, dst) in [
+            ("reflect", fm.reflect, &mut material.reflect),
+            ("transmit", fm.transmit, &mut material.transmit),
+        ] {
+            if let Some(v) = v {
+                *dst = check_number(&format!("{mp}.{what}"), v, 0.0, 1.0)? as f32;
+            }
+        }
+        if let Some(v) = fm.ior {
+            material.ior = check_number(&format!("{mp}.ior"), v, 1.0, MAX_IOR)?;
         }
         let kinds = [
             self.surface.is_some(),

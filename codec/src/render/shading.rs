@@ -63,6 +63,12 @@ pub struct Material {
     pub shininess: f32,
     /// Texture on the domain, with its wrap mode.
     pub texture: Option<(Arc<Texture>, Wrap)>,
+    /// Mirror reflectance in [0, 1] (times the Fresnel reflectance when transmitting).
+    pub reflect: f32,
+    /// Share of light passing through the surface, in [0, 1].
+    pub transmit: f32,
+    /// Index of refraction of the inside (>= 1).
+    pub ior: f64,
 }
 
 impl Default for Material {
@@ -74,6 +80,9 @@ impl Default for Material {
             specular: 0.25,
             shininess: 40.0,
             texture: None,
+            reflect: 0.0,
+            transmit: 0.0,
+            ior: 1.0,
         }
     }
 }
@@ -117,20 +126,40 @@ pub fn shade(
     normal: [f64; 3],
     to_eye: [f64; 3],
 ) -> [f32; 3] {
+    shade_lit(lighting, material, albedo, normal, to_eye, 1.0, &|_| 1.0)
+}
+
+/// [`shade`] with an opacity (the share of ambient and diffuse light the surface
+/// keeps, `1 - transmit`; the highlight is not scaled, as in POV-Ray) and the share of
+/// each light that reaches the point, `visible(direction towards the light)` (asked
+/// only of lights in front of the surface).
+pub fn shade_lit(
+    lighting: &Lighting,
+    material: &Material,
+    albedo: [f32; 3],
+    normal: [f64; 3],
+    to_eye: [f64; 3],
+    opacity: f32,
+    visible: &dyn Fn([f64; 3]) -> f32,
+) -> [f32; 3] {
     let mut n = normal;
     if dot(n, to_eye) < 0.0 {
         n = n.map(|v| -v);
     }
     let mut out = [0.0f32; 3];
     for k in 0..3 {
-        out[k] = lighting.ambient[k] * material.ambient * albedo[k];
+        out[k] = lighting.ambient[k] * material.ambient * albedo[k] * opacity;
     }
     for light in &lighting.lights {
         let cos = dot(n, light.direction);
         if cos <= 0.0 {
             continue;
         }
-        let diffuse = material.diffuse * cos as f32;
+        let seen = visible(light.direction);
+        if seen <= 0.0 {
+            continue;
+        }
+        let diffuse = material.diffuse * cos as f32 * opacity;
         let mut spec = 0.0f32;
         if material.specular > 0.0 {
             let h = unit(add(light.direction, to_eye));
@@ -138,7 +167,7 @@ pub fn shade(
             spec = material.specular * c.powf(material.shininess);
         }
         for k in 0..3 {
-            out[k] += light.radiance[k] * (diffuse * albedo[k] + spec);
+            out[k] += seen * light.radiance[k] * (diffuse * albedo[k] + spec);
         }
     }
     out

@@ -11,7 +11,7 @@ use crate::cli::{
     HeightBaseArg, HeightfieldArgs, PictureArgs,
 };
 use crate::commands::note;
-use crate::commands::render::{parse_size, render_with_progress};
+use crate::commands::render::{parse_size, picture_format, render_with_progress};
 use crate::failure::{CliError, CliResult};
 use crate::output::Outputs;
 
@@ -102,6 +102,7 @@ fn check_cells(cells: u32) -> CliResult {
 }
 
 fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
+    let format = picture_format(&a.output)?;
     let mut outputs = Outputs::new(global.force).input(&a.model);
     outputs.check_path(&a.output)?;
     if matches!(a.method, FrepMethodArg::Mesh) {
@@ -122,7 +123,7 @@ fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
     };
     let start = std::time::Instant::now();
     let r = render_with_progress(global, &scene, &opts, "rendering")?;
-    outputs.write_path(&a.output, &r.image.encode_png()?)?;
+    outputs.write_path(&a.output, &r.image.encode(format)?)?;
     note(
         global,
         format!(
@@ -280,11 +281,8 @@ pub fn heightfield(global: &GlobalArgs, a: &HeightfieldArgs) -> CliResult {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("json" | "png")) {
-        return Err(CliError::Usage(format!(
-            "{}: output must end in .json (model) or .png (render)",
-            a.output.display()
-        )));
+    if ext.as_deref() != Some("json") {
+        model_or_picture(&a.output)?;
     }
     if !(a.height.is_finite() && a.height.abs() <= 1e3) {
         return Err(CliError::Usage(format!(
@@ -317,8 +315,17 @@ pub fn heightfield(global: &GlobalArgs, a: &HeightfieldArgs) -> CliResult {
     )
 }
 
+/// The picture format of an output that is a model (.json) or a render: named by
+/// what the command writes when the extension is neither.
+fn model_or_picture(output: &Path) -> CliResult<caoen::render::framebuffer::PictureFormat> {
+    picture_format(output).map_err(|e| match e {
+        CliError::Usage(m) => CliError::Usage(format!("{m} (or .json for the model)")),
+        other => other,
+    })
+}
+
 /// Writes `model` (an F-rep model file's JSON) to `output`: the JSON itself (.json) or
-/// its ray-cast render (.png); file names in it resolve against `base`.
+/// its ray-cast render (a picture); file names in it resolve against `base`.
 fn write_model(
     global: &GlobalArgs,
     outputs: &Outputs,
@@ -332,6 +339,12 @@ fn write_model(
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    // Refused before any work when the extension is neither a model nor a picture.
+    let format = if ext.as_deref() == Some("json") {
+        None
+    } else {
+        Some(model_or_picture(output)?)
+    };
     let mut object = serde_json::json!({"frep": model["model"]});
     for k in ["material", "bounds"] {
         if !model[k].is_null() {
@@ -350,13 +363,13 @@ fn write_model(
         .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
     // The model is loaded as render would load it before a JSON file is written, so
     // every file written here reads back (nesting, node count and asset limits).
-    if ext.as_deref() == Some("json") {
+    let Some(format) = format else {
         drop(scene);
         let text = serde_json::to_string_pretty(model).expect("json values serialise") + "\n";
         outputs.write_path(output, text.as_bytes())?;
         note(global, format!("wrote {}", output.display()));
         return Ok(());
-    }
+    };
     let (width, height) = parse_size(size)?;
     let opts = RenderOptions {
         width,
@@ -366,7 +379,7 @@ fn write_model(
         ..RenderOptions::default()
     };
     let r = render_with_progress(global, &scene, &opts, "rendering")?;
-    outputs.write_path(output, &r.image.encode_png()?)?;
+    outputs.write_path(output, &r.image.encode(format)?)?;
     note(
         global,
         format!("wrote {} ({width}x{height})", output.display()),
@@ -391,11 +404,8 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if !matches!(ext.as_deref(), Some("json" | "png")) {
-        return Err(CliError::Usage(format!(
-            "{}: output must end in .json (model) or .png (render)",
-            a.output.display()
-        )));
+    if ext.as_deref() != Some("json") {
+        model_or_picture(&a.output)?;
     }
     for (name, v) in [("--depth", a.depth), ("--level", a.level)] {
         if !(v.is_finite() && v.abs() <= 1e3) {

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use caoen::render::framebuffer::PictureFormat;
 use caoen::render::mesh::NormalMode;
 use caoen::render::raytrace::RayMethod;
 use caoen::render::scene::texture_wrap;
@@ -143,20 +144,30 @@ pub fn options(a: &SurfaceRenderArgs) -> CliResult<RenderOptions> {
     })
 }
 
+/// The picture format an output's extension asks for, checked before any work: PNG,
+/// JPEG, or (a stream such as `-` without an extension) PNG; any other extension is
+/// refused, naming it.
+pub fn picture_format(path: &std::path::Path) -> CliResult<PictureFormat> {
+    match PictureFormat::from_path(path) {
+        Ok(f) => Ok(f),
+        Err(ext) if ext.is_empty() && crate::output::is_stream(path) => Ok(PictureFormat::Png),
+        Err(ext) => Err(CliError::Usage(format!(
+            "{}: a picture is written as {}; {}",
+            path.display(),
+            PictureFormat::EXTENSIONS,
+            if ext.is_empty() {
+                "the name has no extension".to_string()
+            } else {
+                format!("`.{ext}` is not one of them")
+            }
+        ))),
+    }
+}
+
 /// `caoen surface render`.
 pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     let opts = options(a)?;
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    if ext.as_deref() != Some("png") && !crate::output::is_stream(&a.output) {
-        return Err(CliError::Usage(format!(
-            "{}: render output must end in .png",
-            a.output.display()
-        )));
-    }
+    let format = picture_format(&a.output)?;
     if let Some(d) = &a.depth_out {
         let e = d
             .extension()
@@ -185,7 +196,7 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     }
     let start = std::time::Instant::now();
     let r = render_with_progress(global, &scene, &opts, "rendering")?;
-    outputs.write_path(&a.output, &r.image.encode_png()?)?;
+    outputs.write_path(&a.output, &r.image.encode(format)?)?;
     if let Some(d) = &a.depth_out {
         write_depth(&outputs, &r, d)?;
     }

@@ -325,16 +325,18 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let ext = match ext {
-        None if crate::output::is_stream(&a.output) => Some("png".to_string()),
-        e => e,
+    let picture = if ext.as_deref() == Some("obj") {
+        None
+    } else {
+        Some(
+            crate::commands::render::picture_format(&a.output).map_err(|e| match e {
+                CliError::Usage(m) => {
+                    CliError::Usage(format!("{m} (or .obj for a mesh with its material)"))
+                }
+                other => other,
+            })?,
+        )
     };
-    if !matches!(ext.as_deref(), Some("png" | "obj")) {
-        return Err(CliError::Usage(format!(
-            "{}: output must end in .png (render) or .obj (mesh with material)",
-            a.output.display()
-        )));
-    }
     let size = crate::commands::render::parse_size(&a.size)?;
     // The transferred texture as a PNG file, for the renderer and the OBJ writer: a
     // fresh private temporary file, deleted when dropped.
@@ -451,7 +453,8 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             };
             let r =
                 crate::commands::render::render_with_progress(global, &scene, &opts, "rendering")?;
-            outputs.write_path(&a.output, &r.image.encode_png().map_err(failed)?)?;
+            let format = picture.unwrap_or(caoen::render::framebuffer::PictureFormat::Png);
+            outputs.write_path(&a.output, &r.image.encode(format).map_err(failed)?)?;
             format!("{} ({}x{})", a.output.display(), size.0, size.1)
         }
     };

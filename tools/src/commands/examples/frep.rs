@@ -1,5 +1,6 @@
 //! The F-rep example: a blended union of a ball and a bored box, as a model file, its
-//! ray-cast and mesh renders side by side, and its POV-Ray export.
+//! ray-cast and mesh renders side by side, and its POV-Ray export; height fields,
+//! carving, and a scene of reflection, refraction and shadows.
 
 use std::path::Path;
 
@@ -109,7 +110,50 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         let r = render(&scene, &opts(320, 240, n, Method::Ray), &|_, _| {})?;
         pair.blit(&r.image, 320 * k as u32, 0);
     }
-    save_png(global, &sub, "carving.png", &pair)
+    save_png(global, &sub, "carving.png", &pair)?;
+    write_mirror_glass(global, &sub, n)
+}
+
+/// The secondary-ray example: a mirror ball, a glass Cao En solid (a dodecahedron,
+/// formula 17) and a red ball on a slab under a key and a fill light, with shadows;
+/// its render and its POV-Ray export.
+fn write_mirror_glass(global: &GlobalArgs, sub: &Path, n: u32) -> CliResult {
+    save_json(sub, "mirror-glass.json", &mirror_glass_scene())?;
+    let scene = crate::commands::frep::load(&sub.join("mirror-glass.json"))?;
+    let r = render(&scene, &opts(400, 300, n, Method::Ray), &|_, _| {})?;
+    save_png(global, sub, "mirror-glass.png", &r.image)?;
+    let camera = scene.camera(512, 512)?;
+    let pov =
+        caoen::render::pov::export(&scene, &camera).map_err(|e| CliError::Failed(e.to_string()))?;
+    replace_file(&sub.join("mirror-glass.pov"), pov.as_bytes())
+}
+
+/// The scene of `examples/frep/mirror-glass.json`.
+pub fn mirror_glass_scene() -> serde_json::Value {
+    serde_json::json!({
+        "format": "caoen-scene/1",
+        "name": "mirror ball and glass Cao En solid",
+        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [0.35, -1.6, 0.9]},
+        "background": [0.75, 0.8, 0.88],
+        "ambient": [0.25, 0.25, 0.25],
+        "lights": [
+            {"direction": [-0.8, -0.6, 1.4], "colour": [1.0, 0.97, 0.92], "intensity": 1.0},
+            {"direction": [1.0, -0.4, 0.6], "colour": [0.75, 0.82, 1.0], "intensity": 0.3}
+        ],
+        "max_depth": 5,
+        "objects": [
+            {"name": "slab", "frep": {"box": {"centre": [0.0, 0.0, -0.55], "size": [3.0, 2.4, 0.1]}},
+             "material": {"colour": [0.82, 0.8, 0.74], "specular": 0.0}},
+            {"name": "mirror ball", "frep": {"sphere": {"centre": [-0.6, 0.35, -0.05], "radius": 0.45}},
+             "material": {"colour": [0.15, 0.15, 0.15], "reflect": 0.85, "specular": 0.6, "shininess": 80}},
+            {"name": "red ball", "frep": {"sphere": {"centre": [0.35, 0.75, -0.28], "radius": 0.22}},
+             "material": {"colour": [0.8, 0.15, 0.1], "specular": 0.3}},
+            {"name": "glass Cao En solid", "frep": {"cao_en_solid": {"polyhedron": "dodecahedron",
+                "radius": 0.3, "q": 12.0, "level": 2.0, "centre": [0.45, -0.15, -0.16]}},
+             "material": {"colour": [0.92, 0.96, 1.0], "reflect": 1.0, "transmit": 0.9, "ior": 1.5,
+                          "specular": 0.6, "shininess": 120}}
+        ]
+    })
 }
 
 /// A diagonal lattice, 512x256 grey: bright bars (kept by carving) with soft edges,
