@@ -20,6 +20,10 @@ pub struct Repair {
     pub collapsed: usize,
     /// Zero-area triangles left (a collapse would have broken the manifold).
     pub degenerate_left: usize,
+    /// Vertices moved off another vertex they coincided with (in 32-bit floats) without
+    /// sharing an edge: two sheets touching at a point, which a reader that welds
+    /// corners by position would join into a non-manifold vertex.
+    pub separated: usize,
     /// Connected pieces dropped for being tiny against the largest.
     pub pieces_dropped: usize,
     /// Connected pieces kept.
@@ -96,6 +100,7 @@ pub fn make_printable(
     let (tris, collapsed, left) = collapse_degenerate(&positions, triangles, tolerance);
     rep.collapsed = collapsed;
     rep.degenerate_left = left;
+    rep.separated = separate_coincident(&mut positions, &tris);
     let pieces = components(&tris);
     let volumes: Vec<f64> = pieces.iter().map(|c| volume(&positions, c).abs()).collect();
     let largest = volumes.iter().cloned().fold(0.0, f64::max);
@@ -136,6 +141,48 @@ pub fn make_printable(
         },
         rep,
     )
+}
+
+/// Moves every vertex that has the 32-bit position of an earlier one a hundredth of the
+/// way towards the centre of its neighbours (inside its own sheet, off the other);
+/// returns how many moved.
+fn separate_coincident(pos: &mut [[f64; 3]], tris: &[[u32; 3]]) -> usize {
+    let mut ring: Vec<([f64; 3], u32)> = vec![([0.0; 3], 0); pos.len()];
+    let mut used = vec![false; pos.len()];
+    for t in tris {
+        for k in 0..3 {
+            used[t[k] as usize] = true;
+            for j in 1..3 {
+                let (v, w) = (t[k] as usize, t[(k + j) % 3] as usize);
+                for d in 0..3 {
+                    ring[v].0[d] += pos[w][d];
+                }
+                ring[v].1 += 1;
+            }
+        }
+    }
+    let mut moved = 0;
+    for _ in 0..4 {
+        let mut seen: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut again = false;
+        for v in 0..pos.len() {
+            if !used[v] {
+                continue;
+            }
+            let key = pos[v].map(|x| (x as f32).to_bits());
+            if seen.insert(key, v as u32).is_some() && ring[v].1 > 0 {
+                let n = f64::from(ring[v].1);
+                let c = ring[v].0.map(|x| x / n);
+                pos[v] = [0, 1, 2].map(|d| pos[v][d] + 0.01 * (c[d] - pos[v][d]));
+                moved += 1;
+                again = true;
+            }
+        }
+        if !again {
+            break;
+        }
+    }
+    moved
 }
 
 /// The triangles in edge-connected pieces.

@@ -36,6 +36,14 @@ pub fn write_obj(
     if let Some((_, name)) = material {
         writeln!(out, "usemtl {name}")?;
     }
+    if mesh.corner_uvs.is_empty() {
+        // No texture coordinates: faces name positions and normals only.
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|v| v + 1);
+            writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}")?;
+        }
+        return Ok(());
+    }
     for (i, t) in mesh.triangles.iter().enumerate() {
         let vt = 3 * i + 1;
         writeln!(

@@ -198,6 +198,12 @@ fn write_solid_mesh(
     if rep.collapsed > 0 {
         notes.push(format!("collapsed {} zero-area triangles' edges", rep.collapsed));
     }
+    if rep.separated > 0 {
+        notes.push(format!(
+            "{} vertices moved off a touching sheet",
+            rep.separated
+        ));
+    }
     if rep.clamped > 0 {
         notes.push(format!("{} vertices clamped into the bounds", rep.clamped));
     }
