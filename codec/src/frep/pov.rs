@@ -234,7 +234,7 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
             let (r_function, minus) = match op {
                 SetOp::Union => ("caoen_blend_union", ""),
                 SetOp::Intersection => ("caoen_blend_intersection", ""),
-                SetOp::Difference => ("caoen_blend_intersection", "-"),
+                SetOp::Difference => ("caoen_blend_intersection", "0 - "),
             };
             format!(
                 "{r_function}({f1}(x, y, z), {minus}{f2}(x, y, z), {}, {}, {}, {})",
@@ -250,7 +250,8 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
         }
         Node::Negate(n) => {
             let f = declare(n, out, next);
-            format!("-{f}(x, y, z)")
+            // POV-Ray does not parse a function body that starts with a minus sign.
+            format!("0 - {f}(x, y, z)")
         }
         Node::Noise { noise, operand } => {
             let f = declare(operand, out, next);
@@ -470,18 +471,18 @@ fn image_kind(path: &std::path::Path) -> Option<&'static str> {
 /// `frep::deform::Noise` in lattice units, the same integer hash and formulas.
 pub(crate) const R_FUNCTIONS: &str = "\
 #declare caoen_m289 = function(a) { a - 289 * floor(a / 289) }
-#declare caoen_perm = function(t) { caoen_m289((34 * t + 1) * t) }
-#declare caoen_hash0 = function(h) { h - 16 * floor(h / 16) }
-#declare caoen_hash = function(i, j, k) { caoen_hash0(caoen_perm(caoen_m289(caoen_perm(caoen_m289(caoen_perm(caoen_m289(i)) + j)) + k))) }
-#declare caoen_grad = function(h, x, y, z) { (1 - 2 * (h - 2 * floor(h / 2))) * select(h - 8, x, y) + (1 - 2 * (floor(h / 2) - 2 * floor(h / 4))) * select(h - 4, y, select(abs((h - 12) * (h - 14)) - 0.5, x, z)) }
-#declare caoen_fade = function(t) { t * t * t * (t * (t * 6 - 15) + 10) }
-#declare caoen_noise_cell = function(i, j, k, x, y, z, u, v, w) {
-  (1 - w) * ((1 - v) * ((1 - u) * caoen_grad(caoen_hash(i, j, k), x, y, z) + u * caoen_grad(caoen_hash(i + 1, j, k), x - 1, y, z))
-           + v * ((1 - u) * caoen_grad(caoen_hash(i, j + 1, k), x, y - 1, z) + u * caoen_grad(caoen_hash(i + 1, j + 1, k), x - 1, y - 1, z)))
-  + w * ((1 - v) * ((1 - u) * caoen_grad(caoen_hash(i, j, k + 1), x, y, z - 1) + u * caoen_grad(caoen_hash(i + 1, j, k + 1), x - 1, y, z - 1))
-           + v * ((1 - u) * caoen_grad(caoen_hash(i, j + 1, k + 1), x, y - 1, z - 1) + u * caoen_grad(caoen_hash(i + 1, j + 1, k + 1), x - 1, y - 1, z - 1))) }
-#declare caoen_noise_at = function(i, j, k, x, y, z) { caoen_noise_cell(i, j, k, x, y, z, caoen_fade(x), caoen_fade(y), caoen_fade(z)) }
-#declare caoen_noise = function(x, y, z, s) { caoen_noise_at(floor(x) + s, floor(y), floor(z), x - floor(x), y - floor(y), z - floor(z)) }
+#declare caoen_perm = function(a) { caoen_m289((34 * a + 1) * a) }
+#declare caoen_hash0 = function(a) { a - 16 * floor(a / 16) }
+#declare caoen_hash = function(ci, cj, ck) { caoen_hash0(caoen_perm(caoen_m289(caoen_perm(caoen_m289(caoen_perm(caoen_m289(ci)) + cj)) + ck))) }
+#declare caoen_grad = function(hh, x, y, z) { (1 - 2 * (hh - 2 * floor(hh / 2))) * select(hh - 8, x, y) + (1 - 2 * (floor(hh / 2) - 2 * floor(hh / 4))) * select(hh - 4, y, select(abs((hh - 12) * (hh - 14)) - 0.5, x, z)) }
+#declare caoen_fade = function(a) { a * a * a * (a * (a * 6 - 15) + 10) }
+#declare caoen_noise_cell = function(ci, cj, ck, x, y, z, wx, wy, wz) {
+  (1 - wz) * ((1 - wy) * ((1 - wx) * caoen_grad(caoen_hash(ci, cj, ck), x, y, z) + wx * caoen_grad(caoen_hash(ci + 1, cj, ck), x - 1, y, z))
+           + wy * ((1 - wx) * caoen_grad(caoen_hash(ci, cj + 1, ck), x, y - 1, z) + wx * caoen_grad(caoen_hash(ci + 1, cj + 1, ck), x - 1, y - 1, z)))
+  + wz * ((1 - wy) * ((1 - wx) * caoen_grad(caoen_hash(ci, cj, ck + 1), x, y, z - 1) + wx * caoen_grad(caoen_hash(ci + 1, cj, ck + 1), x - 1, y, z - 1))
+           + wy * ((1 - wx) * caoen_grad(caoen_hash(ci, cj + 1, ck + 1), x, y - 1, z - 1) + wx * caoen_grad(caoen_hash(ci + 1, cj + 1, ck + 1), x - 1, y - 1, z - 1))) }
+#declare caoen_noise_at = function(ci, cj, ck, x, y, z) { caoen_noise_cell(ci, cj, ck, x, y, z, caoen_fade(x), caoen_fade(y), caoen_fade(z)) }
+#declare caoen_noise = function(x, y, z, sd) { caoen_noise_at(floor(x) + sd, floor(y), floor(z), x - floor(x), y - floor(y), z - floor(z)) }
 #declare caoen_union = function(p, q, k) { select(k - 1, (p + q + sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), max(p, q)) }
 #declare caoen_intersection = function(p, q, k) { select(k - 1, (p + q - sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), min(p, q)) }
 #declare caoen_blend_union = function(p, q, k, b0, b1, b2) { caoen_union(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }

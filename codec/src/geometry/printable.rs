@@ -226,8 +226,9 @@ fn components(tris: &[[u32; 3]]) -> Vec<Vec<[u32; 3]>> {
 /// Removes triangles whose height is below `tol` by collapsing one of their vertices
 /// onto a neighbour (the apex onto the nearer end of the longest edge, so the other
 /// vertices keep their places), only where the two vertices' common neighbours are
-/// exactly the two triangles' third vertices (the collapse keeps a closed manifold).
-/// Returns the triangles, the collapses made and the degenerate triangles left.
+/// exactly the two triangles' third vertices (the collapse keeps a closed manifold),
+/// or else by flipping the longest edge. Returns the triangles, the collapses and flips
+/// made and the degenerate triangles left.
 fn collapse_degenerate(
     pos: &[[f64; 3]],
     tris: Vec<[u32; 3]>,
@@ -289,6 +290,7 @@ fn collapse_degenerate(
             (w, u)
         };
         let candidates = [(apex, near), (near, apex), (apex, far), (far, apex), (u, w), (w, u)];
+        let mut done = false;
         for (from, onto) in candidates {
             if from == onto {
                 continue;
@@ -345,8 +347,45 @@ fn collapse_degenerate(
             }
             around[onto as usize].retain(|&k| tris[k].is_some());
             collapses += 1;
+            done = true;
             break;
         }
+        if done {
+            continue;
+        }
+        // No collapse keeps the manifold: flip the longest edge instead (the apex of a
+        // cap lies on it), making (apex, x) the diagonal of the quad with the triangle
+        // x beyond it, if that edge is not there already.
+        let beyond: Vec<usize> = around[u as usize]
+            .iter()
+            .copied()
+            .filter(|&k| k != i && tris[k].is_some_and(|s| s.contains(&w)))
+            .collect();
+        let [k] = beyond[..] else { continue };
+        let other = tris[k].expect("present");
+        let Some(&x) = other.iter().find(|&&v| v != u && v != w) else {
+            continue;
+        };
+        let exists = around[apex as usize]
+            .iter()
+            .any(|&m| tris[m].is_some_and(|s| s.contains(&x)));
+        if exists || x == apex {
+            continue;
+        }
+        // t winds u -> w -> apex; the triangle beyond winds w -> u -> x.
+        let (t1, t2) = ([u, x, apex], [x, w, apex]);
+        if degenerate(&t1) || degenerate(&t2) {
+            continue;
+        }
+        tris[i] = Some(t1);
+        tris[k] = Some(t2);
+        around[w as usize].retain(|&m| m != i);
+        around[u as usize].retain(|&m| m != k);
+        around[x as usize].push(i);
+        around[apex as usize].push(k);
+        work.push(i);
+        work.push(k);
+        collapses += 1;
     }
     let out: Vec<[u32; 3]> = tris.into_iter().flatten().collect();
     let left = out.iter().filter(|t| degenerate(t)).count();
