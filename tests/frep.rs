@@ -643,10 +643,26 @@ fn pov_silhouette_iou(dir: &Path, model: &Path, side: u32) -> f64 {
         dir.join(format!("{stem}-ours.png")),
         dir.join(format!("{stem}-pov.png")),
     );
-    let o = caoen(&["frep", "export-pov", s(model), "-o", s(&pov), "--size", &size]);
+    let o = caoen(&[
+        "frep",
+        "export-pov",
+        s(model),
+        "-o",
+        s(&pov),
+        "--size",
+        &size,
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = caoen(&[
-        "frep", "render", s(model), "-o", s(&ours), "--size", &size, "--samples", "2",
+        "frep",
+        "render",
+        s(model),
+        "-o",
+        s(&ours),
+        "--size",
+        &size,
+        "--samples",
+        "2",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = std::process::Command::new("povray")
@@ -661,18 +677,30 @@ fn pov_silhouette_iou(dir: &Path, model: &Path, side: u32) -> f64 {
         ])
         .output()
         .unwrap();
-    assert!(o.status.success(), "povray: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "povray: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let mask = |p: &Path| {
         let img = image::open(p).unwrap().to_rgb8();
         let bg = *img.get_pixel(0, 0);
         img.pixels()
-            .map(|q| (0..3).map(|k| (q[k] as i32 - bg[k] as i32).abs()).sum::<i32>() > 24)
+            .map(|q| {
+                (0..3)
+                    .map(|k| (q[k] as i32 - bg[k] as i32).abs())
+                    .sum::<i32>()
+                    > 24
+            })
             .collect::<Vec<bool>>()
     };
     let (a, b) = (mask(&ours), mask(&theirs));
     let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
     let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
-    assert!(union > (side * side / 20) as usize, "{stem}: {union} pixels");
+    assert!(
+        union > (side * side / 20) as usize,
+        "{stem}: {union} pixels"
+    );
     inter as f64 / union as f64
 }
 
@@ -684,20 +712,34 @@ fn pov_ray_renders_the_new_nodes() {
         return;
     }
     let dir = tmpdir("pov-new-nodes");
-    let camera = json!({"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]});
+    let camera =
+        json!({"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]});
     let models = [
-        ("twist", json!({"twist": {"box": {"size": [0.7, 0.4, 1.4]}}, "deg_per_unit": 80.0})),
-        ("taper-bend", json!({"bend": {"taper": {"box": {"size": [1.6, 0.5, 0.3]}}, "z": [-0.15, 0.15], "scale": [1.0, 0.6]}, "radius": 1.0})),
-        ("negate-blend-difference", json!({"blend_difference": [
+        (
+            "twist",
+            json!({"twist": {"box": {"size": [0.7, 0.4, 1.4]}}, "deg_per_unit": 80.0}),
+        ),
+        (
+            "taper-bend",
+            json!({"bend": {"taper": {"box": {"size": [1.6, 0.5, 0.3]}}, "z": [-0.15, 0.15], "scale": [1.0, 0.6]}, "radius": 1.0}),
+        ),
+        (
+            "negate-blend-difference",
+            json!({"blend_difference": [
             {"intersection": [{"sphere": {"radius": 0.8}}, {"negate": {"cylinder": {"radius": 0.25, "length": 3.0}}}], "a": 1.0},
-            {"box": {"centre": [0.5, -0.5, 0.5], "size": [0.8, 0.8, 0.8]}}], "a0": 0.1, "a1": 0.3, "a2": 0.3})),
-        ("noise", json!({"noise": {"sphere": {"radius": 0.7}}, "amplitude": 0.08, "scale": 0.25, "seed": 3})),
+            {"box": {"centre": [0.5, -0.5, 0.5], "size": [0.8, 0.8, 0.8]}}], "a0": 0.1, "a1": 0.3, "a2": 0.3}),
+        ),
+        (
+            "noise",
+            json!({"noise": {"sphere": {"radius": 0.7}}, "amplitude": 0.08, "scale": 0.25, "seed": 3}),
+        ),
     ];
     for (name, model) in models {
         let path = dir.join(format!("{name}.json"));
         std::fs::write(
             &path,
-            json!({"format": "caoen-frep/1", "name": name, "model": model, "camera": camera}).to_string(),
+            json!({"format": "caoen-frep/1", "name": name, "model": model, "camera": camera})
+                .to_string(),
         )
         .unwrap();
         let started = std::time::Instant::now();

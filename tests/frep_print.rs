@@ -25,7 +25,13 @@ fn node(v: serde_json::Value) -> Node {
 /// The relief's height over one face of a box: the largest distance along the face's
 /// outward normal from the face to the relief's outermost surface, over a 24x24 grid
 /// of points inset by a tenth of the face, searching `reach` out and in.
-fn face_depth(relief: &dyn Fn([f64; 3]) -> f64, centre: [f64; 3], half: [f64; 3], axis: usize, side: f64) -> f64 {
+fn face_depth(
+    relief: &dyn Fn([f64; 3]) -> f64,
+    centre: [f64; 3],
+    half: [f64; 3],
+    axis: usize,
+    side: f64,
+) -> f64 {
     let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
     let reach = 0.25;
     let mut worst: f64 = 0.0;
@@ -80,7 +86,12 @@ fn box_relief_depths(projection: &str, old: bool) -> Vec<(String, f64)> {
     let b = base.bounds().unwrap();
     let rect = match projection {
         "planar" => json!([b.lo[0], b.lo[1], b.hi[0], b.hi[1]]),
-        _ => json!([-std::f64::consts::PI, -std::f64::consts::FRAC_PI_2, std::f64::consts::PI, std::f64::consts::FRAC_PI_2]),
+        _ => json!([
+            -std::f64::consts::PI,
+            -std::f64::consts::FRAC_PI_2,
+            std::f64::consts::PI,
+            std::f64::consts::FRAC_PI_2
+        ]),
     };
     let pattern = node(json!({"pattern": {"image": "examples/distort/input.png",
         "projection": projection, "rect": rect, "level": 0.0, "interp": "bilinear"}}));
@@ -114,7 +125,11 @@ fn relief_depth_is_the_same_on_every_face() {
         for projection in ["planar", "spherical"] {
             let d = box_relief_depths(projection, old);
             let d: Vec<String> = d.iter().map(|(f, v)| format!("{f} {v:.4}")).collect();
-            eprintln!("{} {projection}: {}", if old { "f + gain h" } else { "warp" }, d.join(", "));
+            eprintln!(
+                "{} {projection}: {}",
+                if old { "f + gain h" } else { "warp" },
+                d.join(", ")
+            );
         }
     }
     let planar = box_relief_depths("planar", false);
@@ -168,7 +183,14 @@ fn admesh_check(stl: &Path) -> String {
             .lines()
             .find(|l| l.trim_start().starts_with(name))
             .unwrap_or_else(|| panic!("admesh printed no `{name}`:\n{text}"));
-        line.split(':').nth(1).unwrap().split_whitespace().next().unwrap().parse().unwrap()
+        line.split(':')
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
     let fixed = [
         "Degenerate facets",
@@ -205,7 +227,11 @@ print(a.is_watertight, a.is_winding_consistent, b.is_watertight, b.is_winding_co
     let w: Vec<&str> = out.split_whitespace().collect();
     assert_eq!(&w[..4], ["True"; 4], "{}: trimesh {out}", stl.display());
     let num = |k: usize| w[k].parse::<f64>().unwrap();
-    assert!(num(4) > 0.0 && num(5) > 0.0, "{}: zero-area faces: {out}", stl.display());
+    assert!(
+        num(4) > 0.0 && num(5) > 0.0,
+        "{}: zero-area faces: {out}",
+        stl.display()
+    );
     let (va, vb) = (num(6), num(7));
     assert!(
         (va - vb).abs() <= 1e-5 * vb.abs(),
@@ -213,7 +239,10 @@ print(a.is_watertight, a.is_winding_consistent, b.is_watertight, b.is_winding_co
         stl.display()
     );
     assert_eq!(w[8], w[9], "{}: face counts {out}", stl.display());
-    (vb, format!("trimesh: watertight, wound consistently, volume STL {va:.6} OBJ {vb:.6}"))
+    (
+        vb,
+        format!("trimesh: watertight, wound consistently, volume STL {va:.6} OBJ {vb:.6}"),
+    )
 }
 
 /// Checks the STL and OBJ meshes of one run: caoen's own reading of the STL, then the
@@ -221,7 +250,12 @@ print(a.is_watertight, a.is_winding_consistent, b.is_watertight, b.is_winding_co
 fn check_mesh_files(stl: &Path, obj: &Path, ext: &External) -> String {
     let m = read_stl(&std::fs::read(stl).unwrap()).unwrap();
     assert!(!m.triangles.is_empty(), "{}: empty", stl.display());
-    assert_eq!(bad_edges(&m.triangles), 0, "{}: open or non-manifold", stl.display());
+    assert_eq!(
+        bad_edges(&m.triangles),
+        0,
+        "{}: open or non-manifold",
+        stl.display()
+    );
     let thinnest = m
         .triangles
         .iter()
@@ -243,7 +277,10 @@ fn check_mesh_files(stl: &Path, obj: &Path, ext: &External) -> String {
     }
     if ext.trimesh.is_some() {
         let (vobj, t) = trimesh_check(stl, obj);
-        assert!((vobj - v).abs() <= 1e-5 * v, "caoen's STL volume {v} vs OBJ {vobj}");
+        assert!(
+            (vobj - v).abs() <= 1e-5 * v,
+            "caoen's STL volume {v} vs OBJ {vobj}"
+        );
         line += &format!("; {t}");
     }
     line
@@ -277,12 +314,18 @@ fn bases(dir: &Path) -> Vec<PathBuf> {
     [
         ("box", json!({"box": {"size": [1.6, 1.2, 0.6]}})),
         ("ball", json!({"sphere": {"radius": 0.8}})),
-        ("cylinder", json!({"cylinder": {"radius": 0.6, "length": 1.4}})),
+        (
+            "cylinder",
+            json!({"cylinder": {"radius": 0.6, "length": 1.4}}),
+        ),
     ]
     .map(|(name, model)| {
         let p = dir.join(format!("{name}.json"));
-        std::fs::write(&p, json!({"format": "caoen-frep/1", "name": name, "model": model}).to_string())
-            .unwrap();
+        std::fs::write(
+            &p,
+            json!({"format": "caoen-frep/1", "name": name, "model": model}).to_string(),
+        )
+        .unwrap();
         p
     })
     .to_vec()
@@ -297,12 +340,21 @@ fn print_pictures(dir: &Path, pictures: &[PathBuf], cells: &str, ext: &External)
             let pname = picture.file_stem().unwrap().to_string_lossy().to_string();
             for (what, extra) in [
                 ("relief", vec!["--depth", "0.05", "--projection", "planar"]),
-                ("relief", vec!["--depth", "0.05", "--projection", "spherical"]),
-                ("relief", vec!["--depth", "-0.05", "--projection", "cylindrical"]),
+                (
+                    "relief",
+                    vec!["--depth", "0.05", "--projection", "spherical"],
+                ),
+                (
+                    "relief",
+                    vec!["--depth", "-0.05", "--projection", "cylindrical"],
+                ),
                 ("carve", vec!["--projection", "cylindrical"]),
                 ("carve", vec!["--projection", "planar", "--shell", "0.08"]),
             ] {
-                let out = dir.join(format!("{what}-{bname}-{pname}-{}.stl", extra[1..].join("")));
+                let out = dir.join(format!(
+                    "{what}-{bname}-{pname}-{}.stl",
+                    extra[1..].join("")
+                ));
                 let mut args = vec![what, s(picture), "--on", s(&base), "--cells", cells];
                 args.extend(&extra);
                 let (stl, obj) = mesh_both(&args, &out);
@@ -333,7 +385,12 @@ fn meshes_are_closed_manifolds_without_zero_area_triangles() {
         let (stl, obj) = mesh_both(&["frep", "mesh", s(m), "--cells", "40"], &out);
         eprintln!("{}", check_mesh_files(&stl, &obj, &ext));
     }
-    print_pictures(&dir, &[repo().join("examples/distort/input.png")], "32", &ext);
+    print_pictures(
+        &dir,
+        &[repo().join("examples/distort/input.png")],
+        "32",
+        &ext,
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -366,7 +423,8 @@ fn empty_meshes_are_refused() {
     let model = dir.join("hair.json");
     std::fs::write(
         &model,
-        json!({"format": "caoen-frep/1", "model": {"box": {"size": [1e6, 1e-9, 1e-9]}}}).to_string(),
+        json!({"format": "caoen-frep/1", "model": {"box": {"size": [1e6, 1e-9, 1e-9]}}})
+            .to_string(),
     )
     .unwrap();
     let out = dir.join("hair.stl");
@@ -399,6 +457,9 @@ fn stl_round_trip() {
     );
     assert!((v0 - v1).abs() < 1e-6 * v0, "{v0} vs {v1}");
     // The ball's volume, 4 pi / 3, to the mesh's accuracy at 24 cells.
-    assert!((v0 - 4.0 * std::f64::consts::PI / 3.0).abs() < 0.02 * v0, "{v0}");
+    assert!(
+        (v0 - 4.0 * std::f64::consts::PI / 3.0).abs() < 0.02 * v0,
+        "{v0}"
+    );
     assert!(read_stl(&bytes[..100]).is_err());
 }

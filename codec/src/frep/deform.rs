@@ -113,11 +113,18 @@ impl Warp {
                 // |W_xy| = |p_xy|: the turn keeps the distance from the axis.
                 let rho = (x.sqr() + y.sqr()).sqrt().hi;
                 let disc = Interval::new(-rho, rho);
-                [clamp_to(x * c + y * s, disc), clamp_to(y * c - x * s, disc), z]
+                [
+                    clamp_to(x * c + y * s, disc),
+                    clamp_to(y * c - x * s, disc),
+                    z,
+                ]
             }
             Warp::Taper { z: zs, scale } => {
                 // s(z) is monotone in z.
-                let (a, c) = (taper_scale(zs, scale, z.lo).0, taper_scale(zs, scale, z.hi).0);
+                let (a, c) = (
+                    taper_scale(zs, scale, z.lo).0,
+                    taper_scale(zs, scale, z.hi).0,
+                );
                 let inv = Interval::new(a.min(c), a.max(c)).recip();
                 [x * inv, y * inv, z]
             }
@@ -238,7 +245,11 @@ fn grad(h: f64, d: [f64; 3]) -> (f64, [f64; 3]) {
         2
     };
     let su = if h % 2.0 == 0.0 { 1.0 } else { -1.0 };
-    let sv = if (h / 2.0).floor() % 2.0 == 0.0 { 1.0 } else { -1.0 };
+    let sv = if (h / 2.0).floor() % 2.0 == 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
     g[u] += su;
     g[v] += sv;
     (g[0] * d[0] + g[1] * d[1] + g[2] * d[2], g)
@@ -262,7 +273,11 @@ impl Noise {
         let mut g = [0.0; 3];
         for c in 0..8 {
             let o = [c & 1, c >> 1 & 1, c >> 2 & 1].map(|b| b as f64);
-            let h = hash(cell[0] + o[0] + f64::from(self.seed), cell[1] + o[1], cell[2] + o[2]);
+            let h = hash(
+                cell[0] + o[0] + f64::from(self.seed),
+                cell[1] + o[1],
+                cell[2] + o[2],
+            );
             let (dot, gv) = grad(h, [0, 1, 2].map(|k| f[k] - o[k]));
             let wk = [0, 1, 2].map(|k| if o[k] == 1.0 { w[k].0 } else { 1.0 - w[k].0 });
             let dk = [0, 1, 2].map(|k| if o[k] == 1.0 { w[k].1 } else { -w[k].1 });
@@ -293,10 +308,7 @@ impl Noise {
         let r = a * NOISE_LIPSCHITZ * half / self.scale;
         // 1e-12 relative: the centre value's rounding.
         let slack = 1e-12 * (a + v.abs());
-        Interval::new(
-            (v - r - slack).max(whole.lo),
-            (v + r + slack).min(whole.hi),
-        )
+        Interval::new((v - r - slack).max(whole.lo), (v + r + slack).min(whole.hi))
     }
 }
 
@@ -306,7 +318,13 @@ mod tests {
 
     #[test]
     fn sin_cos_ranges_hold_samples() {
-        for (lo, hi) in [(-0.3, 0.2), (1.0, 2.0), (3.0, 3.3), (-7.0, -4.0), (0.0, 6.0)] {
+        for (lo, hi) in [
+            (-0.3, 0.2),
+            (1.0, 2.0),
+            (3.0, 3.3),
+            (-7.0, -4.0),
+            (0.0, 6.0),
+        ] {
             let (s, c) = sin_cos(Interval::new(lo, hi));
             for i in 0..=100 {
                 let x = lo + (hi - lo) * i as f64 / 100.0;

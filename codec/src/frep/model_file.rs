@@ -8,8 +8,7 @@ use super::assets::{height_map, picture, surface_field};
 use super::deform::{Noise, Warp};
 use super::height_map::Interp;
 use super::node::{
-    bump_quadric, Node, Patch, Support, MAX_DEPTH, MAX_NODES, MIN_LENGTH,
-    WORLD_LIMIT,
+    bump_quadric, Node, Patch, Support, MAX_DEPTH, MAX_NODES, MIN_LENGTH, WORLD_LIMIT,
 };
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;

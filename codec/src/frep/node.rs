@@ -526,7 +526,9 @@ impl Node {
             }
             // A swept picture reaches infinity along its projection.
             Node::Pattern { .. } => None,
-            Node::Relief { base, map, depth, .. } => {
+            Node::Relief {
+                base, map, depth, ..
+            } => {
                 let b = base.bounds()?;
                 // Every point moves by at most |depth| max |h|.
                 let h = map.perturbation_range(&b);

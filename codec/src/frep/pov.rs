@@ -270,11 +270,7 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
                     format!("{f}(x * cos({a}) + y * sin({a}), y * cos({a}) - x * sin({a}), z)")
                 }
                 Warp::Taper { z, scale } => {
-                    let t = format!(
-                        "min(max((z - {}) / {}, 0), 1)",
-                        num(z[0]),
-                        num(z[1] - z[0])
-                    );
+                    let t = format!("min(max((z - {}) / {}, 0), 1)", num(z[0]), num(z[1] - z[0]));
                     let s = format!("({} + {t} * {})", num(scale[0]), num(scale[1] - scale[0]));
                     format!("{f}(x / {s}, y / {s}, z)")
                 }

@@ -245,11 +245,7 @@ fn collapse_degenerate(
         t[0] == t[1]
             || t[1] == t[2]
             || t[0] == t[2]
-            || min_height(
-                pos[t[0] as usize],
-                pos[t[1] as usize],
-                pos[t[2] as usize],
-            ) < tol
+            || min_height(pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]) < tol
     };
     let neighbours = |around: &Vec<Vec<usize>>, tris: &Vec<Option<[u32; 3]>>, v: u32| {
         let mut n: Vec<u32> = around[v as usize]
@@ -289,7 +285,14 @@ fn collapse_degenerate(
         } else {
             (w, u)
         };
-        let candidates = [(apex, near), (near, apex), (apex, far), (far, apex), (u, w), (w, u)];
+        let candidates = [
+            (apex, near),
+            (near, apex),
+            (apex, far),
+            (far, apex),
+            (u, w),
+            (w, u),
+        ];
         let mut done = false;
         for (from, onto) in candidates {
             if from == onto {
@@ -297,7 +300,11 @@ fn collapse_degenerate(
             }
             let nf = neighbours(&around, &tris, from);
             let no = neighbours(&around, &tris, onto);
-            let common: Vec<u32> = nf.iter().filter(|v| no.binary_search(v).is_ok()).copied().collect();
+            let common: Vec<u32> = nf
+                .iter()
+                .filter(|v| no.binary_search(v).is_ok())
+                .copied()
+                .collect();
             // The triangles on edge (from, onto) and their third vertices.
             let on_edge: Vec<usize> = around[from as usize]
                 .iter()

@@ -128,7 +128,11 @@ pub fn write_stl(mesh: &Mesh, out: &mut impl Write) -> io::Result<()> {
             crate::geometry::vector::sub(c, a),
         );
         let len = crate::geometry::vector::norm(n);
-        let n = if len > 0.0 { n.map(|v| v / len) } else { [0.0; 3] };
+        let n = if len > 0.0 {
+            n.map(|v| v / len)
+        } else {
+            [0.0; 3]
+        };
         for v in n.iter().chain(&a).chain(&b).chain(&c) {
             buf.extend_from_slice(&(*v as f32).to_le_bytes());
         }

@@ -196,7 +196,10 @@ fn write_solid_mesh(
         ));
     }
     if rep.collapsed > 0 {
-        notes.push(format!("collapsed {} zero-area triangles' edges", rep.collapsed));
+        notes.push(format!(
+            "collapsed {} zero-area triangles' edges",
+            rep.collapsed
+        ));
     }
     if rep.separated > 0 {
         notes.push(format!(
