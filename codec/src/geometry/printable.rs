@@ -100,6 +100,9 @@ pub fn make_printable(
     let (tris, collapsed, left) = collapse_degenerate(&positions, triangles, tolerance);
     rep.collapsed = collapsed;
     rep.degenerate_left = left;
+    if left > 0 {
+        rep.degenerate_left = lift_apexes(&mut positions, &normals, &tris, tolerance);
+    }
     rep.separated = separate_coincident(&mut positions, &tris);
     let pieces = components(&tris);
     let volumes: Vec<f64> = pieces.iter().map(|c| volume(&positions, c).abs()).collect();
@@ -141,6 +144,38 @@ pub fn make_printable(
         },
         rep,
     )
+}
+
+/// The last resort for a zero-area triangle no collapse or flip can remove (its
+/// neighbours fold onto the same line): its apex, the vertex opposite the longest
+/// edge, moves four tolerances along its normal, off the line. Returns the degenerate
+/// triangles left.
+fn lift_apexes(pos: &mut [[f64; 3]], normals: &[[f64; 3]], tris: &[[u32; 3]], tol: f64) -> usize {
+    let thin = |pos: &[[f64; 3]], t: &[u32; 3]| {
+        min_height(pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]) < tol
+    };
+    for t in tris {
+        if !thin(pos, t) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            continue;
+        }
+        let len = |a: u32, b: u32| norm(sub(pos[a as usize], pos[b as usize]));
+        let longest = (0..3)
+            .max_by(|&a, &b| {
+                len(t[a], t[(a + 1) % 3])
+                    .partial_cmp(&len(t[b], t[(b + 1) % 3]))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })
+            .unwrap_or(0);
+        let apex = t[(longest + 2) % 3] as usize;
+        let n = normals.get(apex).copied().unwrap_or([0.0; 3]);
+        let l = norm(n);
+        if l > 0.0 {
+            pos[apex] = [0, 1, 2].map(|k| pos[apex][k] + 4.0 * tol * n[k] / l);
+        }
+    }
+    tris.iter()
+        .filter(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || thin(pos, t))
+        .count()
 }
 
 /// Moves every vertex that has the 32-bit position of an earlier one a hundredth of the
