@@ -219,12 +219,37 @@ pub const SPECK_FRACTION: f64 = 1e-3;
 /// where the solid reaches `bounds`, which then cuts it), vertices clamped into
 /// `bounds`, zero-area triangles collapsed away and specks dropped; an error if the
 /// result is empty or not a closed, consistently wound manifold.
+///
+/// A grid whose vertices fold onto one line where no collapse or flip can undo it (a
+/// rare coincidence of the grid with the surface) is replaced by one with a cell more
+/// (at most two more); `Repair::cells` says which grid made the mesh.
 pub fn solid_mesh(
     node: &Node,
     bounds: &Aabb,
     cells: usize,
 ) -> Result<(Mesh, Repair), SolidMeshError> {
     let cells = cells.max(1);
+    let mut first = None;
+    for c in cells..cells + 3 {
+        match solid_mesh_on(node, bounds, c) {
+            Ok((m, mut rep)) => {
+                rep.cells = c;
+                return Ok((m, rep));
+            }
+            Err(e @ SolidMeshError::Empty { .. }) => return Err(e),
+            Err(e) => {
+                first.get_or_insert(e);
+            }
+        }
+    }
+    Err(first.expect("three tries"))
+}
+
+fn solid_mesh_on(
+    node: &Node,
+    bounds: &Aabb,
+    cells: usize,
+) -> Result<(Mesh, Repair), SolidMeshError> {
     let pad = bounds.longest() / cells as f64;
     let b = bounds.padded(pad);
     let (mut m, on_cut) = polygonise_closed(&|p| -node.value(p), b.lo, b.hi, cells);

@@ -32,6 +32,8 @@ pub struct Repair {
     pub bad_edges: usize,
     /// Enclosed volume of what is kept.
     pub volume: f64,
+    /// Grid cells along the longest side of the mesh this came from (set by the mesher).
+    pub cells: usize,
 }
 
 /// A triangle's height over its longest edge: zero for a cap or a needle.

@@ -201,6 +201,12 @@ fn write_solid_mesh(
             rep.collapsed
         ));
     }
+    if rep.cells != cells as usize {
+        notes.push(format!(
+            "meshed on {} cells: the grid of {cells} folded a triangle flat",
+            rep.cells
+        ));
+    }
     if rep.separated > 0 {
         notes.push(format!(
             "{} vertices moved off a touching sheet",
