@@ -88,7 +88,7 @@ impl Warp {
                 let b = r - z;
                 let rho2 = x * x + b * b;
                 let rho = rho2.sqrt();
-                if !(rho > 0.0) {
+                if rho.is_nan() || rho <= 0.0 {
                     // The centre of the bend: every direction at once; any finite value.
                     return ([0.0, y, r], [[0.0; 3], [0.0, 1.0, 0.0], [0.0; 3]]);
                 }

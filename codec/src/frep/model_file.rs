@@ -465,7 +465,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 // allows, it would fold space over (W no longer one-to-one).
                 let h = map.perturbation_range(&b);
                 let most = d.abs() * h.lo.abs().max(h.hi.abs());
-                if !(1.5 * most < ramp[1] - ramp[0]) {
+                if most.is_nan() || 1.5 * most >= ramp[1] - ramp[0] {
                     return err(
                         &format!("{path}.depth"),
                         format!(
@@ -499,7 +499,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 }
                 "taper" => {
                     let z = numbers(get(o, "z", path)?, &format!("{path}.z"), -w, w, "[z0, z1]")?;
-                    if !(z[1] - z[0] >= MIN_LENGTH) {
+                    if z[1] - z[0] < MIN_LENGTH {
                         return err(&format!("{path}.z"), "expected z0 < z1");
                     }
                     let scale = numbers(

@@ -578,7 +578,7 @@ impl Node {
 fn ramp_of(ramp: [f64; 2], z: f64) -> (f64, f64) {
     let span = ramp[1] - ramp[0];
     let t = (z - ramp[0]) / span;
-    if !(t > 0.0) {
+    if t.is_nan() || t <= 0.0 {
         (0.0, 0.0)
     } else if t >= 1.0 {
         (1.0, 0.0)
@@ -615,7 +615,7 @@ pub fn relief_warp(
             };
             let q = [0, 1, 2].map(|k| m[k] * p[k]);
             let r = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
-            if !(r > 0.0) || h == 0.0 && gh == [0.0; 3] {
+            if r.is_nan() || r <= 0.0 || h == 0.0 && gh == [0.0; 3] {
                 return (p, j);
             }
             // W_i = p_i + (c - 1) q_i with c = 1 - depth h / r.

@@ -191,8 +191,9 @@ fn separate_coincident(pos: &mut [[f64; 3]], tris: &[[u32; 3]]) -> usize {
             used[t[k] as usize] = true;
             for j in 1..3 {
                 let (v, w) = (t[k] as usize, t[(k + j) % 3] as usize);
-                for d in 0..3 {
-                    ring[v].0[d] += pos[w][d];
+                let q = pos[w];
+                for (acc, x) in ring[v].0.iter_mut().zip(q) {
+                    *acc += x;
                 }
                 ring[v].1 += 1;
             }

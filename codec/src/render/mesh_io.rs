@@ -150,7 +150,7 @@ pub fn read_stl(bytes: &[u8]) -> io::Result<Mesh> {
         return Err(bad("shorter than the 84-byte STL header"));
     }
     let count = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
-    if (bytes.len() - 84) / 50 != count || (bytes.len() - 84) % 50 != 0 {
+    if (bytes.len() - 84) / 50 != count || !(bytes.len() - 84).is_multiple_of(50) {
         return Err(bad("the triangle count does not match the file's length"));
     }
     let f = |o: usize| f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
