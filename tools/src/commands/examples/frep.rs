@@ -138,7 +138,7 @@ fn lithophane(global: &GlobalArgs, sub: &Path) -> CliResult {
         .map_err(|e| CliError::Failed(format!("lithophane.stl: {e}")))?;
     let mut stl = Vec::new();
     caoen::render::mesh_io::write_stl(&mesh, &mut stl)
-        .map_err(|e| CliError::io(&sub.join("lithophane.stl"), e))?;
+        .map_err(|e| CliError::io(sub.join("lithophane.stl"), e))?;
     replace_file(&sub.join("lithophane.stl"), &stl)?;
     let _ = global;
     Ok(())
