@@ -110,7 +110,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         pair.blit(&r.image, 320 * k as u32, 0);
     }
     save_png(global, &sub, "carving.png", &pair)?;
-    lithophane(global, &sub)
+    lithophane(&sub)
 }
 
 /// A lithophane: the distort example's photograph-like scene engraved into a plate 0.1
@@ -118,7 +118,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
 /// (0.1 for black, 0.04 for white), written as a binary STL to print. What `caoen
 /// relief ../distort/input.png --on plate.json --projection planar --depth -0.06 -o
 /// lithophane.stl --cells 64` writes, the plate being the box of `lithophane.json`.
-fn lithophane(global: &GlobalArgs, sub: &Path) -> CliResult {
+fn lithophane(sub: &Path) -> CliResult {
     let model = serde_json::json!({
         "format": "caoen-frep/1", "name": "lithophane",
         "model": {"relief": {"box": {"centre": [0.0, 0.0, 0.05], "size": [1.5, 1.0, 0.1]}},
@@ -140,7 +140,6 @@ fn lithophane(global: &GlobalArgs, sub: &Path) -> CliResult {
     caoen::render::mesh_io::write_stl(&mesh, &mut stl)
         .map_err(|e| CliError::io(sub.join("lithophane.stl"), e))?;
     replace_file(&sub.join("lithophane.stl"), &stl)?;
-    let _ = global;
     Ok(())
 }
 
