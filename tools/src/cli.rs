@@ -206,9 +206,13 @@ pub struct PictureArgs {
     /// The F-rep model file (format "caoen-frep/1") to work on.
     #[arg(long)]
     pub on: PathBuf,
-    /// Output: .json (the new model, naming the image) or .png (its render).
+    /// Output: .json (the new model, naming the image), .png (its render), or a mesh
+    /// to print (.stl, .obj, .ply).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Mesh output: grid cells along the longest side.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(4..=1024))]
+    pub cells: u32,
     /// How the image lies on the model: along z, around the z axis, or around the origin.
     #[arg(long, value_parser = ["planar", "cylindrical", "spherical"], default_value = "spherical")]
     pub projection: String,
@@ -316,7 +320,7 @@ pub struct FrepRenderArgs {
 pub struct FrepMeshArgs {
     /// F-rep model file or scene file with one `frep` object.
     pub model: PathBuf,
-    /// Output mesh (.obj or .ply).
+    /// Output mesh (.stl binary, .obj or .ply), closed and manifold.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Grid cells along the longest side.

@@ -5,6 +5,7 @@
 
 pub mod assets;
 pub mod convex_solid;
+pub mod deform;
 pub mod height_map;
 pub mod interval;
 pub mod mesh_field;

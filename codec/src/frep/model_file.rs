@@ -5,10 +5,10 @@
 use serde_json::Value;
 
 use super::assets::{height_map, picture, surface_field};
+use super::deform::{Noise, Warp};
 use super::height_map::Interp;
 use super::node::{
-    bump_quadric, mean_surface_gradient, Node, Patch, Support, MAX_DEPTH, MAX_NODES, MIN_LENGTH,
-    WORLD_LIMIT,
+    bump_quadric, Node, Patch, Support, MAX_DEPTH, MAX_NODES, MIN_LENGTH, WORLD_LIMIT,
 };
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
@@ -154,7 +154,13 @@ const PRIMITIVES: [&str; 11] = [
     "quadric",
     "superellipsoid",
 ];
-const OPERATIONS: [&str; 10] = [
+const OPERATIONS: [&str; 16] = [
+    "negate",
+    "blend_difference",
+    "twist",
+    "taper",
+    "bend",
+    "noise",
     "pattern",
     "relief",
     "perturb",
@@ -166,6 +172,17 @@ const OPERATIONS: [&str; 10] = [
     "offset",
     "transform",
 ];
+
+/// Largest twist, in degrees per unit of z.
+pub const MAX_TWIST_DEG: f64 = 1e5;
+/// Smallest taper scale (the largest is its inverse).
+pub const MIN_TAPER: f64 = 1e-3;
+/// Smallest bend radius: the bend's gradient grows as its inverse.
+pub const MIN_BEND_RADIUS: f64 = 1e-6;
+/// Smallest noise scale: the noise's gradient grows as its inverse.
+pub const MIN_NOISE_SCALE: f64 = 1e-6;
+/// Largest noise seed.
+pub const MAX_SEED: u64 = 1_000_000;
 
 /// What parsing carries through the tree.
 struct Context<'a> {
@@ -341,7 +358,12 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
     // Operations: the operands under the kind's key, parameters beside it.
     let op_fields: &[&str] = match kind.as_str() {
         "union" | "intersection" | "difference" => &["a"],
-        "blend_union" | "blend_intersection" => &["a", "a0", "a1", "a2"],
+        "blend_union" | "blend_intersection" | "blend_difference" => &["a", "a0", "a1", "a2"],
+        "negate" => &[],
+        "twist" => &["deg_per_unit"],
+        "taper" => &["z", "scale"],
+        "bend" => &["radius"],
+        "noise" => &["amplitude", "scale", "seed"],
         "offset" => &["by"],
         "perturb" => &["patches", "power"],
         "relief" => &["image", "projection", "rect", "depth", "interp"],
@@ -387,13 +409,13 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
             a,
             operands: operands(2, MAX_NODES)?,
         },
-        "blend_union" | "blend_intersection" => {
+        "blend_union" | "blend_intersection" | "blend_difference" => {
             let [x, y]: [Node; 2] = operands(2, 2)?.try_into().expect("two operands");
             Node::Blend {
-                op: if kind == "blend_union" {
-                    SetOp::Union
-                } else {
-                    SetOp::Intersection
+                op: match kind.as_str() {
+                    "blend_union" => SetOp::Union,
+                    "blend_intersection" => SetOp::Intersection,
+                    _ => SetOp::Difference,
                 },
                 a,
                 a0: number(get(o, "a0", path)?, &format!("{path}.a0"), -w, w)?,
@@ -437,11 +459,102 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 .ok_or_else(|| bad(&here, "the relief's base must be bounded"))?;
             let d = number(get(o, "depth", path)?, &format!("{path}.depth"), -w, w)?;
             let map = picture(&Value::Object(o.clone()), path, count.base_dir, Some(&b))?;
-            let gain = d * mean_surface_gradient(&base, &b);
+            let ramp = [b.lo[2], b.hi[2]];
+            if map.parts().0 == super::height_map::Base::Plane {
+                // The push fades in over the base's height: steeper than the height
+                // allows, it would fold space over (W no longer one-to-one).
+                let h = map.perturbation_range(&b);
+                let most = d.abs() * h.lo.abs().max(h.hi.abs());
+                if most.is_nan() || 1.5 * most >= ramp[1] - ramp[0] {
+                    return err(
+                        &format!("{path}.depth"),
+                        format!(
+                            "{d}: a planar relief's depth times the brightest grey must stay \
+                             under 2/3 of the base's height {}",
+                            ramp[1] - ramp[0]
+                        ),
+                    );
+                }
+            }
             Node::Relief {
                 base: Box::new(base),
                 map,
-                gain,
+                depth: d,
+                ramp,
+            }
+        }
+        "negate" => Node::Negate(Box::new(parse(body, &here, depth + 1, count)?)),
+        "twist" | "taper" | "bend" => {
+            let warp = match kind.as_str() {
+                "twist" => {
+                    let deg = number(
+                        get(o, "deg_per_unit", path)?,
+                        &format!("{path}.deg_per_unit"),
+                        -MAX_TWIST_DEG,
+                        MAX_TWIST_DEG,
+                    )?;
+                    Warp::Twist {
+                        rate: deg.to_radians(),
+                    }
+                }
+                "taper" => {
+                    let z = numbers(get(o, "z", path)?, &format!("{path}.z"), -w, w, "[z0, z1]")?;
+                    if z[1] - z[0] < MIN_LENGTH {
+                        return err(&format!("{path}.z"), "expected z0 < z1");
+                    }
+                    let scale = numbers(
+                        get(o, "scale", path)?,
+                        &format!("{path}.scale"),
+                        MIN_TAPER,
+                        1.0 / MIN_TAPER,
+                        "[s0, s1]",
+                    )?;
+                    Warp::Taper { z, scale }
+                }
+                _ => Warp::Bend {
+                    radius: number(
+                        get(o, "radius", path)?,
+                        &format!("{path}.radius"),
+                        MIN_BEND_RADIUS,
+                        w,
+                    )?,
+                },
+            };
+            Node::Warp {
+                warp,
+                operand: Box::new(parse(body, &here, depth + 1, count)?),
+            }
+        }
+        "noise" => {
+            let seed = match o.get("seed") {
+                None => 0,
+                Some(v) => match v.as_u64() {
+                    Some(k) if k <= MAX_SEED => k as u32,
+                    _ => {
+                        return err(
+                            &format!("{path}.seed"),
+                            format!("{v}: expected a whole number in [0, {MAX_SEED}]"),
+                        )
+                    }
+                },
+            };
+            Node::Noise {
+                noise: Noise {
+                    amplitude: number(
+                        get(o, "amplitude", path)?,
+                        &format!("{path}.amplitude"),
+                        -w,
+                        w,
+                    )?,
+                    scale: number(
+                        get(o, "scale", path)?,
+                        &format!("{path}.scale"),
+                        MIN_NOISE_SCALE,
+                        w,
+                    )?,
+                    seed,
+                },
+                operand: Box::new(parse(body, &here, depth + 1, count)?),
             }
         }
         "offset" => Node::Offset {

@@ -3,6 +3,7 @@
 //! every node), interval bound over a box and bounding box (`docs/frep.md`; its JSON
 //! form is `model_file`).
 
+use super::deform::{Noise, Warp};
 use super::height_map::HeightMap;
 use super::interval::{Aabb, Interval};
 use super::mesh_field::MeshField;
@@ -74,16 +75,36 @@ pub enum Node {
         /// The grey level of the boundary.
         level: f64,
     },
-    /// Relief: the base displaced along its normal by a picture's grey levels,
-    /// `f + gain h(u(p), v(p))`, where `gain` is the depth times the base function's
-    /// mean gradient length on its surface (so the offset is about `depth h`).
+    /// Relief: the base's space pushed along the picture's projection by `depth` times
+    /// its grey level, `f(W(p))` ([`relief_warp`]): the surface moves by `depth h`
+    /// along the projection's rays (up for planar, away from the axis or the centre
+    /// otherwise), so the offset means the same length on every face.
     Relief {
         /// The base.
         base: Box<Node>,
         /// The picture and its projection.
         map: HeightMap,
-        /// Depth times the base's mean gradient length on the surface.
-        gain: f64,
+        /// Height of white, in the model's units (negative engraves).
+        depth: f64,
+        /// Planar: the base's z range, over which the push fades in from nothing at
+        /// the bottom (so the bottom keeps its shape) to all of it at the top.
+        ramp: [f64; 2],
+    },
+    /// `-f`: the complement (outside becomes inside).
+    Negate(Box<Node>),
+    /// The operand read at a warped point (twist, taper, bend): `f(W(p))`.
+    Warp {
+        /// The warp.
+        warp: Warp,
+        /// The operand.
+        operand: Box<Node>,
+    },
+    /// `f + amplitude n(p / scale)`: the operand roughened by gradient noise.
+    Noise {
+        /// The noise.
+        noise: Noise,
+        /// The operand.
+        operand: Box<Node>,
     },
     /// `f + by`: grows the solid (shrinks it for a negative amount).
     Offset {
@@ -285,11 +306,19 @@ impl Node {
                 })
             }
             Node::Pattern { map, level } => map.perturbation(p).0 - level,
-            Node::Relief { base, map, gain } => base.value(p) + gain * map.perturbation(p).0,
+            Node::Relief {
+                base,
+                map,
+                depth,
+                ramp,
+            } => base.value(relief_warp(map, *depth, *ramp, p).0),
             Node::Offset { by, operand } => operand.value(p) + by,
             Node::Transform {
                 inverse, operand, ..
             } => operand.value(inverse.point(p)),
+            Node::Negate(n) => -n.value(p),
+            Node::Warp { warp, operand } => operand.value(warp.apply(p).0),
+            Node::Noise { noise, operand } => operand.value(p) + noise.value_gradient(p).0,
         }
     }
 
@@ -351,10 +380,16 @@ impl Node {
                 let (h, g) = map.perturbation(p);
                 (h - level, g)
             }
-            Node::Relief { base, map, gain } => {
-                let (v, g) = base.value_gradient(p);
-                let (h, gh) = map.perturbation(p);
-                (v + gain * h, [0, 1, 2].map(|k| g[k] + gain * gh[k]))
+            Node::Relief {
+                base,
+                map,
+                depth,
+                ramp,
+            } => {
+                let (w, j) = relief_warp(map, *depth, *ramp, p);
+                let (v, g) = base.value_gradient(w);
+                // The chain rule: grad_k = sum_i dW_i/dp_k g_i.
+                (v, [0, 1, 2].map(|k| (0..3).map(|i| j[i][k] * g[i]).sum()))
             }
             Node::Offset { by, operand } => {
                 let (v, g) = operand.value_gradient(p);
@@ -365,6 +400,20 @@ impl Node {
             } => {
                 let (v, g) = operand.value_gradient(inverse.point(p));
                 (v, inverse.transpose_mul(g))
+            }
+            Node::Negate(n) => {
+                let (v, g) = n.value_gradient(p);
+                (-v, g.map(|x| -x))
+            }
+            Node::Warp { warp, operand } => {
+                let (w, j) = warp.apply(p);
+                let (v, g) = operand.value_gradient(w);
+                (v, [0, 1, 2].map(|k| (0..3).map(|i| j[i][k] * g[i]).sum()))
+            }
+            Node::Noise { noise, operand } => {
+                let (v, g) = operand.value_gradient(p);
+                let (n, gn) = noise.value_gradient(p);
+                (v + n, [0, 1, 2].map(|k| g[k] + gn[k]))
             }
         }
     }
@@ -408,13 +457,19 @@ impl Node {
                 })
             }),
             Node::Pattern { map, level } => map.perturbation_range(b) - Interval::point(*level),
-            Node::Relief { base, map, gain } => {
-                base.interval(b) + map.perturbation_range(b).scale(*gain)
-            }
+            Node::Relief {
+                base,
+                map,
+                depth,
+                ramp,
+            } => base.interval(&relief_warp_box(map, *depth, *ramp, b)),
             Node::Offset { by, operand } => operand.interval(b) + Interval::point(*by),
             Node::Transform {
                 inverse, operand, ..
             } => operand.interval(&map_box(inverse, b)),
+            Node::Negate(n) => -n.interval(b),
+            Node::Warp { warp, operand } => operand.interval(&warp.apply_box(b)),
+            Node::Noise { noise, operand } => operand.interval(b) + noise.interval(b),
         }
     }
 
@@ -449,7 +504,8 @@ impl Node {
                 let (b1, b2) = (operands[0].bounds(), operands[1].bounds());
                 let joined = match op {
                     SetOp::Union => b1.zip(b2).map(|(x, y)| x.union(&y)),
-                    _ => match (b1, b2) {
+                    SetOp::Difference => b1,
+                    SetOp::Intersection => match (b1, b2) {
                         (Some(x), Some(y)) => Some(x.intersection(&y).unwrap_or(x)),
                         (x, y) => x.or(y),
                     },
@@ -470,12 +526,13 @@ impl Node {
             }
             // A swept picture reaches infinity along its projection.
             Node::Pattern { .. } => None,
-            Node::Relief { base, map, gain } => {
+            Node::Relief {
+                base, map, depth, ..
+            } => {
                 let b = base.bounds()?;
-                // Raised by at most depth * max h, in the base's own length units.
-                let top = map.perturbation_range(&b).hi.max(0.0) * gain;
-                let g = mean_surface_gradient(base, &b);
-                Some(b.padded(if g > 0.0 { 1.5 * top / g } else { 0.0 }))
+                // Every point moves by at most |depth| max |h|.
+                let h = map.perturbation_range(&b);
+                Some(b.padded(depth.abs() * h.lo.abs().max(h.hi.abs())))
             }
             Node::Offset { by, operand } => {
                 let b = operand.bounds()?;
@@ -487,6 +544,14 @@ impl Node {
             Node::Transform {
                 forward, operand, ..
             } => Some(map_box(forward, &operand.bounds()?)),
+            // The complement of a bounded solid reaches infinity.
+            Node::Negate(_) => None,
+            Node::Warp { warp, operand } => Some(warp.inverse_box(&operand.bounds()?)),
+            Node::Noise { noise, operand } => {
+                // As an offset by the noise's largest value.
+                let by = noise.amplitude.abs() * super::deform::NOISE_BOUND;
+                Some(operand.bounds()?.padded(by.sqrt() + by))
+            }
         }
     }
 
@@ -499,7 +564,100 @@ impl Node {
             Node::Perturb { base, terms, .. } => base.count() + terms.len(),
             Node::Pattern { .. } => 0,
             Node::Relief { base, .. } => base.count(),
-            Node::Offset { operand, .. } | Node::Transform { operand, .. } => operand.count(),
+            Node::Offset { operand, .. }
+            | Node::Transform { operand, .. }
+            | Node::Warp { operand, .. }
+            | Node::Noise { operand, .. } => operand.count(),
+            Node::Negate(n) => n.count(),
+        }
+    }
+}
+
+/// The fade of a planar relief's push over the base's z range `ramp`: 0 below, 1
+/// above, smoothstep between (C1, slope at most `1.5 / (z1 - z0)`), and its slope.
+fn ramp_of(ramp: [f64; 2], z: f64) -> (f64, f64) {
+    let span = ramp[1] - ramp[0];
+    let t = (z - ramp[0]) / span;
+    if t.is_nan() || t <= 0.0 {
+        (0.0, 0.0)
+    } else if t >= 1.0 {
+        (1.0, 0.0)
+    } else {
+        (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t) / span)
+    }
+}
+
+/// The point a relief reads its base at, `W(p)`, and the Jacobian `dW_i / dp_k`.
+/// Planar: `W = p - depth h s(z) e_z` (`s` the ramp); cylindrical and spherical:
+/// `W = p - depth h q / |q|` with `q` the part of `p` off the z axis or all of it.
+pub fn relief_warp(
+    map: &HeightMap,
+    depth: f64,
+    ramp: [f64; 2],
+    p: [f64; 3],
+) -> ([f64; 3], [[f64; 3]; 3]) {
+    let (h, gh) = map.perturbation(p);
+    let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    match map.parts().0 {
+        super::height_map::Base::Plane => {
+            let (s, ds) = ramp_of(ramp, p[2]);
+            for k in 0..3 {
+                j[2][k] -= depth * gh[k] * s;
+            }
+            j[2][2] -= depth * h * ds;
+            ([p[0], p[1], p[2] - depth * h * s], j)
+        }
+        base => {
+            let m = if matches!(base, super::height_map::Base::Cylinder(_)) {
+                [1.0, 1.0, 0.0]
+            } else {
+                [1.0; 3]
+            };
+            let q = [0, 1, 2].map(|k| m[k] * p[k]);
+            let r = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+            if r.is_nan() || r <= 0.0 || h == 0.0 && gh == [0.0; 3] {
+                return (p, j);
+            }
+            // W_i = p_i + (c - 1) q_i with c = 1 - depth h / r.
+            let c1 = -depth * h / r;
+            let dc = [0, 1, 2].map(|k| -depth * (gh[k] / r - h * q[k] / (r * r * r)));
+            for i in 0..3 {
+                for k in 0..3 {
+                    j[i][k] = if i == k { 1.0 + c1 * m[i] } else { 0.0 } + q[i] * dc[k];
+                }
+            }
+            ([0, 1, 2].map(|k| p[k] + c1 * q[k]), j)
+        }
+    }
+}
+
+/// A box holding `W(p)` for every `p` in `b`.
+fn relief_warp_box(map: &HeightMap, depth: f64, ramp: [f64; 2], b: &Aabb) -> Aabb {
+    let push = map.perturbation_range(b).scale(depth);
+    match map.parts().0 {
+        super::height_map::Base::Plane => {
+            // s is increasing in z, in [0, 1].
+            let s = Interval::new(ramp_of(ramp, b.lo[2]).0, ramp_of(ramp, b.hi[2]).0);
+            let z = Interval::new(b.lo[2], b.hi[2]) - push * s;
+            Aabb {
+                lo: [b.lo[0], b.lo[1], z.lo],
+                hi: [b.hi[0], b.hi[1], z.hi],
+            }
+        }
+        base => {
+            // Each component of q / |q| lies in [-1, 1].
+            let most = push.lo.abs().max(push.hi.abs());
+            let axes = if matches!(base, super::height_map::Base::Cylinder(_)) {
+                2
+            } else {
+                3
+            };
+            let mut w = *b;
+            for k in 0..axes {
+                w.lo[k] -= most;
+                w.hi[k] += most;
+            }
+            w
         }
     }
 }

@@ -11,7 +11,8 @@ use super::primitive::Primitive;
 use super::rfunction::SetOp;
 use crate::geometry::crease::{sharpen_with, Leaves};
 use crate::geometry::mesh::Mesh;
-use crate::geometry::polygonise::polygonise;
+use crate::geometry::polygonise::{polygonise, polygonise_closed};
+use crate::geometry::printable::{make_printable, Repair};
 
 /// One smooth piece of a field below its sharp set operations.
 #[derive(Debug, Clone, Copy)]
@@ -185,6 +186,99 @@ fn sharp(node: &Node, bounds: &Aabb, cells: usize, split: bool) -> Mesh {
     sharpen_with(m, &FieldLeaves { root: node, pieces }, cell, split)
 }
 
+/// Why a solid's mesh cannot be printed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolidMeshError {
+    /// No triangles at all.
+    #[error(
+        "the mesh is empty: no grid point of {cells} cells along the longest side (cell {cell:.3e}) \
+         is inside the model; the solid is empty or thinner than a cell (try more cells)"
+    )]
+    Empty {
+        /// Cells along the longest side.
+        cells: usize,
+        /// The cell's side.
+        cell: f64,
+    },
+    /// Edges not shared by exactly two consistently wound triangles.
+    #[error("the mesh is not closed: {bad_edges} edges are not shared by exactly two consistently wound triangles")]
+    Open {
+        /// How many.
+        bad_edges: usize,
+    },
+    /// Zero-area triangles no collapse could remove.
+    #[error("{0} zero-area triangles could not be removed without breaking the surface")]
+    Degenerate(usize),
+}
+
+/// Pieces smaller than this fraction of the largest piece's volume are specks of the
+/// polygonisation (a spike thinner than a cell), not parts of the model.
+pub const SPECK_FRACTION: f64 = 1e-3;
+
+/// A mesh to print: as [`mesh`] on a grid whose outer layer is outside (closed even
+/// where the solid reaches `bounds`, which then cuts it), vertices clamped into
+/// `bounds`, zero-area triangles collapsed away and specks dropped; an error if the
+/// result is empty or not a closed, consistently wound manifold.
+///
+/// A grid whose vertices fold onto one line where no collapse or flip can undo it (a
+/// rare coincidence of the grid with the surface) is replaced by one with a cell more
+/// (at most two more); `Repair::cells` says which grid made the mesh.
+pub fn solid_mesh(
+    node: &Node,
+    bounds: &Aabb,
+    cells: usize,
+) -> Result<(Mesh, Repair), SolidMeshError> {
+    let cells = cells.max(1);
+    let mut first = None;
+    for c in cells..cells + 3 {
+        match solid_mesh_on(node, bounds, c) {
+            Ok((m, mut rep)) => {
+                rep.cells = c;
+                return Ok((m, rep));
+            }
+            Err(e @ SolidMeshError::Empty { .. }) => return Err(e),
+            Err(e) => {
+                first.get_or_insert(e);
+            }
+        }
+    }
+    Err(first.expect("three tries"))
+}
+
+fn solid_mesh_on(
+    node: &Node,
+    bounds: &Aabb,
+    cells: usize,
+) -> Result<(Mesh, Repair), SolidMeshError> {
+    let pad = bounds.longest() / cells as f64;
+    let b = bounds.padded(pad);
+    let (mut m, on_cut) = polygonise_closed(&|p| -node.value(p), b.lo, b.hi, cells);
+    let cell = b.longest() / cells as f64;
+    if m.triangles.is_empty() {
+        return Err(SolidMeshError::Empty { cells, cell });
+    }
+    project(node, &mut m, pad, &on_cut);
+    let mut pieces = Vec::new();
+    collect(node, 1.0, &mut pieces);
+    if pieces.len() >= 2 {
+        m = sharpen_with(m, &FieldLeaves { root: node, pieces }, cell, false);
+    }
+    // Thinner than a hundred-thousandth of a cell: zero area to any slicer.
+    let (m, rep) = make_printable(m, bounds.lo, bounds.hi, 1e-5 * cell, SPECK_FRACTION);
+    if m.triangles.is_empty() {
+        return Err(SolidMeshError::Empty { cells, cell });
+    }
+    if rep.bad_edges > 0 {
+        return Err(SolidMeshError::Open {
+            bad_edges: rep.bad_edges,
+        });
+    }
+    if rep.degenerate_left > 0 {
+        return Err(SolidMeshError::Degenerate(rep.degenerate_left));
+    }
+    Ok((m, rep))
+}
+
 /// The mesh without sharpened creases: every vertex projected onto the surface, with
 /// the gradient's direction as its normal.
 pub fn smooth_mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
@@ -193,10 +287,21 @@ pub fn smooth_mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
     let b = bounds.padded(pad);
     // polygonise puts the inside where the field is negative.
     let mut m = polygonise(&|p| -node.value(p), b.lo, b.hi, cells);
-    let limit = pad;
-    for (p, n) in m.positions.iter_mut().zip(m.normals.iter_mut()) {
+    project(node, &mut m, pad, &[]);
+    m
+}
+
+/// Moves every vertex not flagged in `fixed` onto the surface by Newton steps (at most
+/// `limit` from where it starts) and sets every normal from the gradient.
+fn project(node: &Node, m: &mut Mesh, limit: f64, fixed: &[bool]) {
+    for (i, (p, n)) in m.positions.iter_mut().zip(m.normals.iter_mut()).enumerate() {
         let start = *p;
-        for _ in 0..PROJECTION_STEPS {
+        let steps = if fixed.get(i).copied().unwrap_or(false) {
+            0
+        } else {
+            PROJECTION_STEPS
+        };
+        for _ in 0..steps {
             let (f, g) = node.value_gradient(*p);
             let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
             if g2.is_nan() || g2 <= 0.0 || !f.is_finite() {
@@ -221,5 +326,4 @@ pub fn smooth_mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
             *n = g.map(|v| -v / len);
         }
     }
-    m
 }

@@ -7,6 +7,7 @@
 
 use std::fmt::Write as _;
 
+use super::deform::Warp;
 use super::height_map::{Base, HeightMap, Interp};
 use super::interval::Aabb;
 use super::node::{Node, Support};
@@ -50,10 +51,42 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
             let (h, _) = picture(map, out, next);
             format!("{h} - {}", num(*level))
         }
-        Node::Relief { base, map, gain } => {
+        Node::Relief {
+            base,
+            map,
+            depth,
+            ramp,
+        } => {
             let f = declare(base, out, next);
             let (h, _) = picture(map, out, next);
-            format!("{f}(x, y, z) + {} * {h}", num(*gain))
+            // The pushed height as its own function: the warp reads it up to three times.
+            let push = format!("caoen_push{}", *next);
+            *next += 1;
+            let _ = writeln!(
+                out,
+                "#declare {push} = function(x, y, z) {{ {} * {h} }}",
+                num(*depth)
+            );
+            match map.parts().0 {
+                Base::Plane => {
+                    let t = format!(
+                        "min(max((z - {}) / {}, 0), 1)",
+                        num(ramp[0]),
+                        num(ramp[1] - ramp[0])
+                    );
+                    format!("{f}(x, y, z - {push}(x, y, z) * {t} * {t} * (3 - 2 * {t}))")
+                }
+                Base::Cylinder(_) => {
+                    let c = "(1 - {push}(x, y, z) / max(sqrt(x*x + y*y), 1e-300))"
+                        .replace("{push}", &push);
+                    format!("{f}(x * {c}, y * {c}, z)")
+                }
+                Base::Ellipsoid(_) => {
+                    let c = "(1 - {push}(x, y, z) / max(sqrt(x*x + y*y + z*z), 1e-300))"
+                        .replace("{push}", &push);
+                    format!("{f}(x * {c}, y * {c}, z * {c})")
+                }
+            }
         }
         Node::Primitive(p) => match p {
             Primitive::Sphere { centre, radius } => {
@@ -198,13 +231,13 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
         } => {
             let f1 = declare(&operands[0], out, next);
             let f2 = declare(&operands[1], out, next);
-            let r_function = if *op == SetOp::Union {
-                "caoen_blend_union"
-            } else {
-                "caoen_blend_intersection"
+            let (r_function, minus) = match op {
+                SetOp::Union => ("caoen_blend_union", ""),
+                SetOp::Intersection => ("caoen_blend_intersection", ""),
+                SetOp::Difference => ("caoen_blend_intersection", "0 - "),
             };
             format!(
-                "{r_function}({f1}(x, y, z), {f2}(x, y, z), {}, {}, {}, {})",
+                "{r_function}({f1}(x, y, z), {minus}{f2}(x, y, z), {}, {}, {}, {})",
                 num(*a),
                 num(*a0),
                 num(*a1),
@@ -214,6 +247,40 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
         Node::Offset { by, operand } => {
             let f = declare(operand, out, next);
             format!("{f}(x, y, z) + {}", num(*by))
+        }
+        Node::Negate(n) => {
+            let f = declare(n, out, next);
+            // POV-Ray does not parse a function body that starts with a minus sign.
+            format!("0 - {f}(x, y, z)")
+        }
+        Node::Noise { noise, operand } => {
+            let f = declare(operand, out, next);
+            let k = num(1.0 / noise.scale);
+            format!(
+                "{f}(x, y, z) + {} * caoen_noise(x * {k}, y * {k}, z * {k}, {})",
+                num(noise.amplitude),
+                noise.seed
+            )
+        }
+        Node::Warp { warp, operand } => {
+            let f = declare(operand, out, next);
+            match *warp {
+                Warp::Twist { rate } => {
+                    let a = format!("({} * z)", num(rate));
+                    format!("{f}(x * cos({a}) + y * sin({a}), y * cos({a}) - x * sin({a}), z)")
+                }
+                Warp::Taper { z, scale } => {
+                    let t = format!("min(max((z - {}) / {}, 0), 1)", num(z[0]), num(z[1] - z[0]));
+                    let s = format!("({} + {t} * {})", num(scale[0]), num(scale[1] - scale[0]));
+                    format!("{f}(x / {s}, y / {s}, z)")
+                }
+                Warp::Bend { radius } => {
+                    let r = num(radius);
+                    format!(
+                        "{f}({r} * atan2(x, {r} - z), y, {r} - sqrt(x * x + ({r} - z) * ({r} - z)))"
+                    )
+                }
+            }
         }
         Node::Perturb {
             base, terms, power, ..
@@ -396,8 +463,22 @@ fn image_kind(path: &std::path::Path) -> Option<&'static str> {
 }
 
 /// The R-functions the exported functions call (`a = 1` is max/min exactly, as
-/// in caoen).
+/// in caoen), and `caoen_noise(x, y, z, seed)`: the gradient noise of
+/// `frep::deform::Noise` in lattice units, the same integer hash and formulas.
 pub(crate) const R_FUNCTIONS: &str = "\
+#declare caoen_m289 = function(a) { a - 289 * floor(a / 289) }
+#declare caoen_perm = function(a) { caoen_m289((34 * a + 1) * a) }
+#declare caoen_hash0 = function(a) { a - 16 * floor(a / 16) }
+#declare caoen_hash = function(ci, cj, ck) { caoen_hash0(caoen_perm(caoen_m289(caoen_perm(caoen_m289(caoen_perm(caoen_m289(ci)) + cj)) + ck))) }
+#declare caoen_grad = function(hh, x, y, z) { (1 - 2 * (hh - 2 * floor(hh / 2))) * select(hh - 8, x, y) + (1 - 2 * (floor(hh / 2) - 2 * floor(hh / 4))) * select(hh - 4, y, select(abs((hh - 12) * (hh - 14)) - 0.5, x, z)) }
+#declare caoen_fade = function(a) { a * a * a * (a * (a * 6 - 15) + 10) }
+#declare caoen_noise_cell = function(ci, cj, ck, x, y, z, wx, wy, wz) {
+  (1 - wz) * ((1 - wy) * ((1 - wx) * caoen_grad(caoen_hash(ci, cj, ck), x, y, z) + wx * caoen_grad(caoen_hash(ci + 1, cj, ck), x - 1, y, z))
+           + wy * ((1 - wx) * caoen_grad(caoen_hash(ci, cj + 1, ck), x, y - 1, z) + wx * caoen_grad(caoen_hash(ci + 1, cj + 1, ck), x - 1, y - 1, z)))
+  + wz * ((1 - wy) * ((1 - wx) * caoen_grad(caoen_hash(ci, cj, ck + 1), x, y, z - 1) + wx * caoen_grad(caoen_hash(ci + 1, cj, ck + 1), x - 1, y, z - 1))
+           + wy * ((1 - wx) * caoen_grad(caoen_hash(ci, cj + 1, ck + 1), x, y - 1, z - 1) + wx * caoen_grad(caoen_hash(ci + 1, cj + 1, ck + 1), x - 1, y - 1, z - 1))) }
+#declare caoen_noise_at = function(ci, cj, ck, x, y, z) { caoen_noise_cell(ci, cj, ck, x, y, z, caoen_fade(x), caoen_fade(y), caoen_fade(z)) }
+#declare caoen_noise = function(x, y, z, sd) { caoen_noise_at(floor(x) + sd, floor(y), floor(z), x - floor(x), y - floor(y), z - floor(z)) }
 #declare caoen_union = function(p, q, k) { select(k - 1, (p + q + sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), max(p, q)) }
 #declare caoen_intersection = function(p, q, k) { select(k - 1, (p + q - sqrt(max(0, p*p + q*q - 2*k*p*q))) / (1 + k), min(p, q)) }
 #declare caoen_blend_union = function(p, q, k, b0, b1, b2) { caoen_union(p, q, k) + b0 / (1 + (p/b1)*(p/b1) + (q/b2)*(q/b2)) }
@@ -528,6 +609,10 @@ pub(crate) fn unexportable(node: &Node) -> Option<Unexportable> {
         Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),
         Node::Blend { operands, .. } => operands.iter().find_map(unexportable),
         Node::Perturb { base, .. } => unexportable(base),
-        Node::Offset { operand, .. } | Node::Transform { operand, .. } => unexportable(operand),
+        Node::Offset { operand, .. }
+        | Node::Transform { operand, .. }
+        | Node::Warp { operand, .. }
+        | Node::Noise { operand, .. } => unexportable(operand),
+        Node::Negate(n) => unexportable(n),
     }
 }

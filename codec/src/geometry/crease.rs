@@ -74,11 +74,18 @@ pub fn sharpen(mesh: Mesh, leaves: &dyn Leaves, cell: f64) -> Mesh {
 /// stays closed.
 pub fn sharpen_with(mesh: Mesh, leaves: &dyn Leaves, cell: f64, split_leaves: bool) -> Mesh {
     let reach = 1.5 * cell;
-    // 1. Every vertex onto its active leaf.
+    // 1. Every vertex onto its active leaf, unless that lands where another leaf is
+    //    active: there the leaf's surface is not the solid's (a pattern's surface
+    //    beyond the box it carves), and the vertex would leave the solid.
     let mut pos: Vec<[f64; 3]> = mesh
         .positions
         .par_iter()
-        .map(|&p| onto_leaf(leaves, leaves.active(p), p, reach).unwrap_or(p))
+        .map(|&p| {
+            let i = leaves.active(p);
+            onto_leaf(leaves, i, p, reach)
+                .filter(|q| leaves.active(*q) == i)
+                .unwrap_or(p)
+        })
         .collect();
     let act: Vec<usize> = pos.par_iter().map(|&p| leaves.active(p)).collect();
     // 2. Vertices with a neighbour on another leaf: onto the crease of the two.

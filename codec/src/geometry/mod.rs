@@ -8,6 +8,7 @@
 pub mod crease;
 pub mod mesh;
 pub mod polygonise;
+pub mod printable;
 pub mod ray;
 pub mod transform;
 pub mod vector;

@@ -33,10 +33,33 @@ pub fn polygonise(
     hi: [f64; 3],
     cells: usize,
 ) -> Mesh {
+    polygonise_grid(field, lo, hi, cells, false).0
+}
+
+/// As [`polygonise`], with the grid's outer layer of points taken as outside, so the
+/// mesh is closed even where the solid reaches the box (it is cut there); also returns
+/// which vertices lie on such a cut (on a grid edge from an outer point that was
+/// inside).
+pub fn polygonise_closed(
+    field: &(dyn Fn([f64; 3]) -> f64 + Sync),
+    lo: [f64; 3],
+    hi: [f64; 3],
+    cells: usize,
+) -> (Mesh, Vec<bool>) {
+    polygonise_grid(field, lo, hi, cells, true)
+}
+
+fn polygonise_grid(
+    field: &(dyn Fn([f64; 3]) -> f64 + Sync),
+    lo: [f64; 3],
+    hi: [f64; 3],
+    cells: usize,
+    closed: bool,
+) -> (Mesh, Vec<bool>) {
     let ext = sub(hi, lo);
     let longest = ext.iter().cloned().fold(0.0f64, f64::max);
     if !(longest > 0.0) || cells == 0 {
-        return Mesh::default();
+        return (Mesh::default(), Vec::new());
     }
     let h = longest / cells as f64;
     let n = ext.map(|e| ((e / h).ceil() as usize).max(1));
@@ -49,14 +72,33 @@ pub fn polygonise(
         ]
     };
     // Field values at grid points, one z-slab per task.
-    let values: Vec<f64> = (0..=n[2])
+    let mut values: Vec<f64> = (0..=n[2])
         .into_par_iter()
         .flat_map_iter(|k| (0..sy).flat_map(move |j| (0..sx).map(move |i| field(corner(i, j, k)))))
         .collect();
+    let mut forced = vec![false; values.len()];
+    if closed {
+        for k in 0..=n[2] {
+            for j in 0..sy {
+                for i in 0..sx {
+                    let outer = i == 0 || j == 0 || k == 0 || i == n[0] || j == n[1] || k == n[2];
+                    let g = (k * sy + j) * sx + i;
+                    // NaN counts as outside everywhere (`v < 0` is false). The mirrored
+                    // value puts the cut about halfway along each edge, so cut vertices
+                    // from one outer point do not coincide.
+                    if outer && values[g] < 0.0 {
+                        values[g] = -values[g];
+                        forced[g] = true;
+                    }
+                }
+            }
+        }
+    }
     let id = |i: usize, j: usize, k: usize| (k * sy + j) * sx + i;
     let mut positions: Vec<[f64; 3]> = Vec::new();
     let mut triangles: Vec<[u32; 3]> = Vec::new();
     let mut edge_vertex: HashMap<(usize, usize), u32> = HashMap::new();
+    let mut on_cut: Vec<bool> = Vec::new();
     for k in 0..n[2] {
         for j in 0..n[1] {
             for i in 0..n[0] {
@@ -80,6 +122,7 @@ pub fn polygonise(
                             let pa = grid_point(lo, h, g[a], sx, sy);
                             let pb = grid_point(lo, h, g[b], sx, sy);
                             let s = v[a] / (v[a] - v[b]);
+                            on_cut.push(forced[g[a]] || forced[g[b]]);
                             positions.push([
                                 pa[0] + s * (pb[0] - pa[0]),
                                 pa[1] + s * (pb[1] - pa[1]),
@@ -136,13 +179,14 @@ pub fn polygonise(
             unit([d(0), d(1), d(2)])
         })
         .collect();
-    Mesh {
+    let mesh = Mesh {
         positions,
         normals,
         domain_points: Vec::new(),
         triangles,
         corner_uvs: Vec::new(),
-    }
+    };
+    (mesh, on_cut)
 }
 
 fn grid_point(lo: [f64; 3], h: f64, g: usize, sx: usize, sy: usize) -> [f64; 3] {

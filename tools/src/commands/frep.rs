@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use caoen::render::mesh_io::{write_obj, write_ply};
+use caoen::render::mesh_io::{write_obj, write_ply, write_stl};
 use caoen::render::scene::Shape;
 use caoen::render::{Method, RenderOptions, Scene};
 
@@ -156,42 +156,97 @@ fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
         )));
     };
     check_cells(a.cells)?;
-    let m = caoen::frep::polygonise::mesh(node, bounds, a.cells as usize);
-    // An empty mesh is no mesh file any reader takes (and no model the user meant).
-    if m.triangles.is_empty() {
-        return Err(CliError::Failed(format!(
-            "{}: no surface found on {} cells along the longest side (the model is empty \
-             or thinner than a cell); nothing written",
-            a.model.display(),
-            a.cells
-        )));
-    }
-    let ext = a
-        .output
+    write_solid_mesh(global, &outputs, node, bounds, a.cells, &a.output)
+}
+
+/// Whether `path` names a mesh file (.stl, .obj, .ply).
+fn is_mesh_path(path: &Path) -> bool {
+    let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    matches!(ext.as_deref(), Some("stl" | "obj" | "ply"))
+}
+
+/// Writes the printable mesh of `node` (`frep::polygonise::solid_mesh`) to `output` in
+/// the format its extension names; fails, writing nothing, when the mesh is empty or
+/// not a closed manifold.
+fn write_solid_mesh(
+    global: &GlobalArgs,
+    outputs: &Outputs,
+    node: &caoen::frep::Node,
+    bounds: &caoen::frep::Aabb,
+    cells: u32,
+    output: &Path,
+) -> CliResult {
+    let ext = output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    if !is_mesh_path(output) {
+        return Err(CliError::Usage(format!(
+            "{}: mesh output must end in .stl, .obj or .ply",
+            output.display()
+        )));
+    }
+    let c = u64::from(cells);
+    // Grid values (8 bytes per corner) dominate; vertices and triangles follow the area.
+    caoen::budget::check(
+        || format!("polygonising on {c}^3 cells"),
+        (c + 2).pow(3).saturating_mul(8),
+    )
+    .map_err(|e| CliError::Failed(e.to_string()))?;
+    let (m, rep) = caoen::frep::polygonise::solid_mesh(node, bounds, cells as usize)
+        .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
     let mut bytes = Vec::new();
     match ext.as_deref() {
         Some("obj") => write_obj(&m, &mut bytes, None),
         Some("ply") => write_ply(&m, &mut bytes),
-        _ => {
-            return Err(CliError::Usage(format!(
-                "{}: mesh output must end in .obj or .ply",
-                a.output.display()
-            )))
-        }
+        _ => write_stl(&m, &mut bytes),
     }
-    .map_err(|e| CliError::io(&a.output, e))?;
-    outputs.write_path(&a.output, &bytes)?;
+    .map_err(|e| CliError::io(output, e))?;
+    outputs.write_path(output, &bytes)?;
+    let mut notes = Vec::new();
+    if rep.pieces_dropped > 0 {
+        notes.push(format!(
+            "dropped {} specks (pieces under {} of the largest's volume)",
+            rep.pieces_dropped,
+            caoen::frep::polygonise::SPECK_FRACTION
+        ));
+    }
+    if rep.collapsed > 0 {
+        notes.push(format!(
+            "collapsed {} zero-area triangles' edges",
+            rep.collapsed
+        ));
+    }
+    if rep.cells != cells as usize {
+        notes.push(format!(
+            "meshed on {} cells: the grid of {cells} folded a triangle flat",
+            rep.cells
+        ));
+    }
+    if rep.separated > 0 {
+        notes.push(format!(
+            "{} vertices moved off a touching sheet",
+            rep.separated
+        ));
+    }
+    if rep.clamped > 0 {
+        notes.push(format!("{} vertices clamped into the bounds", rep.clamped));
+    }
     note(
         global,
         format!(
-            "wrote {}: {} vertices, {} triangles, Euler characteristic {}",
-            a.output.display(),
+            "wrote {}: {} vertices, {} triangles, closed and manifold, {} piece{}, volume {:.6}, Euler characteristic {}{}",
+            output.display(),
             m.positions.len(),
             m.triangles.len(),
-            m.euler_characteristic()
+            rep.pieces,
+            if rep.pieces == 1 { "" } else { "s" },
+            rep.volume,
+            m.euler_characteristic(),
+            notes.iter().map(|n| format!("; {n}")).collect::<String>()
         ),
     );
     Ok(())
@@ -404,7 +459,7 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    if ext.as_deref() != Some("json") {
+    if ext.as_deref() != Some("json") && !is_mesh_path(&a.output) {
         model_or_picture(&a.output)?;
     }
     for (name, v) in [("--depth", a.depth), ("--level", a.level)] {
@@ -485,6 +540,18 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
                 "carved"
             }
         ));
+    }
+    if is_mesh_path(&a.output) {
+        let text = model.to_string();
+        let v: serde_json::Value = serde_json::from_str(&text).expect("json values round-trip");
+        let node = caoen::frep::Node::from_json(&v["model"], "model", &base_dir)
+            .map_err(|e| CliError::Failed(format!("{}: {e}", a.output.display())))?;
+        let bounds = match node.bounds() {
+            Some(b) => b,
+            None => *bounds,
+        };
+        check_cells(a.cells)?;
+        return write_solid_mesh(global, &outputs, &node, &bounds, a.cells, &a.output);
     }
     // The base model's assets are loaded again with the new model: not twice at once.
     drop(scene);

@@ -111,7 +111,8 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         pair.blit(&r.image, 320 * k as u32, 0);
     }
     save_png(global, &sub, "carving.png", &pair)?;
-    write_mirror_glass(global, &sub, n)
+    write_mirror_glass(global, &sub, n)?;
+    lithophane(&sub)
 }
 
 /// The secondary-ray example: a mirror ball, a glass Cao En solid (a dodecahedron,
@@ -154,6 +155,36 @@ pub fn mirror_glass_scene() -> serde_json::Value {
                           "specular": 0.6, "shininess": 120}}
         ]
     })
+}
+
+/// A lithophane: the distort example's photograph-like scene engraved into a plate 0.1
+/// thick (1.5 x 1 across) so that the plate is thicker where the picture is darker
+/// (0.1 for black, 0.04 for white), written as a binary STL to print. What `caoen
+/// relief ../distort/input.png --on plate.json --projection planar --depth -0.06 -o
+/// lithophane.stl --cells 64` writes, the plate being the box of `lithophane.json`.
+fn lithophane(sub: &Path) -> CliResult {
+    let model = serde_json::json!({
+        "format": "caoen-frep/1", "name": "lithophane",
+        "model": {"relief": {"box": {"centre": [0.0, 0.0, 0.05], "size": [1.5, 1.0, 0.1]}},
+                  "image": "../distort/input.png", "projection": "planar", "depth": -0.06,
+                  "interp": "bilinear"},
+        "material": {"colour": [0.92, 0.9, 0.85]},
+        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [0.3, -1.2, 1.6]}
+    });
+    save_json(sub, "lithophane.json", &model)?;
+    let scene = crate::commands::frep::load(&sub.join("lithophane.json"))?;
+    let Some(caoen::render::scene::Shape::Field { node, bounds }) =
+        scene.objects.first().map(|o| &o.shape)
+    else {
+        return Err(CliError::Failed("lithophane.json: no F-rep model".into()));
+    };
+    let (mesh, _) = caoen::frep::polygonise::solid_mesh(node, bounds, 64)
+        .map_err(|e| CliError::Failed(format!("lithophane.stl: {e}")))?;
+    let mut stl = Vec::new();
+    caoen::render::mesh_io::write_stl(&mesh, &mut stl)
+        .map_err(|e| CliError::io(sub.join("lithophane.stl"), e))?;
+    replace_file(&sub.join("lithophane.stl"), &stl)?;
+    Ok(())
 }
 
 /// A diagonal lattice, 512x256 grey: bright bars (kept by carving) with soft edges,
