@@ -233,8 +233,10 @@ fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
     assert!(!out.exists());
 }
 
+/// A texture over the budget or the loader's pixel limit is refused from its header,
+/// before anything is decoded.
 #[test]
-fn textures_go_through_the_checked_loader() {
+fn textures_are_refused_from_their_headers() {
     let dir = scratch("textures");
     let out = dir.join("t.png").display().to_string();
     fails_cleanly(
@@ -246,7 +248,7 @@ fn textures_go_through_the_checked_loader() {
             &out,
         ],
         1,
-        "image is 16384x16384, over the limit",
+        "16384x16384",
     );
     fails_cleanly(
         &[
@@ -261,7 +263,7 @@ fn textures_go_through_the_checked_loader() {
             &out,
         ],
         1,
-        "image is 16384x16384, over the limit",
+        "16384x16384",
     );
 }
 

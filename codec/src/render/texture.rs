@@ -139,15 +139,28 @@ fn bilinear(img: &RgbImage, uv: [f64; 2], wrap: Wrap) -> [f32; 3] {
 impl Texture {
     /// Wraps a linear-light image and builds its mip pyramid (a third more memory).
     pub fn new(image: RgbImage) -> Result<Self> {
+        Texture::with_reservation(image, None)
+    }
+
+    /// The budget held by a `width x height` texture: 12 bytes a texel, a third more for
+    /// the pyramid, counted while it lives, so a scene's textures and everything else
+    /// one command loads share one budget.
+    fn reserve(width: u64, height: u64) -> Result<crate::budget::Reservation> {
+        Ok(crate::budget::reserve(
+            || format!("a {width}x{height} texture"),
+            crate::budget::bytes(width, height, 16),
+        )?)
+    }
+
+    /// [`Texture::new`] with the budget already reserved (or reserved now).
+    fn with_reservation(image: RgbImage, held: Option<crate::budget::Reservation>) -> Result<Self> {
         if image.width == 0 || image.height == 0 {
             return Err(RenderError::parameter("texture", "image is empty"));
         }
-        // 12 bytes a texel, a third more for the pyramid: counted while it lives, so a
-        // scene's textures and everything else one command loads share one budget.
-        let held = crate::budget::reserve(
-            || format!("a {}x{} texture", image.width, image.height),
-            crate::budget::bytes(u64::from(image.width), u64::from(image.height), 16),
-        )?;
+        let held = match held {
+            Some(h) => h,
+            None => Texture::reserve(u64::from(image.width), u64::from(image.height))?,
+        };
         let mut levels = vec![image];
         loop {
             let top = levels.last().expect("level 0 exists");
@@ -165,7 +178,15 @@ impl Texture {
 
     /// Loads an image file (any format the checked loader reads).
     pub fn load(path: &Path) -> Result<Self> {
-        Texture::new(RgbImage::load(path)?)
+        // Reserved from the header's size before decoding, so the decoder's own buffers
+        // are checked against what the texture leaves of the budget, not beside it.
+        let held = image::ImageReader::open(path)
+            .ok()
+            .and_then(|r| r.with_guessed_format().ok())
+            .and_then(|r| r.into_dimensions().ok())
+            .map(|(w, h)| Texture::reserve(u64::from(w), u64::from(h)))
+            .transpose()?;
+        Texture::with_reservation(RgbImage::load(path)?, held)
     }
 
     /// The texture image.
