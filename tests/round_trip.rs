@@ -216,10 +216,9 @@ fn texture() -> &'static caoen::render::texture::Texture {
     })
 }
 
-// The writers behind the command line: each case is a whole command in process, so
-// fewer cases by default (a tenth of the setting, at least 100).
+// The writers behind the command line: each case is a whole command in process.
 proptest! {
-    #![proptest_config(common::proptest_config((cases() / 10).max(100)))]
+    #![proptest_config(common::proptest_config(cases()))]
 
     /// relief and carve: any legal depth, level, shell and projection on any base.
     #[test]
