@@ -588,46 +588,17 @@ fn pov_ray_renders_the_exported_model() {
             samples,
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let started = std::time::Instant::now();
-        let o = std::process::Command::new("povray")
-            .args([
-                &format!("+I{}", s(&pov)),
-                &format!("+W{side}"),
-                &format!("+H{side}"),
-                aa,
-                "-D",
-                "+FN",
-                &format!("+O{}", s(&theirs)),
-            ])
-            .output()
-            .unwrap();
-        assert!(
-            o.status.success(),
-            "povray: {}",
-            String::from_utf8_lossy(&o.stderr)
+        let pov_s = common::povray(&pov, &theirs, side, aa);
+        let open = |p: &Path| image::open(p).unwrap().to_rgb8();
+        let (iou, union) = common::iou(
+            &common::silhouette(&open(&ours)),
+            &common::silhouette(&open(&theirs)),
         );
-        let mask = |p: &Path| {
-            let img = image::open(p).unwrap().to_rgb8();
-            let bg = *img.get_pixel(0, 0);
-            img.pixels()
-                .map(|q| {
-                    (0..3)
-                        .map(|k| (q[k] as i32 - bg[k] as i32).abs())
-                        .sum::<i32>()
-                        > 24
-                })
-                .collect::<Vec<bool>>()
-        };
-        let (a, b) = (mask(&ours), mask(&theirs));
-        let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
-        let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
-        let iou = inter as f64 / union as f64;
         println!(
-            "{stem}: silhouette IoU caoen vs POV-Ray {iou:.4} ({union} pixels, {side}x{side}, POV-Ray {:.1} s)",
-            started.elapsed().as_secs_f64()
+            "{stem}: silhouette IoU caoen vs POV-Ray {iou:.4} ({union} pixels, {side}x{side}, POV-Ray {pov_s:.1} s)"
         );
         assert!(
-            union > side * side / 20 && iou >= 0.98,
+            union > (side * side / 20) as usize && iou >= 0.98,
             "{stem}: IoU {iou:.4}"
         );
     }
@@ -665,43 +636,17 @@ fn pov_silhouette_iou(dir: &Path, model: &Path, side: u32) -> f64 {
         "2",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = std::process::Command::new("povray")
-        .args([
-            &format!("+I{}", s(&pov)),
-            &format!("+W{side}"),
-            &format!("+H{side}"),
-            "+A0.1",
-            "-D",
-            "+FN",
-            &format!("+O{}", s(&theirs)),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "povray: {}",
-        String::from_utf8_lossy(&o.stderr)
+    common::povray(&pov, &theirs, side, "+A0.1");
+    let open = |p: &Path| image::open(p).unwrap().to_rgb8();
+    let (iou, union) = common::iou(
+        &common::silhouette(&open(&ours)),
+        &common::silhouette(&open(&theirs)),
     );
-    let mask = |p: &Path| {
-        let img = image::open(p).unwrap().to_rgb8();
-        let bg = *img.get_pixel(0, 0);
-        img.pixels()
-            .map(|q| {
-                (0..3)
-                    .map(|k| (q[k] as i32 - bg[k] as i32).abs())
-                    .sum::<i32>()
-                    > 24
-            })
-            .collect::<Vec<bool>>()
-    };
-    let (a, b) = (mask(&ours), mask(&theirs));
-    let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count();
-    let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
     assert!(
         union > (side * side / 20) as usize,
         "{stem}: {union} pixels"
     );
-    inter as f64 / union as f64
+    iou
 }
 
 /// The negation, blended difference, twist, taper, bend and noise nodes: POV-Ray's

@@ -272,43 +272,14 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
     ]);
     let ours_s = started.elapsed().as_secs_f64();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let started = std::time::Instant::now();
-    let o = std::process::Command::new("povray")
-        .args([
-            &format!("+I{}", s(&pov)),
-            "+W512",
-            "+H512",
-            "+A0.1",
-            "-D",
-            "+FN",
-            &format!("+O{}", s(&theirs)),
-        ])
-        .output()
-        .unwrap();
-    let theirs_s = started.elapsed().as_secs_f64();
-    assert!(
-        o.status.success(),
-        "povray: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let theirs_s = common::povray(&pov, &theirs, 512, "+A0.1");
     let (a, b) = (
         image::open(&ours).unwrap().to_rgb8(),
         image::open(&theirs).unwrap().to_rgb8(),
     );
-    let mask = |img: &image::RgbImage| {
-        let bg = *img.get_pixel(0, 0);
-        img.pixels()
-            .map(|q| {
-                (0..3)
-                    .map(|k| (q[k] as i32 - bg[k] as i32).abs())
-                    .sum::<i32>()
-                    > 24
-            })
-            .collect::<Vec<bool>>()
-    };
-    let (ma, mb) = (mask(&a), mask(&b));
+    let (ma, mb) = (common::silhouette(&a), common::silhouette(&b));
+    let (iou, _) = common::iou(&ma, &mb);
     let inter = ma.iter().zip(&mb).filter(|(x, y)| **x && **y).count();
-    let union = ma.iter().zip(&mb).filter(|(x, y)| **x || **y).count();
     let mut sum = 0.0;
     for (i, (pa, pb)) in a.pixels().zip(b.pixels()).enumerate() {
         if ma[i] && mb[i] {
@@ -318,12 +289,7 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
                 / 3.0;
         }
     }
-    (
-        inter as f64 / union.max(1) as f64,
-        sum / inter.max(1) as f64,
-        ours_s,
-        theirs_s,
-    )
+    (iou, sum / inter.max(1) as f64, ours_s, theirs_s)
 }
 
 /// The mirror-and-glass example (shadows, a mirror ball, a glass Cao En solid) agrees

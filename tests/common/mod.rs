@@ -50,3 +50,49 @@ pub fn psnr_rgb8(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
     };
     caoen::metrics::psnr_from_mse(caoen::metrics::mse(&flat(a), &flat(b)), 1.0)
 }
+
+/// Renders the POV-Ray scene `pov` to the PNG `out`, `side` pixels square, with the
+/// antialiasing switch `aa` (e.g. `+A0.1`); the seconds POV-Ray took.
+pub fn povray(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str) -> f64 {
+    let started = std::time::Instant::now();
+    let o = Command::new("povray")
+        .args([
+            &format!("+I{}", pov.display()),
+            &format!("+W{side}"),
+            &format!("+H{side}"),
+            aa,
+            "-D",
+            "+FN",
+            &format!("+O{}", out.display()),
+        ])
+        .output()
+        .expect("run povray");
+    let seconds = started.elapsed().as_secs_f64();
+    assert!(
+        o.status.success(),
+        "povray: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    seconds
+}
+
+/// A render's silhouette: the pixels whose colour differs from the top-left corner's
+/// (the background) by more than 24 levels summed over the channels.
+pub fn silhouette(img: &image::RgbImage) -> Vec<bool> {
+    let bg = *img.get_pixel(0, 0);
+    img.pixels()
+        .map(|q| {
+            (0..3)
+                .map(|k| (q[k] as i32 - bg[k] as i32).abs())
+                .sum::<i32>()
+                > 24
+        })
+        .collect()
+}
+
+/// Intersection over union of two silhouettes, and the union's pixel count.
+pub fn iou(a: &[bool], b: &[bool]) -> (f64, usize) {
+    let inter = a.iter().zip(b).filter(|(x, y)| **x && **y).count();
+    let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
+    (inter as f64 / union.max(1) as f64, union)
+}

@@ -148,6 +148,18 @@ pub fn make_printable(
     )
 }
 
+/// The longest edge of triangle `t`: `k` for the edge from corner `k` to `k + 1`.
+fn longest_edge(pos: &[[f64; 3]], t: &[u32; 3]) -> usize {
+    let len = |a: u32, b: u32| norm(sub(pos[a as usize], pos[b as usize]));
+    (0..3)
+        .max_by(|&a, &b| {
+            len(t[a], t[(a + 1) % 3])
+                .partial_cmp(&len(t[b], t[(b + 1) % 3]))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or(0)
+}
+
 /// The last resort for a zero-area triangle no collapse or flip can remove (its
 /// neighbours fold onto the same line): its apex, the vertex opposite the longest
 /// edge, moves four tolerances along its normal, off the line. Returns the degenerate
@@ -160,14 +172,7 @@ fn lift_apexes(pos: &mut [[f64; 3]], normals: &[[f64; 3]], tris: &[[u32; 3]], to
         if !thin(pos, t) || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             continue;
         }
-        let len = |a: u32, b: u32| norm(sub(pos[a as usize], pos[b as usize]));
-        let longest = (0..3)
-            .max_by(|&a, &b| {
-                len(t[a], t[(a + 1) % 3])
-                    .partial_cmp(&len(t[b], t[(b + 1) % 3]))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            })
-            .unwrap_or(0);
+        let longest = longest_edge(pos, t);
         let apex = t[(longest + 2) % 3] as usize;
         let n = normals.get(apex).copied().unwrap_or([0.0; 3]);
         let l = norm(n);
@@ -309,14 +314,8 @@ fn collapse_degenerate(
             continue;
         }
         // Candidate collapses (from, onto), the preferred one first.
+        let longest = longest_edge(pos, &t);
         let len = |a: u32, b: u32| norm(sub(pos[a as usize], pos[b as usize]));
-        let longest = (0..3)
-            .max_by(|&a, &b| {
-                len(t[a], t[(a + 1) % 3])
-                    .partial_cmp(&len(t[b], t[(b + 1) % 3]))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            })
-            .unwrap_or(0);
         let (u, w, apex) = (t[longest], t[(longest + 1) % 3], t[(longest + 2) % 3]);
         let (near, far) = if len(apex, u) <= len(apex, w) {
             (u, w)
