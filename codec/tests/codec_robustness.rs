@@ -97,7 +97,7 @@ fn bad_headers_have_clear_messages() {
     // The header's length: 38 bytes, 46 with the detail layer's steps, 48 with its
     // deblocking.
     let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!([38, 46, 48].contains(&hl), "{hl}");
+    assert!([38, 46, 48, 49, 51].contains(&hl), "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
@@ -117,8 +117,9 @@ fn bad_headers_have_clear_messages() {
         matches!(e, CodecError::CrcMismatch { offset: 5, stored: s, computed, .. } if s == stored && computed != stored),
         "{e}"
     );
-    // Deblocking parameters out of range, or deblocking without the detail layer.
-    assert_eq!(hl, 48, "the small file's detail layer is deblocked");
+    // Deblocking parameters or step factors out of range, or either without the detail
+    // layer.
+    assert_eq!(hl, 51, "the small file's detail layer is deblocked, its steps adapt");
     let with_header = |edit: &dyn Fn(&mut [u8])| {
         let mut f = file.clone();
         edit(&mut f[10..10 + hl]);
@@ -133,12 +134,22 @@ fn bad_headers_have_clear_messages() {
             "{e}"
         );
     }
+    for at in 48..51 {
+        let e = with_header(&|h: &mut [u8]| h[at] = 0);
+        assert!(
+            matches!(e, CodecError::AdaptiveSteps { factors } if factors[at - 48] == 0),
+            "{e}"
+        );
+    }
     let e = with_header(&|h: &mut [u8]| h[15] &= !2);
     assert!(
-        matches!(e, CodecError::Flags { flags } if flags & 4 != 0),
+        matches!(e, CodecError::Flags { flags } if flags & 12 == 12),
         "{e}"
     );
-    let e = with_header(&|h: &mut [u8]| h[15] |= 8);
+    // Without its flag the factors are bytes the header does not have room for.
+    let e = with_header(&|h: &mut [u8]| h[15] &= !8);
+    assert!(matches!(e, CodecError::HeaderLength { found: 51, expected: 48 }), "{e}");
+    let e = with_header(&|h: &mut [u8]| h[15] |= 16);
     assert!(e.to_string().contains("header flags"), "{e}");
     // A cut file says where and how much is missing.
     let e = decode(&file[..file.len() - 3], &DecodeOptions::default()).unwrap_err();

@@ -1,5 +1,6 @@
 //! The container: magic, version, then CRC-checked sections (see `docs/format.md`).
 
+use super::detail::adaptive::{AdaptiveSteps, CLASSES};
 use super::detail::deblock::Deblock;
 use super::error::Tag;
 use super::keyset::KernelParams;
@@ -67,20 +68,28 @@ pub struct Header {
     pub detail_steps: Option<[f32; 2]>,
     /// Deblocking of the detail layer (flag bit 2, only with the layer).
     pub deblock: Option<Deblock>,
+    /// Step factors of the detail layer by network cell size (flag bit 3, only with
+    /// the layer).
+    pub adaptive: Option<AdaptiveSteps>,
 }
 
 /// Header bytes without the detail layer's steps.
 const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 2;
 /// Header bytes with them.
 const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
-/// Header bytes with them and the deblocking parameters.
-const HEADER_LEN_DEBLOCK: usize = HEADER_LEN_DETAIL + 2;
+/// Bytes of the deblocking parameters.
+const DEBLOCK_LEN: usize = 2;
+/// Bytes of the adaptive step factors.
+const ADAPTIVE_LEN: usize = CLASSES;
 /// Flag bit: chroma on the pruned tree.
 const FLAG_PRUNED: u8 = 1;
 /// Flag bit: the detail layer is present.
 const FLAG_DETAIL: u8 = 2;
 /// Flag bit: the detail layer is deblocked (only with [`FLAG_DETAIL`]).
 const FLAG_DEBLOCK: u8 = 4;
+/// Flag bit: the detail layer's steps adapt to the network's cells (only with
+/// [`FLAG_DETAIL`]).
+const FLAG_ADAPTIVE: u8 = 8;
 
 impl Header {
     /// The tree geometry.
@@ -126,6 +135,11 @@ impl Header {
                     FLAG_DEBLOCK
                 } else {
                     0
+                }
+                | if self.adaptive.is_some() {
+                    FLAG_ADAPTIVE
+                } else {
+                    0
                 },
         );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
@@ -140,22 +154,26 @@ impl Header {
         if let Some(d) = self.deblock {
             b.extend([d.strength, d.radius]);
         }
+        if let Some(a) = self.adaptive {
+            b.extend(a.factors);
+        }
         b
     }
 
     fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
         let flags = p.get(15).copied().unwrap_or(0);
-        if flags > FLAG_PRUNED | FLAG_DETAIL | FLAG_DEBLOCK
-            || (flags & FLAG_DEBLOCK != 0 && flags & FLAG_DETAIL == 0)
+        if flags > FLAG_PRUNED | FLAG_DETAIL | FLAG_DEBLOCK | FLAG_ADAPTIVE
+            || (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE) != 0 && flags & FLAG_DETAIL == 0)
         {
             return Err(CodecError::Flags { flags });
         }
-        let len = if flags & FLAG_DEBLOCK != 0 {
-            HEADER_LEN_DEBLOCK
-        } else if flags & FLAG_DETAIL != 0 {
-            HEADER_LEN_DETAIL
-        } else {
+        // The optional fields follow in flag order.
+        let deblock_at = HEADER_LEN_DETAIL;
+        let adaptive_at = deblock_at + if flags & FLAG_DEBLOCK != 0 { DEBLOCK_LEN } else { 0 };
+        let len = if flags & FLAG_DETAIL == 0 {
             HEADER_LEN
+        } else {
+            adaptive_at + if flags & FLAG_ADAPTIVE != 0 { ADAPTIVE_LEN } else { 0 }
         };
         if p.len() != len {
             return Err(CodecError::HeaderLength {
@@ -214,9 +232,15 @@ impl Header {
         let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
         let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(38), f32_at(42)]);
         let deblock = (flags & FLAG_DEBLOCK != 0).then(|| Deblock {
-            strength: p[46],
-            radius: p[47],
+            strength: p[deblock_at],
+            radius: p[deblock_at + 1],
         });
+        let adaptive = (flags & FLAG_ADAPTIVE != 0).then(|| AdaptiveSteps {
+            factors: std::array::from_fn(|i| p[adaptive_at + i]),
+        });
+        if let Some(a) = adaptive.filter(|a| !a.is_valid()) {
+            return Err(CodecError::AdaptiveSteps { factors: a.factors });
+        }
         if let Some(d) = deblock.filter(|d| !d.is_valid()) {
             return Err(CodecError::Deblock {
                 strength: d.strength,
@@ -260,6 +284,7 @@ impl Header {
             tile_side,
             detail_steps,
             deblock,
+            adaptive,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

@@ -5,7 +5,9 @@ use std::sync::Mutex;
 
 use super::bitstream::{self, Header, TileStreams};
 use super::colour::{self, CodingPlanes};
+use super::detail::dct::N as DCT_N;
 use super::detail::quantise::{self as detail_quantise, Quantiser};
+use super::detail::{self, adaptive};
 use super::entropy::AnsSink;
 use super::geometry::Frame;
 use super::keyset::{Grid, KernelParams, KeySet, MIN_SIGMA_FACTOR};
@@ -193,6 +195,7 @@ fn detail_tile(
     s: &EncodeSettings,
     kernel: KernelParams,
     net: &Network,
+    classes: Option<&[u8]>,
 ) -> Vec<u8> {
     let tile = src.region(rect);
     let planes = coding_planes(&tile, s.decorrelate);
@@ -213,10 +216,25 @@ fn detail_tile(
             },
             deadzone: s.detail_deadzone,
             lambda: s.detail_lambda,
+            per_coefficient: s.detail_search,
         })
         .collect();
-    let (detail, payload) =
-        detail_quantise::code_layer(&residuals, (rect.width, rect.height), &quantisers);
+    // The tile's blocks' step factors, from the image's block classes (tiles start on
+    // block boundaries).
+    let factors = s.detail_adaptive.zip(classes).map(|(a, classes)| {
+        let (cols, _) = detail::blocks(src.width(), src.height());
+        let (tc, tr) = detail::blocks(rect.width, rect.height);
+        let (bx0, by0) = (rect.x0 as usize / DCT_N, rect.y0 as usize / DCT_N);
+        (0..tc * tr)
+            .map(|i| a.factor(classes[(by0 + i / tc) * cols + bx0 + i % tc]))
+            .collect::<Vec<f64>>()
+    });
+    let (detail, payload) = detail_quantise::code_layer(
+        &residuals,
+        (rect.width, rect.height),
+        &quantisers,
+        factors.as_deref(),
+    );
     if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
         Vec::new()
     } else {
@@ -309,8 +327,11 @@ pub fn encode_with(
     });
     let net = Network::gather(&mut models, s.model.block_log2);
     let kernel = s.model.kernel;
+    let classes = s
+        .detail_adaptive
+        .map(|_| adaptive::block_classes(&net.luma_cells, w, h));
     let details = run_tiles(n, workers, |i| {
-        let d = detail_tile(img, tiling.rect(i), &s, kernel, &net);
+        let d = detail_tile(img, tiling.rect(i), &s, kernel, &net, classes.as_deref());
         step();
         d
     });
@@ -335,6 +356,7 @@ pub fn encode_with(
         detail_steps: any_detail
             .then_some([s.detail_step_luma as f32, s.detail_step_chroma as f32]),
         deblock: s.deblock.filter(|_| any_detail),
+        adaptive: s.detail_adaptive.filter(|_| any_detail),
     };
     let streams: Vec<TileStreams> = models
         .into_iter()

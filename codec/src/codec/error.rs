@@ -73,7 +73,7 @@ pub enum CodecError {
     },
     /// The header's flags name a bit this version does not define, or deblocking without
     /// the detail layer.
-    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking, which needs bit 1)")]
+    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking and bit 3 adaptive steps, which need bit 1)")]
     Flags {
         /// The flags byte.
         flags: u8,
@@ -85,6 +85,12 @@ pub enum CodecError {
         strength: u8,
         /// Ramp reach in quarter pixels.
         radius: u8,
+    },
+    /// The header's adaptive step factors include a zero.
+    #[error("invalid caoen file: adaptive detail step factors {factors:?} (each 1..=255)")]
+    AdaptiveSteps {
+        /// The factor bytes by cell-size class.
+        factors: [u8; 3],
     },
     /// The header's tile side is not a multiple of the side unit within the range.
     #[error("invalid caoen file: tile side {side} is not a multiple of {unit} in {unit}..={max}")]

@@ -16,7 +16,9 @@ use std::path::Path;
 
 use caoen::codec::bitstream::{self, Header, Parsed, TileStreams};
 use caoen::codec::decoder;
-use caoen::codec::detail::{self, dct::COEFFS, deblock::Deblock, Detail, DetailPlane};
+use caoen::codec::detail::{
+    self, adaptive::AdaptiveSteps, dct::COEFFS, deblock::Deblock, Detail, DetailPlane,
+};
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
 use caoen::codec::quadtree::TreeShape;
@@ -272,6 +274,9 @@ fn choose_header(c: &mut Choices) -> Header {
         tile_side: SIDE_UNIT * (1 + u32::from(c.bit())),
         detail_steps,
         deblock,
+        adaptive: (detail_steps.is_some() && c.bit()).then(|| AdaptiveSteps {
+            factors: [c.byte().max(1), c.byte().max(1), c.byte().max(1)],
+        }),
     }
 }
 
@@ -321,6 +326,8 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
         planes,
         steps: vec![1.0; channels],
         deblock: header.deblock,
+        // Only the payload is written: the factors live in the header.
+        block_steps: None,
     }
 }
 

@@ -442,6 +442,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
             "step_alpha": h.step_alpha, "detail_steps": h.detail_steps,
             "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
+            "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
@@ -500,7 +501,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
     match h.detail_steps {
         Some([l, c]) => outln!(
             text,
-            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}, {}",
+            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}, {}, {}",
             match h.deblock {
                 Some(d) => format!(
                     "deblocked (steps up to {}% of the step, {} px ramps)",
@@ -508,6 +509,15 @@ pub fn info(a: &InfoArgs) -> CliResult {
                     d.radius as f64 / 4.0
                 ),
                 None => "not deblocked".to_string(),
+            },
+            match h.adaptive {
+                Some(a) => format!(
+                    "steps x{} / x{} / x{} under 8 / 16 / 32-pixel cells",
+                    a.factor(0),
+                    a.factor(1),
+                    a.factor(2)
+                ),
+                None => "one step per plane".to_string(),
             }
         ),
         None => outln!(text, "detail:      none"),

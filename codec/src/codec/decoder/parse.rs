@@ -6,6 +6,7 @@ use rayon::prelude::*;
 use super::Decoded;
 use crate::codec::bitstream::{self, Header, Parsed, TilePayload};
 use crate::codec::detail::dct::N as DCT_N;
+use crate::codec::detail::adaptive::{block_classes, BlockSteps};
 use crate::codec::detail::{blocks as detail_blocks, Detail, DetailPlane};
 use crate::codec::entropy::AnsSource;
 use crate::codec::model::chroma_cells;
@@ -194,6 +195,10 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
             planes,
             steps,
             deblock: header.deblock,
+            block_steps: header.adaptive.map(|steps| BlockSteps {
+                steps,
+                classes: block_classes(&luma_cells, header.width, header.height),
+            }),
         }
     });
     Ok(Decoded {

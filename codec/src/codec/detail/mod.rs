@@ -2,16 +2,19 @@
 //!
 //! The colour channels' residual after the network (coding space, coded size) is cut
 //! into 8x8 blocks, each an orthonormal DCT ([`dct`]) quantised with one step per channel
-//! kind (luma, chroma) and coded by [`syntax`]. The decoder adds the blocks' cosine
+//! kind (luma, chroma), scaled per block by the network's cell size ([`adaptive`]), and
+//! coded by [`syntax`]. The decoder adds the blocks' cosine
 //! series to the network's colours at every sample position it evaluates, so the layer
 //! follows the network to any output size or supersampling: the series is a function
 //! defined everywhere in its block, not a table of pixels.
 
+pub mod adaptive;
 pub mod dct;
 pub mod deblock;
 pub mod quantise;
 pub mod syntax;
 
+use adaptive::BlockSteps;
 use dct::{COEFFS, N};
 use deblock::{edge_basis, edge_weight, gate, Deblock};
 
@@ -188,6 +191,8 @@ pub struct Detail {
     pub steps: Vec<f64>,
     /// Deblocking applied where the layer is evaluated ([`deblock`]), if any.
     pub deblock: Option<Deblock>,
+    /// Each block's step factor ([`adaptive`]), if the steps adapt.
+    pub block_steps: Option<BlockSteps>,
 }
 
 impl Detail {
@@ -269,6 +274,7 @@ impl Detail {
             planes,
             steps,
             deblock: None,
+            block_steps: None,
         })
     }
 
@@ -286,6 +292,7 @@ impl Detail {
                     let Some(l) = p.block(bx, by) else {
                         return 0.0;
                     };
+                    let step = step * self.block_steps.as_ref().map_or(1.0, |b| b.factor(by * p.cols + bx));
                     let (bu, bv) = (dct::basis_at(tx), dct::basis_at(ty));
                     let mut sum = 0.0;
                     for v in 0..N {
@@ -371,10 +378,24 @@ fn locate(p: f64, count: usize) -> (usize, f64) {
 }
 
 impl PlaneEval {
-    /// One plane's coefficients (levels times `step`) and their extents.
-    fn new(p: &DetailPlane, step: f64) -> Self {
+    /// One plane's coefficients (levels times `step` and the block's factor) and their
+    /// extents.
+    fn new(p: &DetailPlane, step: f64, block_steps: Option<&BlockSteps>) -> Self {
+        let mut coeffs: Vec<f32> = p.levels.iter().map(|&q| (q as f64 * step) as f32).collect();
+        if let Some(b) = block_steps {
+            for (i, &k) in p.index.iter().enumerate() {
+                if k != ZERO {
+                    let (at, v1, u1) = p.spans[k as usize];
+                    let s = step * b.factor(i);
+                    let range = at as usize..at as usize + v1 as usize * u1 as usize;
+                    for (c, &q) in coeffs[range.clone()].iter_mut().zip(&p.levels[range]) {
+                        *c = (q as f64 * s) as f32;
+                    }
+                }
+            }
+        }
         PlaneEval {
-            coeffs: p.levels.iter().map(|&q| (q as f64 * step) as f32).collect(),
+            coeffs,
             extent: p.spans.clone(),
             index: p.index.clone(),
             cols: p.cols,
@@ -392,7 +413,7 @@ impl DetailEval {
             .planes
             .iter()
             .zip(&detail.steps)
-            .map(|(p, &step)| PlaneEval::new(p, step))
+            .map(|(p, &step)| PlaneEval::new(p, step, detail.block_steps.as_ref()))
             .collect();
         eval
     }
@@ -407,7 +428,7 @@ impl DetailEval {
             .planes
             .into_iter()
             .zip(detail.steps)
-            .map(|(p, step)| PlaneEval::new(&p, step))
+            .map(|(p, step)| PlaneEval::new(&p, step, detail.block_steps.as_ref()))
             .collect();
         eval
     }
@@ -606,6 +627,7 @@ mod tests {
                 step,
                 deadzone: 0.2,
                 lambda: 0.12,
+                per_coefficient: true,
             };
             3
         ]
@@ -614,7 +636,7 @@ mod tests {
     #[test]
     fn the_searched_payload_is_the_plain_coding_of_its_levels_and_reads_back() {
         let (r, (w, h)) = residuals();
-        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02));
+        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02), None);
         assert!(detail.planes.iter().all(|p| p.coded_blocks() > 0));
         assert_eq!(detail.to_payload(), payload);
         let back = Detail::read(&payload, w, h, detail.steps.clone()).unwrap();
@@ -627,7 +649,7 @@ mod tests {
         let frame = Frame::new(w, h);
         let grid = Grid::pixel_centres(&frame, w, h);
         let error = |step: f64| {
-            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step));
+            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step), None);
             let layer = DetailEval::new(&detail, &grid).eval();
             let e: f64 = r
                 .iter()
@@ -654,6 +676,7 @@ mod tests {
             planes: vec![plane],
             steps: vec![0.5],
             deblock: None,
+            block_steps: None,
         };
         let frame = Frame::new(8, 8);
         let out = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
@@ -674,6 +697,7 @@ mod tests {
             planes: vec![DetailPlane::from_blocks(1, 1, vec![levels])],
             steps: vec![0.1],
             deblock: None,
+            block_steps: None,
         };
         let frame = Frame::new(8, 8);
         let one = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
@@ -690,15 +714,22 @@ mod tests {
     /// The layer coded coarsely, so that its blocks step at their edges.
     fn deblocked(strength: u8, radius: u8) -> (Detail, (u32, u32)) {
         let (r, (w, h)) = residuals();
-        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3));
+        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3), None);
         detail.deblock = Some(Deblock { strength, radius });
         (detail, (w, h))
     }
 
     #[test]
     fn deblocked_grid_evaluation_equals_the_scalar_reference_at_any_scale() {
-        for (strength, radius) in [(25, 16), (255, 16), (60, 3)] {
-            let (detail, (w, h)) = deblocked(strength, radius);
+        for (strength, radius, adaptive) in [(25, 16, false), (255, 16, false), (60, 3, false), (60, 3, true)] {
+            let (mut detail, (w, h)) = deblocked(strength, radius);
+            if adaptive {
+                let (cols, rows) = blocks(w, h);
+                detail.block_steps = Some(BlockSteps {
+                    steps: adaptive::AdaptiveSteps { factors: [40, 32, 9] },
+                    classes: (0..cols * rows).map(|i| (i * 7 % 3) as u8).collect(),
+                });
+            }
             let frame = Frame::new(w, h);
             for (ow, oh) in [(w, h), (3 * w, 2 * h + 1), (w / 2, h / 2)] {
                 let grid = Grid::pixel_centres(&frame, ow, oh);
@@ -721,6 +752,7 @@ mod tests {
         let (detail, _) = deblocked(255, 16);
         let plain = Detail {
             deblock: None,
+            block_steps: None,
             ..detail.clone()
         };
         let mut joined = 0;

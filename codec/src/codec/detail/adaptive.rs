@@ -1,0 +1,126 @@
+//! Adaptive steps of the detail layer: each block's step is its plane's step times a
+//! factor chosen by the size of the network cell over the block.
+//!
+//! The network splits its cells where the picture has detail, so the cell over a block
+//! is a measure of local activity that the decoder has without a bit spent on it. Flat
+//! regions (large cells), where the eye and the structural metrics notice small errors,
+//! take a finer step; busy ones (small cells), which mask errors, a coarser one.
+
+use crate::codec::quadtree::Cell;
+
+use super::dct::N;
+
+/// Classes of cell size: 8 pixels or smaller, 16, 32 or larger.
+pub const CLASSES: usize = 3;
+/// A stored factor byte `b` means `b / UNIT`.
+pub const UNIT: f64 = 32.0;
+
+/// The step factor of each class, as stored (`b / 32`, 1..=255).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AdaptiveSteps {
+    /// Factor bytes by class: cells of 8 pixels or smaller, 16, 32 or larger.
+    pub factors: [u8; CLASSES],
+}
+
+impl AdaptiveSteps {
+    /// The factors the encoder uses on photographs (measured in `docs/codec-ablation.md`).
+    pub const DEFAULT: AdaptiveSteps = AdaptiveSteps {
+        factors: [40, 32, 24],
+    };
+
+    /// Whether every factor is in range (a zero factor would erase its blocks).
+    pub fn is_valid(&self) -> bool {
+        self.factors.iter().all(|&f| f > 0)
+    }
+
+    /// The factor of a class.
+    pub fn factor(&self, class: u8) -> f64 {
+        self.factors[class as usize] as f64 / UNIT
+    }
+}
+
+/// The class of a cell of side `2^log2`.
+pub fn class_of(log2: u8) -> u8 {
+    log2.saturating_sub(3).min(CLASSES as u8 - 1)
+}
+
+/// Per block of a `width x height` image (blocks of [`N`] pixels in raster order), the
+/// class of the cell holding the block's centre pixel (the block's part inside the
+/// image). `cells` are the luma leaves, which cover the image; a block no cell holds
+/// keeps class 0.
+pub fn block_classes(cells: &[Cell], width: u32, height: u32) -> Vec<u8> {
+    let (cols, rows) = super::blocks(width, height);
+    let centre = |b: usize, side: u32| ((b * N) as u32 + (N as u32 / 2)).min(side - 1);
+    let mut classes = vec![0u8; cols * rows];
+    for c in cells {
+        let (x0, y0, x1, y1) = c.clip(width, height);
+        if x0 >= x1 || y0 >= y1 {
+            continue;
+        }
+        let class = class_of(c.log2);
+        for by in y0 as usize / N..=(y1 as usize - 1) / N {
+            let cy = centre(by, height);
+            if !(y0..y1).contains(&cy) {
+                continue;
+            }
+            for bx in x0 as usize / N..=(x1 as usize - 1) / N {
+                if (x0..x1).contains(&centre(bx, width)) {
+                    classes[by * cols + bx] = class;
+                }
+            }
+        }
+    }
+    classes
+}
+
+/// The step factor of every block of a plane.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockSteps {
+    /// The factors by class.
+    pub steps: AdaptiveSteps,
+    /// Per block, its class.
+    pub classes: Vec<u8>,
+}
+
+impl BlockSteps {
+    /// The factor of block `i` (raster order).
+    #[inline]
+    pub fn factor(&self, i: usize) -> f64 {
+        self.steps.factor(self.classes[i])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_block_takes_the_class_of_the_cell_over_its_centre() {
+        // A 40x24 image: a 32-pixel cell at the origin, then 8-pixel cells to its
+        // right, 16- and 8-pixel cells below (the bottom row is cut by the image).
+        let mut cells = vec![Cell { x0: 0, y0: 0, log2: 5 }];
+        for y in (0..32).step_by(8) {
+            cells.push(Cell { x0: 32, y0: y, log2: 3 });
+        }
+        let classes = block_classes(&cells, 40, 24);
+        assert_eq!(classes.len(), 5 * 3);
+        for by in 0..3 {
+            assert_eq!(&classes[by * 5..by * 5 + 5], &[2, 2, 2, 2, 0]);
+        }
+        // The last block row of a 20-pixel-high image has its centre at row 19.
+        let cells = [
+            Cell { x0: 0, y0: 0, log2: 4 },
+            Cell { x0: 0, y0: 16, log2: 3 },
+        ];
+        assert_eq!(block_classes(&cells, 16, 20), vec![1, 1, 1, 1, 0, 0]);
+    }
+
+    #[test]
+    fn classes_follow_the_cell_size() {
+        assert_eq!([0, 3, 4, 5, 7].map(class_of), [0, 0, 1, 2, 2]);
+        let s = AdaptiveSteps::DEFAULT;
+        assert!(s.is_valid());
+        assert!(s.factor(0) > s.factor(1) && s.factor(1) > s.factor(2));
+        assert!(!AdaptiveSteps { factors: [0, 32, 32] }.is_valid());
+    }
+}
