@@ -28,7 +28,7 @@ fn repo(rel: &str) -> PathBuf {
 fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
     for radii in [[1.0, 1.0, 1.0], [3.0, 2.0, 1.0]] {
         let mesh = PolygonMesh::ellipsoid(radii, 4);
-        let c = convert(&mesh, &ConvertOptions::default(), &mut |_, _, _| {});
+        let c = convert(&mesh, &ConvertOptions::default(), &mut |_| {});
         assert_eq!(c.model.functions(), 1, "{radii:?}");
         assert!(c.met_target);
         let unit = mesh.transformed(&mesh.unit_frame());
@@ -63,7 +63,7 @@ fn the_written_model_is_the_fitted_function() {
             max_functions: 400,
             ..Default::default()
         },
-        &mut |_, _, _| {},
+        &mut |_| {},
     );
     assert!(c.model.functions() > 1 && c.model.functions() <= 400);
     // Each level lowers the mean distance.
@@ -248,6 +248,10 @@ fn broken_meshes_fail_with_clear_errors() {
         ("no-header-end.ply", "end_header"),
         ("not-a-mesh.ply", "no end_header"),
         ("wrong-extension.stl", "unknown mesh format"),
+        ("bad-index.off", "face 0 uses vertex 9"),
+        ("huge-count.off", "more than the"),
+        ("trailing.off", "line 7: data after the 1 faces"),
+        ("short-vertex.off", "line 4: vertex 1 has 2 numbers"),
     ];
     for (file, words) in expect {
         let path = repo("tests/bad/mesh").join(file);

@@ -34,6 +34,14 @@ pub struct ConvertOptions {
     pub min_radius: f64,
     /// Sweeps of the paper's local descent after the fit (0: none).
     pub descent_sweeps: usize,
+    /// The fit stops once the mean vertex angle (degrees) is at most this and the mean
+    /// vertex distance at most [`ConvertOptions::fit_distance`].
+    pub fit_angle_deg: f64,
+    /// The mean vertex distance that, with [`ConvertOptions::fit_angle_deg`], stops the
+    /// fit (unit cube).
+    pub fit_distance: f64,
+    /// Rounds at the smallest radius after the levels reach it.
+    pub smallest_rounds: usize,
 }
 
 impl Default for ConvertOptions {
@@ -45,6 +53,9 @@ impl Default for ConvertOptions {
             first_radius: 0.32,
             min_radius: 0.005,
             descent_sweeps: 8,
+            fit_angle_deg: 2.4,
+            fit_distance: 0.0003,
+            smallest_rounds: 4,
         }
     }
 }
@@ -66,6 +77,29 @@ pub struct LevelReport {
     pub wrong_side: usize,
 }
 
+/// Why the fit stopped adding perturbations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stop {
+    /// Every vertex met the per-vertex targets and no off-surface condition was on the
+    /// wrong side.
+    Met,
+    /// The mean normal angle and mean distance met their targets.
+    MeanMet,
+    /// `max_functions` was spent.
+    Budget,
+    /// The levels reached the smallest radius and further rounds there stopped helping.
+    SmallestRadius,
+}
+
+/// What the fit reports while it works.
+#[derive(Debug, Clone, Copy)]
+pub enum Progress<'a> {
+    /// A step that takes a while starts (sampling, conditions, descent).
+    Phase(&'a str),
+    /// A level is done: its number, the model's functions and the level's report.
+    Level(usize, usize, &'a LevelReport),
+}
+
 /// A fit's result and its history.
 #[derive(Debug, Clone)]
 pub struct Conversion {
@@ -73,8 +107,17 @@ pub struct Conversion {
     pub model: ImplicitModel,
     /// One report per level.
     pub levels: Vec<LevelReport>,
-    /// Whether every vertex met the targets.
+    /// Whether every vertex met the per-vertex targets (distance and angle) and no
+    /// off-surface condition is on the wrong side, after the descent.
     pub met_target: bool,
+    /// Vertices over the per-vertex targets after the descent.
+    pub over_target: usize,
+    /// Mean vertex distance `|F| / |grad F|` after the descent (unit cube).
+    pub mean_distance: f64,
+    /// Mean angle (degrees) between vertex normal and `-grad F` after the descent.
+    pub mean_angle_deg: f64,
+    /// Why the levels stopped.
+    pub stop: Stop,
 }
 
 /// One least-squares condition `F(p) = target`, weighted.
@@ -320,28 +363,62 @@ fn vertex_errors(model: &ImplicitModel, pts: &[[f64; 3]], normals: &[[f64; 3]]) 
         .collect()
 }
 
-/// Converts a mesh. `progress(level, functions, report)` is called after each level.
+/// Converts a mesh, reporting phases and levels through `progress`.
 pub fn convert(
     mesh: &PolygonMesh,
     opts: &ConvertOptions,
-    progress: &mut dyn FnMut(usize, usize, &LevelReport),
+    progress: &mut dyn FnMut(Progress<'_>),
 ) -> Conversion {
     let frame = mesh.unit_frame();
     let unit = mesh.transformed(&frame);
     let vertices = unit.positions.len();
+    progress(Progress::Phase("sampling the surface"));
     let (pts, normals) = samples(&unit);
     let surface = pts.len();
     let base = quadric::fit_base(&pts[..vertices], &normals[..vertices]);
     let step = (0.25 * opts.min_radius.max(0.004)).min(0.01);
+    progress(Progress::Phase(
+        "placing the off-surface conditions (winding numbers)",
+    ));
     let conds = conditions(&unit, &pts, &normals, vertices, step);
     let mut model = ImplicitModel::new(frame, base, Vec::new());
-    let mut levels = Vec::new();
+    let mut levels: Vec<LevelReport> = Vec::new();
     let mut radius = opts.first_radius;
     let mut errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
     let over = |e: &(f64, f64)| e.0 > opts.target || e.1 > opts.max_angle_deg;
-    let mut met = errors.iter().all(|e| !over(e));
+    let means_met = |errors: &[(f64, f64)]| {
+        let n = errors.len().max(1) as f64;
+        errors.iter().map(|e| e.1).sum::<f64>() / n <= opts.fit_angle_deg
+            && errors.iter().map(|e| e.0).sum::<f64>() / n <= opts.fit_distance
+    };
+    let mut stop = if errors.iter().all(|e| !over(e)) {
+        Stop::Met
+    } else {
+        Stop::SmallestRadius
+    };
     let mut level = 0;
-    while !met && radius >= opts.min_radius && model.functions() < opts.max_functions {
+    let mut rounds_at_smallest = 0;
+    while stop != Stop::Met {
+        if model.functions() >= opts.max_functions {
+            stop = Stop::Budget;
+            break;
+        }
+        if level > 0 && means_met(&errors) {
+            stop = Stop::MeanMet;
+            break;
+        }
+        if radius < opts.min_radius {
+            // Further rounds at the smallest radius while they still take vertices
+            // off the list over the targets.
+            let [.., a, b] = levels[..] else { break };
+            if rounds_at_smallest >= opts.smallest_rounds
+                || b.over_target as f64 > 0.97 * a.over_target as f64
+            {
+                break;
+            }
+            radius = opts.min_radius;
+            rounds_at_smallest += 1;
+        }
         // Centres: first the off-surface conditions on the wrong side (a spurious
         // piece of surface between them and the mesh), then the vertices over the
         // targets (every vertex on the first level), worst first, no two closer than
@@ -445,25 +522,34 @@ pub fn convert(
                 .filter(|c| c.target * model.value(c.p) < 0.0)
                 .count(),
         };
-        progress(level, model.functions(), &report);
+        progress(Progress::Level(level, model.functions(), &report));
         levels.push(report);
-        met = report.over_target == 0 && report.wrong_side == 0;
+        if report.over_target == 0 && report.wrong_side == 0 {
+            stop = Stop::Met;
+        }
         level += 1;
         radius *= 0.5f64.sqrt();
     }
     if opts.descent_sweeps > 0 && !model.bumps.is_empty() {
+        progress(Progress::Phase("local descent on the form factors"));
         let bumps = descend(&model, &conds, opts.descent_sweeps);
         model = ImplicitModel::new(frame, base, bumps);
-        let errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
-        met = errors.iter().all(|e| !over(e))
-            && conds[surface..]
-                .par_iter()
-                .all(|c| c.target * model.value(c.p) >= 0.0);
+        errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
     }
+    let over_target = errors.iter().filter(|e| over(e)).count();
+    let met = over_target == 0
+        && conds[surface..]
+            .par_iter()
+            .all(|c| c.target * model.value(c.p) >= 0.0);
+    let n = vertices.max(1) as f64;
     Conversion {
-        model,
         levels,
         met_target: met,
+        over_target,
+        mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / n,
+        mean_angle_deg: errors.iter().map(|e| e.1).sum::<f64>() / n,
+        stop,
+        model,
     }
 }
 
