@@ -102,8 +102,8 @@ pub struct ConvertArgs {
     #[arg(short, long)]
     pub output: PathBuf,
     /// The most functions: the base quadric and the perturbations [default: 6000, or
-    /// 3 per vertex when that is more, up to 40000].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    /// 3 per vertex when that is more, up to 9000].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=9000))]
     pub max_functions: Option<u32>,
     /// The mean normal angle to reach (degrees, between the mesh's vertex normals and
     /// the model's gradient): part of the targets the summary checks; the fit stops

@@ -42,6 +42,8 @@ pub struct ConvertOptions {
     pub fit_distance: f64,
     /// Rounds at the smallest radius after the levels reach it.
     pub smallest_rounds: usize,
+    /// Weight of the tangent conditions at the vertices (0: none).
+    pub tangent_weight: f64,
 }
 
 impl Default for ConvertOptions {
@@ -51,11 +53,12 @@ impl Default for ConvertOptions {
             target: 0.001,
             max_angle_deg: 10.0,
             first_radius: 0.32,
-            min_radius: 0.005,
+            min_radius: 0.0035,
             descent_sweeps: 8,
             fit_angle_deg: 2.4,
             fit_distance: 0.0003,
             smallest_rounds: 4,
+            tangent_weight: 1e-2,
         }
     }
 }
@@ -126,6 +129,29 @@ struct Condition {
     p: [f64; 3],
     target: f64,
     weight: f64,
+    /// Zero for a value condition `F(p) = target`; otherwise a unit direction and the
+    /// condition is on the derivative along it, `grad F(p) . dir = target`.
+    dir: [f64; 3],
+}
+
+impl Condition {
+    /// What the condition constrains, of a bump with unit factor.
+    fn of_bump(&self, b: &Bump) -> f64 {
+        if self.dir == [0.0; 3] {
+            b.kernel(self.p).0
+        } else {
+            dot(b.kernel(self.p).1, self.dir)
+        }
+    }
+
+    /// What the condition constrains, of the model.
+    fn of_model(&self, m: &ImplicitModel) -> f64 {
+        if self.dir == [0.0; 3] {
+            m.value(self.p)
+        } else {
+            dot(m.value_gradient(self.p).1, self.dir)
+        }
+    }
 }
 
 /// The spacing of surface samples on large triangles (unit cube).
@@ -207,6 +233,7 @@ fn conditions(
             p,
             target: 0.0,
             weight: 1.0,
+            dir: [0.0; 3],
         })
         .collect();
     // Off-surface pairs at the vertices, at several distances so that the sign of
@@ -226,6 +253,7 @@ fn conditions(
                             p: offset(d),
                             target: -side * d,
                             weight: 1.0,
+                            dir: [0.0; 3],
                         });
                         break;
                     }
@@ -237,6 +265,7 @@ fn conditions(
                             p: offset(d),
                             target: -side * d,
                             weight: 0.5,
+                            dir: [0.0; 3],
                         });
                     }
                 }
@@ -265,10 +294,36 @@ fn conditions(
                 p: q,
                 target: if inside { dist } else { -dist },
                 weight: 0.3,
+                dir: [0.0; 3],
             })
         })
         .collect();
     out.extend(far.into_iter().flatten());
+    out
+}
+
+/// Tangent conditions at the vertices: the derivative of `F` along two directions
+/// across the vertex normal is 0, so the gradient follows the normal (the mean
+/// normal angle) where a coarse mesh's facets would tilt it.
+fn tangent_conditions(pts: &[[f64; 3]], normals: &[[f64; 3]], weight: f64) -> Vec<Condition> {
+    let mut out = Vec::with_capacity(2 * pts.len());
+    for (p, n) in pts.iter().zip(normals) {
+        if *n == [0.0; 3] {
+            continue;
+        }
+        // Any vector not along n, crossed with it, and n crossed with that.
+        let a = if n[0].abs() < 0.6 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let t1 = crate::geometry::vector::unit(crate::geometry::vector::cross(*n, a));
+        let t2 = crate::geometry::vector::cross(*n, t1);
+        for t in [t1, t2] {
+            out.push(Condition {
+                p: *p,
+                target: 0.0,
+                weight,
+                dir: t,
+            });
+        }
+    }
     out
 }
 
@@ -380,7 +435,16 @@ pub fn convert(
     progress(Progress::Phase(
         "placing the off-surface conditions (winding numbers)",
     ));
-    let conds = conditions(&unit, &pts, &normals, vertices, step);
+    let mut conds = conditions(&unit, &pts, &normals, vertices, step);
+    // The value conditions end here; tangent conditions follow.
+    let values_end = conds.len();
+    if opts.tangent_weight > 0.0 {
+        conds.extend(tangent_conditions(
+            &pts[..vertices],
+            &normals[..vertices],
+            opts.tangent_weight,
+        ));
+    }
     let mut model = ImplicitModel::new(frame, base, Vec::new());
     let mut levels: Vec<LevelReport> = Vec::new();
     let mut radius = opts.first_radius;
@@ -423,7 +487,7 @@ pub fn convert(
         // piece of surface between them and the mesh), then the vertices over the
         // targets (every vertex on the first level), worst first, no two closer than
         // the spacing.
-        let values: Vec<f64> = conds[surface..]
+        let values: Vec<f64> = conds[surface..values_end]
             .par_iter()
             .map(|c| model.value(c.p))
             .collect();
@@ -493,14 +557,14 @@ pub fn convert(
                 let row: Vec<(u32, f64)> = near
                     .iter()
                     .filter_map(|&k| {
-                        let r = new[k as usize].kernel(c.p).0;
-                        (r > 0.0).then_some((k, r))
+                        let r = c.of_bump(&new[k as usize]);
+                        (r != 0.0).then_some((k, r))
                     })
                     .collect();
                 if row.is_empty() {
                     return None;
                 }
-                Some((j, row, c.target - model.value(c.p)))
+                Some((j, row, c.target - c.of_model(&model)))
             })
             .collect();
         let weights: Vec<f64> = rows.iter().map(|r| conds[r.0].weight).collect();
@@ -517,7 +581,7 @@ pub fn convert(
             mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / vertices as f64,
             max_distance: errors.iter().map(|e| e.0).fold(0.0, f64::max),
             over_target: errors.iter().filter(|e| over(e)).count(),
-            wrong_side: conds[surface..]
+            wrong_side: conds[surface..values_end]
                 .par_iter()
                 .filter(|c| c.target * model.value(c.p) < 0.0)
                 .count(),
@@ -538,7 +602,7 @@ pub fn convert(
     }
     let over_target = errors.iter().filter(|e| over(e)).count();
     let met = over_target == 0
-        && conds[surface..]
+        && conds[surface..values_end]
             .par_iter()
             .all(|c| c.target * model.value(c.p) >= 0.0);
     let n = vertices.max(1) as f64;
@@ -565,15 +629,15 @@ fn descend(model: &ImplicitModel, conds: &[Condition], sweeps: usize) -> Vec<Bum
     for (j, c) in conds.iter().enumerate() {
         index.at_point(c.p, &mut near);
         for &k in &near {
-            let r = bumps[k as usize].kernel(c.p).0;
-            if r > 0.0 {
+            let r = c.of_bump(&bumps[k as usize]);
+            if r != 0.0 {
                 reach[k as usize].push((j as u32, r));
             }
         }
     }
     let mut residual: Vec<f64> = conds
         .par_iter()
-        .map(|c| model.value(c.p) - c.target)
+        .map(|c| c.of_model(model) - c.target)
         .collect();
     let mut step: Vec<f64> = bumps.iter().map(|b| 0.1 * b.factor.abs()).collect();
     for _ in 0..sweeps {

@@ -31,10 +31,10 @@ fn topology_text(mesh: &PolygonMesh) -> String {
     )
 }
 
-/// The default function budget: 6000, or 3 per vertex on a mesh with more detail (up
-/// to 40,000), so that a detailed mesh gets functions where its normals turn.
+/// The default function budget: 6000, or 3 per vertex on a mesh with more detail, up
+/// to 9000 (a model file holds at most 10,000 nodes).
 fn default_budget(mesh: &PolygonMesh) -> usize {
-    (3 * mesh.positions.len()).clamp(6000, 40_000)
+    (3 * mesh.positions.len()).clamp(6000, 9000)
 }
 
 /// Prints the current phase on stderr whenever nothing else was printed for 4 s.
@@ -156,6 +156,9 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         fit_angle_deg: 0.8 * a.target_angle,
         ..Default::default()
     };
+    let mut opts = opts;
+    if let Ok(v) = std::env::var("XTW") { opts.tangent_weight = v.parse().unwrap(); }
+    if let Ok(v) = std::env::var("XMIN") { opts.min_radius = v.parse().unwrap(); }
     let fit_start = Instant::now();
     let result = conversion::convert(&mesh, &opts, &mut |p| match p {
         Progress::Phase(what) => {
