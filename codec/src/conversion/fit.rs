@@ -161,7 +161,9 @@ pub const MAX_SAMPLES: f64 = 400_000.0;
 
 /// The surface samples: vertices (first, in order), then points inside each triangle
 /// (its centroid, or a barycentric grid at about [`SAMPLE_SPACING`] on a large one, so
-/// that a coarse mesh's flat faces hold the surface too), with outward unit normals.
+/// that a coarse mesh's flat faces hold the surface too; on a mesh of more than
+/// [`MAX_SAMPLES`] triangles, the centroids of an evenly strided subset), with outward
+/// unit normals.
 fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let mut normals = mesh.outward_normals();
     // Face normals follow the winding; turn them the way the vertex normals went.
@@ -182,11 +184,15 @@ fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
             .sum()
     };
     let mut spacing = SAMPLE_SPACING;
-    while count(spacing) > MAX_SAMPLES {
+    let widest = (0..mesh.triangles.len()).map(longest).fold(0.0, f64::max);
+    while spacing < widest && count(spacing) > MAX_SAMPLES {
         spacing *= 1.25;
     }
+    // On a mesh with more triangles than that, the vertices already sample the surface
+    // densely: every k-th triangle gives its centroid.
+    let stride = (mesh.triangles.len() as f64 / MAX_SAMPLES).ceil().max(1.0) as usize;
     let mut pts = mesh.positions.clone();
-    for t in 0..mesh.triangles.len() {
+    for t in (0..mesh.triangles.len()).step_by(stride) {
         let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
         let n = mesh.face_normal(t);
         let l = norm(n).max(1e-300);
@@ -312,7 +318,11 @@ fn tangent_conditions(pts: &[[f64; 3]], normals: &[[f64; 3]], weight: f64) -> Ve
             continue;
         }
         // Any vector not along n, crossed with it, and n crossed with that.
-        let a = if n[0].abs() < 0.6 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let a = if n[0].abs() < 0.6 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
         let t1 = crate::geometry::vector::unit(crate::geometry::vector::cross(*n, a));
         let t2 = crate::geometry::vector::cross(*n, t1);
         for t in [t1, t2] {

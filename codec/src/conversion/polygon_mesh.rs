@@ -300,6 +300,50 @@ mod tests {
     }
 
     #[test]
+    fn a_sheet_is_told_from_a_solid_with_a_hole() {
+        let ball = PolygonMesh::ellipsoid([1.0, 0.8, 0.6], 3);
+        let o = ball.openness();
+        assert_eq!((o.boundary_edges, o.non_manifold_edges), (0, 0));
+        assert!(
+            o.boundary_ratio == 0.0 && o.enclosed_fraction > 0.99,
+            "{o:?}"
+        );
+        assert!(!o.is_sheet());
+        // A few triangles gone: a hole, still a solid.
+        let mut holed = ball.clone();
+        holed.triangles.drain(0..6);
+        let o = holed.openness();
+        assert!(o.boundary_edges > 0 && !o.is_sheet(), "{o:?}");
+        // Half the ball: a bowl, open on purpose.
+        let mut bowl = ball.clone();
+        bowl.triangles
+            .retain(|t| t.iter().all(|&i| ball.positions[i as usize][2] > -0.05));
+        assert!(bowl.openness().is_sheet(), "{:?}", bowl.openness());
+        // A flat square sheet of zero thickness.
+        let n = 10;
+        let sheet = PolygonMesh {
+            positions: (0..=n)
+                .flat_map(|i| (0..=n).map(move |j| [i as f64, j as f64, 0.0]))
+                .collect(),
+            triangles: (0..n)
+                .flat_map(|i| {
+                    (0..n).flat_map(move |j| {
+                        let v = |a: u32, b: u32| a * (n + 1) + b;
+                        [
+                            [v(i, j), v(i + 1, j), v(i + 1, j + 1)],
+                            [v(i, j), v(i + 1, j + 1), v(i, j + 1)],
+                        ]
+                    })
+                })
+                .collect(),
+        };
+        let o = sheet.openness();
+        assert_eq!(o.boundary_edges, 4 * n as usize);
+        assert!((o.boundary_ratio - 4.0).abs() < 1e-9, "{o:?}");
+        assert!(o.is_sheet());
+    }
+
+    #[test]
     fn the_unit_frame_puts_the_longest_side_at_one() {
         let m = PolygonMesh::ellipsoid([2.0, 1.0, 0.5], 1)
             .transformed(&PolygonMesh::ellipsoid([2.0, 1.0, 0.5], 1).unit_frame());
