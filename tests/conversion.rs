@@ -28,7 +28,7 @@ fn repo(rel: &str) -> PathBuf {
 fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
     for radii in [[1.0, 1.0, 1.0], [3.0, 2.0, 1.0]] {
         let mesh = PolygonMesh::ellipsoid(radii, 4);
-        let c = convert(&mesh, &ConvertOptions::default(), &mut |_, _, _| {});
+        let c = convert(&mesh, &ConvertOptions::default(), &mut |_| {});
         assert_eq!(c.model.functions(), 1, "{radii:?}");
         assert!(c.met_target);
         let unit = mesh.transformed(&mesh.unit_frame());
@@ -63,17 +63,14 @@ fn the_written_model_is_the_fitted_function() {
             max_functions: 400,
             ..Default::default()
         },
-        &mut |_, _, _| {},
+        &mut |_| {},
     );
     assert!(c.model.functions() > 1 && c.model.functions() <= 400);
-    // Each level lowers the mean distance.
-    for w in c.levels.windows(2) {
-        assert!(
-            w[1].mean_distance <= w[0].mean_distance * 1.05,
-            "{:?}",
-            c.levels
-        );
-    }
+    // The levels lower the mean distance (a level may trade a little of it for the
+    // normals' tangent conditions).
+    let (first, last) = (c.levels[0], c.levels[c.levels.len() - 1]);
+    assert!(c.levels.len() >= 2, "{:?}", c.levels);
+    assert!(last.mean_distance < first.mean_distance, "{:?}", c.levels);
     let text = c.model.to_frep_json("lumpy", mesh.bounds()).to_string();
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     // The perturbation inside the file is the fit (indexed patches included), and the
@@ -120,7 +117,17 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let dir = tmpdir("spot");
     let mesh = repo("tests/data/meshes/spot.obj");
     let model = dir.join("spot.json");
-    let out = caoen(&["convert", s(&mesh), "-o", s(&model), "--json"]);
+    let out = caoen(&[
+        "convert",
+        s(&mesh),
+        "-o",
+        s(&model),
+        "--json",
+        "--check-size",
+        "128",
+        "--target-depth",
+        "0.005",
+    ]);
     assert!(
         out.status.success(),
         "{}",
@@ -130,7 +137,21 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     assert!(stderr.contains("level 0:"), "progress on stderr: {stderr}");
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let functions = r["functions"].as_u64().unwrap();
-    assert!((100..=6000).contains(&functions), "{r}");
+    assert!((100..=9000).contains(&functions), "{r}");
+    // The summary's verdict is its measures against its targets.
+    let dev = &r["deviation"];
+    let angle = dev["normal_angle_deg"]["mean"].as_f64().unwrap();
+    let depth = dev["depth"]["mean_all_pixels"].as_f64().unwrap();
+    assert_eq!(
+        r["met_target"].as_bool().unwrap(),
+        angle <= 3.0 && depth <= 0.005,
+        "{r}"
+    );
+    assert!(
+        r["met_target"].as_bool().unwrap(),
+        "spot meets these targets: {r}"
+    );
+    assert!(r["advice"].is_null(), "{r}");
     // No overwrite without -f.
     let again = caoen(&["convert", s(&mesh), "-o", s(&model)]);
     assert_eq!(again.status.code(), Some(1));
@@ -155,6 +176,15 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let f = |path: &[&str]| path.iter().fold(&d, |v, k| &v[*k]).as_f64().unwrap();
     assert!(f(&["vertex_distance", "mean"]) < 1e-3, "{d}");
+    // convert's own summary measured the same model the same way.
+    assert!(
+        (f(&["depth", "mean_all_pixels"]) - depth).abs() < 1e-6,
+        "{d} {r}"
+    );
+    assert!(
+        (f(&["normal_angle_deg", "mean"]) - angle).abs() < 1e-4,
+        "{d} {r}"
+    );
     assert!(f(&["normal_angle_deg", "mean"]) < 5.0, "{d}");
     assert!(f(&["depth", "mean_all_pixels"]) < 0.005, "{d}");
     assert!(f(&["depth", "mean"]) < 0.008, "{d}");
@@ -182,6 +212,134 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let b: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(b["normal_angle_deg"]["mean"].as_f64().unwrap() > f(&["normal_angle_deg", "mean"]));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn targets_not_met_say_why_and_the_advice_fits_the_cause() {
+    let dir = tmpdir("advice");
+    let mesh = repo("tests/data/meshes/spot.obj");
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let model = dir.join("m.json");
+        let mut args = vec![
+            "--quiet",
+            "convert",
+            s(&mesh),
+            "-o",
+            s(&model),
+            "-f",
+            "--json",
+        ];
+        args.extend_from_slice(&["--check-size", "64"]);
+        args.extend_from_slice(extra);
+        let out = caoen(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    // A small budget is spent: the advice is to raise it.
+    let r = run(&["--max-functions", "40"]);
+    assert_eq!(r["met_target"], false, "{r}");
+    assert_eq!(r["stop"], "Budget", "{r}");
+    assert!(
+        r["advice"].as_str().unwrap().contains("--max-functions"),
+        "{r}"
+    );
+    // An unreachable angle with budget left: never "raise --max-functions".
+    let r = run(&["--target-angle", "0.01", "--max-functions", "9000"]);
+    assert_eq!(r["met_target"], false, "{r}");
+    assert_ne!(r["stop"], "Budget", "{r}");
+    assert!(r["functions"].as_u64().unwrap() < 9000, "{r}");
+    let advice = r["advice"].as_str().unwrap();
+    assert!(!advice.contains("raise --max-functions"), "{r}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A flat square sheet of zero thickness as OBJ text.
+fn sheet_obj(n: usize) -> String {
+    let mut t = String::new();
+    for i in 0..=n {
+        for j in 0..=n {
+            t += &format!("v {} {} 0\n", i as f64 / n as f64, j as f64 / n as f64);
+        }
+    }
+    let v = |i: usize, j: usize| i * (n + 1) + j + 1;
+    for i in 0..n {
+        for j in 0..n {
+            t += &format!("f {} {} {}\n", v(i, j), v(i + 1, j), v(i + 1, j + 1));
+            t += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i, j + 1));
+        }
+    }
+    t
+}
+
+#[test]
+fn an_open_sheet_is_refused_naming_its_boundary_unless_filled_on_purpose() {
+    let dir = tmpdir("sheet");
+    let mesh = dir.join("sheet.obj");
+    std::fs::write(&mesh, sheet_obj(12)).unwrap();
+    let model = dir.join("m.json");
+    let out = caoen(&["convert", s(&mesh), "-o", s(&model)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("open sheet") && err.contains("48 boundary edges"),
+        "{err}"
+    );
+    assert!(err.contains("--fill-open"), "{err}");
+    assert!(!model.exists());
+    // Filled on purpose: written, said so, and never a success.
+    let out = caoen(&[
+        "--quiet",
+        "convert",
+        s(&mesh),
+        "-o",
+        s(&model),
+        "--fill-open",
+        "--json",
+        "--check-size",
+        "64",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["open"]["sheet"], true, "{r}");
+    assert_eq!(r["open"]["boundary_edges"], 48, "{r}");
+    assert_eq!(r["met_target"], false, "{r}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_shared_open_and_holed_meshes_are_told_apart() {
+    // The beetle (a hand-digitised car body, one sheet) is refused naming its
+    // boundary; the full Stanford bunny (a scan with holes at the base) is not.
+    let models = repo("../shared/models");
+    let beetle = models.join("beetle.obj");
+    if !beetle.exists() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{} is missing",
+            beetle.display()
+        );
+        eprintln!("skipped: {} is missing", beetle.display());
+        return;
+    }
+    let read = |name: &str| caoen::conversion::read(&models.join(name)).unwrap();
+    let o = read("beetle.obj").openness();
+    assert!(o.is_sheet() && o.boundary_edges == 296, "{o:?}");
+    let out = caoen(&["convert", s(&beetle), "-o", "never.json"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("296 boundary edges"), "{err}");
+    for name in ["stanford-bunny.obj", "bunny-res3.ply"] {
+        let o = read(name).openness();
+        assert!(o.boundary_edges > 0 && !o.is_sheet(), "{name}: {o:?}");
+    }
 }
 
 #[test]
@@ -248,6 +406,10 @@ fn broken_meshes_fail_with_clear_errors() {
         ("no-header-end.ply", "end_header"),
         ("not-a-mesh.ply", "no end_header"),
         ("wrong-extension.stl", "unknown mesh format"),
+        ("bad-index.off", "face 0 uses vertex 9"),
+        ("huge-count.off", "more than the"),
+        ("trailing.off", "line 7: data after the 1 faces"),
+        ("short-vertex.off", "line 4: vertex 1 has 2 numbers"),
     ];
     for (file, words) in expect {
         let path = repo("tests/bad/mesh").join(file);

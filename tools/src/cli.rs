@@ -96,22 +96,39 @@ pub enum Command {
 /// `caoen convert`.
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
-    /// The mesh (.obj or .ply).
+    /// The mesh (.obj, .ply or .off).
     pub mesh: PathBuf,
     /// The F-rep model file to write (.json).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// The most functions: the base quadric and the perturbations.
-    #[arg(long, default_value_t = 6000, value_parser = clap::value_parser!(u32).range(1..=9000))]
-    pub max_functions: u32,
-    /// Refine until every vertex is this close to the surface (a fraction of the
-    /// bounding box's longest side) and within --max-angle of its normal.
+    /// The most functions: the base quadric and the perturbations [default: 6000, or
+    /// 3 per vertex when that is more, up to 9000].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=9000))]
+    pub max_functions: Option<u32>,
+    /// The mean normal angle to reach (degrees, between the mesh's vertex normals and
+    /// the model's gradient): part of the targets the summary checks; the fit stops
+    /// adding perturbations at 0.8 of it.
+    #[arg(long, value_name = "DEGREES", default_value_t = 3.0, value_parser = angle)]
+    pub target_angle: f64,
+    /// The depth deviation to reach: the mean depth-buffer difference over all pixels
+    /// of the six axis views, a fraction of the bounding box's longest side.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.002, value_parser = positive_fraction)]
+    pub target_depth: f64,
+    /// Side in pixels of the depth buffers the summary measures the model with.
+    #[arg(long, value_name = "PX", default_value_t = 256, value_parser = clap::value_parser!(u32).range(32..=1024))]
+    pub check_size: u32,
+    /// Refine where a vertex is further than this from the surface (a fraction of the
+    /// bounding box's longest side).
     #[arg(long, value_name = "DEVIATION", default_value_t = 0.001, value_parser = positive_fraction)]
     pub target: f64,
-    /// Largest angle (degrees) between a vertex normal and the surface normal that
-    /// needs no refinement.
+    /// Refine where the angle (degrees) between a vertex normal and the surface normal
+    /// is larger than this.
     #[arg(long, default_value_t = 10.0, value_parser = angle)]
     pub max_angle: f64,
+    /// Convert an open sheet (a mesh that encloses no solid) anyway, as the solid its
+    /// winding number closes; without it such a mesh is refused.
+    #[arg(long)]
+    pub fill_open: bool,
     /// Sweeps of the local descent on the form factors after the fit (0: none).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=100))]
     pub descent: u32,
@@ -123,7 +140,7 @@ pub struct ConvertArgs {
 /// `caoen deviation`.
 #[derive(Debug, Args)]
 pub struct DeviationArgs {
-    /// The mesh (.obj or .ply).
+    /// The mesh (.obj, .ply or .off).
     pub mesh: PathBuf,
     /// The F-rep model file to measure (as written by `caoen convert`).
     #[arg(required_unless_present = "rbf", conflicts_with = "rbf")]

@@ -34,6 +34,16 @@ pub struct ConvertOptions {
     pub min_radius: f64,
     /// Sweeps of the paper's local descent after the fit (0: none).
     pub descent_sweeps: usize,
+    /// The fit stops once the mean vertex angle (degrees) is at most this and the mean
+    /// vertex distance at most [`ConvertOptions::fit_distance`].
+    pub fit_angle_deg: f64,
+    /// The mean vertex distance that, with [`ConvertOptions::fit_angle_deg`], stops the
+    /// fit (unit cube).
+    pub fit_distance: f64,
+    /// Rounds at the smallest radius after the levels reach it.
+    pub smallest_rounds: usize,
+    /// Weight of the tangent conditions at the vertices (0: none).
+    pub tangent_weight: f64,
 }
 
 impl Default for ConvertOptions {
@@ -43,8 +53,12 @@ impl Default for ConvertOptions {
             target: 0.001,
             max_angle_deg: 10.0,
             first_radius: 0.32,
-            min_radius: 0.005,
+            min_radius: 0.0035,
             descent_sweeps: 8,
+            fit_angle_deg: 2.4,
+            fit_distance: 0.0003,
+            smallest_rounds: 4,
+            tangent_weight: 1e-2,
         }
     }
 }
@@ -66,6 +80,29 @@ pub struct LevelReport {
     pub wrong_side: usize,
 }
 
+/// Why the fit stopped adding perturbations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stop {
+    /// Every vertex met the per-vertex targets and no off-surface condition was on the
+    /// wrong side.
+    Met,
+    /// The mean normal angle and mean distance met their targets.
+    MeanMet,
+    /// `max_functions` was spent.
+    Budget,
+    /// The levels reached the smallest radius and further rounds there stopped helping.
+    SmallestRadius,
+}
+
+/// What the fit reports while it works.
+#[derive(Debug, Clone, Copy)]
+pub enum Progress<'a> {
+    /// A step that takes a while starts (sampling, conditions, descent).
+    Phase(&'a str),
+    /// A level is done: its number, the model's functions and the level's report.
+    Level(usize, usize, &'a LevelReport),
+}
+
 /// A fit's result and its history.
 #[derive(Debug, Clone)]
 pub struct Conversion {
@@ -73,8 +110,17 @@ pub struct Conversion {
     pub model: ImplicitModel,
     /// One report per level.
     pub levels: Vec<LevelReport>,
-    /// Whether every vertex met the targets.
+    /// Whether every vertex met the per-vertex targets (distance and angle) and no
+    /// off-surface condition is on the wrong side, after the descent.
     pub met_target: bool,
+    /// Vertices over the per-vertex targets after the descent.
+    pub over_target: usize,
+    /// Mean vertex distance `|F| / |grad F|` after the descent (unit cube).
+    pub mean_distance: f64,
+    /// Mean angle (degrees) between vertex normal and `-grad F` after the descent.
+    pub mean_angle_deg: f64,
+    /// Why the levels stopped.
+    pub stop: Stop,
 }
 
 /// One least-squares condition `F(p) = target`, weighted.
@@ -83,6 +129,29 @@ struct Condition {
     p: [f64; 3],
     target: f64,
     weight: f64,
+    /// Zero for a value condition `F(p) = target`; otherwise a unit direction and the
+    /// condition is on the derivative along it, `grad F(p) . dir = target`.
+    dir: [f64; 3],
+}
+
+impl Condition {
+    /// What the condition constrains, of a bump with unit factor.
+    fn of_bump(&self, b: &Bump) -> f64 {
+        if self.dir == [0.0; 3] {
+            b.kernel(self.p).0
+        } else {
+            dot(b.kernel(self.p).1, self.dir)
+        }
+    }
+
+    /// What the condition constrains, of the model.
+    fn of_model(&self, m: &ImplicitModel) -> f64 {
+        if self.dir == [0.0; 3] {
+            m.value(self.p)
+        } else {
+            dot(m.value_gradient(self.p).1, self.dir)
+        }
+    }
 }
 
 /// The spacing of surface samples on large triangles (unit cube).
@@ -92,7 +161,9 @@ pub const MAX_SAMPLES: f64 = 400_000.0;
 
 /// The surface samples: vertices (first, in order), then points inside each triangle
 /// (its centroid, or a barycentric grid at about [`SAMPLE_SPACING`] on a large one, so
-/// that a coarse mesh's flat faces hold the surface too), with outward unit normals.
+/// that a coarse mesh's flat faces hold the surface too; on a mesh of more than
+/// [`MAX_SAMPLES`] triangles, the centroids of an evenly strided subset), with outward
+/// unit normals.
 fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
     let mut normals = mesh.outward_normals();
     // Face normals follow the winding; turn them the way the vertex normals went.
@@ -113,11 +184,15 @@ fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
             .sum()
     };
     let mut spacing = SAMPLE_SPACING;
-    while count(spacing) > MAX_SAMPLES {
+    let widest = (0..mesh.triangles.len()).map(longest).fold(0.0, f64::max);
+    while spacing < widest && count(spacing) > MAX_SAMPLES {
         spacing *= 1.25;
     }
+    // On a mesh with more triangles than that, the vertices already sample the surface
+    // densely: every k-th triangle gives its centroid.
+    let stride = (mesh.triangles.len() as f64 / MAX_SAMPLES).ceil().max(1.0) as usize;
     let mut pts = mesh.positions.clone();
-    for t in 0..mesh.triangles.len() {
+    for t in (0..mesh.triangles.len()).step_by(stride) {
         let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
         let n = mesh.face_normal(t);
         let l = norm(n).max(1e-300);
@@ -164,6 +239,7 @@ fn conditions(
             p,
             target: 0.0,
             weight: 1.0,
+            dir: [0.0; 3],
         })
         .collect();
     // Off-surface pairs at the vertices, at several distances so that the sign of
@@ -183,6 +259,7 @@ fn conditions(
                             p: offset(d),
                             target: -side * d,
                             weight: 1.0,
+                            dir: [0.0; 3],
                         });
                         break;
                     }
@@ -194,6 +271,7 @@ fn conditions(
                             p: offset(d),
                             target: -side * d,
                             weight: 0.5,
+                            dir: [0.0; 3],
                         });
                     }
                 }
@@ -222,10 +300,40 @@ fn conditions(
                 p: q,
                 target: if inside { dist } else { -dist },
                 weight: 0.3,
+                dir: [0.0; 3],
             })
         })
         .collect();
     out.extend(far.into_iter().flatten());
+    out
+}
+
+/// Tangent conditions at the vertices: the derivative of `F` along two directions
+/// across the vertex normal is 0, so the gradient follows the normal (the mean
+/// normal angle) where a coarse mesh's facets would tilt it.
+fn tangent_conditions(pts: &[[f64; 3]], normals: &[[f64; 3]], weight: f64) -> Vec<Condition> {
+    let mut out = Vec::with_capacity(2 * pts.len());
+    for (p, n) in pts.iter().zip(normals) {
+        if *n == [0.0; 3] {
+            continue;
+        }
+        // Any vector not along n, crossed with it, and n crossed with that.
+        let a = if n[0].abs() < 0.6 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let t1 = crate::geometry::vector::unit(crate::geometry::vector::cross(*n, a));
+        let t2 = crate::geometry::vector::cross(*n, t1);
+        for t in [t1, t2] {
+            out.push(Condition {
+                p: *p,
+                target: 0.0,
+                weight,
+                dir: t,
+            });
+        }
+    }
     out
 }
 
@@ -320,33 +428,76 @@ fn vertex_errors(model: &ImplicitModel, pts: &[[f64; 3]], normals: &[[f64; 3]]) 
         .collect()
 }
 
-/// Converts a mesh. `progress(level, functions, report)` is called after each level.
+/// Converts a mesh, reporting phases and levels through `progress`.
 pub fn convert(
     mesh: &PolygonMesh,
     opts: &ConvertOptions,
-    progress: &mut dyn FnMut(usize, usize, &LevelReport),
+    progress: &mut dyn FnMut(Progress<'_>),
 ) -> Conversion {
     let frame = mesh.unit_frame();
     let unit = mesh.transformed(&frame);
     let vertices = unit.positions.len();
+    progress(Progress::Phase("sampling the surface"));
     let (pts, normals) = samples(&unit);
     let surface = pts.len();
     let base = quadric::fit_base(&pts[..vertices], &normals[..vertices]);
     let step = (0.25 * opts.min_radius.max(0.004)).min(0.01);
-    let conds = conditions(&unit, &pts, &normals, vertices, step);
+    progress(Progress::Phase(
+        "placing the off-surface conditions (winding numbers)",
+    ));
+    let mut conds = conditions(&unit, &pts, &normals, vertices, step);
+    // The value conditions end here; tangent conditions follow.
+    let values_end = conds.len();
+    if opts.tangent_weight > 0.0 {
+        conds.extend(tangent_conditions(
+            &pts[..vertices],
+            &normals[..vertices],
+            opts.tangent_weight,
+        ));
+    }
     let mut model = ImplicitModel::new(frame, base, Vec::new());
-    let mut levels = Vec::new();
+    let mut levels: Vec<LevelReport> = Vec::new();
     let mut radius = opts.first_radius;
     let mut errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
     let over = |e: &(f64, f64)| e.0 > opts.target || e.1 > opts.max_angle_deg;
-    let mut met = errors.iter().all(|e| !over(e));
+    let means_met = |errors: &[(f64, f64)]| {
+        let n = errors.len().max(1) as f64;
+        errors.iter().map(|e| e.1).sum::<f64>() / n <= opts.fit_angle_deg
+            && errors.iter().map(|e| e.0).sum::<f64>() / n <= opts.fit_distance
+    };
+    let mut stop = if errors.iter().all(|e| !over(e)) {
+        Stop::Met
+    } else {
+        Stop::SmallestRadius
+    };
     let mut level = 0;
-    while !met && radius >= opts.min_radius && model.functions() < opts.max_functions {
+    let mut rounds_at_smallest = 0;
+    while stop != Stop::Met {
+        if model.functions() >= opts.max_functions {
+            stop = Stop::Budget;
+            break;
+        }
+        if level > 0 && means_met(&errors) {
+            stop = Stop::MeanMet;
+            break;
+        }
+        if radius < opts.min_radius {
+            // Further rounds at the smallest radius while they still take vertices
+            // off the list over the targets.
+            let [.., a, b] = levels[..] else { break };
+            if rounds_at_smallest >= opts.smallest_rounds
+                || b.over_target as f64 > 0.97 * a.over_target as f64
+            {
+                break;
+            }
+            radius = opts.min_radius;
+            rounds_at_smallest += 1;
+        }
         // Centres: first the off-surface conditions on the wrong side (a spurious
         // piece of surface between them and the mesh), then the vertices over the
         // targets (every vertex on the first level), worst first, no two closer than
         // the spacing.
-        let values: Vec<f64> = conds[surface..]
+        let values: Vec<f64> = conds[surface..values_end]
             .par_iter()
             .map(|c| model.value(c.p))
             .collect();
@@ -416,14 +567,14 @@ pub fn convert(
                 let row: Vec<(u32, f64)> = near
                     .iter()
                     .filter_map(|&k| {
-                        let r = new[k as usize].kernel(c.p).0;
-                        (r > 0.0).then_some((k, r))
+                        let r = c.of_bump(&new[k as usize]);
+                        (r != 0.0).then_some((k, r))
                     })
                     .collect();
                 if row.is_empty() {
                     return None;
                 }
-                Some((j, row, c.target - model.value(c.p)))
+                Some((j, row, c.target - c.of_model(&model)))
             })
             .collect();
         let weights: Vec<f64> = rows.iter().map(|r| conds[r.0].weight).collect();
@@ -440,30 +591,39 @@ pub fn convert(
             mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / vertices as f64,
             max_distance: errors.iter().map(|e| e.0).fold(0.0, f64::max),
             over_target: errors.iter().filter(|e| over(e)).count(),
-            wrong_side: conds[surface..]
+            wrong_side: conds[surface..values_end]
                 .par_iter()
                 .filter(|c| c.target * model.value(c.p) < 0.0)
                 .count(),
         };
-        progress(level, model.functions(), &report);
+        progress(Progress::Level(level, model.functions(), &report));
         levels.push(report);
-        met = report.over_target == 0 && report.wrong_side == 0;
+        if report.over_target == 0 && report.wrong_side == 0 {
+            stop = Stop::Met;
+        }
         level += 1;
         radius *= 0.5f64.sqrt();
     }
     if opts.descent_sweeps > 0 && !model.bumps.is_empty() {
+        progress(Progress::Phase("local descent on the form factors"));
         let bumps = descend(&model, &conds, opts.descent_sweeps);
         model = ImplicitModel::new(frame, base, bumps);
-        let errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
-        met = errors.iter().all(|e| !over(e))
-            && conds[surface..]
-                .par_iter()
-                .all(|c| c.target * model.value(c.p) >= 0.0);
+        errors = vertex_errors(&model, &pts[..vertices], &normals[..vertices]);
     }
+    let over_target = errors.iter().filter(|e| over(e)).count();
+    let met = over_target == 0
+        && conds[surface..values_end]
+            .par_iter()
+            .all(|c| c.target * model.value(c.p) >= 0.0);
+    let n = vertices.max(1) as f64;
     Conversion {
-        model,
         levels,
         met_target: met,
+        over_target,
+        mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / n,
+        mean_angle_deg: errors.iter().map(|e| e.1).sum::<f64>() / n,
+        stop,
+        model,
     }
 }
 
@@ -479,15 +639,15 @@ fn descend(model: &ImplicitModel, conds: &[Condition], sweeps: usize) -> Vec<Bum
     for (j, c) in conds.iter().enumerate() {
         index.at_point(c.p, &mut near);
         for &k in &near {
-            let r = bumps[k as usize].kernel(c.p).0;
-            if r > 0.0 {
+            let r = c.of_bump(&bumps[k as usize]);
+            if r != 0.0 {
                 reach[k as usize].push((j as u32, r));
             }
         }
     }
     let mut residual: Vec<f64> = conds
         .par_iter()
-        .map(|c| model.value(c.p) - c.target)
+        .map(|c| c.of_model(model) - c.target)
         .collect();
     let mut step: Vec<f64> = bumps.iter().map(|b| 0.1 * b.factor.abs()).collect();
     for _ in 0..sweeps {

@@ -14,4 +14,4 @@ pub mod rbf_baseline;
 pub use fit::{convert, Conversion, ConvertOptions, LevelReport};
 pub use mesh_file::{read, MeshError};
 pub use model::{Bump, ImplicitField, ImplicitModel, InUnitCube};
-pub use polygon_mesh::{PolygonMesh, Topology, UnitFrame};
+pub use polygon_mesh::{Openness, PolygonMesh, Topology, UnitFrame};

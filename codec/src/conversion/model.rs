@@ -130,11 +130,12 @@ impl ImplicitModel {
             .collect();
         // The base alone when nothing perturbs it: the model file's `perturb` needs at
         // least one patch.
-        let fitted = if patches.is_empty() {
-            json!({"quadric": self.base})
-        } else {
-            json!({"perturb": {"quadric": self.base}, "patches": patches, "power": 3})
-        };
+        // A model file's node holds at most MAX_NODES patches: more nest as a
+        // perturbation of a perturbation (the sum is the same).
+        let mut fitted = json!({"quadric": self.base});
+        for chunk in patches.chunks(crate::frep::node::MAX_NODES / 2) {
+            fitted = json!({"perturb": fitted, "patches": chunk, "power": 3});
+        }
         let (lo, hi) = mesh_box;
         let size = [0, 1, 2].map(|k| (hi[k] - lo[k]) * self.frame.scale + 0.04);
         let model = json!({

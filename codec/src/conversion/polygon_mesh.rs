@@ -3,6 +3,8 @@
 
 use std::collections::HashMap;
 
+use rayon::prelude::*;
+
 use crate::geometry::vector::{cross, dot, sub, unit};
 
 /// A triangle mesh: positions and counter-clockwise triangles (quads and polygons are
@@ -58,7 +60,78 @@ impl Topology {
     }
 }
 
+/// How far a mesh is from enclosing a solid: its open boundary and what the winding
+/// number says on either side of its surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Openness {
+    /// Edges with one triangle.
+    pub boundary_edges: usize,
+    /// Edges with more than two triangles.
+    pub non_manifold_edges: usize,
+    /// The length of the boundary edges over the square root of the surface area: about
+    /// 4 for a square sheet, 0 for a closed surface, about 1.4 for the Stanford bunny's
+    /// holes at the base.
+    pub boundary_ratio: f64,
+    /// Of up to 256 spread vertices, the fraction where the winding number a short step
+    /// behind the surface is over 0.75 and a step in front under 0.25: 1 where the mesh
+    /// encloses a solid, near 0 on a sheet.
+    pub enclosed_fraction: f64,
+}
+
+impl Openness {
+    /// An open sheet rather than a solid with holes: a boundary longer than 3 times
+    /// the square root of the area (a disc's is 3.5, the holes of a scan's base under
+    /// 1.5), or inside and outside told apart at under 80% of the vertices probed.
+    pub fn is_sheet(&self) -> bool {
+        self.boundary_ratio > 3.0 || self.enclosed_fraction < 0.8
+    }
+}
+
 impl PolygonMesh {
+    /// The open boundary and the winding-number test of [`Openness`].
+    pub fn openness(&self) -> Openness {
+        let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let length: f64 = edges
+            .iter()
+            .filter(|(_, c)| **c == 1)
+            .map(|((a, b), _)| {
+                let d = sub(self.positions[*a as usize], self.positions[*b as usize]);
+                dot(d, d).sqrt()
+            })
+            .fold(0.0, |a, b| a + b);
+        let area: f64 = (0..self.triangles.len())
+            .map(|t| 0.5 * dot(self.face_normal(t), self.face_normal(t)).sqrt())
+            .sum();
+        let n = self.outward_normals();
+        let (lo, hi) = self.bounds();
+        let step = 1e-3 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let stride = (self.positions.len() / 256).max(1);
+        let probes: Vec<usize> = (0..self.positions.len())
+            .step_by(stride)
+            .filter(|&i| n[i] != [0.0; 3])
+            .collect();
+        let enclosed = probes
+            .par_iter()
+            .filter(|&&i| {
+                let at = |s: f64| [0, 1, 2].map(|k| self.positions[i][k] + s * step * n[i][k]);
+                self.winding_number(at(-1.0)).abs() > 0.75
+                    && self.winding_number(at(1.0)).abs() < 0.25
+            })
+            .count();
+        Openness {
+            boundary_edges: edges.values().filter(|c| **c == 1).count(),
+            non_manifold_edges: edges.values().filter(|c| **c > 2).count(),
+            boundary_ratio: length / area.sqrt().max(1e-300),
+            enclosed_fraction: enclosed as f64 / probes.len().max(1) as f64,
+        }
+    }
+
     /// The bounding box `(lo, hi)` of the positions.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
         let mut lo = [f64::INFINITY; 3];
@@ -224,6 +297,50 @@ mod tests {
         for (p, n) in s.positions.iter().zip(s.vertex_normals()) {
             assert!(dot(*p, n) > 0.999, "{p:?} {n:?}");
         }
+    }
+
+    #[test]
+    fn a_sheet_is_told_from_a_solid_with_a_hole() {
+        let ball = PolygonMesh::ellipsoid([1.0, 0.8, 0.6], 3);
+        let o = ball.openness();
+        assert_eq!((o.boundary_edges, o.non_manifold_edges), (0, 0));
+        assert!(
+            o.boundary_ratio == 0.0 && o.enclosed_fraction > 0.99,
+            "{o:?}"
+        );
+        assert!(!o.is_sheet());
+        // A few triangles gone: a hole, still a solid.
+        let mut holed = ball.clone();
+        holed.triangles.drain(0..6);
+        let o = holed.openness();
+        assert!(o.boundary_edges > 0 && !o.is_sheet(), "{o:?}");
+        // Half the ball: a bowl, open on purpose.
+        let mut bowl = ball.clone();
+        bowl.triangles
+            .retain(|t| t.iter().all(|&i| ball.positions[i as usize][2] > -0.05));
+        assert!(bowl.openness().is_sheet(), "{:?}", bowl.openness());
+        // A flat square sheet of zero thickness.
+        let n = 10;
+        let sheet = PolygonMesh {
+            positions: (0..=n)
+                .flat_map(|i| (0..=n).map(move |j| [i as f64, j as f64, 0.0]))
+                .collect(),
+            triangles: (0..n)
+                .flat_map(|i| {
+                    (0..n).flat_map(move |j| {
+                        let v = |a: u32, b: u32| a * (n + 1) + b;
+                        [
+                            [v(i, j), v(i + 1, j), v(i + 1, j + 1)],
+                            [v(i, j), v(i + 1, j + 1), v(i, j + 1)],
+                        ]
+                    })
+                })
+                .collect(),
+        };
+        let o = sheet.openness();
+        assert_eq!(o.boundary_edges, 4 * n as usize);
+        assert!((o.boundary_ratio - 4.0).abs() < 1e-9, "{o:?}");
+        assert!(o.is_sheet());
     }
 
     #[test]

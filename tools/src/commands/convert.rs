@@ -5,6 +5,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use caoen::conversion::deviation::{self, DepthDeviation, FieldGrid, VertexDeviation};
+use caoen::conversion::fit::Progress;
 use caoen::conversion::{self, ImplicitField, InUnitCube, PolygonMesh};
 use caoen::render::scene::Shape;
 use serde_json::json;
@@ -30,10 +31,67 @@ fn topology_text(mesh: &PolygonMesh) -> String {
     )
 }
 
+/// The default function budget: 6000, or 3 per vertex on a mesh with more detail, up
+/// to 9000 (a model file holds at most 10,000 nodes).
+fn default_budget(mesh: &PolygonMesh) -> usize {
+    (3 * mesh.positions.len()).clamp(6000, 9000)
+}
+
+/// Prints the current phase on stderr whenever nothing else was printed for 4 s.
+struct Heartbeat {
+    state: std::sync::Arc<std::sync::Mutex<(String, Instant, bool)>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Heartbeat {
+    fn start(quiet: bool, started: Instant) -> Heartbeat {
+        let state = std::sync::Arc::new(std::sync::Mutex::new((
+            String::from("reading"),
+            Instant::now(),
+            false,
+        )));
+        let shared = state.clone();
+        let thread = (!quiet).then(|| {
+            std::thread::spawn(move || loop {
+                std::thread::sleep(std::time::Duration::from_millis(250));
+                let mut s = shared.lock().unwrap_or_else(|e| e.into_inner());
+                if s.2 {
+                    return;
+                }
+                if s.1.elapsed().as_secs_f64() >= 4.0 {
+                    eprintln!("  ... {} ({:.0} s)", s.0, started.elapsed().as_secs_f64());
+                    s.1 = Instant::now();
+                }
+            })
+        });
+        Heartbeat { state, thread }
+    }
+
+    /// Says what is happening now; `printed` when a line was just printed.
+    fn phase(&self, what: &str, printed: bool) {
+        let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        s.0 = what.to_string();
+        if printed {
+            s.1 = Instant::now();
+        }
+    }
+}
+
+impl Drop for Heartbeat {
+    fn drop(&mut self) {
+        self.state.lock().unwrap_or_else(|e| e.into_inner()).2 = true;
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 /// `caoen convert MESH -o MODEL.json`.
 pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
+    let start = Instant::now();
     let mut outputs = Outputs::new(global.force).input(&a.mesh);
     outputs.check_path(&a.output)?;
+    let heartbeat = Heartbeat::start(global.quiet, start);
     let mesh = read_mesh(&a.mesh)?;
     conversion::mesh_file::check_convertible(&mesh, &a.mesh.display().to_string())
         .map_err(|e| CliError::Failed(e.to_string()))?;
@@ -41,40 +99,96 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         global,
         format!("{}: {}", a.mesh.display(), topology_text(&mesh)),
     );
+    heartbeat.phase("checking which side is inside (winding numbers)", true);
+    let open = mesh.openness();
+    let sheet = open.is_sheet();
+    let open_text = format!(
+        "{} boundary edges, {} non-manifold edges, boundary length {:.3} of sqrt(area), \
+         inside and outside told apart at {:.0}% of probed vertices",
+        open.boundary_edges,
+        open.non_manifold_edges,
+        open.boundary_ratio,
+        100.0 * open.enclosed_fraction
+    );
+    if sheet && !a.fill_open {
+        return Err(CliError::Failed(format!(
+            "{}: an open sheet, not the surface of a solid: {open_text}. Converting it \
+             would model a different, closed solid; close the mesh (or give it \
+             thickness) first, or pass --fill-open to convert the solid its winding \
+             number encloses",
+            a.mesh.display()
+        )));
+    }
+    note(
+        global,
+        format!(
+            "{}: {open_text}",
+            if sheet {
+                "an open sheet, filled (--fill-open)"
+            } else if open.boundary_edges > 0 {
+                "a solid with holes, closed by the fit"
+            } else {
+                "a closed surface"
+            }
+        ),
+    );
     // The fit keeps a few dozen numbers per sample and per condition (three conditions
     // a sample), and each thread its own rows: 1000 bytes a condition bounds the peak
     // measured (1.6 GiB for 400,000 triangles on two threads, 2.75 GiB reported on
     // more; 448 MiB for the 69,451-triangle Stanford bunny, estimated 1.4 GiB).
-    let samples = (mesh.positions.len() + mesh.triangles.len()) as u64
-        + caoen::conversion::fit::MAX_SAMPLES as u64;
-    caoen::budget::check(|| "the conversion's conditions".into(), samples * 3 * 1000)
+    // Samples are the vertices and at most about MAX_SAMPLES points in the triangles;
+    // the mesh's own tables (edges, normals, the unit copy) take about 100 bytes a
+    // triangle.
+    let samples = mesh.positions.len() as u64 + caoen::conversion::fit::MAX_SAMPLES as u64;
+    let estimate = samples * 3 * 1000 + mesh.triangles.len() as u64 * 100;
+    caoen::budget::check(|| "the conversion's conditions".into(), estimate)
         .map_err(|e| CliError::Failed(e.to_string()))?;
+    note(
+        global,
+        format!("memory estimate {}", caoen::budget::human(estimate)),
+    );
+    let max_functions = a
+        .max_functions
+        .map_or_else(|| default_budget(&mesh), |n| n as usize);
     let opts = conversion::ConvertOptions {
-        max_functions: a.max_functions as usize,
+        max_functions,
         target: a.target,
         max_angle_deg: a.max_angle,
         descent_sweeps: a.descent as usize,
+        fit_angle_deg: 0.8 * a.target_angle,
         ..Default::default()
     };
-    let start = Instant::now();
-    let result = conversion::convert(&mesh, &opts, &mut |level, functions, r| {
-        note(
-            global,
-            format!(
-                "level {level}: radius {:.4}, +{} perturbations ({functions} functions), \
-                 vertex distance mean {:.5} max {:.5}, {} vertices over the target, {} \
-                 off-surface points on the wrong side ({:.1} s)",
-                r.radius,
-                r.added,
-                r.mean_distance,
-                r.max_distance,
-                r.over_target,
-                r.wrong_side,
-                start.elapsed().as_secs_f64()
-            ),
-        );
+
+    let fit_start = Instant::now();
+    let result = conversion::convert(&mesh, &opts, &mut |p| match p {
+        Progress::Phase(what) => {
+            note(
+                global,
+                format!("{what} ({:.1} s)", start.elapsed().as_secs_f64()),
+            );
+            heartbeat.phase(what, true);
+        }
+        Progress::Level(level, functions, r) => {
+            note(
+                global,
+                format!(
+                    "level {level}: radius {:.4}, +{} perturbations ({functions} of \
+                     {max_functions} functions), vertex distance mean {:.5} max {:.5}, {} \
+                     vertices over the target, {} off-surface points on the wrong side \
+                     ({:.1} s)",
+                    r.radius,
+                    r.added,
+                    r.mean_distance,
+                    r.max_distance,
+                    r.over_target,
+                    r.wrong_side,
+                    start.elapsed().as_secs_f64()
+                ),
+            );
+            heartbeat.phase("fitting the next level", true);
+        }
     });
-    let seconds = start.elapsed().as_secs_f64();
+    let fit_seconds = fit_start.elapsed().as_secs_f64();
     let name = a
         .mesh
         .file_stem()
@@ -85,40 +199,132 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         .to_frep_json(&format!("{name} (converted)"), mesh.bounds());
     let text = serde_json::to_string(&model).expect("JSON of numbers");
     outputs.write_path(&a.output, text.as_bytes())?;
-    let last = result.levels.last();
+    // The summary measures what `caoen deviation` measures, on the model as fitted.
+    let msg = format!(
+        "measuring the model: {} px depth buffers, 6 views",
+        a.check_size
+    );
+    note(global, &msg);
+    heartbeat.phase(&msg, true);
+    let unit = mesh.transformed(&mesh.unit_frame());
+    let (m, _) = measure(
+        global,
+        &result.model,
+        &unit,
+        a.check_size as usize,
+        6,
+        false,
+    )?;
+    drop(heartbeat);
+    let seconds = start.elapsed().as_secs_f64();
+    let v = &m.vertex;
+    let angle_met = v.mean_angle_deg <= a.target_angle;
+    let depth_met = m.mean_all <= a.target_depth;
+    let met = angle_met && depth_met;
+    let functions = result.model.functions();
+    let stop = match result.stop {
+        conversion::fit::Stop::Met => "every vertex within the per-vertex targets",
+        conversion::fit::Stop::MeanMet => "mean angle and distance within the fit's targets",
+        conversion::fit::Stop::Budget => "function budget spent",
+        conversion::fit::Stop::SmallestRadius => "smallest radius reached",
+    };
+    // Advice that matches the cause.
+    let advice = if met {
+        None
+    } else if result.stop == conversion::fit::Stop::Budget {
+        Some(format!(
+            "the budget of {max_functions} functions was spent: raise --max-functions"
+        ))
+    } else if sheet {
+        Some(
+            "the mesh is an open sheet filled into a solid: the model is that solid, not the sheet"
+                .to_string(),
+        )
+    } else if result.stop == conversion::fit::Stop::MeanMet {
+        Some(format!(
+            "the fit met its own means ({:.2} degrees, distance {:.5}) with {functions} of \
+             {max_functions} functions: lower --target-angle to fit further",
+            result.mean_angle_deg, result.mean_distance
+        ))
+    } else {
+        Some(format!(
+            "the fit stopped at the smallest radius with {functions} of {max_functions} \
+             functions: detail finer than the smallest perturbation (or creases and \
+             thin parts a smooth function rounds) remains; raising --max-functions will \
+             not help"
+        ))
+    };
     if a.json {
         crate::output::print(
             json!({
                 "mesh": a.mesh.display().to_string(),
                 "output": a.output.display().to_string(),
-                "functions": result.model.functions(),
+                "functions": functions,
+                "max_functions": max_functions,
                 "seconds": seconds,
-                "met_target": result.met_target,
+                "fit_seconds": fit_seconds,
+                "met_target": met,
+                "targets": {"mean_angle_deg": a.target_angle, "depth_mean_all_pixels": a.target_depth},
+                "stop": format!("{:?}", result.stop),
+                "advice": advice,
                 "levels": result.levels.len(),
-                "mean_distance": last.map(|l| l.mean_distance),
-                "max_distance": last.map(|l| l.max_distance),
+                "vertices_over_refine_thresholds": result.over_target,
+                "open": {"boundary_edges": open.boundary_edges,
+                         "non_manifold_edges": open.non_manifold_edges,
+                         "boundary_ratio": open.boundary_ratio,
+                         "enclosed_fraction": open.enclosed_fraction,
+                         "sheet": sheet,
+                         "handled_as": if sheet { "filled solid (--fill-open)" } else if open.boundary_edges > 0 { "solid, holes closed" } else { "solid" }},
+                "deviation": {
+                    "size": a.check_size,
+                    "views": 6,
+                    "vertex_distance": {"mean": v.mean_distance, "max": v.max_distance},
+                    "normal_angle_deg": {"mean": v.mean_angle_deg, "max": v.max_angle_deg},
+                    "depth": {"mean": m.mean_depth, "mean_all_pixels": m.mean_all,
+                              "mean_both_cover": m.mean_both},
+                },
+                "mean_distance": v.mean_distance,
+                "max_distance": v.max_distance,
             })
             .to_string()
                 + "\n",
         )?;
     } else {
-        note(
-            global,
-            format!(
-                "wrote {}: {} functions in {:.1} s{}",
-                a.output.display(),
-                result.model.functions(),
-                seconds,
-                if result.met_target {
-                    String::new()
-                } else {
-                    format!(
-                        "; {} vertices still over the target (raise --max-functions)",
-                        last.map_or(0, |l| l.over_target)
-                    )
-                }
-            ),
+        let mut out = String::new();
+        outln!(
+            out,
+            "wrote {}: {functions} of {max_functions} functions in {seconds:.1} s ({stop})",
+            a.output.display()
         );
+        outln!(
+            out,
+            "vertex distance: mean {:.5}, max {:.5} (unit cube)",
+            v.mean_distance,
+            v.max_distance
+        );
+        outln!(
+            out,
+            "normal angle:    mean {:.2} degrees (target {}: {}), max {:.1}",
+            v.mean_angle_deg,
+            a.target_angle,
+            if angle_met { "met" } else { "not met" },
+            v.max_angle_deg
+        );
+        outln!(
+            out,
+            "depth buffers:   {:.4}% over all pixels (target {}%: {}), {:.4}% where both \
+             see the model, {:.4}% where either does; 6 views of {} px",
+            100.0 * m.mean_all,
+            100.0 * a.target_depth,
+            if depth_met { "met" } else { "not met" },
+            100.0 * m.mean_both,
+            100.0 * m.mean_depth,
+            a.check_size
+        );
+        if let Some(advice) = &advice {
+            outln!(out, "targets not met: {advice}");
+        }
+        crate::output::print(out)?;
     }
     Ok(())
 }
@@ -136,11 +342,12 @@ fn measure(
     global: &GlobalArgs,
     field: &dyn ImplicitField,
     unit: &PolygonMesh,
-    a: &DeviationArgs,
+    size: usize,
+    views: usize,
+    picture: bool,
 ) -> CliResult<(Measured, Option<Vec<u8>>)> {
     let normals = unit.outward_normals();
     let vertex = deviation::vertex_deviation(field, unit, &normals);
-    let size = a.size as usize;
     let n = (size / 2 + 1).clamp(65, 257);
     caoen::budget::check(
         || format!("a {n}^3 field grid"),
@@ -149,14 +356,14 @@ fn measure(
     .map_err(|e| CliError::Failed(e.to_string()))?;
     note(global, format!("sampling the field on a {n}^3 grid"));
     let grid = FieldGrid::new(field, n);
-    let views = deviation::views(a.views as usize);
+    let views = deviation::views(views);
     let mut depth = Vec::new();
     let mut tiles = Vec::new();
     for v in &views {
         let m = deviation::mesh_depth(unit, v, size);
         let f = deviation::field_depth(field, &grid, v, size);
         depth.push((v.name, deviation::compare_depth(&m, &f)));
-        if a.picture.is_some() {
+        if picture {
             tiles.push((
                 deviation::shade(&m, v),
                 deviation::shade(&f, v),
@@ -172,7 +379,7 @@ fn measure(
         over_views(|d| d.mean_all),
         over_views(|d| d.mean_both),
     );
-    let picture = a.picture.as_ref().map(|_| {
+    let picture = picture.then(|| {
         let (w, h) = (3 * size, views.len() * size);
         let mut img = image::RgbImage::new(w as u32, h as u32);
         for (row, (mesh, model, diff)) in tiles.iter().enumerate() {
@@ -241,7 +448,14 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
             (
                 path.display().to_string(),
                 node.count(),
-                measure(global, &field, &unit, a)?,
+                measure(
+                    global,
+                    &field,
+                    &unit,
+                    a.size as usize,
+                    a.views as usize,
+                    a.picture.is_some(),
+                )?,
             )
         }
         (None, Some(n)) => {
@@ -252,7 +466,14 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
             (
                 format!("RBF baseline, {} centres", rbf.centres.len()),
                 rbf.numbers(),
-                measure(global, &rbf, &unit, a)?,
+                measure(
+                    global,
+                    &rbf,
+                    &unit,
+                    a.size as usize,
+                    a.views as usize,
+                    a.picture.is_some(),
+                )?,
             )
         }
         (None, None) => return Err(CliError::Usage("give a model file or --rbf N".into())),
