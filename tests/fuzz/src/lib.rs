@@ -832,7 +832,10 @@ fn assert_mesh(m: &Mesh, inside: Option<&Aabb>) {
 /// with three different corners; coordinates are finite. Written by caoen's OBJ writer
 /// it reads back as the same triangles.
 fn assert_read_mesh(mesh: &PolygonMesh) {
-    assert!(!mesh.triangles.is_empty(), "accepted a mesh without triangles");
+    assert!(
+        !mesh.triangles.is_empty(),
+        "accepted a mesh without triangles"
+    );
     for t in &mesh.triangles {
         assert!(
             t.iter().all(|&i| (i as usize) < mesh.positions.len()),
