@@ -618,3 +618,94 @@ fn ply_files_must_hold_exactly_what_their_header_declares() {
     );
     assert!(!Path::new(&out).exists());
 }
+
+/// The rest of the second round (`../shared/hostile/README.md`): an exact sphere
+/// converts to a model its readers take; an F-rep model without a name gets a relief
+/// and a carving rendered; a perturbation of 9,990 bumps exports to POV-Ray; a mesh
+/// without area, a thin box and a stream of zeros are refused.
+#[test]
+fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
+    let dir = scratch("second-round");
+    let o = |n: &str| dir.join(n).display().to_string();
+    // D2: the base quadric alone, read back by the loader and by deviation.
+    succeeds(&[
+        "convert",
+        &bad("D2-convert-exact-sphere.obj"),
+        "-o",
+        &o("s.json"),
+    ]);
+    succeeds(&[
+        "frep",
+        "render",
+        &o("s.json"),
+        "-o",
+        &o("s.png"),
+        "--size",
+        "32x24",
+    ]);
+    succeeds(&[
+        "deviation",
+        &bad("D2-convert-exact-sphere.obj"),
+        &o("s.json"),
+    ]);
+    // D3: relief and carve of a model without `name`, as a picture and as a model.
+    for cmd in ["relief", "carve"] {
+        let on = bad("D3-D5-unnamed-sphere.frep.json");
+        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &o("r.png")]);
+        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &o("r.json")]);
+        succeeds(&[
+            "frep",
+            "render",
+            &o("r.json"),
+            "-o",
+            &o("r2.png"),
+            "--size",
+            "32x24",
+        ]);
+    }
+    // D4b: 9,990 overlapping bumps on one sphere, within the node limit.
+    let bumps = vec![r#"{"bump": {"centre": [1, 0, 0], "radius": 0.3, "height": 1}}"#; 9990];
+    std::fs::write(
+        o("bumps.frep.json"),
+        format!(
+            r#"{{"format": "caoen-frep/1", "model": {{"perturb": {{"sphere": {{"radius": 1.0}}}}, "patches": [{}]}}}}"#,
+            bumps.join(", ")
+        ),
+    )
+    .expect("model");
+    succeeds(&[
+        "frep",
+        "export-pov",
+        &o("bumps.frep.json"),
+        "-o",
+        &o("b.pov"),
+    ]);
+    // M3: collinear triangles only.
+    fails_cleanly(
+        &[
+            "convert",
+            &bad("M3-all-zero-area-triangles.obj"),
+            "-o",
+            &o("m.json"),
+        ],
+        1,
+        "no area",
+    );
+    assert!(!Path::new(&o("m.json")).exists());
+    // A box 1e6 x 1e-9 x 1e-9: no grid point inside, so no mesh.
+    std::fs::write(
+        o("thin.frep.json"),
+        r#"{"format": "caoen-frep/1", "model": {"box": {"size": [1e6, 1e-9, 1e-9]}}}"#,
+    )
+    .expect("model");
+    fails_cleanly(
+        &["frep", "mesh", &o("thin.frep.json"), "-o", &o("thin.stl")],
+        1,
+        "the mesh is empty",
+    );
+    assert!(!Path::new(&o("thin.stl")).exists());
+    // A wrong magic number is refused after its four bytes, not after reading 2 GiB.
+    fails_cleanly(&["info", "/dev/zero"], 1, "magic");
+    fails_cleanly(&["decode", "/dev/zero", "-o", &o("z.png")], 1, "magic");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,8 +1,10 @@
 //! The memory estimates are upper bounds: each command's peak resident memory is
-//! measured (`/usr/bin/time -v`), then the command is run again with a budget just
-//! under that peak, and must be refused before it starts (its estimate is over the
-//! budget) instead of running. Slow (each command runs in full once): `--ignored`.
-//! `--nocapture` prints the table of peaks.
+//! measured (`/usr/bin/time -v`) with its largest estimate (`CAOEN_REPORT_BUDGET`), then
+//! the command is run again with a budget just under that peak, and must be refused
+//! before it starts (its estimate is over the budget) instead of running. Slow (each
+//! command runs in full once): `--ignored`. `--nocapture` prints the table of
+//! estimates and peaks. The largest mesh of `../shared/models` (beside the clone) is
+//! one of the inputs: without it the test fails, it does not pass.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -13,13 +15,14 @@ fn scratch() -> PathBuf {
     d
 }
 
-/// Peak resident memory of `caoen args` in bytes and its exit code, or `None` without
-/// GNU time.
+/// Peak resident memory of `caoen args` in bytes, its exit code and its standard error
+/// (with the largest estimate it checked), or `None` without GNU time.
 fn peak(args: &[&str]) -> Option<(u64, i32, String)> {
     let out = Command::new("/usr/bin/time")
         .arg("-v")
         .arg(env!("CARGO_BIN_EXE_caoen"))
         .args(args)
+        .env("CAOEN_REPORT_BUDGET", "1")
         .output()
         .ok()?;
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
@@ -74,16 +77,48 @@ fn sphere_obj(path: &Path, rings: usize) {
     std::fs::write(path, s).expect("mesh");
 }
 
+/// The largest estimate a run reported (`CAOEN_REPORT_BUDGET`).
+fn estimate(stderr: &str) -> u64 {
+    stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("budget: largest estimate "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no estimate reported: {stderr}"))
+}
+
+/// The largest mesh file of `../shared/models` beside the clone.
+fn largest_shared_mesh() -> PathBuf {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models");
+    let mesh = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e} (the shared models are an input)", dir.display()))
+        .map(|e| e.expect("entry").path())
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|x| x.eq_ignore_ascii_case("obj") || x.eq_ignore_ascii_case("ply"))
+        })
+        .max_by_key(|p| std::fs::metadata(p).map_or(0, |m| m.len()));
+    mesh.unwrap_or_else(|| panic!("{}: no OBJ or PLY mesh", dir.display()))
+}
+
 #[test]
 #[ignore = "runs each command in full: minutes"]
 fn estimates_are_upper_bounds_of_the_peak() {
     let dir = scratch();
     let big = dir.join("sphere400k.obj");
     sphere_obj(&big, 448);
+    let shared = largest_shared_mesh();
     let sphere = dir.join("s.frep.json");
     std::fs::write(
         &sphere,
         r#"{"format": "caoen-frep/1", "model": {"sphere": {"centre": [0, 0, 0], "radius": 1}}}"#,
+    )
+    .expect("model");
+    // A closed surface meshed at the finest detail a model may ask for, as a field.
+    let surface = dir.join("surface.frep.json");
+    std::fs::write(
+        &surface,
+        r#"{"format": "caoen-frep/1", "model": {"caoen_surface": {"file": "blob.json", "detail": 7}}}"#,
     )
     .expect("model");
     let texture = dir.join("t.png");
@@ -92,63 +127,159 @@ fn estimates_are_upper_bounds_of_the_peak() {
     })
     .save(&texture)
     .expect("texture");
+    let small = dir.join("small.png");
+    image::RgbImage::from_fn(640, 480, |x, y| {
+        image::Rgb([x as u8, y as u8, (x ^ y) as u8])
+    })
+    .save(&small)
+    .expect("picture");
     let o = |n: &str| dir.join(n).display().to_string();
-    let (big, sphere, texture) = (
+    let setup = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_caoen"))
+            .args(args)
+            .output()
+            .expect("run caoen");
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    setup(&[
+        "-f",
+        "surface",
+        "export",
+        "builtin:blob",
+        "-o",
+        &o("blob.json"),
+    ]);
+    setup(&[
+        "-f",
+        "encode",
+        &small.display().to_string(),
+        "-o",
+        &o("small.cae"),
+    ]);
+    let (big, shared, sphere, surface, texture, small) = (
         big.display().to_string(),
+        shared.display().to_string(),
         sphere.display().to_string(),
+        surface.display().to_string(),
         texture.display().to_string(),
+        small.display().to_string(),
     );
-    let cases: Vec<(&str, Vec<String>)> = vec![
+    let shared_name = Path::new(&shared)
+        .file_name()
+        .expect("name")
+        .to_string_lossy()
+        .into_owned();
+    let v = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<String>>();
+    let cases: Vec<(String, Vec<String>)> = vec![
         (
-            "convert 400k triangles",
-            vec!["convert".into(), big.clone(), "-o".into(), o("c.json")],
+            "convert 400k triangles".into(),
+            v(&["convert", &big, "-o", &o("c.json")]),
         ),
         (
-            "frep mesh --cells 400",
-            vec![
-                "frep".into(),
-                "mesh".into(),
-                sphere.clone(),
-                "-o".into(),
-                o("m.obj"),
-                "--cells".into(),
-                "400".into(),
-            ],
+            format!("convert {shared_name}"),
+            v(&["convert", &shared, "-o", &o("c2.json")]),
         ),
         (
-            "frep render --method mesh --cells 400",
-            vec![
-                "frep".into(),
-                "render".into(),
-                sphere.clone(),
-                "-o".into(),
-                o("r.png"),
-                "--method".into(),
-                "mesh".into(),
-                "--cells".into(),
-                "400".into(),
-                "--size".into(),
-                "64x48".into(),
-            ],
+            "frep mesh --cells 400".into(),
+            v(&["frep", "mesh", &sphere, "-o", &o("m.obj"), "--cells", "400"]),
         ),
         (
-            "transfer 4000x4000 texture",
-            vec![
-                "transfer".into(),
-                "--texture".into(),
-                texture.clone(),
-                "--from".into(),
-                "builtin:octahedron".into(),
-                "--to".into(),
-                "builtin:blob".into(),
-                "-o".into(),
-                o("t.png"),
-                "--size".into(),
-                "64x48".into(),
-            ],
+            "frep render --method mesh --cells 400".into(),
+            v(&[
+                "frep",
+                "render",
+                &sphere,
+                "-o",
+                &o("r.png"),
+                "--method",
+                "mesh",
+                "--cells",
+                "400",
+                "--size",
+                "64x48",
+            ]),
+        ),
+        (
+            "frep render (ray, 1024x768, 3x3 samples)".into(),
+            v(&[
+                "frep",
+                "render",
+                &sphere,
+                "-o",
+                &o("r2.png"),
+                "--size",
+                "1024x768",
+                "--samples",
+                "3",
+            ]),
+        ),
+        (
+            "frep render caoen_surface detail 7".into(),
+            v(&[
+                "frep",
+                "render",
+                &surface,
+                "-o",
+                &o("r3.png"),
+                "--size",
+                "64x48",
+            ]),
+        ),
+        (
+            "relief 640x480 picture (default render)".into(),
+            v(&["relief", &small, "--on", &sphere, "-o", &o("r4.png")]),
+        ),
+        (
+            "transfer 4000x4000 texture".into(),
+            v(&[
+                "transfer",
+                "--texture",
+                &texture,
+                "--from",
+                "builtin:octahedron",
+                "--to",
+                "builtin:blob",
+                "-o",
+                &o("t.png"),
+                "--size",
+                "64x48",
+            ]),
+        ),
+        (
+            "decode 640x480 to 4096x3072 (EXR)".into(),
+            v(&[
+                "decode",
+                &o("small.cae"),
+                "--size",
+                "4096x3072",
+                "-o",
+                &o("d.exr"),
+            ]),
+        ),
+        (
+            "decode 640x480 to 4096x3072 supersample 2 (PNG)".into(),
+            v(&[
+                "decode",
+                &o("small.cae"),
+                "--size",
+                "4096x3072",
+                "--supersample",
+                "2",
+                "-o",
+                &o("d.png"),
+            ]),
         ),
     ];
     let mut failures = Vec::new();
+    let mut table = vec![
+        "| command | estimate | peak RSS | estimate / peak | at 95% of the peak |".to_string(),
+        "|---|---|---|---|---|".to_string(),
+    ];
+    let mib = |b: u64| b as f64 / 1048576.0;
     for (name, args) in &cases {
         let mut a: Vec<&str> = vec!["-f", "--quiet"];
         a.extend(args.iter().map(String::as_str));
@@ -157,20 +288,24 @@ fn estimates_are_upper_bounds_of_the_peak() {
             return;
         };
         assert_eq!(code, 0, "{name}: {err}");
+        let e = estimate(&err);
         // Just under the peak: the estimate must refuse it.
         let under = format!("{}", p * 95 / 100);
         a.extend(["--max-memory", &under]);
         let (_, code2, err2) = peak(&a).expect("ran once");
         let refused = code2 == 1 && err2.contains("over the memory budget");
-        eprintln!(
-            "{name}: peak {:.0} MiB; with a budget of 95% of it: {}",
-            p as f64 / 1048576.0,
+        table.push(format!(
+            "| {name} | {:.0} MiB | {:.0} MiB | {:.2} | {} |",
+            mib(e),
+            mib(p),
+            e as f64 / p as f64,
             if refused { "refused" } else { "ran" }
-        );
+        ));
         if !refused {
-            failures.push(*name);
+            failures.push(name.clone());
         }
     }
+    eprintln!("{}", table.join("\n"));
     std::fs::remove_dir_all(&dir).ok();
     assert!(
         failures.is_empty(),

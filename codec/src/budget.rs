@@ -27,6 +27,9 @@ static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BUDGET);
 /// Bytes held by live [`Reservation`]s.
 static HELD: AtomicU64 = AtomicU64::new(0);
 
+/// The largest need (with what was held) any [`check`] has passed or refused.
+static LARGEST: AtomicU64 = AtomicU64::new(0);
+
 /// The words of every [`OverBudget`] message before the budget: a program that sets
 /// the budget from its own option can find them to say how to raise it.
 pub const OVER_BUDGET: &str = "over the memory budget of";
@@ -58,6 +61,7 @@ pub fn get() -> u64 {
 pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
     let budget = get();
     let held = held();
+    LARGEST.fetch_max(need.saturating_add(held), Ordering::Relaxed);
     if need.saturating_add(held) <= budget {
         Ok(())
     } else {
@@ -71,6 +75,12 @@ pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget>
             budget,
         })
     }
+}
+
+/// The largest estimate checked so far in this process, with what was held at the time:
+/// the command's estimate of its peak, which the measured peak is compared with.
+pub fn largest_checked() -> u64 {
+    LARGEST.load(Ordering::Relaxed)
 }
 
 /// Bytes held by live reservations: what the loads so far keep.

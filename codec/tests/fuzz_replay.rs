@@ -103,7 +103,11 @@ fn every_target_is_replayed() {
             "image",
             "surface",
             "scene",
-            "distort"
+            "distort",
+            "frep",
+            "obj",
+            "ply",
+            "scene_frep"
         ],
         "a target without a replay test below"
     );
@@ -137,4 +141,24 @@ fn scene() {
 #[test]
 fn distort() {
     replay("distort");
+}
+
+#[test]
+fn frep() {
+    replay("frep");
+}
+
+#[test]
+fn obj() {
+    replay("obj");
+}
+
+#[test]
+fn ply() {
+    replay("ply");
+}
+
+#[test]
+fn scene_frep() {
+    replay("scene_frep");
 }

@@ -489,15 +489,17 @@ pub fn read_off(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
 
 /// Parses OBJ text; polygons become triangle fans, every object joins one mesh.
 pub fn read_obj(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
-    // tobj keeps positions, indices and its own bookkeeping: a few times the text.
-    budget(name, bytes.len() as u64 * 6)?;
+    // tobj keeps positions, indices and its own bookkeeping: a few times the text; and
+    // the text once more, cut to position indices.
+    budget(name, bytes.len() as u64 * 7)?;
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
+    let text = position_indices_only(bytes);
+    let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(text), &opts, |_| {
         Err(tobj::LoadError::MaterialParseError)
     })
     .map_err(|source| MeshError::Obj {
@@ -531,6 +533,25 @@ pub fn read_obj(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
         }
     }
     finish(mesh, name)
+}
+
+/// The OBJ text with every face corner cut to its position index (`7/3/2` becomes `7`):
+/// caoen reads neither texture coordinates nor normals, and tobj's arithmetic on their
+/// indices overflows on huge ones.
+fn position_indices_only(bytes: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut cut = false;
+    for &b in bytes {
+        if b.is_ascii_whitespace() {
+            cut = false;
+        } else if b == b'/' {
+            cut = true;
+        }
+        if !cut {
+            out.push(b);
+        }
+    }
+    out
 }
 
 /// A PLY scalar type: its name in messages and its size in a binary file.
@@ -679,6 +700,13 @@ fn ply_header(bytes: &[u8], name: &str) -> Result<(PlyFormat, Vec<PlyElement>, u
             text: crate::json::printable(line),
         };
         let w: Vec<&str> = line.split_whitespace().collect();
+        // Names and counts from the header reach the messages: no control characters
+        // (comments are not read).
+        if !matches!(w.first(), Some(&"comment" | &"obj_info"))
+            && line.chars().any(|c| c.is_control() && !c.is_whitespace())
+        {
+            return Err(bad());
+        }
         match w.as_slice() {
             ["ply"] | [] => {}
             ["comment", ..] | ["obj_info", ..] => {}

@@ -157,6 +157,9 @@ pub(super) fn surface_field(
     }
     let mesh = tessellate(&model, detail as u32, NormalMode::Exact)
         .map_err(|e| fail(here, e.to_string()))?;
+    // The mesh lives while its field is built: the field's checks count it.
+    let _mesh_held = crate::budget::reserve(|| format!("{name}: its mesh"), mesh.heap_bytes())
+        .map_err(|e| fail(here, e.to_string()))?;
     let field = MeshField::new(&mesh).map_err(|e| fail(here, format!("{name}: {e}")))?;
     Ok(Node::Surface(std::sync::Arc::new(field)))
 }

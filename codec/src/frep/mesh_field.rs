@@ -38,6 +38,8 @@ pub struct MeshField {
     nodes: Vec<BvhNode>,
     order: Vec<u32>,
     bounds: Aabb,
+    /// The budget reservation of what the field holds, shared by its clones.
+    _held: std::sync::Arc<crate::budget::Reservation>,
 }
 
 /// The feature of a triangle the nearest point lies on.
@@ -112,7 +114,22 @@ pub enum MeshFieldError {
     /// A vertex with an infinite or NaN coordinate.
     #[error("the mesh has non-finite vertices")]
     NonFinite,
+    /// The memory budget does not hold the field.
+    #[error("{0}")]
+    OverBudget(#[from] crate::budget::OverBudget),
 }
+
+/// Bytes a field holds per triangle, an upper bound: its corners, face normal, the
+/// three edges' normals, at most one hierarchy node and its order entry.
+const HELD_TRIANGLE_BYTES: u64 = 12 + 24 + 72 + std::mem::size_of::<BvhNode>() as u64 + 4;
+
+/// Bytes per vertex: the position and the pseudo-normal.
+const HELD_VERTEX_BYTES: u64 = 48;
+
+/// Bytes per triangle of the building's hash maps of directed edges (three entries a
+/// triangle, in tables of up to twice their entries, an old and a new table while one
+/// grows).
+const BUILD_TRIANGLE_BYTES: u64 = 160;
 
 impl MeshField {
     /// The field of `mesh`, which must be closed with every edge used once each way
@@ -122,6 +139,14 @@ impl MeshField {
         if n == 0 || n > MAX_TRIANGLES {
             return Err(MeshFieldError::TriangleCount(n));
         }
+        let held = crate::budget::reserve(
+            || format!("the field of a {n}-triangle mesh"),
+            HELD_VERTEX_BYTES * mesh.positions.len() as u64 + HELD_TRIANGLE_BYTES * n as u64,
+        )?;
+        crate::budget::check(
+            || format!("building the field of a {n}-triangle mesh"),
+            BUILD_TRIANGLE_BYTES * n as u64,
+        )?;
         if !mesh.is_closed_and_consistent() {
             return Err(MeshFieldError::NotClosed);
         }
@@ -192,6 +217,7 @@ impl MeshField {
             edge_normals,
             nodes: Vec::new(),
             order: (0..n as u32).collect(),
+            _held: std::sync::Arc::new(held),
         };
         field.build(0, n);
         let root = &field.nodes[0];

@@ -34,7 +34,8 @@ impl Node {
         base_dir: &std::path::Path,
     ) -> Result<Node, FieldError> {
         let mut ctx = Context { count: 0, base_dir };
-        parse(v, path, 0, &mut ctx)
+        // Field names and values from the file reach the messages: one printable line.
+        parse(v, path, 0, &mut ctx).map_err(FieldError::printable)
     }
 }
 

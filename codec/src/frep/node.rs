@@ -272,7 +272,7 @@ impl Node {
     pub fn value(&self, p: [f64; 3]) -> f64 {
         match self {
             Node::Primitive(q) => q.value_gradient(p).0,
-            Node::HeightMap(h) => h.value_gradient(p).0,
+            Node::HeightMap(h) => h.value(p),
             Node::Surface(m) => m.value_gradient(p).0,
             Node::SetOp { op, a, operands } => {
                 let mut it = operands.iter();
@@ -305,13 +305,13 @@ impl Node {
                     })
                 })
             }
-            Node::Pattern { map, level } => map.perturbation(p).0 - level,
+            Node::Pattern { map, level } => map.perturbation_value(p) - level,
             Node::Relief {
                 base,
                 map,
                 depth,
                 ramp,
-            } => base.value(relief_warp(map, *depth, *ramp, p).0),
+            } => base.value(relief_point(map, *depth, *ramp, p)),
             Node::Offset { by, operand } => operand.value(p) + by,
             Node::Transform {
                 inverse, operand, ..
@@ -627,6 +627,32 @@ pub fn relief_warp(
                 }
             }
             ([0, 1, 2].map(|k| p[k] + c1 * q[k]), j)
+        }
+    }
+}
+
+/// `W(p)` of [`relief_warp`] alone, without the Jacobian (for point values).
+fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64; 3]) -> [f64; 3] {
+    let h = map.perturbation_value(p);
+    match map.parts().0 {
+        super::height_map::Base::Plane => {
+            let (s, _) = ramp_of(ramp, p[2]);
+            [p[0], p[1], p[2] - depth * h * s]
+        }
+        base => {
+            let m = if matches!(base, super::height_map::Base::Cylinder(_)) {
+                [1.0, 1.0, 0.0]
+            } else {
+                [1.0; 3]
+            };
+            let q = [0, 1, 2].map(|k| m[k] * p[k]);
+            let r = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+            // No push: the point itself (where relief_warp also moves it by zero).
+            if r.is_nan() || r <= 0.0 || h == 0.0 {
+                return p;
+            }
+            let c1 = -depth * h / r;
+            [0, 1, 2].map(|k| p[k] + c1 * q[k])
         }
     }
 }

@@ -109,6 +109,8 @@ impl<'a> Caster<'a> {
         // Explicit stack (far half pushed first) so deep subdivision cannot overflow.
         let mut stack = vec![(a, b)];
         let mut open: Option<f64> = None;
+        // The value at the end of the last stretch looked at closely.
+        let mut last: Option<(f64, f64)> = None;
         let finish = |open: &mut Option<f64>, end: f64, visit: &mut dyn FnMut(Span) -> bool| {
             if let Some(s) = open.take() {
                 return visit(Span {
@@ -137,8 +139,14 @@ impl<'a> Caster<'a> {
                 stack.push((t0, m));
                 continue;
             }
-            // A short stretch the bound cannot decide: the signs at its ends.
-            let (f0, f1) = (self.node.value(p0), self.node.value(p1));
+            // A short stretch the bound cannot decide: the signs at its ends. Stretches
+            // come in ray order, so one often starts where the last one looked.
+            let f0 = match last {
+                Some((t, f)) if t == t0 => f,
+                _ => self.node.value(p0),
+            };
+            let f1 = self.node.value(p1);
+            last = Some((t1, f1));
             match (f0 >= 0.0, f1 >= 0.0) {
                 (true, true) => {
                     open.get_or_insert(t0);
@@ -152,11 +160,11 @@ impl<'a> Caster<'a> {
                     if !finish(&mut open, t0, visit) {
                         return;
                     }
-                    open = Some(self.crossing(&at, t0, t1, false));
+                    open = Some(self.crossing(&at, (t0, f0), (t1, f1), false));
                 }
                 (true, false) => {
                     open.get_or_insert(t0);
-                    let t = self.crossing(&at, t0, t1, true);
+                    let t = self.crossing(&at, (t0, f0), (t1, f1), true);
                     if !finish(&mut open, t, visit) {
                         return;
                     }
@@ -166,21 +174,53 @@ impl<'a> Caster<'a> {
         finish(&mut open, b, visit);
     }
 
-    /// Bisection for the sign change in `[t0, t1]`; `inside_first` says which end is in.
+    /// The sign change in `[t0, t1]` (values `f0`, `f1`; `inside_first` says which end
+    /// is in), to the precision of `refine_steps` bisection steps: a bracket at most
+    /// `(t1 - t0) / 2^refine_steps` wide. Illinois steps (false position, halving the
+    /// value of an end kept twice) get there in a few evaluations on a smooth
+    /// function; a step that does not halve the bracket is followed by a bisection, so
+    /// a rough or non-finite function costs at most twice the bisection's evaluations.
     fn crossing(
         &self,
         at: &dyn Fn(f64) -> [f64; 3],
-        mut t0: f64,
-        mut t1: f64,
+        (mut t0, mut f0): (f64, f64),
+        (mut t1, mut f1): (f64, f64),
         inside_first: bool,
     ) -> f64 {
-        for _ in 0..self.refine_steps {
-            let m = 0.5 * (t0 + t1);
-            if (self.node.value(at(m)) >= 0.0) == inside_first {
+        let tol = (t1 - t0) * 0.5f64.powi(self.refine_steps as i32);
+        // Whether the last step moved the low end (Some(true)) or the high one.
+        let mut moved_low = None;
+        let mut bisect = false;
+        for _ in 0..2 * self.refine_steps {
+            let width = t1 - t0;
+            if !(width > tol) {
+                break;
+            }
+            let secant = t0 + width * f0 / (f0 - f1);
+            let m = if !bisect && secant > t0 && secant < t1 {
+                secant
+            } else {
+                0.5 * (t0 + t1)
+            };
+            let f = self.node.value(at(m));
+            if (f >= 0.0) == inside_first {
                 t0 = m;
+                f0 = f;
+                // The high end stays a second time: its weight halves.
+                if moved_low == Some(true) {
+                    f1 *= 0.5;
+                }
+                moved_low = Some(true);
             } else {
                 t1 = m;
+                f1 = f;
+                if moved_low == Some(false) {
+                    f0 *= 0.5;
+                }
+                moved_low = Some(false);
             }
+            // A step that kept more than half the bracket: bisect next.
+            bisect = !bisect && t1 - t0 > 0.5 * width;
         }
         // The inside end, so the reported point is in the solid.
         if inside_first {

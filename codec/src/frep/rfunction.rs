@@ -39,7 +39,23 @@ fn conj(f1: f64, f2: f64, a: f64, sign: f64) -> f64 {
     if a == 1.0 {
         return if sign > 0.0 { f1.max(f2) } else { f1.min(f2) };
     }
-    (f1 + f2 + sign * radical(f1, f2, a)) / (1.0 + a)
+    conj_value(f1, f2, a, sign, radical(f1, f2, a))
+}
+
+/// `(f1 + f2 + sign s) / (1 + a)`. Where `f1 + f2` and `sign s` have opposite signs
+/// (the union of two negative values, the intersection of two positive ones) the sum
+/// cancels, and with one value far larger than the other nothing of the smaller one's
+/// digits would be left: there the same number is `2 f1 f2 / (f1 + f2 - sign s)`,
+/// since `(f1 + f2)^2 - s^2 = 2 (1 + a) f1 f2`.
+fn conj_value(f1: f64, f2: f64, a: f64, sign: f64, s: f64) -> f64 {
+    let sum = f1 + f2;
+    let product = 2.0 * f1 * f2;
+    // An infinite product (an infinite value): the direct form keeps its infinity.
+    if sign * sum >= 0.0 || !product.is_finite() {
+        (sum + sign * s) / (1.0 + a)
+    } else {
+        product / (sum - sign * s)
+    }
 }
 
 /// The value and both partial derivatives of R-union (`sign = 1`) or R-intersection
@@ -56,7 +72,7 @@ fn conj_partials(f1: f64, f2: f64, a: f64, sign: f64) -> (f64, f64, f64) {
     let s = radical(f1, f2, a);
     let k = 1.0 / (1.0 + a);
     // The value exactly as `conj` computes it.
-    let v = (f1 + f2 + sign * s) / (1.0 + a);
+    let v = conj_value(f1, f2, a, sign, s);
     if s == 0.0 {
         // Both zero: the function is not differentiable there; the symmetric choice.
         return (v, k, k);
@@ -146,6 +162,21 @@ mod tests {
                     x >= 0.0 && y < 0.0
                 );
             }
+        }
+    }
+
+    #[test]
+    fn a_large_value_leaves_the_small_one_its_digits() {
+        // As f1 goes to minus infinity the union of two negative values tends to f2, and
+        // the intersection of two positive ones likewise; the direct form's sum cancels
+        // to rounding noise (0 or positive for this union).
+        for a in [0.0, 0.5, 0.9] {
+            let u = apply(SetOp::Union, -7.7e16, -3.0, a);
+            assert!((u + 3.0).abs() < 1e-9, "union {u} at a = {a}");
+            let i = apply(SetOp::Intersection, 7.7e16, 3.0, a);
+            assert!((i - 3.0).abs() < 1e-9, "intersection {i} at a = {a}");
+            let (v, _, _) = partials(SetOp::Union, -7.7e16, -3.0, a);
+            assert_eq!(v, u, "value_gradient's value");
         }
     }
 }

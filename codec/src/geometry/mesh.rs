@@ -82,6 +82,16 @@ pub fn icosphere(level: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
 }
 
 impl Mesh {
+    /// The bytes the mesh's vectors hold (a domain point counted with its vector's
+    /// header and the allocator's overhead), for reservations against the budget.
+    pub fn heap_bytes(&self) -> u64 {
+        let points: usize = self.domain_points.iter().map(|p| 40 + 8 * p.len()).sum();
+        (24 * (self.positions.len() + self.normals.len())
+            + points
+            + 12 * self.triangles.len()
+            + 48 * self.corner_uvs.len()) as u64
+    }
+
     /// `V - E + F`, counting each undirected edge once.
     pub fn euler_characteristic(&self) -> i64 {
         let mut edges = std::collections::HashSet::new();

@@ -42,6 +42,16 @@ pub struct TriangleBvh {
 }
 
 impl TriangleBvh {
+    /// Bytes the hierarchy of a mesh of `vertices` and `triangles` holds while it is
+    /// built and after, an upper bound: its copies of the positions and triangles, at
+    /// most two nodes and an order entry per triangle, and the build's centroids.
+    pub fn bytes(vertices: usize, triangles: usize) -> u64 {
+        let node = std::mem::size_of::<Node>() as u64;
+        (vertices as u64)
+            .saturating_mul(24)
+            .saturating_add((triangles as u64).saturating_mul(12 + 2 * node + 4 + 24))
+    }
+
     /// The hierarchy of `mesh`'s triangles (median splits along the longest axis of
     /// the centroids' box).
     pub fn new(mesh: &Mesh) -> Self {

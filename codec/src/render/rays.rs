@@ -87,6 +87,8 @@ pub struct RayScene<'a> {
     targets: Vec<Target<'a>>,
     /// Distance a secondary ray starts beyond its surface (self-intersection guard).
     eps: f64,
+    /// The budget reservations of the meshes and hierarchies the targets hold.
+    _held: Vec<crate::budget::Reservation>,
 }
 
 thread_local! {
@@ -104,12 +106,22 @@ impl<'a> RayScene<'a> {
         scene_radius: f64,
     ) -> crate::render::error::Result<Self> {
         let mut targets = Vec::with_capacity(scene.objects.len());
+        let mut held = Vec::new();
+        let mut reserve = |what: &str, bytes: u64| {
+            crate::budget::reserve(|| what.to_string(), bytes).map(|r| held.push(r))
+        };
         for (obj, mesh) in scene.objects.iter().zip(meshes) {
             targets.push(match (mesh, &obj.shape) {
-                (Some(mesh), _) => Target::Mesh {
-                    bvh: TriangleBvh::new(&mesh),
-                    mesh,
-                },
+                (Some(mesh), _) => {
+                    reserve(
+                        "a mesh's ray hierarchy",
+                        TriangleBvh::bytes(mesh.positions.len(), mesh.triangles.len()),
+                    )?;
+                    Target::Mesh {
+                        bvh: TriangleBvh::new(&mesh),
+                        mesh,
+                    }
+                }
                 (
                     None,
                     Shape::Surface {
@@ -124,6 +136,13 @@ impl<'a> RayScene<'a> {
                         crate::surface::tessellate::NormalMode::Exact,
                     )?;
                     super::renderer::place_mesh(&mut mesh, place);
+                    reserve(
+                        "a surface's mesh for secondary rays",
+                        mesh.heap_bytes().saturating_add(TriangleBvh::bytes(
+                            mesh.positions.len(),
+                            mesh.triangles.len(),
+                        )),
+                    )?;
                     Target::Surface {
                         model,
                         place,
@@ -149,6 +168,7 @@ impl<'a> RayScene<'a> {
             scene,
             targets,
             eps: 1e-6 * scene_radius.max(1e-300),
+            _held: held,
         })
     }
 

@@ -186,7 +186,8 @@ pub fn render(
         stage: AtomicU64::new(0),
         report: progress,
     };
-    let (buf, stats, meshes) = draw(scene, &camera, opts, &prog)?;
+    // `_held` counts the meshes until the secondary rays are done with them.
+    let (buf, stats, meshes, _held) = draw(scene, &camera, opts, &prog)?;
     let radius = scene.bounds()?.1;
     let rays = RayScene::new(scene, meshes, opts.ray_method, radius)?;
     let image = shade_buffer(scene, &camera, &buf, &rays).downsample(n);
@@ -214,17 +215,21 @@ pub fn render_gbuffer(
         stage: AtomicU64::new(0),
         report: &|_, _| {},
     };
-    draw(scene, camera, opts, &prog).map(|(buf, stats, _)| (buf, stats))
+    draw(scene, camera, opts, &prog).map(|(buf, stats, _, _)| (buf, stats))
 }
+
+/// What [`draw`] makes: the hit buffer, its statistics, each object's mesh when it was
+/// drawn as one, and the budget reservations of those meshes.
+type Drawn = (
+    GBuffer,
+    RenderStats,
+    Vec<Option<Mesh>>,
+    Vec<crate::budget::Reservation>,
+);
 
 /// Draws every object into a nearest-hit buffer; also returns each object's mesh when
 /// it was drawn as one, for the secondary rays to meet the same geometry.
-fn draw(
-    scene: &Scene,
-    camera: &Camera,
-    opts: &RenderOptions,
-    prog: &Progress,
-) -> Result<(GBuffer, RenderStats, Vec<Option<Mesh>>)> {
+fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -> Result<Drawn> {
     // Per sample: the hit buffer, a surface's depth-buffer image, the shaded colour and
     // the depth map.
     let per_sample = std::mem::size_of::<Option<super::framebuffer::Hit>>() as u64 + 48 + 12 + 8;
@@ -237,6 +242,8 @@ fn draw(
     // Network camera: largest distance, their sum and the vertex count.
     let mut network_error = [0.0f64; 3];
     let mut meshes = Vec::with_capacity(scene.objects.len());
+    // The meshes drawn so far stay for the secondary rays: every later check counts them.
+    let mut held = Vec::new();
     for (oi, obj) in scene.objects.iter().enumerate() {
         let mut drawn = None;
         let id = oi as u32;
@@ -310,6 +317,12 @@ fn draw(
                 }
             }
         }
+        if let Some(m) = &drawn {
+            held.push(crate::budget::reserve(
+                || format!("object {oi}'s mesh"),
+                m.heap_bytes(),
+            )?);
+        }
         meshes.push(drawn);
         prog.next();
     }
@@ -319,7 +332,7 @@ fn draw(
         let [max, sum, count] = network_error;
         stats.projection_error = Some([max / per, sum / count.max(1.0) / per]);
     }
-    Ok((buf, stats, meshes))
+    Ok((buf, stats, meshes, held))
 }
 
 /// Moves every vertex of a placed mesh to where the paper's camera network puts it on

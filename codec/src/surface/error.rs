@@ -62,6 +62,9 @@ pub enum SurfaceError {
         /// The operating system's description.
         message: String,
     },
+    /// The memory budget does not hold what the operation would allocate.
+    #[error("{0}")]
+    OverBudget(#[from] crate::budget::OverBudget),
 }
 
 impl SurfaceError {

@@ -58,6 +58,35 @@ fn sphere_corner_uvs(pts: [&[f64]; 3]) -> [[f64; 2]; 3] {
 /// Domain points, triangles and per-corner texture coordinates of a tessellation.
 type DomainTriangulation = (Vec<Vec<f64>>, Vec<[u32; 3]>, Vec<[[f64; 2]; 3]>);
 
+/// Vertices and triangles of the tessellation of `domain` at `detail`: for the sphere
+/// an icosphere (`10 4^d + 2` vertices, `20 4^d` triangles), for the torus a wrapped
+/// grid (`32 4^d` cells, two triangles each); none for other domains.
+pub fn mesh_size(domain: &Domain, detail: u32) -> (u64, u64) {
+    let n = 1u64 << (2 * detail.min(30));
+    match domain {
+        Domain::Sphere { dim: 3 } => (10 * n + 2, 20 * n),
+        Domain::Torus => (32 * n, 64 * n),
+        _ => (0, 0),
+    }
+}
+
+/// Bytes per vertex while a tessellation is made, an upper bound: the domain point
+/// (a vector of its own, with the allocator's overhead), its flat copy, the network's
+/// output, the position and the normal, and the icosphere's vertex.
+const MAKE_VERTEX_BYTES: u64 = 256;
+
+/// Bytes per triangle while a tessellation is made: the corners (twice, with the
+/// icosphere's list) and the corners' texture coordinates.
+const MAKE_TRIANGLE_BYTES: u64 = 96;
+
+/// Memory `tessellate` allocates for `domain` at `detail`, an upper bound checked
+/// against the budget before it starts.
+pub fn tessellation_bytes(domain: &Domain, detail: u32) -> u64 {
+    let (v, t) = mesh_size(domain, detail);
+    v.saturating_mul(MAKE_VERTEX_BYTES)
+        .saturating_add(t.saturating_mul(MAKE_TRIANGLE_BYTES))
+}
+
 /// Tessellates `model`'s domain at `detail` (icosphere subdivisions for the sphere,
 /// `8 * 2^detail` by `4 * 2^detail` cells for the torus) and maps it onto the surface.
 pub fn tessellate(
@@ -72,6 +101,10 @@ pub fn tessellate(
             reason: "must be at most 9 (5 million triangles)",
         });
     }
+    crate::budget::check(
+        || format!("a surface mesh at detail {detail}"),
+        tessellation_bytes(&model.domain, detail),
+    )?;
     let (domain_points, triangles, corner_uvs): DomainTriangulation = match model.domain {
         Domain::Sphere { dim: 3 } => {
             let (v, t) = icosphere(detail);
