@@ -119,7 +119,10 @@ fn bad_headers_have_clear_messages() {
     );
     // Deblocking parameters or step factors out of range, or either without the detail
     // layer.
-    assert_eq!(hl, 51, "the small file's detail layer is deblocked, its steps adapt");
+    assert_eq!(
+        hl, 51,
+        "the small file's detail layer is deblocked, its steps adapt"
+    );
     let with_header = |edit: &dyn Fn(&mut [u8])| {
         let mut f = file.clone();
         edit(&mut f[10..10 + hl]);
@@ -148,7 +151,16 @@ fn bad_headers_have_clear_messages() {
     );
     // Without its flag the factors are bytes the header does not have room for.
     let e = with_header(&|h: &mut [u8]| h[15] &= !8);
-    assert!(matches!(e, CodecError::HeaderLength { found: 51, expected: 48 }), "{e}");
+    assert!(
+        matches!(
+            e,
+            CodecError::HeaderLength {
+                found: 51,
+                expected: 48
+            }
+        ),
+        "{e}"
+    );
     let e = with_header(&|h: &mut [u8]| h[15] |= 16);
     assert!(e.to_string().contains("header flags"), "{e}");
     // A cut file says where and how much is missing.

@@ -169,11 +169,21 @@ impl Header {
         }
         // The optional fields follow in flag order.
         let deblock_at = HEADER_LEN_DETAIL;
-        let adaptive_at = deblock_at + if flags & FLAG_DEBLOCK != 0 { DEBLOCK_LEN } else { 0 };
+        let adaptive_at = deblock_at
+            + if flags & FLAG_DEBLOCK != 0 {
+                DEBLOCK_LEN
+            } else {
+                0
+            };
         let len = if flags & FLAG_DETAIL == 0 {
             HEADER_LEN
         } else {
-            adaptive_at + if flags & FLAG_ADAPTIVE != 0 { ADAPTIVE_LEN } else { 0 }
+            adaptive_at
+                + if flags & FLAG_ADAPTIVE != 0 {
+                    ADAPTIVE_LEN
+                } else {
+                    0
+                }
         };
         if p.len() != len {
             return Err(CodecError::HeaderLength {

@@ -5,8 +5,8 @@ use rayon::prelude::*;
 
 use super::Decoded;
 use crate::codec::bitstream::{self, Header, Parsed, TilePayload};
-use crate::codec::detail::dct::N as DCT_N;
 use crate::codec::detail::adaptive::{block_classes, BlockSteps};
+use crate::codec::detail::dct::N as DCT_N;
 use crate::codec::detail::{blocks as detail_blocks, Detail, DetailPlane};
 use crate::codec::entropy::AnsSource;
 use crate::codec::model::chroma_cells;
