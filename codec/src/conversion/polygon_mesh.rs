@@ -79,11 +79,11 @@ pub struct Openness {
 }
 
 impl Openness {
-    /// An open sheet rather than a solid with holes: a boundary longer than 3 times
-    /// the square root of the area (a disc's is 3.5, the holes of a scan's base under
-    /// 1.5), or inside and outside told apart at under 80% of the vertices probed.
+    /// An open sheet rather than a solid with holes: a boundary longer than 2.5 times
+    /// the square root of the area (a disc's is 3.5, a hemisphere's 2.5 to 3, the holes
+    /// of a scan's base under 1.6), or inside and outside told apart at under 80% of the vertices probed.
     pub fn is_sheet(&self) -> bool {
-        self.boundary_ratio > 3.0 || self.enclosed_fraction < 0.8
+        self.boundary_ratio > 2.5 || self.enclosed_fraction < 0.8
     }
 }
 
