@@ -651,14 +651,15 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
     // D3: relief and carve of a model without `name`, as a picture and as a model.
     for cmd in ["relief", "carve"] {
         let on = bad("D3-D5-unnamed-sphere.frep.json");
-        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &o("r.png")]);
-        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &o("r.json")]);
+        let (png, json) = (o(&format!("{cmd}.png")), o(&format!("{cmd}.json")));
+        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &png]);
+        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &json]);
         succeeds(&[
             "frep",
             "render",
-            &o("r.json"),
+            &json,
             "-o",
-            &o("r2.png"),
+            &o(&format!("{cmd}-back.png")),
             "--size",
             "32x24",
         ]);
