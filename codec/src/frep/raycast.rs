@@ -193,7 +193,8 @@ impl<'a> Caster<'a> {
         let mut bisect = false;
         for _ in 0..2 * self.refine_steps {
             let width = t1 - t0;
-            if !(width > tol) {
+            // A NaN width (a damaged field) ends the search like a narrow one.
+            if width.partial_cmp(&tol) != Some(std::cmp::Ordering::Greater) {
                 break;
             }
             let secant = t0 + width * f0 / (f0 - f1);
