@@ -152,6 +152,12 @@ pub struct HeightMap {
     source: Option<(std::path::PathBuf, f64)>,
 }
 
+/// Bilinear interpolation of a cell's corner heights (as [`HeightMap::corners`] gives
+/// them) at `(tx, ty)` within it.
+fn bilinear((a, b, c, d): (f64, f64, f64, f64), tx: f64, ty: f64) -> f64 {
+    a * (1.0 - tx) * (1.0 - ty) + b * tx * (1.0 - ty) + c * (1.0 - tx) * ty + d * tx * ty
+}
+
 /// Catmull-Rom weights and their derivatives at `t` in [0, 1].
 fn catmull_rom(t: f64) -> ([f64; 4], [f64; 4]) {
     let (t2, t3) = (t * t, t * t * t);
@@ -324,6 +330,29 @@ impl HeightMap {
         ))
     }
 
+    /// The grid cell holding grid position `(gx, gy)`: its corner `(i, j)` (the last
+    /// cell for positions on the far edges) and the position within it.
+    fn cell(&self, gx: f64, gy: f64) -> (i64, i64, f64, f64) {
+        let (w, h) = self.size();
+        let (i, j) = (
+            (gx.floor() as i64).min(w as i64 - 2),
+            (gy.floor() as i64).min(h as i64 - 2),
+        );
+        (i, j, gx - i as f64, gy - j as f64)
+    }
+
+    /// The heights at the corners of cell `(i, j)`: `(i, j)`, `(i + 1, j)`, `(i, j + 1)`,
+    /// `(i + 1, j + 1)`.
+    fn corners(&self, i: i64, j: i64) -> (f64, f64, f64, f64) {
+        let s = &self.samples;
+        (
+            s.at(i, j),
+            s.at(i + 1, j),
+            s.at(i, j + 1),
+            s.at(i + 1, j + 1),
+        )
+    }
+
     /// The interpolated height (before the threshold) and its derivatives in u and v.
     pub fn height(&self, uv: [f64; 2]) -> (f64, f64, f64) {
         let Some((gx, gy)) = self.grid(uv) else {
@@ -333,25 +362,13 @@ impl HeightMap {
         let (w, h) = self.size();
         // d(grid)/d(u) and d(grid)/d(v).
         let (sx, sy) = ((w - 1) as f64 / (u1 - u0), -((h - 1) as f64) / (v1 - v0));
-        let (i, j) = (
-            (gx.floor() as i64).min(w as i64 - 2),
-            (gy.floor() as i64).min(h as i64 - 2),
-        );
-        let (tx, ty) = (gx - i as f64, gy - j as f64);
+        let (i, j, tx, ty) = self.cell(gx, gy);
         let s = &self.samples;
         let (v, dx, dy) = match self.interp {
             Interp::Bilinear => {
-                let (a, b, c, d) = (
-                    s.at(i, j),
-                    s.at(i + 1, j),
-                    s.at(i, j + 1),
-                    s.at(i + 1, j + 1),
-                );
+                let (a, b, c, d) = self.corners(i, j);
                 (
-                    a * (1.0 - tx) * (1.0 - ty)
-                        + b * tx * (1.0 - ty)
-                        + c * (1.0 - tx) * ty
-                        + d * tx * ty,
+                    bilinear((a, b, c, d), tx, ty),
                     (b - a) * (1.0 - ty) + (d - c) * ty,
                     (c - a) * (1.0 - tx) + (d - b) * tx,
                 )
@@ -380,26 +397,10 @@ impl HeightMap {
         let Some((gx, gy)) = self.grid(uv) else {
             return 0.0;
         };
-        let (w, h) = self.size();
-        let (i, j) = (
-            (gx.floor() as i64).min(w as i64 - 2),
-            (gy.floor() as i64).min(h as i64 - 2),
-        );
-        let (tx, ty) = (gx - i as f64, gy - j as f64);
+        let (i, j, tx, ty) = self.cell(gx, gy);
         let s = &self.samples;
         match self.interp {
-            Interp::Bilinear => {
-                let (a, b, c, d) = (
-                    s.at(i, j),
-                    s.at(i + 1, j),
-                    s.at(i, j + 1),
-                    s.at(i + 1, j + 1),
-                );
-                a * (1.0 - tx) * (1.0 - ty)
-                    + b * tx * (1.0 - ty)
-                    + c * (1.0 - tx) * ty
-                    + d * tx * ty
-            }
+            Interp::Bilinear => bilinear(self.corners(i, j), tx, ty),
             Interp::Bicubic => {
                 let (wx, _) = catmull_rom(tx);
                 let (wy, _) = catmull_rom(ty);

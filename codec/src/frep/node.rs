@@ -587,6 +587,18 @@ fn ramp_of(ramp: [f64; 2], z: f64) -> (f64, f64) {
     }
 }
 
+/// The push direction of a cylindrical or spherical relief at `p`: the mask `m` of the
+/// axes it acts on (x and y, or all three), `q = m p` and `|q|`.
+fn radial(base: super::height_map::Base, p: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
+    let m = if matches!(base, super::height_map::Base::Cylinder(_)) {
+        [1.0, 1.0, 0.0]
+    } else {
+        [1.0; 3]
+    };
+    let q = [0, 1, 2].map(|k| m[k] * p[k]);
+    (m, q, (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt())
+}
+
 /// The point a relief reads its base at, `W(p)`, and the Jacobian `dW_i / dp_k`.
 /// Planar: `W = p - depth h s(z) e_z` (`s` the ramp); cylindrical and spherical:
 /// `W = p - depth h q / |q|` with `q` the part of `p` off the z axis or all of it.
@@ -608,13 +620,7 @@ pub fn relief_warp(
             ([p[0], p[1], p[2] - depth * h * s], j)
         }
         base => {
-            let m = if matches!(base, super::height_map::Base::Cylinder(_)) {
-                [1.0, 1.0, 0.0]
-            } else {
-                [1.0; 3]
-            };
-            let q = [0, 1, 2].map(|k| m[k] * p[k]);
-            let r = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+            let (m, q, r) = radial(base, p);
             if r.is_nan() || r <= 0.0 || h == 0.0 && gh == [0.0; 3] {
                 return (p, j);
             }
@@ -640,13 +646,7 @@ fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64; 3]) -> [f6
             [p[0], p[1], p[2] - depth * h * s]
         }
         base => {
-            let m = if matches!(base, super::height_map::Base::Cylinder(_)) {
-                [1.0, 1.0, 0.0]
-            } else {
-                [1.0; 3]
-            };
-            let q = [0, 1, 2].map(|k| m[k] * p[k]);
-            let r = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+            let (_, q, r) = radial(base, p);
             // No push: the point itself (where relief_warp also moves it by zero).
             if r.is_nan() || r <= 0.0 || h == 0.0 {
                 return p;
