@@ -9,10 +9,6 @@
 //! Expressions over convex solids are drawn by ray tracing their intervals, or meshed
 //! from their signed field by marching tetrahedra with sharp rims.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-
-use rayon::prelude::*;
-
 use super::camera::Camera;
 use super::framebuffer::Hit;
 use crate::geometry::mesh::Mesh;
@@ -334,38 +330,27 @@ pub fn trace_tracers(
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> (Vec<Option<Hit>>, usize) {
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let done = AtomicU64::new(0);
-    let rows: Vec<Vec<Option<Hit>>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut scratch = Vec::new();
-            let row = (0..w)
-                .map(|x| {
-                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                    let span = first_span(tracers, csg, &ray, method, &mut scratch)?;
-                    let (bd, t) = if span.enter.t > 0.0 {
-                        (span.enter, span.enter.t)
-                    } else {
-                        (span.exit, span.exit.t)
-                    };
-                    let p = ray.at(t);
-                    let mut n = tracers[bd.solid as usize].normal(p);
-                    if bd.flip {
-                        n = scale(n, -1.0);
-                    }
-                    Some(Hit {
-                        depth: camera.depth(p),
-                        normal: n.map(|v| v as f32),
-                        uv: [f32::NAN; 2],
-                        object,
-                    })
-                })
-                .collect();
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
-            row
+    let hits = super::framebuffer::trace_rows(w, h, progress, |x, y, scratch: &mut Vec<_>| {
+        let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+        let span = first_span(tracers, csg, &ray, method, scratch)?;
+        let (bd, t) = if span.enter.t > 0.0 {
+            (span.enter, span.enter.t)
+        } else {
+            (span.exit, span.exit.t)
+        };
+        let p = ray.at(t);
+        let mut n = tracers[bd.solid as usize].normal(p);
+        if bd.flip {
+            n = scale(n, -1.0);
+        }
+        Some(Hit {
+            depth: camera.depth(p),
+            normal: n.map(|v| v as f32),
+            uv: [f32::NAN; 2],
+            object,
         })
-        .collect();
-    (rows.into_iter().flatten().collect(), w * h)
+    });
+    (hits, w * h)
 }
 
 /// The first CSG interval along `ray` that is not entirely behind its origin.

@@ -258,6 +258,33 @@ impl RgbImage {
     }
 }
 
+/// One hit per pixel of a `width x height` camera, rows traced in parallel straight into
+/// the buffer (no per-row copies, so a frame's hits cost their 40 bytes a sample once);
+/// `hit(x, y, scratch)` traces one pixel with a per-row scratch value, and `progress`
+/// hears of every finished row.
+pub fn trace_rows<S: Default>(
+    width: usize,
+    height: usize,
+    progress: &(dyn Fn(u64, u64) + Sync),
+    hit: impl Fn(usize, usize, &mut S) -> Option<Hit> + Sync,
+) -> Vec<Option<Hit>> {
+    use rayon::prelude::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let mut hits = vec![None; width * height];
+    if width == 0 {
+        return hits;
+    }
+    let done = AtomicU64::new(0);
+    hits.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        let mut scratch = S::default();
+        for (x, h) in row.iter_mut().enumerate() {
+            *h = hit(x, y, &mut scratch);
+        }
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1, height as u64);
+    });
+    hits
+}
+
 /// Linear RGB to gamma-encoded 8-bit sRGB (palette's transfer function), clamped.
 pub fn linear_to_srgb8(p: [f32; 3]) -> [u8; 3] {
     let c = p.map(|v| {

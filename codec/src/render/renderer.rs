@@ -555,32 +555,22 @@ pub fn trace_field(
     }
     let caster = crate::frep::raycast::Caster::new(node, *bounds, Default::default());
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let done = AtomicU64::new(0);
-    let rows: Vec<Vec<Option<Hit>>> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let row = (0..w)
-                .map(|x| {
-                    let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                    let t = caster.first_hit(ray.origin, ray.dir, 0.0, f64::INFINITY)?;
-                    let p = ray.at(t);
-                    let (_, g) = node.value_gradient(p);
-                    let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-                    let k = if len > 0.0 { -1.0 / len } else { 0.0 };
-                    // Outward: the function decreases away from the solid.
-                    Some(Hit {
-                        depth: camera.depth(p),
-                        normal: g.map(|v| (k * v) as f32),
-                        uv: [f32::NAN; 2],
-                        object,
-                    })
-                })
-                .collect();
-            progress(done.fetch_add(1, Ordering::Relaxed) + 1, h as u64);
-            row
+    let hits = super::framebuffer::trace_rows(w, h, progress, |x, y, _: &mut ()| {
+        let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+        let t = caster.first_hit(ray.origin, ray.dir, 0.0, f64::INFINITY)?;
+        let p = ray.at(t);
+        let (_, g) = node.value_gradient(p);
+        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        let k = if len > 0.0 { -1.0 / len } else { 0.0 };
+        // Outward: the function decreases away from the solid.
+        Some(Hit {
+            depth: camera.depth(p),
+            normal: g.map(|v| (k * v) as f32),
+            uv: [f32::NAN; 2],
+            object,
         })
-        .collect();
-    (rows.into_iter().flatten().collect(), w * h)
+    });
+    (hits, w * h)
 }
 
 /// Shades every subpixel of `buf`, with shadow, reflected and refracted rays.
