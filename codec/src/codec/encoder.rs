@@ -330,6 +330,7 @@ pub fn encode_with(
     let classes = s
         .detail_adaptive
         .map(|_| adaptive::block_classes(&net.luma_cells, w, h));
+    s.detail_adaptive = s.detail_adaptive.zip(classes.as_deref()).map(|(a, c)| a.normalised(c));
     let details = run_tiles(n, workers, |i| {
         let d = detail_tile(img, tiling.rect(i), &s, kernel, &net, classes.as_deref());
         step();

@@ -23,7 +23,8 @@ pub struct AdaptiveSteps {
 }
 
 impl AdaptiveSteps {
-    /// The factors the encoder uses on photographs (measured in `docs/codec-ablation.md`).
+    /// The encoder's factors before they are scaled to the image ([`Self::normalised`];
+    /// measured in `docs/codec-ablation.md`).
     pub const DEFAULT: AdaptiveSteps = AdaptiveSteps {
         factors: [40, 32, 24],
     };
@@ -36,6 +37,29 @@ impl AdaptiveSteps {
     /// The factor of a class.
     pub fn factor(&self, class: u8) -> f64 {
         self.factors[class as usize] as f64 / UNIT
+    }
+
+    /// The factors scaled so that their geometric mean over an image's blocks
+    /// (`classes`, one per block) is one: the steps move between busy and flat blocks
+    /// without moving the detail layer as a whole against the network, whose steps the
+    /// quality sets (an image of flat regions only keeps the plain step).
+    pub fn normalised(&self, classes: &[u8]) -> AdaptiveSteps {
+        if classes.is_empty() {
+            return *self;
+        }
+        let mut count = [0usize; CLASSES];
+        for &c in classes {
+            count[c as usize] += 1;
+        }
+        let log_sum: f64 = (0..CLASSES)
+            .map(|c| count[c] as f64 * self.factor(c as u8).ln())
+            .sum();
+        let mean = (log_sum / classes.len() as f64).exp();
+        AdaptiveSteps {
+            factors: self
+                .factors
+                .map(|f| (f as f64 / mean).round().clamp(1.0, 255.0) as u8),
+        }
     }
 }
 
@@ -113,6 +137,22 @@ mod tests {
             Cell { x0: 0, y0: 16, log2: 3 },
         ];
         assert_eq!(block_classes(&cells, 16, 20), vec![1, 1, 1, 1, 0, 0]);
+    }
+
+    #[test]
+    fn normalised_factors_keep_the_mean_step_of_the_image() {
+        let s = AdaptiveSteps::DEFAULT;
+        // Flat regions only: their blocks keep the plain step, the others scale alike.
+        assert_eq!(s.normalised(&[2; 50]).factors, [53, 43, 32]);
+        assert_eq!(s.normalised(&[]), s);
+        for classes in [vec![0u8, 1, 2], vec![0; 7], vec![0, 0, 0, 2], vec![1, 2, 2, 2, 2, 0]] {
+            let n = s.normalised(&classes);
+            let log_mean: f64 =
+                classes.iter().map(|&c| n.factor(c).ln()).sum::<f64>() / classes.len() as f64;
+            // Within the rounding of a byte (half of 1/32 of a factor near one).
+            assert!(log_mean.abs() < 0.02, "{classes:?}: {:?} mean {log_mean}", n.factors);
+            assert!(n.factors[0] > n.factors[1] && n.factors[1] > n.factors[2]);
+        }
     }
 
     #[test]
