@@ -131,6 +131,11 @@ impl PatchIndex {
             let hi =
                 b.hi.map(|v| (v / class.cell).floor().min(CELL_LIMIT as f64 - 1.0));
             let cells: f64 = (0..3).map(|k| (hi[k] - lo[k] + 1.0).max(0.0)).product();
+            // A box missing the class's range on one axis meets none of it (the loops
+            // below would still walk the other two axes' cells).
+            if cells < 1.0 {
+                continue;
+            }
             if cells > class.entries.len() as f64 {
                 // A box larger than the class's occupied cells: scan the class.
                 let (l, h) = (lo.map(|v| v as i64), hi.map(|v| v as i64));
@@ -159,6 +164,22 @@ impl PatchIndex {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_box_beside_a_fine_class_on_one_axis_is_answered_at_once() {
+        // A support of 1e-9 makes a class of 2^-30 cells: a unit box in x and y spans
+        // the whole clamped range there (2^21 cells a side), and misses it in z.
+        let tiny = Aabb::new([0.0; 3], [1e-9; 3]);
+        let index = PatchIndex::new(&[Some(tiny)]);
+        let mut out = Vec::new();
+        index.in_box(&Aabb::new([-1.0, -1.0, 5.0], [1.0, 1.0, 6.0]), &mut out);
+        assert!(out.is_empty());
+        index.in_box(&Aabb::new([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]), &mut out);
+        assert_eq!(out, [0]);
+        // A NaN box may meet anything: the whole class, conservatively.
+        index.in_box(&Aabb::new([f64::NAN; 3], [f64::NAN; 3]), &mut out);
+        assert_eq!(out, [0]);
+    }
 
     #[test]
     fn answers_hold_every_term_whose_box_holds_the_point_or_meets_the_box() {
