@@ -1,5 +1,5 @@
 //! The `caoen` command line.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 use std::io::Write;
 use std::process::ExitCode;
@@ -18,7 +18,27 @@ fn fail(e: &caoen_cli::failure::CliError) -> ExitCode {
     ExitCode::from(e.exit_code())
 }
 
+/// Keeps freed memory for reuse: the encoder works tile by tile, and glibc's defaults
+/// return each tile's buffers to the system and fault fresh zeroed pages in for the
+/// next (on an 8192x8192 image a third of the encoder's time). Blocks of 32 MiB and
+/// more are still mapped and unmapped on their own, and at most 256 MiB of free memory
+/// is kept.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[allow(unsafe_code)]
+fn tune_allocator() {
+    // SAFETY: mallopt only sets allocator parameters; it is called once, before any
+    // other thread exists.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_THRESHOLD, 32 << 20);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, 256 << 20);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn tune_allocator() {}
+
 fn main() -> ExitCode {
+    tune_allocator();
     let cli = caoen_cli::cli::Cli::parse();
     let result = caoen_cli::commands::run(cli);
     // For measuring the estimates against the peak (tests/memory_peak.rs).

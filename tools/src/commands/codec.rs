@@ -17,6 +17,9 @@ use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::{print, Outputs, Target};
 
+/// Memory the allocator may hold free beside a command's working set.
+const ALLOCATOR_SLACK: u64 = 32 << 20;
+
 /// Reads a `.cae` input within the memory budget. The first four bytes are read on
 /// their own: a file that does not start with the magic number is handed to the
 /// decoder as those bytes alone (which it refuses), so `/dev/zero` or an endless pipe
@@ -336,7 +339,10 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
                     .as_ref()
                     .map_or(0, |_| image_io::encode_memory(ow, oh, channels, format)),
             ),
-        };
+        }
+        // Decoding's freed buffers, which the allocator keeps for reuse (`main.rs`)
+        // while the output file's buffer is mapped on its own.
+        .saturating_add(ALLOCATOR_SLACK);
     let kept = stored_metadata(&parsed).filtered(a.metadata.policy(a.strip));
     // The metadata is copied into the output, and the output once more to make room.
     let meta_bytes = [&kept.icc, &kept.exif, &kept.xmp]
