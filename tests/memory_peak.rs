@@ -107,6 +107,9 @@ fn estimates_are_upper_bounds_of_the_peak() {
     let dir = scratch();
     let big = dir.join("sphere400k.obj");
     sphere_obj(&big, 448);
+    // Over MAX_FIT_VERTICES: the fit works on a spread subset of the vertices.
+    let huge = dir.join("sphere1m.obj");
+    sphere_obj(&huge, 708);
     let shared = largest_shared_mesh();
     let sphere = dir.join("s.frep.json");
     std::fs::write(
@@ -160,8 +163,9 @@ fn estimates_are_upper_bounds_of_the_peak() {
         "-o",
         &o("small.cae"),
     ]);
-    let (big, shared, sphere, surface, texture, small) = (
+    let (big, huge, shared, sphere, surface, texture, small) = (
         big.display().to_string(),
+        huge.display().to_string(),
         shared.display().to_string(),
         sphere.display().to_string(),
         surface.display().to_string(),
@@ -178,6 +182,10 @@ fn estimates_are_upper_bounds_of_the_peak() {
         (
             "convert 400k triangles".into(),
             v(&["convert", &big, "-o", &o("c.json")]),
+        ),
+        (
+            "convert 1M triangles".into(),
+            v(&["convert", &huge, "-o", &o("c1m.json")]),
         ),
         (
             format!("convert {shared_name}"),

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::model::{Bump, ImplicitField, ImplicitModel};
 use super::polygon_mesh::PolygonMesh;
 use super::quadric;
+use super::winding::WindingTree;
 use crate::frep::patch_index::PatchIndex;
 use crate::geometry::vector::{dot, norm, sub};
 
@@ -159,18 +160,60 @@ const SAMPLE_SPACING: f64 = 0.015;
 /// About the most points sampled inside triangles.
 pub const MAX_SAMPLES: f64 = 400_000.0;
 
-/// The surface samples: vertices (first, in order), then points inside each triangle
+/// Most mesh vertices the fit works on. A denser mesh is fitted on a spread subset
+/// (one vertex per cell of a grid sized to this count): its vertices are closer than
+/// the smallest perturbation, so more of them add conditions, time and memory but no
+/// detail the model can hold.
+pub const MAX_FIT_VERTICES: usize = 200_000;
+
+/// The vertices the fit works on: all of them, or on a mesh of more than `cap`, the
+/// lowest-numbered vertex of each occupied cell of a grid coarsened until at most
+/// `cap` cells are occupied (in index order, the same on every run).
+pub fn spread_vertices(mesh: &PolygonMesh, cap: usize) -> Vec<u32> {
+    let n = mesh.positions.len();
+    if n <= cap {
+        return (0..n as u32).collect();
+    }
+    let area: f64 = (0..mesh.triangles.len())
+        .map(|t| 0.5 * norm(mesh.face_normal(t)))
+        .sum();
+    let (lo, hi) = mesh.bounds();
+    let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+    // A surface of area A holds about A / h^2 cells of side h.
+    let mut h = (area / cap as f64).sqrt().max(1e-9 * side);
+    loop {
+        let mut first: std::collections::HashMap<[i64; 3], u32> = Default::default();
+        for (i, p) in mesh.positions.iter().enumerate() {
+            let c = [0, 1, 2].map(|k| ((p[k] - lo[k]) / h).floor() as i64);
+            first.entry(c).or_insert(i as u32);
+        }
+        if first.len() <= cap {
+            let mut out: Vec<u32> = first.into_values().collect();
+            out.sort_unstable();
+            return out;
+        }
+        h *= 1.15;
+    }
+}
+
+/// The surface samples: the fit's vertices (first, in the order of `fit_vertices`),
+/// then points inside each triangle
 /// (its centroid, or a barycentric grid at about [`SAMPLE_SPACING`] on a large one, so
 /// that a coarse mesh's flat faces hold the surface too; on a mesh of more than
-/// [`MAX_SAMPLES`] triangles, the centroids of an evenly strided subset), with outward
-/// unit normals.
-fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-    let mut normals = mesh.outward_normals();
+/// [`MAX_SAMPLES`] triangles, the centroids of an evenly strided subset, fewer when the
+/// vertices were thinned), with outward unit normals.
+fn samples(mesh: &PolygonMesh, fit_vertices: &[u32]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let all_normals = mesh.outward_normals();
+    let mut normals: Vec<[f64; 3]> = fit_vertices
+        .iter()
+        .map(|&i| all_normals[i as usize])
+        .collect();
     // Face normals follow the winding; turn them the way the vertex normals went.
-    let flip = normals
+    let flip = all_normals
         .iter()
         .zip(mesh.vertex_normals())
         .any(|(a, b)| dot(*a, b) < 0.0);
+    drop(all_normals);
     let longest = |t: usize| {
         let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
         (0..3)
@@ -189,9 +232,18 @@ fn samples(mesh: &PolygonMesh) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
         spacing *= 1.25;
     }
     // On a mesh with more triangles than that, the vertices already sample the surface
-    // densely: every k-th triangle gives its centroid.
-    let stride = (mesh.triangles.len() as f64 / MAX_SAMPLES).ceil().max(1.0) as usize;
-    let mut pts = mesh.positions.clone();
+    // densely: every k-th triangle gives its centroid. When the vertices were thinned,
+    // the centroids fill only what is left of MAX_SAMPLES.
+    let room = if fit_vertices.len() < mesh.positions.len() {
+        MAX_SAMPLES - fit_vertices.len() as f64
+    } else {
+        MAX_SAMPLES
+    };
+    let stride = (mesh.triangles.len() as f64 / room).ceil().max(1.0) as usize;
+    let mut pts: Vec<[f64; 3]> = fit_vertices
+        .iter()
+        .map(|&i| mesh.positions[i as usize])
+        .collect();
     for t in (0..mesh.triangles.len()).step_by(stride) {
         let tri = mesh.triangles[t].map(|i| mesh.positions[i as usize]);
         let n = mesh.face_normal(t);
@@ -287,6 +339,7 @@ fn conditions(
             [i % n, (i / n) % n, i / (n * n)].map(|c| -0.6 + 1.2 * (c as f64 + 0.5) / n as f64)
         })
         .collect();
+    let winding = WindingTree::new(mesh);
     let far: Vec<Option<Condition>> = grid
         .par_iter()
         .map(|&q| {
@@ -294,7 +347,7 @@ fn conditions(
             if d < 4.0 * step {
                 return None;
             }
-            let inside = mesh.winding_number(q).abs() > 0.5;
+            let inside = winding.winding_number(q).abs() > 0.5;
             let dist = d.min(0.15);
             Some(Condition {
                 p: q,
@@ -436,9 +489,11 @@ pub fn convert(
 ) -> Conversion {
     let frame = mesh.unit_frame();
     let unit = mesh.transformed(&frame);
-    let vertices = unit.positions.len();
     progress(Progress::Phase("sampling the surface"));
-    let (pts, normals) = samples(&unit);
+    let fit_vertices = spread_vertices(&unit, MAX_FIT_VERTICES);
+    let vertices = fit_vertices.len();
+    let (pts, normals) = samples(&unit, &fit_vertices);
+    drop(fit_vertices);
     let surface = pts.len();
     let base = quadric::fit_base(&pts[..vertices], &normals[..vertices]);
     let step = (0.25 * opts.min_radius.max(0.004)).min(0.01);
@@ -516,7 +571,7 @@ pub fn convert(
         let order: Vec<[f64; 3]> = wrong
             .iter()
             .map(|w| conds[w.1].p)
-            .chain(order.iter().map(|&i| unit.positions[i]))
+            .chain(order.iter().map(|&i| pts[i]))
             .collect();
         let spacing = 0.6 * radius;
         let mut taken: std::collections::HashMap<[i64; 3], Vec<[f64; 3]>> = Default::default();
@@ -633,15 +688,16 @@ pub fn convert(
 fn descend(model: &ImplicitModel, conds: &[Condition], sweeps: usize) -> Vec<Bump> {
     let mut bumps = model.bumps.clone();
     let index = PatchIndex::new(&bumps.iter().map(|b| Some(b.support())).collect::<Vec<_>>());
-    // Which conditions each perturbation reaches, with its kernel there.
-    let mut reach: Vec<Vec<(u32, f64)>> = vec![Vec::new(); bumps.len()];
+    // Which conditions each perturbation reaches. Only their indices are kept: the
+    // kernel values are found again for one perturbation at a time, so the lists take
+    // a quarter of the memory (on a 200,000-vertex fit they are the largest table).
+    let mut reach: Vec<Vec<u32>> = vec![Vec::new(); bumps.len()];
     let mut near = Vec::new();
     for (j, c) in conds.iter().enumerate() {
         index.at_point(c.p, &mut near);
         for &k in &near {
-            let r = c.of_bump(&bumps[k as usize]);
-            if r != 0.0 {
-                reach[k as usize].push((j as u32, r));
+            if c.of_bump(&bumps[k as usize]) != 0.0 {
+                reach[k as usize].push(j as u32);
             }
         }
     }
@@ -650,10 +706,13 @@ fn descend(model: &ImplicitModel, conds: &[Condition], sweeps: usize) -> Vec<Bum
         .map(|c| c.of_model(model) - c.target)
         .collect();
     let mut step: Vec<f64> = bumps.iter().map(|b| 0.1 * b.factor.abs()).collect();
+    let mut kernel: Vec<(u32, f64)> = Vec::new();
     for _ in 0..sweeps {
         for (k, b) in bumps.iter_mut().enumerate() {
+            kernel.clear();
+            kernel.extend(reach[k].iter().map(|&j| (j, conds[j as usize].of_bump(b))));
             let cost = |delta: f64| -> f64 {
-                reach[k]
+                kernel
                     .iter()
                     .map(|&(j, r)| {
                         let w = conds[j as usize].weight;
@@ -672,10 +731,68 @@ fn descend(model: &ImplicitModel, conds: &[Condition], sweeps: usize) -> Vec<Bum
                 continue;
             };
             b.factor += delta;
-            for &(j, r) in &reach[k] {
+            for &(j, r) in &kernel {
                 residual[j as usize] += delta * r;
             }
         }
     }
     bumps
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `n x n` grid of vertices on the unit square, two triangles a cell.
+    fn square(n: usize) -> PolygonMesh {
+        let positions = (0..n * n)
+            .map(|i| {
+                [
+                    (i % n) as f64 / (n - 1) as f64,
+                    (i / n) as f64 / (n - 1) as f64,
+                    0.0,
+                ]
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let a = (y * n + x) as u32;
+                let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
+                triangles.push([a, b, d]);
+                triangles.push([a, d, c]);
+            }
+        }
+        PolygonMesh {
+            positions,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn spread_vertices_keep_all_under_the_cap_and_cover_the_surface_over_it() {
+        let mesh = square(101);
+        assert_eq!(spread_vertices(&mesh, 20_000).len(), 101 * 101);
+        let cap = 1000;
+        let chosen = spread_vertices(&mesh, cap);
+        assert!(
+            chosen.len() <= cap && chosen.len() > cap / 2,
+            "{}",
+            chosen.len()
+        );
+        assert!(chosen.windows(2).all(|w| w[0] < w[1]), "in index order");
+        assert_eq!(chosen, spread_vertices(&mesh, cap), "the same on every run");
+        // Every vertex has a chosen one within two of the grid's cells (side h, about
+        // sqrt(area / cap) = 0.032, grown at most a few times by 1.15).
+        for p in &mesh.positions {
+            let nearest = chosen
+                .iter()
+                .map(|&i| norm(sub(mesh.positions[i as usize], *p)))
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                nearest < 0.1,
+                "{p:?} is {nearest} from the nearest kept vertex"
+            );
+        }
+    }
 }

@@ -10,8 +10,10 @@ pub mod model;
 pub mod polygon_mesh;
 pub mod quadric;
 pub mod rbf_baseline;
+pub mod winding;
 
 pub use fit::{convert, Conversion, ConvertOptions, LevelReport};
 pub use mesh_file::{read, MeshError};
 pub use model::{Bump, ImplicitField, ImplicitModel, InUnitCube};
 pub use polygon_mesh::{Openness, PolygonMesh, Topology, UnitFrame};
+pub use winding::WindingTree;

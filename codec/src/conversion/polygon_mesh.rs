@@ -5,6 +5,7 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
+use super::winding::{solid_angle_half, WindingTree};
 use crate::geometry::vector::{cross, dot, sub, unit};
 
 /// A triangle mesh: positions and counter-clockwise triangles (quads and polygons are
@@ -116,12 +117,13 @@ impl PolygonMesh {
             .step_by(stride)
             .filter(|&i| n[i] != [0.0; 3])
             .collect();
+        let tree = WindingTree::new(self);
         let enclosed = probes
             .par_iter()
             .filter(|&&i| {
                 let at = |s: f64| [0, 1, 2].map(|k| self.positions[i][k] + s * step * n[i][k]);
-                self.winding_number(at(-1.0)).abs() > 0.75
-                    && self.winding_number(at(1.0)).abs() < 0.25
+                tree.winding_number(at(-1.0)).abs() > 0.75
+                    && tree.winding_number(at(1.0)).abs() < 0.25
             })
             .count();
         Openness {
@@ -191,13 +193,14 @@ impl PolygonMesh {
         let (lo, hi) = self.bounds();
         let step = 1e-3 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         let stride = (self.positions.len() / 64).max(1);
+        let tree = WindingTree::new(self);
         let (mut inward, mut outward) = (0, 0);
         for i in (0..self.positions.len()).step_by(stride) {
             if n[i] == [0.0; 3] {
                 continue;
             }
             let behind = [0, 1, 2].map(|k| self.positions[i][k] - step * n[i][k]);
-            let w = self.winding_number(behind).abs();
+            let w = tree.winding_number(behind).abs();
             if w > 0.5 {
                 outward += 1;
             } else {
@@ -215,16 +218,9 @@ impl PolygonMesh {
     /// wound inward, 0 outside; a fraction near holes): the triangles' solid angles
     /// over 4 pi (Van Oosterom and Strackee's formula).
     pub fn winding_number(&self, q: [f64; 3]) -> f64 {
-        let mut sum = 0.0;
-        for t in &self.triangles {
-            let a = sub(self.positions[t[0] as usize], q);
-            let b = sub(self.positions[t[1] as usize], q);
-            let c = sub(self.positions[t[2] as usize], q);
-            let (la, lb, lc) = (dot(a, a).sqrt(), dot(b, b).sqrt(), dot(c, c).sqrt());
-            let det = dot(a, cross(b, c));
-            let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
-            sum += 2.0 * det.atan2(den);
-        }
+        let sum: f64 = (0..self.triangles.len())
+            .map(|t| 2.0 * solid_angle_half(self, t, q))
+            .sum();
         sum / (4.0 * std::f64::consts::PI)
     }
 

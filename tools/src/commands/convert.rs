@@ -136,10 +136,14 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
     // a sample), and each thread its own rows: 1000 bytes a condition bounds the peak
     // measured (1.6 GiB for 400,000 triangles on two threads, 2.75 GiB reported on
     // more; 448 MiB for the 69,451-triangle Stanford bunny, estimated 1.4 GiB).
-    // Samples are the vertices and at most about MAX_SAMPLES points in the triangles;
-    // the mesh's own tables (edges, normals, the unit copy) take about 100 bytes a
-    // triangle.
-    let samples = mesh.positions.len() as u64 + caoen::conversion::fit::MAX_SAMPLES as u64;
+    // Samples are the fit's vertices (at most MAX_FIT_VERTICES) and at most about
+    // MAX_SAMPLES points in the triangles; the mesh's own tables (edges, normals, the
+    // unit copy) take about 100 bytes a triangle.
+    let samples = mesh
+        .positions
+        .len()
+        .min(caoen::conversion::fit::MAX_FIT_VERTICES) as u64
+        + caoen::conversion::fit::MAX_SAMPLES as u64;
     let estimate = samples * 3 * 1000 + mesh.triangles.len() as u64 * 100;
     caoen::budget::check(|| "the conversion's conditions".into(), estimate)
         .map_err(|e| CliError::Failed(e.to_string()))?;
