@@ -3,16 +3,16 @@
 //!
 //! Blocks are decided in coding order with the coder's own adaptive contexts: each
 //! candidate (the dead-zone levels, each level moved a step where that pays, the same
-//! with its last nonzero coefficients dropped, and the empty block) is priced by an
-//! [`OverlayCostSink`] (the cost on a copy of the contexts), and the one with the
-//! least `D + lambda R` is coded.
+//! with its last nonzero coefficients dropped, and the empty block) is priced by a
+//! [`BlockPricer`] (the cost on a copy of the contexts, coding only what differs from
+//! the candidates before it), and the one with the least `D + lambda R` is coded.
 
 use rayon::prelude::*;
 
 use super::dct::{self, COEFFS, N, ZIGZAG};
-use super::syntax::{self, DetailContexts};
+use super::syntax::{self, BlockPricer, DetailContexts};
 use super::{block_context, blocks, Detail, DetailPlane};
-use crate::codec::entropy::{AnsSink, OverlayCostSink, SymbolSink};
+use crate::codec::entropy::{AnsSink, SymbolSink};
 
 /// Quantiser of one channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,49 +52,103 @@ fn gather(plane: &[f64], width: usize, height: usize, bx: usize, by: usize) -> [
     b
 }
 
-/// Squared error of `levels` against the coefficients, in squared steps.
-fn distortion(c: &[f64; COEFFS], levels: &[i32; COEFFS], step: f64) -> f64 {
-    c.iter()
-        .zip(levels)
-        .map(|(&c, &l)| (c / step - l as f64).powi(2))
-        .sum()
+/// Squared error of `levels` against the coefficients in steps, `x`; summed in one
+/// fixed order, so every candidate's distortion is the same number wherever it is
+/// computed.
+fn distortion(x: &[f64; COEFFS], levels: &[i32; COEFFS]) -> f64 {
+    x.iter().zip(levels).map(|(&x, &l)| (x - l as f64).powi(2)).sum()
 }
 
-/// Visits the coded coefficients from the last one back to the first and moves each
-/// level one step towards zero, or away from it where rounding fell short by more than
-/// half a step, when that lowers `D + lambda R` of the whole block (`price`): the
-/// rate of a level depends on its neighbours' through the contexts, so a level that
-/// rounds nearest can still cost more than it saves (rate-distortion optimised
-/// quantisation).
-fn search_levels(
+/// The moves the level search tries at coefficient `z` (level `l`, coefficient `x` in
+/// steps), in order: a step towards zero, then a step away from it where rounding fell
+/// short by more than half a step.
+fn moves(l: i32, x: f64) -> [Option<i32>; 2] {
+    let mut candidates = [None, None];
+    if l != 0 {
+        candidates[0] = Some(l - l.signum());
+    }
+    if x.abs() - l.unsigned_abs() as f64 > 0.5 && l.unsigned_abs() < syntax::MAX_LEVEL {
+        candidates[1] = Some(l + if x < 0.0 { -1 } else { 1 });
+    }
+    candidates
+}
+
+/// Chooses one block's levels by `D + lambda R` with the coder's contexts: the
+/// dead-zone levels; with [`Quantiser::per_coefficient`], each coded coefficient from
+/// the last back to the first moved one step towards zero, or away from it, when that
+/// lowers the block's cost (the rate of a level depends on its neighbours' through the
+/// contexts, so a level that rounds nearest can still cost more than it saves); then
+/// up to [`TRIMS`] trailing coefficients dropped, and the empty block.
+///
+/// A moved candidate's distortion is first estimated from the current best's by the
+/// one term that changed; only when that leaves the comparison within a margin far
+/// above the rounding error is it summed in full, so the choices are those of summing
+/// every candidate ([`reference::choose`] is tested equal).
+fn choose(
     c: &[f64; COEFFS],
     q: Quantiser,
-    start: (f64, [i32; COEFFS]),
-    price: &mut impl FnMut(&[i32; COEFFS]) -> f64,
-) -> (f64, [i32; COEFFS]) {
-    let (mut best, mut levels) = start;
-    for k in (0..COEFFS).rev() {
-        let z = ZIGZAG[k] as usize;
-        let l = levels[z];
-        let x = c[z] / q.step;
-        let mut candidates = [None, None];
-        if l != 0 {
-            candidates[0] = Some(l - l.signum());
-        }
-        if x.abs() - l.unsigned_abs() as f64 > 0.5 && l.unsigned_abs() < syntax::MAX_LEVEL {
-            candidates[1] = Some(l + if x < 0.0 { -1 } else { 1 });
-        }
-        for m in candidates.into_iter().flatten() {
-            let mut trial = levels;
-            trial[z] = m;
-            let j = price(&trial);
-            if j < best {
-                (best, levels) = (j, trial);
-                break;
+    ctx: &DetailContexts,
+    at: syntax::BlockContext,
+    pricer: &mut BlockPricer,
+) -> [i32; COEFFS] {
+    let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
+    if levels.iter().all(|&l| l == 0) {
+        return levels;
+    }
+    let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] / q.step);
+    let cost = |d: f64, r: u64| d + q.lambda * r as f64 / 256.0;
+    let mut rates = pricer.block(ctx, at);
+    let mut d = distortion(&x, &levels);
+    let mut best = (cost(d, rates.rate(&levels, COEFFS)), levels);
+    if q.per_coefficient {
+        for k in (0..COEFFS).rev() {
+            let z = ZIGZAG[k] as usize;
+            let l = best.1[z];
+            for m in moves(l, x[z]).into_iter().flatten() {
+                let mut trial = best.1;
+                trial[z] = m;
+                let r = rates.rate(&trial, k + 1);
+                let estimate = cost(d - (x[z] - l as f64).powi(2) + (x[z] - m as f64).powi(2), r);
+                let margin = 1e-9 * (best.0.abs() + estimate.abs());
+                let better = if estimate < best.0 - margin {
+                    true
+                } else if estimate > best.0 + margin {
+                    false
+                } else {
+                    cost(distortion(&x, &trial), r) < best.0
+                };
+                if better {
+                    d = distortion(&x, &trial);
+                    best = (cost(d, r), trial);
+                    break;
+                }
             }
         }
     }
-    (best, levels)
+    let mut trimmed = best.1;
+    let mut tries = 0;
+    for k in (0..COEFFS).rev() {
+        let z = ZIGZAG[k] as usize;
+        if trimmed[z] == 0 {
+            continue;
+        }
+        if tries == TRIMS {
+            break;
+        }
+        tries += 1;
+        trimmed[z] = 0;
+        let j = cost(distortion(&x, &trimmed), rates.rate(&trimmed, COEFFS));
+        if j < best.0 {
+            best = (j, trimmed);
+        }
+    }
+    // The loop stops at the empty block only when there were few enough.
+    let empty = [0; COEFFS];
+    let j = cost(distortion(&x, &empty), rates.rate(&empty, COEFFS));
+    if j < best.0 {
+        best = (j, empty);
+    }
+    best.1
 }
 
 /// Transforms, quantises and codes one residual plane (`kind` 0 luma, 1 chroma) into
@@ -116,51 +170,14 @@ pub fn code_plane(
         .collect();
     let mut chosen = Vec::with_capacity(cols * rows);
     let mut coded = vec![false; cols * rows];
-    let mut cost = OverlayCostSink::default();
+    let mut pricer = BlockPricer::default();
     for (i, c) in coeffs.iter().enumerate() {
         let at = block_context(|j| coded[j], cols, i, kind);
         let q = Quantiser {
             step: q.step * factors.map_or(1.0, |f| f[i]),
             ..q
         };
-        let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
-        let best = if levels.iter().all(|&l| l == 0) {
-            levels
-        } else {
-            let mut price = |l: &[i32; COEFFS]| {
-                cost.reset();
-                syntax::write_block(ctx, at, l, &mut cost);
-                distortion(c, l, q.step) + q.lambda * cost.cost as f64 / 256.0
-            };
-            let mut best = (price(&levels), levels);
-            if q.per_coefficient {
-                best = search_levels(c, q, best, &mut price);
-            }
-            let mut trimmed = best.1;
-            let mut tries = 0;
-            for k in (0..COEFFS).rev() {
-                let z = ZIGZAG[k] as usize;
-                if trimmed[z] == 0 {
-                    continue;
-                }
-                if tries == TRIMS {
-                    break;
-                }
-                tries += 1;
-                trimmed[z] = 0;
-                let j = price(&trimmed);
-                if j < best.0 {
-                    best = (j, trimmed);
-                }
-            }
-            // The loop stops at the empty block only when there were few enough.
-            let empty = [0; COEFFS];
-            let j = price(&empty);
-            if j < best.0 {
-                best = (j, empty);
-            }
-            best.1
-        };
+        let best = choose(c, q, ctx, at, &mut pricer);
         syntax::write_block(ctx, at, &best, sink);
         coded[i] = best.iter().any(|&l| l != 0);
         chosen.push(best);
@@ -206,9 +223,96 @@ pub fn code_layer(
     (detail, payload)
 }
 
+/// The plain search [`choose`] is tested equal to: every candidate re-coded whole into
+/// an [`OverlayCostSink`](crate::codec::entropy::OverlayCostSink) and its distortion
+/// summed in full.
+#[cfg(test)]
+mod reference {
+    use super::*;
+    use crate::codec::entropy::OverlayCostSink;
+
+    /// The level search of [`choose`] with any pricing.
+    pub fn search_levels(
+        x: &[f64; COEFFS],
+        start: (f64, [i32; COEFFS]),
+        price: &mut impl FnMut(&[i32; COEFFS]) -> f64,
+    ) -> (f64, [i32; COEFFS]) {
+        let (mut best, mut levels) = start;
+        for k in (0..COEFFS).rev() {
+            let z = ZIGZAG[k] as usize;
+            for m in moves(levels[z], x[z]).into_iter().flatten() {
+                let mut trial = levels;
+                trial[z] = m;
+                let j = price(&trial);
+                if j < best {
+                    (best, levels) = (j, trial);
+                    break;
+                }
+            }
+        }
+        (best, levels)
+    }
+
+    pub fn choose(
+        c: &[f64; COEFFS],
+        q: Quantiser,
+        ctx: &mut DetailContexts,
+        at: syntax::BlockContext,
+        cost: &mut OverlayCostSink,
+    ) -> [i32; COEFFS] {
+        let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
+        if levels.iter().all(|&l| l == 0) {
+            return levels;
+        }
+        let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] / q.step);
+        let mut price = |l: &[i32; COEFFS]| {
+            cost.reset();
+            syntax::write_block(ctx, at, l, cost);
+            distortion(&x, l) + q.lambda * cost.cost as f64 / 256.0
+        };
+        let mut best = (price(&levels), levels);
+        if q.per_coefficient {
+            best = search_levels(&x, best, &mut price);
+        }
+        let mut trimmed = best.1;
+        let mut tries = 0;
+        for k in (0..COEFFS).rev() {
+            let z = ZIGZAG[k] as usize;
+            if trimmed[z] == 0 {
+                continue;
+            }
+            if tries == TRIMS {
+                break;
+            }
+            tries += 1;
+            trimmed[z] = 0;
+            let j = price(&trimmed);
+            if j < best.0 {
+                best = (j, trimmed);
+            }
+        }
+        let empty = [0; COEFFS];
+        let j = price(&empty);
+        if j < best.0 {
+            best = (j, empty);
+        }
+        best.1
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codec::entropy::OverlayCostSink;
+
+    /// Coefficients falling off with frequency, as a photograph's residual does.
+    fn residual_block(seed: &mut u64, scale: f64) -> [f64; COEFFS] {
+        std::array::from_fn(|i| {
+            *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let u = (*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            u * scale / (1.0 + (i / N + i % N) as f64)
+        })
+    }
 
     #[test]
     fn the_level_search_only_takes_cheaper_blocks_one_step_from_rounding() {
@@ -227,20 +331,15 @@ mod tests {
         let mut seed = 99u64;
         let mut moved = 0;
         for _ in 0..300 {
-            // Coefficients falling off with frequency, as a photograph's residual does.
-            let c: [f64; COEFFS] = std::array::from_fn(|i| {
-                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                let u = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-                u * 12.0 / (1.0 + (i / N + i % N) as f64)
-            });
+            let c = residual_block(&mut seed, 12.0);
             let start: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
             let mut price = |l: &[i32; COEFFS]| {
                 cost.reset();
                 syntax::write_block(&mut ctx, at, l, &mut cost);
-                distortion(&c, l, q.step) + q.lambda * cost.cost as f64 / 256.0
+                distortion(&c, l) + q.lambda * cost.cost as f64 / 256.0
             };
             let j0 = price(&start);
-            let (j, levels) = search_levels(&c, q, (j0, start), &mut price);
+            let (j, levels) = reference::search_levels(&c, (j0, start), &mut price);
             assert!(j <= j0);
             assert_eq!(j, price(&levels), "the cost returned is the levels' cost");
             for k in 0..COEFFS {
@@ -251,5 +350,39 @@ mod tests {
             syntax::write_block(&mut ctx, at, &levels, &mut AnsSink::new());
         }
         assert!(moved > 30, "the search changes some blocks ({moved} of 300)");
+    }
+
+    #[test]
+    fn choices_equal_the_reference_search() {
+        let mut seed = 2024u64;
+        for per_coefficient in [true, false] {
+            let mut changed = 0;
+            for (kind, step, lambda, scale) in
+                [(0, 1.0, 0.09, 12.0), (1, 0.37, 0.09, 3.0), (0, 0.05, 0.2, 200.0), (1, 2.5, 0.03, 4.0)]
+            {
+                let q = Quantiser {
+                    step,
+                    deadzone: 0.2,
+                    lambda,
+                    per_coefficient,
+                };
+                let mut ctx = DetailContexts::default();
+                let mut cost = OverlayCostSink::default();
+                let mut pricer = BlockPricer::default();
+                for i in 0..400 {
+                    let c = residual_block(&mut seed, scale * if i % 5 == 0 { 8.0 } else { 1.0 });
+                    let at = syntax::BlockContext {
+                        kind,
+                        neighbours: i % 3,
+                    };
+                    let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
+                    assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");
+                    let rounded: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
+                    changed += usize::from(expected != rounded);
+                    syntax::write_block(&mut ctx, at, &expected, &mut AnsSink::new());
+                }
+            }
+            assert!(changed > 100, "the search has choices to make ({changed})");
+        }
     }
 }

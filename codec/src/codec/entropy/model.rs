@@ -195,7 +195,7 @@ impl<const W: usize> Cdf<W> {
     }
 
     #[inline]
-    pub(super) fn update(&mut self, s: usize) {
+    pub(crate) fn update(&mut self, s: usize) {
         let rate = CDF_RATES[self.seen as usize] as u32;
         self.seen = (self.seen + 1).min(CDF_RATES.len() as u16 - 1);
         let keep = KEEP[rate as usize];
