@@ -59,7 +59,7 @@ impl Heartbeat {
                     return;
                 }
                 if s.1.elapsed().as_secs_f64() >= 4.0 {
-                    eprintln!("  ... {} ({:.0} s)", s.0, started.elapsed().as_secs_f64());
+                    eprintln!("  ... {} ({:.1} s)", s.0, started.elapsed().as_secs_f64());
                     s.1 = Instant::now();
                 }
             })
