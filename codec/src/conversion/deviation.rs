@@ -229,24 +229,80 @@ pub fn mesh_depth(mesh: &PolygonMesh, view: &View, size: usize) -> DepthImage {
     }
 }
 
-/// Field values on a lattice over the viewing volume: rays march through its trilinear
-/// interpolant to find a bracket, which the exact field then refines.
+/// Field values on a lattice over the viewing volume. Rays skip through it where a
+/// cell's corners stay further below zero than they differ from each other (no surface
+/// within about a cell), and march the exact field elsewhere, so a part thinner than a
+/// cell (a tail, a horn, an ear), which the lattice's interpolant would miss, is seen.
 pub struct FieldGrid {
     n: usize,
     values: Vec<f64>,
+    /// Per cell (`(n - 1)^3`): whether the surface may pass through it.
+    near: Vec<bool>,
 }
 
 impl FieldGrid {
-    /// Samples `field` on `n^3` points over `[-0.6, 0.6]^3`.
+    /// Samples `field` on `n^3` points over `[-0.6, 0.6]^3`, and marks the cells the
+    /// surface may cross: a cell's largest corner value is within its slope of zero,
+    /// the slope being the largest step between neighbouring lattice values in and
+    /// around it (around it too, so a ridge between two lattice planes, whose corners
+    /// all read alike, still counts).
     pub fn new(field: &dyn ImplicitField, n: usize) -> FieldGrid {
-        let values = (0..n * n * n)
+        let values: Vec<f64> = (0..n * n * n)
             .into_par_iter()
             .map(|i| {
                 let c = [i % n, (i / n) % n, i / (n * n)];
                 field.value(c.map(|c| -NEAR + 2.0 * NEAR * c as f64 / (n - 1) as f64))
             })
             .collect();
-        FieldGrid { n, values }
+        let m = n - 1;
+        let node = |x: usize, y: usize, z: usize| values[(z * n + y) * n + x];
+        // (largest corner value, largest step along a cell edge) per cell.
+        let cells: Vec<(f64, f64)> = (0..m * m * m)
+            .into_par_iter()
+            .map(|c| {
+                let (x, y, z) = (c % m, (c / m) % m, c / (m * m));
+                let (mut hi, mut step) = (f64::NEG_INFINITY, 0.0f64);
+                for k in 0..8 {
+                    let (dx, dy, dz) = (k & 1, (k >> 1) & 1, k >> 2);
+                    let v = node(x + dx, y + dy, z + dz);
+                    hi = hi.max(v);
+                    if dx == 0 {
+                        step = step.max((v - node(x + 1, y + dy, z + dz)).abs());
+                    }
+                    if dy == 0 {
+                        step = step.max((v - node(x + dx, y + 1, z + dz)).abs());
+                    }
+                    if dz == 0 {
+                        step = step.max((v - node(x + dx, y + dy, z + 1)).abs());
+                    }
+                }
+                (hi, step)
+            })
+            .collect();
+        let near = (0..m * m * m)
+            .into_par_iter()
+            .map(|c| {
+                let (x, y, z) = (c % m, (c / m) % m, c / (m * m));
+                let mut step = 0.0f64;
+                for zz in z.saturating_sub(1)..(z + 2).min(m) {
+                    for yy in y.saturating_sub(1)..(y + 2).min(m) {
+                        for xx in x.saturating_sub(1)..(x + 2).min(m) {
+                            step = step.max(cells[(zz * m + yy) * m + xx].1);
+                        }
+                    }
+                }
+                cells[c].0 + step >= 0.0
+            })
+            .collect();
+        FieldGrid { n, values, near }
+    }
+
+    /// Whether the surface may pass through the cell holding `p`.
+    fn near_surface(&self, p: [f64; 3]) -> bool {
+        let m = self.n - 1;
+        let i =
+            p.map(|v| ((v + NEAR) / (2.0 * NEAR) * m as f64).clamp(0.0, m as f64 - 1e-9) as usize);
+        self.near[(i[2] * m + i[1]) * m + i[0]]
     }
 
     fn at(&self, p: [f64; 3]) -> f64 {
@@ -276,7 +332,6 @@ pub fn field_depth(
     size: usize,
 ) -> DepthImage {
     let h = NEAR / (grid.n - 1) as f64;
-    let steps = (FAR_DEPTH / h).ceil() as usize;
     let px: Vec<(f64, [f64; 3])> = (0..size * size)
         .into_par_iter()
         .map(|k| {
@@ -286,11 +341,23 @@ pub fn field_depth(
             if prev >= 0.0 {
                 return (0.0, [0.0; 3]);
             }
-            for s in 1..=steps {
-                let t = (s as f64 * h).min(FAR_DEPTH);
-                let v = grid.at(at(t));
+            let mut t = 0.0;
+            while t < FAR_DEPTH {
+                // A quarter step near the surface: thin parts are crossed by rays that
+                // spend less than a half cell inside them.
+                let dt = if grid.near_surface(at(t)) {
+                    0.25 * h
+                } else {
+                    h
+                };
+                let t0 = t;
+                t = (t + dt).min(FAR_DEPTH);
+                let v = if grid.near_surface(at(t)) {
+                    field.value(at(t))
+                } else {
+                    grid.at(at(t))
+                };
                 if v >= 0.0 {
-                    let t0 = t - h;
                     let (mut a, mut b) = (t0, t);
                     let t_hit = if field.value(at(a)) < 0.0 && field.value(at(b)) >= 0.0 {
                         // Regula falsi with the Illinois halving, keeping the bracket,
@@ -328,7 +395,7 @@ pub fn field_depth(
                         }
                         b
                     } else {
-                        t0 + h * prev / (prev - v)
+                        t0 + (t - t0) * prev / (prev - v)
                     };
                     let (_, g) = field.value_gradient(at(t_hit));
                     let l = dot(g, g).sqrt();
@@ -433,6 +500,52 @@ mod tests {
         fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
             (self.0 * self.0 - dot(p, p), p.map(|v| -2.0 * v))
         }
+    }
+
+    /// A disc of radius 0.3 and thickness 0.004 centred at z = 0.009, between two
+    /// lattice planes of a 65^3 grid (0.019 apart), so no lattice point is inside it.
+    struct ThinDisc;
+    impl ImplicitField for ThinDisc {
+        fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+            let z = p[2] - 0.009;
+            let r = (p[0] * p[0] + p[1] * p[1]).sqrt().max(1e-12);
+            let slab = 0.002 - z.abs();
+            let rim = 0.3 - r;
+            if slab < rim {
+                (slab, [0.0, 0.0, -z.signum()])
+            } else {
+                (rim, [-p[0] / r, -p[1] / r, 0.0])
+            }
+        }
+    }
+
+    #[test]
+    fn a_part_thinner_than_a_lattice_cell_is_seen_at_its_depth() {
+        let grid = FieldGrid::new(&ThinDisc, 65);
+        assert!(
+            grid.values.iter().all(|&v| v < 0.0),
+            "no lattice point inside"
+        );
+        let view = &views(1)[0];
+        assert_eq!(view.dir, [0.0, 0.0, -1.0]);
+        let size = 64;
+        let d = field_depth(&ThinDisc, &grid, view, size);
+        // Rays through the disc's middle meet its top face, z = 0.011.
+        let mid = size / 2 * size + size / 2;
+        let expected = NEAR - 0.011;
+        assert!(
+            (d.depth[mid] - expected).abs() < 1e-6,
+            "{} against {expected}",
+            d.depth[mid]
+        );
+        // The disc covers about pi 0.3^2 of the 1.1^2 square.
+        let covered = d.depth.iter().filter(|&&t| t < FAR_DEPTH).count() as f64;
+        let share = covered / (size * size) as f64;
+        let expected = std::f64::consts::PI * 0.09 / (2.0 * HALF).powi(2);
+        assert!(
+            (share - expected).abs() < 0.02,
+            "covers {share}, the disc {expected}"
+        );
     }
 
     #[test]

@@ -355,7 +355,9 @@ fn measure(
     let n = (size / 2 + 1).clamp(65, 257);
     caoen::budget::check(
         || format!("a {n}^3 field grid"),
-        (n as u64).pow(3) * 8 + (size * size * 64 * 6) as u64,
+        // Values (8 bytes a point), then per cell its top value and step (16) and its
+        // flag, while the flags are made.
+        (n as u64).pow(3) * 25 + (size * size * 64 * 6) as u64,
     )
     .map_err(|e| CliError::Failed(e.to_string()))?;
     note(global, format!("sampling the field on a {n}^3 grid"));
