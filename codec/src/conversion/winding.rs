@@ -3,7 +3,7 @@
 //! winding numbers for soups and clouds", 2018), so a query costs about the logarithm
 //! of the triangle count instead of one solid angle per triangle.
 //!
-//! A cluster seen from further than [`BETA`] times its radius contributes
+//! A cluster seen from further than `BETA` (3) times its radius contributes
 //! `(c - q) . N / (4 pi |c - q|^3)`, with `N` half the sum of its triangles' edge
 //! cross products (area times unit normal) and `c` their area-weighted centroid; nearer
 //! clusters open, and leaves sum the exact solid angles of
