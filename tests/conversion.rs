@@ -257,6 +257,71 @@ fn targets_not_met_say_why_and_the_advice_fits_the_cause() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A UV sphere (`n` bands) without the triangles within 30 degrees of its top: a solid
+/// with one round hole, as OBJ text.
+fn holed_sphere_obj(n: usize) -> String {
+    let mut t = String::new();
+    let ring = |i: usize, j: usize| 1 + (i - 1) * 2 * n + j % (2 * n);
+    for i in 1..n {
+        let th = std::f64::consts::PI * i as f64 / n as f64;
+        for j in 0..2 * n {
+            let ph = std::f64::consts::PI * j as f64 / n as f64;
+            t += &format!(
+                "v {} {} {}\n",
+                th.sin() * ph.cos(),
+                th.sin() * ph.sin(),
+                th.cos()
+            );
+        }
+    }
+    let bottom = (n - 1) * 2 * n + 1;
+    t += "v 0 0 -1\n";
+    let first = (n as f64 / 6.0).ceil() as usize;
+    for j in 0..2 * n {
+        t += &format!("f {} {} {}\n", ring(n - 1, j), bottom, ring(n - 1, j + 1));
+        for i in first..n - 1 {
+            let (a, b) = (ring(i, j), ring(i, j + 1));
+            let (c, d) = (ring(i + 1, j), ring(i + 1, j + 1));
+            t += &format!("f {a} {c} {d}\nf {a} {d} {b}\n");
+        }
+    }
+    t
+}
+
+#[test]
+fn a_closed_model_of_a_holed_mesh_says_the_holes_cost_the_depth() {
+    let dir = tmpdir("holed");
+    let mesh = dir.join("holed.obj");
+    std::fs::write(&mesh, holed_sphere_obj(48)).unwrap();
+    let model = dir.join("m.json");
+    let out = caoen(&[
+        "--quiet",
+        "convert",
+        s(&mesh),
+        "-o",
+        s(&model),
+        "-f",
+        "--json",
+        "--check-size",
+        "64",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(r["open"]["handled_as"], "solid, holes closed", "{r}");
+    assert_eq!(r["met_target"], false, "{r}");
+    let advice = r["advice"].as_str().unwrap();
+    assert!(
+        advice.contains("boundary edges (holes)") && advice.contains("along -z looks into them"),
+        "{r}"
+    );
+    assert!(!advice.contains("raise --max-functions"), "{r}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A flat square sheet of zero thickness as OBJ text.
 fn sheet_obj(n: usize) -> String {
     let mut t = String::new();

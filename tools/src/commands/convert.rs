@@ -232,9 +232,36 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         conversion::fit::Stop::Budget => "function budget spent",
         conversion::fit::Stop::SmallestRadius => "smallest radius reached",
     };
+    // A closed model of a mesh with holes differs most in the view that looks into
+    // them: when one view's depth error dwarfs the others', that is the cause, and no
+    // budget or target helps.
+    let (worst_view, worst, others) = {
+        let (i, w) = m
+            .depth
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (i, d.1.mean_all))
+            .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+        let rest: Vec<f64> = (0..m.depth.len())
+            .filter(|&j| j != i)
+            .map(|j| m.depth[j].1.mean_all)
+            .collect();
+        let others = rest.iter().sum::<f64>() / rest.len().max(1) as f64;
+        (m.depth.get(i).map_or("", |d| d.0), w, others)
+    };
+    let holes_seen = !sheet && open.boundary_edges > 0 && !depth_met && worst > 3.0 * others;
     // Advice that matches the cause.
     let advice = if met {
         None
+    } else if holes_seen {
+        Some(format!(
+            "the mesh has {} boundary edges (holes), which the model closes: the view \
+             along {worst_view} looks into them ({:.3}% over all its pixels, against \
+             {:.3}% for the other views), so a closed model cannot meet the depth target",
+            open.boundary_edges,
+            100.0 * worst,
+            100.0 * others
+        ))
     } else if result.stop == conversion::fit::Stop::Budget {
         Some(format!(
             "the budget of {max_functions} functions was spent: raise --max-functions"
