@@ -214,31 +214,36 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `caoen convert MESH -o MODEL -f --json --check-size 64 EXTRA`, which must succeed: its
+/// JSON summary.
+fn convert_json(mesh: &Path, model: &Path, extra: &[&str]) -> serde_json::Value {
+    let mut args = vec![
+        "--quiet",
+        "convert",
+        s(mesh),
+        "-o",
+        s(model),
+        "-f",
+        "--json",
+        "--check-size",
+        "64",
+    ];
+    args.extend_from_slice(extra);
+    let out = caoen(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 #[test]
 fn targets_not_met_say_why_and_the_advice_fits_the_cause() {
     let dir = tmpdir("advice");
     let mesh = repo("tests/data/meshes/spot.obj");
-    let run = |extra: &[&str]| -> serde_json::Value {
-        let model = dir.join("m.json");
-        let mut args = vec![
-            "--quiet",
-            "convert",
-            s(&mesh),
-            "-o",
-            s(&model),
-            "-f",
-            "--json",
-        ];
-        args.extend_from_slice(&["--check-size", "64"]);
-        args.extend_from_slice(extra);
-        let out = caoen(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).unwrap()
-    };
+    let model = dir.join("m.json");
+    let run = |extra: &[&str]| convert_json(&mesh, &model, extra);
     // A small budget is spent: the advice is to raise it.
     let r = run(&["--max-functions", "40"]);
     assert_eq!(r["met_target"], false, "{r}");
@@ -293,24 +298,7 @@ fn a_closed_model_of_a_holed_mesh_says_the_holes_cost_the_depth() {
     let dir = tmpdir("holed");
     let mesh = dir.join("holed.obj");
     std::fs::write(&mesh, holed_sphere_obj(48)).unwrap();
-    let model = dir.join("m.json");
-    let out = caoen(&[
-        "--quiet",
-        "convert",
-        s(&mesh),
-        "-o",
-        s(&model),
-        "-f",
-        "--json",
-        "--check-size",
-        "64",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let r = convert_json(&mesh, &dir.join("m.json"), &[]);
     assert_eq!(r["open"]["handled_as"], "solid, holes closed", "{r}");
     assert_eq!(r["met_target"], false, "{r}");
     let advice = r["advice"].as_str().unwrap();
@@ -356,23 +344,7 @@ fn an_open_sheet_is_refused_naming_its_boundary_unless_filled_on_purpose() {
     assert!(err.contains("--fill-open"), "{err}");
     assert!(!model.exists());
     // Filled on purpose: written, said so, and never a success.
-    let out = caoen(&[
-        "--quiet",
-        "convert",
-        s(&mesh),
-        "-o",
-        s(&model),
-        "--fill-open",
-        "--json",
-        "--check-size",
-        "64",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let r = convert_json(&mesh, &model, &["--fill-open"]);
     assert_eq!(r["open"]["sheet"], true, "{r}");
     assert_eq!(r["open"]["boundary_edges"], 48, "{r}");
     assert_eq!(r["met_target"], false, "{r}");

@@ -342,17 +342,15 @@ pub fn field_depth(
                 return (0.0, [0.0; 3]);
             }
             let mut t = 0.0;
+            let mut near = grid.near_surface(o);
             while t < FAR_DEPTH {
                 // A quarter step near the surface: thin parts are crossed by rays that
                 // spend less than a half cell inside them.
-                let dt = if grid.near_surface(at(t)) {
-                    0.25 * h
-                } else {
-                    h
-                };
+                let dt = if near { 0.25 * h } else { h };
                 let t0 = t;
                 t = (t + dt).min(FAR_DEPTH);
-                let v = if grid.near_surface(at(t)) {
+                near = grid.near_surface(at(t));
+                let v = if near {
                     field.value(at(t))
                 } else {
                     grid.at(at(t))

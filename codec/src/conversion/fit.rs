@@ -174,9 +174,7 @@ pub fn spread_vertices(mesh: &PolygonMesh, cap: usize) -> Vec<u32> {
     if n <= cap {
         return (0..n as u32).collect();
     }
-    let area: f64 = (0..mesh.triangles.len())
-        .map(|t| 0.5 * norm(mesh.face_normal(t)))
-        .sum();
+    let area = mesh.area();
     let (lo, hi) = mesh.bounds();
     let side = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
     // A surface of area A holds about A / h^2 cells of side h.
@@ -202,8 +200,12 @@ pub fn spread_vertices(mesh: &PolygonMesh, cap: usize) -> Vec<u32> {
 /// that a coarse mesh's flat faces hold the surface too; on a mesh of more than
 /// [`MAX_SAMPLES`] triangles, the centroids of an evenly strided subset, fewer when the
 /// vertices were thinned), with outward unit normals.
-fn samples(mesh: &PolygonMesh, fit_vertices: &[u32]) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
-    let all_normals = mesh.outward_normals();
+fn samples(
+    mesh: &PolygonMesh,
+    winding: &WindingTree<'_>,
+    fit_vertices: &[u32],
+) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    let all_normals = mesh.outward_normals_by(winding);
     let mut normals: Vec<[f64; 3]> = fit_vertices
         .iter()
         .map(|&i| all_normals[i as usize])
@@ -268,9 +270,9 @@ fn samples(mesh: &PolygonMesh, fit_vertices: &[u32]) -> (Vec<[f64; 3]>, Vec<[f64
 }
 
 /// Builds the conditions. `pts`/`normals` are the surface samples; the first
-/// `vertices` of them are mesh vertices.
+/// `vertices` of them are mesh vertices; `winding` tells the far grid's sides.
 fn conditions(
-    mesh: &PolygonMesh,
+    winding: &WindingTree<'_>,
     pts: &[[f64; 3]],
     normals: &[[f64; 3]],
     vertices: usize,
@@ -339,7 +341,6 @@ fn conditions(
             [i % n, (i / n) % n, i / (n * n)].map(|c| -0.6 + 1.2 * (c as f64 + 0.5) / n as f64)
         })
         .collect();
-    let winding = WindingTree::new(mesh);
     let far: Vec<Option<Condition>> = grid
         .par_iter()
         .map(|&q| {
@@ -492,7 +493,9 @@ pub fn convert(
     progress(Progress::Phase("sampling the surface"));
     let fit_vertices = spread_vertices(&unit, MAX_FIT_VERTICES);
     let vertices = fit_vertices.len();
-    let (pts, normals) = samples(&unit, &fit_vertices);
+    // One winding tree answers the outward vote and the far grid's sides.
+    let winding = WindingTree::new(&unit);
+    let (pts, normals) = samples(&unit, &winding, &fit_vertices);
     drop(fit_vertices);
     let surface = pts.len();
     let base = quadric::fit_base(&pts[..vertices], &normals[..vertices]);
@@ -500,7 +503,8 @@ pub fn convert(
     progress(Progress::Phase(
         "placing the off-surface conditions (winding numbers)",
     ));
-    let mut conds = conditions(&unit, &pts, &normals, vertices, step);
+    let mut conds = conditions(&winding, &pts, &normals, vertices, step);
+    drop(winding);
     // The value conditions end here; tangent conditions follow.
     let values_end = conds.len();
     if opts.tangent_weight > 0.0 {

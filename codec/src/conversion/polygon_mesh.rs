@@ -106,10 +106,9 @@ impl PolygonMesh {
                 dot(d, d).sqrt()
             })
             .fold(0.0, |a, b| a + b);
-        let area: f64 = (0..self.triangles.len())
-            .map(|t| 0.5 * dot(self.face_normal(t), self.face_normal(t)).sqrt())
-            .sum();
-        let n = self.outward_normals();
+        let area = self.area();
+        let tree = WindingTree::new(self);
+        let n = self.outward_normals_by(&tree);
         let (lo, hi) = self.bounds();
         let step = 1e-3 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         let stride = (self.positions.len() / 256).max(1);
@@ -117,7 +116,6 @@ impl PolygonMesh {
             .step_by(stride)
             .filter(|&i| n[i] != [0.0; 3])
             .collect();
-        let tree = WindingTree::new(self);
         let enclosed = probes
             .par_iter()
             .filter(|&&i| {
@@ -189,11 +187,15 @@ impl PolygonMesh {
     /// a short step behind a spread of vertices (inside, it is near 1): that works for
     /// open meshes too, where the signed volume says nothing.
     pub fn outward_normals(&self) -> Vec<[f64; 3]> {
+        self.outward_normals_by(&WindingTree::new(self))
+    }
+
+    /// [`PolygonMesh::outward_normals`] with the mesh's winding tree already built.
+    pub fn outward_normals_by(&self, tree: &WindingTree<'_>) -> Vec<[f64; 3]> {
         let n = self.vertex_normals();
         let (lo, hi) = self.bounds();
         let step = 1e-3 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         let stride = (self.positions.len() / 64).max(1);
-        let tree = WindingTree::new(self);
         let (mut inward, mut outward) = (0, 0);
         for i in (0..self.positions.len()).step_by(stride) {
             if n[i] == [0.0; 3] {
@@ -222,6 +224,13 @@ impl PolygonMesh {
             .map(|t| 2.0 * solid_angle_half(self, t, q))
             .sum();
         sum / (4.0 * std::f64::consts::PI)
+    }
+
+    /// The surface area: the triangles' areas summed.
+    pub fn area(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|t| 0.5 * dot(self.face_normal(t), self.face_normal(t)).sqrt())
+            .sum()
     }
 
     /// Twice each triangle's area times its unit normal: the cross product of its edges.
