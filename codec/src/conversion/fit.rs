@@ -157,6 +157,59 @@ impl Condition {
 
 /// The spacing of surface samples on large triangles (unit cube).
 const SAMPLE_SPACING: f64 = 0.015;
+/// The spacing on large triangles of a flat face (see [`flat_faces`]): where a face is
+/// truly flat its triangles' normal is the surface's, and the conditions must hold the
+/// field's zero set to the plane between distant vertices, which a wall seen edge-on
+/// shows to the pixel.
+const FLAT_SAMPLE_SPACING: f64 = 0.004;
+/// Neighbours whose normals are closer than this (degrees) lie on one flat face...
+const FLAT_DEG: f64 = 1.0;
+/// ...and an edge sharper than this is a crease between faces.
+const CREASE_DEG: f64 = 40.0;
+
+/// Per triangle, whether it is large (longer than three [`FLAT_SAMPLE_SPACING`]) and
+/// lies on a flat face: a neighbour across an edge is coplanar with it, and each other
+/// one is coplanar too or meets it at a crease. A faceted smooth surface (a low-polygon model shaded smooth) has
+/// neighbours at in-between angles: its face normals are not its surface's.
+fn flat_faces(mesh: &PolygonMesh, longest: impl Fn(usize) -> f64) -> Vec<bool> {
+    let key = |a: u32, b: u32| (a.min(b), a.max(b));
+    let large: Vec<usize> = (0..mesh.triangles.len())
+        .filter(|&t| longest(t) > 3.0 * FLAT_SAMPLE_SPACING)
+        .collect();
+    let mut edges: std::collections::HashMap<(u32, u32), Vec<u32>> = Default::default();
+    for &t in &large {
+        let [a, b, c] = mesh.triangles[t];
+        for e in [key(a, b), key(b, c), key(c, a)] {
+            edges.insert(e, Vec::new());
+        }
+    }
+    for (t, &[a, b, c]) in mesh.triangles.iter().enumerate() {
+        for e in [key(a, b), key(b, c), key(c, a)] {
+            if let Some(list) = edges.get_mut(&e) {
+                list.push(t as u32);
+            }
+        }
+    }
+    let unit = |t: usize| {
+        let n = mesh.face_normal(t);
+        let l = norm(n).max(1e-300);
+        n.map(|v| v / l)
+    };
+    let (flat, crease) = (FLAT_DEG.to_radians().cos(), CREASE_DEG.to_radians().cos());
+    let mut out = vec![false; mesh.triangles.len()];
+    for &t in &large {
+        let n = unit(t);
+        let [a, b, c] = mesh.triangles[t];
+        let cosines: Vec<f64> = [key(a, b), key(b, c), key(c, a)]
+            .iter()
+            .flat_map(|e| edges[e].iter().filter(|&&o| o as usize != t))
+            .map(|&o| dot(n, unit(o as usize)))
+            .collect();
+        out[t] =
+            cosines.iter().any(|&c| c >= flat) && cosines.iter().all(|&c| c >= flat || c <= crease);
+    }
+    out
+}
 /// About the most points sampled inside triangles.
 pub const MAX_SAMPLES: f64 = 400_000.0;
 
@@ -196,10 +249,11 @@ pub fn spread_vertices(mesh: &PolygonMesh, cap: usize) -> Vec<u32> {
 
 /// The surface samples: the fit's vertices (first, in the order of `fit_vertices`),
 /// then points inside each triangle
-/// (its centroid, or a barycentric grid at about [`SAMPLE_SPACING`] on a large one, so
-/// that a coarse mesh's flat faces hold the surface too; on a mesh of more than
-/// [`MAX_SAMPLES`] triangles, the centroids of an evenly strided subset, fewer when the
-/// vertices were thinned), with outward unit normals.
+/// (its centroid, or a barycentric grid at about [`SAMPLE_SPACING`] on a large one, or
+/// [`FLAT_SAMPLE_SPACING`] on a flat face, so that a coarse mesh's flat faces hold the
+/// surface too; on a mesh of more than [`MAX_SAMPLES`] triangles, the centroids of an
+/// evenly strided subset, fewer when the vertices were thinned), with outward unit
+/// normals.
 fn samples(
     mesh: &PolygonMesh,
     winding: &WindingTree<'_>,
@@ -222,15 +276,22 @@ fn samples(
             .map(|k| norm(sub(tri[(k + 1) % 3], tri[k])))
             .fold(0.0, f64::max)
     };
-    // Wider spacing when the grid would pass MAX_SAMPLES points.
+    let flat = flat_faces(mesh, longest);
+    // A flat face's triangles at the finer spacing, the others at the plain one; both
+    // wider when the grid would pass MAX_SAMPLES points.
+    let ratio = FLAT_SAMPLE_SPACING / SAMPLE_SPACING;
+    let parts_at = |t: usize, h: f64| {
+        let h = if flat[t] { h * ratio } else { h };
+        (longest(t) / h).ceil().min(64.0)
+    };
     let count = |h: f64| -> f64 {
         (0..mesh.triangles.len())
-            .map(|t| ((longest(t) / h).ceil().min(64.0) - 1.0).max(1.0).powi(2) / 2.0)
+            .map(|t| (parts_at(t, h) - 1.0).max(1.0).powi(2) / 2.0)
             .sum()
     };
     let mut spacing = SAMPLE_SPACING;
     let widest = (0..mesh.triangles.len()).map(longest).fold(0.0, f64::max);
-    while spacing < widest && count(spacing) > MAX_SAMPLES {
+    while spacing * ratio < widest && count(spacing) > MAX_SAMPLES {
         spacing *= 1.25;
     }
     // On a mesh with more triangles than that, the vertices already sample the surface
@@ -251,7 +312,7 @@ fn samples(
         let n = mesh.face_normal(t);
         let l = norm(n).max(1e-300);
         let n = n.map(|v| if flip { -v / l } else { v / l });
-        let parts = (longest(t) / spacing).ceil().min(64.0) as usize;
+        let parts = parts_at(t, spacing) as usize;
         if parts < 3 {
             pts.push([0, 1, 2].map(|k| (tri[0][k] + tri[1][k] + tri[2][k]) / 3.0));
             normals.push(n);
@@ -771,6 +832,72 @@ mod tests {
             positions,
             triangles,
         }
+    }
+
+    #[test]
+    fn flat_faces_are_a_cube_s_and_a_flat_sheet_s_not_a_faceted_sphere_s() {
+        let longest = |mesh: &PolygonMesh| {
+            let m = mesh.clone();
+            move |t: usize| {
+                let tri = m.triangles[t].map(|i| m.positions[i as usize]);
+                (0..3)
+                    .map(|k| norm(sub(tri[(k + 1) % 3], tri[k])))
+                    .fold(0.0, f64::max)
+            }
+        };
+        let cube = PolygonMesh {
+            positions: (0..8)
+                .map(|i| {
+                    [(i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64].map(|v| v - 0.5)
+                })
+                .collect(),
+            triangles: vec![
+                [0, 2, 3],
+                [0, 3, 1],
+                [4, 5, 7],
+                [4, 7, 6],
+                [0, 1, 5],
+                [0, 5, 4],
+                [2, 6, 7],
+                [2, 7, 3],
+                [0, 4, 6],
+                [0, 6, 2],
+                [1, 3, 7],
+                [1, 7, 5],
+            ],
+        };
+        assert!(
+            flat_faces(&cube, longest(&cube)).iter().all(|&f| f),
+            "square faces meeting at right angles"
+        );
+        let sheet = square(5);
+        assert!(flat_faces(&sheet, longest(&sheet)).iter().all(|&f| f));
+        // 16 bands: neighbours meet at 11.25 degrees, neither one face nor a crease.
+        let n = 16;
+        let mut positions = vec![[0.0, 0.0, 0.5], [0.0, 0.0, -0.5]];
+        for i in 1..n {
+            let th = std::f64::consts::PI * i as f64 / n as f64;
+            for j in 0..2 * n {
+                let ph = std::f64::consts::PI * j as f64 / n as f64;
+                positions
+                    .push([th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()].map(|v| 0.5 * v));
+            }
+        }
+        let ring = |i: usize, j: usize| (2 + (i - 1) * 2 * n + j % (2 * n)) as u32;
+        let mut triangles = Vec::new();
+        for j in 0..2 * n {
+            triangles.push([0, ring(1, j), ring(1, j + 1)]);
+            triangles.push([1, ring(n - 1, j + 1), ring(n - 1, j)]);
+            for i in 1..n - 1 {
+                triangles.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+                triangles.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+            }
+        }
+        let sphere = PolygonMesh {
+            positions,
+            triangles,
+        };
+        assert!(flat_faces(&sphere, longest(&sphere)).iter().all(|&f| !f));
     }
 
     #[test]
