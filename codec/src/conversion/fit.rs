@@ -165,7 +165,7 @@ const FLAT_SAMPLE_SPACING: f64 = 0.004;
 /// Neighbours whose normals are closer than this (degrees) lie on one flat face...
 const FLAT_DEG: f64 = 1.0;
 /// ...and an edge sharper than this is a crease between faces.
-const CREASE_DEG: f64 = 40.0;
+const CREASE_DEG: f64 = 60.0;
 
 /// Per triangle, whether it is large (longer than three [`FLAT_SAMPLE_SPACING`]) and
 /// lies on a flat face: a neighbour across an edge is coplanar with it, and each other
