@@ -89,7 +89,8 @@ impl Opening {
                 // A sliver's sharp corner would move far: its edges move out by at most
                 // half its inradius instead.
                 let grow = 1.0 + (OVERLAP / inradius).min(0.5);
-                let vertices = v.map(|p| [0, 1, 2].map(|k| incentre[k] + grow * (p[k] - incentre[k])));
+                let vertices =
+                    v.map(|p| [0, 1, 2].map(|k| incentre[k] + grow * (p[k] - incentre[k])));
                 json!({"polygon": {"vertices": vertices, "depth": depth}, "factor": CUT_FACTOR})
             })
             .collect()
@@ -240,7 +241,12 @@ fn resample(pts: &[[f64; 3]], count: usize) -> Vec<[f64; 3]> {
 
 /// The signed distance along `dir` from `p` to the nearest zero of `field` within
 /// `reach` either way, in steps of a fifth of the shell's thickness.
-fn nearest_crossing(field: &dyn ImplicitField, p: [f64; 3], dir: [f64; 3], reach: f64) -> Option<f64> {
+fn nearest_crossing(
+    field: &dyn ImplicitField,
+    p: [f64; 3],
+    dir: [f64; 3],
+    reach: f64,
+) -> Option<f64> {
     let step = 0.2 * SHELL_THICKNESS;
     let at = |t: f64| field.value([0, 1, 2].map(|k| p[k] + t * dir[k]));
     let f0 = at(0.0);

@@ -138,8 +138,7 @@ impl PolygonMesh {
     /// non-manifold edge) is returned as far as it goes. Loops are in the order of the
     /// first triangle that has one of their edges.
     pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
-        let mut count: HashMap<(u32, u32), u32> =
-            HashMap::with_capacity(self.triangles.len() * 2);
+        let mut count: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
         for t in &self.triangles {
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -168,10 +167,7 @@ impl PolygonMesh {
             let mut cycle = vec![first];
             while at != first {
                 cycle.push(at);
-                let Some(&e) = out
-                    .get(&at)
-                    .and_then(|es| es.iter().find(|&&e| !used[e]))
-                else {
+                let Some(&e) = out.get(&at).and_then(|es| es.iter().find(|&&e| !used[e])) else {
                     break;
                 };
                 used[e] = true;

@@ -603,10 +603,7 @@ impl Node {
 /// `x = t / 2` and falls after it, so the ends give the low bound and the peak caps
 /// the high one.
 fn shell_interval(f: Interval, t: f64) -> Interval {
-    Interval::new(
-        f.lo.min(t - f.hi),
-        f.hi.min(t - f.lo).min(0.5 * t),
-    )
+    Interval::new(f.lo.min(t - f.hi), f.hi.min(t - f.lo).min(0.5 * t))
 }
 
 /// The fade of a planar relief's push over the base's z range `ramp`: 0 below, 1
@@ -827,6 +824,9 @@ mod tests {
         let i = shell_interval(Interval::new(0.02, 0.03), t);
         assert_eq!((i.lo, i.hi), (0.02, 0.03));
         let i = shell_interval(Interval::new(0.07, 0.09), t);
-        assert!((i.lo - 0.01).abs() < 1e-12 && (i.hi - 0.03).abs() < 1e-12, "{i:?}");
+        assert!(
+            (i.lo - 0.01).abs() < 1e-12 && (i.hi - 0.03).abs() < 1e-12,
+            "{i:?}"
+        );
     }
 }

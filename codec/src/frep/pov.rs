@@ -250,10 +250,7 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
         }
         Node::Shell { thickness, operand } => {
             let f = declare(operand, out, next);
-            format!(
-                "min({f}(x, y, z), {} - {f}(x, y, z))",
-                num(*thickness)
-            )
+            format!("min({f}(x, y, z), {} - {f}(x, y, z))", num(*thickness))
         }
         Node::Negate(n) => {
             let f = declare(n, out, next);

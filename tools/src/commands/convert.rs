@@ -208,16 +208,12 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
     heartbeat.phase(&msg, true);
     let frame = mesh.unit_frame();
     let unit = mesh.transformed(&frame);
-    let (closed, _) = measure(
-        global,
-        &result.model,
-        &unit,
-        a.check_size as usize,
-        6,
-        false,
-    )?;
     let holed = !sheet && open.boundary_edges > 0;
-    let loops = if holed { unit.boundary_loops() } else { Vec::new() };
+    let loops = if holed {
+        unit.boundary_loops()
+    } else {
+        Vec::new()
+    };
     // A solid with holes may be written as a shell with openings instead: measured
     // like the closed model, on the model file itself.
     let mut shell = None;
@@ -250,21 +246,40 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
             shell = Some((m, json, openings.len()));
         }
     }
-    let closed_all = closed.mean_all;
     let shell_all = shell.as_ref().map(|s| s.0.mean_all);
     let shell_cut = shell.as_ref().map_or(0, |s| s.2);
-    let use_shell = match (a.holes, &shell) {
-        (HolesArg::Open, Some(_)) => true,
-        (HolesArg::Auto, Some((m, _, _))) => m.mean_all < closed.mean_all,
+    // The closed model is measured unless the shell was asked for and built.
+    let closed = if a.holes == HolesArg::Open && shell.is_some() {
+        None
+    } else {
+        if holed {
+            note(global, "measuring the closed model");
+            heartbeat.phase("measuring the closed model", true);
+        }
+        Some(
+            measure(
+                global,
+                &result.model,
+                &unit,
+                a.check_size as usize,
+                6,
+                false,
+            )?
+            .0,
+        )
+    };
+    let closed_all = closed.as_ref().map(|m| m.mean_all);
+    let use_shell = match (&closed, &shell) {
+        (None, Some(_)) => true,
+        (Some(c), Some((m, _, _))) => a.holes == HolesArg::Auto && m.mean_all < c.mean_all,
         _ => false,
     };
-    let (m, model, cut) = match shell {
-        Some((m, json, cut)) if use_shell => (m, json, cut),
-        _ => (
-            closed,
-            result.model.to_frep_json(&title, mesh.bounds()),
-            0,
-        ),
+    let (m, model, cut) = match (shell, closed) {
+        (_, Some(closed)) if !use_shell => {
+            (closed, result.model.to_frep_json(&title, mesh.bounds()), 0)
+        }
+        (Some((m, json, cut)), _) => (m, json, cut),
+        (None, _) => unreachable!("the shell is used only when it was built"),
     };
     let text = serde_json::to_string(&model).expect("JSON of numbers");
     outputs.write_path(&a.output, text.as_bytes())?;
@@ -396,7 +411,7 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
                          "openings": cut,
                          "handled_as": handled_as},
                 "holes": {"mode": format!("{:?}", a.holes).to_lowercase(),
-                          "closed_depth_mean_all_pixels": holed.then_some(closed_all),
+                          "closed_depth_mean_all_pixels": closed_all.filter(|_| holed),
                           "open_depth_mean_all_pixels": shell_all},
                 "deviation": {
                     "size": a.check_size,
@@ -421,17 +436,18 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
             a.output.display()
         );
         if holed {
+            let closed_text = closed_all.map(|c| format!("{:.4}% closed", 100.0 * c));
+            let shell_text = shell_all
+                .map(|s| format!("{:.4}% as a shell with {shell_cut} openings", 100.0 * s));
             outln!(
                 out,
-                "holes:           {} boundary loops; depth over all pixels {:.4}% closed{}",
+                "holes:           {} boundary loops; depth over all pixels {}",
                 loops.len(),
-                100.0 * closed_all,
-                shell_all.map_or(String::new(), |s| format!(
-                    ", {:.4}% as a shell with {} openings{}",
-                    100.0 * s,
-                    shell_cut,
-                    if use_shell { " (written)" } else { "" }
-                ))
+                [closed_text, shell_text]
+                    .into_iter()
+                    .flatten()
+                    .collect::<Vec<_>>()
+                    .join(", ")
             );
         }
         outln!(
