@@ -303,16 +303,32 @@ fn triangulate(corners: &[[f64; 3]], normal: [f64; 3]) -> Option<Vec<[usize; 3]>
     let mut out = Vec::new();
     while ring.len() > 3 {
         let n = ring.len();
-        let ear = (0..n).find(|&i| {
-            let (a, b, c) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
-            turn(a, b, c) > 0.0
-                && ring.iter().all(|&q| {
-                    q == a
-                        || q == b
-                        || q == c
-                        || !(turn(a, b, q) >= 0.0 && turn(b, c, q) >= 0.0 && turn(c, a, q) >= 0.0)
-                })
-        });
+        // Of the ears, the roundest (twice the area over the longest side squared):
+        // slivers across the polygon would each reach most of it, and a point visits
+        // every patch whose box holds it.
+        let ear = (0..n)
+            .filter(|&i| {
+                let (a, b, c) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+                turn(a, b, c) > 0.0
+                    && ring.iter().all(|&q| {
+                        q == a
+                            || q == b
+                            || q == c
+                            || !(turn(a, b, q) >= 0.0
+                                && turn(b, c, q) >= 0.0
+                                && turn(c, a, q) >= 0.0)
+                    })
+            })
+            .max_by(|&x, &y| {
+                let round = |i: usize| {
+                    let (a, b, c) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+                    let side = |u: usize, v: usize| {
+                        (p[u][0] - p[v][0]).powi(2) + (p[u][1] - p[v][1]).powi(2)
+                    };
+                    turn(a, b, c) / side(a, b).max(side(b, c)).max(side(c, a))
+                };
+                round(x).total_cmp(&round(y))
+            });
         let i = ear.unwrap_or_else(|| {
             (0..n)
                 .max_by(|&x, &y| {
