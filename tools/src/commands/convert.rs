@@ -236,14 +236,19 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
             let json = result
                 .model
                 .to_frep_json_of(unit_model, &title, mesh.bounds());
-            let node = caoen::frep::Node::from_json(&json["model"], "model", Path::new("."))
-                .map_err(|e| CliError::Failed(format!("the model with openings: {e}")))?;
-            let field = InUnitCube {
-                field: &node,
-                frame,
-            };
-            let (m, _) = measure(global, &field, &unit, a.check_size as usize, 6, false)?;
-            shell = Some((m, json, openings.len()));
+            // A cutter the model file refuses (a patch its checks find degenerate)
+            // leaves the closed model, said on stderr, rather than failing the fit.
+            match caoen::frep::Node::from_json(&json["model"], "model", Path::new(".")) {
+                Ok(node) => {
+                    let field = InUnitCube {
+                        field: &node,
+                        frame,
+                    };
+                    let (m, _) = measure(global, &field, &unit, a.check_size as usize, 6, false)?;
+                    shell = Some((m, json, openings.len()));
+                }
+                Err(e) => note(global, format!("no shell with openings: {e}")),
+            }
         }
     }
     let shell_all = shell.as_ref().map(|s| s.0.mean_all);
