@@ -298,7 +298,7 @@ fn a_closed_model_of_a_holed_mesh_says_the_holes_cost_the_depth() {
     let dir = tmpdir("holed");
     let mesh = dir.join("holed.obj");
     std::fs::write(&mesh, holed_sphere_obj(48)).unwrap();
-    let r = convert_json(&mesh, &dir.join("m.json"), &[]);
+    let r = convert_json(&mesh, &dir.join("m.json"), &["--holes", "close"]);
     assert_eq!(r["open"]["handled_as"], "solid, holes closed", "{r}");
     assert_eq!(r["met_target"], false, "{r}");
     let advice = r["advice"].as_str().unwrap();
@@ -307,6 +307,82 @@ fn a_closed_model_of_a_holed_mesh_says_the_holes_cost_the_depth() {
         "{r}"
     );
     assert!(!advice.contains("raise --max-functions"), "{r}");
+    // Closed on request: the advice names the other mode.
+    assert!(advice.contains("--holes open"), "{r}");
+    assert!(r["holes"]["open_depth_mean_all_pixels"].is_null(), "{r}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The all-pixel depth mean of the view `name` in a convert summary.
+fn view_depth(r: &serde_json::Value, name: &str) -> f64 {
+    r["deviation"]["depth"]["views"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|v| v["view"] == name)
+        .unwrap_or_else(|| panic!("no view {name}: {r}"))["mean_all_pixels"]
+        .as_f64()
+        .unwrap()
+}
+
+#[test]
+fn a_holed_mesh_converts_with_an_opening_the_view_into_it_sees_through() {
+    let dir = tmpdir("opening");
+    let mesh = dir.join("holed.obj");
+    std::fs::write(&mesh, holed_sphere_obj(32)).unwrap();
+    let (closed_model, open_model) = (dir.join("closed.json"), dir.join("open.json"));
+    let closed = convert_json(&mesh, &closed_model, &["--holes", "close"]);
+    let open = convert_json(&mesh, &open_model, &[]);
+    assert_eq!(open["open"]["handled_as"], "shell with openings", "{open}");
+    assert_eq!(
+        (&open["open"]["boundary_loops"], &open["open"]["openings"]),
+        (&serde_json::json!(1), &serde_json::json!(1)),
+        "{open}"
+    );
+    // The view from above looks into the hole: the shell shows the inside there.
+    let (c, o) = (view_depth(&closed, "-z"), view_depth(&open, "-z"));
+    assert!(o < 0.5 * c, "-z: open {o} closed {c}");
+    let all = |r: &serde_json::Value| r["deviation"]["depth"]["mean_all_pixels"].as_f64().unwrap();
+    assert!(all(&open) < all(&closed), "{open} {closed}");
+    // Both were measured on the same fit; the summary keeps both.
+    assert_eq!(
+        open["holes"]["closed_depth_mean_all_pixels"].as_f64(),
+        Some(all(&closed))
+    );
+    assert_eq!(
+        open["holes"]["open_depth_mean_all_pixels"].as_f64(),
+        Some(all(&open))
+    );
+    // The view from below, which does not see the hole, is the same: the outer wall
+    // is the closed surface.
+    let (c, o) = (view_depth(&closed, "+z"), view_depth(&open, "+z"));
+    assert!((o - c).abs() < 1e-9, "+z: open {o} closed {c}");
+    // What was written is what was measured.
+    let out = caoen(&[
+        "--quiet",
+        "deviation",
+        s(&mesh),
+        s(&open_model),
+        "--size",
+        "64",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let written = d["depth"]["mean_all_pixels"].as_f64().unwrap();
+    assert!(
+        (written - all(&open)).abs() < 1e-12,
+        "{written} {}",
+        all(&open)
+    );
+    // The advice never says the model closes the holes it opened.
+    if let Some(advice) = open["advice"].as_str() {
+        assert!(!advice.contains("which the model closes"), "{open}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

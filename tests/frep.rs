@@ -86,6 +86,7 @@ fn zoo() -> Vec<Node> {
             json!({"blend_intersection": [sphere.clone(), boxy.clone()], "a0": -0.2, "a1": 0.5, "a2": 0.5}),
         ),
         node(json!({"offset": sphere.clone(), "by": 0.1})),
+        node(json!({"shell": sphere.clone(), "thickness": 0.15})),
         node(
             json!({"cao_en_solid": {"polyhedron": "dodecahedron", "radius": 0.8, "q": 12.0, "level": 2.0}}),
         ),

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use caoen::conversion::mesh_file::{check_convertible, MAX_CONVERT_COORDINATE, MIN_CONVERT_EXTENT};
-use caoen::conversion::{Bump, ImplicitModel, PolygonMesh};
+use caoen::conversion::{openings, Bump, ImplicitModel, PolygonMesh};
 use caoen::surface::{gallery, SurfaceModel};
 use caoen_cli::cli::Cli;
 use clap::Parser as _;
@@ -116,6 +116,12 @@ proptest! {
             (prop::array::uniform3(-0.6f64..0.6), 0.004f64..0.5, -1e3f64..1e3),
             0..6
         ),
+        hole in (
+            prop::array::uniform3(-0.5f64..0.5),
+            prop::array::uniform3(-1.0f64..1.0),
+            1e-4f64..0.3,
+            3usize..9,
+        ),
     ) {
         let hi = [0, 1, 2].map(|k| (lo[k] + extent * stretch[k]).min(MAX_CONVERT_COORDINATE));
         let mesh = PolygonMesh {
@@ -134,6 +140,49 @@ proptest! {
         let json = model.to_frep_json("m (converted)", mesh.bounds());
         std::fs::write(&path, serde_json::to_string(&json).expect("json")).expect("write");
         reads_back_as_model(&path);
+        // The same model as a shell with an opening over a regular polygon (a fan of
+        // triangles) anywhere, of any size the loops of a mesh give.
+        let (centre, axis, radius, corners) = hole;
+        let len = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt();
+        if len > 1e-3 {
+            let normal = axis.map(|v| v / len);
+            let u = {
+                let t = if normal[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+                let c = [
+                    normal[1] * t[2] - normal[2] * t[1],
+                    normal[2] * t[0] - normal[0] * t[2],
+                    normal[0] * t[1] - normal[1] * t[0],
+                ];
+                let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+                c.map(|v| v / l)
+            };
+            let w = [
+                normal[1] * u[2] - normal[2] * u[1],
+                normal[2] * u[0] - normal[0] * u[2],
+                normal[0] * u[1] - normal[1] * u[0],
+            ];
+            let opening = openings::Opening {
+                centre,
+                normal,
+                slab: [-0.02, 0.03],
+                corners: (0..corners)
+                    .map(|k| {
+                        let a = std::f64::consts::TAU * k as f64 / corners as f64;
+                        [0, 1, 2].map(|i| centre[i] + radius * (a.cos() * u[i] + a.sin() * w[i]))
+                    })
+                    .collect(),
+                triangles: (1..corners - 1).map(|k| [0, k, k + 1]).collect(),
+                loop_edges: corners,
+            };
+            let unit_model = openings::shell_with_openings(
+                model.fitted_json(),
+                &[opening],
+                openings::SHELL_THICKNESS,
+            );
+            let json = model.to_frep_json_of(unit_model, "m (converted)", mesh.bounds());
+            std::fs::write(&path, serde_json::to_string(&json).expect("json")).expect("write");
+            reads_back_as_model(&path);
+        }
         std::fs::remove_file(&path).ok();
     }
 

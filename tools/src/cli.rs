@@ -129,12 +129,29 @@ pub struct ConvertArgs {
     /// winding number closes; without it such a mesh is refused.
     #[arg(long)]
     pub fill_open: bool,
+    /// A solid with holes (boundary loops, not a sheet): `close` models the closed
+    /// solid; `open` a thin shell of it with an opening cut at each loop, so views into
+    /// the holes see inside as the mesh does; `auto` measures both and writes the one
+    /// with the smaller depth deviation.
+    #[arg(long, value_enum, default_value_t = HolesArg::Auto)]
+    pub holes: HolesArg,
     /// Sweeps of the local descent on the form factors after the fit (0: none).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=100))]
     pub descent: u32,
     /// Print the result as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// How `caoen convert` models the holes of a solid with holes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum HolesArg {
+    /// Measure the closed solid and the shell with openings; keep the closer.
+    Auto,
+    /// The closed solid: the fit's surface spans each hole.
+    Close,
+    /// A shell of the fitted solid with an opening at each boundary loop.
+    Open,
 }
 
 /// `caoen deviation`.

@@ -7,6 +7,7 @@ pub mod deviation;
 pub mod fit;
 pub mod mesh_file;
 pub mod model;
+pub mod openings;
 pub mod polygon_mesh;
 pub mod quadric;
 pub mod rbf_baseline;

@@ -120,6 +120,11 @@ impl ImplicitModel {
     /// coordinates: the unit-cube model, cut to a box a little larger than the mesh's
     /// (the fit says nothing far from the mesh), scaled back.
     pub fn to_frep_json(&self, name: &str, mesh_box: ([f64; 3], [f64; 3])) -> Value {
+        self.to_frep_json_of(self.fitted_json(), name, mesh_box)
+    }
+
+    /// The fitted function as an F-rep node in the unit cube.
+    pub fn fitted_json(&self) -> Value {
         let patches: Vec<Value> = self
             .bumps
             .iter()
@@ -136,12 +141,29 @@ impl ImplicitModel {
         for chunk in patches.chunks(crate::frep::node::MAX_NODES / 2) {
             fitted = json!({"perturb": fitted, "patches": chunk, "power": 3});
         }
+        fitted
+    }
+
+    /// The nodes [`ImplicitModel::fitted_json`] holds, as a model file counts them.
+    pub fn fitted_nodes(&self) -> usize {
+        1 + self.bumps.len() + self.bumps.len().div_ceil(crate::frep::node::MAX_NODES / 2)
+    }
+
+    /// `unit_model`, a node in this model's unit cube (the fitted function or one made
+    /// from it), as an F-rep model file in the mesh's own coordinates, as
+    /// [`ImplicitModel::to_frep_json`] writes the fitted function.
+    pub fn to_frep_json_of(
+        &self,
+        unit_model: Value,
+        name: &str,
+        mesh_box: ([f64; 3], [f64; 3]),
+    ) -> Value {
         let (lo, hi) = mesh_box;
         let size = [0, 1, 2].map(|k| (hi[k] - lo[k]) * self.frame.scale + 0.04);
         let model = json!({
             "transform": {
                 "intersection": [
-                    fitted,
+                    unit_model,
                     {"box": {"centre": [0.0, 0.0, 0.0], "size": size}}
                 ],
                 "a": 1

@@ -132,6 +132,52 @@ impl PolygonMesh {
         }
     }
 
+    /// The boundary loops: each a cycle of vertices joined by edges with one triangle,
+    /// in the direction the triangles run along them. A vertex where two holes touch
+    /// starts or continues more than one loop; a chain that does not close (through a
+    /// non-manifold edge) is returned as far as it goes. Loops are in the order of the
+    /// first triangle that has one of their edges.
+    pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
+        let mut count: HashMap<(u32, u32), u32> = HashMap::with_capacity(self.triangles.len() * 2);
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let directed: Vec<(u32, u32)> = self
+            .triangles
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .filter(|&(a, b)| count[&(a.min(b), a.max(b))] == 1)
+            .collect();
+        // Outgoing boundary edges per vertex, as indices into `directed`.
+        let mut out: HashMap<u32, Vec<usize>> = HashMap::new();
+        for (i, &(a, _)) in directed.iter().enumerate() {
+            out.entry(a).or_default().push(i);
+        }
+        let mut used = vec![false; directed.len()];
+        let mut loops = Vec::new();
+        for start in 0..directed.len() {
+            if used[start] {
+                continue;
+            }
+            used[start] = true;
+            let (first, mut at) = directed[start];
+            let mut cycle = vec![first];
+            while at != first {
+                cycle.push(at);
+                let Some(&e) = out.get(&at).and_then(|es| es.iter().find(|&&e| !used[e])) else {
+                    break;
+                };
+                used[e] = true;
+                at = directed[e].1;
+            }
+            loops.push(cycle);
+        }
+        loops
+    }
+
     /// The bounding box `(lo, hi)` of the positions.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
         let mut lo = [f64::INFINITY; 3];
@@ -346,6 +392,44 @@ mod tests {
         assert_eq!(o.boundary_edges, 4 * n as usize);
         assert!((o.boundary_ratio - 4.0).abs() < 1e-9, "{o:?}");
         assert!(o.is_sheet());
+    }
+
+    #[test]
+    fn the_boundary_loops_of_a_conversion_mesh_with_two_holes_are_its_two_rims() {
+        let ball = PolygonMesh::ellipsoid([1.0; 3], 3);
+        assert!(ball.boundary_loops().is_empty());
+        let mut holed = ball.clone();
+        // A cap off the top and a smaller one off the bottom.
+        holed.triangles.retain(|t| {
+            let z = t.map(|i| ball.positions[i as usize][2]);
+            !(z.iter().all(|&z| z > 0.7) || z.iter().all(|&z| z < -0.85))
+        });
+        let loops = holed.boundary_loops();
+        assert_eq!(loops.len(), 2, "{loops:?}");
+        let boundary = holed.topology().boundary_edges;
+        assert_eq!(loops.iter().map(Vec::len).sum::<usize>(), boundary);
+        for l in &loops {
+            // Each loop is a cycle of distinct vertices on one rim.
+            let mut sorted = l.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), l.len());
+            let z: Vec<f64> = l.iter().map(|&i| ball.positions[i as usize][2]).collect();
+            let top = z[0] > 0.0;
+            for (k, &zk) in z.iter().enumerate() {
+                assert_eq!(zk > 0.0, top);
+                // The rim's vertices belong to a removed triangle.
+                assert!(if top { zk > 0.7 } else { zk < -0.85 }, "{zk}");
+                // Consecutive vertices share a triangle edge with one triangle.
+                let (a, b) = (l[k], l[(k + 1) % l.len()]);
+                let n = holed
+                    .triangles
+                    .iter()
+                    .filter(|t| t.contains(&a) && t.contains(&b))
+                    .count();
+                assert_eq!(n, 1, "{a} {b}");
+            }
+        }
     }
 
     #[test]

@@ -155,8 +155,9 @@ const PRIMITIVES: [&str; 11] = [
     "quadric",
     "superellipsoid",
 ];
-const OPERATIONS: [&str; 16] = [
+const OPERATIONS: [&str; 17] = [
     "negate",
+    "shell",
     "blend_difference",
     "twist",
     "taper",
@@ -366,6 +367,7 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
         "bend" => &["radius"],
         "noise" => &["amplitude", "scale", "seed"],
         "offset" => &["by"],
+        "shell" => &["thickness"],
         "perturb" => &["patches", "power"],
         "relief" => &["image", "projection", "rect", "depth", "interp"],
         _ => &["scale", "rotate_deg", "translate"],
@@ -558,6 +560,10 @@ fn parse(v: &Value, path: &str, depth: usize, count: &mut Context<'_>) -> Result
                 operand: Box::new(parse(body, &here, depth + 1, count)?),
             }
         }
+        "shell" => Node::Shell {
+            thickness: length(get(o, "thickness", path)?, &format!("{path}.thickness"))?,
+            operand: Box::new(parse(body, &here, depth + 1, count)?),
+        },
         "offset" => Node::Offset {
             by: number(get(o, "by", path)?, &format!("{path}.by"), -w, w)?,
             operand: Box::new(parse(body, &here, depth + 1, count)?),

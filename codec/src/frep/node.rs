@@ -106,6 +106,15 @@ pub enum Node {
         /// The operand.
         operand: Box<Node>,
     },
+    /// `min(f, thickness - f)`: the solid between the operand's surface and the one
+    /// where `f = thickness` inside it (a wall about `thickness / |grad f|` thick), with
+    /// the operand evaluated once.
+    Shell {
+        /// The level of the inner surface.
+        thickness: f64,
+        /// The operand.
+        operand: Box<Node>,
+    },
     /// `f + by`: grows the solid (shrinks it for a negative amount).
     Offset {
         /// Added to the function.
@@ -312,6 +321,10 @@ impl Node {
                 depth,
                 ramp,
             } => base.value(relief_point(map, *depth, *ramp, p)),
+            Node::Shell { thickness, operand } => {
+                let f = operand.value(p);
+                f.min(thickness - f)
+            }
             Node::Offset { by, operand } => operand.value(p) + by,
             Node::Transform {
                 inverse, operand, ..
@@ -391,6 +404,15 @@ impl Node {
                 // The chain rule: grad_k = sum_i dW_i/dp_k g_i.
                 (v, [0, 1, 2].map(|k| (0..3).map(|i| j[i][k] * g[i]).sum()))
             }
+            Node::Shell { thickness, operand } => {
+                let (v, g) = operand.value_gradient(p);
+                // The same branch as `min` in `value` (ties to the outer surface).
+                if v <= thickness - v {
+                    (v, g)
+                } else {
+                    (thickness - v, g.map(|x| -x))
+                }
+            }
             Node::Offset { by, operand } => {
                 let (v, g) = operand.value_gradient(p);
                 (v + by, g)
@@ -463,6 +485,7 @@ impl Node {
                 depth,
                 ramp,
             } => base.interval(&relief_warp_box(map, *depth, *ramp, b)),
+            Node::Shell { thickness, operand } => shell_interval(operand.interval(b), *thickness),
             Node::Offset { by, operand } => operand.interval(b) + Interval::point(*by),
             Node::Transform {
                 inverse, operand, ..
@@ -534,6 +557,8 @@ impl Node {
                 let h = map.perturbation_range(&b);
                 Some(b.padded(depth.abs() * h.lo.abs().max(h.hi.abs())))
             }
+            // Inside the shell, f >= 0: inside the operand.
+            Node::Shell { operand, .. } => operand.bounds(),
             Node::Offset { by, operand } => {
                 let b = operand.bounds()?;
                 // For the quadratic primitives, f + by moves the boundary by about
@@ -565,12 +590,20 @@ impl Node {
             Node::Pattern { .. } => 0,
             Node::Relief { base, .. } => base.count(),
             Node::Offset { operand, .. }
+            | Node::Shell { operand, .. }
             | Node::Transform { operand, .. }
             | Node::Warp { operand, .. }
             | Node::Noise { operand, .. } => operand.count(),
             Node::Negate(n) => n.count(),
         }
     }
+}
+
+/// The range of `min(x, t - x)` for `x` in `f`: the function rises to `t / 2` at
+/// `x = t / 2` and falls after it, so the ends give the low bound and the peak caps
+/// the high one.
+fn shell_interval(f: Interval, t: f64) -> Interval {
+    Interval::new(f.lo.min(t - f.hi), f.hi.min(t - f.lo).min(0.5 * t))
 }
 
 /// The fade of a planar relief's push over the base's z range `ramp`: 0 below, 1
@@ -727,5 +760,73 @@ pub fn mean_surface_gradient(node: &Node, b: &Aabb) -> f64 {
         1.0
     } else {
         sum / count as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ball() -> Node {
+        Node::Primitive(Primitive::Sphere {
+            centre: [0.1, -0.2, 0.05],
+            radius: 0.6,
+        })
+    }
+
+    #[test]
+    fn a_frep_shell_is_the_wall_between_the_surface_and_the_inner_level() {
+        let t = 0.1;
+        let shell = Node::Shell {
+            thickness: t,
+            operand: Box::new(ball()),
+        };
+        let f = ball();
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for _ in 0..2000 {
+            let p = [next(), next(), next()];
+            let (v, g) = shell.value_gradient(p);
+            let fv = f.value(p);
+            assert_eq!(v, fv.min(t - fv));
+            assert_eq!(v, shell.value(p));
+            // Inside the wall exactly where the operand is between 0 and the thickness.
+            assert_eq!(v >= 0.0, (0.0..=t).contains(&fv), "{p:?}");
+            // Away from the crease at f = t / 2 the gradient is the derivative.
+            if (fv - 0.5 * t).abs() > 1e-3 {
+                let h = 1e-6;
+                for k in 0..3 {
+                    let (mut a, mut b) = (p, p);
+                    a[k] += h;
+                    b[k] -= h;
+                    let fd = (shell.value(a) - shell.value(b)) / (2.0 * h);
+                    assert!((fd - g[k]).abs() < 1e-6, "{p:?} {k}: {fd} {}", g[k]);
+                }
+            }
+            // The bound over a box around the point holds every value sampled in it.
+            let r = 0.2 * (next() + 1.0);
+            let b = Aabb::new(p.map(|x| x - r), p.map(|x| x + r));
+            let i = shell.interval(&b);
+            for _ in 0..20 {
+                let q = [0, 1, 2].map(|k| p[k] + r * next());
+                let v = shell.value(q);
+                assert!(i.lo <= v && v <= i.hi, "{q:?} {v} {i:?}");
+            }
+        }
+        // The peak: half the thickness, reached inside a box holding f = t / 2.
+        let i = shell_interval(Interval::new(-1.0, 1.0), t);
+        assert_eq!((i.lo, i.hi), (-1.0, 0.5 * t));
+        let i = shell_interval(Interval::new(0.02, 0.03), t);
+        assert_eq!((i.lo, i.hi), (0.02, 0.03));
+        let i = shell_interval(Interval::new(0.07, 0.09), t);
+        assert!(
+            (i.lo - 0.01).abs() < 1e-12 && (i.hi - 0.03).abs() < 1e-12,
+            "{i:?}"
+        );
     }
 }

@@ -248,6 +248,10 @@ pub(crate) fn declare(node: &Node, out: &mut String, next: &mut usize) -> String
             let f = declare(operand, out, next);
             format!("{f}(x, y, z) + {}", num(*by))
         }
+        Node::Shell { thickness, operand } => {
+            let f = declare(operand, out, next);
+            format!("min({f}(x, y, z), {} - {f}(x, y, z))", num(*thickness))
+        }
         Node::Negate(n) => {
             let f = declare(n, out, next);
             // POV-Ray does not parse a function body that starts with a minus sign.
@@ -610,6 +614,7 @@ pub(crate) fn unexportable(node: &Node) -> Option<Unexportable> {
         Node::Blend { operands, .. } => operands.iter().find_map(unexportable),
         Node::Perturb { base, .. } => unexportable(base),
         Node::Offset { operand, .. }
+        | Node::Shell { operand, .. }
         | Node::Transform { operand, .. }
         | Node::Warp { operand, .. }
         | Node::Noise { operand, .. } => unexportable(operand),

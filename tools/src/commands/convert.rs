@@ -6,11 +6,11 @@ use std::time::Instant;
 
 use caoen::conversion::deviation::{self, DepthDeviation, FieldGrid, VertexDeviation};
 use caoen::conversion::fit::Progress;
-use caoen::conversion::{self, ImplicitField, InUnitCube, PolygonMesh};
+use caoen::conversion::{self, openings, ImplicitField, InUnitCube, PolygonMesh};
 use caoen::render::scene::Shape;
 use serde_json::json;
 
-use crate::cli::{ConvertArgs, DeviationArgs, GlobalArgs};
+use crate::cli::{ConvertArgs, DeviationArgs, GlobalArgs, HolesArg};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::Outputs;
@@ -126,7 +126,7 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
             if sheet {
                 "an open sheet, filled (--fill-open)"
             } else if open.boundary_edges > 0 {
-                "a solid with holes, closed by the fit"
+                "a solid with holes"
             } else {
                 "a closed surface"
             }
@@ -198,27 +198,96 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "mesh".into());
-    let model = result
-        .model
-        .to_frep_json(&format!("{name} (converted)"), mesh.bounds());
-    let text = serde_json::to_string(&model).expect("JSON of numbers");
-    outputs.write_path(&a.output, text.as_bytes())?;
-    // The summary measures what `caoen deviation` measures, on the model as fitted.
+    let title = format!("{name} (converted)");
+    // The summary measures what `caoen deviation` measures, on the model written.
     let msg = format!(
         "measuring the model: {} px depth buffers, 6 views",
         a.check_size
     );
     note(global, &msg);
     heartbeat.phase(&msg, true);
-    let unit = mesh.transformed(&mesh.unit_frame());
-    let (m, _) = measure(
-        global,
-        &result.model,
-        &unit,
-        a.check_size as usize,
-        6,
-        false,
-    )?;
+    let frame = mesh.unit_frame();
+    let unit = mesh.transformed(&frame);
+    let holed = !sheet && open.boundary_edges > 0;
+    let loops = if holed {
+        unit.boundary_loops()
+    } else {
+        Vec::new()
+    };
+    // A solid with holes may be written as a shell with openings instead: measured
+    // like the closed model, on the model file itself.
+    let mut shell = None;
+    if holed && a.holes != HolesArg::Close {
+        let msg = format!(
+            "measuring the model with openings at {} boundary loops",
+            loops.len()
+        );
+        note(global, &msg);
+        heartbeat.phase(&msg, true);
+        let room = caoen::frep::node::MAX_NODES
+            .saturating_sub(result.model.fitted_nodes() + SHELL_WRAPPER_NODES);
+        let openings = openings::openings(&unit, &result.model, &loops, room);
+        if !openings.is_empty() {
+            let unit_model = openings::shell_with_openings(
+                result.model.fitted_json(),
+                &openings,
+                openings::SHELL_THICKNESS,
+            );
+            let json = result
+                .model
+                .to_frep_json_of(unit_model, &title, mesh.bounds());
+            // A cutter the model file refuses (a patch its checks find degenerate)
+            // leaves the closed model, said on stderr, rather than failing the fit.
+            match caoen::frep::Node::from_json(&json["model"], "model", Path::new(".")) {
+                Ok(node) => {
+                    let field = InUnitCube {
+                        field: &node,
+                        frame,
+                    };
+                    let (m, _) = measure(global, &field, &unit, a.check_size as usize, 6, false)?;
+                    shell = Some((m, json, openings.len()));
+                }
+                Err(e) => note(global, format!("no shell with openings: {e}")),
+            }
+        }
+    }
+    let shell_all = shell.as_ref().map(|s| s.0.mean_all);
+    let shell_cut = shell.as_ref().map_or(0, |s| s.2);
+    // The closed model is measured unless the shell was asked for and built.
+    let closed = if a.holes == HolesArg::Open && shell.is_some() {
+        None
+    } else {
+        if holed {
+            note(global, "measuring the closed model");
+            heartbeat.phase("measuring the closed model", true);
+        }
+        Some(
+            measure(
+                global,
+                &result.model,
+                &unit,
+                a.check_size as usize,
+                6,
+                false,
+            )?
+            .0,
+        )
+    };
+    let closed_all = closed.as_ref().map(|m| m.mean_all);
+    let use_shell = match (&closed, &shell) {
+        (None, Some(_)) => true,
+        (Some(c), Some((m, _, _))) => a.holes == HolesArg::Auto && m.mean_all < c.mean_all,
+        _ => false,
+    };
+    let (m, model, cut) = match (shell, closed) {
+        (_, Some(closed)) if !use_shell => {
+            (closed, result.model.to_frep_json(&title, mesh.bounds()), 0)
+        }
+        (Some((m, json, cut)), _) => (m, json, cut),
+        (None, _) => unreachable!("the shell is used only when it was built"),
+    };
+    let text = serde_json::to_string(&model).expect("JSON of numbers");
+    outputs.write_path(&a.output, text.as_bytes())?;
     drop(heartbeat);
     let seconds = start.elapsed().as_secs_f64();
     let v = &m.vertex;
@@ -232,9 +301,9 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         conversion::fit::Stop::Budget => "function budget spent",
         conversion::fit::Stop::SmallestRadius => "smallest radius reached",
     };
-    // A closed model of a mesh with holes differs most in the view that looks into
-    // them: when one view's depth error dwarfs the others', that is the cause, and no
-    // budget or target helps.
+    // A model of a mesh with holes differs most in the view that looks into them: when
+    // one view's depth error dwarfs the others', that is the cause, and no budget or
+    // target helps.
     let (worst_view, worst, others) = {
         let (i, w) = m
             .depth
@@ -249,15 +318,45 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         let others = rest.iter().sum::<f64>() / rest.len().max(1) as f64;
         (m.depth.get(i).map_or("", |d| d.0), w, others)
     };
-    let holes_seen = !sheet && open.boundary_edges > 0 && !depth_met && worst > 3.0 * others;
-    // Advice that matches the cause.
+    let holes_seen = holed && !depth_met && worst > 3.0 * others;
+    let handled_as = if sheet {
+        "filled solid (--fill-open)"
+    } else if use_shell {
+        "shell with openings"
+    } else if holed {
+        "solid, holes closed"
+    } else {
+        "solid"
+    };
+    // Advice that matches the cause, and never what was done already.
     let advice = if met {
         None
+    } else if holes_seen && use_shell {
+        Some(format!(
+            "the model is a shell with openings at {cut} of the mesh's {} boundary loops; \
+             the view along {worst_view} still differs most ({:.3}% over all its pixels, \
+             against {:.3}% for the other views): the openings follow the holes' outlines \
+             only as flat polygons of at most {} corners",
+            loops.len(),
+            100.0 * worst,
+            100.0 * others,
+            openings::MAX_CORNERS
+        ))
     } else if holes_seen {
+        let why = match (a.holes, shell_all) {
+            (HolesArg::Close, _) => {
+                "; --holes open (or auto) models a shell with an opening at each hole".to_string()
+            }
+            (_, Some(s)) => format!(
+                "; a shell with openings measured worse ({:.3}% over all pixels)",
+                100.0 * s
+            ),
+            (_, None) => "; no hole's outline has an area to cut an opening over".to_string(),
+        };
         Some(format!(
             "the mesh has {} boundary edges (holes), which the model closes: the view \
              along {worst_view} looks into them ({:.3}% over all its pixels, against \
-             {:.3}% for the other views), so a closed model cannot meet the depth target",
+             {:.3}% for the other views), so a closed model cannot meet the depth target{why}",
             open.boundary_edges,
             100.0 * worst,
             100.0 * others
@@ -286,6 +385,14 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         ))
     };
     if a.json {
+        let views: Vec<_> = m
+            .depth
+            .iter()
+            .map(|(name, d)| {
+                json!({"view": name, "mean": d.mean, "mean_all_pixels": d.mean_all,
+                       "mean_both_cover": d.mean_both})
+            })
+            .collect();
         crate::output::print(
             json!({
                 "mesh": a.mesh.display().to_string(),
@@ -305,14 +412,19 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
                          "boundary_ratio": open.boundary_ratio,
                          "enclosed_fraction": open.enclosed_fraction,
                          "sheet": sheet,
-                         "handled_as": if sheet { "filled solid (--fill-open)" } else if open.boundary_edges > 0 { "solid, holes closed" } else { "solid" }},
+                         "boundary_loops": loops.len(),
+                         "openings": cut,
+                         "handled_as": handled_as},
+                "holes": {"mode": format!("{:?}", a.holes).to_lowercase(),
+                          "closed_depth_mean_all_pixels": closed_all.filter(|_| holed),
+                          "open_depth_mean_all_pixels": shell_all},
                 "deviation": {
                     "size": a.check_size,
                     "views": 6,
                     "vertex_distance": {"mean": v.mean_distance, "max": v.max_distance},
                     "normal_angle_deg": {"mean": v.mean_angle_deg, "max": v.max_angle_deg},
                     "depth": {"mean": m.mean_depth, "mean_all_pixels": m.mean_all,
-                              "mean_both_cover": m.mean_both},
+                              "mean_both_cover": m.mean_both, "views": views},
                 },
                 "mean_distance": v.mean_distance,
                 "max_distance": v.max_distance,
@@ -324,9 +436,25 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         let mut out = String::new();
         outln!(
             out,
-            "wrote {}: {functions} of {max_functions} functions in {seconds:.1} s ({stop})",
+            "wrote {}: {functions} of {max_functions} functions in {seconds:.1} s ({stop}), \
+             {handled_as}",
             a.output.display()
         );
+        if holed {
+            let closed_text = closed_all.map(|c| format!("{:.4}% closed", 100.0 * c));
+            let shell_text = shell_all
+                .map(|s| format!("{:.4}% as a shell with {shell_cut} openings", 100.0 * s));
+            outln!(
+                out,
+                "holes:           {} boundary loops; depth over all pixels {}",
+                loops.len(),
+                [closed_text, shell_text]
+                    .into_iter()
+                    .flatten()
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
         outln!(
             out,
             "vertex distance: mean {:.5}, max {:.5} (unit cube)",
@@ -359,6 +487,10 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
     }
     Ok(())
 }
+
+/// Nodes a model with openings adds around the fitted function and the cutters: the
+/// transform, the box and its intersection, the shell and the difference.
+const SHELL_WRAPPER_NODES: usize = 5;
 
 /// Everything `caoen deviation` measures.
 struct Measured {
