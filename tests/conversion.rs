@@ -192,24 +192,7 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let img = image::open(&picture).unwrap();
     assert_eq!((img.width(), img.height()), (3 * 128, 6 * 128));
     // The baseline measures through the same command, and does worse per number.
-    let out = caoen(&[
-        "--quiet",
-        "deviation",
-        s(&mesh),
-        "--rbf",
-        "300",
-        "--size",
-        "64",
-        "--views",
-        "2",
-        "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let b: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let b = deviation_json(&[s(&mesh), "--rbf", "300", "--size", "64", "--views", "2"]);
     assert!(b["normal_angle_deg"]["mean"].as_f64().unwrap() > f(&["normal_angle_deg", "mean"]));
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -230,6 +213,20 @@ fn convert_json(mesh: &Path, model: &Path, extra: &[&str]) -> serde_json::Value 
     ];
     args.extend_from_slice(extra);
     let out = caoen(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// `caoen deviation ARGS --json`, which must succeed: its summary.
+fn deviation_json(args: &[&str]) -> serde_json::Value {
+    let mut all = vec!["--quiet", "deviation"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    let out = caoen(&all);
     assert!(
         out.status.success(),
         "{}",
@@ -358,21 +355,7 @@ fn a_holed_mesh_converts_with_an_opening_the_view_into_it_sees_through() {
     let (c, o) = (view_depth(&closed, "+z"), view_depth(&open, "+z"));
     assert!((o - c).abs() < 1e-9, "+z: open {o} closed {c}");
     // What was written is what was measured.
-    let out = caoen(&[
-        "--quiet",
-        "deviation",
-        s(&mesh),
-        s(&open_model),
-        "--size",
-        "64",
-        "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let d = deviation_json(&[s(&mesh), s(&open_model), "--size", "64"]);
     let written = d["depth"]["mean_all_pixels"].as_f64().unwrap();
     assert!(
         (written - all(&open)).abs() < 1e-12,
@@ -466,21 +449,7 @@ fn a_model_far_from_the_mesh_measures_badly() {
     )
     .unwrap();
     let mesh = repo("tests/data/meshes/spot.obj");
-    let out = caoen(&[
-        "--quiet",
-        "deviation",
-        s(&mesh),
-        s(&model),
-        "--size",
-        "64",
-        "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let d = deviation_json(&[s(&mesh), s(&model), "--size", "64"]);
     assert!(d["depth"]["mean"].as_f64().unwrap() > 0.05, "{d}");
     assert!(
         d["normal_angle_deg"]["mean"].as_f64().unwrap() > 20.0,

@@ -873,30 +873,7 @@ mod tests {
         let sheet = square(5);
         assert!(flat_faces(&sheet, longest(&sheet)).iter().all(|&f| f));
         // 16 bands: neighbours meet at 11.25 degrees, neither one face nor a crease.
-        let n = 16;
-        let mut positions = vec![[0.0, 0.0, 0.5], [0.0, 0.0, -0.5]];
-        for i in 1..n {
-            let th = std::f64::consts::PI * i as f64 / n as f64;
-            for j in 0..2 * n {
-                let ph = std::f64::consts::PI * j as f64 / n as f64;
-                positions
-                    .push([th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()].map(|v| 0.5 * v));
-            }
-        }
-        let ring = |i: usize, j: usize| (2 + (i - 1) * 2 * n + j % (2 * n)) as u32;
-        let mut triangles = Vec::new();
-        for j in 0..2 * n {
-            triangles.push([0, ring(1, j), ring(1, j + 1)]);
-            triangles.push([1, ring(n - 1, j + 1), ring(n - 1, j)]);
-            for i in 1..n - 1 {
-                triangles.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-                triangles.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-            }
-        }
-        let sphere = PolygonMesh {
-            positions,
-            triangles,
-        };
+        let sphere = PolygonMesh::uv_sphere(16, 0.5);
         assert!(flat_faces(&sphere, longest(&sphere)).iter().all(|&f| !f));
     }
 

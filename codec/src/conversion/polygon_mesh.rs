@@ -331,6 +331,39 @@ impl PolygonMesh {
 }
 
 #[cfg(test)]
+impl PolygonMesh {
+    /// A UV sphere of `radius` about the origin with `n` bands, wound outward (tests').
+    pub(crate) fn uv_sphere(n: usize, radius: f64) -> PolygonMesh {
+        let mut positions = vec![[0.0, 0.0, radius], [0.0, 0.0, -radius]];
+        for i in 1..n {
+            let th = std::f64::consts::PI * i as f64 / n as f64;
+            for j in 0..2 * n {
+                let ph = std::f64::consts::PI * j as f64 / n as f64;
+                positions.push([
+                    radius * th.sin() * ph.cos(),
+                    radius * th.sin() * ph.sin(),
+                    radius * th.cos(),
+                ]);
+            }
+        }
+        let ring = |i: usize, j: usize| (2 + (i - 1) * 2 * n + j % (2 * n)) as u32;
+        let mut triangles = Vec::new();
+        for j in 0..2 * n {
+            triangles.push([0, ring(1, j), ring(1, j + 1)]);
+            triangles.push([1, ring(n - 1, j + 1), ring(n - 1, j)]);
+            for i in 1..n - 1 {
+                triangles.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
+                triangles.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
+            }
+        }
+        PolygonMesh {
+            positions,
+            triangles,
+        }
+    }
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
 

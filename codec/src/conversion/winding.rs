@@ -179,34 +179,8 @@ fn summarise(mesh: &PolygonMesh, tris: &[u32], first: usize) -> Node {
 mod tests {
     use super::*;
 
-    /// A UV sphere of radius 0.4 with `n` bands, wound outward.
     fn sphere(n: usize) -> PolygonMesh {
-        let mut positions = vec![[0.0, 0.0, 0.4], [0.0, 0.0, -0.4]];
-        for i in 1..n {
-            let th = std::f64::consts::PI * i as f64 / n as f64;
-            for j in 0..2 * n {
-                let ph = std::f64::consts::PI * j as f64 / n as f64;
-                positions.push([
-                    0.4 * th.sin() * ph.cos(),
-                    0.4 * th.sin() * ph.sin(),
-                    0.4 * th.cos(),
-                ]);
-            }
-        }
-        let ring = |i: usize, j: usize| (2 + (i - 1) * 2 * n + j % (2 * n)) as u32;
-        let mut triangles = Vec::new();
-        for j in 0..2 * n {
-            triangles.push([0, ring(1, j), ring(1, j + 1)]);
-            triangles.push([1, ring(n - 1, j + 1), ring(n - 1, j)]);
-            for i in 1..n - 1 {
-                triangles.push([ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)]);
-                triangles.push([ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)]);
-            }
-        }
-        PolygonMesh {
-            positions,
-            triangles,
-        }
+        PolygonMesh::uv_sphere(n, 0.4)
     }
 
     #[test]
