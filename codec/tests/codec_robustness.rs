@@ -95,9 +95,9 @@ fn bad_headers_have_clear_messages() {
         );
     }
     // The header's length: 38 bytes, 46 with the detail layer's steps, 48 with its
-    // deblocking.
+    // deblocking, 51 with adaptive steps, 52 lapped.
     let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!([38, 46, 48, 49, 51].contains(&hl), "{hl}");
+    assert!([38, 46, 48, 49, 51, 52].contains(&hl), "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
@@ -117,11 +117,11 @@ fn bad_headers_have_clear_messages() {
         matches!(e, CodecError::CrcMismatch { offset: 5, stored: s, computed, .. } if s == stored && computed != stored),
         "{e}"
     );
-    // Deblocking parameters or step factors out of range, or either without the detail
-    // layer.
+    // Deblocking parameters, step factors or the lapping weight out of range, or any
+    // of them without the detail layer.
     assert_eq!(
-        hl, 51,
-        "the small file's detail layer is deblocked, its steps adapt"
+        hl, 52,
+        "the small file's detail layer is deblocked and lapped, its steps adapt"
     );
     let with_header = |edit: &dyn Fn(&mut [u8])| {
         let mut f = file.clone();
@@ -144,24 +144,43 @@ fn bad_headers_have_clear_messages() {
             "{e}"
         );
     }
+    for value in [0u8, 128, 255] {
+        let e = with_header(&|h: &mut [u8]| h[51] = value);
+        assert!(
+            matches!(e, CodecError::OutOfRange { what: "lapping weight", value: v, lo, hi } if v == value as f64 && (lo, hi) == (1.0, 127.0)),
+            "{e}"
+        );
+    }
     let e = with_header(&|h: &mut [u8]| h[15] &= !2);
     assert!(
-        matches!(e, CodecError::Flags { flags } if flags & 12 == 12),
+        matches!(e, CodecError::Flags { flags } if flags & 28 == 28),
         "{e}"
     );
-    // Without its flag the factors are bytes the header does not have room for.
+    // Without their flags the factors and the weight are bytes the header does not
+    // have room for.
     let e = with_header(&|h: &mut [u8]| h[15] &= !8);
     assert!(
         matches!(
             e,
             CodecError::HeaderLength {
-                found: 51,
-                expected: 48
+                found: 52,
+                expected: 49
             }
         ),
         "{e}"
     );
-    let e = with_header(&|h: &mut [u8]| h[15] |= 16);
+    let e = with_header(&|h: &mut [u8]| h[15] &= !16);
+    assert!(
+        matches!(
+            e,
+            CodecError::HeaderLength {
+                found: 52,
+                expected: 51
+            }
+        ),
+        "{e}"
+    );
+    let e = with_header(&|h: &mut [u8]| h[15] |= 32);
     assert!(e.to_string().contains("header flags"), "{e}");
     // A cut file says where and how much is missing.
     let e = decode(&file[..file.len() - 3], &DecodeOptions::default()).unwrap_err();

@@ -80,6 +80,37 @@ fn tile_edges_are_no_worse_than_the_edges_inside_tiles() {
     }
 }
 
+/// Lapping moves the detail blocks' quantisation error off their edges: the pixels on
+/// either side of every 8-pixel block edge come to the image's mean error, where the
+/// same settings without lapping leave them above it at the higher qualities.
+#[test]
+fn lapping_brings_the_error_at_block_edges_to_the_image_mean() {
+    use caoen::codec::{encoder, rate_control};
+    let (w, h) = (512u32, 384u32);
+    let img = image_io::from_dynamic(natural(w, h)).unwrap();
+    for quality in [50.0, 75.0, 90.0] {
+        let ratio = |lapped: bool| {
+            let mut s = rate_control::settings(quality, 5, None);
+            assert!(s.lapping.is_some(), "the encoder laps by default");
+            if !lapped {
+                s.lapping = None;
+            }
+            let (bytes, _) =
+                encoder::encode_with(&img, &s, &Default::default(), 2, |_, _| {}).unwrap();
+            let se = squared_errors(&img, &decode(&bytes, &DecodeOptions::default()).unwrap());
+            let mean = se.iter().sum::<f64>() / se.len() as f64;
+            edge_mean(&se, w as usize, h as usize, 8, |_| true) / mean
+        };
+        let (plain, lapped) = (ratio(false), ratio(true));
+        // Below q75 deblocking already keeps the edges at the mean; above, lapping is
+        // what does.
+        assert!(
+            lapped <= 1.05 && lapped < plain && (quality < 75.0 || plain - lapped >= 0.05),
+            "q{quality}: block edges / image {lapped:.3} lapped, {plain:.3} not"
+        );
+    }
+}
+
 #[test]
 fn bytes_do_not_depend_on_workers_threads_or_the_source_form() {
     let (w, h) = (1100u32, 700u32);

@@ -2,6 +2,7 @@
 
 use super::detail::adaptive::{AdaptiveSteps, CLASSES};
 use super::detail::deblock::Deblock;
+use super::detail::lapping::Lapping;
 use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
@@ -71,6 +72,8 @@ pub struct Header {
     /// Step factors of the detail layer by network cell size (flag bit 3, only with
     /// the layer).
     pub adaptive: Option<AdaptiveSteps>,
+    /// Lapping of the detail layer (flag bit 4, only with the layer).
+    pub lapping: Option<Lapping>,
 }
 
 /// Header bytes without the detail layer's steps.
@@ -90,6 +93,10 @@ const FLAG_DEBLOCK: u8 = 4;
 /// Flag bit: the detail layer's steps adapt to the network's cells (only with
 /// [`FLAG_DETAIL`]).
 const FLAG_ADAPTIVE: u8 = 8;
+/// Flag bit: the detail layer is lapped (only with [`FLAG_DETAIL`]).
+const FLAG_LAPPED: u8 = 16;
+/// Bytes of the lapping parameter.
+const LAPPING_LEN: usize = 1;
 
 impl Header {
     /// The tree geometry.
@@ -140,6 +147,11 @@ impl Header {
                     FLAG_ADAPTIVE
                 } else {
                     0
+                }
+                | if self.lapping.is_some() {
+                    FLAG_LAPPED
+                } else {
+                    0
                 },
         );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
@@ -157,13 +169,17 @@ impl Header {
         if let Some(a) = self.adaptive {
             b.extend(a.factors);
         }
+        if let Some(l) = self.lapping {
+            b.push(l.weight);
+        }
         b
     }
 
     fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
         let flags = p.get(15).copied().unwrap_or(0);
-        if flags > FLAG_PRUNED | FLAG_DETAIL | FLAG_DEBLOCK | FLAG_ADAPTIVE
-            || (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE) != 0 && flags & FLAG_DETAIL == 0)
+        if flags > FLAG_PRUNED | FLAG_DETAIL | FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED
+            || (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED) != 0
+                && flags & FLAG_DETAIL == 0)
         {
             return Err(CodecError::Flags { flags });
         }
@@ -175,12 +191,18 @@ impl Header {
             } else {
                 0
             };
+        let lapping_at = adaptive_at
+            + if flags & FLAG_ADAPTIVE != 0 {
+                ADAPTIVE_LEN
+            } else {
+                0
+            };
         let len = if flags & FLAG_DETAIL == 0 {
             HEADER_LEN
         } else {
-            adaptive_at
-                + if flags & FLAG_ADAPTIVE != 0 {
-                    ADAPTIVE_LEN
+            lapping_at
+                + if flags & FLAG_LAPPED != 0 {
+                    LAPPING_LEN
                 } else {
                     0
                 }
@@ -248,6 +270,12 @@ impl Header {
         let adaptive = (flags & FLAG_ADAPTIVE != 0).then(|| AdaptiveSteps {
             factors: std::array::from_fn(|i| p[adaptive_at + i]),
         });
+        let lapping = (flags & FLAG_LAPPED != 0).then(|| Lapping {
+            weight: p[lapping_at],
+        });
+        if let Some(l) = lapping.filter(|l| !l.is_valid()) {
+            return Err(CodecError::range("lapping weight", l.weight, 1.0, 127.0));
+        }
         if let Some(a) = adaptive.filter(|a| !a.is_valid()) {
             return Err(CodecError::AdaptiveSteps { factors: a.factors });
         }
@@ -295,6 +323,7 @@ impl Header {
             detail_steps,
             deblock,
             adaptive,
+            lapping,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

@@ -197,15 +197,42 @@ fn detail_tile(
     net: &Network,
     classes: Option<&[u8]>,
 ) -> Vec<u8> {
-    let tile = src.region(rect);
+    // Lapping pairs the pixels on either side of every block edge, so the residual is
+    // taken with a pixel of margin where the image goes on past the tile.
+    let (w, h) = (src.width(), src.height());
+    let margin = u32::from(s.lapping.is_some());
+    let (x0, y0) = (rect.x0.saturating_sub(margin), rect.y0.saturating_sub(margin));
+    let outer = TileRect {
+        x0,
+        y0,
+        width: (rect.x0 + rect.width + margin).min(w) - x0,
+        height: (rect.y0 + rect.height + margin).min(h) - y0,
+    };
+    let tile = src.region(outer);
     let planes = coding_planes(&tile, s.decorrelate);
     drop(tile);
-    let base = network_colours(Frame::new(src.width(), src.height()), kernel, net, rect);
+    let base = network_colours(Frame::new(w, h), kernel, net, outer);
+    let (ow, oh) = (outer.width as usize, outer.height as usize);
+    let (dx, dy) = ((rect.x0 - x0) as usize, (rect.y0 - y0) as usize);
     let residuals: Vec<Vec<f64>> = planes
         .colour
         .iter()
         .zip(&base)
-        .map(|(t, r)| t.iter().zip(r).map(|(&t, &r)| t - r as f64).collect())
+        .map(|(t, r)| {
+            let mut res: Vec<f64> = t.iter().zip(r).map(|(&t, &r)| t - r as f64).collect();
+            if let Some(l) = s.lapping {
+                l.prefilter(&mut res, (ow, oh), (x0, y0), (w, h));
+            }
+            if margin == 0 {
+                return res;
+            }
+            res.chunks_exact(ow)
+                .skip(dy)
+                .take(rect.height as usize)
+                .flat_map(|row| &row[dx..dx + rect.width as usize])
+                .copied()
+                .collect()
+        })
         .collect();
     let quantisers: Vec<Quantiser> = (0..residuals.len())
         .map(|c| Quantiser {
@@ -358,6 +385,7 @@ pub fn encode_with(
             .then_some([s.detail_step_luma as f32, s.detail_step_chroma as f32]),
         deblock: s.deblock.filter(|_| any_detail),
         adaptive: s.detail_adaptive.filter(|_| any_detail),
+        lapping: s.lapping.filter(|_| any_detail),
     };
     let streams: Vec<TileStreams> = models
         .into_iter()

@@ -71,9 +71,9 @@ pub enum CodecError {
         /// The length the header's flags call for.
         expected: u64,
     },
-    /// The header's flags name a bit this version does not define, or deblocking without
-    /// the detail layer.
-    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking and bit 3 adaptive steps, which need bit 1)")]
+    /// The header's flags name a bit this version does not define, or deblocking,
+    /// adaptive steps or lapping without the detail layer.
+    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking, bit 3 adaptive steps and bit 4 lapping, which need bit 1)")]
     Flags {
         /// The flags byte.
         flags: u8,

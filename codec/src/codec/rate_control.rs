@@ -3,6 +3,7 @@
 
 use super::detail::adaptive::AdaptiveSteps;
 use super::detail::deblock::Deblock;
+use super::detail::lapping::Lapping;
 use super::model::ModelSettings;
 
 /// Everything the encoder needs besides the image.
@@ -30,6 +31,8 @@ pub struct EncodeSettings {
     pub detail_search: bool,
     /// Deblocking of the detail layer the file asks of the decoder (none: off).
     pub deblock: Option<Deblock>,
+    /// Lapping of the detail layer's block edges (none: off).
+    pub lapping: Option<Lapping>,
     /// Detail step factors by network cell size (none: one step per plane).
     pub detail_adaptive: Option<AdaptiveSteps>,
     /// Code the colour channels in opponent space (else raw RGB on one tree: an
@@ -110,6 +113,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         detail_lambda: DETAIL_LAMBDA,
         detail_search: e >= 5,
         deblock: Some(Deblock::DEFAULT),
+        lapping: Some(Lapping::DEFAULT),
         detail_adaptive: Some(AdaptiveSteps::DEFAULT),
         decorrelate: true,
     }

@@ -17,7 +17,8 @@ use std::path::Path;
 use caoen::codec::bitstream::{self, Header, Parsed, TileStreams};
 use caoen::codec::decoder;
 use caoen::codec::detail::{
-    self, adaptive::AdaptiveSteps, dct::COEFFS, deblock::Deblock, Detail, DetailPlane,
+    self, adaptive::AdaptiveSteps, dct::COEFFS, deblock::Deblock, lapping::Lapping, Detail,
+    DetailPlane,
 };
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
@@ -288,6 +289,9 @@ fn choose_header(c: &mut Choices) -> Header {
         adaptive: (detail_steps.is_some() && c.bit()).then(|| AdaptiveSteps {
             factors: [c.byte().max(1), c.byte().max(1), c.byte().max(1)],
         }),
+        lapping: (detail_steps.is_some() && c.bit()).then(|| Lapping {
+            weight: 1 + c.byte() % 127,
+        }),
     }
 }
 
@@ -337,6 +341,7 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
         planes,
         steps: vec![1.0; channels],
         deblock: header.deblock,
+        lapping: header.lapping,
         // Only the payload is written: the factors live in the header.
         block_steps: None,
     }

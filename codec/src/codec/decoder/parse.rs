@@ -195,6 +195,7 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
             planes,
             steps,
             deblock: header.deblock,
+            lapping: header.lapping,
             block_steps: header.adaptive.map(|steps| BlockSteps {
                 steps,
                 classes: block_classes(&luma_cells, header.width, header.height),

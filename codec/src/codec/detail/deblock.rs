@@ -29,11 +29,11 @@ pub struct Deblock {
 
 impl Deblock {
     /// The encoder's setting: steps up to a fifth of the quantiser step, ramps of
-    /// three pixels (on photographs the best RGB PSNR, MS-SSIM and SSIMULACRA2 of the
-    /// settings tried together; `docs/codec-ablation.md`).
+    /// two pixels (on photographs, with lapping, the best RGB PSNR, MS-SSIM and
+    /// SSIMULACRA2 of the settings tried together; `docs/codec-ablation.md`).
     pub const DEFAULT: Deblock = Deblock {
         strength: 20,
-        radius: 12,
+        radius: 8,
     };
     /// Largest radius in quarter pixels: half a block, so a position is near at most
     /// one edge per axis.

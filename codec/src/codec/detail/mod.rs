@@ -11,12 +11,14 @@
 pub mod adaptive;
 pub mod dct;
 pub mod deblock;
+pub mod lapping;
 pub mod quantise;
 pub mod syntax;
 
 use adaptive::BlockSteps;
 use dct::{COEFFS, N};
 use deblock::{edge_basis, edge_weight, gate, Deblock};
+use lapping::Lapping;
 
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
@@ -191,6 +193,8 @@ pub struct Detail {
     pub steps: Vec<f64>,
     /// Deblocking applied where the layer is evaluated ([`deblock`]), if any.
     pub deblock: Option<Deblock>,
+    /// Lapping across the block edges ([`lapping`]), if any.
+    pub lapping: Option<Lapping>,
     /// Each block's step factor ([`adaptive`]), if the steps adapt.
     pub block_steps: Option<BlockSteps>,
 }
@@ -274,6 +278,7 @@ impl Detail {
             planes,
             steps,
             deblock: None,
+            lapping: None,
             block_steps: None,
         })
     }
@@ -303,6 +308,22 @@ impl Detail {
                     sum * step
                 };
                 let mut value = series(bx, by, tx, ty);
+                if let Some(l) = self.lapping {
+                    // The post-filter along x, then along y: per axis the position's own
+                    // block and, near an edge, the neighbour at the mirror position.
+                    let terms = |p: f64, count: usize, own: usize, t: f64| match l.at(p, count) {
+                        Some((_, nb, w)) => [(own, t, 1.0 - w as f64), (nb, N as f64 - t, w as f64)],
+                        None => [(own, t, 1.0), (own, t, 0.0)],
+                    };
+                    value = 0.0;
+                    for (bx, tx, wx) in terms(x, p.cols, bx, tx) {
+                        for (by, ty, wy) in terms(y, p.rows, by, ty) {
+                            if wx * wy != 0.0 {
+                                value += wx * wy * series(bx, by, tx, ty);
+                            }
+                        }
+                    }
+                }
                 if let Some(d) = self.deblock {
                     let (t, r) = (d.threshold(step), d.radius_px());
                     let edge = N as f64;
@@ -359,6 +380,12 @@ pub struct DetailEval {
     /// Per plane: the step below which a step across an edge is smoothed (none
     /// without deblocking).
     thresholds: Vec<f32>,
+    /// Grid columns within a pixel of a vertical block edge, with lapping: `(column,
+    /// own block column, neighbour block column, weight)`.
+    lap_cols: Vec<(usize, usize, usize, f32)>,
+    /// Per grid row within a pixel of a horizontal block edge, with lapping:
+    /// `(neighbour block row, weight)`.
+    lap_rows: Vec<Option<(usize, f32)>>,
 }
 
 /// Each plane's deblocking threshold, or none.
@@ -407,7 +434,7 @@ impl DetailEval {
     /// Prepares `detail` for evaluation at the positions of `grid` (coded pixels).
     pub fn new(detail: &Detail, grid: &Grid) -> Self {
         let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
-        let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock);
+        let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock, detail.lapping);
         eval.thresholds = thresholds(detail);
         eval.planes = detail
             .planes
@@ -422,7 +449,7 @@ impl DetailEval {
     /// coefficients are made: the decoder's peak holds one plane's levels, not all.
     pub fn from_layer(detail: Detail, grid: &Grid) -> Self {
         let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
-        let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock);
+        let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock, detail.lapping);
         eval.thresholds = thresholds(&detail);
         eval.planes = detail
             .planes
@@ -434,7 +461,7 @@ impl DetailEval {
     }
 
     /// The evaluation geometry of `cols x rows` blocks on `grid`, without planes.
-    fn geometry(cols: usize, rows: usize, grid: &Grid, deblock: Option<Deblock>) -> Self {
+    fn geometry(cols: usize, rows: usize, grid: &Grid, deblock: Option<Deblock>, lapping: Option<Lapping>) -> Self {
         // Grid positions increase, so each block column covers a contiguous run.
         let mut columns = vec![(0usize, 0usize, 0usize); cols];
         let mut per_column: Vec<Vec<[f32; N]>> = vec![Vec::new(); cols];
@@ -464,6 +491,15 @@ impl DetailEval {
             .filter_map(|i| edge_weight(grid.x(i), cols, r).map(|(e, w)| (i, e, w)))
             .collect();
         let hrows = (0..grid.ny).map(|j| edge_weight(grid.y(j), rows, r)).collect();
+        let (lap_cols, lap_rows) = match lapping {
+            Some(l) => (
+                (0..grid.nx)
+                    .filter_map(|i| l.at(grid.x(i), cols).map(|(own, nb, w)| (i, own, nb, w)))
+                    .collect(),
+                (0..grid.ny).map(|j| l.at(grid.y(j), rows).map(|(_, nb, w)| (nb, w))).collect(),
+            ),
+            None => (Vec::new(), vec![None; grid.ny]),
+        };
         DetailEval {
             grid: *grid,
             planes: Vec::new(),
@@ -473,6 +509,8 @@ impl DetailEval {
             vcols,
             hrows,
             thresholds: Vec::new(),
+            lap_cols,
+            lap_rows,
         }
     }
 
@@ -488,44 +526,85 @@ impl DetailEval {
             let mut el = vec![0f32; p.cols];
             let mut er = vec![0f32; p.cols];
             let mut delta = vec![0f32; nx];
+            let lapped = !self.lap_cols.is_empty();
+            // Per block column, the row of its (lapped) series at this y.
+            let mut gs = vec![[0f32; N]; if lapped { p.cols } else { 0 }];
+            let corner = |i: u32| {
+                let (at, v1, u1) = p.extent[i as usize];
+                let (v1, u1) = (v1 as usize, u1 as usize);
+                (&p.coeffs[at as usize..at as usize + v1 * u1], v1, u1)
+            };
             for (r, row) in plane.chunks_exact_mut(nx).enumerate() {
                 let (by, bv) = self.rows[j0 + r];
+                let lap_row = self.lap_rows[j0 + r];
                 el.fill(0.0);
                 er.fill(0.0);
                 for bx in 0..p.cols {
                     let i = p.index[by * p.cols + bx];
                     let (c0, n, start) = self.columns[bx];
-                    if i == ZERO {
-                        continue;
-                    }
-                    let (at, v1, u1) = p.extent[i as usize];
-                    let (v1, u1) = (v1 as usize, u1 as usize);
-                    let c = &p.coeffs[at as usize..at as usize + v1 * u1];
                     // The block's row of the series at this y: g(u) = sum_v C[v][u] b_v(y).
                     let mut g = [0f32; N];
-                    for v in 0..v1 {
-                        let b = bv[v];
-                        for u in 0..u1 {
-                            g[u] += c[v * u1 + u] * b;
+                    let mut width = 0;
+                    if i != ZERO {
+                        let (c, v1, u1) = corner(i);
+                        for v in 0..v1 {
+                            let b = bv[v];
+                            for u in 0..u1 {
+                                g[u] += c[v * u1 + u] * b;
+                            }
+                        }
+                        if t > 0.0 {
+                            // The row's values at the block's left and right edges.
+                            for (u, &gu) in g.iter().enumerate().take(u1) {
+                                el[bx] += gu * edge_basis(u, false);
+                                er[bx] += gu * edge_basis(u, true);
+                            }
+                        }
+                        width = u1;
+                    }
+                    if let Some((nb, w)) = lap_row {
+                        // Towards the series of the block across the edge at the mirror
+                        // position: its rows with odd v negated, at this y.
+                        for gu in g.iter_mut().take(width) {
+                            *gu *= 1.0 - w;
+                        }
+                        let k = p.index[nb * p.cols + bx];
+                        if k != ZERO {
+                            let (c, v1, u1) = corner(k);
+                            for v in 0..v1 {
+                                let b = if v % 2 == 1 { -w * bv[v] } else { w * bv[v] };
+                                for u in 0..u1 {
+                                    g[u] += c[v * u1 + u] * b;
+                                }
+                            }
+                            width = width.max(u1);
                         }
                     }
-                    if t > 0.0 {
-                        // The row's values at the block's left and right edges.
-                        for (u, &gu) in g.iter().enumerate().take(u1) {
-                            el[bx] += gu * edge_basis(u, false);
-                            er[bx] += gu * edge_basis(u, true);
-                        }
+                    if lapped {
+                        gs[bx] = g;
                     }
-                    if n == 0 {
+                    if width == 0 || n == 0 {
                         continue;
                     }
                     let out = &mut row[c0..c0 + n];
-                    for (u, &gu) in g.iter().enumerate().take(u1) {
+                    for (u, &gu) in g.iter().enumerate().take(width) {
                         let basis = &self.basis_t[start + u * n..start + (u + 1) * n];
                         for (o, &b) in out.iter_mut().zip(basis) {
                             *o += gu * b;
                         }
                     }
+                }
+                for &(i, own, nb, w) in &self.lap_cols {
+                    // Towards the neighbour's row at the mirror position: its odd
+                    // columns negated, with this column's basis.
+                    let (c0, n, start) = self.columns[own];
+                    let (a, b) = (&gs[own], &gs[nb]);
+                    let mut d = 0.0;
+                    for u in 0..N {
+                        let m = if u % 2 == 1 { -b[u] } else { b[u] };
+                        d += (m - a[u]) * self.basis_t[start + u * n + i - c0];
+                    }
+                    row[i] += w * d;
                 }
                 if t <= 0.0 {
                     continue;
@@ -676,6 +755,7 @@ mod tests {
             planes: vec![plane],
             steps: vec![0.5],
             deblock: None,
+            lapping: None,
             block_steps: None,
         };
         let frame = Frame::new(8, 8);
@@ -697,6 +777,7 @@ mod tests {
             planes: vec![DetailPlane::from_blocks(1, 1, vec![levels])],
             steps: vec![0.1],
             deblock: None,
+            lapping: None,
             block_steps: None,
         };
         let frame = Frame::new(8, 8);
@@ -720,9 +801,18 @@ mod tests {
     }
 
     #[test]
-    fn deblocked_grid_evaluation_equals_the_scalar_reference_at_any_scale() {
-        for (strength, radius, adaptive) in [(25, 16, false), (255, 16, false), (60, 3, false), (60, 3, true)] {
+    fn deblocked_and_lapped_grid_evaluation_equals_the_scalar_reference_at_any_scale() {
+        let lap = Some(Lapping::DEFAULT);
+        for (strength, radius, adaptive, lapping) in [
+            (25, 16, false, None),
+            (255, 16, false, None),
+            (60, 3, false, None),
+            (60, 3, true, None),
+            (60, 3, true, lap),
+            (25, 16, false, Some(Lapping { weight: 127 })),
+        ] {
             let (mut detail, (w, h)) = deblocked(strength, radius);
+            detail.lapping = lapping;
             if adaptive {
                 let (cols, rows) = blocks(w, h);
                 detail.block_steps = Some(BlockSteps {
@@ -748,10 +838,38 @@ mod tests {
     }
 
     #[test]
+    fn lapping_joins_the_blocks_at_every_edge_and_leaves_the_series_a_pixel_away() {
+        let (mut detail, (_, h)) = deblocked(20, 12);
+        detail.deblock = None;
+        let plain = detail.clone();
+        detail.lapping = Some(Lapping::DEFAULT);
+        let mut stepped = 0;
+        for c in 0..detail.planes.len() {
+            for k in 0..40 {
+                let y = k as f64 * h as f64 / 40.0;
+                for e in [8.0, 16.0] {
+                    // Unlike deblocking, every step is joined, however large.
+                    let (l, r) = (detail.at(e - 1e-7, y)[c], detail.at(e + 1e-7, y)[c]);
+                    assert!((l - r).abs() < 1e-4, "plane {c} ({e}, {y}): {l} vs {r}");
+                    stepped += usize::from((plain.at(e - 1e-7, y)[c] - plain.at(e + 1e-7, y)[c]).abs() > 1e-3);
+                }
+                // A pixel or more from every edge the layer is the plain series.
+                for x in [3.0, 4.5, 12.0, 19.5] {
+                    if (y - 8.0).abs() >= 1.0 {
+                        assert_eq!(detail.at(x, y)[c], plain.at(x, y)[c]);
+                    }
+                }
+            }
+        }
+        assert!(stepped > 0, "the coarse layer steps somewhere");
+    }
+
+    #[test]
     fn deblocking_joins_small_steps_and_leaves_the_series_away_from_edges() {
         let (detail, _) = deblocked(255, 16);
         let plain = Detail {
             deblock: None,
+            lapping: None,
             block_steps: None,
             ..detail.clone()
         };

@@ -218,6 +218,7 @@ pub fn code_layer(
         planes: std::iter::once(luma.0).chain(chroma.0).collect(),
         steps: q.iter().map(|q| q.step).collect(),
         deblock: None,
+        lapping: None,
         block_steps: None,
     };
     (detail, payload)
