@@ -54,6 +54,8 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
     let info = caoen(&["info", s(&cae), "--json"]);
     let j: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
     assert_eq!(j["width"], 96);
+    // The default encode laps its detail layer, and says by how much.
+    assert_eq!(j["lapping"]["weight"], 46.0 / 256.0, "{j}");
     let total: u64 = j["sections"]
         .as_array()
         .unwrap()

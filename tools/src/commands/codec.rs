@@ -448,6 +448,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
             "step_alpha": h.step_alpha, "detail_steps": h.detail_steps,
             "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
+            "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
             "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
@@ -507,7 +508,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
     match h.detail_steps {
         Some([l, c]) => outln!(
             text,
-            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}, {}, {}",
+            "detail:      8x8 DCT blocks, step luma {l}, chroma {c}, {}, {}, {}",
             match h.deblock {
                 Some(d) => format!(
                     "deblocked (steps up to {}% of the step, {} px ramps)",
@@ -515,6 +516,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
                     d.radius as f64 / 4.0
                 ),
                 None => "not deblocked".to_string(),
+            },
+            match h.lapping {
+                Some(l) => format!("lapped (weight {}/256 next to an edge)", l.weight),
+                None => "not lapped".to_string(),
             },
             match h.adaptive {
                 Some(a) => format!(
