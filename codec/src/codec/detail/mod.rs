@@ -307,23 +307,26 @@ impl Detail {
                     }
                     sum * step
                 };
-                let mut value = series(bx, by, tx, ty);
-                if let Some(l) = self.lapping {
+                let mut value = match self.lapping {
                     // The post-filter along x, then along y: per axis the position's own
                     // block and, near an edge, the neighbour at the mirror position.
-                    let terms = |p: f64, count: usize, own: usize, t: f64| match l.at(p, count) {
-                        Some((_, nb, w)) => [(own, t, 1.0 - w as f64), (nb, N as f64 - t, w as f64)],
-                        None => [(own, t, 1.0), (own, t, 0.0)],
-                    };
-                    value = 0.0;
-                    for (bx, tx, wx) in terms(x, p.cols, bx, tx) {
-                        for (by, ty, wy) in terms(y, p.rows, by, ty) {
-                            if wx * wy != 0.0 {
-                                value += wx * wy * series(bx, by, tx, ty);
+                    Some(l) => {
+                        let terms = |p: f64, count: usize, own: usize, t: f64| match l.at(p, count) {
+                            Some((_, nb, w)) => [(own, t, 1.0 - w as f64), (nb, N as f64 - t, w as f64)],
+                            None => [(own, t, 1.0), (own, t, 0.0)],
+                        };
+                        let mut sum = 0.0;
+                        for (bx, tx, wx) in terms(x, p.cols, bx, tx) {
+                            for (by, ty, wy) in terms(y, p.rows, by, ty) {
+                                if wx * wy != 0.0 {
+                                    sum += wx * wy * series(bx, by, tx, ty);
+                                }
                             }
                         }
+                        sum
                     }
-                }
+                    None => series(bx, by, tx, ty),
+                };
                 if let Some(d) = self.deblock {
                     let (t, r) = (d.threshold(step), d.radius_px());
                     let edge = N as f64;
