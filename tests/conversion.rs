@@ -6,7 +6,9 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use caoen::conversion::deviation::vertex_deviation;
-use caoen::conversion::{convert, ConvertOptions, ImplicitField, InUnitCube, PolygonMesh};
+use caoen::conversion::{
+    convert, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
+};
 use common::caoen;
 
 fn tmpdir(name: &str) -> PathBuf {
@@ -74,7 +76,10 @@ fn the_written_model_is_the_fitted_function() {
     let text = c.model.to_frep_json("lumpy", mesh.bounds()).to_string();
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     // The perturbation inside the file is the fit (indexed patches included), and the
-    // whole model (cut to a box, scaled back to the mesh's coordinates) has its signs.
+    // whole model (cut to the mesh's box and supporting planes, scaled back to the
+    // mesh's coordinates) has the signs of the cut model.
+    assert!(c.model.supports.is_some());
+    let fitted = ImplicitModel::new(c.model.frame, c.model.base, c.model.bumps.clone());
     let inner = &v["model"]["transform"]["intersection"][0];
     let perturb = caoen::frep::Node::from_json(inner, "model", Path::new(".")).unwrap();
     let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new(".")).unwrap();
@@ -89,21 +94,22 @@ fn the_written_model_is_the_fitted_function() {
             (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
         let p = [r() * 0.9, r() * 0.7, r() * 0.5];
-        let (a, ga) = c.model.value_gradient(p);
+        let (a, ga) = fitted.value_gradient(p);
         let (b, gb) = perturb.value_gradient(p);
         assert!((a - b).abs() < 1e-9 * (1.0 + a.abs()), "{p:?}: {a} {b}");
         for k in 0..3 {
             assert!((ga[k] - gb[k]).abs() < 1e-7 * (1.0 + ga[k].abs()));
         }
-        if a.abs() > 1e-9 {
-            assert_eq!(a > 0.0, whole.value(p) > 0.0, "{p:?}");
+        let cut = c.model.value(p);
+        if cut.abs() > 1e-9 {
+            assert_eq!(cut > 0.0, whole.value(p) > 0.0, "{p:?}");
         }
         // And the analytic gradient is the derivative.
         let h = 1e-6;
         let (mut p1, mut p2) = (p, p);
         p1[0] += h;
         p2[0] -= h;
-        let fd = (c.model.value(p1) - c.model.value(p2)) / (2.0 * h);
+        let fd = (fitted.value(p1) - fitted.value(p2)) / (2.0 * h);
         assert!(
             (fd - ga[0]).abs() < 1e-5 * (1.0 + ga[0].abs()),
             "{fd} {}",
@@ -516,4 +522,68 @@ fn broken_meshes_fail_with_clear_errors() {
     let out = caoen(&["deviation", "x.obj"]);
     assert_eq!(out.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_rotated_box_is_cut_to_its_faces_exactly() {
+    // A box turned off every axis, as a CAD part's faces are: a smooth fit leaves each
+    // face by a little between its conditions; the supporting planes put it back.
+    let (a, b) = (0.4f64, 0.3f64);
+    let r = [
+        [a.cos(), -a.sin() * b.cos(), a.sin() * b.sin()],
+        [a.sin(), a.cos() * b.cos(), -a.cos() * b.sin()],
+        [0.0, b.sin(), b.cos()],
+    ];
+    let turn = |p: [f64; 3]| [0, 1, 2].map(|j| r[j][0] * p[0] + r[j][1] * p[1] + r[j][2] * p[2]);
+    let half = [1.0, 0.6, 0.4];
+    let positions: Vec<[f64; 3]> = (0..8)
+        .map(|i| turn([0, 1, 2].map(|k| if i >> k & 1 == 1 { half[k] } else { -half[k] })))
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let mesh = PolygonMesh {
+        positions,
+        triangles: quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect(),
+    };
+    let c = convert(
+        &mesh,
+        &ConvertOptions {
+            max_functions: 60,
+            ..Default::default()
+        },
+        &mut |_| {},
+    );
+    assert_eq!(c.model.supports.as_ref().map(|s| s.planes.len()), Some(6));
+    let v: serde_json::Value =
+        serde_json::from_str(&c.model.to_frep_json("box", mesh.bounds()).to_string()).unwrap();
+    let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new(".")).unwrap();
+    // Across every face, a hair outside is outside (and its middle, a little inside, is
+    // inside: the cut keeps the solid).
+    for k in 0..3 {
+        for sign in [-1.0, 1.0] {
+            for (u, w) in [(0.0, 0.0), (0.7, 0.7), (-0.9, 0.3), (0.2, -0.95)] {
+                let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+                let at = |depth: f64| {
+                    let mut p = [0.0; 3];
+                    p[k] = sign * (half[k] + depth);
+                    p[i] = u * half[i];
+                    p[j] = w * half[j];
+                    turn(p)
+                };
+                assert!(node.value(at(1e-6)) < 0.0, "face {k} {sign} ({u}, {w})");
+                if u == 0.0 {
+                    assert!(node.value(at(-0.05)) > 0.0, "face {k} {sign}");
+                }
+            }
+        }
+    }
 }

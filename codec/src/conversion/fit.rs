@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::model::{Bump, ImplicitField, ImplicitModel};
 use super::polygon_mesh::PolygonMesh;
 use super::quadric;
+use super::support::Supports;
 use super::winding::WindingTree;
 use crate::frep::patch_index::PatchIndex;
 use crate::geometry::vector::{dot, norm, sub};
@@ -743,7 +744,7 @@ pub fn convert(
         mean_distance: errors.iter().map(|e| e.0).sum::<f64>() / n,
         mean_angle_deg: errors.iter().map(|e| e.1).sum::<f64>() / n,
         stop,
-        model,
+        model: model.with_supports(Supports::of(&unit)),
     }
 }
 

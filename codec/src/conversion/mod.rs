@@ -11,6 +11,7 @@ pub mod openings;
 pub mod polygon_mesh;
 pub mod quadric;
 pub mod rbf_baseline;
+pub mod support;
 pub mod winding;
 
 pub use fit::{convert, Conversion, ConvertOptions, LevelReport};

@@ -6,6 +6,7 @@ use serde_json::{json, Value};
 
 use super::polygon_mesh::UnitFrame;
 use super::quadric;
+use super::support::Supports;
 use crate::frep::patch_index::PatchIndex;
 use crate::frep::Aabb;
 
@@ -92,6 +93,9 @@ pub struct ImplicitModel {
     pub base: [f64; 10],
     /// The perturbations, in the order they were added.
     pub bumps: Vec<Bump>,
+    /// The planes the model is cut to ([`ImplicitModel::with_supports`]); `None` while
+    /// it is fitted.
+    pub supports: Option<Supports>,
     index: PatchIndex,
 }
 
@@ -108,6 +112,15 @@ impl ImplicitModel {
             base,
             index: PatchIndex::new(&supports),
             bumps,
+            supports: None,
+        }
+    }
+
+    /// The model cut to `supports` (unit cube): as a field and as a model file.
+    pub fn with_supports(self, supports: Supports) -> ImplicitModel {
+        ImplicitModel {
+            supports: Some(supports),
+            ..self
         }
     }
 
@@ -117,8 +130,8 @@ impl ImplicitModel {
     }
 
     /// The model as an F-rep model file (`caoen-frep/1`) in the mesh's own
-    /// coordinates: the unit-cube model, cut to a box a little larger than the mesh's
-    /// (the fit says nothing far from the mesh), scaled back.
+    /// coordinates: the unit-cube model, cut to its supports (without them, to the
+    /// mesh's box: the fit says nothing beyond it), scaled back.
     pub fn to_frep_json(&self, name: &str, mesh_box: ([f64; 3], [f64; 3])) -> Value {
         self.to_frep_json_of(self.fitted_json(), name, mesh_box)
     }
@@ -158,14 +171,17 @@ impl ImplicitModel {
         name: &str,
         mesh_box: ([f64; 3], [f64; 3]),
     ) -> Value {
-        let (lo, hi) = mesh_box;
-        let size = [0, 1, 2].map(|k| (hi[k] - lo[k]) * self.frame.scale + 0.04);
+        let nodes = match &self.supports {
+            Some(s) => s.json_nodes(),
+            None => Supports::of_box(
+                self.frame.to_unit(mesh_box.0),
+                self.frame.to_unit(mesh_box.1),
+            )
+            .json_nodes(),
+        };
         let model = json!({
             "transform": {
-                "intersection": [
-                    unit_model,
-                    {"box": {"centre": [0.0, 0.0, 0.0], "size": size}}
-                ],
+                "intersection": std::iter::once(unit_model).chain(nodes).collect::<Vec<_>>(),
                 "a": 1
             },
             "scale": 1.0 / self.frame.scale,
@@ -196,7 +212,10 @@ impl ImplicitField for ImplicitModel {
                 }
             }
         });
-        (v, g)
+        match &self.supports {
+            Some(s) => s.cut(p, (v, g)),
+            None => (v, g),
+        }
     }
 }
 
