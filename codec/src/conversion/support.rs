@@ -150,13 +150,15 @@ fn supporting_planes(mesh: &PolygonMesh) -> Vec<Plane> {
     }
     drop(first);
     let total: f64 = normals.iter().map(|x| x.1).sum();
-    let mut regions: std::collections::BTreeMap<u32, (f64, [f64; 3], Vec<u32>)> =
-        Default::default();
+    // Per region (indexed by its root): area, area-weighted normal sum, first triangle.
+    // A smooth mesh is one region per triangle, so only the large ones list theirs.
+    let roots: Vec<u32> = (0..n as u32).map(|t| root(&mut parent, t)).collect();
+    drop(parent);
+    let mut sums = vec![(0.0f64, [0.0f64; 3]); n];
     for (t, &(normal, area)) in normals.iter().enumerate() {
-        let r = root(&mut parent, t as u32);
-        let entry = regions.entry(r).or_insert((0.0, [0.0; 3], Vec::new()));
+        let entry = &mut sums[roots[t] as usize];
         // A fin folded flat joins antiparallel triangles: the region's first decides.
-        let s = if entry.2.is_empty() || dot(entry.1, normal) >= 0.0 {
+        let s = if entry.0 == 0.0 || dot(entry.1, normal) >= 0.0 {
             1.0
         } else {
             -1.0
@@ -165,12 +167,20 @@ fn supporting_planes(mesh: &PolygonMesh) -> Vec<Plane> {
         for (sum, v) in entry.1.iter_mut().zip(normal) {
             *sum += s * area * v;
         }
-        entry.2.push(t as u32);
     }
-    let mut large: Vec<(f64, [f64; 3], Vec<u32>)> = regions
-        .into_values()
-        .filter(|r| r.0 >= MIN_AREA_FRACTION * total)
-        .collect();
+    let mut large: Vec<(f64, [f64; 3], Vec<u32>)> = Vec::new();
+    let mut slot = vec![u32::MAX; n];
+    for (t, &r) in roots.iter().enumerate() {
+        let (area, sum) = sums[r as usize];
+        if area < MIN_AREA_FRACTION * total {
+            continue;
+        }
+        if slot[r as usize] == u32::MAX {
+            slot[r as usize] = large.len() as u32;
+            large.push((area, sum, Vec::new()));
+        }
+        large[slot[r as usize] as usize].2.push(t as u32);
+    }
     large.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.2[0].cmp(&b.2[0])));
     let mut planes: Vec<Plane> = Vec::new();
     for (_, sum, tris) in large {
