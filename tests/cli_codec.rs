@@ -56,6 +56,8 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
     assert_eq!(j["width"], 96);
     // The default encode laps its detail layer, and says by how much.
     assert_eq!(j["lapping"]["weight"], 46.0 / 256.0, "{j}");
+    // Colour is coded with luma as its first channel.
+    assert_eq!(j["colour_basis"], "luma opponent", "{j}");
     let total: u64 = j["sections"]
         .as_array()
         .unwrap()

@@ -180,8 +180,21 @@ fn bad_headers_have_clear_messages() {
         ),
         "{e}"
     );
-    let e = with_header(&|h: &mut [u8]| h[15] |= 32);
+    let e = with_header(&|h: &mut [u8]| h[15] |= 64);
     assert!(e.to_string().contains("header flags"), "{e}");
+    // The luma basis (bit 5) is the encoder's choice for colour; it needs three colour
+    // channels, so a grey file that claims it is refused.
+    assert_ne!(
+        file[10 + 15] & 32,
+        0,
+        "an RGBA file is coded in the luma basis"
+    );
+    let e = with_header(&|h: &mut [u8]| h[8] = 2);
+    assert!(
+        matches!(e, CodecError::Flags { flags } if flags & 32 == 32)
+            && e.to_string().contains("bit 5 luma basis"),
+        "{e}"
+    );
     // A cut file says where and how much is missing.
     let e = decode(&file[..file.len() - 3], &DecodeOptions::default()).unwrap_err();
     assert!(matches!(e, CodecError::Truncated { .. }), "{e}");

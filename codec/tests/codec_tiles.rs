@@ -307,3 +307,28 @@ fn metadata_items_travel_through_the_file_untouched() {
         })
     ));
 }
+
+#[test]
+fn the_luma_basis_moves_error_out_of_luma() {
+    use caoen::codec::ColourBasis;
+    use caoen::codec::{encoder, rate_control};
+    use caoen::metrics::{psnr, psnr_y};
+    let img = image_io::from_dynamic(natural(384, 256)).unwrap();
+    let share = |basis: ColourBasis| {
+        let mut s = rate_control::settings(50.0, 5, None);
+        s.colour_basis = basis;
+        let (bytes, _) = encoder::encode_with(&img, &s, &Default::default(), 2, |_, _| {}).unwrap();
+        let header = bitstream::parse(&bytes, u64::MAX).unwrap().header;
+        assert_eq!(header.basis, basis, "the header records the basis");
+        let out = decode(&bytes, &DecodeOptions::default()).unwrap();
+        let (rgb, y) = (psnr(&img, &out).unwrap(), psnr_y(&img, &out).unwrap());
+        assert!(rgb > 28.0, "{basis:?}: {rgb:.2} dB");
+        // Luma's share of the error, in dB: the higher, the less of it is in luma.
+        y - rgb
+    };
+    let (grey, luma) = (share(ColourBasis::Grey), share(ColourBasis::Luma));
+    assert!(
+        luma > grey + 0.15,
+        "luma PSNR over RGB PSNR: {luma:.2} dB luma basis, {grey:.2} grey"
+    );
+}

@@ -21,7 +21,7 @@ fn psnr_against_keypoints() {
         .map(|(c, x, y)| img.sample(x, y, c))
         .collect();
     let r = Raster::new(w, h, ChannelLayout::Rgb, SampleFormat::U8, px).unwrap();
-    let planes = colour::forward(&r);
+    let planes = colour::forward(&r, colour::ColourBasis::Grey);
     for t in [1.0, 0.3, 0.1, 0.03] {
         let s = model::ModelSettings {
             split_threshold: t,
@@ -37,7 +37,7 @@ fn psnr_against_keypoints() {
             colour: vec![luma[0].clone(), chroma[0].clone(), chroma[1].clone()],
             alpha: None,
         };
-        let out = colour::inverse(&rec, w, h, SampleFormat::U8);
+        let out = colour::inverse(&rec, w, h, SampleFormat::U8, colour::ColourBasis::Grey);
         let a: Vec<f64> = r.samples().iter().map(|&v| v as f64).collect();
         let b: Vec<f64> = out
             .iter()

@@ -1,5 +1,6 @@
 //! The container: magic, version, then CRC-checked sections (see `docs/format.md`).
 
+use super::colour::ColourBasis;
 use super::detail::adaptive::{AdaptiveSteps, CLASSES};
 use super::detail::deblock::Deblock;
 use super::detail::lapping::Lapping;
@@ -74,6 +75,9 @@ pub struct Header {
     pub adaptive: Option<AdaptiveSteps>,
     /// Lapping of the detail layer (flag bit 4, only with the layer).
     pub lapping: Option<Lapping>,
+    /// How the colour channels are coded (flag bit 5: the luma basis, only with three
+    /// colour channels).
+    pub basis: ColourBasis,
 }
 
 /// Header bytes without the detail layer's steps.
@@ -95,6 +99,8 @@ const FLAG_DEBLOCK: u8 = 4;
 const FLAG_ADAPTIVE: u8 = 8;
 /// Flag bit: the detail layer is lapped (only with [`FLAG_DETAIL`]).
 const FLAG_LAPPED: u8 = 16;
+/// Flag bit: the colour channels are coded in the luma basis (only with three).
+const FLAG_LUMA_BASIS: u8 = 32;
 /// Bytes of the lapping parameter.
 const LAPPING_LEN: usize = 1;
 
@@ -152,6 +158,11 @@ impl Header {
                     FLAG_LAPPED
                 } else {
                     0
+                }
+                | if self.basis == ColourBasis::Luma {
+                    FLAG_LUMA_BASIS
+                } else {
+                    0
                 },
         );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
@@ -177,9 +188,18 @@ impl Header {
 
     fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
         let flags = p.get(15).copied().unwrap_or(0);
-        if flags > FLAG_PRUNED | FLAG_DETAIL | FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED
+        let colour_channels = ChannelLayout::from_channels(p.get(8).copied().unwrap_or(0) as usize)
+            .map_or(0, |l| l.colour_channels());
+        if flags
+            > FLAG_PRUNED
+                | FLAG_DETAIL
+                | FLAG_DEBLOCK
+                | FLAG_ADAPTIVE
+                | FLAG_LAPPED
+                | FLAG_LUMA_BASIS
             || (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED) != 0
                 && flags & FLAG_DETAIL == 0)
+            || (flags & FLAG_LUMA_BASIS != 0 && colour_channels != 3)
         {
             return Err(CodecError::Flags { flags });
         }
@@ -273,6 +293,11 @@ impl Header {
         let lapping = (flags & FLAG_LAPPED != 0).then(|| Lapping {
             weight: p[lapping_at],
         });
+        let basis = if flags & FLAG_LUMA_BASIS != 0 {
+            ColourBasis::Luma
+        } else {
+            ColourBasis::Grey
+        };
         if let Some(l) = lapping.filter(|l| !l.is_valid()) {
             return Err(CodecError::range("lapping weight", l.weight, 1.0, 127.0));
         }
@@ -324,6 +349,7 @@ impl Header {
             deblock,
             adaptive,
             lapping,
+            basis,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

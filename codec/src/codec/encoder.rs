@@ -4,7 +4,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use super::bitstream::{self, Header, TileStreams};
-use super::colour::{self, CodingPlanes};
+use super::colour::{self, CodingPlanes, ColourBasis};
 use super::detail::dct::N as DCT_N;
 use super::detail::quantise::{self as detail_quantise, Quantiser};
 use super::detail::{self, adaptive};
@@ -52,9 +52,9 @@ struct TileModel {
 }
 
 /// The coding planes of a tile: opponent colours, or RGB when the settings say so.
-fn coding_planes(tile: &Raster, decorrelate: bool) -> CodingPlanes {
-    let mut planes = colour::forward(tile);
-    if !decorrelate && planes.colour.len() == 3 {
+fn coding_planes(tile: &Raster, s: &EncodeSettings) -> CodingPlanes {
+    let mut planes = colour::forward(tile, s.colour_basis);
+    if !s.decorrelate && planes.colour.len() == 3 {
         planes.colour = (0..3)
             .map(|c| tile.plane(c).iter().map(|&v| v as f64).collect())
             .collect();
@@ -66,7 +66,7 @@ fn coding_planes(tile: &Raster, decorrelate: bool) -> CodingPlanes {
 /// and neighbours: nothing outside the tile is predicted from.
 fn model_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSettings) -> TileModel {
     let tile = src.region(rect);
-    let planes = coding_planes(&tile, s.decorrelate);
+    let planes = coding_planes(&tile, s);
     drop(tile);
     let frame = Frame::window(src.width(), src.height(), (rect.x0, rect.y0), rect.width, rect.height);
     let model = model::build_in(frame, &planes, &s.model, |_, _| {});
@@ -209,7 +209,7 @@ fn detail_tile(
         height: (rect.y0 + rect.height + margin).min(h) - y0,
     };
     let tile = src.region(outer);
-    let planes = coding_planes(&tile, s.decorrelate);
+    let planes = coding_planes(&tile, s);
     drop(tile);
     let base = network_colours(Frame::new(w, h), kernel, net, outer);
     let (ow, oh) = (outer.width as usize, outer.height as usize);
@@ -386,6 +386,11 @@ pub fn encode_with(
         deblock: s.deblock.filter(|_| any_detail),
         adaptive: s.detail_adaptive.filter(|_| any_detail),
         lapping: s.lapping.filter(|_| any_detail),
+        basis: if img.layout().colour_channels() == 3 {
+            s.colour_basis
+        } else {
+            ColourBasis::Grey
+        },
     };
     let streams: Vec<TileStreams> = models
         .into_iter()

@@ -11,7 +11,7 @@ use crate::raster::{ChannelLayout, Raster, SampleFormat};
 /// point at its cell centre, white for coarse cells shading to yellow for fine ones.
 pub fn render(image: &Raster, decoded: &Decoded) -> Raster {
     let (w, h) = (image.width() as usize, image.height() as usize);
-    let planes = colour::forward(image);
+    let planes = colour::forward(image, decoded.header.basis);
     let luma: Vec<f64> = if planes.colour.len() == 3 {
         planes.colour[0].iter().map(|v| v / 3f64.sqrt()).collect()
     } else {

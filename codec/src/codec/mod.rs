@@ -36,7 +36,7 @@ macro_rules! stages {
 stages! {
     /// Edge and per-scale detail maps that start the tree.
     analysis;
-    /// Opponent colour transform and the HDR curve.
+    /// Opponent colour bases and the HDR curve.
     colour;
     /// The transform-coded detail layer over the network's colours.
     detail;
@@ -60,6 +60,7 @@ stages! {
     syntax;
 }
 
+pub use colour::ColourBasis;
 pub use error::{CodecError, Tag};
 pub use quadtree::Cell;
 pub use source::PixelSource;

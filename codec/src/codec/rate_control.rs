@@ -1,6 +1,7 @@
 //! From user-facing knobs (quality, effort, rate targets) to encoder settings, and the
 //! search that lands a rate target.
 
+use super::colour::ColourBasis;
 use super::detail::adaptive::AdaptiveSteps;
 use super::detail::deblock::Deblock;
 use super::detail::lapping::Lapping;
@@ -38,6 +39,8 @@ pub struct EncodeSettings {
     /// Code the colour channels in opponent space (else raw RGB on one tree: an
     /// ablation switch only; such files do not decode to the right colours).
     pub decorrelate: bool,
+    /// The opponent space of the colour channels.
+    pub colour_basis: ColourBasis,
 }
 
 /// Detail-layer luma step at quality 0; it falls log-quadratically to
@@ -116,6 +119,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         lapping: Some(Lapping::DEFAULT),
         detail_adaptive: Some(AdaptiveSteps::DEFAULT),
         decorrelate: true,
+        colour_basis: ColourBasis::Luma,
     }
 }
 
@@ -136,6 +140,9 @@ impl EncodeSettings {
             // Cell size tracks what the eye masks in display-referred pictures; float
             // images keep one step per plane.
             self.detail_adaptive = None;
+            // BT.601 luma is a display-referred weighting: float images keep the grey
+            // basis, whose error is the same in every direction.
+            self.colour_basis = ColourBasis::Grey;
         }
         self
     }

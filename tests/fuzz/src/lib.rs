@@ -24,6 +24,7 @@ use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
 use caoen::codec::quadtree::TreeShape;
 use caoen::codec::tiling::SIDE_UNIT;
+use caoen::codec::ColourBasis;
 use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
 use caoen::conversion::mesh_file;
 use caoen::conversion::polygon_mesh::PolygonMesh;
@@ -292,6 +293,11 @@ fn choose_header(c: &mut Choices) -> Header {
         lapping: (detail_steps.is_some() && c.bit()).then(|| Lapping {
             weight: 1 + c.byte() % 127,
         }),
+        basis: if layout.colour_channels() == 3 && c.bit() {
+            ColourBasis::Luma
+        } else {
+            ColourBasis::Grey
+        },
     }
 }
 

@@ -449,6 +449,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "step_alpha": h.step_alpha, "detail_steps": h.detail_steps,
             "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
             "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
+            "colour_basis": colour_basis_name(h),
             "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
@@ -498,6 +499,9 @@ pub fn info(a: &InfoArgs) -> CliResult {
             ""
         }
     );
+    if let Some(basis) = colour_basis_name(h) {
+        outln!(text, "colour:      {basis} basis");
+    }
     outln!(
         text,
         "quantiser:   luma {}, chroma {}, alpha {}",
@@ -560,4 +564,12 @@ pub fn info(a: &InfoArgs) -> CliResult {
         .fold((0, 0), |(n, b), s| (n + 1, b + s.3));
     outln!(text, "  'G' tiles          x{count:>7}: {bytes:>8} bytes");
     print(text)
+}
+
+/// The colour basis as `info` names it (`null` in JSON for grey images).
+fn colour_basis_name(h: &bitstream::Header) -> Option<&'static str> {
+    (h.layout.colour_channels() == 3).then_some(match h.basis {
+        caoen::codec::ColourBasis::Grey => "grey-axis opponent",
+        caoen::codec::ColourBasis::Luma => "luma opponent",
+    })
 }

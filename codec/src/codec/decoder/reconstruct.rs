@@ -233,7 +233,7 @@ fn band_colours(
     let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
         .chain(cp.iter().map(|p| &**p))
         .collect();
-    colour::inverse_span(&colour, alpha.then(|| &*lp[1]), out, h.format);
+    colour::inverse_span(&colour, alpha.then(|| &*lp[1]), out, h.format, h.basis);
 }
 
 /// [`band_pass`] into interleaved samples converted by `convert`: each band is
@@ -430,7 +430,7 @@ pub fn to_raster<T: colour::CodingValue>(
     ow: u32,
     oh: u32,
 ) -> Raster {
-    let samples = colour::inverse(&planes, ow, oh, header.format);
+    let samples = colour::inverse(&planes, ow, oh, header.format, header.basis);
     Raster::new(ow, oh, header.layout, header.format, samples)
         .expect("decoded samples are finite and sized")
 }
