@@ -536,24 +536,7 @@ fn a_rotated_box_is_cut_to_its_faces_exactly() {
     ];
     let turn = |p: [f64; 3]| [0, 1, 2].map(|j| r[j][0] * p[0] + r[j][1] * p[1] + r[j][2] * p[2]);
     let half = [1.0, 0.6, 0.4];
-    let positions: Vec<[f64; 3]> = (0..8)
-        .map(|i| turn([0, 1, 2].map(|k| if i >> k & 1 == 1 { half[k] } else { -half[k] })))
-        .collect();
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let mesh = PolygonMesh {
-        positions,
-        triangles: quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect(),
-    };
+    let mesh = PolygonMesh::cuboid(half, r);
     let c = convert(
         &mesh,
         &ConvertOptions {

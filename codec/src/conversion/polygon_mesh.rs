@@ -316,6 +316,29 @@ impl PolygonMesh {
         }
     }
 
+    /// A box of half-sides `half` about the origin, turned by the rotation `r`
+    /// (row-major), two triangles a face wound outward: the test solids with flat faces.
+    pub fn cuboid(half: [f64; 3], r: [[f64; 3]; 3]) -> PolygonMesh {
+        let turn = |p: [f64; 3]| r.map(|row| row[0] * p[0] + row[1] * p[1] + row[2] * p[2]);
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        PolygonMesh {
+            positions: (0..8)
+                .map(|i| turn([0, 1, 2].map(|k| if i >> k & 1 == 1 { half[k] } else { -half[k] })))
+                .collect(),
+            triangles: quads
+                .iter()
+                .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+                .collect(),
+        }
+    }
+
     /// The triangulated unit-radius icosphere subdivided `level` times, scaled by
     /// `radii` along the axes: the test solids whose conversion is one quadric.
     pub fn ellipsoid(radii: [f64; 3], level: u32) -> PolygonMesh {

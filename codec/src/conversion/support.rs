@@ -241,27 +241,7 @@ mod tests {
 
     /// A unit cube's 12 triangles, rotated by `r` (row-major) about its centre.
     fn cube(r: [[f64; 3]; 3]) -> PolygonMesh {
-        let corners: Vec<[f64; 3]> = (0..8)
-            .map(|i| {
-                let c = [0, 1, 2].map(|k| if i >> k & 1 == 1 { 0.5 } else { -0.5 });
-                [0, 1, 2].map(|j| dot(r[j], c))
-            })
-            .collect();
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        PolygonMesh {
-            positions: corners,
-            triangles: quads
-                .iter()
-                .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-                .collect(),
-        }
+        PolygonMesh::cuboid([0.5; 3], r)
     }
 
     fn rotation(a: f64) -> [[f64; 3]; 3] {
