@@ -28,7 +28,7 @@ pub enum ColourBasis {
     Grey,
     /// First channel along the luma weights `L = ((0.299, 0.587, 0.114) + (1, 1, 1)/3)/2`
     /// (halfway from grey to BT.601 luma); chroma along directions of constant `L`
-    /// ([`LUMA_FORWARD`], [`LUMA_INVERSE`]).
+    /// (the matrices of `docs/format.md`, "Colour").
     Luma,
 }
 
