@@ -195,7 +195,7 @@ fn detail_tile(
     s: &EncodeSettings,
     kernel: KernelParams,
     net: &Network,
-    classes: Option<&[u8]>,
+    classes: &[u8],
 ) -> Vec<u8> {
     // Lapping pairs the pixels on either side of every block edge, so the residual is
     // taken with a pixel of margin where the image goes on past the tile.
@@ -246,20 +246,22 @@ fn detail_tile(
             per_coefficient: s.detail_search,
         })
         .collect();
-    // The tile's blocks' step factors, from the image's block classes (tiles start on
-    // block boundaries).
-    let factors = s.detail_adaptive.zip(classes).map(|(a, classes)| {
-        let (cols, _) = detail::blocks(src.width(), src.height());
-        let (tc, tr) = detail::blocks(rect.width, rect.height);
-        let (bx0, by0) = (rect.x0 as usize / DCT_N, rect.y0 as usize / DCT_N);
-        (0..tc * tr)
-            .map(|i| a.factor(classes[(by0 + i / tc) * cols + bx0 + i % tc]))
-            .collect::<Vec<f64>>()
-    });
+    // The tile's blocks' classes, from the image's (tiles start on block boundaries),
+    // and their step factors.
+    let (cols, _) = detail::blocks(src.width(), src.height());
+    let (tc, tr) = detail::blocks(rect.width, rect.height);
+    let (bx0, by0) = (rect.x0 as usize / DCT_N, rect.y0 as usize / DCT_N);
+    let classes: Vec<u8> = (0..tc * tr)
+        .map(|i| classes[(by0 + i / tc) * cols + bx0 + i % tc])
+        .collect();
+    let factors = s
+        .detail_adaptive
+        .map(|a| classes.iter().map(|&c| a.factor(c)).collect::<Vec<f64>>());
     let (detail, payload) = detail_quantise::code_layer(
         &residuals,
         (rect.width, rect.height),
         &quantisers,
+        &classes,
         factors.as_deref(),
     );
     if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
@@ -354,12 +356,10 @@ pub fn encode_with(
     });
     let net = Network::gather(&mut models, s.model.block_log2);
     let kernel = s.model.kernel;
-    let classes = s
-        .detail_adaptive
-        .map(|_| adaptive::block_classes(&net.luma_cells, w, h));
-    s.detail_adaptive = s.detail_adaptive.zip(classes.as_deref()).map(|(a, c)| a.normalised(c));
+    let classes = adaptive::block_classes(&net.luma_cells, w, h);
+    s.detail_adaptive = s.detail_adaptive.map(|a| a.normalised(&classes));
     let details = run_tiles(n, workers, |i| {
-        let d = detail_tile(img, tiling.rect(i), &s, kernel, &net, classes.as_deref());
+        let d = detail_tile(img, tiling.rect(i), &s, kernel, &net, &classes);
         step();
         d
     });

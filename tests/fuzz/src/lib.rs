@@ -17,8 +17,12 @@ use std::path::Path;
 use caoen::codec::bitstream::{self, Header, Parsed, TileStreams};
 use caoen::codec::decoder;
 use caoen::codec::detail::{
-    self, adaptive::AdaptiveSteps, dct::COEFFS, deblock::Deblock, lapping::Lapping, Detail,
-    DetailPlane,
+    self,
+    adaptive::{block_classes, AdaptiveSteps},
+    dct::COEFFS,
+    deblock::Deblock,
+    lapping::Lapping,
+    Detail, DetailPlane,
 };
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
@@ -424,7 +428,8 @@ fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
         // A tile of the layer may have no coded block: its stream is then empty.
         let detail = match header.detail_steps {
             Some(_) if !c.byte().is_multiple_of(4) => {
-                choose_detail(c, &header, (w, h)).to_payload()
+                let classes = block_classes(&luma_cells, w, h);
+                choose_detail(c, &header, (w, h)).to_payload(&classes)
             }
             _ => Vec::new(),
         };

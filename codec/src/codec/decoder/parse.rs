@@ -125,7 +125,8 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                 || -> Result<_, CodecError> {
                     match detail_steps(header) {
                         Some(steps) if !t.detail.is_empty() => {
-                            Detail::read(t.detail, r.width, r.height, steps).map(Some)
+                            let classes = block_classes(&cells, r.width, r.height);
+                            Detail::read(t.detail, r.width, r.height, steps, &classes).map(Some)
                         }
                         _ => Ok(None),
                     }

@@ -23,7 +23,7 @@ use lapping::Lapping;
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
 use super::CodecError;
-use syntax::{BlockContext, DetailContexts};
+use syntax::{BlockContext, DetailContexts, Summary};
 
 /// Marks a block with no nonzero coefficient.
 const ZERO: u32 = u32::MAX;
@@ -36,15 +36,15 @@ pub fn blocks(width: u32, height: u32) -> (usize, usize) {
     )
 }
 
-/// The context of block `i` (`bx`, `by`) of a plane `cols` blocks wide, from whether
-/// its left and above neighbours are coded: the one rule the reader and both writers
-/// share.
-pub fn block_context(coded: impl Fn(usize) -> bool, cols: usize, i: usize, kind: usize) -> BlockContext {
+/// The context of block `i` (`bx`, `by`) of a plane `cols` blocks wide, from its
+/// cell-size class (`classes`, per block, [`adaptive::block_classes`]) and its left
+/// and above neighbours' summaries (`summaries`, by block index, holds at least the
+/// blocks before `i`): the one rule the reader and both writers share.
+pub fn block_context(classes: &[u8], summaries: &[Summary], cols: usize, i: usize, kind: usize) -> BlockContext {
     let (bx, by) = (i % cols, i / cols);
-    BlockContext {
-        kind,
-        neighbours: usize::from(bx > 0 && coded(i - 1)) + usize::from(by > 0 && coded(i - cols)),
-    }
+    let left = if bx > 0 { summaries[i - 1] } else { Summary::default() };
+    let above = if by > 0 { summaries[i - cols] } else { Summary::default() };
+    syntax::block_context(kind, classes[i] as usize, left, above)
 }
 
 /// One channel's quantised coefficients.
@@ -159,20 +159,23 @@ impl DetailPlane {
         self.spans.len()
     }
 
-    /// Reads a `cols x rows` plane.
+    /// Reads a `cols x rows` plane whose blocks have cell-size classes `classes`.
     pub fn read(
         cols: usize,
         rows: usize,
+        classes: &[u8],
         kind: usize,
         ctx: &mut DetailContexts,
         src: &mut AnsSource,
     ) -> Result<Self, CodecError> {
         let mut plane = DetailPlane::empty(cols, rows);
         let mut q = [0i32; COEFFS];
+        let mut summaries = Vec::with_capacity(cols * rows);
         for i in 0..cols * rows {
-            // The context reads only blocks already pushed (left and above).
-            let at = block_context(|j| plane.index[j] != ZERO, cols, i, kind);
-            if syntax::read_block(ctx, at, &mut q, src)? {
+            let at = block_context(classes, &summaries, cols, i, kind);
+            let coded = syntax::read_block(ctx, at, &mut q, src)?;
+            summaries.push(Summary::of(&q));
+            if coded {
                 // A coded block has a nonzero level (the syntax codes its last one).
                 plane.push(&q);
             } else {
@@ -201,18 +204,20 @@ pub struct Detail {
 
 impl Detail {
     /// The section payload of these levels, coded as they are (the encoder's search
-    /// writes its own): a u32 byte count of the luma stream, the luma stream (plane
-    /// 0), the chroma stream (planes 1 and 2).
-    pub fn to_payload(&self) -> Vec<u8> {
+    /// writes its own), its blocks of cell-size classes `classes`: a u32 byte count of
+    /// the luma stream, the luma stream (plane 0), the chroma stream (planes 1 and 2).
+    pub fn to_payload(&self, classes: &[u8]) -> Vec<u8> {
         let stream = |planes: &[DetailPlane], kind: usize| {
             let mut sink = AnsSink::new();
             let mut ctx = DetailContexts::default();
             const EMPTY: [i32; COEFFS] = [0; COEFFS];
             for p in planes {
+                let mut summaries = Vec::with_capacity(p.cols * p.rows);
                 for i in 0..p.cols * p.rows {
-                    let at = block_context(|j| p.index[j] != ZERO, p.cols, i, kind);
-                    let b = p.block(i % p.cols, i / p.cols);
-                    syntax::write_block(&mut ctx, at, &b.unwrap_or(EMPTY), &mut sink);
+                    let at = block_context(classes, &summaries, p.cols, i, kind);
+                    let b = p.block(i % p.cols, i / p.cols).unwrap_or(EMPTY);
+                    syntax::write_block(&mut ctx, at, &b, &mut sink);
+                    summaries.push(Summary::of(&b));
                 }
             }
             sink.finish()
@@ -228,14 +233,17 @@ impl Detail {
     }
 
     /// Reads the section of a `width x height` image with these steps (one per colour
-    /// channel): a u32 byte count of the luma stream, the luma stream, the chroma stream.
+    /// channel), its blocks of cell-size classes `classes` ([`adaptive::block_classes`]):
+    /// a u32 byte count of the luma stream, the luma stream, the chroma stream.
     pub fn read(
         payload: &[u8],
         width: u32,
         height: u32,
         steps: Vec<f64>,
+        classes: &[u8],
     ) -> Result<Self, CodecError> {
         let (cols, rows) = blocks(width, height);
+        assert_eq!(classes.len(), cols * rows, "one class per block");
         if payload.len() < 4 {
             return Err(CodecError::Truncated {
                 what: "the detail section's stream length",
@@ -259,7 +267,7 @@ impl Detail {
             let mut src = AnsSource::new(bytes, per_plane * planes as u64)?;
             let mut ctx = DetailContexts::default();
             let planes = (0..planes)
-                .map(|_| DetailPlane::read(cols, rows, kind, &mut ctx, &mut src))
+                .map(|_| DetailPlane::read(cols, rows, classes, kind, &mut ctx, &mut src))
                 .collect::<Result<Vec<_>, _>>()?;
             if !src.finished_cleanly() {
                 return Err(CodecError::PayloadLeftover {
@@ -703,6 +711,12 @@ mod tests {
         (planes, (w, h))
     }
 
+    /// Class 0 (the smallest cells) for every block of a `w x h` plane.
+    fn no_classes(w: u32, h: u32) -> Vec<u8> {
+        let (cols, rows) = blocks(w, h);
+        vec![0; cols * rows]
+    }
+
     fn quantisers(step: f64) -> Vec<Quantiser> {
         vec![
             Quantiser {
@@ -718,11 +732,16 @@ mod tests {
     #[test]
     fn the_searched_payload_is_the_plain_coding_of_its_levels_and_reads_back() {
         let (r, (w, h)) = residuals();
-        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02), None);
+        let (cols, rows) = blocks(w, h);
+        let classes: Vec<u8> = (0..cols * rows).map(|i| (i % 3) as u8).collect();
+        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02), &classes, None);
         assert!(detail.planes.iter().all(|p| p.coded_blocks() > 0));
-        assert_eq!(detail.to_payload(), payload);
-        let back = Detail::read(&payload, w, h, detail.steps.clone()).unwrap();
+        assert_eq!(detail.to_payload(&classes), payload);
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
         assert_eq!(back, detail);
+        // The classes are contexts: read with others, the payload is another layer.
+        let others = vec![0u8; cols * rows];
+        assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &others).ok(), Some(detail));
     }
 
     #[test]
@@ -731,7 +750,7 @@ mod tests {
         let frame = Frame::new(w, h);
         let grid = Grid::pixel_centres(&frame, w, h);
         let error = |step: f64| {
-            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step), None);
+            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step), &no_classes(w, h), None);
             let layer = DetailEval::new(&detail, &grid).eval();
             let e: f64 = r
                 .iter()
@@ -798,7 +817,7 @@ mod tests {
     /// The layer coded coarsely, so that its blocks step at their edges.
     fn deblocked(strength: u8, radius: u8) -> (Detail, (u32, u32)) {
         let (r, (w, h)) = residuals();
-        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3), None);
+        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3), &no_classes(w, h), None);
         detail.deblock = Some(Deblock { strength, radius });
         (detail, (w, h))
     }

@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 
 use super::dct::{self, COEFFS, N, ZIGZAG};
-use super::syntax::{self, BlockPricer, DetailContexts};
+use super::syntax::{self, BlockPricer, DetailContexts, Summary};
 use super::{block_context, blocks, Detail, DetailPlane};
 use crate::codec::entropy::{AnsSink, SymbolSink};
 
@@ -158,6 +158,7 @@ pub fn code_plane(
     (width, height): (u32, u32),
     q: Quantiser,
     kind: usize,
+    classes: &[u8],
     factors: Option<&[f64]>,
     ctx: &mut DetailContexts,
     sink: &mut impl SymbolSink,
@@ -169,28 +170,30 @@ pub fn code_plane(
         .map(|i| dct::forward(&gather(residual, w, h, i % cols, i / cols)))
         .collect();
     let mut chosen = Vec::with_capacity(cols * rows);
-    let mut coded = vec![false; cols * rows];
+    let mut summaries = Vec::with_capacity(cols * rows);
     let mut pricer = BlockPricer::default();
     for (i, c) in coeffs.iter().enumerate() {
-        let at = block_context(|j| coded[j], cols, i, kind);
+        let at = block_context(classes, &summaries, cols, i, kind);
         let q = Quantiser {
             step: q.step * factors.map_or(1.0, |f| f[i]),
             ..q
         };
         let best = choose(c, q, ctx, at, &mut pricer);
         syntax::write_block(ctx, at, &best, sink);
-        coded[i] = best.iter().any(|&l| l != 0);
+        summaries.push(Summary::of(&best));
         chosen.push(best);
     }
     DetailPlane::from_blocks(cols, rows, chosen)
 }
 
 /// The detail layer of the colour channels' residuals (Y, or Y, C1, C2), one quantiser
-/// per channel, and its section payload.
+/// per channel, its blocks of cell-size classes `classes` (and step factors, if the
+/// steps adapt), and its section payload.
 pub fn code_layer(
     residuals: &[Vec<f64>],
     size: (u32, u32),
     q: &[Quantiser],
+    classes: &[u8],
     factors: Option<&[f64]>,
 ) -> (Detail, Vec<u8>) {
     // Luma and chroma are independent streams, coded (and decoded) side by side.
@@ -198,14 +201,14 @@ pub fn code_layer(
         || {
             let mut sink = AnsSink::new();
             let mut ctx = DetailContexts::default();
-            let p = code_plane(&residuals[0], size, q[0], 0, factors, &mut ctx, &mut sink);
+            let p = code_plane(&residuals[0], size, q[0], 0, classes, factors, &mut ctx, &mut sink);
             (p, sink.finish())
         },
         || {
             let mut sink = AnsSink::new();
             let mut ctx = DetailContexts::default();
             let planes: Vec<DetailPlane> = (1..residuals.len())
-                .map(|c| code_plane(&residuals[c], size, q[c], 1, factors, &mut ctx, &mut sink))
+                .map(|c| code_plane(&residuals[c], size, q[c], 1, classes, factors, &mut ctx, &mut sink))
                 .collect();
             (planes, sink.finish())
         },
@@ -327,7 +330,9 @@ mod tests {
         let mut cost = OverlayCostSink::default();
         let at = super::super::syntax::BlockContext {
             kind: 0,
+            class: 1,
             neighbours: 1,
+            dc: 4,
         };
         let mut seed = 99u64;
         let mut moved = 0;
@@ -374,7 +379,9 @@ mod tests {
                     let c = residual_block(&mut seed, scale * if i % 5 == 0 { 8.0 } else { 1.0 });
                     let at = syntax::BlockContext {
                         kind,
-                        neighbours: i % 3,
+                        class: i % 3,
+                        neighbours: i % syntax::NEIGHBOURS,
+                        dc: i % 9,
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
                     assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");

@@ -1,12 +1,18 @@
 //! The detail layer's coefficients as coded symbols (section `D`).
 //!
-//! Per channel, blocks in raster order. A block is a *coded* bin (context: its kind,
-//! luma or chroma, and how many of its left and above neighbours were coded), then the
-//! position of its last nonzero coefficient in zig-zag order, then its coefficients from
-//! that last one back to the first. Coding backwards puts each coefficient's
+//! Per channel, blocks in raster order. A block is a *coded* bin, then the position of
+//! its last nonzero coefficient in zig-zag order (its class, then the bits below the
+//! class's top one, each an adaptive bin), then its coefficients from that last one back
+//! to the first. The first two take their context from the block's kind (luma or
+//! chroma), the size of the network cell over it (its class, as for the adaptive
+//! steps) and its neighbourhood: how far the left and above blocks' coefficients reach
+//! ([`block_context`]). A DC sign is a bin in the context of the left and above
+//! blocks' DC signs: the network's smooth errors leave neighbouring DC levels of one
+//! sign along the picture's structure. Coding backwards puts each coefficient's
 //! higher-frequency neighbours before it, so their magnitudes are its context (the
 //! scheme of AV1's level maps, simplified).
 
+use super::adaptive::CLASSES;
 use super::dct::{COEFFS, N, ZIGZAG};
 use crate::codec::entropy::{AnsSource, BinModel, Cdf, SymbolSink, CDF_FLOOR, CDF_ONE, MAX_RAW_BITS};
 use crate::codec::CodecError;
@@ -24,12 +30,64 @@ type LastCdf = Cdf<2>;
 const BANDS: usize = 6;
 /// Neighbourhood magnitude classes.
 const MAG_CLASSES: usize = 5;
-/// Block neighbourhood classes: coded neighbours (0..=2).
-const NEIGHBOURS: usize = 3;
+/// Block neighbourhood classes ([`neighbourhood`]).
+pub const NEIGHBOURS: usize = 6;
+/// Most bits below a last position's class bit.
+const LAST_BITS: usize = LAST_CLASSES - 2;
 /// Largest coefficient magnitude a file may hold.
 pub const MAX_LEVEL: u32 = 1 << 20;
 /// Most symbols one block can take (bins, tokens and raw bits): the decoder's bound.
-pub const MAX_SYMBOLS_PER_BLOCK: u64 = 3 + COEFFS as u64 * 4;
+/// The coded bin, the last position's class and bits, four per level (token, escape
+/// class, two raw parts) and two signs outside a token (the last level's, the DC's).
+pub const MAX_SYMBOLS_PER_BLOCK: u64 = 4 + LAST_BITS as u64 + COEFFS as u64 * 4;
+
+/// The class of a block's last nonzero scan position `last`: its bit length.
+fn last_class(last: usize) -> usize {
+    if last == 0 {
+        0
+    } else {
+        32 - (last as u32).leading_zeros() as usize
+    }
+}
+
+/// What a block tells its right and lower neighbours' contexts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Summary {
+    /// 0 when the block has no nonzero coefficient, else one more than the class of
+    /// its last one (1..=7).
+    pub reach: u8,
+    /// Its DC level's sign: 0 for zero, 1 positive, 2 negative.
+    pub dc: u8,
+}
+
+impl Summary {
+    /// The summary of a block's levels (row-major).
+    pub fn of(q: &[i32; COEFFS]) -> Summary {
+        Summary {
+            reach: (0..COEFFS)
+                .rev()
+                .find(|&k| q[ZIGZAG[k] as usize] != 0)
+                .map_or(0, |last| 1 + last_class(last) as u8),
+            dc: match q[0].signum() {
+                0 => 0,
+                1 => 1,
+                _ => 2,
+            },
+        }
+    }
+}
+
+/// The context of a block from its left and above neighbours' summaries (the default
+/// where there is none), of `kind` (0 luma, 1 chroma) and cell-size class `class`.
+pub fn block_context(kind: usize, class: usize, left: Summary, above: Summary) -> BlockContext {
+    let s = (left.reach + above.reach) as usize;
+    BlockContext {
+        kind,
+        class,
+        neighbours: if s == 0 { 0 } else { s.div_ceil(2).min(NEIGHBOURS - 1) },
+        dc: (3 * left.dc + above.dc) as usize,
+    }
+}
 
 fn band(k: usize) -> usize {
     match k {
@@ -61,8 +119,12 @@ fn geometric(m: usize, r: f64) -> Vec<u16> {
 /// Fixed-size arrays, cheap to copy.
 #[derive(Clone, PartialEq)]
 pub struct DetailContexts {
-    coded: [[BinModel; NEIGHBOURS]; 2],
-    last: [[LastCdf; NEIGHBOURS]; 2],
+    coded: [[[BinModel; NEIGHBOURS]; CLASSES]; 2],
+    last: [[[LastCdf; NEIGHBOURS]; CLASSES]; 2],
+    /// DC signs, by kind and the neighbours' DC signs ([`BlockContext::dc`]).
+    dc_sign: [[BinModel; 9]; 2],
+    /// Bits below a last position's class bit, by kind, class and bit (from the top).
+    last_bits: [[[BinModel; LAST_BITS]; LAST_CLASSES]; 2],
     token: [TokenCdf; 2 * BANDS * MAG_CLASSES],
     first: [TokenCdf; 2 * BANDS],
     class: [ClassCdf; 2],
@@ -76,8 +138,10 @@ impl Default for DetailContexts {
             TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64))
         });
         DetailContexts {
-            coded: [[BinModel::new(2); NEIGHBOURS]; 2],
-            last: [[last; NEIGHBOURS]; 2],
+            coded: [[[BinModel::new(2); NEIGHBOURS]; CLASSES]; 2],
+            last: [[[last; NEIGHBOURS]; CLASSES]; 2],
+            last_bits: [[[BinModel::new(4); LAST_BITS]; LAST_CLASSES]; 2],
+            dc_sign: [[BinModel::new(4); 9]; 2],
             first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
@@ -152,8 +216,15 @@ fn read_escape(class: &mut ClassCdf, src: &mut AnsSource) -> Result<u32, CodecEr
 pub struct BlockContext {
     /// 0 for luma, 1 for chroma.
     pub kind: usize,
-    /// Coded neighbours (left, above): 0..=2.
+    /// The block's cell-size class ([`adaptive::block_classes`](super::adaptive::block_classes)).
+    pub class: usize,
+    /// Neighbourhood class: 0 when neither the left nor the above block is coded, then
+    /// rising with how far their coefficients reach ([`Summary::reach`]), up to
+    /// `NEIGHBOURS - 1`.
     pub neighbours: usize,
+    /// The left and above blocks' DC signs ([`Summary::dc`]), `3 left + above`: the
+    /// context of this block's DC sign.
+    pub dc: usize,
 }
 
 /// Codes one block's quantised coefficients (row-major levels).
@@ -163,14 +234,14 @@ pub fn write_block(
     q: &[i32; COEFFS],
     sink: &mut impl SymbolSink,
 ) {
-    let (kind, nb) = (at.kind, at.neighbours);
+    let (kind, nb, cl) = (at.kind, at.neighbours, at.class);
     let last = (0..COEFFS).rev().find(|&k| q[ZIGZAG[k] as usize] != 0);
-    sink.bin(&mut ctx.coded[kind][nb], last.is_some());
+    sink.bin(&mut ctx.coded[kind][cl][nb], last.is_some());
     let Some(last) = last else { return };
-    let c = if last == 0 { 0 } else { 32 - (last as u32).leading_zeros() };
-    sink.symbol(&mut ctx.last[kind][nb], c as usize);
-    if c >= 2 {
-        sink.raw(last as u32 - (1 << (c - 1)), c - 1);
+    let c = last_class(last);
+    sink.symbol(&mut ctx.last[kind][cl][nb], c);
+    for (i, model) in ctx.last_bits[kind][c].iter_mut().take(c.saturating_sub(1)).enumerate() {
+        sink.bin(model, (last >> (c - 2 - i)) & 1 == 1);
     }
     let mut map: MagnitudeMap = [0; PAD * PAD];
     for k in (0..=last).rev() {
@@ -186,7 +257,21 @@ pub fn write_block(
             if t == LITERALS {
                 write_escape(&mut ctx.class[kind], m - 1, sink);
             }
-            sink.raw(u32::from(v < 0), 1);
+            if k == 0 {
+                sink.bin(&mut ctx.dc_sign[kind][at.dc], v < 0);
+            } else {
+                sink.raw(u32::from(v < 0), 1);
+            }
+        } else if k == 0 {
+            // The DC's sign has a context of its own, after the magnitude.
+            let t = (m as usize).min(LITERALS);
+            sink.symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mag_class(&map, p)], t);
+            if t == LITERALS {
+                write_escape(&mut ctx.class[kind], m, sink);
+            }
+            if m != 0 {
+                sink.bin(&mut ctx.dc_sign[kind][at.dc], v < 0);
+            }
         } else {
             let mc = mag_class(&map, p);
             let t = (m as usize).min(LITERALS);
@@ -211,13 +296,13 @@ pub fn read_block(
     q: &mut [i32; COEFFS],
     src: &mut AnsSource,
 ) -> Result<bool, CodecError> {
-    let (kind, nb) = (at.kind, at.neighbours);
+    let (kind, nb, cl) = (at.kind, at.neighbours, at.class);
     *q = [0; COEFFS];
-    if !src.bin(&mut ctx.coded[kind][nb])? {
+    if !src.bin(&mut ctx.coded[kind][cl][nb])? {
         return Ok(false);
     }
-    let c = src.symbol(&mut ctx.last[kind][nb])? as u32;
-    if c as usize >= LAST_CLASSES {
+    let c = src.symbol(&mut ctx.last[kind][cl][nb])?;
+    if c >= LAST_CLASSES {
         return Err(CodecError::range(
             "detail last-position class",
             c as f64,
@@ -225,11 +310,10 @@ pub fn read_block(
             (LAST_CLASSES - 1) as f64,
         ));
     }
-    let last = match c {
-        0 => 0,
-        1 => 1,
-        _ => (1usize << (c - 1)) + src.raw(c - 1)? as usize,
-    };
+    let mut last = usize::from(c > 0);
+    for model in ctx.last_bits[kind][c].iter_mut().take(c.saturating_sub(1)) {
+        last = 2 * last + usize::from(src.bin(model)?);
+    }
     let mut map: MagnitudeMap = [0; PAD * PAD];
     for k in (0..=last).rev() {
         let z = ZIGZAG[k] as usize;
@@ -242,7 +326,20 @@ pub fn read_block(
             } else {
                 t as u32
             } + 1;
-            (m, src.raw(1)? == 1)
+            let negative = if k == 0 {
+                src.bin(&mut ctx.dc_sign[kind][at.dc])?
+            } else {
+                src.raw(1)? == 1
+            };
+            (m, negative)
+        } else if k == 0 {
+            let t = src.symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mag_class(&map, p)])?;
+            let m = if t == LITERALS {
+                read_escape(&mut ctx.class[kind], src)?
+            } else {
+                t as u32
+            };
+            (m, m != 0 && src.bin(&mut ctx.dc_sign[kind][at.dc])?)
         } else {
             let mc = mag_class(&map, p);
             let (t, negative) =
@@ -392,6 +489,7 @@ impl BlockPricer {
         ctx: &DetailContexts,
         layer: usize,
         kind: usize,
+        dc: usize,
         last: usize,
         k: usize,
         v: i32,
@@ -403,9 +501,26 @@ impl BlockPricer {
         let mut cost;
         if k == last {
             let t = ((m - 1) as usize).min(LITERALS);
-            cost = ctx.first[kind * BANDS + b].cost(t) as u64 + 256;
+            cost = ctx.first[kind * BANDS + b].cost(t) as u64;
+            cost += if k == 0 {
+                ctx.dc_sign[kind][dc].cost(v < 0) as u64
+            } else {
+                256
+            };
             if t == LITERALS {
                 cost += self.escape(ctx, layer, kind, m - 1);
+            }
+        } else if k == 0 {
+            let mc = mag_class(map, p);
+            let t = (m as usize).min(LITERALS);
+            let model = self.token(ctx, layer, (kind * BANDS + b) * MAG_CLASSES + mc);
+            cost = model.cost(t) as u64;
+            model.update(t);
+            if t == LITERALS {
+                cost += self.escape(ctx, layer, kind, m);
+            }
+            if m != 0 {
+                cost += ctx.dc_sign[kind][dc].cost(v < 0) as u64;
             }
         } else {
             let mc = mag_class(map, p);
@@ -438,10 +553,11 @@ impl BlockRates<'_> {
     /// hint costs time, never exactness: the checkpoint is rebuilt whenever `q`
     /// disagrees with it.
     pub fn rate(&mut self, q: &[i32; COEFFS], keep: usize) -> u64 {
-        let (ctx, kind, nb) = (self.ctx, self.at.kind, self.at.neighbours);
+        let (ctx, kind, nb, cl) = (self.ctx, self.at.kind, self.at.neighbours, self.at.class);
+        let dc = self.at.dc;
         let p = &mut *self.p;
         let Some(last) = (0..COEFFS).rev().find(|&k| q[ZIGZAG[k] as usize] != 0) else {
-            return ctx.coded[kind][nb].cost(false) as u64;
+            return ctx.coded[kind][cl][nb].cost(false) as u64;
         };
         let held = p.cp_last == Some(last)
             && (p.cp_todo..=last).all(|k| {
@@ -450,10 +566,15 @@ impl BlockRates<'_> {
             });
         if !held {
             p.forget(CHECKPOINT);
-            let c = if last == 0 { 0 } else { 32 - (last as u32).leading_zeros() };
-            p.cp_cost = ctx.coded[kind][nb].cost(true) as u64
-                + ctx.last[kind][nb].cost(c as usize) as u64
-                + if c >= 2 { 256 * (c - 1) as u64 } else { 0 };
+            let c = last_class(last);
+            p.cp_cost = ctx.coded[kind][cl][nb].cost(true) as u64
+                + ctx.last[kind][cl][nb].cost(c) as u64
+                + ctx.last_bits[kind][c]
+                    .iter()
+                    .take(c.saturating_sub(1))
+                    .enumerate()
+                    .map(|(i, m)| m.cost((last >> (c - 2 - i)) & 1 == 1) as u64)
+                    .sum::<u64>();
             p.cp_last = Some(last);
             p.cp_todo = last + 1;
             p.cp_map = [0; PAD * PAD];
@@ -462,7 +583,7 @@ impl BlockRates<'_> {
             let mut map = p.cp_map;
             for k in (keep..p.cp_todo).rev() {
                 let z = ZIGZAG[k] as usize;
-                p.cp_cost += p.coefficient(ctx, CHECKPOINT, kind, last, k, q[z], &mut map);
+                p.cp_cost += p.coefficient(ctx, CHECKPOINT, kind, dc, last, k, q[z], &mut map);
                 p.cp_levels[z] = q[z];
             }
             p.cp_map = map;
@@ -472,7 +593,7 @@ impl BlockRates<'_> {
         let mut map = p.cp_map;
         let mut cost = p.cp_cost;
         for k in (0..p.cp_todo).rev() {
-            cost += p.coefficient(ctx, CANDIDATE, kind, last, k, q[ZIGZAG[k] as usize], &mut map);
+            cost += p.coefficient(ctx, CANDIDATE, kind, dc, last, k, q[ZIGZAG[k] as usize], &mut map);
         }
         cost
     }
@@ -502,7 +623,9 @@ mod tests {
             }
             let at = BlockContext {
                 kind: i % 2,
-                neighbours: i % 3,
+                class: i % CLASSES,
+                neighbours: i % NEIGHBOURS,
+                dc: i % 9,
             };
             let mut copy = CostSink::default();
             write_block(&mut ctx.clone(), at, &q, &mut copy);
@@ -536,7 +659,9 @@ mod tests {
             }
             let at = BlockContext {
                 kind: i % 2,
-                neighbours: i % 3,
+                class: i % CLASSES,
+                neighbours: i % NEIGHBOURS,
+                dc: i % 9,
             };
             // Candidates as the quantiser makes them (one level moved at a time, from
             // the highest position down, with good and bad hints), trims and the empty
@@ -609,7 +734,9 @@ mod tests {
         for (i, b) in blocks.iter().enumerate() {
             let at = BlockContext {
                 kind: i % 2,
-                neighbours: i % 3,
+                class: i % CLASSES,
+                neighbours: i % NEIGHBOURS,
+                dc: i % 9,
             };
             write_block(&mut ctx, at, b, &mut sink);
         }
@@ -619,7 +746,9 @@ mod tests {
         for (i, b) in blocks.iter().enumerate() {
             let at = BlockContext {
                 kind: i % 2,
-                neighbours: i % 3,
+                class: i % CLASSES,
+                neighbours: i % NEIGHBOURS,
+                dc: i % 9,
             };
             let mut q = [0; COEFFS];
             let coded = read_block(&mut ctx, at, &mut q, &mut src).unwrap();
