@@ -5,6 +5,8 @@
 //! is a measure of local activity that the decoder has without a bit spent on it. Flat
 //! regions (large cells), where the eye and the structural metrics notice small errors,
 //! take a finer step; busy ones (small cells), which mask errors, a coarser one.
+//! The same classes are contexts of the coefficient syntax ([`super::syntax`]), with
+//! or without adaptive steps: blocks under large cells are coded less often.
 
 use crate::codec::quadtree::Cell;
 

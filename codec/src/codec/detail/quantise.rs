@@ -381,7 +381,7 @@ mod tests {
                         kind,
                         class: i % 3,
                         neighbours: i % syntax::NEIGHBOURS,
-                        dc: i % 9,
+                        dc: i % syntax::DC_SIGNS,
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
                     assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");

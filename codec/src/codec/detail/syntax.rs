@@ -30,8 +30,10 @@ type LastCdf = Cdf<2>;
 const BANDS: usize = 6;
 /// Neighbourhood magnitude classes.
 const MAG_CLASSES: usize = 5;
-/// Block neighbourhood classes ([`neighbourhood`]).
+/// Block neighbourhood classes ([`BlockContext::neighbours`]).
 pub const NEIGHBOURS: usize = 6;
+/// DC sign contexts: the left and above blocks' DC signs ([`BlockContext::dc`]).
+pub const DC_SIGNS: usize = 9;
 /// Most bits below a last position's class bit.
 const LAST_BITS: usize = LAST_CLASSES - 2;
 /// Largest coefficient magnitude a file may hold.
@@ -122,7 +124,7 @@ pub struct DetailContexts {
     coded: [[[BinModel; NEIGHBOURS]; CLASSES]; 2],
     last: [[[LastCdf; NEIGHBOURS]; CLASSES]; 2],
     /// DC signs, by kind and the neighbours' DC signs ([`BlockContext::dc`]).
-    dc_sign: [[BinModel; 9]; 2],
+    dc_sign: [[BinModel; DC_SIGNS]; 2],
     /// Bits below a last position's class bit, by kind, class and bit (from the top).
     last_bits: [[[BinModel; LAST_BITS]; LAST_CLASSES]; 2],
     token: [TokenCdf; 2 * BANDS * MAG_CLASSES],
@@ -141,7 +143,7 @@ impl Default for DetailContexts {
             coded: [[[BinModel::new(2); NEIGHBOURS]; CLASSES]; 2],
             last: [[[last; NEIGHBOURS]; CLASSES]; 2],
             last_bits: [[[BinModel::new(4); LAST_BITS]; LAST_CLASSES]; 2],
-            dc_sign: [[BinModel::new(4); 9]; 2],
+            dc_sign: [[BinModel::new(4); DC_SIGNS]; 2],
             first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
@@ -625,7 +627,7 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % 9,
+                dc: i % DC_SIGNS,
             };
             let mut copy = CostSink::default();
             write_block(&mut ctx.clone(), at, &q, &mut copy);
@@ -661,7 +663,7 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % 9,
+                dc: i % DC_SIGNS,
             };
             // Candidates as the quantiser makes them (one level moved at a time, from
             // the highest position down, with good and bad hints), trims and the empty
@@ -736,7 +738,7 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % 9,
+                dc: i % DC_SIGNS,
             };
             write_block(&mut ctx, at, b, &mut sink);
         }
@@ -748,7 +750,7 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % 9,
+                dc: i % DC_SIGNS,
             };
             let mut q = [0; COEFFS];
             let coded = read_block(&mut ctx, at, &mut q, &mut src).unwrap();
