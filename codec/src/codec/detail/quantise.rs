@@ -151,6 +151,16 @@ fn choose(
     best.1
 }
 
+/// What a plane's blocks bring besides their residual, per block: the cell-size class
+/// (a context) and, if the steps adapt, the step factor.
+#[derive(Debug, Clone, Copy)]
+pub struct PlaneBlocks<'a> {
+    /// Cell-size classes.
+    pub classes: &'a [u8],
+    /// Step factors.
+    pub factors: Option<&'a [f64]>,
+}
+
 /// Transforms, quantises and codes one residual plane (`kind` 0 luma, 1 chroma) into
 /// `sink` with the stream's contexts; returns the coded levels.
 pub fn code_plane(
@@ -158,8 +168,7 @@ pub fn code_plane(
     (width, height): (u32, u32),
     q: Quantiser,
     kind: usize,
-    classes: &[u8],
-    factors: Option<&[f64]>,
+    blocks_of: PlaneBlocks,
     ctx: &mut DetailContexts,
     sink: &mut impl SymbolSink,
 ) -> DetailPlane {
@@ -173,9 +182,9 @@ pub fn code_plane(
     let mut summaries = Vec::with_capacity(cols * rows);
     let mut pricer = BlockPricer::default();
     for (i, c) in coeffs.iter().enumerate() {
-        let at = block_context(classes, &summaries, cols, i, kind);
+        let at = block_context(blocks_of.classes, &summaries, cols, i, kind);
         let q = Quantiser {
-            step: q.step * factors.map_or(1.0, |f| f[i]),
+            step: q.step * blocks_of.factors.map_or(1.0, |f| f[i]),
             ..q
         };
         let best = choose(c, q, ctx, at, &mut pricer);
@@ -196,19 +205,20 @@ pub fn code_layer(
     classes: &[u8],
     factors: Option<&[f64]>,
 ) -> (Detail, Vec<u8>) {
+    let blocks_of = PlaneBlocks { classes, factors };
     // Luma and chroma are independent streams, coded (and decoded) side by side.
     let (luma, chroma) = rayon::join(
         || {
             let mut sink = AnsSink::new();
             let mut ctx = DetailContexts::default();
-            let p = code_plane(&residuals[0], size, q[0], 0, classes, factors, &mut ctx, &mut sink);
+            let p = code_plane(&residuals[0], size, q[0], 0, blocks_of, &mut ctx, &mut sink);
             (p, sink.finish())
         },
         || {
             let mut sink = AnsSink::new();
             let mut ctx = DetailContexts::default();
             let planes: Vec<DetailPlane> = (1..residuals.len())
-                .map(|c| code_plane(&residuals[c], size, q[c], 1, classes, factors, &mut ctx, &mut sink))
+                .map(|c| code_plane(&residuals[c], size, q[c], 1, blocks_of, &mut ctx, &mut sink))
                 .collect();
             (planes, sink.finish())
         },
