@@ -44,7 +44,7 @@ pub fn block_context(classes: &[u8], summaries: &[Summary], cols: usize, i: usiz
     let (bx, by) = (i % cols, i / cols);
     let left = if bx > 0 { summaries[i - 1] } else { Summary::default() };
     let above = if by > 0 { summaries[i - cols] } else { Summary::default() };
-    syntax::block_context(kind, classes[i] as usize, left, above)
+    BlockContext::new(kind, classes[i] as usize, left, above)
 }
 
 /// One channel's quantised coefficients.

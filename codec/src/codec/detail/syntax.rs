@@ -6,7 +6,7 @@
 //! to the first. The first two take their context from the block's kind (luma or
 //! chroma), the size of the network cell over it (its class, as for the adaptive
 //! steps) and its neighbourhood: how far the left and above blocks' coefficients reach
-//! ([`block_context`]). A DC sign is a bin in the context of the left and above
+//! ([`BlockContext::new`]). A DC sign is a bin in the context of the left and above
 //! blocks' DC signs: the network's smooth errors leave neighbouring DC levels of one
 //! sign along the picture's structure. Coding backwards puts each coefficient's
 //! higher-frequency neighbours before it, so their magnitudes are its context (the
@@ -76,18 +76,6 @@ impl Summary {
                 _ => 2,
             },
         }
-    }
-}
-
-/// The context of a block from its left and above neighbours' summaries (the default
-/// where there is none), of `kind` (0 luma, 1 chroma) and cell-size class `class`.
-pub fn block_context(kind: usize, class: usize, left: Summary, above: Summary) -> BlockContext {
-    let s = (left.reach + above.reach) as usize;
-    BlockContext {
-        kind,
-        class,
-        neighbours: if s == 0 { 0 } else { s.div_ceil(2).min(NEIGHBOURS - 1) },
-        dc: (3 * left.dc + above.dc) as usize,
     }
 }
 
@@ -227,6 +215,20 @@ pub struct BlockContext {
     /// The left and above blocks' DC signs ([`Summary::dc`]), `3 left + above`: the
     /// context of this block's DC sign.
     pub dc: usize,
+}
+
+impl BlockContext {
+    /// The context of a block from its left and above neighbours' summaries (the default
+    /// where there is none), of `kind` (0 luma, 1 chroma) and cell-size class `class`.
+    pub fn new(kind: usize, class: usize, left: Summary, above: Summary) -> BlockContext {
+        let s = (left.reach + above.reach) as usize;
+        BlockContext {
+            kind,
+            class,
+            neighbours: if s == 0 { 0 } else { s.div_ceil(2).min(NEIGHBOURS - 1) },
+            dc: (3 * left.dc + above.dc) as usize,
+        }
+    }
 }
 
 /// Codes one block's quantised coefficients (row-major levels).
