@@ -342,7 +342,8 @@ mod tests {
             kind: 0,
             class: 1,
             neighbours: 1,
-            dc: 4,
+            signs: [4, 2, 0, 8, 1, 5, 0, 3, 7, 6],
+            dc_level: 1,
         };
         let mut seed = 99u64;
         let mut moved = 0;
@@ -391,7 +392,8 @@ mod tests {
                         kind,
                         class: i % 3,
                         neighbours: i % syntax::NEIGHBOURS,
-                        dc: i % syntax::DC_SIGNS,
+                        signs: std::array::from_fn(|k| ((i + k) % syntax::SIGN_CONTEXTS) as u8),
+                        dc_level: i % syntax::DC_LEVELS,
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
                     assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");

@@ -6,9 +6,11 @@
 //! to the first. The first two take their context from the block's kind (luma or
 //! chroma), the size of the network cell over it (its class, as for the adaptive
 //! steps) and its neighbourhood: how far the left and above blocks' coefficients reach
-//! ([`BlockContext::new`]). A DC sign is a bin in the context of the left and above
-//! blocks' DC signs: the network's smooth errors leave neighbouring DC levels of one
-//! sign along the picture's structure. Coding backwards puts each coefficient's
+//! ([`BlockContext::new`]). The signs of the first [`SIGNED`] scan positions are bins
+//! in the context of the left and above blocks' signs at the same position, and the
+//! DC magnitude takes the size of theirs as context: the network's smooth errors run
+//! on across block edges, so neighbouring low frequencies share their signs along the
+//! picture's structure. Coding backwards puts each coefficient's
 //! higher-frequency neighbours before it, so their magnitudes are its context (the
 //! scheme of AV1's level maps, simplified).
 
@@ -32,16 +34,23 @@ const BANDS: usize = 6;
 const MAG_CLASSES: usize = 5;
 /// Block neighbourhood classes ([`BlockContext::neighbours`]).
 pub const NEIGHBOURS: usize = 6;
-/// DC sign contexts: the left and above blocks' DC signs ([`BlockContext::dc`]).
-pub const DC_SIGNS: usize = 9;
+/// Scan positions `0..SIGNED` code their signs as bins in the context of the left and
+/// above blocks' signs at the same position ([`BlockContext::signs`]); the rest as raw bits.
+pub const SIGNED: usize = 10;
+/// Sign contexts of one position: the left and above blocks' signs there, `3 left + above`.
+pub const SIGN_CONTEXTS: usize = 9;
+/// DC magnitude contexts: how large the left and above blocks' DC levels are
+/// ([`BlockContext::dc_level`]).
+pub const DC_LEVELS: usize = 3;
 /// Most bits below a last position's class bit.
 const LAST_BITS: usize = LAST_CLASSES - 2;
 /// Largest coefficient magnitude a file may hold.
 pub const MAX_LEVEL: u32 = 1 << 20;
 /// Most symbols one block can take (bins, tokens and raw bits): the decoder's bound.
 /// The coded bin, the last position's class and bits, four per level (token, escape
-/// class, two raw parts) and two signs outside a token (the last level's, the DC's).
-pub const MAX_SYMBOLS_PER_BLOCK: u64 = 4 + LAST_BITS as u64 + COEFFS as u64 * 4;
+/// class, two raw parts) and the signs outside a token (the first positions' bins and
+/// the last level's).
+pub const MAX_SYMBOLS_PER_BLOCK: u64 = 3 + SIGNED as u64 + LAST_BITS as u64 + COEFFS as u64 * 4;
 
 /// The class of a block's last nonzero scan position `last`: its bit length.
 fn last_class(last: usize) -> usize {
@@ -58,8 +67,11 @@ pub struct Summary {
     /// 0 when the block has no nonzero coefficient, else one more than the class of
     /// its last one (1..=7).
     pub reach: u8,
-    /// Its DC level's sign: 0 for zero, 1 positive, 2 negative.
-    pub dc: u8,
+    /// The signs of its levels at scan positions `0..SIGNED`: 0 for zero, 1 positive,
+    /// 2 negative.
+    pub signs: [u8; SIGNED],
+    /// Its DC magnitude, counted up to 2.
+    pub dc_level: u8,
 }
 
 impl Summary {
@@ -70,11 +82,12 @@ impl Summary {
                 .rev()
                 .find(|&k| q[ZIGZAG[k] as usize] != 0)
                 .map_or(0, |last| 1 + last_class(last) as u8),
-            dc: match q[0].signum() {
+            signs: std::array::from_fn(|k| match q[ZIGZAG[k] as usize].signum() {
                 0 => 0,
                 1 => 1,
                 _ => 2,
-            },
+            }),
+            dc_level: q[0].unsigned_abs().min(2) as u8,
         }
     }
 }
@@ -111,8 +124,14 @@ fn geometric(m: usize, r: f64) -> Vec<u16> {
 pub struct DetailContexts {
     coded: [[[BinModel; NEIGHBOURS]; CLASSES]; 2],
     last: [[[LastCdf; NEIGHBOURS]; CLASSES]; 2],
-    /// DC signs, by kind and the neighbours' DC signs ([`BlockContext::dc`]).
-    dc_sign: [[BinModel; DC_SIGNS]; 2],
+    /// Signs of the first scan positions, by kind, position and the neighbours' signs
+    /// there ([`BlockContext::signs`]).
+    sign: [[[BinModel; SIGN_CONTEXTS]; SIGNED]; 2],
+    /// A DC-only block's DC magnitude less one, by kind and [`BlockContext::dc_level`].
+    dc_first: [[TokenCdf; DC_LEVELS]; 2],
+    /// The DC magnitude of a block with higher levels, by kind, the magnitudes in the
+    /// block next to it and [`BlockContext::dc_level`].
+    dc_token: [[[TokenCdf; DC_LEVELS]; MAG_CLASSES]; 2],
     /// Bits below a last position's class bit, by kind, class and bit (from the top).
     last_bits: [[[BinModel; LAST_BITS]; LAST_CLASSES]; 2],
     token: [TokenCdf; 2 * BANDS * MAG_CLASSES],
@@ -131,7 +150,11 @@ impl Default for DetailContexts {
             coded: [[[BinModel::new(2); NEIGHBOURS]; CLASSES]; 2],
             last: [[[last; NEIGHBOURS]; CLASSES]; 2],
             last_bits: [[[BinModel::new(4); LAST_BITS]; LAST_CLASSES]; 2],
-            dc_sign: [[BinModel::new(4); DC_SIGNS]; 2],
+            sign: [[[BinModel::new(4); SIGN_CONTEXTS]; SIGNED]; 2],
+            dc_first: [[TokenCdf::new(&geometric(16, 0.4)); DC_LEVELS]; 2],
+            dc_token: std::array::from_fn(|_| {
+                std::array::from_fn(|mag| [TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64)); DC_LEVELS])
+            }),
             first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
@@ -212,9 +235,12 @@ pub struct BlockContext {
     /// rising with how far their coefficients reach ([`Summary::reach`]), up to
     /// `NEIGHBOURS - 1`.
     pub neighbours: usize,
-    /// The left and above blocks' DC signs ([`Summary::dc`]), `3 left + above`: the
-    /// context of this block's DC sign.
-    pub dc: usize,
+    /// Per scan position below [`SIGNED`], the left and above blocks' signs there
+    /// ([`Summary::signs`]), `3 left + above`: the context of this block's sign there.
+    pub signs: [u8; SIGNED],
+    /// The left and above blocks' DC magnitudes ([`Summary::dc_level`]): 0 when both
+    /// are zero, 1 for a sum of 1 or 2, else 2.
+    pub dc_level: usize,
 }
 
 impl BlockContext {
@@ -226,7 +252,8 @@ impl BlockContext {
             kind,
             class,
             neighbours: if s == 0 { 0 } else { s.div_ceil(2).min(NEIGHBOURS - 1) },
-            dc: (3 * left.dc + above.dc) as usize,
+            signs: std::array::from_fn(|k| 3 * left.signs[k] + above.signs[k]),
+            dc_level: (left.dc_level + above.dc_level).div_ceil(2) as usize,
         }
     }
 }
@@ -257,24 +284,31 @@ pub fn write_block(
         if k == last {
             // Known nonzero: code m - 1 and the sign.
             let t = ((m - 1) as usize).min(LITERALS);
-            sink.symbol(&mut ctx.first[kind * BANDS + b], t);
+            let model = if k == 0 { &mut ctx.dc_first[kind][at.dc_level] } else { &mut ctx.first[kind * BANDS + b] };
+            sink.symbol(model, t);
             if t == LITERALS {
                 write_escape(&mut ctx.class[kind], m - 1, sink);
             }
-            if k == 0 {
-                sink.bin(&mut ctx.dc_sign[kind][at.dc], v < 0);
+            if k < SIGNED {
+                sink.bin(&mut ctx.sign[kind][k][at.signs[k] as usize], v < 0);
             } else {
                 sink.raw(u32::from(v < 0), 1);
             }
-        } else if k == 0 {
-            // The DC's sign has a context of its own, after the magnitude.
+        } else if k < SIGNED {
+            // The sign has a context of its own, after the magnitude.
             let t = (m as usize).min(LITERALS);
-            sink.symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mag_class(&map, p)], t);
+            let mc = mag_class(&map, p);
+            let model = if k == 0 {
+                &mut ctx.dc_token[kind][mc][at.dc_level]
+            } else {
+                &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc]
+            };
+            sink.symbol(model, t);
             if t == LITERALS {
                 write_escape(&mut ctx.class[kind], m, sink);
             }
             if m != 0 {
-                sink.bin(&mut ctx.dc_sign[kind][at.dc], v < 0);
+                sink.bin(&mut ctx.sign[kind][k][at.signs[k] as usize], v < 0);
             }
         } else {
             let mc = mag_class(&map, p);
@@ -324,26 +358,33 @@ pub fn read_block(
         let p = PADDED[k] as usize;
         let b = band(k);
         let (m, negative) = if k == last {
-            let t = src.symbol(&mut ctx.first[kind * BANDS + b])?;
+            let model = if k == 0 { &mut ctx.dc_first[kind][at.dc_level] } else { &mut ctx.first[kind * BANDS + b] };
+            let t = src.symbol(model)?;
             let m = if t == LITERALS {
                 read_escape(&mut ctx.class[kind], src)?
             } else {
                 t as u32
             } + 1;
-            let negative = if k == 0 {
-                src.bin(&mut ctx.dc_sign[kind][at.dc])?
+            let negative = if k < SIGNED {
+                src.bin(&mut ctx.sign[kind][k][at.signs[k] as usize])?
             } else {
                 src.raw(1)? == 1
             };
             (m, negative)
-        } else if k == 0 {
-            let t = src.symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mag_class(&map, p)])?;
+        } else if k < SIGNED {
+            let mc = mag_class(&map, p);
+            let model = if k == 0 {
+                &mut ctx.dc_token[kind][mc][at.dc_level]
+            } else {
+                &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc]
+            };
+            let t = src.symbol(model)?;
             let m = if t == LITERALS {
                 read_escape(&mut ctx.class[kind], src)?
             } else {
                 t as u32
             };
-            (m, m != 0 && src.bin(&mut ctx.dc_sign[kind][at.dc])?)
+            (m, m != 0 && src.bin(&mut ctx.sign[kind][k][at.signs[k] as usize])?)
         } else {
             let mc = mag_class(&map, p);
             let (t, negative) =
@@ -492,8 +533,7 @@ impl BlockPricer {
         &mut self,
         ctx: &DetailContexts,
         layer: usize,
-        kind: usize,
-        dc: usize,
+        at: BlockContext,
         last: usize,
         k: usize,
         v: i32,
@@ -502,19 +542,29 @@ impl BlockPricer {
         let p = PADDED[k] as usize;
         let m = v.unsigned_abs();
         let b = band(k);
+        let kind = at.kind;
+        // The first and DC models and the sign bins are used once per block, so they
+        // are priced straight from the contexts.
+        let sign = |ctx: &DetailContexts| ctx.sign[kind][k][at.signs[k] as usize].cost(v < 0) as u64;
         let mut cost;
         if k == last {
             let t = ((m - 1) as usize).min(LITERALS);
-            cost = ctx.first[kind * BANDS + b].cost(t) as u64;
-            cost += if k == 0 {
-                ctx.dc_sign[kind][dc].cost(v < 0) as u64
-            } else {
-                256
-            };
+            let model = if k == 0 { &ctx.dc_first[kind][at.dc_level] } else { &ctx.first[kind * BANDS + b] };
+            cost = model.cost(t) as u64;
+            cost += if k < SIGNED { sign(ctx) } else { 256 };
             if t == LITERALS {
                 cost += self.escape(ctx, layer, kind, m - 1);
             }
         } else if k == 0 {
+            let t = (m as usize).min(LITERALS);
+            cost = ctx.dc_token[kind][mag_class(map, p)][at.dc_level].cost(t) as u64;
+            if t == LITERALS {
+                cost += self.escape(ctx, layer, kind, m);
+            }
+            if m != 0 {
+                cost += sign(ctx);
+            }
+        } else if k < SIGNED {
             let mc = mag_class(map, p);
             let t = (m as usize).min(LITERALS);
             let model = self.token(ctx, layer, (kind * BANDS + b) * MAG_CLASSES + mc);
@@ -524,7 +574,7 @@ impl BlockPricer {
                 cost += self.escape(ctx, layer, kind, m);
             }
             if m != 0 {
-                cost += ctx.dc_sign[kind][dc].cost(v < 0) as u64;
+                cost += sign(ctx);
             }
         } else {
             let mc = mag_class(map, p);
@@ -557,8 +607,8 @@ impl BlockRates<'_> {
     /// hint costs time, never exactness: the checkpoint is rebuilt whenever `q`
     /// disagrees with it.
     pub fn rate(&mut self, q: &[i32; COEFFS], keep: usize) -> u64 {
-        let (ctx, kind, nb, cl) = (self.ctx, self.at.kind, self.at.neighbours, self.at.class);
-        let dc = self.at.dc;
+        let (ctx, at) = (self.ctx, self.at);
+        let (kind, nb, cl) = (at.kind, at.neighbours, at.class);
         let p = &mut *self.p;
         let Some(last) = (0..COEFFS).rev().find(|&k| q[ZIGZAG[k] as usize] != 0) else {
             return ctx.coded[kind][cl][nb].cost(false) as u64;
@@ -587,7 +637,7 @@ impl BlockRates<'_> {
             let mut map = p.cp_map;
             for k in (keep..p.cp_todo).rev() {
                 let z = ZIGZAG[k] as usize;
-                p.cp_cost += p.coefficient(ctx, CHECKPOINT, kind, dc, last, k, q[z], &mut map);
+                p.cp_cost += p.coefficient(ctx, CHECKPOINT, at, last, k, q[z], &mut map);
                 p.cp_levels[z] = q[z];
             }
             p.cp_map = map;
@@ -597,7 +647,7 @@ impl BlockRates<'_> {
         let mut map = p.cp_map;
         let mut cost = p.cp_cost;
         for k in (0..p.cp_todo).rev() {
-            cost += p.coefficient(ctx, CANDIDATE, kind, dc, last, k, q[ZIGZAG[k] as usize], &mut map);
+            cost += p.coefficient(ctx, CANDIDATE, at, last, k, q[ZIGZAG[k] as usize], &mut map);
         }
         cost
     }
@@ -629,7 +679,8 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % DC_SIGNS,
+                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
+                dc_level: i % DC_LEVELS,
             };
             let mut copy = CostSink::default();
             write_block(&mut ctx.clone(), at, &q, &mut copy);
@@ -665,7 +716,8 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % DC_SIGNS,
+                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
+                dc_level: i % DC_LEVELS,
             };
             // Candidates as the quantiser makes them (one level moved at a time, from
             // the highest position down, with good and bad hints), trims and the empty
@@ -740,7 +792,8 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % DC_SIGNS,
+                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
+                dc_level: i % DC_LEVELS,
             };
             write_block(&mut ctx, at, b, &mut sink);
         }
@@ -752,7 +805,8 @@ mod tests {
                 kind: i % 2,
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
-                dc: i % DC_SIGNS,
+                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
+                dc_level: i % DC_LEVELS,
             };
             let mut q = [0; COEFFS];
             let coded = read_block(&mut ctx, at, &mut q, &mut src).unwrap();
