@@ -343,7 +343,7 @@ mod tests {
             class: 1,
             neighbours: 1,
             signs: [4, 2, 0, 8, 1, 5, 0, 3, 7, 6],
-            dc_level: 1,
+            levels: [0, 1, 2, 0, 1, 2, 2, 1, 0, 0],
         };
         let mut seed = 99u64;
         let mut moved = 0;
@@ -393,7 +393,7 @@ mod tests {
                         class: i % 3,
                         neighbours: i % syntax::NEIGHBOURS,
                         signs: std::array::from_fn(|k| ((i + k) % syntax::SIGN_CONTEXTS) as u8),
-                        dc_level: i % syntax::DC_LEVELS,
+                        levels: std::array::from_fn(|k| ((i + 2 * k) % syntax::LEVELS) as u8),
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
                     assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");

@@ -7,10 +7,10 @@
 //! chroma), the size of the network cell over it (its class, as for the adaptive
 //! steps) and its neighbourhood: how far the left and above blocks' coefficients reach
 //! ([`BlockContext::new`]). The signs of the first [`SIGNED`] scan positions are bins
-//! in the context of the left and above blocks' signs at the same position, and the
-//! DC magnitude takes the size of theirs as context: the network's smooth errors run
-//! on across block edges, so neighbouring low frequencies share their signs along the
-//! picture's structure. Coding backwards puts each coefficient's
+//! in the context of the left and above blocks' signs at the same position, and their
+//! magnitudes take the sizes of theirs as context: the network's smooth errors run on
+//! across block edges, so neighbouring low frequencies share their signs and sizes
+//! along the picture's structure. Coding backwards puts each coefficient's
 //! higher-frequency neighbours before it, so their magnitudes are its context (the
 //! scheme of AV1's level maps, simplified).
 
@@ -39,9 +39,9 @@ pub const NEIGHBOURS: usize = 6;
 pub const SIGNED: usize = 10;
 /// Sign contexts of one position: the left and above blocks' signs there, `3 left + above`.
 pub const SIGN_CONTEXTS: usize = 9;
-/// DC magnitude contexts: how large the left and above blocks' DC levels are
-/// ([`BlockContext::dc_level`]).
-pub const DC_LEVELS: usize = 3;
+/// Magnitude contexts of one position below [`SIGNED`]: how large the left and above
+/// blocks' levels there are ([`BlockContext::levels`]).
+pub const LEVELS: usize = 3;
 /// Most bits below a last position's class bit.
 const LAST_BITS: usize = LAST_CLASSES - 2;
 /// Largest coefficient magnitude a file may hold.
@@ -70,8 +70,8 @@ pub struct Summary {
     /// The signs of its levels at scan positions `0..SIGNED`: 0 for zero, 1 positive,
     /// 2 negative.
     pub signs: [u8; SIGNED],
-    /// Its DC magnitude, counted up to 2.
-    pub dc_level: u8,
+    /// The magnitudes of its levels at scan positions `0..SIGNED`, each counted up to 2.
+    pub levels: [u8; SIGNED],
 }
 
 impl Summary {
@@ -87,7 +87,7 @@ impl Summary {
                 1 => 1,
                 _ => 2,
             }),
-            dc_level: q[0].unsigned_abs().min(2) as u8,
+            levels: std::array::from_fn(|k| q[ZIGZAG[k] as usize].unsigned_abs().min(2) as u8),
         }
     }
 }
@@ -127,15 +127,12 @@ pub struct DetailContexts {
     /// Signs of the first scan positions, by kind, position and the neighbours' signs
     /// there ([`BlockContext::signs`]).
     sign: [[[BinModel; SIGN_CONTEXTS]; SIGNED]; 2],
-    /// A DC-only block's DC magnitude less one, by kind and [`BlockContext::dc_level`].
-    dc_first: [[TokenCdf; DC_LEVELS]; 2],
-    /// The DC magnitude of a block with higher levels, by kind, the magnitudes in the
-    /// block next to it and [`BlockContext::dc_level`].
-    dc_token: [[[TokenCdf; DC_LEVELS]; MAG_CLASSES]; 2],
     /// Bits below a last position's class bit, by kind, class and bit (from the top).
     last_bits: [[[BinModel; LAST_BITS]; LAST_CLASSES]; 2],
-    token: [TokenCdf; 2 * BANDS * MAG_CLASSES],
-    first: [TokenCdf; 2 * BANDS],
+    /// Level tokens ([`token_index`]).
+    token: [TokenCdf; TOKENS],
+    /// The last level's magnitude less one ([`first_index`]).
+    first: [TokenCdf; 2 * BANDS * LEVELS],
     class: [ClassCdf; 2],
 }
 
@@ -143,7 +140,7 @@ impl Default for DetailContexts {
     fn default() -> Self {
         let last = LastCdf::new(&geometric(8, 0.8));
         let token = std::array::from_fn(|i| {
-            let mag = i % MAG_CLASSES;
+            let mag = (i / LEVELS) % MAG_CLASSES;
             TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64))
         });
         DetailContexts {
@@ -151,15 +148,28 @@ impl Default for DetailContexts {
             last: [[[last; NEIGHBOURS]; CLASSES]; 2],
             last_bits: [[[BinModel::new(4); LAST_BITS]; LAST_CLASSES]; 2],
             sign: [[[BinModel::new(4); SIGN_CONTEXTS]; SIGNED]; 2],
-            dc_first: [[TokenCdf::new(&geometric(16, 0.4)); DC_LEVELS]; 2],
-            dc_token: std::array::from_fn(|_| {
-                std::array::from_fn(|mag| [TokenCdf::new(&geometric(16, 0.2 + 0.15 * mag as f64)); DC_LEVELS])
-            }),
-            first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS],
+            first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS * LEVELS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
         }
     }
+}
+
+/// Token models: by kind, band, magnitude class and neighbour magnitude context.
+const TOKENS: usize = 2 * BANDS * MAG_CLASSES * LEVELS;
+
+/// The token model of a level of `kind` in band `b`, with magnitude class `mc` in its
+/// block and neighbour magnitude context `lv` ([`BlockContext::level`]).
+#[inline(always)]
+fn token_index(kind: usize, b: usize, mc: usize, lv: usize) -> usize {
+    ((kind * BANDS + b) * MAG_CLASSES + mc) * LEVELS + lv
+}
+
+/// The model of a block's last level, of `kind` in band `b`, with neighbour magnitude
+/// context `lv`.
+#[inline(always)]
+fn first_index(kind: usize, b: usize, lv: usize) -> usize {
+    (kind * BANDS + b) * LEVELS + lv
 }
 
 /// Side of the padded magnitude map: two spare rows and columns past the block, so
@@ -238,9 +248,9 @@ pub struct BlockContext {
     /// Per scan position below [`SIGNED`], the left and above blocks' signs there
     /// ([`Summary::signs`]), `3 left + above`: the context of this block's sign there.
     pub signs: [u8; SIGNED],
-    /// The left and above blocks' DC magnitudes ([`Summary::dc_level`]): 0 when both
-    /// are zero, 1 for a sum of 1 or 2, else 2.
-    pub dc_level: usize,
+    /// Per scan position below [`SIGNED`], the left and above blocks' magnitudes there
+    /// ([`Summary::levels`]): 0 when both are zero, 1 for a sum of 1 or 2, else 2.
+    pub levels: [u8; SIGNED],
 }
 
 impl BlockContext {
@@ -253,7 +263,17 @@ impl BlockContext {
             class,
             neighbours: if s == 0 { 0 } else { s.div_ceil(2).min(NEIGHBOURS - 1) },
             signs: std::array::from_fn(|k| 3 * left.signs[k] + above.signs[k]),
-            dc_level: (left.dc_level + above.dc_level).div_ceil(2) as usize,
+            levels: std::array::from_fn(|k| (left.levels[k] + above.levels[k]).div_ceil(2)),
+        }
+    }
+
+    /// The neighbour magnitude context of scan position `k` (0 from [`SIGNED`] on).
+    #[inline(always)]
+    pub fn level(&self, k: usize) -> usize {
+        if k < SIGNED {
+            self.levels[k] as usize
+        } else {
+            0
         }
     }
 }
@@ -284,8 +304,7 @@ pub fn write_block(
         if k == last {
             // Known nonzero: code m - 1 and the sign.
             let t = ((m - 1) as usize).min(LITERALS);
-            let model = if k == 0 { &mut ctx.dc_first[kind][at.dc_level] } else { &mut ctx.first[kind * BANDS + b] };
-            sink.symbol(model, t);
+            sink.symbol(&mut ctx.first[first_index(kind, b, at.level(k))], t);
             if t == LITERALS {
                 write_escape(&mut ctx.class[kind], m - 1, sink);
             }
@@ -297,13 +316,7 @@ pub fn write_block(
         } else if k < SIGNED {
             // The sign has a context of its own, after the magnitude.
             let t = (m as usize).min(LITERALS);
-            let mc = mag_class(&map, p);
-            let model = if k == 0 {
-                &mut ctx.dc_token[kind][mc][at.dc_level]
-            } else {
-                &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc]
-            };
-            sink.symbol(model, t);
+            sink.symbol(&mut ctx.token[token_index(kind, b, mag_class(&map, p), at.level(k))], t);
             if t == LITERALS {
                 write_escape(&mut ctx.class[kind], m, sink);
             }
@@ -314,7 +327,7 @@ pub fn write_block(
             let mc = mag_class(&map, p);
             let t = (m as usize).min(LITERALS);
             sink.signed_symbol(
-                &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc],
+                &mut ctx.token[token_index(kind, b, mc, 0)],
                 t,
                 v < 0,
             );
@@ -358,8 +371,7 @@ pub fn read_block(
         let p = PADDED[k] as usize;
         let b = band(k);
         let (m, negative) = if k == last {
-            let model = if k == 0 { &mut ctx.dc_first[kind][at.dc_level] } else { &mut ctx.first[kind * BANDS + b] };
-            let t = src.symbol(model)?;
+            let t = src.symbol(&mut ctx.first[first_index(kind, b, at.level(k))])?;
             let m = if t == LITERALS {
                 read_escape(&mut ctx.class[kind], src)?
             } else {
@@ -372,13 +384,7 @@ pub fn read_block(
             };
             (m, negative)
         } else if k < SIGNED {
-            let mc = mag_class(&map, p);
-            let model = if k == 0 {
-                &mut ctx.dc_token[kind][mc][at.dc_level]
-            } else {
-                &mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc]
-            };
-            let t = src.symbol(model)?;
+            let t = src.symbol(&mut ctx.token[token_index(kind, b, mag_class(&map, p), at.level(k))])?;
             let m = if t == LITERALS {
                 read_escape(&mut ctx.class[kind], src)?
             } else {
@@ -388,7 +394,7 @@ pub fn read_block(
         } else {
             let mc = mag_class(&map, p);
             let (t, negative) =
-                src.signed_symbol(&mut ctx.token[(kind * BANDS + b) * MAG_CLASSES + mc])?;
+                src.signed_symbol(&mut ctx.token[token_index(kind, b, mc, 0)])?;
             let m = if t == LITERALS {
                 read_escape(&mut ctx.class[kind], src)?
             } else {
@@ -409,9 +415,6 @@ pub fn read_block(
     }
     Ok(true)
 }
-
-/// Token models of both kinds.
-const TOKENS: usize = 2 * BANDS * MAG_CLASSES;
 
 /// Prices blocks exactly as [`write_block`] into a cost counter on a copy of the
 /// contexts would, without copying them or writing. The models a block adapts more
@@ -543,31 +546,20 @@ impl BlockPricer {
         let m = v.unsigned_abs();
         let b = band(k);
         let kind = at.kind;
-        // The first and DC models and the sign bins are used once per block, so they
-        // are priced straight from the contexts.
+        // The first models and the sign bins are used once per block, so they are
+        // priced straight from the contexts.
         let sign = |ctx: &DetailContexts| ctx.sign[kind][k][at.signs[k] as usize].cost(v < 0) as u64;
         let mut cost;
         if k == last {
             let t = ((m - 1) as usize).min(LITERALS);
-            let model = if k == 0 { &ctx.dc_first[kind][at.dc_level] } else { &ctx.first[kind * BANDS + b] };
-            cost = model.cost(t) as u64;
+            cost = ctx.first[first_index(kind, b, at.level(k))].cost(t) as u64;
             cost += if k < SIGNED { sign(ctx) } else { 256 };
             if t == LITERALS {
                 cost += self.escape(ctx, layer, kind, m - 1);
             }
-        } else if k == 0 {
-            let t = (m as usize).min(LITERALS);
-            cost = ctx.dc_token[kind][mag_class(map, p)][at.dc_level].cost(t) as u64;
-            if t == LITERALS {
-                cost += self.escape(ctx, layer, kind, m);
-            }
-            if m != 0 {
-                cost += sign(ctx);
-            }
         } else if k < SIGNED {
-            let mc = mag_class(map, p);
             let t = (m as usize).min(LITERALS);
-            let model = self.token(ctx, layer, (kind * BANDS + b) * MAG_CLASSES + mc);
+            let model = self.token(ctx, layer, token_index(kind, b, mag_class(map, p), at.level(k)));
             cost = model.cost(t) as u64;
             model.update(t);
             if t == LITERALS {
@@ -579,7 +571,7 @@ impl BlockPricer {
         } else {
             let mc = mag_class(map, p);
             let t = (m as usize).min(LITERALS);
-            let model = self.token(ctx, layer, (kind * BANDS + b) * MAG_CLASSES + mc);
+            let model = self.token(ctx, layer, token_index(kind, b, mc, 0));
             cost = model.signed_cost(t, v < 0) as u64;
             model.update(t);
             if t == LITERALS {
@@ -680,7 +672,7 @@ mod tests {
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
                 signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                dc_level: i % DC_LEVELS,
+                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
             };
             let mut copy = CostSink::default();
             write_block(&mut ctx.clone(), at, &q, &mut copy);
@@ -717,7 +709,7 @@ mod tests {
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
                 signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                dc_level: i % DC_LEVELS,
+                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
             };
             // Candidates as the quantiser makes them (one level moved at a time, from
             // the highest position down, with good and bad hints), trims and the empty
@@ -793,7 +785,7 @@ mod tests {
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
                 signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                dc_level: i % DC_LEVELS,
+                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
             };
             write_block(&mut ctx, at, b, &mut sink);
         }
@@ -806,7 +798,7 @@ mod tests {
                 class: i % CLASSES,
                 neighbours: i % NEIGHBOURS,
                 signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                dc_level: i % DC_LEVELS,
+                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
             };
             let mut q = [0; COEFFS];
             let coded = read_block(&mut ctx, at, &mut q, &mut src).unwrap();
