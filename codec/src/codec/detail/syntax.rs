@@ -753,6 +753,29 @@ mod tests {
     }
 
     #[test]
+    fn a_block_context_holds_its_neighbours_signs_and_sizes_at_the_low_positions() {
+        let at = |k: usize| ZIGZAG[k] as usize;
+        let mut left = [0i32; COEFFS];
+        (left[0], left[at(1)], left[at(9)], left[at(10)]) = (-5, 1, -2, 7);
+        let mut above = [0i32; COEFFS];
+        (above[0], above[at(1)]) = (3, 2);
+        let (l, a) = (Summary::of(&left), Summary::of(&above));
+        assert_eq!((l.reach, a.reach), (1 + 4, 1 + 1), "one more than the last's bit length");
+        assert_eq!((l.signs[0], l.signs[1], l.signs[2], l.signs[9]), (2, 1, 0, 2));
+        assert_eq!((l.levels[0], l.levels[1], l.levels[9]), (2, 1, 2), "sizes capped at 2");
+        let c = BlockContext::new(1, 2, l, a);
+        assert_eq!((c.kind, c.class, c.neighbours), (1, 2, 4));
+        assert_eq!(c.signs[0], 3 * 2 + 1, "left negative, above positive");
+        assert_eq!(c.signs[1], 3 + 1);
+        assert_eq!(c.signs[9], 3 * 2);
+        assert_eq!(c.signs[2], 0);
+        assert_eq!((c.level(0), c.level(1), c.level(2), c.level(9)), (2, 2, 0, 1));
+        assert_eq!(c.level(10), 0, "position 10 is past the contexts, whatever is there");
+        let none = BlockContext::new(0, 0, Summary::default(), Summary::default());
+        assert_eq!((none.neighbours, none.signs, none.levels), (0, [0; SIGNED], [0; SIGNED]));
+    }
+
+    #[test]
     fn initial_tables_are_valid_cdfs() {
         for (m, r) in [(8, 0.8), (16, 0.2), (16, 0.8), (24, 0.7)] {
             let f = geometric(m, r);
