@@ -390,10 +390,7 @@ mod tests {
                     let c = residual_block(&mut seed, scale * if i % 5 == 0 { 8.0 } else { 1.0 });
                     let at = syntax::BlockContext {
                         kind,
-                        class: i % 3,
-                        neighbours: i % syntax::NEIGHBOURS,
-                        signs: std::array::from_fn(|k| ((i + k) % syntax::SIGN_CONTEXTS) as u8),
-                        levels: std::array::from_fn(|k| ((i + 2 * k) % syntax::LEVELS) as u8),
+                        ..syntax::BlockContext::varied(i)
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
                     assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");

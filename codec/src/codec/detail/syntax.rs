@@ -278,6 +278,21 @@ impl BlockContext {
     }
 }
 
+#[cfg(test)]
+impl BlockContext {
+    /// The `i`-th of a sequence of contexts that runs through every value of each part,
+    /// for tests that code blocks in all of them.
+    pub(crate) fn varied(i: usize) -> BlockContext {
+        BlockContext {
+            kind: i % 2,
+            class: i % CLASSES,
+            neighbours: i % NEIGHBOURS,
+            signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
+            levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
+        }
+    }
+}
+
 /// Codes one block's quantised coefficients (row-major levels).
 pub fn write_block(
     ctx: &mut DetailContexts,
@@ -667,13 +682,7 @@ mod tests {
                     *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
                 }
             }
-            let at = BlockContext {
-                kind: i % 2,
-                class: i % CLASSES,
-                neighbours: i % NEIGHBOURS,
-                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
-            };
+            let at = BlockContext::varied(i);
             let mut copy = CostSink::default();
             write_block(&mut ctx.clone(), at, &q, &mut copy);
             let before = ctx.clone();
@@ -704,13 +713,7 @@ mod tests {
                     *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
                 }
             }
-            let at = BlockContext {
-                kind: i % 2,
-                class: i % CLASSES,
-                neighbours: i % NEIGHBOURS,
-                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
-            };
+            let at = BlockContext::varied(i);
             // Candidates as the quantiser makes them (one level moved at a time, from
             // the highest position down, with good and bad hints), trims and the empty
             // block.
@@ -803,26 +806,14 @@ mod tests {
         let mut ctx = DetailContexts::default();
         let mut sink = AnsSink::new();
         for (i, b) in blocks.iter().enumerate() {
-            let at = BlockContext {
-                kind: i % 2,
-                class: i % CLASSES,
-                neighbours: i % NEIGHBOURS,
-                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
-            };
+            let at = BlockContext::varied(i);
             write_block(&mut ctx, at, b, &mut sink);
         }
         let bytes = sink.finish();
         let mut src = AnsSource::new(&bytes, 10_000).unwrap();
         let mut ctx = DetailContexts::default();
         for (i, b) in blocks.iter().enumerate() {
-            let at = BlockContext {
-                kind: i % 2,
-                class: i % CLASSES,
-                neighbours: i % NEIGHBOURS,
-                signs: std::array::from_fn(|k| ((i + k) % SIGN_CONTEXTS) as u8),
-                levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
-            };
+            let at = BlockContext::varied(i);
             let mut q = [0; COEFFS];
             let coded = read_block(&mut ctx, at, &mut q, &mut src).unwrap();
             assert_eq!(coded, b.iter().any(|&v| v != 0));
