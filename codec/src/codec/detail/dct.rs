@@ -99,6 +99,86 @@ pub fn inverse(coeffs: &[f64; COEFFS]) -> [f64; COEFFS] {
     out
 }
 
+/// Side of a merged block: a 2x2 group of blocks coded as one transform.
+pub const N16: usize = 2 * N;
+
+/// The orthonormal 16-point DCT-II basis at the sixteen pixel centres:
+/// `T16[i][u] = a_u cos(pi u (i + 0.5) / 16)`, `a_0 = 1/4`, `a_u = sqrt(2)/4`.
+fn table16() -> [[f64; N16]; N16] {
+    let mut t = [[0.0; N16]; N16];
+    for (i, row) in t.iter_mut().enumerate() {
+        let w = std::f64::consts::PI * (i as f64 + 0.5) / N16 as f64;
+        for (u, o) in row.iter_mut().enumerate() {
+            let a = if u == 0 { 0.25 } else { std::f64::consts::SQRT_2 / 4.0 };
+            *o = a * (u as f64 * w).cos();
+        }
+    }
+    t
+}
+
+/// Forward 16x16 transform of a row-major group of samples: its lowest 8x8
+/// coefficients (row-major, as one block's) and the energy of the other 192.
+pub fn forward16(group: &[f64; N16 * N16]) -> ([f64; COEFFS], f64) {
+    let t = table16();
+    let mut rows = [0.0; N16 * N16];
+    for y in 0..N16 {
+        for u in 0..N16 {
+            rows[y * N16 + u] = (0..N16).map(|x| group[y * N16 + x] * t[x][u]).sum();
+        }
+    }
+    let mut low = [0.0; COEFFS];
+    let mut high = 0.0;
+    for v in 0..N16 {
+        for u in 0..N16 {
+            let c: f64 = (0..N16).map(|y| rows[y * N16 + u] * t[y][v]).sum();
+            if v < N && u < N {
+                low[v * N + u] = c;
+            } else {
+                high += c * c;
+            }
+        }
+    }
+    (low, high)
+}
+
+/// The maps from a merged block's coefficients to its halves' 8-point ones:
+/// `HALF[h][k][u] = sum_i b_k(i + 0.5) B_u(8 h + i + 0.5)` (`b` the 8-point basis, `B`
+/// the 16-point one), the 8-point DCT-II of a 16-point basis function's samples in half
+/// `h` (0 the left or top, 1 the right or bottom).
+fn halves() -> &'static [[[f64; N]; N]; 2] {
+    static HALVES: std::sync::OnceLock<[[[f64; N]; N]; 2]> = std::sync::OnceLock::new();
+    HALVES.get_or_init(|| {
+        let (t8, t16) = (table(), table16());
+        std::array::from_fn(|h| {
+            std::array::from_fn(|k| std::array::from_fn(|u| (0..N).map(|i| t8[i][k] * t16[N * h + i][u]).sum()))
+        })
+    })
+}
+
+/// The 8x8 coefficients of quadrant `(qx, qy)` of a merged block whose lowest 16x16
+/// coefficients are `c` (row-major): the 8x8 DCT-II of the merged block's inverse at
+/// the quadrant's pixel centres, `H_qy C H_qx^T`.
+pub fn quadrant(c: &[f64; COEFFS], qx: usize, qy: usize) -> [f64; COEFFS] {
+    let (hx, hy) = (&halves()[qx], &halves()[qy]);
+    // Along x first: rows[v][k] = sum_u c[v][u] hx[k][u].
+    let mut rows = [0.0; COEFFS];
+    for v in 0..N {
+        if c[v * N..v * N + N].iter().all(|&x| x == 0.0) {
+            continue;
+        }
+        for k in 0..N {
+            rows[v * N + k] = (0..N).map(|u| c[v * N + u] * hx[k][u]).sum();
+        }
+    }
+    let mut out = [0.0; COEFFS];
+    for j in 0..N {
+        for k in 0..N {
+            out[j * N + k] = (0..N).map(|v| hy[j][v] * rows[v * N + k]).sum();
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -138,6 +218,34 @@ mod tests {
         let c = forward(&[0.25; COEFFS]);
         assert!((c[0] - 0.25 * 8.0).abs() < 1e-12);
         assert!(c[1..].iter().all(|v| v.abs() < 1e-12));
+    }
+
+    #[test]
+    fn a_merged_block_s_quadrants_hold_its_inverse_at_their_pixel_centres() {
+        let group: [f64; N16 * N16] = std::array::from_fn(|i| {
+            let (x, y) = ((i % N16) as f64, (i / N16) as f64);
+            (0.3 * x).sin() + 0.05 * x * y - 0.2 * (0.5 * y).cos()
+        });
+        let (low, high) = forward16(&group);
+        // Parseval: the low coefficients and the rest hold the group's energy.
+        let energy: f64 = group.iter().map(|v| v * v).sum();
+        let kept: f64 = low.iter().map(|v| v * v).sum();
+        assert!((energy - kept - high).abs() < 1e-9 * energy);
+        assert!(high < 0.05 * energy, "a smooth group is mostly its lowest frequencies");
+        // The 16-point inverse of the low coefficients, by definition, at each pixel.
+        let t = table16();
+        let inverse16 = |x: usize, y: usize| -> f64 {
+            (0..N).flat_map(|v| (0..N).map(move |u| (v, u))).map(|(v, u)| low[v * N + u] * t[y][v] * t[x][u]).sum()
+        };
+        for (qx, qy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let pixels = inverse(&quadrant(&low, qx, qy));
+            for y in 0..N {
+                for x in 0..N {
+                    let expected = inverse16(N * qx + x, N * qy + y);
+                    assert!((pixels[y * N + x] - expected).abs() < 1e-12, "({qx}, {qy}) at ({x}, {y})");
+                }
+            }
+        }
     }
 
     #[test]

@@ -3,7 +3,9 @@
 //! The colour channels' residual after the network (coding space, coded size) is cut
 //! into 8x8 blocks, each an orthonormal DCT ([`dct`]) quantised with one step per channel
 //! kind (luma, chroma), scaled per block by the network's cell size ([`adaptive`]), and
-//! coded by [`syntax`]. The decoder adds the blocks' cosine
+//! coded by [`syntax`]. Under network cells of 16 pixels or more, a 2x2 group of blocks
+//! can be *merged*: coded as the lowest 8x8 coefficients of one 16x16 DCT, which the
+//! decoder turns into its four blocks' coefficients ([`dct::quadrant`]). The decoder adds the blocks' cosine
 //! series to the network's colours at every sample position it evaluates, so the layer
 //! follows the network to any output size or supersampling: the series is a function
 //! defined everywhere in its block, not a table of pixels.
@@ -23,7 +25,7 @@ use lapping::Lapping;
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
 use super::CodecError;
-use syntax::{BlockContext, DetailContexts, Summary};
+use syntax::{BlockContext, DetailContexts, GroupContext, Summary};
 
 /// Marks a block with no nonzero coefficient.
 const ZERO: u32 = u32::MAX;
@@ -47,6 +49,103 @@ pub fn block_context(classes: &[u8], summaries: &[Summary], cols: usize, i: usiz
     BlockContext::new(kind, classes[i] as usize, left, above)
 }
 
+/// Whether block `i` of a `cols x rows` plane starts a group that may merge: its
+/// column and row are even, the group's four blocks are in the plane, and it lies
+/// under a network cell of 16 pixels or more (class 1 or 2), which covers the group
+/// (cells are aligned to their size).
+pub fn group_start(classes: &[u8], cols: usize, rows: usize, i: usize) -> bool {
+    let (bx, by) = (i % cols, i / cols);
+    bx % 2 == 0 && by % 2 == 0 && bx + 1 < cols && by + 1 < rows && classes[i] >= 1
+}
+
+/// The first block of the group of block `i` in a plane `cols` blocks wide.
+fn group_of(cols: usize, i: usize) -> usize {
+    ((i / cols) & !1) * cols + ((i % cols) & !1)
+}
+
+/// What the coding order meets at a block ([`Walk::visit`]).
+pub enum Visit {
+    /// A block of a merged group after its first: nothing is coded.
+    Covered,
+    /// The first block of a group that may merge: a merge bin, then the block.
+    Group(GroupContext, BlockContext),
+    /// Any other block.
+    Block(BlockContext),
+}
+
+/// The coding order of one plane, the bookkeeping the reader and both writers share:
+/// blocks in raster order, each one's context from its left and above neighbours'
+/// summaries (a merged group's blocks all summarised by its one coded block), and the
+/// merged groups so far.
+pub struct Walk<'a> {
+    classes: &'a [u8],
+    cols: usize,
+    rows: usize,
+    kind: usize,
+    summaries: Vec<Summary>,
+    merged: Vec<bool>,
+}
+
+impl<'a> Walk<'a> {
+    /// The walk over a `cols x rows` plane of `kind` with blocks of cell-size classes
+    /// `classes`.
+    pub fn new(classes: &'a [u8], cols: usize, rows: usize, kind: usize) -> Self {
+        Walk {
+            classes,
+            cols,
+            rows,
+            kind,
+            summaries: Vec::with_capacity(cols * rows),
+            merged: vec![false; cols * rows],
+        }
+    }
+
+    /// The next block in coding order; a covered block is done with it.
+    pub fn visit(&mut self) -> Visit {
+        let (i, cols) = (self.summaries.len(), self.cols);
+        if self.merged[i] {
+            self.summaries.push(self.summaries[group_of(cols, i)]);
+            return Visit::Covered;
+        }
+        let at = block_context(self.classes, &self.summaries, cols, i, self.kind);
+        if !group_start(self.classes, cols, self.rows, i) {
+            return Visit::Block(at);
+        }
+        let (bx, by) = (i % cols, i / cols);
+        let left = bx >= 2 && self.merged[i - 2];
+        let above = by >= 2 && self.merged[i - 2 * cols];
+        let g = GroupContext {
+            kind: self.kind,
+            class: self.classes[i] as usize,
+            merged: usize::from(left) + usize::from(above),
+        };
+        Visit::Group(g, at)
+    }
+
+    /// Marks the group starting at the current block merged.
+    pub fn merge(&mut self) {
+        let (i, cols) = (self.summaries.len(), self.cols);
+        for j in [i, i + 1, i + cols, i + cols + 1] {
+            self.merged[j] = true;
+        }
+    }
+
+    /// The current block is coded with levels `q`.
+    pub fn done(&mut self, q: &[i32; COEFFS]) {
+        self.summaries.push(Summary::of(q));
+    }
+
+    /// The summaries so far, by block index.
+    pub fn summaries(&self) -> &[Summary] {
+        &self.summaries
+    }
+
+    /// Per block, whether it is in a merged group.
+    pub fn into_merged(self) -> Vec<bool> {
+        self.merged
+    }
+}
+
 /// One channel's quantised coefficients.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DetailPlane {
@@ -62,16 +161,28 @@ pub struct DetailPlane {
     /// The coded blocks' levels, each block's `v1 x u1` corner row-major: most of a
     /// block's high frequencies are zero, so this holds a fraction of 64 per block.
     levels: Vec<i32>,
+    /// Per block, whether it is in a merged group (whose first block holds the
+    /// group's levels and the others none).
+    merged: Vec<bool>,
 }
 
 impl DetailPlane {
     /// A plane of `cols x rows` blocks from per-block levels (all-zero blocks dropped).
     pub fn from_blocks(cols: usize, rows: usize, blocks: Vec<[i32; COEFFS]>) -> Self {
+        DetailPlane::from_groups(cols, rows, blocks, vec![false; cols * rows])
+    }
+
+    /// A plane from per-block levels and merged groups (`merged` per block, as
+    /// [`Walk`] leaves it; a merged group's levels at its first block, zero at the
+    /// others).
+    pub fn from_groups(cols: usize, rows: usize, blocks: Vec<[i32; COEFFS]>, merged: Vec<bool>) -> Self {
         debug_assert_eq!(blocks.len(), cols * rows);
+        debug_assert_eq!(merged.len(), cols * rows);
         let mut plane = DetailPlane::empty(cols, rows);
         for b in &blocks {
             plane.push(b);
         }
+        plane.merged = merged;
         plane
     }
 
@@ -82,6 +193,7 @@ impl DetailPlane {
             index: Vec::with_capacity(cols * rows),
             spans: Vec::new(),
             levels: Vec::new(),
+            merged: Vec::new(),
         }
     }
 
@@ -115,10 +227,12 @@ impl DetailPlane {
         let mut index = vec![ZERO; cols * rows];
         let mut spans = Vec::new();
         let mut levels = Vec::new();
+        let mut merged = vec![false; cols * rows];
         for ((bx0, by0), plane) in tiles {
             let Some(p) = plane else { continue };
             for by in 0..p.rows {
                 for bx in 0..p.cols {
+                    merged[(by0 + by) * cols + bx0 + bx] = p.merged[by * p.cols + bx];
                     let i = p.index[by * p.cols + bx];
                     if i != ZERO {
                         let (at, v1, u1) = p.spans[i as usize];
@@ -136,10 +250,12 @@ impl DetailPlane {
             index,
             spans,
             levels,
+            merged,
         }
     }
 
-    /// The levels of block `(bx, by)`, if it has a nonzero one.
+    /// The levels of block `(bx, by)`, if it has a nonzero one (a merged group's are
+    /// its first block's).
     pub fn block(&self, bx: usize, by: usize) -> Option<[i32; COEFFS]> {
         let i = self.index[by * self.cols + bx];
         (i != ZERO).then(|| {
@@ -154,9 +270,27 @@ impl DetailPlane {
         })
     }
 
-    /// Number of blocks with a nonzero coefficient.
+    /// Number of blocks with a nonzero coefficient (a merged group counts once).
     pub fn coded_blocks(&self) -> usize {
         self.spans.len()
+    }
+
+    /// Number of merged groups.
+    pub fn merged_groups(&self) -> usize {
+        self.merged.iter().filter(|&&m| m).count() / 4
+    }
+
+    /// The cosine-series coefficients of block `(bx, by)` (row-major) with its levels'
+    /// step `step`, if any is nonzero: its levels times the step, or for a block of a
+    /// merged group its quadrant of the group's ([`dct::quadrant`]).
+    pub fn coefficients(&self, bx: usize, by: usize, step: f64) -> Option<[f64; COEFFS]> {
+        let i = by * self.cols + bx;
+        if !self.merged[i] {
+            return self.block(bx, by).map(|l| l.map(|q| q as f64 * step));
+        }
+        let first = group_of(self.cols, i);
+        let l = self.block(first % self.cols, first / self.cols)?;
+        Some(dct::quadrant(&l.map(|q| q as f64 * step), bx % 2, by % 2))
     }
 
     /// Reads a `cols x rows` plane whose blocks have cell-size classes `classes`.
@@ -170,11 +304,23 @@ impl DetailPlane {
     ) -> Result<Self, CodecError> {
         let mut plane = DetailPlane::empty(cols, rows);
         let mut q = [0i32; COEFFS];
-        let mut summaries = Vec::with_capacity(cols * rows);
-        for i in 0..cols * rows {
-            let at = block_context(classes, &summaries, cols, i, kind);
+        let mut walk = Walk::new(classes, cols, rows, kind);
+        for _ in 0..cols * rows {
+            let at = match walk.visit() {
+                Visit::Covered => {
+                    plane.index.push(ZERO);
+                    continue;
+                }
+                Visit::Group(g, at) => {
+                    if syntax::read_merge(ctx, g, src)? {
+                        walk.merge();
+                    }
+                    at
+                }
+                Visit::Block(at) => at,
+            };
             let coded = syntax::read_block(ctx, at, &mut q, src)?;
-            summaries.push(Summary::of(&q));
+            walk.done(&q);
             if coded {
                 // A coded block has a nonzero level (the syntax codes its last one).
                 plane.push(&q);
@@ -182,6 +328,7 @@ impl DetailPlane {
                 plane.index.push(ZERO);
             }
         }
+        plane.merged = walk.into_merged();
         Ok(plane)
     }
 }
@@ -212,12 +359,22 @@ impl Detail {
             let mut ctx = DetailContexts::default();
             const EMPTY: [i32; COEFFS] = [0; COEFFS];
             for p in planes {
-                let mut summaries = Vec::with_capacity(p.cols * p.rows);
+                let mut walk = Walk::new(classes, p.cols, p.rows, kind);
                 for i in 0..p.cols * p.rows {
-                    let at = block_context(classes, &summaries, p.cols, i, kind);
+                    let at = match walk.visit() {
+                        Visit::Covered => continue,
+                        Visit::Group(g, at) => {
+                            syntax::write_merge(&mut ctx, g, p.merged[i], &mut sink);
+                            if p.merged[i] {
+                                walk.merge();
+                            }
+                            at
+                        }
+                        Visit::Block(at) => at,
+                    };
                     let b = p.block(i % p.cols, i / p.cols).unwrap_or(EMPTY);
                     syntax::write_block(&mut ctx, at, &b, &mut sink);
-                    summaries.push(Summary::of(&b));
+                    walk.done(&b);
                 }
             }
             sink.finish()
@@ -302,18 +459,18 @@ impl Detail {
                 let (bx, tx) = locate(x, p.cols);
                 let (by, ty) = locate(y, p.rows);
                 let series = |bx: usize, by: usize, tx: f64, ty: f64| {
-                    let Some(l) = p.block(bx, by) else {
+                    let step = step * self.block_steps.as_ref().map_or(1.0, |b| b.factor(by * p.cols + bx));
+                    let Some(c) = p.coefficients(bx, by, step) else {
                         return 0.0;
                     };
-                    let step = step * self.block_steps.as_ref().map_or(1.0, |b| b.factor(by * p.cols + bx));
                     let (bu, bv) = (dct::basis_at(tx), dct::basis_at(ty));
                     let mut sum = 0.0;
                     for v in 0..N {
                         for u in 0..N {
-                            sum += l[v * N + u] as f64 * bv[v] as f64 * bu[u] as f64;
+                            sum += c[v * N + u] * bv[v] as f64 * bu[u] as f64;
                         }
                     }
-                    sum * step
+                    sum
                 };
                 let mut value = match self.lapping {
                     // The post-filter along x, then along y: per axis the position's own
@@ -432,12 +589,33 @@ impl PlaneEval {
                 }
             }
         }
-        PlaneEval {
+        let mut eval = PlaneEval {
             coeffs,
             extent: p.spans.clone(),
             index: p.index.clone(),
             cols: p.cols,
+        };
+        // A merged group's blocks get their quadrants' coefficients, appended (its
+        // first block's levels stay unused where they are).
+        for i in (0..p.index.len()).filter(|&i| p.merged[i]) {
+            let s = step * block_steps.map_or(1.0, |b| b.factor(i));
+            let Some(c) = p.coefficients(i % p.cols, i / p.cols, s) else {
+                eval.index[i] = ZERO;
+                continue;
+            };
+            let v1 = (0..N).rev().find(|&v| c[v * N..v * N + N].iter().any(|&x| x != 0.0)).map_or(0, |v| v + 1);
+            let u1 = (0..N).rev().find(|&u| (0..N).any(|v| c[v * N + u] != 0.0)).map_or(0, |u| u + 1);
+            if v1 == 0 {
+                eval.index[i] = ZERO;
+                continue;
+            }
+            eval.index[i] = eval.extent.len() as u32;
+            eval.extent.push((eval.coeffs.len() as u32, v1 as u8, u1 as u8));
+            for v in 0..v1 {
+                eval.coeffs.extend(c[v * N..v * N + u1].iter().map(|&x| x as f32));
+            }
         }
+        eval
     }
 }
 
@@ -744,6 +922,79 @@ mod tests {
         assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &others).ok(), Some(detail));
     }
 
+    /// A 40x24 three-channel residual under 16-pixel cells: smooth on the left, where
+    /// the encoder merges groups, a fine checkerboard on the right, where it does not.
+    fn groups_layer(step: f64) -> (Detail, Vec<u8>, Vec<u8>, (u32, u32)) {
+        let (w, h) = (40u32, 24u32);
+        let planes: Vec<Vec<f64>> = (0..3)
+            .map(|c| {
+                (0..w * h)
+                    .map(|i| {
+                        let (x, y) = ((i % w) as f64, (i / w) as f64);
+                        if x < 16.0 {
+                            0.2 * ((x + 2.0 * y) / 13.0 + c as f64).sin()
+                        } else {
+                            0.2 * if (i % w + i / w) % 2 == 0 { 1.0 } else { -1.0 }
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let (cols, rows) = blocks(w, h);
+        let classes = vec![1u8; cols * rows];
+        let (detail, payload) = code_layer(&planes, (w, h), &quantisers(step), &classes, None);
+        (detail, payload, classes, (w, h))
+    }
+
+    #[test]
+    fn smooth_groups_merge_and_their_payload_reads_back() {
+        let (detail, payload, classes, (w, h)) = groups_layer(0.05);
+        let (cols, _) = blocks(w, h);
+        for p in &detail.planes {
+            assert!(p.merged_groups() > 0, "the smooth half merges");
+            // Blocks 2 and 3 of the first two rows are the checkerboard's group.
+            assert!(!p.merged[2] && !p.merged[cols + 3], "a checkerboard group is coded apart");
+        }
+        assert_eq!(detail.to_payload(&classes), payload);
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+        assert_eq!(back, detail);
+    }
+
+    #[test]
+    fn a_merged_group_evaluates_to_its_16x16_inverse_transform_at_pixel_centres() {
+        let (detail, _, _, (w, h)) = groups_layer(0.05);
+        let p = &detail.planes[0];
+        let step = detail.steps[0];
+        let (bx, by) = (0..p.rows)
+            .flat_map(|by| (0..p.cols).map(move |bx| (bx, by)))
+            .find(|&(bx, by)| p.merged[by * p.cols + bx])
+            .unwrap();
+        let levels = p.block(bx, by).unwrap();
+        let plain = Detail {
+            deblock: None,
+            lapping: None,
+            block_steps: None,
+            ..detail.clone()
+        };
+        let frame = Frame::new(w, h);
+        let layer = DetailEval::new(&plain, &Grid::pixel_centres(&frame, w, h)).eval();
+        // The 16-point basis B_u(t) = a_u cos(pi u t / 16), by its definition.
+        let basis = |u: usize, t: f64| {
+            let a = if u == 0 { 0.25 } else { std::f64::consts::SQRT_2 / 4.0 };
+            a * (std::f64::consts::PI * u as f64 * t / 16.0).cos()
+        };
+        for y in 0..16 {
+            for x in 0..16 {
+                let expected: f64 = (0..COEFFS)
+                    .map(|z| levels[z] as f64 * step * basis(z / N, y as f64 + 0.5) * basis(z % N, x as f64 + 0.5))
+                    .sum();
+                let (px, py) = (bx * N + x, by * N + y);
+                let got = layer[0][py * w as usize + px] as f64;
+                assert!((got - expected).abs() < 1e-5, "({px}, {py}): {got} vs {expected}");
+            }
+        }
+    }
+
     #[test]
     fn a_finer_step_leaves_less_error_and_costs_more() {
         let (r, (w, h)) = residuals();
@@ -853,6 +1104,31 @@ mod tests {
                             let fast = plane[j * grid.nx + i] as f64;
                             assert!((fast - at[c]).abs() < 1e-4, "{ow}x{oh} ({i}, {j}) plane {c}: {fast} vs {}", at[c]);
                         }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn merged_groups_evaluate_on_a_grid_as_the_scalar_reference_does() {
+        let (mut detail, _, classes, (w, h)) = groups_layer(0.05);
+        detail.deblock = Some(Deblock { strength: 60, radius: 3 });
+        detail.lapping = Some(Lapping::DEFAULT);
+        detail.block_steps = Some(BlockSteps {
+            steps: adaptive::AdaptiveSteps { factors: [40, 24, 9] },
+            classes,
+        });
+        let frame = Frame::new(w, h);
+        for (ow, oh) in [(w, h), (2 * w + 3, h + 5), (w / 3, h / 2)] {
+            let grid = Grid::pixel_centres(&frame, ow, oh);
+            let layer = DetailEval::new(&detail, &grid).eval();
+            for j in 0..grid.ny {
+                for i in 0..grid.nx {
+                    let at = detail.at(grid.x(i), grid.y(j));
+                    for (c, plane) in layer.iter().enumerate() {
+                        let fast = plane[j * grid.nx + i] as f64;
+                        assert!((fast - at[c]).abs() < 1e-4, "{ow}x{oh} ({i}, {j}) plane {c}: {fast} vs {}", at[c]);
                     }
                 }
             }

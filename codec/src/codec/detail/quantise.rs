@@ -9,9 +9,9 @@
 
 use rayon::prelude::*;
 
-use super::dct::{self, COEFFS, N, ZIGZAG};
-use super::syntax::{self, BlockPricer, DetailContexts, Summary};
-use super::{block_context, blocks, Detail, DetailPlane};
+use super::dct::{self, COEFFS, N, N16, ZIGZAG};
+use super::syntax::{self, BlockContext, BlockPricer, DetailContexts, GroupContext, Summary};
+use super::{blocks, group_start, Detail, DetailPlane, Visit, Walk};
 use crate::codec::entropy::{AnsSink, SymbolSink};
 
 /// Quantiser of one channel.
@@ -50,6 +50,15 @@ fn gather(plane: &[f64], width: usize, height: usize, bx: usize, by: usize) -> [
         }
     }
     b
+}
+
+/// The 16x16 group whose top-left block is `(bx, by)`, edges repeated as [`gather`]'s.
+fn gather16(plane: &[f64], width: usize, height: usize, bx: usize, by: usize) -> [f64; N16 * N16] {
+    std::array::from_fn(|i| {
+        let py = (by * N + i / N16).min(height - 1);
+        let px = (bx * N + i % N16).min(width - 1);
+        plane[py * width + px]
+    })
 }
 
 /// Squared error of `levels` against the coefficients in steps, `x`; summed in one
@@ -151,6 +160,71 @@ fn choose(
     best.1
 }
 
+/// `D + lambda R` of coding coefficients `c` as `levels` at `at`, `extra` more bits
+/// (1/256) and `dropped` more squared error (in steps) aside.
+#[allow(clippy::too_many_arguments)]
+fn block_cost(
+    c: &[f64; COEFFS],
+    levels: &[i32; COEFFS],
+    q: Quantiser,
+    ctx: &DetailContexts,
+    at: BlockContext,
+    pricer: &mut BlockPricer,
+    extra: u64,
+    dropped: f64,
+) -> f64 {
+    let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] / q.step);
+    let r = pricer.block(ctx, at).rate(levels, COEFFS) + extra;
+    distortion(&x, levels) + dropped + q.lambda * r as f64 / 256.0
+}
+
+/// Chooses whether the group of four blocks starting at block `i` is merged, by
+/// `D + lambda R`: returns that and the levels of its first block (the merged block's,
+/// or the block's own). `apart` holds the four blocks' coefficients, `merged` the
+/// lowest of the group's 16x16 transform and the energy of the rest. Coded apart, the
+/// first block is priced exactly and the other three on the contexts as they are,
+/// with their neighbours' summaries from the candidates (the first block's left one
+/// standing in for the lower left block's, whose row is not coded yet).
+#[allow(clippy::too_many_arguments)]
+fn choose_group(
+    apart: [&[f64; COEFFS]; 4],
+    merged: &([f64; COEFFS], f64),
+    q: Quantiser,
+    g: GroupContext,
+    at: BlockContext,
+    summaries: &[Summary],
+    cols: usize,
+    ctx: &DetailContexts,
+    pricer: &mut BlockPricer,
+) -> (bool, [i32; COEFFS]) {
+    let i = summaries.len();
+    let first = choose(apart[0], q, ctx, at, pricer);
+    let mut j_apart = block_cost(apart[0], &first, q, ctx, at, pricer, syntax::merge_cost(ctx, g, false), 0.0);
+    let s0 = Summary::of(&first);
+    let left = if !i.is_multiple_of(cols) { summaries[i - 1] } else { Summary::default() };
+    let above = if i >= cols { summaries[i + 1 - cols] } else { Summary::default() };
+    let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
+    let mut others = [[0; COEFFS]; 3];
+    for (k, (l, a)) in [(s0, above), (left, s0), (Summary::default(), Summary::default())].into_iter().enumerate() {
+        let at = if k == 2 {
+            context(Summary::of(&others[1]), Summary::of(&others[0]))
+        } else {
+            context(l, a)
+        };
+        others[k] = choose(apart[k + 1], q, ctx, at, pricer);
+        j_apart += block_cost(apart[k + 1], &others[k], q, ctx, at, pricer, 0, 0.0);
+    }
+    let (low, high) = merged;
+    let m = choose(low, q, ctx, at, pricer);
+    let dropped = high / (q.step * q.step);
+    let j_merged = block_cost(low, &m, q, ctx, at, pricer, syntax::merge_cost(ctx, g, true), dropped);
+    if j_merged < j_apart {
+        (true, m)
+    } else {
+        (false, first)
+    }
+}
+
 /// What a plane's blocks bring besides their residual, per block: the cell-size class
 /// (a context) and, if the steps adapt, the step factor.
 #[derive(Debug, Clone, Copy)]
@@ -178,21 +252,43 @@ pub fn code_plane(
         .into_par_iter()
         .map(|i| dct::forward(&gather(residual, w, h, i % cols, i / cols)))
         .collect();
+    let groups: Vec<Option<([f64; COEFFS], f64)>> = (0..cols * rows)
+        .into_par_iter()
+        .map(|i| {
+            group_start(blocks_of.classes, cols, rows, i)
+                .then(|| dct::forward16(&gather16(residual, w, h, i % cols, i / cols)))
+        })
+        .collect();
     let mut chosen = Vec::with_capacity(cols * rows);
-    let mut summaries = Vec::with_capacity(cols * rows);
+    let mut walk = Walk::new(blocks_of.classes, cols, rows, kind);
     let mut pricer = BlockPricer::default();
     for (i, c) in coeffs.iter().enumerate() {
-        let at = block_context(blocks_of.classes, &summaries, cols, i, kind);
         let q = Quantiser {
             step: q.step * blocks_of.factors.map_or(1.0, |f| f[i]),
             ..q
         };
-        let best = choose(c, q, ctx, at, &mut pricer);
+        let (at, best) = match walk.visit() {
+            Visit::Covered => {
+                chosen.push([0; COEFFS]);
+                continue;
+            }
+            Visit::Group(g, at) => {
+                let merged = groups[i].as_ref().expect("a group start has its transform");
+                let apart = [c, &coeffs[i + 1], &coeffs[i + cols], &coeffs[i + cols + 1]];
+                let (merge, best) = choose_group(apart, merged, q, g, at, walk.summaries(), cols, ctx, &mut pricer);
+                syntax::write_merge(ctx, g, merge, sink);
+                if merge {
+                    walk.merge();
+                }
+                (at, best)
+            }
+            Visit::Block(at) => (at, choose(c, q, ctx, at, &mut pricer)),
+        };
         syntax::write_block(ctx, at, &best, sink);
-        summaries.push(Summary::of(&best));
+        walk.done(&best);
         chosen.push(best);
     }
-    DetailPlane::from_blocks(cols, rows, chosen)
+    DetailPlane::from_groups(cols, rows, chosen, walk.into_merged())
 }
 
 /// The detail layer of the colour channels' residuals (Y, or Y, C1, C2), one quantiser

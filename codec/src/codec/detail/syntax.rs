@@ -1,6 +1,10 @@
 //! The detail layer's coefficients as coded symbols (section `D`).
 //!
-//! Per channel, blocks in raster order. A block is a *coded* bin, then the position of
+//! Per channel, blocks in raster order. Where a 2x2 group of blocks lies under one
+//! network cell of 16 pixels or more, its first block starts with a *merge* bin: a
+//! merged group is one block of the lowest 8x8 coefficients of a 16x16 transform,
+//! coded in place of the first block, and its other three blocks take no symbols
+//! ([`GroupContext`]). A block is a *coded* bin, then the position of
 //! its last nonzero coefficient in zig-zag order (its class, then the bits below the
 //! class's top one, each an adaptive bin), then its coefficients from that last one back
 //! to the first. The first two take their context from the block's kind (luma or
@@ -47,10 +51,10 @@ const LAST_BITS: usize = LAST_CLASSES - 2;
 /// Largest coefficient magnitude a file may hold.
 pub const MAX_LEVEL: u32 = 1 << 20;
 /// Most symbols one block can take (bins, tokens and raw bits): the decoder's bound.
-/// The coded bin, the last position's class and bits, four per level (token, escape
+/// The merge bin, the coded bin, the last position's class and bits, four per level (token, escape
 /// class, two raw parts) and the signs outside a token (the first positions' bins and
 /// the last level's).
-pub const MAX_SYMBOLS_PER_BLOCK: u64 = 3 + SIGNED as u64 + LAST_BITS as u64 + COEFFS as u64 * 4;
+pub const MAX_SYMBOLS_PER_BLOCK: u64 = 4 + SIGNED as u64 + LAST_BITS as u64 + COEFFS as u64 * 4;
 
 /// The class of a block's last nonzero scan position `last`: its bit length.
 fn last_class(last: usize) -> usize {
@@ -134,6 +138,9 @@ pub struct DetailContexts {
     /// The last level's magnitude less one ([`first_index`]).
     first: [TokenCdf; 2 * BANDS * LEVELS],
     class: [ClassCdf; 2],
+    /// Merge bins, by kind, group class less one and merged neighbour groups
+    /// ([`GroupContext`]).
+    merge: [[[BinModel; MERGE_CONTEXTS]; CLASSES - 1]; 2],
 }
 
 impl Default for DetailContexts {
@@ -151,6 +158,7 @@ impl Default for DetailContexts {
             first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS * LEVELS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
+            merge: [[[BinModel::new(4); MERGE_CONTEXTS]; CLASSES - 1]; 2],
         }
     }
 }
@@ -291,6 +299,35 @@ impl BlockContext {
             levels: std::array::from_fn(|k| ((i + 2 * k) % LEVELS) as u8),
         }
     }
+}
+
+/// Merge contexts of a group: how many of its left and above groups are merged.
+pub const MERGE_CONTEXTS: usize = 3;
+
+/// Where a group of four blocks that may merge sits: the context of its merge bin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GroupContext {
+    /// 0 for luma, 1 for chroma.
+    pub kind: usize,
+    /// The cell-size class of its blocks: 1 or more (cells of 16 pixels or larger).
+    pub class: usize,
+    /// How many of the groups to its left and above are merged (0..=2).
+    pub merged: usize,
+}
+
+/// Codes whether a group is merged.
+pub fn write_merge(ctx: &mut DetailContexts, g: GroupContext, merged: bool, sink: &mut impl SymbolSink) {
+    sink.bin(&mut ctx.merge[g.kind][g.class - 1][g.merged], merged);
+}
+
+/// Reads whether a group is merged.
+pub fn read_merge(ctx: &mut DetailContexts, g: GroupContext, src: &mut AnsSource) -> Result<bool, CodecError> {
+    src.bin(&mut ctx.merge[g.kind][g.class - 1][g.merged])
+}
+
+/// The cost of [`write_merge`] in 1/256 bits, on the contexts as they are.
+pub fn merge_cost(ctx: &DetailContexts, g: GroupContext, merged: bool) -> u64 {
+    ctx.merge[g.kind][g.class - 1][g.merged].cost(merged) as u64
 }
 
 /// Codes one block's quantised coefficients (row-major levels).
