@@ -512,7 +512,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
     match h.detail_steps {
         Some([l, c]) => outln!(
             text,
-            "detail:      8x8 DCT blocks (2x2 groups under cells of 16 px or more may merge into one 16x16), step luma {l}, chroma {c}, {}, {}, {}",
+            "detail:      8x8 DCT blocks (merged into 16x16 or 32x32 under cells that large where that pays), step luma {l}, chroma {c}, {}, {}, {}",
             match h.deblock {
                 Some(d) => format!(
                     "deblocked (steps up to {}% of the step, {} px ramps)",

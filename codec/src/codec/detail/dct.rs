@@ -99,38 +99,47 @@ pub fn inverse(coeffs: &[f64; COEFFS]) -> [f64; COEFFS] {
     out
 }
 
-/// Side of a merged block: a 2x2 group of blocks coded as one transform.
-pub const N16: usize = 2 * N;
-
-/// The orthonormal 16-point DCT-II basis at the sixteen pixel centres:
-/// `T16[i][u] = a_u cos(pi u (i + 0.5) / 16)`, `a_0 = 1/4`, `a_u = sqrt(2)/4`.
-fn table16() -> [[f64; N16]; N16] {
-    let mut t = [[0.0; N16]; N16];
-    for (i, row) in t.iter_mut().enumerate() {
-        let w = std::f64::consts::PI * (i as f64 + 0.5) / N16 as f64;
-        for (u, o) in row.iter_mut().enumerate() {
-            let a = if u == 0 { 0.25 } else { std::f64::consts::SQRT_2 / 4.0 };
-            *o = a * (u as f64 * w).cos();
-        }
-    }
-    t
+/// The orthonormal `n`-point DCT-II basis at the `n` pixel centres:
+/// `T[i][u] = a_u cos(pi u (i + 0.5) / n)`, `a_0 = sqrt(1/n)`, `a_u = sqrt(2/n)`.
+fn table_n(n: usize) -> Vec<Vec<f64>> {
+    (0..n)
+        .map(|i| {
+            let w = std::f64::consts::PI * (i as f64 + 0.5) / n as f64;
+            (0..n)
+                .map(|u| {
+                    let a = if u == 0 { (1.0 / n as f64).sqrt() } else { (2.0 / n as f64).sqrt() };
+                    a * (u as f64 * w).cos()
+                })
+                .collect()
+        })
+        .collect()
 }
 
-/// Forward 16x16 transform of a row-major group of samples: its lowest 8x8
-/// coefficients (row-major, as one block's) and the energy of the other 192.
-pub fn forward16(group: &[f64; N16 * N16]) -> ([f64; COEFFS], f64) {
-    let t = table16();
-    let mut rows = [0.0; N16 * N16];
-    for y in 0..N16 {
-        for u in 0..N16 {
-            rows[y * N16 + u] = (0..N16).map(|x| group[y * N16 + x] * t[x][u]).sum();
+/// The tables of the 16- and 32-point transforms.
+fn group_tables() -> &'static [Vec<Vec<f64>>; 2] {
+    static TABLES: std::sync::OnceLock<[Vec<Vec<f64>>; 2]> = std::sync::OnceLock::new();
+    TABLES.get_or_init(|| std::array::from_fn(|k| table_n(N << (k + 1))))
+}
+
+/// Forward transform of a merged group of level `g` (`8 2^g` pixels square, its
+/// samples row-major): the lowest 8x8 coefficients (row-major, as one block's) and the
+/// energy of the rest.
+pub fn forward_group(group: &[f64], g: usize) -> ([f64; COEFFS], f64) {
+    let n = N << g;
+    debug_assert_eq!(group.len(), n * n);
+    let t = &group_tables()[g - 1];
+    // Along x, all frequencies (for the energy), then along y.
+    let mut rows = vec![0.0; n * n];
+    for y in 0..n {
+        for u in 0..n {
+            rows[y * n + u] = (0..n).map(|x| group[y * n + x] * t[x][u]).sum();
         }
     }
     let mut low = [0.0; COEFFS];
     let mut high = 0.0;
-    for v in 0..N16 {
-        for u in 0..N16 {
-            let c: f64 = (0..N16).map(|y| rows[y * N16 + u] * t[y][v]).sum();
+    for v in 0..n {
+        for u in 0..n {
+            let c: f64 = (0..n).map(|y| rows[y * n + u] * t[y][v]).sum();
             if v < N && u < N {
                 low[v * N + u] = c;
             } else {
@@ -141,25 +150,32 @@ pub fn forward16(group: &[f64; N16 * N16]) -> ([f64; COEFFS], f64) {
     (low, high)
 }
 
-/// The maps from a merged block's coefficients to its halves' 8-point ones:
-/// `HALF[h][k][u] = sum_i b_k(i + 0.5) B_u(8 h + i + 0.5)` (`b` the 8-point basis, `B`
-/// the 16-point one), the 8-point DCT-II of a 16-point basis function's samples in half
-/// `h` (0 the left or top, 1 the right or bottom).
-fn halves() -> &'static [[[f64; N]; N]; 2] {
-    static HALVES: std::sync::OnceLock<[[[f64; N]; N]; 2]> = std::sync::OnceLock::new();
-    HALVES.get_or_init(|| {
-        let (t8, t16) = (table(), table16());
-        std::array::from_fn(|h| {
-            std::array::from_fn(|k| std::array::from_fn(|u| (0..N).map(|i| t8[i][k] * t16[N * h + i][u]).sum()))
+/// The maps from a level-`g` group's coefficients to its parts' 8-point ones:
+/// `PARTS[g - 1][h][k][u] = sum_i b_k(i + 0.5) B_u(8 h + i + 0.5)` (`b` the 8-point
+/// basis, `B` the group's `8 2^g`-point one, `h` the part along the axis), the 8-point
+/// DCT-II of a group basis function's samples in part `h`.
+type PartMaps = Vec<[[f64; N]; N]>;
+
+fn parts(g: usize) -> &'static PartMaps {
+    static PARTS: std::sync::OnceLock<[PartMaps; 2]> = std::sync::OnceLock::new();
+    &PARTS.get_or_init(|| {
+        let t8 = table();
+        std::array::from_fn(|k| {
+            let n = N << (k + 1);
+            let tn = &group_tables()[k];
+            (0..n / N)
+                .map(|h| std::array::from_fn(|k| std::array::from_fn(|u| (0..N).map(|i| t8[i][k] * tn[N * h + i][u]).sum())))
+                .collect()
         })
-    })
+    })[g - 1]
 }
 
-/// The 8x8 coefficients of quadrant `(qx, qy)` of a merged block whose lowest 16x16
-/// coefficients are `c` (row-major): the 8x8 DCT-II of the merged block's inverse at
-/// the quadrant's pixel centres, `H_qy C H_qx^T`.
-pub fn quadrant(c: &[f64; COEFFS], qx: usize, qy: usize) -> [f64; COEFFS] {
-    let (hx, hy) = (&halves()[qx], &halves()[qy]);
+/// The 8x8 coefficients of part `(px, py)` (in blocks) of a level-`g` merged group
+/// whose lowest 8x8 coefficients are `c` (row-major): the 8x8 DCT-II of the group's
+/// inverse at the part's pixel centres, `H_py C H_px^T`.
+pub fn part(c: &[f64; COEFFS], g: usize, px: usize, py: usize) -> [f64; COEFFS] {
+    let maps = parts(g);
+    let (hx, hy) = (&maps[px], &maps[py]);
     // Along x first: rows[v][k] = sum_u c[v][u] hx[k][u].
     let mut rows = [0.0; COEFFS];
     for v in 0..N {
@@ -221,28 +237,40 @@ mod tests {
     }
 
     #[test]
-    fn a_merged_block_s_quadrants_hold_its_inverse_at_their_pixel_centres() {
-        let group: [f64; N16 * N16] = std::array::from_fn(|i| {
-            let (x, y) = ((i % N16) as f64, (i / N16) as f64);
-            (0.3 * x).sin() + 0.05 * x * y - 0.2 * (0.5 * y).cos()
-        });
-        let (low, high) = forward16(&group);
-        // Parseval: the low coefficients and the rest hold the group's energy.
-        let energy: f64 = group.iter().map(|v| v * v).sum();
-        let kept: f64 = low.iter().map(|v| v * v).sum();
-        assert!((energy - kept - high).abs() < 1e-9 * energy);
-        assert!(high < 0.05 * energy, "a smooth group is mostly its lowest frequencies");
-        // The 16-point inverse of the low coefficients, by definition, at each pixel.
-        let t = table16();
-        let inverse16 = |x: usize, y: usize| -> f64 {
-            (0..N).flat_map(|v| (0..N).map(move |u| (v, u))).map(|(v, u)| low[v * N + u] * t[y][v] * t[x][u]).sum()
-        };
-        for (qx, qy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-            let pixels = inverse(&quadrant(&low, qx, qy));
-            for y in 0..N {
-                for x in 0..N {
-                    let expected = inverse16(N * qx + x, N * qy + y);
-                    assert!((pixels[y * N + x] - expected).abs() < 1e-12, "({qx}, {qy}) at ({x}, {y})");
+    fn a_merged_group_s_parts_hold_its_inverse_at_their_pixel_centres() {
+        for g in 1..=2 {
+            let n = N << g;
+            let group: Vec<f64> = (0..n * n)
+                .map(|i| {
+                    let (x, y) = ((i % n) as f64, (i / n) as f64);
+                    (0.3 * x * 16.0 / n as f64).sin() + 0.05 * x * y * 256.0 / (n * n) as f64 - 0.2 * (0.5 * y).cos()
+                })
+                .collect();
+            let (low, high) = forward_group(&group, g);
+            // Parseval: the low coefficients and the rest hold the group's energy.
+            let energy: f64 = group.iter().map(|v| v * v).sum();
+            let kept: f64 = low.iter().map(|v| v * v).sum();
+            assert!((energy - kept - high).abs() < 1e-9 * energy);
+            assert!(high < 0.05 * energy, "a smooth group is mostly its lowest frequencies ({g})");
+            // The group's inverse from the low coefficients, by the basis's definition.
+            let basis = |u: usize, t: f64| {
+                let a = if u == 0 { (1.0 / n as f64).sqrt() } else { (2.0 / n as f64).sqrt() };
+                a * (std::f64::consts::PI * u as f64 * t / n as f64).cos()
+            };
+            let inverse_group = |x: usize, y: usize| -> f64 {
+                (0..COEFFS)
+                    .map(|z| low[z] * basis(z / N, y as f64 + 0.5) * basis(z % N, x as f64 + 0.5))
+                    .sum()
+            };
+            for py in 0..1 << g {
+                for px in 0..1 << g {
+                    let pixels = inverse(&part(&low, g, px, py));
+                    for y in 0..N {
+                        for x in 0..N {
+                            let expected = inverse_group(N * px + x, N * py + y);
+                            assert!((pixels[y * N + x] - expected).abs() < 1e-12, "{g}: ({px}, {py}) at ({x}, {y})");
+                        }
+                    }
                 }
             }
         }

@@ -4,8 +4,9 @@
 //! into 8x8 blocks, each an orthonormal DCT ([`dct`]) quantised with one step per channel
 //! kind (luma, chroma), scaled per block by the network's cell size ([`adaptive`]), and
 //! coded by [`syntax`]. Under network cells of 16 pixels or more, a 2x2 group of blocks
-//! can be *merged*: coded as the lowest 8x8 coefficients of one 16x16 DCT, which the
-//! decoder turns into its four blocks' coefficients ([`dct::quadrant`]). The decoder adds the blocks' cosine
+//! can be *merged*: coded as the lowest 8x8 coefficients of one 16x16 DCT, and under
+//! cells of 32 pixels or more a 4x4 group as those of one 32x32 DCT; the decoder turns
+//! them into the group's blocks' coefficients ([`dct::part`]). The decoder adds the blocks' cosine
 //! series to the network's colours at every sample position it evaluates, so the layer
 //! follows the network to any output size or supersampling: the series is a function
 //! defined everywhere in its block, not a table of pixels.
@@ -25,7 +26,7 @@ use lapping::Lapping;
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
 use super::CodecError;
-use syntax::{BlockContext, DetailContexts, GroupContext, Summary};
+use syntax::{BlockContext, DetailContexts, GroupContext, Summary, GROUP_LEVELS};
 
 /// Marks a block with no nonzero coefficient.
 const ZERO: u32 = u32::MAX;
@@ -49,26 +50,28 @@ pub fn block_context(classes: &[u8], summaries: &[Summary], cols: usize, i: usiz
     BlockContext::new(kind, classes[i] as usize, left, above)
 }
 
-/// Whether block `i` of a `cols x rows` plane starts a group that may merge: its
-/// column and row are even, the group's four blocks are in the plane, and it lies
-/// under a network cell of 16 pixels or more (class 1 or 2), which covers the group
-/// (cells are aligned to their size).
-pub fn group_start(classes: &[u8], cols: usize, rows: usize, i: usize) -> bool {
-    let (bx, by) = (i % cols, i / cols);
-    bx % 2 == 0 && by % 2 == 0 && bx + 1 < cols && by + 1 < rows && classes[i] >= 1
+/// Whether block `i` of a `cols x rows` plane starts a level-`g` group that may
+/// merge (`g` 1: 2x2 blocks, one 16x16 transform; 2: 4x4 blocks, one 32x32): its
+/// column and row are multiples of `2^g`, the group's blocks are all in the plane, and
+/// it lies under a network cell at least the group's size (class `g` or more), which
+/// then covers the group (cells are aligned to their size).
+pub fn group_start(classes: &[u8], cols: usize, rows: usize, i: usize, g: usize) -> bool {
+    let (bx, by, n) = (i % cols, i / cols, 1 << g);
+    bx % n == 0 && by % n == 0 && bx + n <= cols && by + n <= rows && classes[i] as usize >= g
 }
 
-/// The first block of the group of block `i` in a plane `cols` blocks wide.
-fn group_of(cols: usize, i: usize) -> usize {
-    ((i / cols) & !1) * cols + ((i % cols) & !1)
+/// The first block of the level-`g` group of block `i` in a plane `cols` blocks wide.
+fn group_of(cols: usize, i: usize, g: usize) -> usize {
+    ((i / cols) >> g << g) * cols + ((i % cols) >> g << g)
 }
 
 /// What the coding order meets at a block ([`Walk::visit`]).
 pub enum Visit {
     /// A block of a merged group after its first: nothing is coded.
     Covered,
-    /// The first block of a group that may merge: a merge bin, then the block.
-    Group(GroupContext, BlockContext),
+    /// The first block of groups that may merge, by level less one: the merge bins
+    /// from the largest group down to the first that is merged, then the block.
+    Group([Option<GroupContext>; GROUP_LEVELS], BlockContext),
     /// Any other block.
     Block(BlockContext),
 }
@@ -83,7 +86,7 @@ pub struct Walk<'a> {
     rows: usize,
     kind: usize,
     summaries: Vec<Summary>,
-    merged: Vec<bool>,
+    merged: Vec<u8>,
 }
 
 impl<'a> Walk<'a> {
@@ -96,37 +99,45 @@ impl<'a> Walk<'a> {
             rows,
             kind,
             summaries: Vec::with_capacity(cols * rows),
-            merged: vec![false; cols * rows],
+            merged: vec![0; cols * rows],
         }
     }
 
     /// The next block in coding order; a covered block is done with it.
     pub fn visit(&mut self) -> Visit {
         let (i, cols) = (self.summaries.len(), self.cols);
-        if self.merged[i] {
-            self.summaries.push(self.summaries[group_of(cols, i)]);
+        if self.merged[i] != 0 {
+            self.summaries.push(self.summaries[group_of(cols, i, self.merged[i] as usize)]);
             return Visit::Covered;
         }
         let at = block_context(self.classes, &self.summaries, cols, i, self.kind);
-        if !group_start(self.classes, cols, self.rows, i) {
+        let (bx, by) = (i % cols, i / cols);
+        let starts: [Option<GroupContext>; GROUP_LEVELS] = std::array::from_fn(|k| {
+            let (g, n) = (k + 1, 2 << k);
+            group_start(self.classes, cols, self.rows, i, g).then(|| {
+                let left = bx >= n && self.merged[i - n] as usize >= g;
+                let above = by >= n && self.merged[i - n * cols] as usize >= g;
+                GroupContext {
+                    kind: self.kind,
+                    level: g,
+                    class: self.classes[i] as usize,
+                    merged: usize::from(left) + usize::from(above),
+                }
+            })
+        });
+        if starts[0].is_none() {
             return Visit::Block(at);
         }
-        let (bx, by) = (i % cols, i / cols);
-        let left = bx >= 2 && self.merged[i - 2];
-        let above = by >= 2 && self.merged[i - 2 * cols];
-        let g = GroupContext {
-            kind: self.kind,
-            class: self.classes[i] as usize,
-            merged: usize::from(left) + usize::from(above),
-        };
-        Visit::Group(g, at)
+        Visit::Group(starts, at)
     }
 
-    /// Marks the group starting at the current block merged.
-    pub fn merge(&mut self) {
+    /// Marks the level-`g` group starting at the current block merged.
+    pub fn merge(&mut self, g: usize) {
         let (i, cols) = (self.summaries.len(), self.cols);
-        for j in [i, i + 1, i + cols, i + cols + 1] {
-            self.merged[j] = true;
+        for y in 0..1 << g {
+            for x in 0..1 << g {
+                self.merged[i + y * cols + x] = g as u8;
+            }
         }
     }
 
@@ -140,8 +151,8 @@ impl<'a> Walk<'a> {
         &self.summaries
     }
 
-    /// Per block, whether it is in a merged group.
-    pub fn into_merged(self) -> Vec<bool> {
+    /// Per block, the level of the merged group it is in (0 for none).
+    pub fn into_merged(self) -> Vec<u8> {
         self.merged
     }
 }
@@ -161,21 +172,21 @@ pub struct DetailPlane {
     /// The coded blocks' levels, each block's `v1 x u1` corner row-major: most of a
     /// block's high frequencies are zero, so this holds a fraction of 64 per block.
     levels: Vec<i32>,
-    /// Per block, whether it is in a merged group (whose first block holds the
-    /// group's levels and the others none).
-    merged: Vec<bool>,
+    /// Per block, the level of the merged group it is in, 0 for none (the group's
+    /// first block holds its levels and the others none).
+    merged: Vec<u8>,
 }
 
 impl DetailPlane {
     /// A plane of `cols x rows` blocks from per-block levels (all-zero blocks dropped).
     pub fn from_blocks(cols: usize, rows: usize, blocks: Vec<[i32; COEFFS]>) -> Self {
-        DetailPlane::from_groups(cols, rows, blocks, vec![false; cols * rows])
+        DetailPlane::from_groups(cols, rows, blocks, vec![0; cols * rows])
     }
 
     /// A plane from per-block levels and merged groups (`merged` per block, as
     /// [`Walk`] leaves it; a merged group's levels at its first block, zero at the
     /// others).
-    pub fn from_groups(cols: usize, rows: usize, blocks: Vec<[i32; COEFFS]>, merged: Vec<bool>) -> Self {
+    pub fn from_groups(cols: usize, rows: usize, blocks: Vec<[i32; COEFFS]>, merged: Vec<u8>) -> Self {
         debug_assert_eq!(blocks.len(), cols * rows);
         debug_assert_eq!(merged.len(), cols * rows);
         let mut plane = DetailPlane::empty(cols, rows);
@@ -227,7 +238,7 @@ impl DetailPlane {
         let mut index = vec![ZERO; cols * rows];
         let mut spans = Vec::new();
         let mut levels = Vec::new();
-        let mut merged = vec![false; cols * rows];
+        let mut merged = vec![0; cols * rows];
         for ((bx0, by0), plane) in tiles {
             let Some(p) = plane else { continue };
             for by in 0..p.rows {
@@ -277,20 +288,24 @@ impl DetailPlane {
 
     /// Number of merged groups.
     pub fn merged_groups(&self) -> usize {
-        self.merged.iter().filter(|&&m| m).count() / 4
+        (0..self.merged.len())
+            .filter(|&i| self.merged[i] != 0 && group_of(self.cols, i, self.merged[i] as usize) == i)
+            .count()
     }
 
     /// The cosine-series coefficients of block `(bx, by)` (row-major) with its levels'
     /// step `step`, if any is nonzero: its levels times the step, or for a block of a
-    /// merged group its quadrant of the group's ([`dct::quadrant`]).
+    /// merged group its part of the group's ([`dct::part`]).
     pub fn coefficients(&self, bx: usize, by: usize, step: f64) -> Option<[f64; COEFFS]> {
         let i = by * self.cols + bx;
-        if !self.merged[i] {
+        let g = self.merged[i] as usize;
+        if g == 0 {
             return self.block(bx, by).map(|l| l.map(|q| q as f64 * step));
         }
-        let first = group_of(self.cols, i);
+        let first = group_of(self.cols, i, g);
         let l = self.block(first % self.cols, first / self.cols)?;
-        Some(dct::quadrant(&l.map(|q| q as f64 * step), bx % 2, by % 2))
+        let n = 1 << g;
+        Some(dct::part(&l.map(|q| q as f64 * step), g, bx % n, by % n))
     }
 
     /// Reads a `cols x rows` plane whose blocks have cell-size classes `classes`.
@@ -311,9 +326,14 @@ impl DetailPlane {
                     plane.index.push(ZERO);
                     continue;
                 }
-                Visit::Group(g, at) => {
-                    if syntax::read_merge(ctx, g, src)? {
-                        walk.merge();
+                Visit::Group(starts, at) => {
+                    for (k, start) in starts.iter().enumerate().rev() {
+                        if let Some(g) = start {
+                            if syntax::read_merge(ctx, *g, src)? {
+                                walk.merge(k + 1);
+                                break;
+                            }
+                        }
                     }
                     at
                 }
@@ -363,10 +383,16 @@ impl Detail {
                 for i in 0..p.cols * p.rows {
                     let at = match walk.visit() {
                         Visit::Covered => continue,
-                        Visit::Group(g, at) => {
-                            syntax::write_merge(&mut ctx, g, p.merged[i], &mut sink);
-                            if p.merged[i] {
-                                walk.merge();
+                        Visit::Group(starts, at) => {
+                            for (k, start) in starts.iter().enumerate().rev() {
+                                if let Some(g) = start {
+                                    let merged = p.merged[i] as usize == k + 1;
+                                    syntax::write_merge(&mut ctx, *g, merged, &mut sink);
+                                    if merged {
+                                        walk.merge(k + 1);
+                                        break;
+                                    }
+                                }
                             }
                             at
                         }
@@ -597,7 +623,7 @@ impl PlaneEval {
         };
         // A merged group's blocks get their quadrants' coefficients, appended (its
         // first block's levels stay unused where they are).
-        for i in (0..p.index.len()).filter(|&i| p.merged[i]) {
+        for i in (0..p.index.len()).filter(|&i| p.merged[i] != 0) {
             let s = step * block_steps.map_or(1.0, |b| b.factor(i));
             let Some(c) = p.coefficients(i % p.cols, i / p.cols, s) else {
                 eval.index[i] = ZERO;
@@ -922,16 +948,17 @@ mod tests {
         assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &others).ok(), Some(detail));
     }
 
-    /// A 40x24 three-channel residual under 16-pixel cells: smooth on the left, where
-    /// the encoder merges groups, a fine checkerboard on the right, where it does not.
-    fn groups_layer(step: f64) -> (Detail, Vec<u8>, Vec<u8>, (u32, u32)) {
-        let (w, h) = (40u32, 24u32);
+    /// A 40x32 three-channel residual under cells of class `class`: smooth on the
+    /// left, where the encoder merges groups, a fine checkerboard on the right, where
+    /// it does not.
+    fn groups_layer(step: f64, class: u8) -> (Detail, Vec<u8>, Vec<u8>, (u32, u32)) {
+        let (w, h) = (40u32, 32u32);
         let planes: Vec<Vec<f64>> = (0..3)
             .map(|c| {
                 (0..w * h)
                     .map(|i| {
                         let (x, y) = ((i % w) as f64, (i / w) as f64);
-                        if x < 16.0 {
+                        if x < 16.0 || (class == 2 && x < 32.0) {
                             0.2 * ((x + 2.0 * y) / 13.0 + c as f64).sin()
                         } else {
                             0.2 * if (i % w + i / w) % 2 == 0 { 1.0 } else { -1.0 }
@@ -941,19 +968,19 @@ mod tests {
             })
             .collect();
         let (cols, rows) = blocks(w, h);
-        let classes = vec![1u8; cols * rows];
+        let classes = vec![class; cols * rows];
         let (detail, payload) = code_layer(&planes, (w, h), &quantisers(step), &classes, None);
         (detail, payload, classes, (w, h))
     }
 
     #[test]
     fn smooth_groups_merge_and_their_payload_reads_back() {
-        let (detail, payload, classes, (w, h)) = groups_layer(0.05);
+        let (detail, payload, classes, (w, h)) = groups_layer(0.05, 1);
         let (cols, _) = blocks(w, h);
         for p in &detail.planes {
             assert!(p.merged_groups() > 0, "the smooth half merges");
             // Blocks 2 and 3 of the first two rows are the checkerboard's group.
-            assert!(!p.merged[2] && !p.merged[cols + 3], "a checkerboard group is coded apart");
+            assert!(p.merged[2] == 0 && p.merged[cols + 3] == 0, "a checkerboard group is coded apart");
         }
         assert_eq!(detail.to_payload(&classes), payload);
         let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
@@ -961,13 +988,31 @@ mod tests {
     }
 
     #[test]
+    fn smooth_4x4_groups_under_large_cells_merge_and_read_back() {
+        let (detail, payload, classes, (w, h)) = groups_layer(0.08, 2);
+        for p in &detail.planes {
+            // The smooth 32 pixels on the left are one 4x4 group.
+            assert_eq!(p.merged[0], 2, "the smooth 4x4 group merges whole");
+            assert!((0..4).all(|y| (0..4).all(|x| p.merged[y * p.cols + x] == 2)));
+            assert_eq!(p.merged_groups(), 1);
+            assert!(p.block(0, 0).is_some() && (1..4).all(|x| p.block(x, 0).is_none()));
+        }
+        assert_eq!(detail.to_payload(&classes), payload);
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+        assert_eq!(back, detail);
+        // Read as 16-pixel cells, the bins mean other things: another layer or an error.
+        let small = vec![1u8; classes.len()];
+        assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &small).ok(), Some(detail));
+    }
+
+    #[test]
     fn a_merged_group_evaluates_to_its_16x16_inverse_transform_at_pixel_centres() {
-        let (detail, _, _, (w, h)) = groups_layer(0.05);
+        let (detail, _, _, (w, h)) = groups_layer(0.05, 1);
         let p = &detail.planes[0];
         let step = detail.steps[0];
         let (bx, by) = (0..p.rows)
             .flat_map(|by| (0..p.cols).map(move |bx| (bx, by)))
-            .find(|&(bx, by)| p.merged[by * p.cols + bx])
+            .find(|&(bx, by)| p.merged[by * p.cols + bx] == 1)
             .unwrap();
         let levels = p.block(bx, by).unwrap();
         let plain = Detail {
@@ -1112,7 +1157,14 @@ mod tests {
 
     #[test]
     fn merged_groups_evaluate_on_a_grid_as_the_scalar_reference_does() {
-        let (mut detail, _, classes, (w, h)) = groups_layer(0.05);
+        for class in [1, 2] {
+            merged_groups_evaluate_as_the_scalar_reference(class);
+        }
+    }
+
+    fn merged_groups_evaluate_as_the_scalar_reference(class: u8) {
+        let (mut detail, _, classes, (w, h)) = groups_layer(0.05, class);
+        assert!(detail.planes.iter().all(|p| p.merged.contains(&class)));
         detail.deblock = Some(Deblock { strength: 60, radius: 3 });
         detail.lapping = Some(Lapping::DEFAULT);
         detail.block_steps = Some(BlockSteps {

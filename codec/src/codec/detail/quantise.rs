@@ -9,8 +9,8 @@
 
 use rayon::prelude::*;
 
-use super::dct::{self, COEFFS, N, N16, ZIGZAG};
-use super::syntax::{self, BlockContext, BlockPricer, DetailContexts, GroupContext, Summary};
+use super::dct::{self, COEFFS, N, ZIGZAG};
+use super::syntax::{self, BlockContext, BlockPricer, DetailContexts, GroupContext, Summary, GROUP_LEVELS};
 use super::{blocks, group_start, Detail, DetailPlane, Visit, Walk};
 use crate::codec::entropy::{AnsSink, SymbolSink};
 
@@ -52,13 +52,17 @@ fn gather(plane: &[f64], width: usize, height: usize, bx: usize, by: usize) -> [
     b
 }
 
-/// The 16x16 group whose top-left block is `(bx, by)`, edges repeated as [`gather`]'s.
-fn gather16(plane: &[f64], width: usize, height: usize, bx: usize, by: usize) -> [f64; N16 * N16] {
-    std::array::from_fn(|i| {
-        let py = (by * N + i / N16).min(height - 1);
-        let px = (bx * N + i % N16).min(width - 1);
-        plane[py * width + px]
-    })
+/// The level-`g` group whose top-left block is `(bx, by)` (`8 2^g` pixels square,
+/// row-major), edges repeated as [`gather`]'s.
+fn gather_group(plane: &[f64], width: usize, height: usize, bx: usize, by: usize, g: usize) -> Vec<f64> {
+    let n = N << g;
+    (0..n * n)
+        .map(|i| {
+            let py = (by * N + i / n).min(height - 1);
+            let px = (bx * N + i % n).min(width - 1);
+            plane[py * width + px]
+        })
+        .collect()
 }
 
 /// Squared error of `levels` against the coefficients in steps, `x`; summed in one
@@ -178,50 +182,124 @@ fn block_cost(
     distortion(&x, levels) + dropped + q.lambda * r as f64 / 256.0
 }
 
-/// Chooses whether the group of four blocks starting at block `i` is merged, by
-/// `D + lambda R`: returns that and the levels of its first block (the merged block's,
-/// or the block's own). `apart` holds the four blocks' coefficients, `merged` the
-/// lowest of the group's 16x16 transform and the energy of the rest. Coded apart, the
-/// first block is priced exactly and the other three on the contexts as they are,
-/// with their neighbours' summaries from the candidates (the first block's left one
-/// standing in for the lower left block's, whose row is not coded yet).
-#[allow(clippy::too_many_arguments)]
-fn choose_group(
-    apart: [&[f64; COEFFS]; 4],
-    merged: &([f64; COEFFS], f64),
-    q: Quantiser,
-    g: GroupContext,
-    at: BlockContext,
-    summaries: &[Summary],
+/// A group's transform: the lowest 8x8 coefficients and the energy of the rest.
+type GroupTransform = ([f64; COEFFS], f64);
+
+/// A group's choice: its `D + lambda R` (merge bins included), the level of the
+/// merged group its first block starts (0: coded apart), and that block's levels.
+type GroupChoice = (f64, usize, [i32; COEFFS]);
+
+/// What a group's choice needs of the plane: the blocks' coefficients and the groups'
+/// transforms (by block, for the group starts), the coding contexts and the pricer.
+struct Plane<'a> {
+    coeffs: &'a [[f64; COEFFS]],
+    transforms: &'a [Option<[Option<GroupTransform>; GROUP_LEVELS]>],
     cols: usize,
-    ctx: &DetailContexts,
-    pricer: &mut BlockPricer,
-) -> (bool, [i32; COEFFS]) {
-    let i = summaries.len();
-    let first = choose(apart[0], q, ctx, at, pricer);
-    let mut j_apart = block_cost(apart[0], &first, q, ctx, at, pricer, syntax::merge_cost(ctx, g, false), 0.0);
-    let s0 = Summary::of(&first);
-    let left = if !i.is_multiple_of(cols) { summaries[i - 1] } else { Summary::default() };
-    let above = if i >= cols { summaries[i + 1 - cols] } else { Summary::default() };
-    let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
-    let mut others = [[0; COEFFS]; 3];
-    for (k, (l, a)) in [(s0, above), (left, s0), (Summary::default(), Summary::default())].into_iter().enumerate() {
-        let at = if k == 2 {
-            context(Summary::of(&others[1]), Summary::of(&others[0]))
-        } else {
-            context(l, a)
-        };
-        others[k] = choose(apart[k + 1], q, ctx, at, pricer);
-        j_apart += block_cost(apart[k + 1], &others[k], q, ctx, at, pricer, 0, 0.0);
+    q: Quantiser,
+    ctx: &'a DetailContexts,
+}
+
+impl Plane<'_> {
+    /// The merged option of the level-`g` group at block `i`: its cost with the
+    /// merge bin `g` and the levels.
+    fn merged(&self, i: usize, g: GroupContext, at: BlockContext, pricer: &mut BlockPricer) -> (f64, [i32; COEFFS]) {
+        let (low, high) = self.transforms[i].as_ref().and_then(|t| t[g.level - 1].as_ref()).expect("a group start has its transforms");
+        let m = choose(low, self.q, self.ctx, at, pricer);
+        let dropped = high / (self.q.step * self.q.step);
+        let j = block_cost(low, &m, self.q, self.ctx, at, pricer, syntax::merge_cost(self.ctx, g, true), dropped);
+        (j, m)
     }
-    let (low, high) = merged;
-    let m = choose(low, q, ctx, at, pricer);
-    let dropped = high / (q.step * q.step);
-    let j_merged = block_cost(low, &m, q, ctx, at, pricer, syntax::merge_cost(ctx, g, true), dropped);
-    if j_merged < j_apart {
-        (true, m)
-    } else {
-        (false, first)
+
+    /// Chooses between merging the 2x2 group at block `i` and coding its blocks apart,
+    /// by `D + lambda R`. The first block is priced exactly; the other three on the
+    /// contexts as they are, their neighbours' summaries from the candidates and from
+    /// `left` (the lower left block's left neighbour, whose row is not coded yet: the
+    /// first block's stands in) and `above` (the upper right block's).
+    fn pair(
+        &self,
+        i: usize,
+        g: GroupContext,
+        at: BlockContext,
+        (left, above): (Summary, Summary),
+        pricer: &mut BlockPricer,
+    ) -> GroupChoice {
+        let (q, ctx, cols) = (self.q, self.ctx, self.cols);
+        let blocks = [i, i + 1, i + cols, i + cols + 1].map(|k| &self.coeffs[k]);
+        let first = choose(blocks[0], q, ctx, at, pricer);
+        let mut j_apart = block_cost(blocks[0], &first, q, ctx, at, pricer, syntax::merge_cost(ctx, g, false), 0.0);
+        let s0 = Summary::of(&first);
+        let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
+        let mut others = [[0; COEFFS]; 3];
+        for k in 0..3 {
+            let at = match k {
+                0 => context(s0, above),
+                1 => context(left, s0),
+                _ => context(Summary::of(&others[1]), Summary::of(&others[0])),
+            };
+            others[k] = choose(blocks[k + 1], q, ctx, at, pricer);
+            j_apart += block_cost(blocks[k + 1], &others[k], q, ctx, at, pricer, 0, 0.0);
+        }
+        let (j_merged, m) = self.merged(i, g, at, pricer);
+        if j_merged < j_apart {
+            (j_merged, 1, m)
+        } else {
+            (j_apart, 0, first)
+        }
+    }
+
+    /// Chooses for the groups starting at block `i` (`starts`, by level less one): the
+    /// 4x4 group merged, or its four 2x2 groups each chosen by [`Plane::pair`] (the
+    /// first exactly, the others on the contexts as they are, with the candidates'
+    /// summaries as neighbours).
+    fn choose(
+        &self,
+        i: usize,
+        starts: [Option<GroupContext>; GROUP_LEVELS],
+        at: BlockContext,
+        summaries: &[Summary],
+        pricer: &mut BlockPricer,
+    ) -> GroupChoice {
+        let cols = self.cols;
+        let summary = |k: usize| summaries.get(k).copied().unwrap_or_default();
+        let left = if i.is_multiple_of(cols) { Summary::default() } else { summary(i - 1) };
+        let above = |k: usize| if k >= cols { summary(k - cols) } else { Summary::default() };
+        let g1 = starts[0].expect("a 4x4 group start is a 2x2 one");
+        let first = self.pair(i, g1, at, (left, above(i + 1)), pricer);
+        let Some(g2) = starts[1] else {
+            return first;
+        };
+        let mut j_apart = first.0 + self.q.lambda * syntax::merge_cost(self.ctx, g2, false) as f64 / 256.0;
+        let s0 = Summary::of(&first.2);
+        let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
+        let mut subs = [s0; 3];
+        let mut merged = [first.1 != 0, false, false, false];
+        for k in 0..3 {
+            let j = [i + 2, i + 2 * cols, i + 2 * cols + 2][k];
+            let (at, nb) = match k {
+                0 => (context(s0, above(j)), (s0, above(j + 1))),
+                1 => (context(left, s0), (left, s0)),
+                _ => (context(subs[1], subs[0]), (subs[1], subs[0])),
+            };
+            let around = match k {
+                0 => [merged[0], false],
+                1 => [false, merged[0]],
+                _ => [merged[2], merged[1]],
+            };
+            let g = GroupContext {
+                merged: usize::from(around[0]) + usize::from(around[1]),
+                ..g1
+            };
+            let sub = self.pair(j, g, at, nb, pricer);
+            subs[k] = Summary::of(&sub.2);
+            merged[k + 1] = sub.1 != 0;
+            j_apart += sub.0;
+        }
+        let (j_merged, m) = self.merged(i, g2, at, pricer);
+        if j_merged < j_apart {
+            (j_merged, 2, m)
+        } else {
+            (j_apart, first.1, first.2)
+        }
     }
 }
 
@@ -252,11 +330,16 @@ pub fn code_plane(
         .into_par_iter()
         .map(|i| dct::forward(&gather(residual, w, h, i % cols, i / cols)))
         .collect();
-    let groups: Vec<Option<([f64; COEFFS], f64)>> = (0..cols * rows)
+    let transforms: Vec<Option<[Option<GroupTransform>; GROUP_LEVELS]>> = (0..cols * rows)
         .into_par_iter()
         .map(|i| {
-            group_start(blocks_of.classes, cols, rows, i)
-                .then(|| dct::forward16(&gather16(residual, w, h, i % cols, i / cols)))
+            group_start(blocks_of.classes, cols, rows, i, 1).then(|| {
+                std::array::from_fn(|k| {
+                    let g = k + 1;
+                    group_start(blocks_of.classes, cols, rows, i, g)
+                        .then(|| dct::forward_group(&gather_group(residual, w, h, i % cols, i / cols, g), g))
+                })
+            })
         })
         .collect();
     let mut chosen = Vec::with_capacity(cols * rows);
@@ -272,13 +355,23 @@ pub fn code_plane(
                 chosen.push([0; COEFFS]);
                 continue;
             }
-            Visit::Group(g, at) => {
-                let merged = groups[i].as_ref().expect("a group start has its transform");
-                let apart = [c, &coeffs[i + 1], &coeffs[i + cols], &coeffs[i + cols + 1]];
-                let (merge, best) = choose_group(apart, merged, q, g, at, walk.summaries(), cols, ctx, &mut pricer);
-                syntax::write_merge(ctx, g, merge, sink);
-                if merge {
-                    walk.merge();
+            Visit::Group(starts, at) => {
+                let plane = Plane {
+                    coeffs: &coeffs,
+                    transforms: &transforms,
+                    cols,
+                    q,
+                    ctx,
+                };
+                let (_, level, best) = plane.choose(i, starts, at, walk.summaries(), &mut pricer);
+                for (k, start) in starts.iter().enumerate().rev() {
+                    if let Some(g) = start {
+                        syntax::write_merge(ctx, *g, level == k + 1, sink);
+                        if level == k + 1 {
+                            walk.merge(level);
+                            break;
+                        }
+                    }
                 }
                 (at, best)
             }

@@ -1,10 +1,10 @@
 //! The detail layer's coefficients as coded symbols (section `D`).
 //!
 //! Per channel, blocks in raster order. Where a 2x2 group of blocks lies under one
-//! network cell of 16 pixels or more, its first block starts with a *merge* bin: a
-//! merged group is one block of the lowest 8x8 coefficients of a 16x16 transform,
-//! coded in place of the first block, and its other three blocks take no symbols
-//! ([`GroupContext`]). A block is a *coded* bin, then the position of
+//! network cell of 16 pixels or more (a 4x4 group under one of 32 or more), its first
+//! block starts with a *merge* bin: a merged group is one block of the lowest 8x8
+//! coefficients of a 16x16 (32x32) transform, coded in place of the first block, and
+//! its other blocks take no symbols ([`GroupContext`]). A block is a *coded* bin, then the position of
 //! its last nonzero coefficient in zig-zag order (its class, then the bits below the
 //! class's top one, each an adaptive bin), then its coefficients from that last one back
 //! to the first. The first two take their context from the block's kind (luma or
@@ -138,9 +138,8 @@ pub struct DetailContexts {
     /// The last level's magnitude less one ([`first_index`]).
     first: [TokenCdf; 2 * BANDS * LEVELS],
     class: [ClassCdf; 2],
-    /// Merge bins, by kind, group class less one and merged neighbour groups
-    /// ([`GroupContext`]).
-    merge: [[[BinModel; MERGE_CONTEXTS]; CLASSES - 1]; 2],
+    /// Merge bins, by kind, slot ([`GroupContext::slot`]) and merged neighbour groups.
+    merge: [[[BinModel; MERGE_CONTEXTS]; MERGE_SLOTS]; 2],
 }
 
 impl Default for DetailContexts {
@@ -158,7 +157,7 @@ impl Default for DetailContexts {
             first: [TokenCdf::new(&geometric(16, 0.4)); 2 * BANDS * LEVELS],
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
-            merge: [[[BinModel::new(4); MERGE_CONTEXTS]; CLASSES - 1]; 2],
+            merge: [[[BinModel::new(4); MERGE_CONTEXTS]; MERGE_SLOTS]; 2],
         }
     }
 }
@@ -301,33 +300,51 @@ impl BlockContext {
     }
 }
 
+/// Group levels: a level-`g` group is `2^g x 2^g` blocks.
+pub const GROUP_LEVELS: usize = 2;
 /// Merge contexts of a group: how many of its left and above groups are merged.
 pub const MERGE_CONTEXTS: usize = 3;
+/// Merge models per kind: level-1 groups by class (1, 2), then level-2 groups.
+const MERGE_SLOTS: usize = 3;
 
-/// Where a group of four blocks that may merge sits: the context of its merge bin.
+/// Where a group of blocks that may merge sits: the context of its merge bin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GroupContext {
     /// 0 for luma, 1 for chroma.
     pub kind: usize,
-    /// The cell-size class of its blocks: 1 or more (cells of 16 pixels or larger).
+    /// 1 for a 2x2 group, 2 for a 4x4 group.
+    pub level: usize,
+    /// The cell-size class of its blocks: at least the level.
     pub class: usize,
-    /// How many of the groups to its left and above are merged (0..=2).
+    /// How many of the same-sized groups to its left and above are in merged groups
+    /// of this level or larger (0..=2).
     pub merged: usize,
+}
+
+impl GroupContext {
+    /// The merge model's slot: a 2x2 group's class less one, or 2 for a 4x4 group.
+    fn slot(&self) -> usize {
+        if self.level == 1 {
+            self.class - 1
+        } else {
+            2
+        }
+    }
 }
 
 /// Codes whether a group is merged.
 pub fn write_merge(ctx: &mut DetailContexts, g: GroupContext, merged: bool, sink: &mut impl SymbolSink) {
-    sink.bin(&mut ctx.merge[g.kind][g.class - 1][g.merged], merged);
+    sink.bin(&mut ctx.merge[g.kind][g.slot()][g.merged], merged);
 }
 
 /// Reads whether a group is merged.
 pub fn read_merge(ctx: &mut DetailContexts, g: GroupContext, src: &mut AnsSource) -> Result<bool, CodecError> {
-    src.bin(&mut ctx.merge[g.kind][g.class - 1][g.merged])
+    src.bin(&mut ctx.merge[g.kind][g.slot()][g.merged])
 }
 
 /// The cost of [`write_merge`] in 1/256 bits, on the contexts as they are.
 pub fn merge_cost(ctx: &DetailContexts, g: GroupContext, merged: bool) -> u64 {
-    ctx.merge[g.kind][g.class - 1][g.merged].cost(merged) as u64
+    ctx.merge[g.kind][g.slot()][g.merged].cost(merged) as u64
 }
 
 /// Codes one block's quantised coefficients (row-major levels).
