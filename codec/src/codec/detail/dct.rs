@@ -123,31 +123,28 @@ fn group_tables() -> &'static [Vec<Vec<f64>>; 2] {
 
 /// Forward transform of a merged group of level `g` (`8 2^g` pixels square, its
 /// samples row-major): the lowest 8x8 coefficients (row-major, as one block's) and the
-/// energy of the rest.
+/// energy of the rest (the samples' energy less theirs: the transform is orthonormal).
 pub fn forward_group(group: &[f64], g: usize) -> ([f64; COEFFS], f64) {
     let n = N << g;
     debug_assert_eq!(group.len(), n * n);
     let t = &group_tables()[g - 1];
-    // Along x, all frequencies (for the energy), then along y.
-    let mut rows = vec![0.0; n * n];
+    // Only the lowest eight frequencies along x, then along y.
+    let mut rows = vec![0.0; n * N];
     for y in 0..n {
-        for u in 0..n {
-            rows[y * n + u] = (0..n).map(|x| group[y * n + x] * t[x][u]).sum();
+        let samples = &group[y * n..y * n + n];
+        for u in 0..N {
+            rows[y * N + u] = samples.iter().zip(t).map(|(s, row)| s * row[u]).sum();
         }
     }
     let mut low = [0.0; COEFFS];
-    let mut high = 0.0;
-    for v in 0..n {
-        for u in 0..n {
-            let c: f64 = (0..n).map(|y| rows[y * n + u] * t[y][v]).sum();
-            if v < N && u < N {
-                low[v * N + u] = c;
-            } else {
-                high += c * c;
-            }
+    for v in 0..N {
+        for u in 0..N {
+            low[v * N + u] = (0..n).map(|y| rows[y * N + u] * t[y][v]).sum();
         }
     }
-    (low, high)
+    let energy: f64 = group.iter().map(|s| s * s).sum();
+    let kept: f64 = low.iter().map(|c| c * c).sum();
+    (low, (energy - kept).max(0.0))
 }
 
 /// The maps from a level-`g` group's coefficients to its parts' 8-point ones:

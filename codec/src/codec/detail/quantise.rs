@@ -189,8 +189,9 @@ type GroupTransform = ([f64; COEFFS], f64);
 /// merged group its first block starts (0: coded apart), and that block's levels.
 type GroupChoice = (f64, usize, [i32; COEFFS]);
 
-/// What a group's choice needs of the plane: the blocks' coefficients and the groups'
-/// transforms (by block, for the group starts), the coding contexts and the pricer.
+/// What a group's choice needs of the plane: the blocks' coefficients, the groups'
+/// transforms (by block, for the group starts), the quantiser and the contexts.
+#[derive(Clone, Copy)]
 struct Plane<'a> {
     coeffs: &'a [[f64; COEFFS]],
     transforms: &'a [Option<[Option<GroupTransform>; GROUP_LEVELS]>],
@@ -226,6 +227,12 @@ impl Plane<'_> {
         let (q, ctx, cols) = (self.q, self.ctx, self.cols);
         let blocks = [i, i + 1, i + cols, i + cols + 1].map(|k| &self.coeffs[k]);
         let first = choose(blocks[0], q, ctx, at, pricer);
+        // The blocks coded later are priced without the level search: their contexts
+        // are estimates anyway, and the search would double the group's time.
+        let estimate = Quantiser {
+            per_coefficient: false,
+            ..q
+        };
         let mut j_apart = block_cost(blocks[0], &first, q, ctx, at, pricer, syntax::merge_cost(ctx, g, false), 0.0);
         let s0 = Summary::of(&first);
         let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
@@ -236,7 +243,7 @@ impl Plane<'_> {
                 1 => context(left, s0),
                 _ => context(Summary::of(&others[1]), Summary::of(&others[0])),
             };
-            others[k] = choose(blocks[k + 1], q, ctx, at, pricer);
+            others[k] = choose(blocks[k + 1], estimate, ctx, at, pricer);
             j_apart += block_cost(blocks[k + 1], &others[k], q, ctx, at, pricer, 0, 0.0);
         }
         let (j_merged, m) = self.merged(i, g, at, pricer);
@@ -268,6 +275,14 @@ impl Plane<'_> {
         let Some(g2) = starts[1] else {
             return first;
         };
+        // The later 2x2 groups are estimates: priced without the level search.
+        let estimates = Plane {
+            q: Quantiser {
+                per_coefficient: false,
+                ..self.q
+            },
+            ..*self
+        };
         let mut j_apart = first.0 + self.q.lambda * syntax::merge_cost(self.ctx, g2, false) as f64 / 256.0;
         let s0 = Summary::of(&first.2);
         let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
@@ -289,7 +304,7 @@ impl Plane<'_> {
                 merged: usize::from(around[0]) + usize::from(around[1]),
                 ..g1
             };
-            let sub = self.pair(j, g, at, nb, pricer);
+            let sub = estimates.pair(j, g, at, nb, pricer);
             subs[k] = Summary::of(&sub.2);
             merged[k + 1] = sub.1 != 0;
             j_apart += sub.0;
