@@ -1138,17 +1138,23 @@ mod tests {
                     classes: (0..cols * rows).map(|i| (i * 7 % 3) as u8).collect(),
                 });
             }
-            let frame = Frame::new(w, h);
-            for (ow, oh) in [(w, h), (3 * w, 2 * h + 1), (w / 2, h / 2)] {
-                let grid = Grid::pixel_centres(&frame, ow, oh);
-                let layer = DetailEval::new(&detail, &grid).eval();
-                for j in 0..grid.ny {
-                    for i in 0..grid.nx {
-                        let at = detail.at(grid.x(i), grid.y(j));
-                        for (c, plane) in layer.iter().enumerate() {
-                            let fast = plane[j * grid.nx + i] as f64;
-                            assert!((fast - at[c]).abs() < 1e-4, "{ow}x{oh} ({i}, {j}) plane {c}: {fast} vs {}", at[c]);
-                        }
+            assert_grid_equals_scalar(&detail, (w, h), [(w, h), (3 * w, 2 * h + 1), (w / 2, h / 2)]);
+        }
+    }
+
+    /// The grid evaluation of `detail` (coded size `w x h`) at each output size equals
+    /// [`Detail::at`] at every grid position.
+    fn assert_grid_equals_scalar(detail: &Detail, (w, h): (u32, u32), sizes: [(u32, u32); 3]) {
+        let frame = Frame::new(w, h);
+        for (ow, oh) in sizes {
+            let grid = Grid::pixel_centres(&frame, ow, oh);
+            let layer = DetailEval::new(detail, &grid).eval();
+            for j in 0..grid.ny {
+                for i in 0..grid.nx {
+                    let at = detail.at(grid.x(i), grid.y(j));
+                    for (c, plane) in layer.iter().enumerate() {
+                        let fast = plane[j * grid.nx + i] as f64;
+                        assert!((fast - at[c]).abs() < 1e-4, "{ow}x{oh} ({i}, {j}) plane {c}: {fast} vs {}", at[c]);
                     }
                 }
             }
@@ -1171,20 +1177,7 @@ mod tests {
             steps: adaptive::AdaptiveSteps { factors: [40, 24, 9] },
             classes,
         });
-        let frame = Frame::new(w, h);
-        for (ow, oh) in [(w, h), (2 * w + 3, h + 5), (w / 3, h / 2)] {
-            let grid = Grid::pixel_centres(&frame, ow, oh);
-            let layer = DetailEval::new(&detail, &grid).eval();
-            for j in 0..grid.ny {
-                for i in 0..grid.nx {
-                    let at = detail.at(grid.x(i), grid.y(j));
-                    for (c, plane) in layer.iter().enumerate() {
-                        let fast = plane[j * grid.nx + i] as f64;
-                        assert!((fast - at[c]).abs() < 1e-4, "{ow}x{oh} ({i}, {j}) plane {c}: {fast} vs {}", at[c]);
-                    }
-                }
-            }
-        }
+        assert_grid_equals_scalar(&detail, (w, h), [(w, h), (2 * w + 3, h + 5), (w / 3, h / 2)]);
     }
 
     #[test]
