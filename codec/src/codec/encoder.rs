@@ -114,16 +114,25 @@ fn model_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSetti
     }
 }
 
-/// The image's key points in its coding order, with their decoded values.
+/// The image's key points in its coding order, with their decoded values and where
+/// their supports reach.
 struct Network {
     luma_cells: Vec<Cell>,
     chroma_cells: Vec<Cell>,
     luma_values: Vec<Vec<f64>>,
     chroma_values: Vec<Vec<f64>>,
+    luma_reach: Reach,
+    chroma_reach: Reach,
 }
 
 impl Network {
-    fn gather(tiles: &mut [TileModel], block_log2: u8) -> Network {
+    fn gather(
+        tiles: &mut [TileModel],
+        block_log2: u8,
+        frame: Frame,
+        kernel: KernelParams,
+        tiling: &Tiling,
+    ) -> Network {
         let mut luma_cells = Vec::new();
         let mut chroma_cells = Vec::new();
         let mut luma_values: Vec<Vec<f64>> = Vec::new();
@@ -144,6 +153,8 @@ impl Network {
         let (chroma_cells, chroma_values) =
             into_image_order(&chroma_cells, &chroma_values, block_log2);
         Network {
+            luma_reach: Reach::new(frame, kernel, &luma_cells, tiling),
+            chroma_reach: Reach::new(frame, kernel, &chroma_cells, tiling),
             luma_cells,
             chroma_cells,
             luma_values,
@@ -152,10 +163,70 @@ impl Network {
     }
 }
 
-/// The network's colours at the pixel centres of `rect`, evaluated from the key points
-/// whose support reaches it (exactly what the whole network gives there: the others
-/// contribute zero).
-fn network_colours(frame: Frame, kernel: KernelParams, net: &Network, rect: TileRect) -> Vec<Vec<f32>> {
+/// Where one key point set's supports reach: each key point's centre and support
+/// radius (plus a pixel), and per tile the key points whose support box may meet the
+/// tile with a pixel of margin, in key point order. Built once for the image, so a
+/// tile tests only its candidates rather than every key point.
+struct Reach {
+    boxes: Vec<[f64; 3]>,
+    by_tile: Vec<Vec<u32>>,
+}
+
+impl Reach {
+    fn new(frame: Frame, kernel: KernelParams, cells: &[Cell], tiling: &Tiling) -> Reach {
+        let sigma_factor = kernel.sigma_factor.max(MIN_SIGMA_FACTOR);
+        let boxes: Vec<[f64; 3]> = cells
+            .iter()
+            .map(|c| {
+                let (cx, cy) = c.centre(frame.width, frame.height);
+                [cx, cy, frame.support_radius(cx, cy, sigma_factor * c.size() as f64) + 1.0]
+            })
+            .collect();
+        let (cols, rows) = (tiling.columns(), tiling.rows());
+        let side = tiling.side as f64;
+        let span = |lo: f64, hi: f64, n: usize| {
+            let t = |v: f64| (v / side).floor().clamp(0.0, n as f64 - 1.0) as usize;
+            t(lo)..=t(hi)
+        };
+        let mut by_tile = vec![Vec::new(); cols * rows];
+        for (i, &[cx, cy, r]) in boxes.iter().enumerate() {
+            // Two more pixels: the margin network_colours evaluates around a tile, and
+            // a box ending exactly on the next tile's edge.
+            for ty in span(cy - r - 2.0, cy + r + 2.0, rows) {
+                for tx in span(cx - r - 2.0, cx + r + 2.0, cols) {
+                    by_tile[ty * cols + tx].push(i as u32);
+                }
+            }
+        }
+        Reach { boxes, by_tile }
+    }
+
+    /// The key points whose support box meets `rect`, in key point order.
+    fn near(&self, tile: usize, rect: TileRect) -> Vec<usize> {
+        self.by_tile[tile]
+            .iter()
+            .map(|&i| i as usize)
+            .filter(|&i| {
+                let [cx, cy, r] = self.boxes[i];
+                cx + r >= rect.x0 as f64
+                    && cx - r <= (rect.x0 + rect.width) as f64
+                    && cy + r >= rect.y0 as f64
+                    && cy - r <= (rect.y0 + rect.height) as f64
+            })
+            .collect()
+    }
+}
+
+/// The network's colours at the pixel centres of `rect` (tile `tile` with its margin),
+/// evaluated from the key points whose support reaches it (exactly what the whole
+/// network gives there: the others contribute zero).
+fn network_colours(
+    frame: Frame,
+    kernel: KernelParams,
+    net: &Network,
+    tile: usize,
+    rect: TileRect,
+) -> Vec<Vec<f32>> {
     let grid = Grid {
         x0: rect.x0 as f64 + 0.5,
         dx: 1.0,
@@ -164,33 +235,24 @@ fn network_colours(frame: Frame, kernel: KernelParams, net: &Network, rect: Tile
         dy: 1.0,
         ny: rect.height as usize,
     };
-    let sigma_factor = kernel.sigma_factor.max(MIN_SIGMA_FACTOR);
-    let eval = |cells: &[Cell], values: &[Vec<f64>]| -> Vec<Vec<f32>> {
-        let near: Vec<usize> = (0..cells.len())
-            .filter(|&i| {
-                let c = &cells[i];
-                let (cx, cy) = c.centre(frame.width, frame.height);
-                let r = frame.support_radius(cx, cy, sigma_factor * c.size() as f64) + 1.0;
-                cx + r >= rect.x0 as f64
-                    && cx - r <= (rect.x0 + rect.width) as f64
-                    && cy + r >= rect.y0 as f64
-                    && cy - r <= (rect.y0 + rect.height) as f64
-            })
-            .collect();
+    let eval = |cells: &[Cell], values: &[Vec<f64>], reach: &Reach| -> Vec<Vec<f32>> {
+        let near = reach.near(tile, rect);
         let sub: Vec<Cell> = near.iter().map(|&i| cells[i]).collect();
         KeySet::new(frame, &sub, kernel).eval_grid(&permute(values, &near), &grid)
     };
-    let mut colour = eval(&net.luma_cells, &net.luma_values[..1]);
+    let mut colour = eval(&net.luma_cells, &net.luma_values[..1], &net.luma_reach);
     if !net.chroma_cells.is_empty() {
-        colour.extend(eval(&net.chroma_cells, &net.chroma_values));
+        colour.extend(eval(&net.chroma_cells, &net.chroma_values, &net.chroma_reach));
     }
     colour
 }
 
 /// Codes one tile's detail blocks: the residual of its pixels after the whole image's
-/// network. Returns the stream (empty when no block is coded).
+/// network. Returns the stream (empty when no block is coded). `index` is the tile's
+/// number in the tiling.
 fn detail_tile(
     src: &(impl PixelSource + ?Sized),
+    index: usize,
     rect: TileRect,
     s: &EncodeSettings,
     kernel: KernelParams,
@@ -211,7 +273,7 @@ fn detail_tile(
     let tile = src.region(outer);
     let planes = coding_planes(&tile, s);
     drop(tile);
-    let base = network_colours(Frame::new(w, h), kernel, net, outer);
+    let base = network_colours(Frame::new(w, h), kernel, net, index, outer);
     let (ow, oh) = (outer.width as usize, outer.height as usize);
     let (dx, dy) = ((rect.x0 - x0) as usize, (rect.y0 - y0) as usize);
     let residuals: Vec<Vec<f64>> = planes
@@ -354,12 +416,12 @@ pub fn encode_with(
         step();
         m
     });
-    let net = Network::gather(&mut models, s.model.block_log2);
     let kernel = s.model.kernel;
+    let net = Network::gather(&mut models, s.model.block_log2, Frame::new(w, h), kernel, &tiling);
     let classes = adaptive::block_classes(&net.luma_cells, w, h);
     s.detail_adaptive = s.detail_adaptive.map(|a| a.normalised(&classes));
     let details = run_tiles(n, workers, |i| {
-        let d = detail_tile(img, tiling.rect(i), &s, kernel, &net, &classes);
+        let d = detail_tile(img, i, tiling.rect(i), &s, kernel, &net, &classes);
         step();
         d
     });
