@@ -480,3 +480,53 @@ pub fn prepare(img: &(impl PixelSource + ?Sized)) -> Result<(), CodecError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::quadtree::random_tree;
+
+    /// A tile's candidates from [`Reach`] are exactly the key points a scan of all of
+    /// them finds for the tile with and without its margin: the index may only skip
+    /// key points whose support misses the tile.
+    #[test]
+    fn the_reach_index_finds_what_a_full_scan_finds_for_every_tile() {
+        let (w, h) = (1700, 1100);
+        let tiling = Tiling::choose(w, h);
+        assert!(tiling.count() > 4, "several tiles: {}", tiling.count());
+        let frame = Frame::new(w, h);
+        for (seed, sigma_factor) in [(3, 0.3), (11, 1.2), (29, 3.0)] {
+            let (_, cells) = random_tree(w, h, seed, |d| d % 3 != 0);
+            let kernel = KernelParams {
+                sigma_factor,
+                weight_exponent: 1.0,
+            };
+            let reach = Reach::new(frame, kernel, &cells, &tiling);
+            for t in 0..tiling.count() {
+                let r = tiling.rect(t);
+                for margin in [0, 1] {
+                    let (x0, y0) = (r.x0.saturating_sub(margin), r.y0.saturating_sub(margin));
+                    let rect = TileRect {
+                        x0,
+                        y0,
+                        width: (r.x0 + r.width + margin).min(w) - x0,
+                        height: (r.y0 + r.height + margin).min(h) - y0,
+                    };
+                    let scan: Vec<usize> = (0..cells.len())
+                        .filter(|&i| {
+                            let (cx, cy) = cells[i].centre(w, h);
+                            let s = sigma_factor.max(MIN_SIGMA_FACTOR) * cells[i].size() as f64;
+                            let rr = frame.support_radius(cx, cy, s) + 1.0;
+                            cx + rr >= rect.x0 as f64
+                                && cx - rr <= (rect.x0 + rect.width) as f64
+                                && cy + rr >= rect.y0 as f64
+                                && cy - rr <= (rect.y0 + rect.height) as f64
+                        })
+                        .collect();
+                    assert!(!scan.is_empty());
+                    assert_eq!(reach.near(t, rect), scan, "seed {seed}, tile {t}, margin {margin}");
+                }
+            }
+        }
+    }
+}
