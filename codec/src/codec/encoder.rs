@@ -263,13 +263,8 @@ fn detail_tile(
     // taken with a pixel of margin where the image goes on past the tile.
     let (w, h) = (src.width(), src.height());
     let margin = u32::from(s.lapping.is_some());
-    let (x0, y0) = (rect.x0.saturating_sub(margin), rect.y0.saturating_sub(margin));
-    let outer = TileRect {
-        x0,
-        y0,
-        width: (rect.x0 + rect.width + margin).min(w) - x0,
-        height: (rect.y0 + rect.height + margin).min(h) - y0,
-    };
+    let outer = rect.grown(margin, w, h);
+    let (x0, y0) = (outer.x0, outer.y0);
     let tile = src.region(outer);
     let planes = coding_planes(&tile, s);
     drop(tile);
@@ -505,13 +500,7 @@ mod tests {
             for t in 0..tiling.count() {
                 let r = tiling.rect(t);
                 for margin in [0, 1] {
-                    let (x0, y0) = (r.x0.saturating_sub(margin), r.y0.saturating_sub(margin));
-                    let rect = TileRect {
-                        x0,
-                        y0,
-                        width: (r.x0 + r.width + margin).min(w) - x0,
-                        height: (r.y0 + r.height + margin).min(h) - y0,
-                    };
+                    let rect = r.grown(margin, w, h);
                     let scan: Vec<usize> = (0..cells.len())
                         .filter(|&i| {
                             let (cx, cy) = cells[i].centre(w, h);

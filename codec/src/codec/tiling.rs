@@ -88,6 +88,21 @@ impl Tiling {
 }
 
 impl TileRect {
+    /// This rectangle with `margin` more pixels on every side, within a `width x
+    /// height` image.
+    pub fn grown(&self, margin: u32, width: u32, height: u32) -> TileRect {
+        let (x0, y0) = (
+            self.x0.saturating_sub(margin),
+            self.y0.saturating_sub(margin),
+        );
+        TileRect {
+            x0,
+            y0,
+            width: (self.x0 + self.width + margin).min(width) - x0,
+            height: (self.y0 + self.height + margin).min(height) - y0,
+        }
+    }
+
     /// A cell of this tile's own tree in image coordinates.
     pub fn to_image(&self, c: Cell) -> Cell {
         Cell {
