@@ -180,7 +180,7 @@ fn bad_headers_have_clear_messages() {
         ),
         "{e}"
     );
-    let e = with_header(&|h: &mut [u8]| h[15] |= 64);
+    let e = with_header(&|h: &mut [u8]| h[15] |= 128);
     assert!(e.to_string().contains("header flags"), "{e}");
     // The luma basis (bit 5) is the encoder's choice for colour; it needs three colour
     // channels, so a grey file that claims it is refused.

@@ -7,6 +7,7 @@ use super::detail::lapping::Lapping;
 use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
+use super::syntax::LevelSteps;
 use super::tiling::{TileRect, Tiling, SIDE_UNIT};
 use super::{CodecError, MAX_SIDE};
 use crate::metadata::{Metadata, MAX_ITEM_BYTES};
@@ -15,7 +16,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 8;
+pub const VERSION: u8 = 9;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -78,6 +79,9 @@ pub struct Header {
     /// How the colour channels are coded (flag bit 5: the luma basis, only with three
     /// colour channels).
     pub basis: ColourBasis,
+    /// Whether the key points' steps double per cell level below the roots (flag bit
+    /// 6; the steps above are then the roots').
+    pub level_steps: bool,
 }
 
 /// Header bytes without the detail layer's steps.
@@ -101,10 +105,20 @@ const FLAG_ADAPTIVE: u8 = 8;
 const FLAG_LAPPED: u8 = 16;
 /// Flag bit: the colour channels are coded in the luma basis (only with three).
 const FLAG_LUMA_BASIS: u8 = 32;
+/// Flag bit: the key points' steps double per cell level below the roots.
+const FLAG_LEVEL_STEPS: u8 = 64;
 /// Bytes of the lapping parameter.
 const LAPPING_LEN: usize = 1;
 
 impl Header {
+    /// How the key points' steps follow their cell sizes.
+    pub fn level_steps(&self) -> LevelSteps {
+        LevelSteps {
+            root_log2: self.block_log2,
+            on: self.level_steps,
+        }
+    }
+
     /// The tree geometry.
     pub fn shape(&self) -> TreeShape {
         TreeShape {
@@ -163,6 +177,11 @@ impl Header {
                     FLAG_LUMA_BASIS
                 } else {
                     0
+                }
+                | if self.level_steps {
+                    FLAG_LEVEL_STEPS
+                } else {
+                    0
                 },
         );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
@@ -197,6 +216,7 @@ impl Header {
                 | FLAG_ADAPTIVE
                 | FLAG_LAPPED
                 | FLAG_LUMA_BASIS
+                | FLAG_LEVEL_STEPS
             || (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED) != 0
                 && flags & FLAG_DETAIL == 0)
             || (flags & FLAG_LUMA_BASIS != 0 && colour_channels != 3)
@@ -350,6 +370,7 @@ impl Header {
             adaptive,
             lapping,
             basis,
+            level_steps: flags & FLAG_LEVEL_STEPS != 0,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

@@ -3,6 +3,8 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
+use rayon::prelude::*;
+
 use super::bitstream::{self, Header, TileStreams};
 use super::colour::{self, CodingPlanes, ColourBasis};
 use super::detail::dct::N as DCT_N;
@@ -13,9 +15,9 @@ use super::geometry::Frame;
 use super::keyset::{Grid, KernelParams, KeySet, MIN_SIGMA_FACTOR};
 use super::model;
 use super::quadtree::Cell;
-use super::rate_control::EncodeSettings;
+use super::rate_control::{self, EncodeSettings};
 use super::source::PixelSource;
-use super::syntax::{self, MAX_VALUE};
+use super::syntax::{self, LevelSteps, MAX_VALUE};
 use super::tiling::{into_image_order, permute, TileRect, Tiling};
 use super::{CodecError, EncodeStats};
 use crate::metadata::{Metadata, MAX_ITEM_BYTES};
@@ -24,21 +26,37 @@ use crate::raster::Raster;
 /// Quantises one channel in coding order against the decoder's own prediction, with
 /// a dead zone: the residual's magnitude is rounded down unless its fraction exceeds
 /// `0.5 + deadzone`, trading a little distortion for many zero or smaller residuals.
-fn quantise(nbs: &[syntax::Neighbours], values: &[f64], step: f64, deadzone: f64) -> Vec<i64> {
+/// Each key point is quantised in its own step (`levels` from the roots' `step`).
+fn quantise(
+    cells: &[Cell],
+    nbs: &[syntax::Neighbours],
+    values: &[f64],
+    step: f64,
+    levels: LevelSteps,
+    deadzone: f64,
+) -> Vec<i64> {
     let mut out = vec![0i64; values.len()];
+    let mut scaled = vec![0i64; values.len()];
     let mut previous = 0;
     for i in 0..values.len() {
-        let (pred, _) = syntax::predict(&out, &nbs[i], previous);
-        let r = values[i] / step - pred as f64;
+        let shift = levels.shift(&cells[i]);
+        let (pred, _) = syntax::predict(&scaled, &nbs[i], previous, shift);
+        let r = values[i] / levels.step(&cells[i], step) - pred as f64;
         let m = (r.abs() + 0.5 - deadzone).floor().max(0.0);
         // Clamped in floating point: an extreme (finite) sample can put the residual
         // far beyond i64, and the sum must not overflow. Below 2^53 the sum is exact, so
         // in range this is the integer sum.
         let v = (pred as f64 + r.signum() * m).clamp(-MAX_VALUE as f64, MAX_VALUE as f64) as i64;
         out[i] = v;
-        previous = v;
+        scaled[i] = v << shift;
+        previous = scaled[i];
     }
     out
+}
+
+/// Quantised values times their key points' steps: what the decoder reads.
+fn dequantise(cells: &[Cell], q: &[i64], step: f64, levels: LevelSteps) -> Vec<f64> {
+    q.iter().zip(cells).map(|(&v, c)| v as f64 * levels.step(c, step)).collect()
 }
 
 /// One tile after modelling: its coded tree and values, and its key points (image
@@ -62,15 +80,18 @@ fn coding_planes(tile: &Raster, s: &EncodeSettings) -> CodingPlanes {
     planes
 }
 
-/// Models one tile and entropy-codes its tree and values, with the tile's own contexts
-/// and neighbours: nothing outside the tile is predicted from.
-fn model_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSettings) -> TileModel {
+/// Models one tile: its tree and fitted (unquantised) key point colours.
+fn fit_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSettings) -> model::Model {
     let tile = src.region(rect);
     let planes = coding_planes(&tile, s);
     drop(tile);
     let frame = Frame::window(src.width(), src.height(), (rect.x0, rect.y0), rect.width, rect.height);
-    let model = model::build_in(frame, &planes, &s.model, |_, _| {});
-    drop(planes);
+    model::build_in(frame, &planes, &s.model, |_, _| {})
+}
+
+/// Quantises and entropy-codes one tile's tree and values, with the tile's own
+/// contexts and neighbours: nothing outside the tile is predicted from.
+fn code_tile(model: model::Model, rect: TileRect, s: &EncodeSettings, levels: LevelSteps) -> TileModel {
     let (w, h) = (rect.width, rect.height);
     let leaf_set: std::collections::HashSet<_> = model.luma_cells.iter().copied().collect();
     let mut tree = AnsSink::new();
@@ -81,9 +102,9 @@ fn model_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSetti
     let mut luma_values = Vec::new();
     for (c, values) in model.luma_colours.iter().enumerate() {
         let step = if c == 0 { s.step_luma } else { s.step_alpha };
-        let q = quantise(&nbs, values, step, s.deadzone);
-        syntax::write_values(&model.luma_cells, &nbs, &q, &mut luma);
-        luma_values.push(q.iter().map(|&v| v as f64 * step).collect());
+        let q = quantise(&model.luma_cells, &nbs, values, step, levels, s.deadzone);
+        syntax::write_values(&model.luma_cells, &nbs, &q, levels, &mut luma);
+        luma_values.push(dequantise(&model.luma_cells, &q, step, levels));
     }
     let mut chroma_values = Vec::new();
     let chroma = if model.chroma_cells.is_empty() {
@@ -92,9 +113,9 @@ fn model_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSetti
         let mut sink = AnsSink::new();
         let nbs = syntax::neighbours(&model.chroma_cells, w, h);
         for values in &model.chroma_colours {
-            let q = quantise(&nbs, values, s.step_chroma, s.deadzone);
-            syntax::write_values(&model.chroma_cells, &nbs, &q, &mut sink);
-            chroma_values.push(q.iter().map(|&v| v as f64 * s.step_chroma).collect());
+            let q = quantise(&model.chroma_cells, &nbs, values, s.step_chroma, levels, s.deadzone);
+            syntax::write_values(&model.chroma_cells, &nbs, &q, levels, &mut sink);
+            chroma_values.push(dequantise(&model.chroma_cells, &q, s.step_chroma, levels));
         }
         sink.finish()
     };
@@ -406,11 +427,33 @@ pub fn encode_with(
         let k = d.0;
         (d.1)(k, 2 * n);
     };
-    let mut models = run_tiles(n, workers, |i| {
-        let m = model_tile(img, tiling.rect(i), &s);
+    let fits = run_tiles(n, workers, |i| {
+        let m = fit_tile(img, tiling.rect(i), &s);
         step();
         m
     });
+    let luma_keypoints: usize = fits.iter().map(|m| m.luma_cells.len()).sum();
+    let area = w as f64 * h as f64 / luma_keypoints.max(1) as f64;
+    let levels = LevelSteps {
+        root_log2: s.model.block_log2,
+        on: s.level_steps,
+    };
+    // The settings' steps are those of cells at the reference level; the header's
+    // are the roots'.
+    let factor = rate_control::network_step_factor(area)
+        * if levels.on {
+            2f64.powi(rate_control::LEVEL_STEPS_REFERENCE_LOG2 as i32 - s.model.block_log2 as i32)
+        } else {
+            1.0
+        };
+    for step in [&mut s.step_luma, &mut s.step_chroma, &mut s.step_alpha] {
+        *step = (*step * factor).clamp(1e-7, 1e4) as f32 as f64;
+    }
+    let mut models: Vec<TileModel> = fits
+        .into_par_iter()
+        .enumerate()
+        .map(|(i, m)| code_tile(m, tiling.rect(i), &s, levels))
+        .collect();
     let kernel = s.model.kernel;
     let net = Network::gather(&mut models, s.model.block_log2, Frame::new(w, h), kernel, &tiling);
     let classes = adaptive::block_classes(&net.luma_cells, w, h);
@@ -448,6 +491,7 @@ pub fn encode_with(
         } else {
             ColourBasis::Grey
         },
+        level_steps: levels.on,
     };
     let streams: Vec<TileStreams> = models
         .into_iter()

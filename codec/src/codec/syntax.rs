@@ -328,26 +328,72 @@ impl Default for ValueContexts {
     }
 }
 
-/// Prediction and activity class of key point `i` from already coded values.
+/// How a key point's quantiser step follows its cell size: with level steps, a cell
+/// of side `2^l` under roots of side `2^root_log2` has `2^(root_log2 - l)` times the
+/// channel's step (the header's step is the roots' step), so a value of `q` steps is
+/// `q << shift` in root steps, the unit neighbours are predicted in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LevelSteps {
+    /// Root block side, log2.
+    pub root_log2: u8,
+    /// Whether the step grows with smaller cells (else one step for all).
+    pub on: bool,
+}
+
+impl LevelSteps {
+    /// One step for every cell.
+    pub const FLAT: LevelSteps = LevelSteps { root_log2: 0, on: false };
+
+    /// The cell's step in root steps, log2.
+    #[inline]
+    pub fn shift(&self, c: &Cell) -> u32 {
+        if self.on {
+            u32::from(self.root_log2.saturating_sub(c.log2))
+        } else {
+            0
+        }
+    }
+
+    /// The cell's step for a channel whose roots have step `root_step`.
+    #[inline]
+    pub fn step(&self, c: &Cell, root_step: f64) -> f64 {
+        root_step * (1u32 << self.shift(c)) as f64
+    }
+}
+
+/// `v / 2^k` rounded to nearest (halves up).
 #[inline]
-pub fn predict(values: &[i64], nb: &Neighbours, previous: i64) -> (i64, usize) {
+fn round_shift(v: i64, k: u32) -> i64 {
+    if k == 0 {
+        v
+    } else {
+        (v + (1 << (k - 1))) >> k
+    }
+}
+
+/// Prediction and activity class of a key point of step shift `shift` from already
+/// coded values in root steps (`scaled`): the prediction in the key point's own steps,
+/// clamped to the value range.
+#[inline]
+pub fn predict(scaled: &[i64], nb: &Neighbours, previous: i64, shift: u32) -> (i64, usize) {
+    let own = |v: i64| round_shift(v, shift).clamp(-MAX_VALUE, MAX_VALUE);
     // An above-left neighbour exists exactly when above and left do (the cell is off
     // the top and left borders): one test for the common case.
     if nb.above_left != NONE {
         let (a, l, al) = (
-            values[nb.above as usize],
-            values[nb.left as usize],
-            values[nb.above_left as usize],
+            scaled[nb.above as usize],
+            scaled[nb.left as usize],
+            scaled[nb.above_left as usize],
         );
         // LOCO-I's median edge detector, as the median of a, l and a + l - al
         // (min/max instead of branches: the comparisons are data, not patterns).
         let pred = a.min(l).max(a.max(l).min(a + l - al));
-        let act = (a - al).abs() + (l - al).abs();
-        return (pred, usize::from(act > 0) + usize::from(act > 3));
+        let act = ((a - al).abs() + (l - al).abs()) >> shift;
+        return (own(pred), usize::from(act > 0) + usize::from(act > 3));
     }
     match (Neighbours::get(nb.above), Neighbours::get(nb.left)) {
-        (Some(v), _) | (None, Some(v)) => (values[v as usize], 1),
-        (None, None) => (previous, 2),
+        (Some(v), _) | (None, Some(v)) => (own(scaled[v as usize]), 1),
+        (None, None) => (own(previous), 2),
     }
 }
 
@@ -414,34 +460,41 @@ pub fn read_residual(
     Ok((mag ^ flip) - flip)
 }
 
-/// Codes the quantised values of one channel over a key-point set.
+/// Codes the quantised values of one channel over a key-point set (each in its own
+/// steps, as `levels` sets them).
 pub fn write_values(
     cells: &[Cell],
     nbs: &[Neighbours],
     values: &[i64],
+    levels: LevelSteps,
     sink: &mut impl SymbolSink,
 ) {
     let mut ctx = ValueContexts::default();
+    let mut scaled = vec![0i64; values.len()];
     let mut previous = 0;
     for (i, c) in cells.iter().enumerate() {
-        let (pred, act) = predict(values, &nbs[i], previous);
+        let shift = levels.shift(c);
+        let (pred, act) = predict(&scaled, &nbs[i], previous, shift);
         write_residual(&mut ctx, size_class(c), act, values[i] - pred, sink);
-        previous = values[i];
+        scaled[i] = values[i] << shift;
+        previous = scaled[i];
     }
 }
 
-/// Reads the value of cell `c` from its prediction and residual, range-checked.
+/// Reads the value of cell `c` (of step shift `shift`) from its prediction and
+/// residual, range-checked.
 // Always: the value loops are the decoder's hot path.
 #[inline(always)]
 fn read_value(
     ctx: &mut ValueContexts,
     c: &Cell,
+    shift: u32,
     nb: &Neighbours,
-    values: &[i64],
+    scaled: &[i64],
     previous: i64,
     src: &mut AnsSource,
 ) -> Result<i64, CodecError> {
-    let (pred, act) = predict(values, nb, previous);
+    let (pred, act) = predict(scaled, nb, previous, shift);
     let v = pred + read_residual(ctx, size_class(c), act, src)?;
     if v.abs() > MAX_VALUE {
         return Err(CodecError::range(
@@ -454,19 +507,23 @@ fn read_value(
     Ok(v)
 }
 
-/// Reads the quantised values of one channel.
+/// Reads the quantised values of one channel (each in its own steps).
 pub fn read_values(
     cells: &[Cell],
     nbs: &[Neighbours],
+    levels: LevelSteps,
     src: &mut AnsSource,
 ) -> Result<Vec<i64>, CodecError> {
     let mut ctx = ValueContexts::default();
     let mut values = vec![0i64; cells.len()];
+    let mut scaled = vec![0i64; cells.len()];
     let mut previous = 0;
     for (i, c) in cells.iter().enumerate() {
-        let v = read_value(&mut ctx, c, &nbs[i], &values, previous, src)?;
+        let shift = levels.shift(c);
+        let v = read_value(&mut ctx, c, shift, &nbs[i], &scaled, previous, src)?;
         values[i] = v;
-        previous = v;
+        scaled[i] = v << shift;
+        previous = scaled[i];
     }
     Ok(values)
 }
@@ -478,6 +535,7 @@ pub fn read_channels(
     width: u32,
     height: u32,
     channels: usize,
+    levels: LevelSteps,
     src: &mut AnsSource,
 ) -> Result<Vec<Vec<i64>>, CodecError> {
     let mut out = Vec::with_capacity(channels);
@@ -488,19 +546,22 @@ pub fn read_channels(
     let mut nbs = Vec::with_capacity(if channels > 1 { cells.len() } else { 0 });
     let mut ctx = ValueContexts::default();
     let mut values = vec![0i64; cells.len()];
+    let mut scaled = vec![0i64; cells.len()];
     let mut previous = 0;
     for (i, c) in cells.iter().enumerate() {
         let nb = walk.next(c);
         if channels > 1 {
             nbs.push(nb);
         }
-        let v = read_value(&mut ctx, c, &nb, &values, previous, src)?;
+        let shift = levels.shift(c);
+        let v = read_value(&mut ctx, c, shift, &nb, &scaled, previous, src)?;
         values[i] = v;
-        previous = v;
+        scaled[i] = v << shift;
+        previous = scaled[i];
     }
     out.push(values);
     for _ in 1..channels {
-        out.push(read_values(cells, &nbs, src)?);
+        out.push(read_values(cells, &nbs, levels, src)?);
     }
     Ok(out)
 }
@@ -602,9 +663,12 @@ mod tests {
                     })
                     .collect();
                 let budget = MAX_SYMBOLS_PER_VALUE * cells.len() as u64;
-                if let Ok(mut src) = AnsSource::new(&bytes, budget) {
-                    if let Ok(values) = read_values(&cells, &nbs, &mut src) {
-                        assert!(values.iter().all(|v| v.abs() <= MAX_VALUE));
+                for on in [false, true] {
+                    let levels = LevelSteps { root_log2: shape.block_log2, on };
+                    if let Ok(mut src) = AnsSource::new(&bytes, budget) {
+                        if let Ok(values) = read_values(&cells, &nbs, levels, &mut src) {
+                            assert!(values.iter().all(|v| v.abs() <= MAX_VALUE));
+                        }
                     }
                 }
                 if let Ok(mut src) = AnsSource::new(&bytes, 10_000) {
@@ -653,36 +717,63 @@ mod tests {
 
     #[test]
     fn values_round_trip_and_costs_track_the_real_size() {
-        for (w, h, seed) in [(61u32, 37u32, 1u32), (128, 96, 2), (3, 200, 3)] {
-            let (_, cells) = random_tree(w, h, seed, |d| d % 5 < 3);
-            let nbs = neighbours(&cells, w, h);
-            let channels = [
-                test_values(cells.len(), seed),
-                test_values(cells.len(), !seed),
-            ];
-            let mut sink = AnsSink::new();
-            let mut cost = CostSink::default();
-            for v in &channels {
-                write_values(&cells, &nbs, v, &mut sink);
-                write_values(&cells, &nbs, v, &mut cost);
+        for on in [false, true] {
+            for (w, h, seed) in [(61u32, 37u32, 1u32), (128, 96, 2), (3, 200, 3)] {
+                let (shape, cells) = random_tree(w, h, seed, |d| d % 5 < 3);
+                let levels = LevelSteps { root_log2: shape.block_log2, on };
+                assert_eq!(on, cells.iter().any(|c| levels.shift(c) > 0), "the tree has small cells");
+                let nbs = neighbours(&cells, w, h);
+                let channels = [
+                    test_values(cells.len(), seed),
+                    test_values(cells.len(), !seed),
+                ];
+                let mut sink = AnsSink::new();
+                let mut cost = CostSink::default();
+                for v in &channels {
+                    write_values(&cells, &nbs, v, levels, &mut sink);
+                    write_values(&cells, &nbs, v, levels, &mut cost);
+                }
+                let bytes = sink.finish();
+                let est = cost.cost as f64 / 2048.0;
+                assert!(
+                    (bytes.len() as f64 - est).abs() < 0.005 * est + 8.0,
+                    "real {} estimated {est}",
+                    bytes.len()
+                );
+                let max = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * 2;
+                let mut src = AnsSource::new(&bytes, max).unwrap();
+                for v in &channels {
+                    assert_eq!(&read_values(&cells, &nbs, levels, &mut src).unwrap(), v);
+                }
+                assert!(src.finished_cleanly());
+                let mut src = AnsSource::new(&bytes, max).unwrap();
+                assert_eq!(read_channels(&cells, w, h, 2, levels, &mut src).unwrap(), channels);
+                assert!(src.finished_cleanly());
             }
-            let bytes = sink.finish();
-            let est = cost.cost as f64 / 2048.0;
-            assert!(
-                (bytes.len() as f64 - est).abs() < 0.005 * est + 8.0,
-                "real {} estimated {est}",
-                bytes.len()
-            );
-            let max = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * 2;
-            let mut src = AnsSource::new(&bytes, max).unwrap();
-            for v in &channels {
-                assert_eq!(&read_values(&cells, &nbs, &mut src).unwrap(), v);
-            }
-            assert!(src.finished_cleanly());
-            let mut src = AnsSource::new(&bytes, max).unwrap();
-            assert_eq!(read_channels(&cells, w, h, 2, &mut src).unwrap(), channels);
-            assert!(src.finished_cleanly());
         }
+    }
+
+    #[test]
+    fn level_steps_predict_in_root_steps_rounded_to_the_cell_s_own() {
+        let levels = LevelSteps { root_log2: 5, on: true };
+        let cell = |log2| Cell { x0: 0, y0: 0, log2 };
+        assert_eq!([5, 4, 3, 0].map(|l| levels.shift(&cell(l))), [0, 1, 2, 5]);
+        assert_eq!(levels.step(&cell(3), 0.25), 1.0);
+        assert_eq!(LevelSteps::FLAT.shift(&cell(0)), 0);
+        // One neighbour above, 5 root steps: a cell of twice the root step predicts
+        // 2.5 rounded up, one of four times 1.25 rounded to 1; -5 gives -2 and -1.
+        let above = Neighbours { above: 0, left: NONE, above_left: NONE };
+        assert_eq!(predict(&[5], &above, 0, 1), (3, 1));
+        assert_eq!(predict(&[5], &above, 0, 2), (1, 1));
+        assert_eq!(predict(&[-5], &above, 0, 1), (-2, 1));
+        assert_eq!(predict(&[-5], &above, 0, 2), (-1, 1));
+        // The median edge detector runs in root steps, the activity is in the cell's.
+        let all = Neighbours { above: 0, left: 1, above_left: 2 };
+        assert_eq!(predict(&[40, 8, 0], &all, 0, 2), (10, 2));
+        assert_eq!(predict(&[4, 0, 0], &all, 0, 2), (1, 1));
+        assert_eq!(predict(&[3, 0, 0], &all, 0, 2), (1, 0));
+        // A prediction beyond the range in the cell's steps is clamped to it.
+        assert_eq!(predict(&[MAX_VALUE << 3], &above, 0, 0).0, MAX_VALUE);
     }
 
     #[test]

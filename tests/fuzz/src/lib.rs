@@ -302,6 +302,7 @@ fn choose_header(c: &mut Choices) -> Header {
         } else {
             ColourBasis::Grey
         },
+        level_steps: c.bit(),
     }
 }
 
@@ -412,14 +413,14 @@ fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
         let nbs = syntax::neighbours(&luma_cells, w, h);
         for _ in 0..luma_channels {
             let v = choose_values(c, luma_cells.len());
-            syntax::write_values(&luma_cells, &nbs, &v, &mut luma);
+            syntax::write_values(&luma_cells, &nbs, &v, header.level_steps(), &mut luma);
         }
         let chroma = if colour {
             let mut sink = AnsSink::new();
             let nbs = syntax::neighbours(&chroma_cells, w, h);
             for _ in 0..2 {
                 let v = choose_values(c, chroma_cells.len());
-                syntax::write_values(&chroma_cells, &nbs, &v, &mut sink);
+                syntax::write_values(&chroma_cells, &nbs, &v, header.level_steps(), &mut sink);
             }
             sink.finish()
         } else {

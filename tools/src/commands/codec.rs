@@ -446,7 +446,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
             "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
-            "step_alpha": h.step_alpha, "detail_steps": h.detail_steps,
+            "step_alpha": h.step_alpha, "level_steps": h.level_steps, "detail_steps": h.detail_steps,
             "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
             "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
             "colour_basis": colour_basis_name(h),
@@ -504,10 +504,15 @@ pub fn info(a: &InfoArgs) -> CliResult {
     }
     outln!(
         text,
-        "quantiser:   luma {}, chroma {}, alpha {}",
+        "quantiser:   luma {}, chroma {}, alpha {}{}",
         h.step_luma,
         h.step_chroma,
-        h.step_alpha
+        h.step_alpha,
+        if h.level_steps {
+            " under root blocks, doubling per level below"
+        } else {
+            ""
+        }
     );
     match h.detail_steps {
         Some([l, c]) => outln!(

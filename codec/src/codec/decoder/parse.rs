@@ -11,7 +11,7 @@ use crate::codec::detail::{blocks as detail_blocks, Detail, DetailPlane};
 use crate::codec::entropy::AnsSource;
 use crate::codec::model::chroma_cells;
 use crate::codec::quadtree::{Cell, TreeShape};
-use crate::codec::syntax::{self, MAX_SYMBOLS_PER_VALUE};
+use crate::codec::syntax::{self, LevelSteps, MAX_SYMBOLS_PER_VALUE};
 use crate::codec::tiling::into_image_order;
 use crate::codec::CodecError;
 
@@ -22,10 +22,11 @@ fn read_section(
     cells: &[Cell],
     (width, height): (u32, u32),
     channels: usize,
+    levels: LevelSteps,
 ) -> Result<Vec<Vec<i64>>, CodecError> {
     let max_symbols = MAX_SYMBOLS_PER_VALUE * cells.len() as u64 * channels as u64;
     let mut src = AnsSource::new(payload, max_symbols)?;
-    let values = syntax::read_channels(cells, width, height, channels, &mut src)?;
+    let values = syntax::read_channels(cells, width, height, channels, levels, &mut src)?;
     if !src.finished_cleanly() {
         return Err(CodecError::PayloadLeftover {
             stream: "entropy-coded payload",
@@ -34,12 +35,23 @@ fn read_section(
     Ok(values)
 }
 
-/// Quantised planes times their steps: the key points' values.
-fn dequantise<T>(planes: Vec<Vec<i64>>, steps: &[f64], to: impl Fn(f64) -> T) -> Vec<Vec<T>> {
+/// Quantised planes times their key points' steps (`levels` from the roots' `steps`):
+/// the key points' values.
+fn dequantise(
+    planes: Vec<Vec<i64>>,
+    steps: &[f64],
+    cells: &[Cell],
+    levels: LevelSteps,
+) -> Vec<Vec<f64>> {
     planes
         .into_iter()
         .zip(steps)
-        .map(|(v, &step)| v.into_iter().map(|q| to(q as f64 * step)).collect())
+        .map(|(v, &step)| {
+            v.into_iter()
+                .zip(cells)
+                .map(|(q, c)| q as f64 * levels.step(c, step))
+                .collect()
+        })
         .collect()
 }
 
@@ -103,7 +115,7 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
     // The streams are independent; each finds its neighbours while decoding (and
     // chroma its cells first).
     let (luma, (chroma, detail)) = rayon::join(
-        || read_section(t.luma, &cells, size, luma_steps.len()),
+        || read_section(t.luma, &cells, size, luma_steps.len(), header.level_steps()),
         || {
             rayon::join(
                 || -> Result<_, CodecError> {
@@ -119,7 +131,7 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                             declared: t.chroma_count.into(),
                         });
                     }
-                    let values = read_section(t.chroma, &cc, size, 2)?;
+                    let values = read_section(t.chroma, &cc, size, 2, header.level_steps())?;
                     Ok((cc, values))
                 },
                 || -> Result<_, CodecError> {
@@ -204,8 +216,13 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
         }
     });
     Ok(Decoded {
-        luma_values: dequantise(luma_values, &luma_steps, |v| v),
-        chroma_values: dequantise(chroma_values, &chroma_steps, |v| v),
+        luma_values: dequantise(luma_values, &luma_steps, &luma_cells, header.level_steps()),
+        chroma_values: dequantise(
+            chroma_values,
+            &chroma_steps,
+            &chroma_cells,
+            header.level_steps(),
+        ),
         detail,
         header,
         luma_cells,
