@@ -283,7 +283,9 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
 }
 
 /// Bytes per key point the encoder keeps for the whole image: its cell and values as
-/// the tiles return them and once more in the image's order.
+/// fitted and as quantised (both while the tiles are coded, whose steps wait for the
+/// whole image's key point count), then as quantised and once more in the image's
+/// order: at most two copies at once, 56 bytes each with chroma, 64 with alpha.
 pub const KEY_POINT_BYTES: u64 = 128;
 
 /// What an encode needs in memory: a fixed part for the whole image and a working set
