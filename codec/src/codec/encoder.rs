@@ -54,11 +54,6 @@ fn quantise(
     out
 }
 
-/// Quantised values times their key points' steps: what the decoder reads.
-fn dequantise(cells: &[Cell], q: &[i64], step: f64, levels: LevelSteps) -> Vec<f64> {
-    q.iter().zip(cells).map(|(&v, c)| v as f64 * levels.step(c, step)).collect()
-}
-
 /// One tile after modelling: its coded tree and values, and its key points (image
 /// coordinates, the tile's coding order) with the values the decoder will read.
 struct TileModel {
@@ -104,7 +99,7 @@ fn code_tile(model: model::Model, rect: TileRect, s: &EncodeSettings, levels: Le
         let step = if c == 0 { s.step_luma } else { s.step_alpha };
         let q = quantise(&model.luma_cells, &nbs, values, step, levels, s.deadzone);
         syntax::write_values(&model.luma_cells, &nbs, &q, levels, &mut luma);
-        luma_values.push(dequantise(&model.luma_cells, &q, step, levels));
+        luma_values.push(levels.dequantise(&model.luma_cells, &q, step));
     }
     let mut chroma_values = Vec::new();
     let chroma = if model.chroma_cells.is_empty() {
@@ -115,7 +110,7 @@ fn code_tile(model: model::Model, rect: TileRect, s: &EncodeSettings, levels: Le
         for values in &model.chroma_colours {
             let q = quantise(&model.chroma_cells, &nbs, values, s.step_chroma, levels, s.deadzone);
             syntax::write_values(&model.chroma_cells, &nbs, &q, levels, &mut sink);
-            chroma_values.push(dequantise(&model.chroma_cells, &q, s.step_chroma, levels));
+            chroma_values.push(levels.dequantise(&model.chroma_cells, &q, s.step_chroma));
         }
         sink.finish()
     };

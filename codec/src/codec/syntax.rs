@@ -359,6 +359,11 @@ impl LevelSteps {
     pub fn step(&self, c: &Cell, root_step: f64) -> f64 {
         root_step * (1u32 << self.shift(c)) as f64
     }
+
+    /// Quantised values of `cells` times their steps: the values a decoder reads.
+    pub fn dequantise(&self, cells: &[Cell], q: &[i64], root_step: f64) -> Vec<f64> {
+        q.iter().zip(cells).map(|(&v, c)| v as f64 * self.step(c, root_step)).collect()
+    }
 }
 
 /// `v / 2^k` rounded to nearest (halves up).

@@ -38,20 +38,15 @@ fn read_section(
 /// Quantised planes times their key points' steps (`levels` from the roots' `steps`):
 /// the key points' values.
 fn dequantise(
-    planes: Vec<Vec<i64>>,
+    planes: &[Vec<i64>],
     steps: &[f64],
     cells: &[Cell],
     levels: LevelSteps,
 ) -> Vec<Vec<f64>> {
     planes
-        .into_iter()
+        .iter()
         .zip(steps)
-        .map(|(v, &step)| {
-            v.into_iter()
-                .zip(cells)
-                .map(|(q, c)| q as f64 * levels.step(c, step))
-                .collect()
-        })
+        .map(|(q, &step)| levels.dequantise(cells, q, step))
         .collect()
 }
 
@@ -216,9 +211,9 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
         }
     });
     Ok(Decoded {
-        luma_values: dequantise(luma_values, &luma_steps, &luma_cells, header.level_steps()),
+        luma_values: dequantise(&luma_values, &luma_steps, &luma_cells, header.level_steps()),
         chroma_values: dequantise(
-            chroma_values,
+            &chroma_values,
             &chroma_steps,
             &chroma_cells,
             header.level_steps(),
