@@ -95,9 +95,9 @@ fn bad_headers_have_clear_messages() {
         );
     }
     // The header's length: 38 bytes, 46 with the detail layer's steps, 48 with its
-    // deblocking, 51 with adaptive steps, 52 lapped.
+    // deblocking, 51 with adaptive steps, 52 lapped, 54 with frequency weights.
     let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!([38, 46, 48, 49, 51, 52].contains(&hl), "{hl}");
+    assert!([38, 46, 48, 49, 51, 52, 54].contains(&hl), "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
@@ -120,8 +120,8 @@ fn bad_headers_have_clear_messages() {
     // Deblocking parameters, step factors or the lapping weight out of range, or any
     // of them without the detail layer.
     assert_eq!(
-        hl, 52,
-        "the small file's detail layer is deblocked and lapped, its steps adapt"
+        hl, 54,
+        "the small file's detail layer is deblocked and lapped, its steps adapt and tilt"
     );
     let with_header = |edit: &dyn Fn(&mut [u8])| {
         let mut f = file.clone();
@@ -153,7 +153,7 @@ fn bad_headers_have_clear_messages() {
     }
     let e = with_header(&|h: &mut [u8]| h[15] &= !2);
     assert!(
-        matches!(e, CodecError::Flags { flags } if flags & 28 == 28),
+        matches!(e, CodecError::Flags { flags } if flags & 156 == 156),
         "{e}"
     );
     // Without their flags the factors and the weight are bytes the header does not
@@ -163,8 +163,8 @@ fn bad_headers_have_clear_messages() {
         matches!(
             e,
             CodecError::HeaderLength {
-                found: 52,
-                expected: 49
+                found: 54,
+                expected: 51
             }
         ),
         "{e}"
@@ -174,14 +174,23 @@ fn bad_headers_have_clear_messages() {
         matches!(
             e,
             CodecError::HeaderLength {
-                found: 52,
-                expected: 51
+                found: 54,
+                expected: 53
             }
         ),
         "{e}"
     );
-    let e = with_header(&|h: &mut [u8]| h[15] |= 128);
-    assert!(e.to_string().contains("header flags"), "{e}");
+    let e = with_header(&|h: &mut [u8]| h[15] &= !128);
+    assert!(
+        matches!(
+            e,
+            CodecError::HeaderLength {
+                found: 54,
+                expected: 52
+            }
+        ),
+        "{e}"
+    );
     // The luma basis (bit 5) is the encoder's choice for colour; it needs three colour
     // channels, so a grey file that claims it is refused.
     assert_ne!(

@@ -4,6 +4,7 @@ use super::colour::ColourBasis;
 use super::detail::adaptive::{AdaptiveSteps, CLASSES};
 use super::detail::deblock::Deblock;
 use super::detail::lapping::Lapping;
+use super::detail::weights::FrequencyWeights;
 use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
@@ -16,7 +17,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 9;
+pub const VERSION: u8 = 10;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -82,6 +83,8 @@ pub struct Header {
     /// Whether the key points' steps double per cell level below the roots (flag bit
     /// 6; the steps above are then the roots').
     pub level_steps: bool,
+    /// The detail layer's steps' tilt with frequency (flag bit 7, only with the layer).
+    pub weights: Option<FrequencyWeights>,
 }
 
 /// Header bytes without the detail layer's steps.
@@ -107,8 +110,12 @@ const FLAG_LAPPED: u8 = 16;
 const FLAG_LUMA_BASIS: u8 = 32;
 /// Flag bit: the key points' steps double per cell level below the roots.
 const FLAG_LEVEL_STEPS: u8 = 64;
+/// Flag bit: the detail layer's steps grow with frequency (only with [`FLAG_DETAIL`]).
+const FLAG_WEIGHTED: u8 = 128;
 /// Bytes of the lapping parameter.
 const LAPPING_LEN: usize = 1;
+/// Bytes of the frequency weights' tilts.
+const WEIGHTS_LEN: usize = 2;
 
 impl Header {
     /// How the key points' steps follow their cell sizes.
@@ -182,6 +189,11 @@ impl Header {
                     FLAG_LEVEL_STEPS
                 } else {
                     0
+                }
+                | if self.weights.is_some() {
+                    FLAG_WEIGHTED
+                } else {
+                    0
                 },
         );
         for s in [self.step_luma, self.step_chroma, self.step_alpha] {
@@ -202,6 +214,9 @@ impl Header {
         if let Some(l) = self.lapping {
             b.push(l.weight);
         }
+        if let Some(w) = self.weights {
+            b.extend(w.tilts);
+        }
         b
     }
 
@@ -209,16 +224,9 @@ impl Header {
         let flags = p.get(15).copied().unwrap_or(0);
         let colour_channels = ChannelLayout::from_channels(p.get(8).copied().unwrap_or(0) as usize)
             .map_or(0, |l| l.colour_channels());
-        if flags
-            > FLAG_PRUNED
-                | FLAG_DETAIL
-                | FLAG_DEBLOCK
-                | FLAG_ADAPTIVE
-                | FLAG_LAPPED
-                | FLAG_LUMA_BASIS
-                | FLAG_LEVEL_STEPS
-            || (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED) != 0
-                && flags & FLAG_DETAIL == 0)
+        // Every bit of the flags byte has a meaning: only combinations are invalid.
+        if (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED | FLAG_WEIGHTED) != 0
+            && flags & FLAG_DETAIL == 0)
             || (flags & FLAG_LUMA_BASIS != 0 && colour_channels != 3)
         {
             return Err(CodecError::Flags { flags });
@@ -237,12 +245,18 @@ impl Header {
             } else {
                 0
             };
+        let weights_at = lapping_at
+            + if flags & FLAG_LAPPED != 0 {
+                LAPPING_LEN
+            } else {
+                0
+            };
         let len = if flags & FLAG_DETAIL == 0 {
             HEADER_LEN
         } else {
-            lapping_at
-                + if flags & FLAG_LAPPED != 0 {
-                    LAPPING_LEN
+            weights_at
+                + if flags & FLAG_WEIGHTED != 0 {
+                    WEIGHTS_LEN
                 } else {
                     0
                 }
@@ -313,6 +327,9 @@ impl Header {
         let lapping = (flags & FLAG_LAPPED != 0).then(|| Lapping {
             weight: p[lapping_at],
         });
+        let weights = (flags & FLAG_WEIGHTED != 0).then(|| FrequencyWeights {
+            tilts: [p[weights_at], p[weights_at + 1]],
+        });
         let basis = if flags & FLAG_LUMA_BASIS != 0 {
             ColourBasis::Luma
         } else {
@@ -371,6 +388,7 @@ impl Header {
             lapping,
             basis,
             level_steps: flags & FLAG_LEVEL_STEPS != 0,
+            weights,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

@@ -336,6 +336,7 @@ fn detail_tile(
         &quantisers,
         &classes,
         factors.as_deref(),
+        s.detail_weights,
     );
     if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
         Vec::new()
@@ -481,6 +482,7 @@ pub fn encode_with(
         deblock: s.deblock.filter(|_| any_detail),
         adaptive: s.detail_adaptive.filter(|_| any_detail),
         lapping: s.lapping.filter(|_| any_detail),
+        weights: s.detail_weights.filter(|_| any_detail),
         basis: if img.layout().colour_channels() == 3 {
             s.colour_basis
         } else {

@@ -71,10 +71,10 @@ pub enum CodecError {
         /// The length the header's flags call for.
         expected: u64,
     },
-    /// The header's flags name a bit this version does not define, or deblocking,
-    /// adaptive steps or lapping without the detail layer, or the luma basis without
-    /// three colour channels.
-    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking, bit 3 adaptive steps and bit 4 lapping, which need bit 1, bit 5 luma basis, which needs three colour channels, bit 6 steps by cell level)")]
+    /// The header's flags ask for deblocking, adaptive steps, lapping or frequency
+    /// weights without the detail layer, or the luma basis without three colour
+    /// channels.
+    #[error("invalid caoen file: header flags {flags:#04x} (bit 0 pruned chroma, bit 1 detail layer, bit 2 deblocking, bit 3 adaptive steps, bit 4 lapping and bit 7 frequency weights, which need bit 1, bit 5 luma basis, which needs three colour channels, bit 6 steps by cell level)")]
     Flags {
         /// The flags byte.
         flags: u8,

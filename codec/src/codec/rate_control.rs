@@ -5,6 +5,7 @@ use super::colour::ColourBasis;
 use super::detail::adaptive::AdaptiveSteps;
 use super::detail::deblock::Deblock;
 use super::detail::lapping::Lapping;
+use super::detail::weights::FrequencyWeights;
 use super::model::ModelSettings;
 
 /// Everything the encoder needs besides the image.
@@ -36,6 +37,8 @@ pub struct EncodeSettings {
     pub lapping: Option<Lapping>,
     /// Detail step factors by network cell size (none: one step per plane).
     pub detail_adaptive: Option<AdaptiveSteps>,
+    /// The detail steps' tilt with frequency (none: flat).
+    pub detail_weights: Option<FrequencyWeights>,
     /// Code the colour channels in opponent space (else raw RGB on one tree: an
     /// ablation switch only; such files do not decode to the right colours).
     pub decorrelate: bool,
@@ -68,6 +71,11 @@ pub const CHROMA_STEP_TILT: f64 = 0.2;
 /// eye weigh luma, RGB PSNR all three (measured with the level search and adaptive
 /// steps: 1.25 against 1.0 cost 0.7% BD-rate by PSNR and saved 5.5% by MS-SSIM).
 pub const DETAIL_CHROMA_RATIO: f64 = 1.25;
+/// The detail steps' tilt with frequency, luma and chroma (`b / 16`: the highest
+/// frequency of an 8x8 block takes `1 + b/16` times the DC's step). The structural
+/// metrics weigh the coarse scales of a picture, RGB PSNR every frequency alike
+/// (measured in `docs/codec-ablation.md`, "Frequency weights").
+pub const DETAIL_WEIGHTS: FrequencyWeights = FrequencyWeights { tilts: [16, 16] };
 /// Dead zone of the predictive quantiser (measured: 0.15 saves 6% over plain rounding).
 pub const DEADZONE: f64 = 0.15;
 /// Dead zone of the detail quantiser (measured with merged groups against 0.2: 0.12
@@ -154,6 +162,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         deblock: Some(Deblock::DEFAULT),
         lapping: Some(Lapping::DEFAULT),
         detail_adaptive: Some(AdaptiveSteps::DEFAULT),
+        detail_weights: Some(DETAIL_WEIGHTS),
         decorrelate: true,
         colour_basis: ColourBasis::Luma,
         level_steps: true,
@@ -177,6 +186,7 @@ impl EncodeSettings {
             // Cell size tracks what the eye masks in display-referred pictures; float
             // images keep one step per plane.
             self.detail_adaptive = None;
+            self.detail_weights = None;
             // BT.601 luma is a display-referred weighting: float images keep the grey
             // basis, whose error is the same in every direction.
             self.colour_basis = ColourBasis::Grey;

@@ -22,6 +22,7 @@ use caoen::codec::detail::{
     dct::COEFFS,
     deblock::Deblock,
     lapping::Lapping,
+    weights::FrequencyWeights,
     Detail, DetailPlane,
 };
 use caoen::codec::entropy::AnsSink;
@@ -303,6 +304,9 @@ fn choose_header(c: &mut Choices) -> Header {
             ColourBasis::Grey
         },
         level_steps: c.bit(),
+        weights: (detail_steps.is_some() && c.bit()).then(|| FrequencyWeights {
+            tilts: [c.byte(), c.byte()],
+        }),
     }
 }
 
@@ -353,8 +357,9 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
         steps: vec![1.0; channels],
         deblock: header.deblock,
         lapping: header.lapping,
-        // Only the payload is written: the factors live in the header.
+        // Only the payload is written: the factors and the weights live in the header.
         block_steps: None,
+        weights: None,
     }
 }
 

@@ -451,6 +451,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
             "colour_basis": colour_basis_name(h),
             "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2)})),
+            "frequency_tilts": h.weights.map(|w| json!({"luma": w.tilt(0), "chroma": w.tilt(1)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
@@ -517,7 +518,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
     match h.detail_steps {
         Some([l, c]) => outln!(
             text,
-            "detail:      8x8 DCT blocks (merged into 16x16 or 32x32 under cells that large where that pays), step luma {l}, chroma {c}, {}, {}, {}",
+            "detail:      8x8 DCT blocks (merged into 16x16 or 32x32 under cells that large, chroma into 16x16 anywhere, where that pays), step luma {l}, chroma {c}, {}, {}, {}, {}",
             match h.deblock {
                 Some(d) => format!(
                     "deblocked (steps up to {}% of the step, {} px ramps)",
@@ -538,6 +539,14 @@ pub fn info(a: &InfoArgs) -> CliResult {
                     a.factor(2)
                 ),
                 None => "one step per plane".to_string(),
+            },
+            match h.weights {
+                Some(w) => format!(
+                    "steps rising with frequency to x{} (luma) / x{} (chroma) at an 8x8 block's highest",
+                    1.0 + w.tilt(0),
+                    1.0 + w.tilt(1)
+                ),
+                None => "flat in frequency".to_string(),
             }
         ),
         None => outln!(text, "detail:      none"),

@@ -208,6 +208,7 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
                 steps,
                 classes: block_classes(&luma_cells, header.width, header.height),
             }),
+            weights: header.weights,
         }
     });
     Ok(Decoded {

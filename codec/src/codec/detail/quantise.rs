@@ -11,13 +11,14 @@ use rayon::prelude::*;
 
 use super::dct::{self, COEFFS, N, ZIGZAG};
 use super::syntax::{self, BlockContext, BlockPricer, DetailContexts, GroupContext, Summary, GROUP_LEVELS};
+use super::weights::{self, FrequencyWeights};
 use super::{blocks, group_start, Detail, DetailPlane, Visit, Walk};
 use crate::codec::entropy::{AnsSink, SymbolSink};
 
 /// Quantiser of one channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Quantiser {
-    /// Step of every coefficient.
+    /// Step of every coefficient (of its weighted value, with frequency weights).
     pub step: f64,
     /// Dead zone: magnitudes round down unless their fraction exceeds `0.5 + deadzone`.
     pub deadzone: f64,
@@ -326,6 +327,8 @@ pub struct PlaneBlocks<'a> {
     pub classes: &'a [u8],
     /// Step factors.
     pub factors: Option<&'a [f64]>,
+    /// The steps' tilt with frequency.
+    pub weights: Option<FrequencyWeights>,
 }
 
 /// Transforms, quantises and codes one residual plane (`kind` 0 luma, 1 chroma) into
@@ -341,18 +344,24 @@ pub fn code_plane(
 ) -> DetailPlane {
     let (cols, rows) = blocks(width, height);
     let (w, h) = (width as usize, height as usize);
+    // Coefficients are quantised divided by their weights, so the levels and their
+    // distortion are in weighted steps.
+    let weights = blocks_of.weights.map_or(weights::FLAT, |wt| wt.table(kind));
+    let weighted = |c: [f64; COEFFS], g: usize| -> [f64; COEFFS] { std::array::from_fn(|z| c[z] / weights[g][z]) };
     let coeffs: Vec<[f64; COEFFS]> = (0..cols * rows)
         .into_par_iter()
-        .map(|i| dct::forward(&gather(residual, w, h, i % cols, i / cols)))
+        .map(|i| weighted(dct::forward(&gather(residual, w, h, i % cols, i / cols)), 0))
         .collect();
     let transforms: Vec<Option<[Option<GroupTransform>; GROUP_LEVELS]>> = (0..cols * rows)
         .into_par_iter()
         .map(|i| {
-            group_start(blocks_of.classes, cols, rows, i, 1).then(|| {
+            group_start(blocks_of.classes, cols, rows, i, 1, kind).then(|| {
                 std::array::from_fn(|k| {
                     let g = k + 1;
-                    group_start(blocks_of.classes, cols, rows, i, g)
-                        .then(|| dct::forward_group(&gather_group(residual, w, h, i % cols, i / cols, g), g))
+                    group_start(blocks_of.classes, cols, rows, i, g, kind).then(|| {
+                        let (low, high) = dct::forward_group(&gather_group(residual, w, h, i % cols, i / cols, g), g);
+                        (weighted(low, g), high)
+                    })
                 })
             })
         })
@@ -401,15 +410,20 @@ pub fn code_plane(
 
 /// The detail layer of the colour channels' residuals (Y, or Y, C1, C2), one quantiser
 /// per channel, its blocks of cell-size classes `classes` (and step factors, if the
-/// steps adapt), and its section payload.
+/// steps adapt), the steps' tilt with frequency, if any, and its section payload.
 pub fn code_layer(
     residuals: &[Vec<f64>],
     size: (u32, u32),
     q: &[Quantiser],
     classes: &[u8],
     factors: Option<&[f64]>,
+    weights: Option<FrequencyWeights>,
 ) -> (Detail, Vec<u8>) {
-    let blocks_of = PlaneBlocks { classes, factors };
+    let blocks_of = PlaneBlocks {
+        classes,
+        factors,
+        weights,
+    };
     // Luma and chroma are independent streams, coded (and decoded) side by side.
     let (luma, chroma) = rayon::join(
         || {
@@ -437,6 +451,7 @@ pub fn code_layer(
         deblock: None,
         lapping: None,
         block_steps: None,
+        weights,
     };
     (detail, payload)
 }

@@ -304,8 +304,9 @@ impl BlockContext {
 pub const GROUP_LEVELS: usize = 2;
 /// Merge contexts of a group: how many of its left and above groups are merged.
 pub const MERGE_CONTEXTS: usize = 3;
-/// Merge models per kind: level-1 groups by class (1, 2), then level-2 groups.
-const MERGE_SLOTS: usize = 3;
+/// Merge models per kind: level-1 groups by class (0 for chroma only, 1, 2), then
+/// level-2 groups.
+const MERGE_SLOTS: usize = 4;
 
 /// Where a group of blocks that may merge sits: the context of its merge bin.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -322,12 +323,13 @@ pub struct GroupContext {
 }
 
 impl GroupContext {
-    /// The merge model's slot: a 2x2 group's class less one, or 2 for a 4x4 group.
+    /// The merge model's slot: a 2x2 group's class (0 only for chroma), or 3 for a
+    /// 4x4 group.
     fn slot(&self) -> usize {
         if self.level == 1 {
-            self.class - 1
+            self.class
         } else {
-            2
+            3
         }
     }
 }
