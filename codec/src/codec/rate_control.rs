@@ -74,8 +74,20 @@ pub const DETAIL_CHROMA_RATIO: f64 = 1.25;
 /// The detail steps' tilt with frequency, luma and chroma (`b / 16`: the highest
 /// frequency of an 8x8 block takes `1 + b/16` times the DC's step). The structural
 /// metrics weigh the coarse scales of a picture, RGB PSNR every frequency alike
-/// (measured in `docs/codec-ablation.md`, "Frequency weights").
+/// (measured in `docs/codec-ablation.md`, "Frequency weights and chroma groups").
 pub const DETAIL_WEIGHTS: FrequencyWeights = FrequencyWeights { tilts: [16, 16] };
+/// Quality above which the tilt fades, to none at 100: near-lossless coding is judged
+/// by its error, which a flat quantiser keeps least for its bits (with the full tilt
+/// `-q 100` decoded the photographs at 51.2-52.2 dB instead of 54.6-55.0).
+pub const WEIGHTS_FADE_QUALITY: f64 = 75.0;
+
+/// The detail steps' tilt at quality `q`: [`DETAIL_WEIGHTS`] up to
+/// [`WEIGHTS_FADE_QUALITY`], then in proportion to `100 - q`; none at 100.
+pub fn detail_weights(q: f64) -> Option<FrequencyWeights> {
+    let k = ((100.0 - q) / (100.0 - WEIGHTS_FADE_QUALITY)).clamp(0.0, 1.0);
+    let tilts = DETAIL_WEIGHTS.tilts.map(|t| (t as f64 * k).round() as u8);
+    (tilts != [0, 0]).then_some(FrequencyWeights { tilts })
+}
 /// Dead zone of the predictive quantiser (measured: 0.15 saves 6% over plain rounding).
 pub const DEADZONE: f64 = 0.15;
 /// Dead zone of the detail quantiser (measured with merged groups against 0.2: 0.12
@@ -162,7 +174,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         deblock: Some(Deblock::DEFAULT),
         lapping: Some(Lapping::DEFAULT),
         detail_adaptive: Some(AdaptiveSteps::DEFAULT),
-        detail_weights: Some(DETAIL_WEIGHTS),
+        detail_weights: detail_weights(quality.clamp(0.0, 100.0) as f64),
         decorrelate: true,
         colour_basis: ColourBasis::Luma,
         level_steps: true,
@@ -225,4 +237,24 @@ pub fn search_quality(
         }
     }
     Ok(best.expect("at least one step"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_tilt_is_full_up_to_the_fade_quality_and_gone_at_100() {
+        for q in [0.0, 40.0, 75.0] {
+            assert_eq!(detail_weights(q), Some(DETAIL_WEIGHTS));
+        }
+        assert_eq!(detail_weights(87.5).map(|w| w.tilts), Some([8, 8]));
+        assert_eq!(detail_weights(90.0).map(|w| w.tilts), Some([6, 6]));
+        assert_eq!(detail_weights(100.0), None);
+        assert_eq!(settings(100.0, 5, None).detail_weights, None);
+        assert_eq!(settings(60.0, 5, None).detail_weights, Some(DETAIL_WEIGHTS));
+        // Float images keep a flat quantiser.
+        let hdr = settings(60.0, 5, None).adapted_to(crate::raster::SampleFormat::F32, false);
+        assert_eq!(hdr.detail_weights, None);
+    }
 }
