@@ -156,41 +156,15 @@ fn bad_headers_have_clear_messages() {
         matches!(e, CodecError::Flags { flags } if flags & 156 == 156),
         "{e}"
     );
-    // Without their flags the factors and the weight are bytes the header does not
-    // have room for.
-    let e = with_header(&|h: &mut [u8]| h[15] &= !8);
-    assert!(
-        matches!(
-            e,
-            CodecError::HeaderLength {
-                found: 54,
-                expected: 51
-            }
-        ),
-        "{e}"
-    );
-    let e = with_header(&|h: &mut [u8]| h[15] &= !16);
-    assert!(
-        matches!(
-            e,
-            CodecError::HeaderLength {
-                found: 54,
-                expected: 53
-            }
-        ),
-        "{e}"
-    );
-    let e = with_header(&|h: &mut [u8]| h[15] &= !128);
-    assert!(
-        matches!(
-            e,
-            CodecError::HeaderLength {
-                found: 54,
-                expected: 52
-            }
-        ),
-        "{e}"
-    );
+    // Without their flags the factors, the lapping weight and the tilts are bytes the
+    // header does not have room for.
+    for (flag, expected) in [(8u8, 51u64), (16, 53), (128, 52)] {
+        let e = with_header(&|h: &mut [u8]| h[15] &= !flag);
+        assert!(
+            matches!(e, CodecError::HeaderLength { found: 54, expected: x } if x == expected),
+            "flag {flag}: {e}"
+        );
+    }
     // The luma basis (bit 5) is the encoder's choice for colour; it needs three colour
     // channels, so a grey file that claims it is refused.
     assert_ne!(
