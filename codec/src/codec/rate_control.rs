@@ -81,13 +81,6 @@ pub const DETAIL_WEIGHTS: FrequencyWeights = FrequencyWeights { tilts: [16, 16] 
 /// `-q 100` decoded the photographs at 51.2-52.2 dB instead of 54.6-55.0).
 pub const WEIGHTS_FADE_QUALITY: f64 = 75.0;
 
-/// The detail steps' tilt at quality `q`: [`DETAIL_WEIGHTS`] up to
-/// [`WEIGHTS_FADE_QUALITY`], then in proportion to `100 - q`; none at 100.
-pub fn detail_weights(q: f64) -> Option<FrequencyWeights> {
-    let k = ((100.0 - q) / (100.0 - WEIGHTS_FADE_QUALITY)).clamp(0.0, 1.0);
-    let tilts = DETAIL_WEIGHTS.tilts.map(|t| (t as f64 * k).round() as u8);
-    (tilts != [0, 0]).then_some(FrequencyWeights { tilts })
-}
 /// Dead zone of the predictive quantiser (measured: 0.15 saves 6% over plain rounding).
 pub const DEADZONE: f64 = 0.15;
 /// Dead zone of the detail quantiser (measured with merged groups against 0.2: 0.12
@@ -131,6 +124,14 @@ pub const SPARSE_AREA: f64 = 400.0;
 /// The network steps' factor for a mean key point area of `area` pixels.
 pub fn network_step_factor(area: f64) -> f64 {
     (SPARSE_AREA / area).min(1.0)
+}
+
+/// The detail steps' tilt at quality `q`: [`DETAIL_WEIGHTS`] up to
+/// [`WEIGHTS_FADE_QUALITY`], then in proportion to `100 - q`; none at 100.
+pub fn detail_weights(q: f64) -> Option<FrequencyWeights> {
+    let k = ((100.0 - q) / (100.0 - WEIGHTS_FADE_QUALITY)).clamp(0.0, 1.0);
+    let tilts = DETAIL_WEIGHTS.tilts.map(|t| (t as f64 * k).round() as u8);
+    (tilts != [0, 0]).then_some(FrequencyWeights { tilts })
 }
 
 /// The detail layer's luma step at quality `q` (0..=100).

@@ -294,8 +294,14 @@ impl DetailPlane {
     /// Number of merged groups.
     pub fn merged_groups(&self) -> usize {
         (0..self.merged.len())
-            .filter(|&i| self.merged[i] != 0 && group_of(self.cols, i, self.merged[i] as usize) == i)
+            .filter(|&i| self.merged[i] != 0 && self.coded_block_of(i) == i)
             .count()
+    }
+
+    /// The block whose levels block `i` evaluates: the first of its merged group, or
+    /// itself. Its step factor is the group's.
+    pub fn coded_block_of(&self, i: usize) -> usize {
+        group_of(self.cols, i, self.merged[i] as usize)
     }
 
     /// The cosine-series coefficients of block `(bx, by)` (row-major) with its levels'
@@ -305,7 +311,7 @@ impl DetailPlane {
     pub fn coefficients(&self, bx: usize, by: usize, step: f64, weights: &WeightTable) -> Option<[f64; COEFFS]> {
         let i = by * self.cols + bx;
         let g = self.merged[i] as usize;
-        let first = group_of(self.cols, i, g);
+        let first = self.coded_block_of(i);
         let l = self.block(first % self.cols, first / self.cols)?;
         let c: [f64; COEFFS] = std::array::from_fn(|z| l[z] as f64 * step * weights[g][z]);
         if g == 0 {
@@ -496,8 +502,7 @@ impl Detail {
                 let (bx, tx) = locate(x, p.cols);
                 let (by, ty) = locate(y, p.rows);
                 let series = |bx: usize, by: usize, tx: f64, ty: f64| {
-                    let i = by * p.cols + bx;
-                    let first = group_of(p.cols, i, p.merged[i] as usize);
+                    let first = p.coded_block_of(by * p.cols + bx);
                     let step = step * self.block_steps.as_ref().map_or(1.0, |b| b.factor(first));
                     let Some(c) = p.coefficients(bx, by, step, &weights) else {
                         return 0.0;
@@ -639,8 +644,7 @@ impl PlaneEval {
         // first block's levels stay unused where they are).
         for i in (0..p.index.len()).filter(|&i| p.merged[i] != 0) {
             // The group is quantised with its first block's step.
-            let first = group_of(p.cols, i, p.merged[i] as usize);
-            let s = step * block_steps.map_or(1.0, |b| b.factor(first));
+            let s = step * block_steps.map_or(1.0, |b| b.factor(p.coded_block_of(i)));
             let Some(c) = p.coefficients(i % p.cols, i / p.cols, s, weights) else {
                 eval.index[i] = ZERO;
                 continue;
