@@ -6,7 +6,10 @@
 //! coded by [`syntax`]. Under network cells of 16 pixels or more, a 2x2 group of blocks
 //! can be *merged*: coded as the lowest 8x8 coefficients of one 16x16 DCT, and under
 //! cells of 32 pixels or more a 4x4 group as those of one 32x32 DCT; the decoder turns
-//! them into the group's blocks' coefficients ([`dct::part`]). The decoder adds the blocks' cosine
+//! them into the group's blocks' coefficients ([`dct::part`]). A chroma block whose luma
+//! block has AC levels may add a factor (in eighths) of the luma block's coefficients,
+//! coded before its own: where colour edges follow brightness, chroma then codes the
+//! difference ([`luma_predicts`]). The decoder adds the blocks' cosine
 //! series to the network's colours at every sample position it evaluates, so the layer
 //! follows the network to any output size or supersampling: the series is a function
 //! defined everywhere in its block, not a table of pixels.
@@ -28,7 +31,7 @@ use lapping::Lapping;
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
 use super::CodecError;
-use syntax::{BlockContext, DetailContexts, GroupContext, Summary, GROUP_LEVELS};
+use syntax::{BlockContext, DetailContexts, FactorContext, GroupContext, Summary, GROUP_LEVELS};
 
 /// Marks a block with no nonzero coefficient.
 const ZERO: u32 = u32::MAX;
@@ -180,6 +183,32 @@ pub struct DetailPlane {
     /// Per block, the level of the merged group it is in, 0 for none (the group's
     /// first block holds its levels and the others none).
     merged: Vec<u8>,
+    /// Per block of a chroma plane, its luma factor in eighths (0: none); empty for
+    /// luma and for a plane without factors.
+    factors: Vec<i8>,
+}
+
+/// Whether chroma block `i` may take a luma factor, given the luma plane: the luma
+/// block is coded apart (not in a merged group) with a nonzero AC level, so its 8x8
+/// coefficients are the chroma block's frame and carry some shape.
+pub fn luma_predicts(luma: &DetailPlane, i: usize) -> bool {
+    let k = luma.index[i];
+    luma.merged[i] == 0 && k != ZERO && {
+        let (_, v1, u1) = luma.spans[k as usize];
+        v1 > 1 || u1 > 1
+    }
+}
+
+/// The context of block `i`'s luma factor in chroma plane `plane` (0: C1), from the
+/// factors of the blocks before it (`factors`, by block index).
+pub fn factor_context(factors: &[i8], cols: usize, i: usize, plane: usize) -> FactorContext {
+    let has = |k: usize| usize::from(factors[k] != 0);
+    let left = if i.is_multiple_of(cols) { 0 } else { has(i - 1) };
+    let above = if i >= cols { has(i - cols) } else { 0 };
+    FactorContext {
+        plane,
+        neighbours: left + above,
+    }
 }
 
 impl DetailPlane {
@@ -202,6 +231,18 @@ impl DetailPlane {
         plane
     }
 
+    /// The plane with chroma blocks' luma factors (eighths, per block).
+    pub fn with_factors(mut self, factors: Vec<i8>) -> Self {
+        debug_assert_eq!(factors.len(), self.cols * self.rows);
+        self.factors = if factors.iter().any(|&a| a != 0) { factors } else { Vec::new() };
+        self
+    }
+
+    /// Block `i`'s luma factor in eighths (0: none).
+    pub fn factor(&self, i: usize) -> i32 {
+        self.factors.get(i).map_or(0, |&a| a as i32)
+    }
+
     fn empty(cols: usize, rows: usize) -> Self {
         DetailPlane {
             cols,
@@ -210,6 +251,7 @@ impl DetailPlane {
             spans: Vec::new(),
             levels: Vec::new(),
             merged: Vec::new(),
+            factors: Vec::new(),
         }
     }
 
@@ -244,11 +286,18 @@ impl DetailPlane {
         let mut spans = Vec::new();
         let mut levels = Vec::new();
         let mut merged = vec![0; cols * rows];
+        let mut factors = Vec::new();
         for ((bx0, by0), plane) in tiles {
             let Some(p) = plane else { continue };
+            if !p.factors.is_empty() && factors.is_empty() {
+                factors = vec![0; cols * rows];
+            }
             for by in 0..p.rows {
                 for bx in 0..p.cols {
                     merged[(by0 + by) * cols + bx0 + bx] = p.merged[by * p.cols + bx];
+                    if !p.factors.is_empty() {
+                        factors[(by0 + by) * cols + bx0 + bx] = p.factors[by * p.cols + bx];
+                    }
                     let i = p.index[by * p.cols + bx];
                     if i != ZERO {
                         let (at, v1, u1) = p.spans[i as usize];
@@ -267,6 +316,7 @@ impl DetailPlane {
             spans,
             levels,
             merged,
+            factors,
         }
     }
 
@@ -321,19 +371,24 @@ impl DetailPlane {
         Some(dct::part(&c, g, bx % n, by % n))
     }
 
-    /// Reads a `cols x rows` plane whose blocks have cell-size classes `classes`.
+    /// Reads a `cols x rows` plane whose blocks have cell-size classes `classes`; a
+    /// chroma plane with its luma plane and its index among the chroma planes (0: C1),
+    /// for the luma factors.
     pub fn read(
         cols: usize,
         rows: usize,
         classes: &[u8],
         kind: usize,
+        luma: Option<(&DetailPlane, usize)>,
         ctx: &mut DetailContexts,
         src: &mut AnsSource,
     ) -> Result<Self, CodecError> {
         let mut plane = DetailPlane::empty(cols, rows);
+        let mut factors = vec![0i8; if luma.is_some() { cols * rows } else { 0 }];
         let mut q = [0i32; COEFFS];
         let mut walk = Walk::new(classes, cols, rows, kind);
-        for _ in 0..cols * rows {
+        for i in 0..cols * rows {
+            let mut merged = false;
             let at = match walk.visit() {
                 Visit::Covered => {
                     plane.index.push(ZERO);
@@ -344,6 +399,7 @@ impl DetailPlane {
                         if let Some(g) = start {
                             if syntax::read_merge(ctx, *g, src)? {
                                 walk.merge(k + 1);
+                                merged = true;
                                 break;
                             }
                         }
@@ -352,6 +408,9 @@ impl DetailPlane {
                 }
                 Visit::Block(at) => at,
             };
+            if let Some((_, c)) = luma.filter(|&(l, _)| !merged && luma_predicts(l, i)) {
+                factors[i] = syntax::read_factor(ctx, factor_context(&factors, cols, i, c), src)? as i8;
+            }
             let coded = syntax::read_block(ctx, at, &mut q, src)?;
             walk.done(&q);
             if coded {
@@ -362,7 +421,7 @@ impl DetailPlane {
             }
         }
         plane.merged = walk.into_merged();
-        Ok(plane)
+        Ok(if luma.is_some() { plane.with_factors(factors) } else { plane })
     }
 }
 
@@ -389,12 +448,14 @@ impl Detail {
     /// writes its own), its blocks of cell-size classes `classes`: a u32 byte count of
     /// the luma stream, the luma stream (plane 0), the chroma stream (planes 1 and 2).
     pub fn to_payload(&self, classes: &[u8]) -> Vec<u8> {
+        let luma = self.planes.first();
         let stream = |planes: &[DetailPlane], kind: usize| {
             let mut sink = AnsSink::new();
             let mut ctx = DetailContexts::default();
             const EMPTY: [i32; COEFFS] = [0; COEFFS];
-            for p in planes {
+            for (c, p) in planes.iter().enumerate() {
                 let mut walk = Walk::new(classes, p.cols, p.rows, kind);
+                let mut factors = vec![0i8; p.cols * p.rows];
                 for i in 0..p.cols * p.rows {
                     let at = match walk.visit() {
                         Visit::Covered => continue,
@@ -413,6 +474,10 @@ impl Detail {
                         }
                         Visit::Block(at) => at,
                     };
+                    if kind == 1 && p.merged[i] == 0 && luma.is_some_and(|l| luma_predicts(l, i)) {
+                        factors[i] = p.factor(i) as i8;
+                        syntax::write_factor(&mut ctx, factor_context(&factors, p.cols, i, c), p.factor(i), &mut sink);
+                    }
                     let b = p.block(i % p.cols, i / p.cols).unwrap_or(EMPTY);
                     syntax::write_block(&mut ctx, at, &b, &mut sink);
                     walk.done(&b);
@@ -461,11 +526,11 @@ impl Detail {
         }
         let (luma, chroma) = payload[4..].split_at(n);
         let per_plane = syntax::MAX_SYMBOLS_PER_BLOCK * (cols * rows) as u64;
-        let stream = |bytes: &[u8], kind: usize, planes: usize| -> Result<_, CodecError> {
+        let stream = |bytes: &[u8], kind: usize, planes: usize, luma: Option<&DetailPlane>| -> Result<_, CodecError> {
             let mut src = AnsSource::new(bytes, per_plane * planes as u64)?;
             let mut ctx = DetailContexts::default();
             let planes = (0..planes)
-                .map(|_| DetailPlane::read(cols, rows, classes, kind, &mut ctx, &mut src))
+                .map(|c| DetailPlane::read(cols, rows, classes, kind, luma.map(|l| (l, c)), &mut ctx, &mut src))
                 .collect::<Result<Vec<_>, _>>()?;
             if !src.finished_cleanly() {
                 return Err(CodecError::PayloadLeftover {
@@ -474,12 +539,11 @@ impl Detail {
             }
             Ok(planes)
         };
-        let (l, c) = rayon::join(
-            || stream(luma, 0, 1),
-            || stream(chroma, 1, steps.len() - 1),
-        );
-        let mut planes = l?;
-        planes.extend(c?);
+        // Chroma reads after luma: which chroma blocks have a luma factor depends on
+        // the luma blocks' levels.
+        let mut planes = stream(luma, 0, 1, None)?;
+        let c = stream(chroma, 1, steps.len() - 1, planes.first())?;
+        planes.extend(c);
         Ok(Detail {
             planes,
             steps,
@@ -494,17 +558,16 @@ impl Detail {
     /// function [`DetailEval`] sums on a grid, deblocking included, for callers that
     /// sample anywhere (warps), and the scalar reference its tests compare with.
     pub fn at(&self, x: f64, y: f64) -> Vec<f64> {
+        let tables = weights::plane_tables(self.weights, self.planes.len());
         self.planes
             .iter()
             .zip(&self.steps)
-            .zip(weights::plane_tables(self.weights, self.planes.len()))
-            .map(|((p, &step), weights)| {
+            .enumerate()
+            .map(|(pi, (p, &step))| {
                 let (bx, tx) = locate(x, p.cols);
                 let (by, ty) = locate(y, p.rows);
                 let series = |bx: usize, by: usize, tx: f64, ty: f64| {
-                    let first = p.coded_block_of(by * p.cols + bx);
-                    let step = step * self.block_steps.as_ref().map_or(1.0, |b| b.factor(first));
-                    let Some(c) = p.coefficients(bx, by, step, &weights) else {
+                    let Some(c) = self.block_coefficients(pi, bx, by, &tables) else {
                         return 0.0;
                     };
                     let (bu, bv) = (dct::basis_at(tx), dct::basis_at(ty));
@@ -551,6 +614,25 @@ impl Detail {
                 value
             })
             .collect()
+    }
+
+    /// The cosine-series coefficients of block `(bx, by)` of plane `pi` (row-major),
+    /// if any is nonzero: its levels times the step, the block's factor and the
+    /// frequency weights (`tables`, per plane), a merged group's block its part of
+    /// the group's, and a chroma block with a luma factor `a` that plus `a / 8` times
+    /// the luma block's.
+    pub fn block_coefficients(&self, pi: usize, bx: usize, by: usize, tables: &[WeightTable]) -> Option<[f64; COEFFS]> {
+        let p = &self.planes[pi];
+        let i = by * p.cols + bx;
+        let factor = |i: usize| self.block_steps.as_ref().map_or(1.0, |b| b.factor(i));
+        let own = p.coefficients(bx, by, self.steps[pi] * factor(p.coded_block_of(i)), &tables[pi]);
+        let a = p.factor(i);
+        if a == 0 {
+            return own;
+        }
+        let luma = self.planes[0].coefficients(bx, by, self.steps[0] * factor(i), &tables[0])?;
+        let own = own.unwrap_or([0.0; COEFFS]);
+        Some(std::array::from_fn(|z| own[z] + a as f64 / 8.0 * luma[z]))
     }
 
     /// Bytes per pixel the decoder holds for the layer at most (levels and their
@@ -618,8 +700,16 @@ fn locate(p: f64, count: usize) -> (usize, f64) {
 
 impl PlaneEval {
     /// One plane's coefficients (levels times `step`, the block's factor and the
-    /// frequency weights) and their extents.
-    fn new(p: &DetailPlane, step: f64, block_steps: Option<&BlockSteps>, weights: &WeightTable) -> Self {
+    /// frequency weights) and their extents; a chroma plane's blocks with a luma factor
+    /// add that times the luma block's coefficients (`luma`: the plane, its step and
+    /// weights).
+    fn new(
+        p: &DetailPlane,
+        step: f64,
+        block_steps: Option<&BlockSteps>,
+        weights: &WeightTable,
+        luma: Option<(&DetailPlane, f64, &WeightTable)>,
+    ) -> Self {
         let mut coeffs = vec![0.0f32; p.levels.len()];
         for (i, &k) in p.index.iter().enumerate() {
             if k != ZERO {
@@ -645,23 +735,40 @@ impl PlaneEval {
         for i in (0..p.index.len()).filter(|&i| p.merged[i] != 0) {
             // The group is quantised with its first block's step.
             let s = step * block_steps.map_or(1.0, |b| b.factor(p.coded_block_of(i)));
-            let Some(c) = p.coefficients(i % p.cols, i / p.cols, s, weights) else {
-                eval.index[i] = ZERO;
-                continue;
-            };
-            let v1 = (0..N).rev().find(|&v| c[v * N..v * N + N].iter().any(|&x| x != 0.0)).map_or(0, |v| v + 1);
-            let u1 = (0..N).rev().find(|&u| (0..N).any(|v| c[v * N + u] != 0.0)).map_or(0, |u| u + 1);
-            if v1 == 0 {
-                eval.index[i] = ZERO;
-                continue;
-            }
-            eval.index[i] = eval.extent.len() as u32;
-            eval.extent.push((eval.coeffs.len() as u32, v1 as u8, u1 as u8));
-            for v in 0..v1 {
-                eval.coeffs.extend(c[v * N..v * N + u1].iter().map(|&x| x as f32));
+            eval.replace(i, p.coefficients(i % p.cols, i / p.cols, s, weights));
+        }
+        // So do chroma blocks with a luma factor, their own series plus the factor
+        // times luma's.
+        if let Some((l, lstep, lw)) = luma {
+            for i in (0..p.index.len()).filter(|&i| p.factor(i) != 0) {
+                let f = block_steps.map_or(1.0, |b| b.factor(i));
+                let (bx, by) = (i % p.cols, i / p.cols);
+                let own = p.coefficients(bx, by, step * f, weights).unwrap_or([0.0; COEFFS]);
+                let a = p.factor(i) as f64 / 8.0;
+                let c = l.coefficients(bx, by, lstep * f, lw).map(|l| std::array::from_fn(|z| own[z] + a * l[z]));
+                eval.replace(i, c);
             }
         }
         eval
+    }
+
+    /// Block `i`'s coefficients become `c` (none: all zero), appended.
+    fn replace(&mut self, i: usize, c: Option<[f64; COEFFS]>) {
+        let Some(c) = c else {
+            self.index[i] = ZERO;
+            return;
+        };
+        let v1 = (0..N).rev().find(|&v| c[v * N..v * N + N].iter().any(|&x| x != 0.0)).map_or(0, |v| v + 1);
+        let u1 = (0..N).rev().find(|&u| (0..N).any(|v| c[v * N + u] != 0.0)).map_or(0, |u| u + 1);
+        if v1 == 0 {
+            self.index[i] = ZERO;
+            return;
+        }
+        self.index[i] = self.extent.len() as u32;
+        self.extent.push((self.coeffs.len() as u32, v1 as u8, u1 as u8));
+        for v in 0..v1 {
+            self.coeffs.extend(c[v * N..v * N + u1].iter().map(|&x| x as f32));
+        }
     }
 }
 
@@ -671,12 +778,15 @@ impl DetailEval {
         let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
         let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock, detail.lapping);
         eval.thresholds = thresholds(detail);
+        let tables = weights::plane_tables(detail.weights, detail.planes.len());
         eval.planes = detail
             .planes
             .iter()
-            .zip(&detail.steps)
-            .zip(weights::plane_tables(detail.weights, detail.planes.len()))
-            .map(|((p, &step), w)| PlaneEval::new(p, step, detail.block_steps.as_ref(), &w))
+            .enumerate()
+            .map(|(pi, p)| {
+                let luma = (pi > 0).then(|| (&detail.planes[0], detail.steps[0], &tables[0]));
+                PlaneEval::new(p, detail.steps[pi], detail.block_steps.as_ref(), &tables[pi], luma)
+            })
             .collect();
         eval
     }
@@ -688,13 +798,17 @@ impl DetailEval {
         let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock, detail.lapping);
         eval.thresholds = thresholds(&detail);
         let tables = weights::plane_tables(detail.weights, detail.planes.len());
-        eval.planes = detail
-            .planes
-            .into_iter()
-            .zip(detail.steps)
-            .zip(tables)
-            .map(|((p, step), w)| PlaneEval::new(&p, step, detail.block_steps.as_ref(), &w))
-            .collect();
+        let mut planes = detail.planes.into_iter();
+        let Some(luma) = planes.next() else {
+            return eval;
+        };
+        let (steps, block_steps) = (detail.steps, detail.block_steps.as_ref());
+        eval.planes.push(PlaneEval::new(&luma, steps[0], block_steps, &tables[0], None));
+        // Chroma's luma factors need the luma levels: those are freed last.
+        for (pi, p) in planes.enumerate().map(|(k, p)| (k + 1, p)) {
+            let l = Some((&luma, steps[0], &tables[0]));
+            eval.planes.push(PlaneEval::new(&p, steps[pi], block_steps, &tables[pi], l));
+        }
         eval
     }
 
@@ -1247,6 +1361,96 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// A layer, its payload, the residual it codes and the image size.
+    type CodedResidual = (Detail, Vec<u8>, Vec<Vec<f64>>, (u32, u32));
+
+    /// A 48x40 residual whose chroma planes are luma's texture times 0.5 and -0.25,
+    /// plus a faint texture of their own, and its layer (step 0.01, every block of
+    /// class 0), with or without frequency weights.
+    fn following_chroma(weights: Option<FrequencyWeights>) -> CodedResidual {
+        let (w, h) = (48u32, 40u32);
+        let luma: Vec<f64> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                0.2 * (x * 0.9 + y * 0.4).sin() + 0.1 * (x * 0.3 - y * 1.3).cos()
+            })
+            .collect();
+        let own = |k: f64| -> Vec<f64> { (0..w * h).map(|i| 0.01 * ((i as f64) * k).sin()).collect() };
+        let planes = vec![
+            luma.clone(),
+            luma.iter().zip(own(0.37)).map(|(l, o)| 0.5 * l + o).collect(),
+            luma.iter().zip(own(0.71)).map(|(l, o)| -0.25 * l + o).collect(),
+        ];
+        let (detail, payload) = code_layer(&planes, (w, h), &quantisers(0.01), &no_classes(w, h), None, weights);
+        (detail, payload, planes, (w, h))
+    }
+
+    #[test]
+    fn chroma_that_follows_luma_takes_luma_factors_and_its_payload_reads_back() {
+        for weights in [None, Some(FrequencyWeights { tilts: [16, 8] })] {
+            let (detail, payload, planes, (w, h)) = following_chroma(weights);
+            let classes = no_classes(w, h);
+            let (cols, rows) = blocks(w, h);
+            // Most blocks fit their factor: 0.5 (4 eighths) for C1, -0.25 (-2) for C2.
+            for (pi, want) in [(1, 4), (2, -2)] {
+                let hits = (0..cols * rows).filter(|&i| detail.planes[pi].factor(i) == want).count();
+                assert!(hits * 2 > cols * rows, "plane {pi}: {hits} of {} blocks at {want}", cols * rows);
+            }
+            assert_eq!(detail.planes[0].factors, Vec::<i8>::new());
+            assert_eq!(detail.to_payload(&classes), payload);
+            // The reader leaves the header's fields (the weights) to its caller.
+            let mut back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+            back.weights = weights;
+            assert_eq!(back, detail);
+            // The decoded chroma is the chroma coded, within a step, at every pixel centre.
+            let grid = Grid::pixel_centres(&Frame::new(w, h), w, h);
+            let layer = DetailEval::new(&detail, &grid).eval();
+            for c in 1..3 {
+                let worst = (0..(w * h) as usize).map(|i| (layer[c][i] as f64 - planes[c][i]).abs()).fold(0.0, f64::max);
+                assert!(worst < 0.03, "plane {c}: {worst}");
+            }
+            assert_grid_equals_scalar(&detail, (w, h), [(w, h), (2 * w, 2 * h), (w / 2 + 3, h / 3)]);
+        }
+    }
+
+    #[test]
+    fn a_luma_factor_adds_its_eighths_of_the_luma_coefficients() {
+        let mut luma = [0; COEFFS];
+        luma[0] = 3;
+        luma[1] = -5;
+        luma[9] = 2;
+        let mut chroma = [0; COEFFS];
+        chroma[8] = 7;
+        let detail = Detail {
+            planes: vec![
+                DetailPlane::from_blocks(1, 1, vec![luma]),
+                DetailPlane::from_blocks(1, 1, vec![chroma]).with_factors(vec![-12]),
+                DetailPlane::from_blocks(1, 1, vec![[0; COEFFS]]).with_factors(vec![3]),
+            ],
+            steps: vec![0.5, 0.25, 0.25],
+            deblock: None,
+            lapping: None,
+            block_steps: None,
+            weights: None,
+        };
+        let tables = weights::plane_tables(None, 3);
+        let c1 = detail.block_coefficients(1, 0, 0, &tables).unwrap();
+        let c2 = detail.block_coefficients(2, 0, 0, &tables).unwrap();
+        for z in 0..COEFFS {
+            let y = luma[z] as f64 * 0.5;
+            assert_eq!(c1[z], chroma[z] as f64 * 0.25 - 1.5 * y, "C1 at {z}");
+            assert_eq!(c2[z], 0.375 * y, "C2 at {z}");
+        }
+        // A coded chroma block with no level of its own still carries the luma part.
+        assert_grid_equals_scalar(&detail, (8, 8), [(8, 8), (13, 5), (3, 3)]);
+        let grid = Grid::pixel_centres(&Frame::new(8, 8), 8, 8);
+        let layer = DetailEval::new(&detail, &grid).eval();
+        let inverse = dct::inverse(&c2);
+        for (i, &v) in inverse.iter().enumerate() {
+            assert!((layer[2][i] as f64 - v).abs() < 1e-5, "C2 pixel {i}");
         }
     }
 

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use super::dct::{self, COEFFS, N, ZIGZAG};
 use super::syntax::{self, BlockContext, BlockPricer, DetailContexts, GroupContext, Summary, GROUP_LEVELS};
 use super::weights::{self, FrequencyWeights};
-use super::{blocks, group_start, Detail, DetailPlane, Visit, Walk};
+use super::{blocks, factor_context, group_start, luma_predicts, Detail, DetailPlane, Visit, Walk};
 use crate::codec::entropy::{AnsSink, SymbolSink};
 
 /// Quantiser of one channel.
@@ -331,14 +331,39 @@ pub struct PlaneBlocks<'a> {
     pub weights: Option<FrequencyWeights>,
 }
 
+/// The luma plane a chroma plane's blocks may add a factor of: its levels, its step,
+/// and the chroma plane's index (0: C1).
+#[derive(Debug, Clone, Copy)]
+pub struct LumaReference<'a> {
+    /// The coded luma plane.
+    pub plane: &'a DetailPlane,
+    /// Its step.
+    pub step: f64,
+    /// The chroma plane's index among the chroma planes.
+    pub chroma: usize,
+}
+
+/// The luma factors a chroma block tries: none, the least-squares fit of its weighted
+/// coefficients `c` on the luma block's `l` (in eighths) and half of that.
+fn factor_candidates(c: &[f64; COEFFS], l: &[f64; COEFFS]) -> [i32; 3] {
+    let num: f64 = c.iter().zip(l).map(|(c, l)| c * l).sum();
+    let den: f64 = l.iter().map(|l| l * l).sum();
+    let limit = syntax::FACTOR_LIMIT as f64;
+    let a = if den > 0.0 { (8.0 * num / den).round().clamp(-limit, limit) as i32 } else { 0 };
+    [0, a, a / 2]
+}
+
 /// Transforms, quantises and codes one residual plane (`kind` 0 luma, 1 chroma) into
-/// `sink` with the stream's contexts; returns the coded levels.
+/// `sink` with the stream's contexts; returns the coded levels. A chroma plane with a
+/// luma reference gives blocks a luma factor where that pays.
+#[allow(clippy::too_many_arguments)]
 pub fn code_plane(
     residual: &[f64],
     (width, height): (u32, u32),
     q: Quantiser,
     kind: usize,
     blocks_of: PlaneBlocks,
+    luma: Option<LumaReference>,
     ctx: &mut DetailContexts,
     sink: &mut impl SymbolSink,
 ) -> DetailPlane {
@@ -369,12 +394,16 @@ pub fn code_plane(
     let mut chosen = Vec::with_capacity(cols * rows);
     let mut walk = Walk::new(blocks_of.classes, cols, rows, kind);
     let mut pricer = BlockPricer::default();
+    let luma_weights = blocks_of.weights.map_or(weights::FLAT, |wt| wt.table(0));
+    let mut factors = vec![0i8; if luma.is_some() { cols * rows } else { 0 }];
     for (i, c) in coeffs.iter().enumerate() {
+        let f = blocks_of.factors.map_or(1.0, |f| f[i]);
         let q = Quantiser {
-            step: q.step * blocks_of.factors.map_or(1.0, |f| f[i]),
+            step: q.step * f,
             ..q
         };
-        let (at, best) = match walk.visit() {
+        let mut merged = false;
+        let (at, mut best) = match walk.visit() {
             Visit::Covered => {
                 chosen.push([0; COEFFS]);
                 continue;
@@ -397,15 +426,39 @@ pub fn code_plane(
                         }
                     }
                 }
+                merged = level != 0;
                 (at, best)
             }
             Visit::Block(at) => (at, choose(c, q, ctx, at, &mut pricer)),
         };
+        if let Some(l) = luma.filter(|l| !merged && luma_predicts(l.plane, i)) {
+            // The luma block's dequantised coefficients in this plane's weighted units.
+            let lc = l.plane.coefficients(i % cols, i / cols, l.step * f, &luma_weights).expect("a predicting luma block is coded");
+            let lw: [f64; COEFFS] = std::array::from_fn(|z| lc[z] / weights[0][z]);
+            let fc = factor_context(&factors, cols, i, l.chroma);
+            let mut j_best = block_cost(c, &best, q, ctx, at, &mut pricer, syntax::factor_cost(ctx, fc, 0), 0.0);
+            let mut a_best = 0;
+            for a in factor_candidates(c, &lw).into_iter().skip(1).filter(|&a| a != 0) {
+                let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] - a as f64 / 8.0 * lw[z]);
+                let levels = choose(&x, q, ctx, at, &mut pricer);
+                let j = block_cost(&x, &levels, q, ctx, at, &mut pricer, syntax::factor_cost(ctx, fc, a), 0.0);
+                if j < j_best {
+                    (j_best, a_best, best) = (j, a, levels);
+                }
+            }
+            syntax::write_factor(ctx, fc, a_best, sink);
+            factors[i] = a_best as i8;
+        }
         syntax::write_block(ctx, at, &best, sink);
         walk.done(&best);
         chosen.push(best);
     }
-    DetailPlane::from_groups(cols, rows, chosen, walk.into_merged())
+    let plane = DetailPlane::from_groups(cols, rows, chosen, walk.into_merged());
+    if luma.is_some() {
+        plane.with_factors(factors)
+    } else {
+        plane
+    }
 }
 
 /// The detail layer of the colour channels' residuals (Y, or Y, C1, C2), one quantiser
@@ -424,23 +477,28 @@ pub fn code_layer(
         factors,
         weights,
     };
-    // Luma and chroma are independent streams, coded (and decoded) side by side.
-    let (luma, chroma) = rayon::join(
-        || {
-            let mut sink = AnsSink::new();
-            let mut ctx = DetailContexts::default();
-            let p = code_plane(&residuals[0], size, q[0], 0, blocks_of, &mut ctx, &mut sink);
-            (p, sink.finish())
-        },
-        || {
-            let mut sink = AnsSink::new();
-            let mut ctx = DetailContexts::default();
-            let planes: Vec<DetailPlane> = (1..residuals.len())
-                .map(|c| code_plane(&residuals[c], size, q[c], 1, blocks_of, &mut ctx, &mut sink))
-                .collect();
-            (planes, sink.finish())
-        },
-    );
+    // Chroma follows luma: its blocks may add a factor of the coded luma blocks.
+    let luma = {
+        let mut sink = AnsSink::new();
+        let mut ctx = DetailContexts::default();
+        let p = code_plane(&residuals[0], size, q[0], 0, blocks_of, None, &mut ctx, &mut sink);
+        (p, sink.finish())
+    };
+    let chroma = {
+        let mut sink = AnsSink::new();
+        let mut ctx = DetailContexts::default();
+        let planes: Vec<DetailPlane> = (1..residuals.len())
+            .map(|c| {
+                let reference = LumaReference {
+                    plane: &luma.0,
+                    step: q[0].step,
+                    chroma: c - 1,
+                };
+                code_plane(&residuals[c], size, q[c], 1, blocks_of, Some(reference), &mut ctx, &mut sink)
+            })
+            .collect();
+        (planes, sink.finish())
+    };
     let mut payload = Vec::with_capacity(4 + luma.1.len() + chroma.1.len());
     payload.extend((luma.1.len() as u32).to_le_bytes());
     payload.extend(&luma.1);

@@ -51,10 +51,10 @@ const LAST_BITS: usize = LAST_CLASSES - 2;
 /// Largest coefficient magnitude a file may hold.
 pub const MAX_LEVEL: u32 = 1 << 20;
 /// Most symbols one block can take (bins, tokens and raw bits): the decoder's bound.
-/// The merge bin, the coded bin, the last position's class and bits, four per level (token, escape
+/// The merge bins, the luma factor, the coded bin, the last position's class and bits, four per level (token, escape
 /// class, two raw parts) and the signs outside a token (the first positions' bins and
 /// the last level's).
-pub const MAX_SYMBOLS_PER_BLOCK: u64 = 4 + SIGNED as u64 + LAST_BITS as u64 + COEFFS as u64 * 4;
+pub const MAX_SYMBOLS_PER_BLOCK: u64 = 5 + SIGNED as u64 + LAST_BITS as u64 + COEFFS as u64 * 4;
 
 /// The class of a block's last nonzero scan position `last`: its bit length.
 fn last_class(last: usize) -> usize {
@@ -121,6 +121,29 @@ fn geometric(m: usize, r: f64) -> Vec<u16> {
         .collect()
 }
 
+/// A distribution falling by ratio `r` on both sides of the middle symbol, over `m +
+/// 1` symbols (`m` even), as cumulative entries `F[1..=m]`, each step at least the
+/// floor.
+fn two_sided(m: usize, r: f64) -> Vec<u16> {
+    let total = CDF_ONE as f64 - (m + 1) as f64 * CDF_FLOOR as f64;
+    let p = |i: usize| r.powi((i as i32 - (m / 2) as i32).abs());
+    let norm: f64 = (0..=m).map(p).sum();
+    let mut acc = 0.0;
+    (0..m)
+        .map(|i| {
+            acc += p(i) / norm * total;
+            (acc.floor() as u16) + (i as u16 + 1) * CDF_FLOOR
+        })
+        .collect()
+}
+
+/// Largest magnitude of a chroma block's luma factor, in eighths.
+pub const FACTOR_LIMIT: i32 = 16;
+/// Factors `-FACTOR_LIMIT..=FACTOR_LIMIT`: 33 symbols.
+type FactorCdf = Cdf<8>;
+/// Factor contexts of a plane: how many of the left and above blocks have a factor.
+pub const FACTOR_CONTEXTS: usize = 3;
+
 /// The adaptive contexts of a detail section.
 ///
 /// Fixed-size arrays, cheap to copy.
@@ -140,6 +163,9 @@ pub struct DetailContexts {
     class: [ClassCdf; 2],
     /// Merge bins, by kind, slot ([`GroupContext::slot`]) and merged neighbour groups.
     merge: [[[BinModel; MERGE_CONTEXTS]; MERGE_SLOTS]; 2],
+    /// Chroma blocks' luma factors, by chroma plane (C1, C2) and how many of the left
+    /// and above blocks have one.
+    factor: [[FactorCdf; FACTOR_CONTEXTS]; 2],
 }
 
 impl Default for DetailContexts {
@@ -158,6 +184,7 @@ impl Default for DetailContexts {
             token,
             class: [ClassCdf::new(&geometric(24, 0.7)); 2],
             merge: [[[BinModel::new(4); MERGE_CONTEXTS]; MERGE_SLOTS]; 2],
+            factor: [[FactorCdf::new(&two_sided(2 * FACTOR_LIMIT as usize, 0.5)); FACTOR_CONTEXTS]; 2],
         }
     }
 }
@@ -347,6 +374,31 @@ pub fn read_merge(ctx: &mut DetailContexts, g: GroupContext, src: &mut AnsSource
 /// The cost of [`write_merge`] in 1/256 bits, on the contexts as they are.
 pub fn merge_cost(ctx: &DetailContexts, g: GroupContext, merged: bool) -> u64 {
     ctx.merge[g.kind][g.slot()][g.merged].cost(merged) as u64
+}
+
+/// Where a chroma block's luma factor is coded: its chroma plane (0 for C1, 1 for C2)
+/// and how many of its left and above blocks have a nonzero factor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FactorContext {
+    /// 0 for C1, 1 for C2.
+    pub plane: usize,
+    /// Left and above blocks with a factor (0..=2).
+    pub neighbours: usize,
+}
+
+/// Codes a chroma block's luma factor `a` (eighths, `|a| <= FACTOR_LIMIT`).
+pub fn write_factor(ctx: &mut DetailContexts, f: FactorContext, a: i32, sink: &mut impl SymbolSink) {
+    sink.symbol(&mut ctx.factor[f.plane][f.neighbours], (a + FACTOR_LIMIT) as usize);
+}
+
+/// Reads a chroma block's luma factor.
+pub fn read_factor(ctx: &mut DetailContexts, f: FactorContext, src: &mut AnsSource) -> Result<i32, CodecError> {
+    Ok(src.symbol(&mut ctx.factor[f.plane][f.neighbours])? as i32 - FACTOR_LIMIT)
+}
+
+/// The cost of [`write_factor`] in 1/256 bits, on the contexts as they are.
+pub fn factor_cost(ctx: &DetailContexts, f: FactorContext, a: i32) -> u64 {
+    ctx.factor[f.plane][f.neighbours].cost((a + FACTOR_LIMIT) as usize) as u64
 }
 
 /// Codes one block's quantised coefficients (row-major levels).
