@@ -332,7 +332,7 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
     let channels = header.layout.colour_channels();
     let max = detail::syntax::MAX_LEVEL as i32;
     let planes = (0..channels)
-        .map(|_| {
+        .map(|plane| {
             let blocks = (0..cols * rows)
                 .map(|_| {
                     let mut b = [0i32; COEFFS];
@@ -349,7 +349,24 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
                     b
                 })
                 .collect();
-            DetailPlane::from_blocks(cols, rows, blocks)
+            let levels = DetailPlane::from_blocks(cols, rows, blocks);
+            // Chroma blocks draw luma factors, any in range; the payload codes those
+            // of the blocks whose luma block predicts.
+            let limit = detail::syntax::FACTOR_LIMIT;
+            let factors = (0..cols * rows)
+                .map(|_| {
+                    if plane > 0 && c.bit() {
+                        (i32::from(c.byte()) % (2 * limit + 1) - limit) as i8
+                    } else {
+                        0
+                    }
+                })
+                .collect();
+            if plane > 0 {
+                levels.with_factors(factors)
+            } else {
+                levels
+            }
         })
         .collect();
     Detail {
