@@ -630,7 +630,9 @@ impl Detail {
         if a == 0 {
             return own;
         }
-        let luma = self.planes[0].coefficients(bx, by, self.steps[0] * factor(i), &tables[0])?;
+        let Some(luma) = self.planes[0].coefficients(bx, by, self.steps[0] * factor(i), &tables[0]) else {
+            return own;
+        };
         let own = own.unwrap_or([0.0; COEFFS]);
         Some(std::array::from_fn(|z| own[z] + a as f64 / 8.0 * luma[z]))
     }
@@ -743,10 +745,12 @@ impl PlaneEval {
             for i in (0..p.index.len()).filter(|&i| p.factor(i) != 0) {
                 let f = block_steps.map_or(1.0, |b| b.factor(i));
                 let (bx, by) = (i % p.cols, i / p.cols);
+                let Some(l) = l.coefficients(bx, by, lstep * f, lw) else {
+                    continue;
+                };
                 let own = p.coefficients(bx, by, step * f, weights).unwrap_or([0.0; COEFFS]);
                 let a = p.factor(i) as f64 / 8.0;
-                let c = l.coefficients(bx, by, lstep * f, lw).map(|l| std::array::from_fn(|z| own[z] + a * l[z]));
-                eval.replace(i, c);
+                eval.replace(i, Some(std::array::from_fn(|z| own[z] + a * l[z])));
             }
         }
         eval
