@@ -343,14 +343,14 @@ pub struct LumaReference<'a> {
     pub chroma: usize,
 }
 
-/// The luma factors a chroma block tries: none, the least-squares fit of its weighted
-/// coefficients `c` on the luma block's `l` (in eighths) and half of that.
-fn factor_candidates(c: &[f64; COEFFS], l: &[f64; COEFFS]) -> [i32; 3] {
+/// The luma factors a chroma block tries besides none: the least-squares fit of its
+/// weighted coefficients `c` on the luma block's `l` (in eighths) and half of that.
+fn factor_candidates(c: &[f64; COEFFS], l: &[f64; COEFFS]) -> [i32; 2] {
     let num: f64 = c.iter().zip(l).map(|(c, l)| c * l).sum();
     let den: f64 = l.iter().map(|l| l * l).sum();
     let limit = syntax::FACTOR_LIMIT as f64;
     let a = if den > 0.0 { (8.0 * num / den).round().clamp(-limit, limit) as i32 } else { 0 };
-    [0, a, a / 2]
+    [a, a / 2]
 }
 
 /// Transforms, quantises and codes one residual plane (`kind` 0 luma, 1 chroma) into
@@ -438,7 +438,7 @@ pub fn code_plane(
             let fc = factor_context(&factors, cols, i, l.chroma);
             let mut j_best = block_cost(c, &best, q, ctx, at, &mut pricer, syntax::factor_cost(ctx, fc, 0), 0.0);
             let mut a_best = 0;
-            for a in factor_candidates(c, &lw).into_iter().skip(1).filter(|&a| a != 0) {
+            for a in factor_candidates(c, &lw).into_iter().filter(|&a| a != 0) {
                 let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] - a as f64 / 8.0 * lw[z]);
                 let levels = choose(&x, q, ctx, at, &mut pricer);
                 let j = block_cost(&x, &levels, q, ctx, at, &mut pricer, syntax::factor_cost(ctx, fc, a), 0.0);
