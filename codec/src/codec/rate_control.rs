@@ -73,9 +73,11 @@ pub const CHROMA_STEP_TILT: f64 = 0.2;
 pub const DETAIL_CHROMA_RATIO: f64 = 1.25;
 /// The detail steps' tilt with frequency, luma and chroma (`b / 16`: the highest
 /// frequency of an 8x8 block takes `1 + b/16` times the DC's step). The structural
-/// metrics weigh the coarse scales of a picture, RGB PSNR every frequency alike
-/// (measured in `docs/codec-ablation.md`, "Frequency weights and chroma groups").
-pub const DETAIL_WEIGHTS: FrequencyWeights = FrequencyWeights { tilts: [16, 16] };
+/// metrics weigh the coarse scales of a picture, RGB PSNR every frequency alike, and
+/// MS-SSIM luma alone: chroma's steeper tilt moves bits to luma (measured in
+/// `docs/codec-ablation.md`, "Frequency weights and chroma groups" and "The balance of
+/// luma and chroma").
+pub const DETAIL_WEIGHTS: FrequencyWeights = FrequencyWeights { tilts: [16, 32] };
 /// Quality above which the tilt fades, to none at 100: near-lossless coding is judged
 /// by its error, which a flat quantiser keeps least for its bits (with the full tilt
 /// `-q 100` decoded the photographs at 51.2-52.2 dB instead of 54.6-55.0).
@@ -249,8 +251,8 @@ mod tests {
         for q in [0.0, 40.0, 75.0] {
             assert_eq!(detail_weights(q), Some(DETAIL_WEIGHTS));
         }
-        assert_eq!(detail_weights(87.5).map(|w| w.tilts), Some([8, 8]));
-        assert_eq!(detail_weights(90.0).map(|w| w.tilts), Some([6, 6]));
+        assert_eq!(detail_weights(87.5).map(|w| w.tilts), Some([8, 16]));
+        assert_eq!(detail_weights(90.0).map(|w| w.tilts), Some([6, 13]));
         assert_eq!(detail_weights(100.0), None);
         assert_eq!(settings(100.0, 5, None).detail_weights, None);
         assert_eq!(settings(60.0, 5, None).detail_weights, Some(DETAIL_WEIGHTS));
