@@ -350,23 +350,22 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
                 })
                 .collect();
             let levels = DetailPlane::from_blocks(cols, rows, blocks);
+            if plane == 0 {
+                return levels;
+            }
             // Chroma blocks draw luma factors, any in range; the payload codes those
             // of the blocks whose luma block predicts.
             let limit = detail::syntax::FACTOR_LIMIT;
             let factors = (0..cols * rows)
                 .map(|_| {
-                    if plane > 0 && c.bit() {
+                    if c.bit() {
                         (i32::from(c.byte()) % (2 * limit + 1) - limit) as i8
                     } else {
                         0
                     }
                 })
                 .collect();
-            if plane > 0 {
-                levels.with_factors(factors)
-            } else {
-                levels
-            }
+            levels.with_factors(factors)
         })
         .collect();
     Detail {

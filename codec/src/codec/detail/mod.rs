@@ -68,6 +68,13 @@ pub fn group_start(classes: &[u8], cols: usize, rows: usize, i: usize, g: usize,
     bx % n == 0 && by % n == 0 && bx + n <= cols && by + n <= rows && class as usize >= g
 }
 
+/// A chroma block's coefficients with luma factor `a` (eighths): its own (none: all
+/// zero) plus `a / 8` times its luma block's, the one rule of the scalar and grid paths.
+fn plus_luma(own: Option<[f64; COEFFS]>, a: i32, luma: &[f64; COEFFS]) -> [f64; COEFFS] {
+    let own = own.unwrap_or([0.0; COEFFS]);
+    std::array::from_fn(|z| own[z] + a as f64 / 8.0 * luma[z])
+}
+
 /// The first block of the level-`g` group of block `i` in a plane `cols` blocks wide.
 fn group_of(cols: usize, i: usize, g: usize) -> usize {
     ((i / cols) >> g << g) * cols + ((i % cols) >> g << g)
@@ -633,8 +640,7 @@ impl Detail {
         let Some(luma) = self.planes[0].coefficients(bx, by, self.steps[0] * factor(i), &tables[0]) else {
             return own;
         };
-        let own = own.unwrap_or([0.0; COEFFS]);
-        Some(std::array::from_fn(|z| own[z] + a as f64 / 8.0 * luma[z]))
+        Some(plus_luma(own, a, &luma))
     }
 
     /// Bytes per pixel the decoder holds for the layer at most (levels and their
@@ -748,9 +754,7 @@ impl PlaneEval {
                 let Some(l) = l.coefficients(bx, by, lstep * f, lw) else {
                     continue;
                 };
-                let own = p.coefficients(bx, by, step * f, weights).unwrap_or([0.0; COEFFS]);
-                let a = p.factor(i) as f64 / 8.0;
-                eval.replace(i, Some(std::array::from_fn(|z| own[z] + a * l[z])));
+                eval.replace(i, Some(plus_luma(p.coefficients(bx, by, step * f, weights), p.factor(i), &l)));
             }
         }
         eval
