@@ -95,9 +95,10 @@ fn bad_headers_have_clear_messages() {
         );
     }
     // The header's length: 38 bytes, 46 with the detail layer's steps, 48 with its
-    // deblocking, 51 with adaptive steps, 52 lapped, 54 with frequency weights.
+    // deblocking, 52 with adaptive steps (and the activity field's region side), 53
+    // lapped, 55 with frequency weights.
     let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!([38, 46, 48, 49, 51, 52, 54].contains(&hl), "{hl}");
+    assert!([38, 46, 48, 50, 52, 53, 55].contains(&hl), "{hl}");
     // Absurd size with a valid CRC: width 2^31.
     let mut absurd = file.clone();
     absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
@@ -120,7 +121,7 @@ fn bad_headers_have_clear_messages() {
     // Deblocking parameters, step factors or the lapping weight out of range, or any
     // of them without the detail layer.
     assert_eq!(
-        hl, 54,
+        hl, 55,
         "the small file's detail layer is deblocked and lapped, its steps adapt and tilt"
     );
     let with_header = |edit: &dyn Fn(&mut [u8])| {
@@ -140,12 +141,19 @@ fn bad_headers_have_clear_messages() {
     for at in 48..51 {
         let e = with_header(&|h: &mut [u8]| h[at] = 0);
         assert!(
-            matches!(e, CodecError::AdaptiveSteps { factors } if factors[at - 48] == 0),
+            matches!(e, CodecError::AdaptiveSteps { factors, .. } if factors[at - 48] == 0),
+            "{e}"
+        );
+    }
+    for value in [1u8, 2, 8, 255] {
+        let e = with_header(&|h: &mut [u8]| h[51] = value);
+        assert!(
+            matches!(e, CodecError::AdaptiveSteps { field_log2, .. } if field_log2 == value),
             "{e}"
         );
     }
     for value in [0u8, 128, 255] {
-        let e = with_header(&|h: &mut [u8]| h[51] = value);
+        let e = with_header(&|h: &mut [u8]| h[52] = value);
         assert!(
             matches!(e, CodecError::OutOfRange { what: "lapping weight", value: v, lo, hi } if v == value as f64 && (lo, hi) == (1.0, 127.0)),
             "{e}"
@@ -158,10 +166,10 @@ fn bad_headers_have_clear_messages() {
     );
     // Without their flags the factors, the lapping weight and the tilts are bytes the
     // header does not have room for.
-    for (flag, expected) in [(8u8, 51u64), (16, 53), (128, 52)] {
+    for (flag, expected) in [(8u8, 51u64), (16, 54), (128, 53)] {
         let e = with_header(&|h: &mut [u8]| h[15] &= !flag);
         assert!(
-            matches!(e, CodecError::HeaderLength { found: 54, expected: x } if x == expected),
+            matches!(e, CodecError::HeaderLength { found: 55, expected: x } if x == expected),
             "flag {flag}: {e}"
         );
     }

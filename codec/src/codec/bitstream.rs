@@ -17,7 +17,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 11;
+pub const VERSION: u8 = 12;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -93,8 +93,8 @@ const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 2;
 const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
 /// Bytes of the deblocking parameters.
 const DEBLOCK_LEN: usize = 2;
-/// Bytes of the adaptive step factors.
-const ADAPTIVE_LEN: usize = CLASSES;
+/// Bytes of the adaptive step factors and the activity field's region side.
+const ADAPTIVE_LEN: usize = CLASSES + 1;
 /// Flag bit: chroma on the pruned tree.
 const FLAG_PRUNED: u8 = 1;
 /// Flag bit: the detail layer is present.
@@ -210,6 +210,7 @@ impl Header {
         }
         if let Some(a) = self.adaptive {
             b.extend(a.factors);
+            b.push(a.field_log2);
         }
         if let Some(l) = self.lapping {
             b.push(l.weight);
@@ -323,6 +324,7 @@ impl Header {
         });
         let adaptive = (flags & FLAG_ADAPTIVE != 0).then(|| AdaptiveSteps {
             factors: std::array::from_fn(|i| p[adaptive_at + i]),
+            field_log2: p[adaptive_at + CLASSES],
         });
         let lapping = (flags & FLAG_LAPPED != 0).then(|| Lapping {
             weight: p[lapping_at],
@@ -339,7 +341,10 @@ impl Header {
             return Err(CodecError::range("lapping weight", l.weight, 1.0, 127.0));
         }
         if let Some(a) = adaptive.filter(|a| !a.is_valid()) {
-            return Err(CodecError::AdaptiveSteps { factors: a.factors });
+            return Err(CodecError::AdaptiveSteps {
+                factors: a.factors,
+                field_log2: a.field_log2,
+            });
         }
         if let Some(d) = deblock.filter(|d| !d.is_valid()) {
             return Err(CodecError::Deblock {

@@ -9,7 +9,9 @@ use super::bitstream::{self, Header, TileStreams};
 use super::colour::{self, CodingPlanes, ColourBasis};
 use super::detail::dct::N as DCT_N;
 use super::detail::quantise::{self as detail_quantise, Quantiser};
-use super::detail::{self, adaptive};
+use super::detail::adaptive::{self, AdaptiveSteps};
+use super::detail::field::{self, ActivityField};
+use super::detail;
 use super::entropy::AnsSink;
 use super::geometry::Frame;
 use super::keyset::{Grid, KernelParams, KeySet, MIN_SIGMA_FACTOR};
@@ -75,13 +77,18 @@ fn coding_planes(tile: &Raster, s: &EncodeSettings) -> CodingPlanes {
     planes
 }
 
-/// Models one tile: its tree and fitted (unquantised) key point colours.
-fn fit_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSettings) -> model::Model {
+/// Models one tile: its tree and fitted (unquantised) key point colours, and, if the
+/// steps follow an activity field, the log activity of its regions.
+fn fit_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSettings) -> (model::Model, Vec<f64>) {
     let tile = src.region(rect);
     let planes = coding_planes(&tile, s);
     drop(tile);
+    let activity = match s.detail_field.filter(|_| s.detail_adaptive.is_some()) {
+        Some(f) => field::log_activity(&planes.colour[0], rect.width as usize, rect.height as usize, f.log2, f.floor),
+        None => Vec::new(),
+    };
     let frame = Frame::window(src.width(), src.height(), (rect.x0, rect.y0), rect.width, rect.height);
-    model::build_in(frame, &planes, &s.model, |_, _| {})
+    (model::build_in(frame, &planes, &s.model, |_, _| {}), activity)
 }
 
 /// Quantises and entropy-codes one tile's tree and values, with the tile's own
@@ -274,6 +281,7 @@ fn detail_tile(
     kernel: KernelParams,
     net: &Network,
     classes: &[u8],
+    field: Option<&ActivityField>,
 ) -> Vec<u8> {
     // Lapping pairs the pixels on either side of every block edge, so the residual is
     // taken with a pixel of margin where the image goes on past the tile.
@@ -327,9 +335,18 @@ fn detail_tile(
     let classes: Vec<u8> = (0..tc * tr)
         .map(|i| classes[(by0 + i / tc) * cols + bx0 + i % tc])
         .collect();
-    let factors = s
-        .detail_adaptive
-        .map(|a| classes.iter().map(|&c| a.factor(c)).collect::<Vec<f64>>());
+    // The same products the decoder's `BlockSteps::factor` forms.
+    let exponents = field.map(|f| f.block_exponents(tc, tr));
+    let factors = s.detail_adaptive.map(|a| {
+        classes
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| match &exponents {
+                Some(e) => a.factor(c) * field::factor(e[i]),
+                None => a.factor(c),
+            })
+            .collect::<Vec<f64>>()
+    });
     let (detail, payload) = detail_quantise::code_layer(
         &residuals,
         (rect.width, rect.height),
@@ -337,6 +354,7 @@ fn detail_tile(
         &classes,
         factors.as_deref(),
         s.detail_weights,
+        field,
     );
     if detail.planes.iter().all(|p| p.coded_blocks() == 0) {
         Vec::new()
@@ -428,6 +446,16 @@ pub fn encode_with(
         step();
         m
     });
+    let (fits, activity): (Vec<model::Model>, Vec<Vec<f64>>) = fits.into_iter().unzip();
+    // The field's exponents are against the whole image's mean activity.
+    let fields = s.detail_field.filter(|_| s.detail_adaptive.is_some()).map(|f| {
+        let tiles: Vec<_> = activity
+            .into_iter()
+            .enumerate()
+            .map(|(i, a)| (a, (tiling.rect(i).width, tiling.rect(i).height)))
+            .collect();
+        f.fields(&tiles)
+    });
     let luma_keypoints: usize = fits.iter().map(|m| m.luma_cells.len()).sum();
     let area = w as f64 * h as f64 / luma_keypoints.max(1) as f64;
     let levels = LevelSteps {
@@ -453,9 +481,13 @@ pub fn encode_with(
     let kernel = s.model.kernel;
     let net = Network::gather(&mut models, s.model.block_log2, Frame::new(w, h), kernel, &tiling);
     let classes = adaptive::block_classes(&net.luma_cells, w, h);
-    s.detail_adaptive = s.detail_adaptive.map(|a| a.normalised(&classes));
+    s.detail_adaptive = s.detail_adaptive.map(|a| AdaptiveSteps {
+        field_log2: s.detail_field.map_or(0, |f| f.log2),
+        ..a.normalised(&classes)
+    });
     let details = run_tiles(n, workers, |i| {
-        let d = detail_tile(img, i, tiling.rect(i), &s, kernel, &net, &classes);
+        let field = fields.as_ref().map(|f| &f[i]);
+        let d = detail_tile(img, i, tiling.rect(i), &s, kernel, &net, &classes, field);
         step();
         d
     });
@@ -520,6 +552,50 @@ pub fn prepare(img: &(impl PixelSource + ?Sized)) -> Result<(), CodecError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The field the encoder writes follows the source's local variance, and the
+    /// decoder reads it back into every block's factor: a flat left half takes finer
+    /// steps than a noisy right half.
+    #[test]
+    fn the_activity_field_follows_the_local_variance_through_the_file() {
+        use crate::raster::{ChannelLayout, SampleFormat};
+        let (w, h) = (128u32, 64u32);
+        let mut seed = 12345u64;
+        let mut noise = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let plane: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let x = i % w;
+                if x < w / 2 {
+                    0.4 + 0.1 * x as f32 / w as f32
+                } else {
+                    0.2 + 0.6 * noise()
+                }
+            })
+            .collect();
+        let samples: Vec<f32> = (0..3).flat_map(|_| plane.iter().copied()).collect();
+        let img = Raster::new(w, h, ChannelLayout::Rgb, SampleFormat::U8, samples).unwrap();
+        let s = rate_control::settings(50.0, 5, None);
+        let (bytes, _) = encode_with(&img, &s, &Metadata::default(), 1, |_, _| {}).unwrap();
+        let decoded = crate::codec::decoder::read(&bytes, 1 << 28).unwrap();
+        let adaptive = decoded.header.adaptive.expect("adaptive steps");
+        assert_eq!(adaptive.field(), Some(rate_control::FIELD_LOG2));
+        let detail = decoded.detail.expect("a detail layer");
+        let steps = detail.block_steps.expect("block steps");
+        let cols = (w / 8) as usize;
+        let exponent = |i: usize| steps.field[i];
+        let (flat, busy): (Vec<usize>, Vec<usize>) = (0..steps.field.len()).partition(|&i| i % cols < cols / 2);
+        // Flat regions without a coded block settle to the cheapest exponent.
+        assert!(flat.iter().all(|&i| exponent(i) <= 0), "{:?}", steps.field);
+        assert!(flat.iter().filter(|&&i| exponent(i) < 0).count() > flat.len() / 2, "{:?}", steps.field);
+        assert!(busy.iter().all(|&i| exponent(i) > 0), "{:?}", steps.field);
+        for i in 0..steps.field.len() {
+            let class = steps.steps.factor(steps.classes[i]);
+            assert_eq!(steps.factor(i), class * field::factor(exponent(i)));
+        }
+    }
     use crate::codec::quadtree::random_tree;
 
     /// A tile's candidates from [`Reach`] are exactly the key points a scan of all of

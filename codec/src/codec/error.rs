@@ -87,11 +87,16 @@ pub enum CodecError {
         /// Ramp reach in quarter pixels.
         radius: u8,
     },
-    /// The header's adaptive step factors include a zero.
-    #[error("invalid caoen file: adaptive detail step factors {factors:?} (each 1..=255)")]
+    /// The header's adaptive step factors include a zero, or its activity field's
+    /// region side is out of range.
+    #[error(
+        "invalid caoen file: adaptive detail step factors {factors:?} (each 1..=255), activity field region log2 {field_log2} (0 for none, else 3..=7)"
+    )]
     AdaptiveSteps {
         /// The factor bytes by cell-size class.
         factors: [u8; 3],
+        /// The activity field's region side, log2 pixels.
+        field_log2: u8,
     },
     /// The header's tile side is not a multiple of the side unit within the range.
     #[error("invalid caoen file: tile side {side} is not a multiple of {unit} in {unit}..={max}")]

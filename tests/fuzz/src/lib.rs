@@ -21,6 +21,7 @@ use caoen::codec::detail::{
     adaptive::{block_classes, AdaptiveSteps},
     dct::COEFFS,
     deblock::Deblock,
+    field::ActivityField,
     lapping::Lapping,
     weights::FrequencyWeights,
     Detail, DetailPlane,
@@ -294,6 +295,11 @@ fn choose_header(c: &mut Choices) -> Header {
         deblock,
         adaptive: (detail_steps.is_some() && c.bit()).then(|| AdaptiveSteps {
             factors: [c.byte().max(1), c.byte().max(1), c.byte().max(1)],
+            field_log2: if c.bit() {
+                *detail::field::LOG2_RANGE.start() + c.byte() % 5
+            } else {
+                0
+            },
         }),
         lapping: (detail_steps.is_some() && c.bit()).then(|| Lapping {
             weight: 1 + c.byte() % 127,
@@ -368,6 +374,19 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
             levels.with_factors(factors)
         })
         .collect();
+    // An activity field of any exponents in range, where the header asks for one.
+    let field = header.adaptive.and_then(|a| a.field()).map(|log2| {
+        let (cols, rows) = ActivityField::regions(width, height, log2);
+        let limit = detail::field::LIMIT;
+        ActivityField {
+            log2,
+            cols,
+            rows,
+            exponents: (0..cols * rows)
+                .map(|_| (c.byte() % (2 * limit as u8 + 1)) as i8 - limit)
+                .collect(),
+        }
+    });
     Detail {
         planes,
         steps: vec![1.0; channels],
@@ -376,6 +395,7 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
         // Only the payload is written: the factors and the weights live in the header.
         block_steps: None,
         weights: None,
+        field,
     }
 }
 

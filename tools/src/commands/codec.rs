@@ -533,10 +533,14 @@ pub fn info(a: &InfoArgs) -> CliResult {
             },
             match h.adaptive {
                 Some(a) => format!(
-                    "steps x{} / x{} / x{} under 8 / 16 / 32-pixel cells",
+                    "steps x{} / x{} / x{} under 8 / 16 / 32-pixel cells{}",
                     a.factor(0),
                     a.factor(1),
-                    a.factor(2)
+                    a.factor(2),
+                    match a.field() {
+                        Some(l) => format!(", times x0.5..x2 by an activity field of {}-pixel regions", 1u32 << l),
+                        None => String::new(),
+                    }
                 ),
                 None => "one step per plane".to_string(),
             },

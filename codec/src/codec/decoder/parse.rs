@@ -7,12 +7,13 @@ use super::Decoded;
 use crate::codec::bitstream::{self, Header, Parsed, TilePayload};
 use crate::codec::detail::adaptive::{block_classes, BlockSteps};
 use crate::codec::detail::dct::N as DCT_N;
+use crate::codec::detail::field::ActivityField;
 use crate::codec::detail::{blocks as detail_blocks, Detail, DetailPlane};
 use crate::codec::entropy::AnsSource;
 use crate::codec::model::chroma_cells;
 use crate::codec::quadtree::{Cell, TreeShape};
 use crate::codec::syntax::{self, LevelSteps, MAX_SYMBOLS_PER_VALUE};
-use crate::codec::tiling::into_image_order;
+use crate::codec::tiling::{into_image_order, TileRect};
 use crate::codec::CodecError;
 
 /// Entropy-decodes one value section: `channels` planes of quantised values over
@@ -133,7 +134,9 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                     match detail_steps(header) {
                         Some(steps) if !t.detail.is_empty() => {
                             let classes = block_classes(&cells, r.width, r.height);
-                            Detail::read(t.detail, r.width, r.height, steps, &classes).map(Some)
+                            let field = header.adaptive.and_then(|a| a.field());
+                            Detail::read(t.detail, r.width, r.height, steps, &classes, field)
+                                .map(Some)
                         }
                         _ => Ok(None),
                     }
@@ -176,11 +179,11 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
         for (all, v) in chroma_values.iter_mut().zip(t.chroma_values) {
             all.extend(v);
         }
-        let planes: Vec<Option<DetailPlane>> = match t.detail {
-            Some(d) => d.planes.into_iter().map(Some).collect(),
-            None => Vec::new(),
+        let (planes, field): (Vec<Option<DetailPlane>>, _) = match t.detail {
+            Some(d) => (d.planes.into_iter().map(Some).collect(), d.field),
+            None => (Vec::new(), None),
         };
-        details.push((p.rect, planes));
+        details.push((p.rect, planes, field));
     }
     let (luma_cells, luma_values) = into_image_order(&luma_cells, &luma_values, header.block_log2);
     let (chroma_cells, chroma_values) =
@@ -192,7 +195,7 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
                 DetailPlane::from_tiles(
                     cols,
                     rows,
-                    details.iter_mut().map(|(r, planes)| {
+                    details.iter_mut().map(|(r, planes, _)| {
                         let at = (r.x0 as usize / DCT_N, r.y0 as usize / DCT_N);
                         (at, planes.get_mut(c).and_then(Option::take))
                     }),
@@ -207,8 +210,13 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
             block_steps: header.adaptive.map(|steps| BlockSteps {
                 steps,
                 classes: block_classes(&luma_cells, header.width, header.height),
+                field: match steps.field() {
+                    Some(_) => image_field(&details, cols, rows),
+                    None => Vec::new(),
+                },
             }),
             weights: header.weights,
+            field: None,
         }
     });
     Ok(Decoded {
@@ -224,6 +232,25 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
         luma_cells,
         chroma_cells,
     })
+}
+
+/// Each block's activity field exponent in a `cols x rows` image, from the tiles'
+/// fields (0 in a tile without a coded block, whose levels are all 0).
+fn image_field(
+    tiles: &[(TileRect, Vec<Option<DetailPlane>>, Option<ActivityField>)],
+    cols: usize,
+    rows: usize,
+) -> Vec<i8> {
+    let mut all = vec![0i8; cols * rows];
+    for (r, _, field) in tiles {
+        let Some(f) = field else { continue };
+        let (tc, tr) = detail_blocks(r.width, r.height);
+        let (bx0, by0) = (r.x0 as usize / DCT_N, r.y0 as usize / DCT_N);
+        for (i, e) in f.block_exponents(tc, tr).into_iter().enumerate() {
+            all[(by0 + i / tc) * cols + bx0 + i % tc] = e;
+        }
+    }
+    all
 }
 
 /// Parses and entropy-decodes a file (no pixel evaluation).

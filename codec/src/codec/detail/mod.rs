@@ -17,6 +17,7 @@
 pub mod adaptive;
 pub mod dct;
 pub mod deblock;
+pub mod field;
 pub mod lapping;
 pub mod quantise;
 pub mod syntax;
@@ -25,6 +26,7 @@ pub mod weights;
 use adaptive::BlockSteps;
 use weights::{FrequencyWeights, WeightTable};
 use dct::{COEFFS, N};
+use field::ActivityField;
 use deblock::{edge_basis, edge_weight, gate, Deblock};
 use lapping::Lapping;
 
@@ -448,16 +450,23 @@ pub struct Detail {
     pub block_steps: Option<BlockSteps>,
     /// The steps' tilt with frequency ([`weights`]), if any.
     pub weights: Option<FrequencyWeights>,
+    /// The tile's activity field ([`field`]) as coded in its luma stream, if any (the
+    /// decoder folds it into `block_steps`).
+    pub field: Option<ActivityField>,
 }
 
 impl Detail {
     /// The section payload of these levels, coded as they are (the encoder's search
     /// writes its own), its blocks of cell-size classes `classes`: a u32 byte count of
-    /// the luma stream, the luma stream (plane 0), the chroma stream (planes 1 and 2).
+    /// the luma stream, the luma stream (the activity field, if any, then plane 0), the
+    /// chroma stream (planes 1 and 2).
     pub fn to_payload(&self, classes: &[u8]) -> Vec<u8> {
         let luma = self.planes.first();
         let stream = |planes: &[DetailPlane], kind: usize| {
             let mut sink = AnsSink::new();
+            if let Some(f) = self.field.as_ref().filter(|_| kind == 0) {
+                f.write(classes, luma.map_or(0, |l| l.cols), &mut sink);
+            }
             let mut ctx = DetailContexts::default();
             const EMPTY: [i32; COEFFS] = [0; COEFFS];
             for (c, p) in planes.iter().enumerate() {
@@ -503,14 +512,16 @@ impl Detail {
     }
 
     /// Reads the section of a `width x height` image with these steps (one per colour
-    /// channel), its blocks of cell-size classes `classes` ([`adaptive::block_classes`]):
-    /// a u32 byte count of the luma stream, the luma stream, the chroma stream.
+    /// channel), its blocks of cell-size classes `classes` ([`adaptive::block_classes`])
+    /// and, if the file has one, an activity field of regions of side `2^field_log2`: a
+    /// u32 byte count of the luma stream, the luma stream, the chroma stream.
     pub fn read(
         payload: &[u8],
         width: u32,
         height: u32,
         steps: Vec<f64>,
         classes: &[u8],
+        field_log2: Option<u8>,
     ) -> Result<Self, CodecError> {
         let (cols, rows) = blocks(width, height);
         assert_eq!(classes.len(), cols * rows, "one class per block");
@@ -533,8 +544,17 @@ impl Detail {
         }
         let (luma, chroma) = payload[4..].split_at(n);
         let per_plane = syntax::MAX_SYMBOLS_PER_BLOCK * (cols * rows) as u64;
+        let regions = field_log2.map_or(0, |l| {
+            let (c, r) = ActivityField::regions(width, height, l);
+            (c * r) as u64
+        });
         let stream = |bytes: &[u8], kind: usize, planes: usize, luma: Option<&DetailPlane>| -> Result<_, CodecError> {
-            let mut src = AnsSource::new(bytes, per_plane * planes as u64)?;
+            let field_symbols = if kind == 0 { regions } else { 0 };
+            let mut src = AnsSource::new(bytes, per_plane * planes as u64 + field_symbols)?;
+            let field = match field_log2.filter(|_| kind == 0) {
+                Some(l) => Some(ActivityField::read(l, width, height, classes, &mut src)?),
+                None => None,
+            };
             let mut ctx = DetailContexts::default();
             let planes = (0..planes)
                 .map(|c| DetailPlane::read(cols, rows, classes, kind, luma.map(|l| (l, c)), &mut ctx, &mut src))
@@ -544,12 +564,12 @@ impl Detail {
                     stream: "detail stream",
                 });
             }
-            Ok(planes)
+            Ok((field, planes))
         };
         // Chroma reads after luma: which chroma blocks have a luma factor depends on
         // the luma blocks' levels.
-        let mut planes = stream(luma, 0, 1, None)?;
-        let c = stream(chroma, 1, steps.len() - 1, planes.first())?;
+        let (field, mut planes) = stream(luma, 0, 1, None)?;
+        let (_, c) = stream(chroma, 1, steps.len() - 1, planes.first())?;
         planes.extend(c);
         Ok(Detail {
             planes,
@@ -558,6 +578,7 @@ impl Detail {
             lapping: None,
             block_steps: None,
             weights: None,
+            field,
         })
     }
 
@@ -1083,14 +1104,14 @@ mod tests {
         let (r, (w, h)) = residuals();
         let (cols, rows) = blocks(w, h);
         let classes: Vec<u8> = (0..cols * rows).map(|i| (i % 3) as u8).collect();
-        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02), &classes, None, None);
+        let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02), &classes, None, None, None);
         assert!(detail.planes.iter().all(|p| p.coded_blocks() > 0));
         assert_eq!(detail.to_payload(&classes), payload);
-        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
         assert_eq!(back, detail);
         // The classes are contexts: read with others, the payload is another layer.
         let others = vec![0u8; cols * rows];
-        assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &others).ok(), Some(detail));
+        assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &others, None).ok(), Some(detail));
     }
 
     /// A 40x32 three-channel residual under cells of class `class`: smooth on the
@@ -1123,7 +1144,7 @@ mod tests {
             .collect();
         let (cols, rows) = blocks(w, h);
         let classes = vec![class; cols * rows];
-        let (detail, payload) = code_layer(&planes, (w, h), &quantisers(step), &classes, None, weights);
+        let (detail, payload) = code_layer(&planes, (w, h), &quantisers(step), &classes, None, weights, None);
         (detail, payload, classes, (w, h))
     }
 
@@ -1137,7 +1158,7 @@ mod tests {
             assert!(p.merged[2] == 0 && p.merged[cols + 3] == 0, "a checkerboard group is coded apart");
         }
         assert_eq!(detail.to_payload(&classes), payload);
-        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
         assert_eq!(back, detail);
     }
 
@@ -1150,7 +1171,7 @@ mod tests {
             assert!(p.merged.iter().all(|&m| m <= 1), "4x4 groups need 32-pixel cells");
         }
         assert_eq!(detail.to_payload(&classes), payload);
-        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
         assert_eq!(back, detail);
     }
 
@@ -1159,12 +1180,12 @@ mod tests {
         let (r, (w, h)) = residuals();
         let classes = no_classes(w, h);
         let tilt = Some(FrequencyWeights { tilts: [32, 32] });
-        let (flat, flat_payload) = code_layer(&r, (w, h), &quantisers(0.01), &classes, None, None);
-        let (tilted, payload) = code_layer(&r, (w, h), &quantisers(0.01), &classes, None, tilt);
+        let (flat, flat_payload) = code_layer(&r, (w, h), &quantisers(0.01), &classes, None, None, None);
+        let (tilted, payload) = code_layer(&r, (w, h), &quantisers(0.01), &classes, None, tilt, None);
         assert!(payload.len() < flat_payload.len(), "{} vs {}", payload.len(), flat_payload.len());
         // The weights live in the header: the payload is the plain coding of the levels.
         assert_eq!(tilted.to_payload(&classes), payload);
-        let mut back = Detail::read(&payload, w, h, tilted.steps.clone(), &classes).unwrap();
+        let mut back = Detail::read(&payload, w, h, tilted.steps.clone(), &classes, None).unwrap();
         back.weights = tilt;
         assert_eq!(back, tilted);
         // The DC keeps its step: the coarser high frequencies cost error.
@@ -1192,11 +1213,11 @@ mod tests {
             assert!(p.block(0, 0).is_some() && (1..4).all(|x| p.block(x, 0).is_none()));
         }
         assert_eq!(detail.to_payload(&classes), payload);
-        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+        let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
         assert_eq!(back, detail);
         // Read as 16-pixel cells, the bins mean other things: another layer or an error.
         let small = vec![1u8; classes.len()];
-        assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &small).ok(), Some(detail));
+        assert_ne!(Detail::read(&payload, w, h, detail.steps.clone(), &small, None).ok(), Some(detail));
     }
 
     #[test]
@@ -1249,7 +1270,7 @@ mod tests {
         let frame = Frame::new(w, h);
         let grid = Grid::pixel_centres(&frame, w, h);
         let error = |step: f64| {
-            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step), &no_classes(w, h), None, None);
+            let (detail, payload) = code_layer(&r, (w, h), &quantisers(step), &no_classes(w, h), None, None, None);
             let layer = DetailEval::new(&detail, &grid).eval();
             let e: f64 = r
                 .iter()
@@ -1280,6 +1301,7 @@ mod tests {
                 lapping: None,
                 block_steps: None,
                 weights,
+                field: None,
             };
             let frame = Frame::new(8, 8);
             let out = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
@@ -1308,6 +1330,7 @@ mod tests {
             lapping: None,
             block_steps: None,
             weights: None,
+            field: None,
         };
         let frame = Frame::new(8, 8);
         let one = DetailEval::new(&detail, &Grid::pixel_centres(&frame, 8, 8)).eval();
@@ -1324,7 +1347,7 @@ mod tests {
     /// The layer coded coarsely, so that its blocks step at their edges.
     fn deblocked(strength: u8, radius: u8) -> (Detail, (u32, u32)) {
         let (r, (w, h)) = residuals();
-        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3), &no_classes(w, h), None, None);
+        let (mut detail, _) = code_layer(&r, (w, h), &quantisers(0.3), &no_classes(w, h), None, None, None);
         detail.deblock = Some(Deblock { strength, radius });
         (detail, (w, h))
     }
@@ -1345,8 +1368,9 @@ mod tests {
             if adaptive {
                 let (cols, rows) = blocks(w, h);
                 detail.block_steps = Some(BlockSteps {
-                    steps: adaptive::AdaptiveSteps { factors: [40, 32, 9] },
+                    steps: adaptive::AdaptiveSteps { factors: [40, 32, 9], field_log2: 0 },
                     classes: (0..cols * rows).map(|i| (i * 7 % 3) as u8).collect(),
+                    field: (0..cols * rows).map(|i| (i * 5 % 9) as i8 - field::LIMIT).collect(),
                 });
             }
             assert_grid_equals_scalar(&detail, (w, h), [(w, h), (3 * w, 2 * h + 1), (w / 2, h / 2)]);
@@ -1392,7 +1416,7 @@ mod tests {
             luma.iter().zip(own(0.37)).map(|(l, o)| 0.5 * l + o).collect(),
             luma.iter().zip(own(0.71)).map(|(l, o)| -0.25 * l + o).collect(),
         ];
-        let (detail, payload) = code_layer(&planes, (w, h), &quantisers(0.01), &no_classes(w, h), None, weights);
+        let (detail, payload) = code_layer(&planes, (w, h), &quantisers(0.01), &no_classes(w, h), None, weights, None);
         (detail, payload, planes, (w, h))
     }
 
@@ -1410,7 +1434,7 @@ mod tests {
             assert_eq!(detail.planes[0].factors, Vec::<i8>::new());
             assert_eq!(detail.to_payload(&classes), payload);
             // The reader leaves the header's fields (the weights) to its caller.
-            let mut back = Detail::read(&payload, w, h, detail.steps.clone(), &classes).unwrap();
+            let mut back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
             back.weights = weights;
             assert_eq!(back, detail);
             // The decoded chroma is the chroma coded, within a step, at every pixel centre.
@@ -1443,6 +1467,7 @@ mod tests {
             lapping: None,
             block_steps: None,
             weights: None,
+            field: None,
         };
         let tables = weights::plane_tables(None, 3);
         let c1 = detail.block_coefficients(1, 0, 0, &tables).unwrap();
@@ -1483,8 +1508,9 @@ mod tests {
             classes
         };
         detail.block_steps = Some(BlockSteps {
-            steps: adaptive::AdaptiveSteps { factors: [40, 24, 9] },
+            steps: adaptive::AdaptiveSteps { factors: [40, 24, 9], field_log2: 0 },
             classes,
+            field: Vec::new(),
         });
         assert_grid_equals_scalar(&detail, (w, h), [(w, h), (2 * w + 3, h + 5), (w / 3, h / 2)]);
     }

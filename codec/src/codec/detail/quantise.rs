@@ -10,10 +10,11 @@
 use rayon::prelude::*;
 
 use super::dct::{self, COEFFS, N, ZIGZAG};
+use super::field::ActivityField;
 use super::syntax::{self, BlockContext, BlockPricer, DetailContexts, GroupContext, Summary, GROUP_LEVELS};
 use super::weights::{self, FrequencyWeights};
 use super::{blocks, factor_context, group_start, luma_predicts, Detail, DetailPlane, Visit, Walk};
-use crate::codec::entropy::{AnsSink, SymbolSink};
+use crate::codec::entropy::{CostSink, SymbolSink};
 
 /// Quantiser of one channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -463,7 +464,8 @@ pub fn code_plane(
 
 /// The detail layer of the colour channels' residuals (Y, or Y, C1, C2), one quantiser
 /// per channel, its blocks of cell-size classes `classes` (and step factors, if the
-/// steps adapt), the steps' tilt with frequency, if any, and its section payload.
+/// steps adapt: the activity field's, if any, included), the steps' tilt with
+/// frequency, if any, and its section payload (the activity field `field` coded first).
 pub fn code_layer(
     residuals: &[Vec<f64>],
     size: (u32, u32),
@@ -471,46 +473,46 @@ pub fn code_layer(
     classes: &[u8],
     factors: Option<&[f64]>,
     weights: Option<FrequencyWeights>,
+    field: Option<&ActivityField>,
 ) -> (Detail, Vec<u8>) {
     let blocks_of = PlaneBlocks {
         classes,
         factors,
         weights,
     };
+    // The search prices symbols with each stream's contexts; the field's bits are
+    // settled after it (regions without a coded block cost least), so the payload is
+    // written from the chosen levels.
+    let mut ctx = DetailContexts::default();
+    let luma = code_plane(&residuals[0], size, q[0], 0, blocks_of, None, &mut ctx, &mut CostSink::default());
     // Chroma follows luma: its blocks may add a factor of the coded luma blocks.
-    let luma = {
-        let mut sink = AnsSink::new();
-        let mut ctx = DetailContexts::default();
-        let p = code_plane(&residuals[0], size, q[0], 0, blocks_of, None, &mut ctx, &mut sink);
-        (p, sink.finish())
-    };
-    let chroma = {
-        let mut sink = AnsSink::new();
-        let mut ctx = DetailContexts::default();
-        let planes: Vec<DetailPlane> = (1..residuals.len())
-            .map(|c| {
-                let reference = LumaReference {
-                    plane: &luma.0,
-                    step: q[0].step,
-                    chroma: c - 1,
-                };
-                code_plane(&residuals[c], size, q[c], 1, blocks_of, Some(reference), &mut ctx, &mut sink)
-            })
-            .collect();
-        (planes, sink.finish())
-    };
-    let mut payload = Vec::with_capacity(4 + luma.1.len() + chroma.1.len());
-    payload.extend((luma.1.len() as u32).to_le_bytes());
-    payload.extend(&luma.1);
-    payload.extend(&chroma.1);
+    let mut ctx = DetailContexts::default();
+    let chroma: Vec<DetailPlane> = (1..residuals.len())
+        .map(|c| {
+            let reference = LumaReference {
+                plane: &luma,
+                step: q[0].step,
+                chroma: c - 1,
+            };
+            code_plane(&residuals[c], size, q[c], 1, blocks_of, Some(reference), &mut ctx, &mut CostSink::default())
+        })
+        .collect();
+    let planes: Vec<DetailPlane> = std::iter::once(luma).chain(chroma).collect();
+    let field = field.map(|f| {
+        let mut f = f.clone();
+        f.settle(&f.used(&planes), classes, blocks(size.0, size.1).0);
+        f
+    });
     let detail = Detail {
-        planes: std::iter::once(luma.0).chain(chroma.0).collect(),
+        planes,
         steps: q.iter().map(|q| q.step).collect(),
         deblock: None,
         lapping: None,
         block_steps: None,
         weights,
+        field,
     };
+    let payload = detail.to_payload(classes);
     (detail, payload)
 }
 
@@ -641,7 +643,7 @@ mod tests {
                 assert!((levels[k] - nearest).abs() <= 1, "{} from {}", levels[k], c[k]);
             }
             moved += usize::from(levels != start);
-            syntax::write_block(&mut ctx, at, &levels, &mut AnsSink::new());
+            syntax::write_block(&mut ctx, at, &levels, &mut crate::codec::entropy::AnsSink::new());
         }
         assert!(moved > 30, "the search changes some blocks ({moved} of 300)");
     }
@@ -673,7 +675,7 @@ mod tests {
                     assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");
                     let rounded: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
                     changed += usize::from(expected != rounded);
-                    syntax::write_block(&mut ctx, at, &expected, &mut AnsSink::new());
+                    syntax::write_block(&mut ctx, at, &expected, &mut crate::codec::entropy::AnsSink::new());
                 }
             }
             assert!(changed > 100, "the search has choices to make ({changed})");

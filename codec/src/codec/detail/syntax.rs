@@ -124,7 +124,7 @@ fn geometric(m: usize, r: f64) -> Vec<u16> {
 /// A distribution falling by ratio `r` on both sides of the middle symbol, over `m +
 /// 1` symbols (`m` even), as cumulative entries `F[1..=m]`, each step at least the
 /// floor.
-fn two_sided(m: usize, r: f64) -> Vec<u16> {
+pub(super) fn two_sided(m: usize, r: f64) -> Vec<u16> {
     let total = CDF_ONE as f64 - (m + 1) as f64 * CDF_FLOOR as f64;
     let p = |i: usize| r.powi((i as i32 - (m / 2) as i32).abs());
     let norm: f64 = (0..=m).map(p).sum();
