@@ -58,6 +58,8 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
     assert_eq!(j["lapping"]["weight"], 46.0 / 256.0, "{j}");
     // Colour is coded with luma as its first channel.
     assert_eq!(j["colour_basis"], "luma opponent", "{j}");
+    // Its detail steps follow an activity field of 16-pixel regions.
+    assert_eq!(j["adaptive_steps"]["activity_field_region_px"], 16, "{j}");
     let total: u64 = j["sections"]
         .as_array()
         .unwrap()

@@ -273,6 +273,7 @@ fn network_colours(
 /// Codes one tile's detail blocks: the residual of its pixels after the whole image's
 /// network. Returns the stream (empty when no block is coded). `index` is the tile's
 /// number in the tiling.
+#[allow(clippy::too_many_arguments)]
 fn detail_tile(
     src: &(impl PixelSource + ?Sized),
     index: usize,

@@ -450,7 +450,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
             "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
             "colour_basis": colour_basis_name(h),
-            "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2)})),
+            "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2), "activity_field_region_px": a.field().map(|l| 1u32 << l)})),
             "frequency_tilts": h.weights.map(|w| json!({"luma": w.tilt(0), "chroma": w.tilt(1)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
