@@ -234,13 +234,13 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
     })
 }
 
+/// A tile's rectangle, its detail planes (taken as they are gathered) and its
+/// activity field.
+type TileDetail = (TileRect, Vec<Option<DetailPlane>>, Option<ActivityField>);
+
 /// Each block's activity field exponent in a `cols x rows` image, from the tiles'
 /// fields (0 in a tile without a coded block, whose levels are all 0).
-fn image_field(
-    tiles: &[(TileRect, Vec<Option<DetailPlane>>, Option<ActivityField>)],
-    cols: usize,
-    rows: usize,
-) -> Vec<i8> {
+fn image_field(tiles: &[TileDetail], cols: usize, rows: usize) -> Vec<i8> {
     let mut all = vec![0i8; cols * rows];
     for (r, _, field) in tiles {
         let Some(f) = field else { continue };

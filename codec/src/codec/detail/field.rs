@@ -24,11 +24,11 @@ pub const LOG2_RANGE: std::ops::RangeInclusive<u8> = 3..=7;
 const FACTORS: [f64; 2 * LIMIT as usize + 1] = [
     0.5,
     0.594_603_557_501_360_5,
-    0.707_106_781_186_547_6,
+    std::f64::consts::FRAC_1_SQRT_2,
     0.840_896_415_253_714_5,
     1.0,
     1.189_207_115_002_721,
-    1.414_213_562_373_095_1,
+    std::f64::consts::SQRT_2,
     1.681_792_830_507_429,
     2.0,
 ];
@@ -98,9 +98,9 @@ impl ActivityField {
         let mut models = [ExponentCdf::new(&two_sided(2 * LIMIT as usize, 0.5)); CONTEXTS];
         // Ties go to the exponent nearest 0.
         let order = [0i8, -1, 1, -2, 2, -3, 3, -4, 4];
-        for i in 0..self.exponents.len() {
+        for (i, &used) in used.iter().enumerate().take(self.exponents.len()) {
             let c = self.context(i, classes, cols);
-            if !used[i] {
+            if !used {
                 let m = &models[c];
                 self.exponents[i] = order
                     .into_iter()
@@ -153,7 +153,7 @@ impl ActivityField {
     fn context(&self, i: usize, classes: &[u8], cols: usize) -> usize {
         let shift = self.log2 - N.trailing_zeros() as u8;
         let first = ((i / self.cols) << shift) * cols + ((i % self.cols) << shift);
-        let left = if i % self.cols > 0 { self.exponents[i - 1] } else { 0 };
+        let left = if !i.is_multiple_of(self.cols) { self.exponents[i - 1] } else { 0 };
         let above = if i >= self.cols { self.exponents[i - self.cols] } else { 0 };
         classes[first] as usize * NEIGHBOUR_CONTEXTS + ((left + above).clamp(-LIMIT, LIMIT) + LIMIT) as usize
     }
