@@ -83,7 +83,7 @@ fn fit_tile(src: &(impl PixelSource + ?Sized), rect: TileRect, s: &EncodeSetting
     let tile = src.region(rect);
     let planes = coding_planes(&tile, s);
     drop(tile);
-    let activity = match s.detail_field.filter(|_| s.detail_adaptive.is_some()) {
+    let activity = match s.detail_field {
         Some(f) => field::log_activity(&planes.colour[0], rect.width as usize, rect.height as usize, f.log2, f.floor),
         None => Vec::new(),
     };
@@ -402,6 +402,10 @@ pub fn encode_with(
     prepare(img)?;
     let mut s = s.clone();
     s.model.kernel = Header::quantise_kernel(s.model.kernel);
+    // The field scales the adaptive steps: without them there is none.
+    if s.detail_adaptive.is_none() {
+        s.detail_field = None;
+    }
     for (name, v) in [
         ("luma step", s.step_luma),
         ("chroma step", s.step_chroma),
@@ -449,7 +453,7 @@ pub fn encode_with(
     });
     let (fits, activity): (Vec<model::Model>, Vec<Vec<f64>>) = fits.into_iter().unzip();
     // The field's exponents are against the whole image's mean activity.
-    let fields = s.detail_field.filter(|_| s.detail_adaptive.is_some()).map(|f| {
+    let fields = s.detail_field.map(|f| {
         let tiles: Vec<_> = activity
             .into_iter()
             .enumerate()

@@ -41,6 +41,11 @@ const CONTEXTS: usize = CLASSES * NEIGHBOUR_CONTEXTS;
 /// Nine symbols.
 type ExponentCdf = Cdf<2>;
 
+/// The exponent models as every field starts them.
+fn fresh_models() -> [ExponentCdf; CONTEXTS] {
+    [ExponentCdf::new(&two_sided(2 * LIMIT as usize, 0.5)); CONTEXTS]
+}
+
 /// The step factor of exponent `e`.
 #[inline]
 pub fn factor(e: i8) -> f64 {
@@ -74,16 +79,26 @@ impl ActivityField {
     /// Each 8x8 block's exponent, for `cols x rows` blocks in raster order: that of the
     /// region holding it.
     pub fn block_exponents(&self, cols: usize, rows: usize) -> Vec<i8> {
-        let shift = self.log2 - N.trailing_zeros() as u8;
         (0..cols * rows)
-            .map(|i| self.exponents[((i / cols) >> shift) * self.cols + ((i % cols) >> shift)])
+            .map(|i| self.exponents[self.region_of(i % cols, i / cols)])
             .collect()
+    }
+
+    /// Blocks per region side, log2.
+    fn block_shift(&self) -> u8 {
+        self.log2 - N.trailing_zeros() as u8
+    }
+
+    /// The region holding block `(bx, by)`.
+    fn region_of(&self, bx: usize, by: usize) -> usize {
+        let shift = self.block_shift();
+        (by >> shift) * self.cols + (bx >> shift)
     }
 
     /// Codes the exponents; `classes` are the tile's blocks' cell-size classes
     /// ([`super::adaptive::block_classes`]), `cols` blocks to a row.
     pub fn write(&self, classes: &[u8], cols: usize, sink: &mut impl SymbolSink) {
-        let mut models = [ExponentCdf::new(&two_sided(2 * LIMIT as usize, 0.5)); CONTEXTS];
+        let mut models = fresh_models();
         for (i, &e) in self.exponents.iter().enumerate() {
             let c = self.context(i, classes, cols);
             sink.symbol(&mut models[c], (e + LIMIT) as usize);
@@ -95,7 +110,7 @@ impl ActivityField {
     /// levels are all 0 whatever the step, so only the field's bits depend on it.
     /// `classes` and `cols` as for [`Self::write`].
     pub fn settle(&mut self, used: &[bool], classes: &[u8], cols: usize) {
-        let mut models = [ExponentCdf::new(&two_sided(2 * LIMIT as usize, 0.5)); CONTEXTS];
+        let mut models = fresh_models();
         // Ties go to the exponent nearest 0.
         let order = [0i8, -1, 1, -2, 2, -3, 3, -4, 4];
         for (i, &used) in used.iter().enumerate().take(self.exponents.len()) {
@@ -114,13 +129,12 @@ impl ActivityField {
     /// Which regions some coded block of `planes` takes its step from (a merged group's
     /// blocks take their first block's).
     pub fn used(&self, planes: &[DetailPlane]) -> Vec<bool> {
-        let shift = self.log2 - N.trailing_zeros() as u8;
         let mut used = vec![false; self.exponents.len()];
         for p in planes {
             for i in 0..p.cols * p.rows {
                 if p.block(i % p.cols, i / p.cols).is_some() {
                     let j = p.coded_block_of(i);
-                    used[((j / p.cols) >> shift) * self.cols + ((j % p.cols) >> shift)] = true;
+                    used[self.region_of(j % p.cols, j / p.cols)] = true;
                 }
             }
         }
@@ -138,7 +152,7 @@ impl ActivityField {
             rows,
             exponents: Vec::with_capacity(cols * rows),
         };
-        let mut models = [ExponentCdf::new(&two_sided(2 * LIMIT as usize, 0.5)); CONTEXTS];
+        let mut models = fresh_models();
         for i in 0..cols * rows {
             let c = field.context(i, classes, block_cols);
             let s = src.symbol(&mut models[c])?;
@@ -151,7 +165,7 @@ impl ActivityField {
     /// `cols` blocks to a row) and the exponents of the regions left of it and above
     /// it (0 where there is none).
     fn context(&self, i: usize, classes: &[u8], cols: usize) -> usize {
-        let shift = self.log2 - N.trailing_zeros() as u8;
+        let shift = self.block_shift();
         let first = ((i / self.cols) << shift) * cols + ((i % self.cols) << shift);
         let left = if !i.is_multiple_of(self.cols) { self.exponents[i - 1] } else { 0 };
         let above = if i >= self.cols { self.exponents[i - self.cols] } else { 0 };
