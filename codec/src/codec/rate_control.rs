@@ -93,7 +93,7 @@ pub const WEIGHTS_FADE_QUALITY: f64 = 75.0;
 /// around it, RGB PSNR does not: measured in `docs/codec-ablation.md` ("The activity
 /// field"), the strength trades BD-rate by PSNR for BD-rate by MS-SSIM and
 /// SSIMULACRA2 along one line.
-pub const FIELD_STRENGTH: f64 = 0.1;
+pub const FIELD_STRENGTH: f64 = 0.08;
 /// The activity field's region side, log2 pixels: its exponents cost 1.4-1.8 bits per
 /// region; 8-pixel regions cost more than they gain, 32-pixel ones gain less.
 pub const FIELD_LOG2: u8 = 4;
@@ -105,6 +105,17 @@ pub const FIELD_FLOOR: f64 = 0.0009;
 pub const FIELD_FROM_QUALITY: f64 = 40.0;
 /// Quality from which the field has its full strength.
 pub const FIELD_FULL_QUALITY: f64 = 55.0;
+/// The field's strength from [`FIELD_HIGH_QUALITY`], rising from [`FIELD_STRENGTH`] at
+/// [`FIELD_FULL_QUALITY`]: MS-SSIM lags most at 0.3-2 bpp, and there the strength buys
+/// it at half the PSNR it costs at the low rates.
+pub const FIELD_STRENGTH_HIGH: f64 = 0.15;
+/// Quality from which the field has [`FIELD_STRENGTH_HIGH`].
+pub const FIELD_HIGH_QUALITY: f64 = 70.0;
+/// Quality above which the field fades, to none at 100.
+pub const FIELD_FADE_QUALITY: f64 = 85.0;
+/// How far past the rounding boundary an exponent takes its neighbours' mean
+/// ([`exponent`](super::detail::field::exponent)): the field's bits fall and the structural metrics do not.
+pub const FIELD_HYSTERESIS: f64 = 0.25;
 
 /// Dead zone of the predictive quantiser (measured: 0.15 saves 6% over plain rounding).
 pub const DEADZONE: f64 = 0.15;
@@ -160,17 +171,19 @@ pub fn detail_weights(q: f64) -> Option<FrequencyWeights> {
 }
 
 /// The activity field at quality `q`: none up to [`FIELD_FROM_QUALITY`], rising to
-/// [`FIELD_STRENGTH`] at [`FIELD_FULL_QUALITY`], fading above
-/// [`WEIGHTS_FADE_QUALITY`] as the tilt does (near-lossless coding is judged by its
-/// error alone); none at 100.
+/// [`FIELD_STRENGTH`] at [`FIELD_FULL_QUALITY`] and on to [`FIELD_STRENGTH_HIGH`] at
+/// [`FIELD_HIGH_QUALITY`], fading above [`FIELD_FADE_QUALITY`] (near-lossless coding
+/// is judged by its error alone); none at 100.
 pub fn detail_field(q: f64) -> Option<FieldSettings> {
     let rise = ((q - FIELD_FROM_QUALITY) / (FIELD_FULL_QUALITY - FIELD_FROM_QUALITY)).clamp(0.0, 1.0);
-    let fade = ((100.0 - q) / (100.0 - WEIGHTS_FADE_QUALITY)).clamp(0.0, 1.0);
-    let k = rise * fade;
-    (k > 0.0).then_some(FieldSettings {
+    let high = ((q - FIELD_FULL_QUALITY) / (FIELD_HIGH_QUALITY - FIELD_FULL_QUALITY)).clamp(0.0, 1.0);
+    let fade = ((100.0 - q) / (100.0 - FIELD_FADE_QUALITY)).clamp(0.0, 1.0);
+    let strength = rise * fade * (FIELD_STRENGTH + (FIELD_STRENGTH_HIGH - FIELD_STRENGTH) * high);
+    (strength > 0.0).then_some(FieldSettings {
         log2: FIELD_LOG2,
-        strength: FIELD_STRENGTH * k,
+        strength,
         floor: FIELD_FLOOR,
+        hysteresis: FIELD_HYSTERESIS,
     })
 }
 
@@ -303,16 +316,27 @@ mod tests {
 
     #[test]
     fn the_activity_field_rises_from_the_low_rates_and_fades_to_none_at_100() {
-        for q in [FIELD_FULL_QUALITY, 60.0, 75.0] {
-            let f = detail_field(q).expect("a field");
-            assert_eq!((f.log2, f.strength, f.floor), (FIELD_LOG2, FIELD_STRENGTH, FIELD_FLOOR));
+        let f = detail_field(FIELD_FULL_QUALITY).expect("a field");
+        assert_eq!((f.log2, f.strength, f.floor, f.hysteresis), (FIELD_LOG2, FIELD_STRENGTH, FIELD_FLOOR, FIELD_HYSTERESIS));
+        for q in [FIELD_HIGH_QUALITY, FIELD_FADE_QUALITY] {
+            assert_eq!(detail_field(q).map(|f| f.strength), Some(FIELD_STRENGTH_HIGH), "{q}");
         }
         for q in [0.0, 20.0, FIELD_FROM_QUALITY, 100.0] {
             assert_eq!(detail_field(q), None, "{q}");
         }
+        let strength = |q: f64| detail_field(q).map_or(0.0, |f| f.strength);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
         let half = (FIELD_FROM_QUALITY + FIELD_FULL_QUALITY) / 2.0;
-        assert_eq!(detail_field(half).map(|f| f.strength), Some(FIELD_STRENGTH / 2.0));
-        assert_eq!(detail_field(87.5).map(|f| f.strength), Some(FIELD_STRENGTH / 2.0));
+        assert!(close(strength(half), FIELD_STRENGTH / 2.0));
+        let between = (FIELD_FULL_QUALITY + FIELD_HIGH_QUALITY) / 2.0;
+        assert!(close(strength(between), (FIELD_STRENGTH + FIELD_STRENGTH_HIGH) / 2.0));
+        let fading = (FIELD_FADE_QUALITY + 100.0) / 2.0;
+        assert!(close(strength(fading), FIELD_STRENGTH_HIGH / 2.0));
+        // Rising to the fade, then falling.
+        let ladder: Vec<f64> = (0..=100).map(|q| strength(q as f64)).collect();
+        let top = FIELD_FADE_QUALITY as usize;
+        assert!(ladder[..=top].windows(2).all(|w| w[1] >= w[0]));
+        assert!(ladder[top..].windows(2).all(|w| w[1] <= w[0]));
         assert_eq!(settings(100.0, 5, None).detail_field, None);
         assert!(settings(60.0, 1, None).detail_field.is_some());
         // Float images keep one step per plane.

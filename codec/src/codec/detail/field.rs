@@ -184,6 +184,9 @@ pub struct FieldSettings {
     /// The variance below which regions count as flat alike (in the coding plane's
     /// squared units).
     pub floor: f64,
+    /// How far past the rounding boundary a region's exponent still takes its left
+    /// and above neighbours' mean, in exponent units (0: plain rounding).
+    pub hysteresis: f64,
 }
 
 impl FieldSettings {
@@ -198,11 +201,17 @@ impl FieldSettings {
             .iter()
             .map(|(a, (w, h))| {
                 let (cols, rows) = ActivityField::regions(*w, *h, self.log2);
+                let mut exponents = vec![0i8; a.len()];
+                for (i, &a) in a.iter().enumerate() {
+                    let left = if !i.is_multiple_of(cols) { exponents[i - 1] } else { 0 };
+                    let above = if i >= cols { exponents[i - cols] } else { 0 };
+                    exponents[i] = exponent(a, mean, self.strength, (left, above), self.hysteresis);
+                }
                 ActivityField {
                     log2: self.log2,
                     cols,
                     rows,
-                    exponents: a.iter().map(|&a| exponent(a, mean, self.strength)).collect(),
+                    exponents,
                 }
             })
             .collect()
@@ -234,11 +243,18 @@ pub fn log_activity(plane: &[f64], width: usize, height: usize, log2: u8, c: f64
 }
 
 /// The exponent of a region of log activity `a` when the image's mean is `mean` and the
-/// steps go as `(variance + c)^strength`: rounded to quarter octaves, clamped.
-pub fn exponent(a: f64, mean: f64, strength: f64) -> i8 {
-    (4.0 * strength * (a - mean) / std::f64::consts::LN_2)
-        .round()
-        .clamp(-(LIMIT as f64), LIMIT as f64) as i8
+/// steps go as `(variance + c)^strength`: in quarter octaves, clamped, and the mean of
+/// its coded `(left, above)` neighbours where that is within `0.5 + hysteresis` (the
+/// coder's contexts make that value cheap, and a quarter octave either way matters
+/// little to the eye).
+pub fn exponent(a: f64, mean: f64, strength: f64, (left, above): (i8, i8), hysteresis: f64) -> i8 {
+    let x = (4.0 * strength * (a - mean) / std::f64::consts::LN_2).clamp(-(LIMIT as f64), LIMIT as f64);
+    let near = ((left as f64 + above as f64) / 2.0).round();
+    if (x - near).abs() < 0.5 + hysteresis {
+        near as i8
+    } else {
+        x.round() as i8
+    }
 }
 
 #[cfg(test)]
@@ -307,8 +323,13 @@ mod tests {
         assert!((a[1] - (0.04f64 + 0.0009).ln()).abs() < 1e-12, "busy: {}", a[1]);
         let mean = (a[0] + a[1]) / 2.0;
         // ln(0.0409 / 0.0009) / 2 = 1.91; times 0.15 strength, 4 / ln 2: 1.65 -> 2.
-        assert_eq!(exponent(a[0], mean, 0.15), -2);
-        assert_eq!(exponent(a[1], mean, 0.15), 2);
-        assert_eq!(exponent(a[1], mean, 1.0), LIMIT);
+        assert_eq!(exponent(a[0], mean, 0.15, (0, 0), 0.0), -2);
+        assert_eq!(exponent(a[1], mean, 0.15, (0, 0), 0.0), 2);
+        assert_eq!(exponent(a[1], mean, 1.0, (0, 0), 0.0), LIMIT);
+        // 1.65 is within 0.5 + 0.25 of the neighbours' mean 1 (from 0 and 2), not of 0.
+        assert_eq!(exponent(a[1], mean, 0.15, (0, 2), 0.25), 1);
+        assert_eq!(exponent(a[1], mean, 0.15, (0, 0), 0.25), 2);
+        // A plain rounding where the neighbours' mean is the nearest anyway.
+        assert_eq!(exponent(a[0], mean, 0.15, (-2, -2), 0.25), -2);
     }
 }
