@@ -87,9 +87,9 @@ pub const DETAIL_WEIGHTS: FrequencyWeights = FrequencyWeights { tilts: [16, 32] 
 /// `-q 100` decoded the photographs at 51.2-52.2 dB instead of 54.6-55.0).
 pub const WEIGHTS_FADE_QUALITY: f64 = 75.0;
 
-/// The activity field: detail steps going as the power [`FIELD_STRENGTH`] of the
-/// source's luma variance (plus [`FIELD_FLOOR`]) over regions of `2^FIELD_LOG2`
-/// pixels. The structural metrics and the eye weigh an error against the contrast
+/// The activity field: detail steps going as a power of the source's luma variance
+/// (plus [`FIELD_FLOOR`]) over regions of `2^FIELD_LOG2` pixels, this power at
+/// [`FIELD_FULL_QUALITY`]. The structural metrics and the eye weigh an error against the contrast
 /// around it, RGB PSNR does not: measured in `docs/codec-ablation.md` ("The activity
 /// field"), the strength trades BD-rate by PSNR for BD-rate by MS-SSIM and
 /// SSIMULACRA2 along one line.
@@ -114,7 +114,8 @@ pub const FIELD_HIGH_QUALITY: f64 = 70.0;
 /// Quality above which the field fades, to none at 100.
 pub const FIELD_FADE_QUALITY: f64 = 85.0;
 /// How far past the rounding boundary an exponent takes its neighbours' mean
-/// ([`exponent`](super::detail::field::exponent)): the field's bits fall and the structural metrics do not.
+/// ([`exponent`](super::detail::field::exponent)): measured, 0.4 points by SSIMULACRA2
+/// and 0.1 by RGB PSNR.
 pub const FIELD_HYSTERESIS: f64 = 0.25;
 
 /// Dead zone of the predictive quantiser (measured: 0.15 saves 6% over plain rounding).

@@ -245,8 +245,7 @@ pub fn log_activity(plane: &[f64], width: usize, height: usize, log2: u8, c: f64
 /// The exponent of a region of log activity `a` when the image's mean is `mean` and the
 /// steps go as `(variance + c)^strength`: in quarter octaves, clamped, and the mean of
 /// its coded `(left, above)` neighbours where that is within `0.5 + hysteresis` (the
-/// coder's contexts make that value cheap, and a quarter octave either way matters
-/// little to the eye).
+/// coder's contexts make that value cheap).
 pub fn exponent(a: f64, mean: f64, strength: f64, (left, above): (i8, i8), hysteresis: f64) -> i8 {
     let x = (4.0 * strength * (a - mean) / std::f64::consts::LN_2).clamp(-(LIMIT as f64), LIMIT as f64);
     let near = ((left as f64 + above as f64) / 2.0).round();
