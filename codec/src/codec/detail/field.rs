@@ -167,10 +167,17 @@ impl ActivityField {
     fn context(&self, i: usize, classes: &[u8], cols: usize) -> usize {
         let shift = self.block_shift();
         let first = ((i / self.cols) << shift) * cols + ((i % self.cols) << shift);
-        let left = if !i.is_multiple_of(self.cols) { self.exponents[i - 1] } else { 0 };
-        let above = if i >= self.cols { self.exponents[i - self.cols] } else { 0 };
+        let (left, above) = neighbours(&self.exponents, self.cols, i);
         classes[first] as usize * NEIGHBOUR_CONTEXTS + ((left + above).clamp(-LIMIT, LIMIT) + LIMIT) as usize
     }
+}
+
+/// The exponents of the regions left of and above region `i` of a field `cols`
+/// regions wide, 0 where there is none (the ones before `i` in raster order must be set).
+fn neighbours(exponents: &[i8], cols: usize, i: usize) -> (i8, i8) {
+    let left = if !i.is_multiple_of(cols) { exponents[i - 1] } else { 0 };
+    let above = if i >= cols { exponents[i - cols] } else { 0 };
+    (left, above)
 }
 
 /// How the encoder sets a field: region side, and steps going as `(variance +
@@ -203,9 +210,7 @@ impl FieldSettings {
                 let (cols, rows) = ActivityField::regions(*w, *h, self.log2);
                 let mut exponents = vec![0i8; a.len()];
                 for (i, &a) in a.iter().enumerate() {
-                    let left = if !i.is_multiple_of(cols) { exponents[i - 1] } else { 0 };
-                    let above = if i >= cols { exponents[i - cols] } else { 0 };
-                    exponents[i] = exponent(a, mean, self.strength, (left, above), self.hysteresis);
+                    exponents[i] = exponent(a, mean, self.strength, neighbours(&exponents, cols, i), self.hysteresis);
                 }
                 ActivityField {
                     log2: self.log2,
