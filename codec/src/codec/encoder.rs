@@ -9,7 +9,7 @@ use super::bitstream::{self, Header, TileStreams};
 use super::colour::{self, CodingPlanes, ColourBasis};
 use super::detail::dct::N as DCT_N;
 use super::detail::quantise::{self as detail_quantise, Quantiser};
-use super::detail::adaptive::{self, AdaptiveSteps};
+use super::detail::adaptive::{self, AdaptiveSteps, BlockSteps};
 use super::detail::field::{self, ActivityField};
 use super::detail;
 use super::entropy::AnsSink;
@@ -336,17 +336,14 @@ fn detail_tile(
     let classes: Vec<u8> = (0..tc * tr)
         .map(|i| classes[(by0 + i / tc) * cols + bx0 + i % tc])
         .collect();
-    // The same products the decoder's `BlockSteps::factor` forms.
-    let exponents = field.map(|f| f.block_exponents(tc, tr));
-    let factors = s.detail_adaptive.map(|a| {
-        classes
-            .iter()
-            .enumerate()
-            .map(|(i, &c)| match &exponents {
-                Some(e) => a.factor(c) * field::factor(e[i]),
-                None => a.factor(c),
-            })
-            .collect::<Vec<f64>>()
+    // The decoder's own products, so both sides step alike.
+    let factors = s.detail_adaptive.map(|steps| {
+        let blocks = BlockSteps {
+            steps,
+            classes: classes.clone(),
+            field: field.map(|f| f.block_exponents(tc, tr)).unwrap_or_default(),
+        };
+        (0..tc * tr).map(|i| blocks.factor(i)).collect::<Vec<f64>>()
     });
     let (detail, payload) = detail_quantise::code_layer(
         &residuals,
