@@ -234,7 +234,15 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     };
     let mut memory = encode_memory(w, h, worst_quality);
     // Key points: at most one per smallest cell (or the requested number).
-    let smallest = 1u64 << (2 * settings(worst_quality).model.min_log2.min(31));
+    // The smallest cells of any quality the encode may try (a target search: all).
+    let lowest_quality = if opts.target.is_some() {
+        0.0
+    } else {
+        opts.quality
+    };
+    let min_log2 =
+        (settings(lowest_quality).model.min_log2).min(settings(worst_quality).model.min_log2);
+    let smallest = 1u64 << (2 * min_log2.min(31));
     let keys = (u64::from(w) * u64::from(h) / smallest).max(1);
     let keys = opts.keypoints.map_or(keys, |n| keys.min(n as u64));
     memory.fixed = memory

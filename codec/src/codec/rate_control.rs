@@ -56,11 +56,16 @@ pub struct EncodeSettings {
 /// `DETAIL_STEP_0 * 10^-2.48` (about 0.005, near-lossless) at quality 100.
 pub const DETAIL_STEP_0: f64 = 1.5;
 /// Network luma step per detail step: the network carries the low frequencies, whose
-/// errors spread over whole cells, so it is quantised finer (measured on the
-/// photographs: 0.15 against 0.3 saved 6% BD-rate, 0.12 and 0.2 were within 1%).
-pub const BASE_STEP_RATIO: f64 = 0.15;
-/// Split threshold per squared detail step (measured: 15 against 44 saved 2%).
-pub const THRESHOLD_RATIO: f64 = 15.0;
+/// errors spread over whole cells, so it is quantised finer than the detail layer
+/// (measured on the photographs, `docs/codec-ablation.md`, "Network density and
+/// steps": 0.25 against 0.15 gained 0.5 points of BD-rate by RGB PSNR and 1.1 by
+/// MS-SSIM; 0.1 lost 1.2 and 1.6, 0.3 gained less).
+pub const BASE_STEP_RATIO: f64 = 0.25;
+/// Split threshold per squared detail step: a sparser network leaves more to the
+/// detail layer, which the structural metrics favour (measured with the step ratio
+/// 0.25: 25 against 15 gave 0.2 points of BD-rate by RGB PSNR for 0.6 by MS-SSIM and
+/// 0.8 by SSIMULACRA2).
+pub const THRESHOLD_RATIO: f64 = 25.0;
 /// Chroma step relative to luma in the network at quality 75 (measured on the RD
 /// benchmark); [`CHROMA_STEP_TILT`] moves it with the quality.
 pub const CHROMA_STEP_RATIO: f64 = 0.7;
@@ -108,7 +113,7 @@ pub const FIELD_FULL_QUALITY: f64 = 55.0;
 /// The field's strength from [`FIELD_HIGH_QUALITY`], rising from [`FIELD_STRENGTH`] at
 /// [`FIELD_FULL_QUALITY`]: MS-SSIM lags most at 0.3-2 bpp, and there the strength buys
 /// it at half the PSNR it costs at the low rates.
-pub const FIELD_STRENGTH_HIGH: f64 = 0.15;
+pub const FIELD_STRENGTH_HIGH: f64 = 0.17;
 /// Quality from which the field has [`FIELD_STRENGTH_HIGH`].
 pub const FIELD_HIGH_QUALITY: f64 = 70.0;
 /// Quality above which the field fades, to none at 100.
@@ -135,10 +140,17 @@ pub const DETAIL_LAMBDA_HDR: f64 = 0.2;
 /// effort 5 on the photographs against WebP: -8.7% BD-rate with up to 45 steps or
 /// with 3, -8.5% with 2; each step is about 4% of the encoding time).
 pub const FAST_FINAL_CG: usize = 2;
-/// Smallest network cell, log2: the detail layer's blocks are 8 pixels, and finer
-/// cells cost more than the blocks they save on photographs (4 px: +1.5% BD-rate,
-/// 1 px: +3%).
+/// Smallest network cell, log2, below [`LARGE_CELLS_QUALITY`]: the detail layer's
+/// blocks are 8 pixels, and finer cells cost more than the blocks they save on
+/// photographs (4 px: +1.5% BD-rate, 1 px: +3%).
 pub const MIN_CELL_LOG2: u8 = 3;
+/// Smallest network cell, log2, from [`LARGE_CELLS_QUALITY`]: where the detail layer is
+/// fine, it codes what 8-pixel cells would for fewer bits (measured: 0.8 points of
+/// BD-rate by RGB PSNR; 16-pixel cells at every quality gain 1.1 more by PSNR but lose
+/// 3.4 by SSIMULACRA2, most below 0.3 bpp, where the network draws the edges).
+pub const MIN_CELL_LOG2_HIGH: u8 = 4;
+/// Quality from which the smallest network cell is `2^MIN_CELL_LOG2_HIGH` pixels.
+pub const LARGE_CELLS_QUALITY: f32 = 55.0;
 /// Root blocks, log2: 32 pixels keep flat regions to one key point (smooth corpus
 /// class: -30% BD-rate against 16; photographs +0.6%).
 pub const ROOT_LOG2: u8 = 5;
@@ -154,9 +166,10 @@ pub const ROOT_LOG2: u8 = 5;
 pub const LEVEL_STEPS_REFERENCE_LOG2: u8 = 4;
 /// Mean key point area (pixels per luma key point) above which the network's steps
 /// shrink in proportion: where the network is this sparse there is little detail
-/// layer to correct its errors (measured on the corpus's smooth class: -15% BD-rate
-/// against none, photographs unchanged; 200 pixels cost natural images 0.7%).
-pub const SPARSE_AREA: f64 = 400.0;
+/// layer to correct its errors. With [`BASE_STEP_RATIO`] 0.25 the steps of networks
+/// sparser than 400 pixels per key point are those 0.15 gave with this factor from
+/// 400 pixels (measured on the corpus's smooth class: -15% BD-rate against none).
+pub const SPARSE_AREA: f64 = 240.0;
 
 /// The network steps' factor for a mean key point area of `area` pixels.
 pub fn network_step_factor(area: f64) -> f64 {
@@ -188,6 +201,15 @@ pub fn detail_field(q: f64) -> Option<FieldSettings> {
     })
 }
 
+/// The smallest network cell, log2, at quality `q` (without a key-point budget).
+pub fn min_cell_log2(q: f32) -> u8 {
+    if q >= LARGE_CELLS_QUALITY {
+        MIN_CELL_LOG2_HIGH
+    } else {
+        MIN_CELL_LOG2
+    }
+}
+
 /// The detail layer's luma step at quality `q` (0..=100).
 fn detail_step(q: f64) -> f64 {
     DETAIL_STEP_0 * 10f64.powf(-q * (0.0003 + 0.000245 * q))
@@ -210,7 +232,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         cg_iterations: (6 + 2 * e, if e >= 7 { 15 + 6 * e } else { FAST_FINAL_CG }),
         least_squares: e >= 3,
         // A key-point budget asks for the tree itself: let it reach single pixels.
-        min_log2: if keypoints.is_some() { 0 } else { MIN_CELL_LOG2 },
+        min_log2: if keypoints.is_some() { 0 } else { min_cell_log2(quality) },
         block_log2: ROOT_LOG2,
         ..ModelSettings::default()
     };
@@ -313,6 +335,25 @@ mod tests {
         // Float images keep a flat quantiser.
         let hdr = settings(60.0, 5, None).adapted_to(crate::raster::SampleFormat::F32, false);
         assert_eq!(hdr.detail_weights, None);
+    }
+
+    #[test]
+    fn the_network_keeps_8_pixel_cells_below_the_large_cells_quality() {
+        let min = |q: f32, keys: Option<usize>| settings(q, 5, keys).model.min_log2;
+        assert_eq!(min(0.0, None), MIN_CELL_LOG2);
+        assert_eq!(min(LARGE_CELLS_QUALITY - 0.5, None), MIN_CELL_LOG2);
+        assert_eq!(min(LARGE_CELLS_QUALITY, None), MIN_CELL_LOG2_HIGH);
+        assert_eq!(min(100.0, None), MIN_CELL_LOG2_HIGH);
+        // A key-point budget and float images reach single pixels at any quality.
+        assert_eq!(min(90.0, Some(500)), 0);
+        let hdr = settings(90.0, 5, None).adapted_to(crate::raster::SampleFormat::F32, false);
+        assert_eq!(hdr.model.min_log2, 0);
+        // Sparse networks keep the steps they had at 0.15 from 400 pixels per key point.
+        for area in [400.0, 1024.0, 4096.0] {
+            let step = BASE_STEP_RATIO * network_step_factor(area);
+            assert!((step - 0.15 * (400.0 / area)).abs() < 1e-12, "{area}");
+        }
+        assert_eq!(network_step_factor(SPARSE_AREA), 1.0);
     }
 
     #[test]
