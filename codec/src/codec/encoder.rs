@@ -466,7 +466,7 @@ pub fn encode_with(
     };
     // The settings' steps are those of cells at the reference level; the header's
     // are the roots'.
-    let factor = rate_control::network_step_factor(area)
+    let factor = rate_control::network_step_factor(area, s.sparse_area)
         * if levels.on {
             2f64.powi(rate_control::LEVEL_STEPS_REFERENCE_LOG2 as i32 - s.model.block_log2 as i32)
         } else {

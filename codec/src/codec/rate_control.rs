@@ -50,6 +50,9 @@ pub struct EncodeSettings {
     pub colour_basis: ColourBasis,
     /// Key point steps that double per cell level below the roots (else one step).
     pub level_steps: bool,
+    /// Mean key point area (pixels per luma key point) above which the network's
+    /// steps shrink in proportion ([`network_step_factor`]).
+    pub sparse_area: f64,
 }
 
 /// Detail-layer luma step at quality 0; it falls log-quadratically to
@@ -171,9 +174,16 @@ pub const LEVEL_STEPS_REFERENCE_LOG2: u8 = 4;
 /// 400 pixels (measured on the corpus's smooth class: -15% BD-rate against none).
 pub const SPARSE_AREA: f64 = 240.0;
 
-/// The network steps' factor for a mean key point area of `area` pixels.
-pub fn network_step_factor(area: f64) -> f64 {
-    (SPARSE_AREA / area).min(1.0)
+/// Float images' network step per detail step, split threshold per squared detail
+/// step and sparse area: their networks reach single pixels and carry most of the
+/// picture (measured on the corpus's HDR class: the photographs' 0.25 / 25 / 240
+/// cost 8.5% BD-rate against these).
+pub const HDR_NETWORK: (f64, f64, f64) = (0.15, 15.0, 400.0);
+
+/// The network steps' factor for a mean key point area of `area` pixels, shrinking
+/// them above `sparse_area`.
+pub fn network_step_factor(area: f64, sparse_area: f64) -> f64 {
+    (sparse_area / area).min(1.0)
 }
 
 /// The detail steps' tilt at quality `q`: [`DETAIL_WEIGHTS`] up to
@@ -256,6 +266,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         decorrelate: true,
         colour_basis: ColourBasis::Luma,
         level_steps: true,
+        sparse_area: SPARSE_AREA,
     }
 }
 
@@ -281,6 +292,12 @@ impl EncodeSettings {
             // BT.601 luma is a display-referred weighting: float images keep the grey
             // basis, whose error is the same in every direction.
             self.colour_basis = ColourBasis::Grey;
+            let (step_ratio, threshold_ratio, sparse_area) = HDR_NETWORK;
+            for step in [&mut self.step_luma, &mut self.step_chroma, &mut self.step_alpha] {
+                *step *= step_ratio / BASE_STEP_RATIO;
+            }
+            self.model.split_threshold *= threshold_ratio / THRESHOLD_RATIO;
+            self.sparse_area = sparse_area;
         }
         self
     }
@@ -350,10 +367,15 @@ mod tests {
         assert_eq!(hdr.model.min_log2, 0);
         // Sparse networks keep the steps they had at 0.15 from 400 pixels per key point.
         for area in [400.0, 1024.0, 4096.0] {
-            let step = BASE_STEP_RATIO * network_step_factor(area);
+            let step = BASE_STEP_RATIO * network_step_factor(area, SPARSE_AREA);
             assert!((step - 0.15 * (400.0 / area)).abs() < 1e-12, "{area}");
         }
-        assert_eq!(network_step_factor(SPARSE_AREA), 1.0);
+        assert_eq!(network_step_factor(SPARSE_AREA, SPARSE_AREA), 1.0);
+        // Float images keep the denser, finer network.
+        let (photo, hdr) = (settings(60.0, 5, None), settings(60.0, 5, None).adapted_to(crate::raster::SampleFormat::F32, false));
+        assert!((hdr.step_luma / photo.step_luma - 0.6).abs() < 1e-12);
+        assert!((hdr.model.split_threshold / photo.model.split_threshold - 0.6).abs() < 1e-12);
+        assert_eq!(hdr.sparse_area, 400.0);
     }
 
     #[test]
