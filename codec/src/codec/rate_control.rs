@@ -60,9 +60,9 @@ pub struct EncodeSettings {
 pub const DETAIL_STEP_0: f64 = 1.5;
 /// Network luma step per detail step: the network carries the low frequencies, whose
 /// errors spread over whole cells, so it is quantised finer than the detail layer
-/// (measured on the photographs, `docs/codec-ablation.md`, "Network density and
-/// steps": 0.25 against 0.15 gained 0.5 points of BD-rate by RGB PSNR and 1.1 by
-/// MS-SSIM; 0.1 lost 1.2 and 1.6, 0.3 gained less).
+/// (measured on the photographs, `docs/codec-ablation.md`, "Network density beside
+/// the detail layer": 0.25 against 0.15 gained 0.5 points of BD-rate by RGB PSNR and
+/// 1.1 by MS-SSIM and lost 0.7 by SSIMULACRA2; 0.1 lost 1.2 and 1.6, 0.3 gained less).
 pub const BASE_STEP_RATIO: f64 = 0.25;
 /// Split threshold per squared detail step: a sparser network leaves more to the
 /// detail layer, which the structural metrics favour (measured with the step ratio
@@ -115,7 +115,8 @@ pub const FIELD_FROM_QUALITY: f64 = 40.0;
 pub const FIELD_FULL_QUALITY: f64 = 55.0;
 /// The field's strength from [`FIELD_HIGH_QUALITY`], rising from [`FIELD_STRENGTH`] at
 /// [`FIELD_FULL_QUALITY`]: MS-SSIM lags most at 0.3-2 bpp, and there the strength buys
-/// it at half the PSNR it costs at the low rates.
+/// it at half the PSNR it costs at the low rates (0.17 against 0.15 with the
+/// sparser network: 0.5 points of BD-rate by MS-SSIM for 0.3 by RGB PSNR).
 pub const FIELD_STRENGTH_HIGH: f64 = 0.17;
 /// Quality from which the field has [`FIELD_STRENGTH_HIGH`].
 pub const FIELD_HIGH_QUALITY: f64 = 70.0;
@@ -148,9 +149,9 @@ pub const FAST_FINAL_CG: usize = 2;
 /// photographs (4 px: +1.5% BD-rate, 1 px: +3%).
 pub const MIN_CELL_LOG2: u8 = 3;
 /// Smallest network cell, log2, from [`LARGE_CELLS_QUALITY`]: where the detail layer is
-/// fine, it codes what 8-pixel cells would for fewer bits (measured: 0.8 points of
-/// BD-rate by RGB PSNR; 16-pixel cells at every quality gain 1.1 more by PSNR but lose
-/// 3.4 by SSIMULACRA2, most below 0.3 bpp, where the network draws the edges).
+/// fine, it codes what 8-pixel cells would for fewer bits (measured: 0.6 points of
+/// BD-rate by RGB PSNR; 16-pixel cells at every quality gain 1.6 by PSNR but lose 3.4
+/// by SSIMULACRA2, most below 0.3 bpp, where the network draws the edges).
 pub const MIN_CELL_LOG2_HIGH: u8 = 4;
 /// Quality from which the smallest network cell is `2^MIN_CELL_LOG2_HIGH` pixels.
 pub const LARGE_CELLS_QUALITY: f32 = 55.0;
