@@ -229,13 +229,26 @@ fn files_that_lie_about_their_tiles_are_refused() {
     expect_err(&s, "a tile missing", |e| {
         matches!(e, CodecError::SectionOrder { .. })
     });
-    // A tile's key-point count that disagrees with the header's total.
+    // A tile's key-point count that disagrees with the header's total (one fewer: a
+    // tile split down to its smallest cells has no room for one more).
     let mut s = sections.clone();
     let n = u32::from_le_bytes(s[first_tile].1[0..4].try_into().unwrap());
-    s[first_tile].1[0..4].copy_from_slice(&(n + 1).to_le_bytes());
+    s[first_tile].1[0..4].copy_from_slice(&(n - 1).to_le_bytes());
     expect_err(&s, "a key-point count", |e| {
         matches!(e, CodecError::CountMismatch { unit: "key points", found, declared, .. }
-            if found == &(declared + 1))
+            if found + 1 == *declared)
+    });
+    // More key points than the tile has cells.
+    let mut s = sections.clone();
+    s[first_tile].1[0..4].copy_from_slice(&(1u32 << 30).to_le_bytes());
+    expect_err(&s, "a count past the tile's cells", |e| {
+        matches!(
+            e,
+            CodecError::OutOfRange {
+                what: "a tile's luma key point count",
+                ..
+            }
+        )
     });
     // A stream length past the tile's payload.
     let mut s = sections.clone();
