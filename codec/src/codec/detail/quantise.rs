@@ -106,15 +106,48 @@ fn choose(
     at: syntax::BlockContext,
     pricer: &mut BlockPricer,
 ) -> [i32; COEFFS] {
-    let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
-    if levels.iter().all(|&l| l == 0) {
-        return levels;
+    choose_priced(c, q, ctx, at, pricer).levels
+}
+
+/// A block's chosen levels with their squared error (in steps) and their rate (1/256
+/// bits) on the contexts they were chosen on.
+struct Chosen {
+    levels: [i32; COEFFS],
+    distortion: f64,
+    rate: u64,
+}
+
+impl Chosen {
+    /// `D + lambda R` with `extra` more bits (1/256) and `dropped` more squared error
+    /// aside: the same number [`block_cost`] computes by pricing the levels again.
+    fn cost(&self, q: Quantiser, extra: u64, dropped: f64) -> f64 {
+        self.distortion + dropped + q.lambda * (self.rate + extra) as f64 / 256.0
     }
+}
+
+/// [`choose`], keeping the chosen levels' distortion and rate.
+fn choose_priced(
+    c: &[f64; COEFFS],
+    q: Quantiser,
+    ctx: &DetailContexts,
+    at: syntax::BlockContext,
+    pricer: &mut BlockPricer,
+) -> Chosen {
+    let levels: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
     let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] / q.step);
-    let cost = |d: f64, r: u64| d + q.lambda * r as f64 / 256.0;
     let mut rates = pricer.block(ctx, at);
+    if levels.iter().all(|&l| l == 0) {
+        return Chosen {
+            levels,
+            distortion: distortion(&x, &levels),
+            rate: rates.rate(&levels, COEFFS),
+        };
+    }
+    let cost = |d: f64, r: u64| d + q.lambda * r as f64 / 256.0;
     let mut d = distortion(&x, &levels);
-    let mut best = (cost(d, rates.rate(&levels, COEFFS)), levels);
+    let r = rates.rate(&levels, COEFFS);
+    let mut best = (cost(d, r), levels);
+    let mut best_dr = (d, r);
     if q.per_coefficient {
         for k in (0..COEFFS).rev() {
             let z = ZIGZAG[k] as usize;
@@ -135,6 +168,7 @@ fn choose(
                 if better {
                     d = distortion(&x, &trial);
                     best = (cost(d, r), trial);
+                    best_dr = (d, r);
                     break;
                 }
             }
@@ -152,18 +186,26 @@ fn choose(
         }
         tries += 1;
         trimmed[z] = 0;
-        let j = cost(distortion(&x, &trimmed), rates.rate(&trimmed, COEFFS));
+        let (d, r) = (distortion(&x, &trimmed), rates.rate(&trimmed, COEFFS));
+        let j = cost(d, r);
         if j < best.0 {
             best = (j, trimmed);
+            best_dr = (d, r);
         }
     }
     // The loop stops at the empty block only when there were few enough.
     let empty = [0; COEFFS];
-    let j = cost(distortion(&x, &empty), rates.rate(&empty, COEFFS));
+    let (d, r) = (distortion(&x, &empty), rates.rate(&empty, COEFFS));
+    let j = cost(d, r);
     if j < best.0 {
         best = (j, empty);
+        best_dr = (d, r);
     }
-    best.1
+    Chosen {
+        levels: best.1,
+        distortion: best_dr.0,
+        rate: best_dr.1,
+    }
 }
 
 /// `D + lambda R` of coding coefficients `c` as `levels` at `at`, `extra` more bits
@@ -207,10 +249,9 @@ impl Plane<'_> {
     /// merge bin `g` and the levels.
     fn merged(&self, i: usize, g: GroupContext, at: BlockContext, pricer: &mut BlockPricer) -> (f64, [i32; COEFFS]) {
         let (low, high) = self.transforms[i].as_ref().and_then(|t| t[g.level - 1].as_ref()).expect("a group start has its transforms");
-        let m = choose(low, self.q, self.ctx, at, pricer);
+        let m = choose_priced(low, self.q, self.ctx, at, pricer);
         let dropped = high / (self.q.step * self.q.step);
-        let j = block_cost(low, &m, self.q, self.ctx, at, pricer, syntax::merge_cost(self.ctx, g, true), dropped);
-        (j, m)
+        (m.cost(self.q, syntax::merge_cost(self.ctx, g, true), dropped), m.levels)
     }
 
     /// Chooses between merging the 2x2 group at block `i` and coding its blocks apart,
@@ -228,14 +269,15 @@ impl Plane<'_> {
     ) -> GroupChoice {
         let (q, ctx, cols) = (self.q, self.ctx, self.cols);
         let blocks = [i, i + 1, i + cols, i + cols + 1].map(|k| &self.coeffs[k]);
-        let first = choose(blocks[0], q, ctx, at, pricer);
+        let first = choose_priced(blocks[0], q, ctx, at, pricer);
         // The blocks coded later are priced without the level search: their contexts
         // are estimates anyway, and the search would double the group's time.
         let estimate = Quantiser {
             per_coefficient: false,
             ..q
         };
-        let mut j_apart = block_cost(blocks[0], &first, q, ctx, at, pricer, syntax::merge_cost(ctx, g, false), 0.0);
+        let mut j_apart = first.cost(q, syntax::merge_cost(ctx, g, false), 0.0);
+        let first = first.levels;
         let s0 = Summary::of(&first);
         let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
         let mut others = [[0; COEFFS]; 3];
@@ -245,8 +287,9 @@ impl Plane<'_> {
                 1 => context(left, s0),
                 _ => context(Summary::of(&others[1]), Summary::of(&others[0])),
             };
-            others[k] = choose(blocks[k + 1], estimate, ctx, at, pricer);
-            j_apart += block_cost(blocks[k + 1], &others[k], q, ctx, at, pricer, 0, 0.0);
+            let other = choose_priced(blocks[k + 1], estimate, ctx, at, pricer);
+            j_apart += other.cost(q, 0, 0.0);
+            others[k] = other.levels;
         }
         let (j_merged, m) = self.merged(i, g, at, pricer);
         if j_merged < j_apart {
@@ -441,10 +484,10 @@ pub fn code_plane(
             let mut a_best = 0;
             for a in factor_candidates(c, &lw).into_iter().filter(|&a| a != 0) {
                 let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] - a as f64 / 8.0 * lw[z]);
-                let levels = choose(&x, q, ctx, at, &mut pricer);
-                let j = block_cost(&x, &levels, q, ctx, at, &mut pricer, syntax::factor_cost(ctx, fc, a), 0.0);
+                let chosen = choose_priced(&x, q, ctx, at, &mut pricer);
+                let j = chosen.cost(q, syntax::factor_cost(ctx, fc, a), 0.0);
                 if j < j_best {
-                    (j_best, a_best, best) = (j, a, levels);
+                    (j_best, a_best, best) = (j, a, chosen.levels);
                 }
             }
             syntax::write_factor(ctx, fc, a_best, sink);
@@ -672,7 +715,14 @@ mod tests {
                         ..syntax::BlockContext::varied(i)
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
-                    assert_eq!(choose(&c, q, &ctx, at, &mut pricer), expected, "block {i}");
+                    let chosen = choose_priced(&c, q, &ctx, at, &mut pricer);
+                    assert_eq!(chosen.levels, expected, "block {i}");
+                    // The kept distortion and rate give the cost of pricing the levels
+                    // again, to the bit, with or without extra bits and dropped error.
+                    for (extra, dropped) in [(0, 0.0), (300, 0.0), (77, 1.25)] {
+                        let again = block_cost(&c, &expected, q, &ctx, at, &mut pricer, extra, dropped);
+                        assert_eq!(chosen.cost(q, extra, dropped).to_bits(), again.to_bits(), "block {i}");
+                    }
                     let rounded: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
                     changed += usize::from(expected != rounded);
                     syntax::write_block(&mut ctx, at, &expected, &mut crate::codec::entropy::AnsSink::new());
