@@ -175,11 +175,33 @@ pub const LEVEL_STEPS_REFERENCE_LOG2: u8 = 4;
 /// 400 pixels (measured on the corpus's smooth class: -15% BD-rate against none).
 pub const SPARSE_AREA: f64 = 240.0;
 
-/// Float images' network step per detail step, split threshold per squared detail
-/// step and sparse area: their networks reach single pixels and carry most of the
-/// picture (measured on the corpus's HDR class: the photographs' 0.25 / 25 / 240
-/// cost 8.5% BD-rate against these).
-pub const HDR_NETWORK: (f64, f64, f64) = (0.15, 15.0, 400.0);
+/// How a network follows the detail layer's step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NetworkRatios {
+    /// Network step per detail step.
+    pub step: f64,
+    /// Split threshold per squared detail step.
+    pub threshold: f64,
+    /// Mean key point area above which the steps shrink ([`network_step_factor`]).
+    pub sparse_area: f64,
+}
+
+/// The network of 8-bit and 16-bit images: [`BASE_STEP_RATIO`], [`THRESHOLD_RATIO`]
+/// and [`SPARSE_AREA`].
+pub const PHOTO_NETWORK: NetworkRatios = NetworkRatios {
+    step: BASE_STEP_RATIO,
+    threshold: THRESHOLD_RATIO,
+    sparse_area: SPARSE_AREA,
+};
+
+/// The network of float images: their networks reach single pixels and carry most of
+/// the picture (measured on the corpus's HDR class: [`PHOTO_NETWORK`] cost 8.5%
+/// BD-rate against these).
+pub const HDR_NETWORK: NetworkRatios = NetworkRatios {
+    step: 0.15,
+    threshold: 15.0,
+    sparse_area: 400.0,
+};
 
 /// The network steps' factor for a mean key point area of `area` pixels, shrinking
 /// them above `sparse_area`.
@@ -233,10 +255,10 @@ fn detail_step(q: f64) -> f64 {
 /// buys the least-squares fit (from 3) and greedy refinement rounds (from 7).
 pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSettings {
     let detail = detail_step(quality.clamp(0.0, 100.0) as f64);
-    let step = (BASE_STEP_RATIO * detail).clamp(2e-4, 2.0);
+    let (step, step_chroma, split_threshold) = network_steps(detail, PHOTO_NETWORK);
     let e = effort.clamp(1, 9) as usize;
     let model = ModelSettings {
-        split_threshold: THRESHOLD_RATIO * detail * detail,
+        split_threshold,
         target_keypoints: keypoints,
         rounds: e.saturating_sub(6),
         growth: if e >= 7 { 0.25 } else { 0.35 },
@@ -247,11 +269,10 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         block_log2: ROOT_LOG2,
         ..ModelSettings::default()
     };
-    let chroma_ratio = CHROMA_STEP_RATIO * (detail / detail_step(75.0)).powf(-CHROMA_STEP_TILT);
     EncodeSettings {
         model,
         step_luma: step,
-        step_chroma: chroma_ratio * step,
+        step_chroma,
         step_alpha: step,
         deadzone: DEADZONE,
         detail_step_luma: detail,
@@ -267,8 +288,17 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         decorrelate: true,
         colour_basis: ColourBasis::Luma,
         level_steps: true,
-        sparse_area: SPARSE_AREA,
+        sparse_area: PHOTO_NETWORK.sparse_area,
     }
+}
+
+/// The network's luma step, chroma step and split threshold for the detail layer's
+/// luma step `detail` by `ratios` (the chroma step's ratio to luma's tilting with the
+/// step).
+fn network_steps(detail: f64, ratios: NetworkRatios) -> (f64, f64, f64) {
+    let step = (ratios.step * detail).clamp(2e-4, 2.0);
+    let chroma_ratio = CHROMA_STEP_RATIO * (detail / detail_step(75.0)).powf(-CHROMA_STEP_TILT);
+    (step, chroma_ratio * step, ratios.threshold * detail * detail)
 }
 
 impl EncodeSettings {
@@ -293,13 +323,18 @@ impl EncodeSettings {
             // BT.601 luma is a display-referred weighting: float images keep the grey
             // basis, whose error is the same in every direction.
             self.colour_basis = ColourBasis::Grey;
-            let (step_ratio, threshold_ratio, sparse_area) = HDR_NETWORK;
-            for step in [&mut self.step_luma, &mut self.step_chroma, &mut self.step_alpha] {
-                *step *= step_ratio / BASE_STEP_RATIO;
-            }
-            self.model.split_threshold *= threshold_ratio / THRESHOLD_RATIO;
-            self.sparse_area = sparse_area;
+            self = self.with_network(HDR_NETWORK);
         }
+        self
+    }
+
+    /// The network's steps, split threshold and sparse area set from the detail
+    /// layer's luma step by `ratios`.
+    fn with_network(mut self, ratios: NetworkRatios) -> Self {
+        let (step, step_chroma, split_threshold) = network_steps(self.detail_step_luma, ratios);
+        (self.step_luma, self.step_chroma, self.step_alpha) = (step, step_chroma, step);
+        self.model.split_threshold = split_threshold;
+        self.sparse_area = ratios.sparse_area;
         self
     }
 }
@@ -375,8 +410,10 @@ mod tests {
         // Float images keep the denser, finer network.
         let (photo, hdr) = (settings(60.0, 5, None), settings(60.0, 5, None).adapted_to(crate::raster::SampleFormat::F32, false));
         assert!((hdr.step_luma / photo.step_luma - 0.6).abs() < 1e-12);
+        assert!((hdr.step_chroma / photo.step_chroma - 0.6).abs() < 1e-12);
         assert!((hdr.model.split_threshold / photo.model.split_threshold - 0.6).abs() < 1e-12);
         assert_eq!(hdr.sparse_area, 400.0);
+        assert_eq!(photo.sparse_area, SPARSE_AREA);
     }
 
     #[test]
