@@ -483,11 +483,15 @@ pub fn info(a: &InfoArgs) -> CliResult {
         1 << h.block_log2,
         1 << h.min_log2
     );
+    let weight = if h.kernel.weight_exponent == 0.0 {
+        "1 (equal)".to_string()
+    } else {
+        format!("cell^-{}", h.kernel.weight_exponent)
+    };
     outln!(
         text,
-        "kernel:      compact, sigma = {} x cell, weight = cell^-{}",
-        h.kernel.sigma_factor,
-        h.kernel.weight_exponent
+        "kernel:      compact, sigma = {} x cell, weight = {weight}",
+        h.kernel.sigma_factor
     );
     outln!(
         text,
