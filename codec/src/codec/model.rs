@@ -54,10 +54,10 @@ impl Default for ModelSettings {
         ModelSettings {
             block_log2: 4,
             min_log2: 0,
-            // Every key point weighs alike: a large cell's kernel reaches into its small
-            // neighbours as far as theirs reach into it, so the network is smoother
-            // where the tree's density changes, which the detail layer then codes in
-            // fewer bits. Measured on the photographs with the detail layer
+            // Every key point weighs alike: with weights falling with the cell's side, a
+            // large cell's small neighbours outweigh it near their boundary and the
+            // network turns there more abruptly than the picture, which costs the
+            // detail layer bits. Measured on the photographs with the detail layer
             // (docs/codec-ablation.md, "The network's kernel"): footprints 0.42 and 0.6
             // lose to 0.5, weights s^-1 and s^-0.5 lose to equal ones.
             kernel: KernelParams {
