@@ -93,40 +93,14 @@ fn moves(l: i32, x: f64) -> [Option<i32>; 2] {
 /// the last back to the first moved one step towards zero, or away from it, when that
 /// lowers the block's cost (the rate of a level depends on its neighbours' through the
 /// contexts, so a level that rounds nearest can still cost more than it saves); then
-/// up to [`TRIMS`] trailing coefficients dropped, and the empty block.
+/// up to [`TRIMS`] trailing coefficients dropped, and the empty block. The levels come
+/// with their distortion and rate, so their cost needs no second pricing.
 ///
 /// A moved candidate's distortion is first estimated from the current best's by the
 /// one term that changed; only when that leaves the comparison within a margin far
 /// above the rounding error is it summed in full, so the choices are those of summing
 /// every candidate ([`reference::choose`] is tested equal).
 fn choose(
-    c: &[f64; COEFFS],
-    q: Quantiser,
-    ctx: &DetailContexts,
-    at: syntax::BlockContext,
-    pricer: &mut BlockPricer,
-) -> [i32; COEFFS] {
-    choose_priced(c, q, ctx, at, pricer).levels
-}
-
-/// A block's chosen levels with their squared error (in steps) and their rate (1/256
-/// bits) on the contexts they were chosen on.
-struct Chosen {
-    levels: [i32; COEFFS],
-    distortion: f64,
-    rate: u64,
-}
-
-impl Chosen {
-    /// `D + lambda R` with `extra` more bits (1/256) and `dropped` more squared error
-    /// aside: the same number [`block_cost`] computes by pricing the levels again.
-    fn cost(&self, q: Quantiser, extra: u64, dropped: f64) -> f64 {
-        self.distortion + dropped + q.lambda * (self.rate + extra) as f64 / 256.0
-    }
-}
-
-/// [`choose`], keeping the chosen levels' distortion and rate.
-fn choose_priced(
     c: &[f64; COEFFS],
     q: Quantiser,
     ctx: &DetailContexts,
@@ -208,6 +182,23 @@ fn choose_priced(
     }
 }
 
+/// A block's chosen levels with their squared error (in steps) and their rate (1/256
+/// bits) on the contexts they were chosen on.
+struct Chosen {
+    levels: [i32; COEFFS],
+    distortion: f64,
+    rate: u64,
+}
+
+impl Chosen {
+    /// `D + lambda R` with `extra` more bits (1/256) and `dropped` more squared error
+    /// aside: the same number [`block_cost`] computes by pricing the levels again.
+    fn cost(&self, q: Quantiser, extra: u64, dropped: f64) -> f64 {
+        self.distortion + dropped + q.lambda * (self.rate + extra) as f64 / 256.0
+    }
+}
+
+
 /// `D + lambda R` of coding coefficients `c` as `levels` at `at`, `extra` more bits
 /// (1/256) and `dropped` more squared error (in steps) aside.
 #[allow(clippy::too_many_arguments)]
@@ -249,7 +240,7 @@ impl Plane<'_> {
     /// merge bin `g` and the levels.
     fn merged(&self, i: usize, g: GroupContext, at: BlockContext, pricer: &mut BlockPricer) -> (f64, [i32; COEFFS]) {
         let (low, high) = self.transforms[i].as_ref().and_then(|t| t[g.level - 1].as_ref()).expect("a group start has its transforms");
-        let m = choose_priced(low, self.q, self.ctx, at, pricer);
+        let m = choose(low, self.q, self.ctx, at, pricer);
         let dropped = high / (self.q.step * self.q.step);
         (m.cost(self.q, syntax::merge_cost(self.ctx, g, true), dropped), m.levels)
     }
@@ -269,7 +260,7 @@ impl Plane<'_> {
     ) -> GroupChoice {
         let (q, ctx, cols) = (self.q, self.ctx, self.cols);
         let blocks = [i, i + 1, i + cols, i + cols + 1].map(|k| &self.coeffs[k]);
-        let first = choose_priced(blocks[0], q, ctx, at, pricer);
+        let first = choose(blocks[0], q, ctx, at, pricer);
         // The blocks coded later are priced without the level search: their contexts
         // are estimates anyway, and the search would double the group's time.
         let estimate = Quantiser {
@@ -287,7 +278,7 @@ impl Plane<'_> {
                 1 => context(left, s0),
                 _ => context(Summary::of(&others[1]), Summary::of(&others[0])),
             };
-            let other = choose_priced(blocks[k + 1], estimate, ctx, at, pricer);
+            let other = choose(blocks[k + 1], estimate, ctx, at, pricer);
             j_apart += other.cost(q, 0, 0.0);
             others[k] = other.levels;
         }
@@ -447,7 +438,8 @@ pub fn code_plane(
             ..q
         };
         let mut merged = false;
-        let (at, mut best) = match walk.visit() {
+        // A block chosen alone keeps its price for the luma factors' comparison.
+        let (at, mut best, priced) = match walk.visit() {
             Visit::Covered => {
                 chosen.push([0; COEFFS]);
                 continue;
@@ -471,20 +463,27 @@ pub fn code_plane(
                     }
                 }
                 merged = level != 0;
-                (at, best)
+                (at, best, None)
             }
-            Visit::Block(at) => (at, choose(c, q, ctx, at, &mut pricer)),
+            Visit::Block(at) => {
+                let chosen = choose(c, q, ctx, at, &mut pricer);
+                (at, chosen.levels, Some(chosen))
+            }
         };
         if let Some(l) = luma.filter(|l| !merged && luma_predicts(l.plane, i)) {
             // The luma block's dequantised coefficients in this plane's weighted units.
             let lc = l.plane.coefficients(i % cols, i / cols, l.step * f, &luma_weights).expect("a predicting luma block is coded");
             let lw: [f64; COEFFS] = std::array::from_fn(|z| lc[z] / weights[0][z]);
             let fc = factor_context(&factors, cols, i, l.chroma);
-            let mut j_best = block_cost(c, &best, q, ctx, at, &mut pricer, syntax::factor_cost(ctx, fc, 0), 0.0);
+            let none = syntax::factor_cost(ctx, fc, 0);
+            let mut j_best = match &priced {
+                Some(chosen) => chosen.cost(q, none, 0.0),
+                None => block_cost(c, &best, q, ctx, at, &mut pricer, none, 0.0),
+            };
             let mut a_best = 0;
             for a in factor_candidates(c, &lw).into_iter().filter(|&a| a != 0) {
                 let x: [f64; COEFFS] = std::array::from_fn(|z| c[z] - a as f64 / 8.0 * lw[z]);
-                let chosen = choose_priced(&x, q, ctx, at, &mut pricer);
+                let chosen = choose(&x, q, ctx, at, &mut pricer);
                 let j = chosen.cost(q, syntax::factor_cost(ctx, fc, a), 0.0);
                 if j < j_best {
                     (j_best, a_best, best) = (j, a, chosen.levels);
@@ -715,7 +714,7 @@ mod tests {
                         ..syntax::BlockContext::varied(i)
                     };
                     let expected = reference::choose(&c, q, &mut ctx, at, &mut cost);
-                    let chosen = choose_priced(&c, q, &ctx, at, &mut pricer);
+                    let chosen = choose(&c, q, &ctx, at, &mut pricer);
                     assert_eq!(chosen.levels, expected, "block {i}");
                     // The kept distortion and rate give the cost of pricing the levels
                     // again, to the bit, with or without extra bits and dropped error.
