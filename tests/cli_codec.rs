@@ -60,6 +60,13 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
     assert_eq!(j["colour_basis"], "luma opponent", "{j}");
     // Its detail steps follow an activity field of 16-pixel regions.
     assert_eq!(j["adaptive_steps"]["activity_field_region_px"], 16, "{j}");
+    // The restoration filters are listed where the file has their section.
+    let restored = j["sections"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|s| s["tag"] == "R");
+    assert_eq!(j["restoration"].is_array(), restored, "{j}");
     let total: u64 = j["sections"]
         .as_array()
         .unwrap()

@@ -8,6 +8,7 @@ use super::detail::weights::FrequencyWeights;
 use super::error::Tag;
 use super::keyset::KernelParams;
 use super::quadtree::TreeShape;
+use super::restoration::{self, Restoration};
 use super::syntax::LevelSteps;
 use super::tiling::{TileRect, Tiling, SIDE_UNIT};
 use super::{CodecError, MAX_SIDE};
@@ -17,7 +18,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 12;
+pub const VERSION: u8 = 13;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -31,11 +32,13 @@ pub mod tag {
     pub const XMP: u8 = b'M';
     /// One tile: its tree, key-point values and detail blocks, in raster order of tiles.
     pub const TILE: u8 = b'G';
+    /// The restoration filters (optional).
+    pub const RESTORATION: u8 = b'R';
     /// End of file.
     pub const END: u8 = b'E';
 }
 
-/// Everything the header records.
+/// Everything the header records, and the restoration filters of their own section.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Header {
     /// Image width.
@@ -85,6 +88,8 @@ pub struct Header {
     pub level_steps: bool,
     /// The detail layer's steps' tilt with frequency (flag bit 7, only with the layer).
     pub weights: Option<FrequencyWeights>,
+    /// The restoration filters (the restoration section, after the tiles).
+    pub restoration: Option<Restoration>,
 }
 
 /// Header bytes without the detail layer's steps.
@@ -393,6 +398,7 @@ impl Header {
             lapping,
             basis,
             level_steps: flags & FLAG_LEVEL_STEPS != 0,
+            restoration: None,
             weights,
         };
         let max = header.shape().max_leaves();
@@ -618,6 +624,9 @@ pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec
     for p in &payloads {
         push_section(&mut out, tag::TILE, p);
     }
+    if let Some(r) = &header.restoration {
+        push_section(&mut out, tag::RESTORATION, &restoration::syntax::write(r));
+    }
     push_section(&mut out, tag::END, &[]);
     out
 }
@@ -781,8 +790,17 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
     let tiling = header.tiling();
     let count = tiling.count();
     let tile_tags = tags[i..].iter().take_while(|&&t| t == tag::TILE).count();
-    if tile_tags != count || i + count + 1 != tags.len() {
+    let restored = tags.get(i + count) == Some(&tag::RESTORATION);
+    if tile_tags != count || i + count + usize::from(restored) + 1 != tags.len() {
         return Err(CodecError::SectionOrder { tags, tiles: count });
+    }
+    let mut header = header;
+    if restored {
+        let planes = header.layout.colour_channels();
+        header.restoration = Some(restoration::syntax::parse(
+            sections[i + count].payload,
+            planes,
+        )?);
     }
     let tiles = sections[i..i + count]
         .iter()

@@ -14,9 +14,10 @@ use super::detail::field::{self, ActivityField};
 use super::detail;
 use super::entropy::AnsSink;
 use super::geometry::Frame;
-use super::keyset::{Grid, KernelParams, KeySet, MIN_SIGMA_FACTOR};
+use super::keyset::{Grid, GridEval, KernelParams, KeySet, MIN_SIGMA_FACTOR};
 use super::model;
 use super::quadtree::Cell;
+use super::restoration::{self, fit::Stats, Restoration};
 use super::rate_control::{self, EncodeSettings};
 use super::source::PixelSource;
 use super::syntax::{self, LevelSteps, MAX_VALUE};
@@ -523,13 +524,21 @@ pub fn encode_with(
             ColourBasis::Grey
         },
         level_steps: levels.on,
+        restoration: None,
     };
     let streams: Vec<TileStreams> = models
         .into_iter()
         .zip(details)
         .map(|(m, detail)| TileStreams { detail, ..m.streams })
         .collect();
-    let bytes = bitstream::write(&header, metadata, &streams);
+    let mut bytes = bitstream::write(&header, metadata, &streams);
+    if s.restoration {
+        let mut header = header;
+        header.restoration = fit_restoration(&bytes, img, &s)?;
+        if header.restoration.is_some() {
+            bytes = bitstream::write(&header, metadata, &streams);
+        }
+    }
     let stats = EncodeStats {
         luma_keypoints: net.luma_cells.len(),
         chroma_keypoints: net.chroma_cells.len(),
@@ -537,6 +546,78 @@ pub fn encode_with(
         bytes: bytes.len(),
     };
     Ok((bytes, stats))
+}
+
+/// Pixels the restoration filters' sums see at most: a dozen taps are fitted as well
+/// from a hundred thousand pixels as from forty million.
+const RESTORATION_SAMPLES: u64 = 1 << 17;
+
+/// The restoration filters for the file `bytes` (all but the filters coded): each
+/// colour plane's least-squares filter from the decoded planes against the source's,
+/// where it pays for its bits at the detail layer's price of a bit.
+///
+/// The sums take the rows of every few evaluation bands that are at least the
+/// filters' reach from the band's edges, so only those bands are evaluated.
+fn fit_restoration(
+    bytes: &[u8],
+    src: &(impl PixelSource + ?Sized),
+    s: &EncodeSettings,
+) -> Result<Option<Restoration>, CodecError> {
+    let (w, h) = (src.width(), src.height());
+    let (wu, hu) = (w as usize, h as usize);
+    let band = GridEval::BAND;
+    let reach = restoration::RADIUS;
+    let inner = band - 2 * reach;
+    let bands = hu.div_ceil(band);
+    let every = ((bands * inner * wu) as u64).div_ceil(RESTORATION_SAMPLES).max(1) as usize;
+    let sampled: Vec<usize> = (0..bands).step_by(every).collect();
+    let parsed = bitstream::parse(bytes, u64::MAX)?;
+    let decoded = crate::codec::decoder::read_parsed(&parsed)?;
+    let evaluated = crate::codec::decoder::unrestored_bands(&decoded, &sampled);
+    drop(decoded);
+    let planes = src.layout().colour_channels();
+    // Each band's sampled rows are contiguous: one source read and one sum per band.
+    // Every row they reach is in the band (or clamped at the image's edge as it is).
+    let chunks: Vec<Vec<Stats>> = sampled
+        .par_iter()
+        .zip(&evaluated)
+        .map(|(&b, decoded)| {
+            let y0 = b * band;
+            let band_rows = (hu - y0).min(band);
+            let rows = reach..(band - reach).min(band_rows);
+            let mut stats: Vec<Stats> = (0..planes).map(Stats::new).collect();
+            if rows.is_empty() {
+                return stats;
+            }
+            let rect = TileRect {
+                x0: 0,
+                y0: (y0 + rows.start) as u32,
+                width: w,
+                height: rows.len() as u32,
+            };
+            let source = coding_planes(&src.region(rect), s).colour;
+            for (c, (decoded, source)) in decoded.iter().zip(&source).enumerate() {
+                stats[c].accumulate(c, decoded, source, (wu, band_rows), rows.clone(), 1);
+            }
+            stats
+        })
+        .collect();
+    let mut filters = Vec::with_capacity(planes);
+    for c in 0..planes {
+        let mut total = Stats::new(c);
+        for chunk in &chunks {
+            total.add(&chunk[c]);
+        }
+        let step = if c == 0 {
+            s.detail_step_luma
+        } else {
+            s.detail_step_chroma
+        };
+        let scale = (wu * hu) as f64 / total.samples.max(1) as f64;
+        filters.push(restoration::fit::fit(&total, scale, s.detail_lambda * step * step));
+    }
+    let r = Restoration { planes: filters };
+    Ok(r.any().then_some(r))
 }
 
 /// Checks an image can be encoded.

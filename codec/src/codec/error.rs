@@ -145,7 +145,7 @@ pub enum CodecError {
         first: Option<Tag>,
     },
     /// The sections are not in the order the format prescribes.
-    #[error("invalid caoen file: sections {:?}: expected the header, optional metadata (I, X, M in this order), {tiles} tile sections (G) and the end (E)", String::from_utf8_lossy(tags))]
+    #[error("invalid caoen file: sections {:?}: expected the header, optional metadata (I, X, M in this order), {tiles} tile sections (G), optional restoration (R) and the end (E)", String::from_utf8_lossy(tags))]
     SectionOrder {
         /// The sections' tags in file order.
         tags: Vec<u8>,
@@ -185,6 +185,12 @@ pub enum CodecError {
     /// The decoded samples do not make a raster.
     #[error("invalid caoen file: decoded raster: {0}")]
     DecodedRaster(#[source] crate::raster::RasterError),
+    /// The restoration section is malformed.
+    #[error("invalid caoen file: restoration section: {reason}")]
+    Restoration {
+        /// What is wrong with it.
+        reason: &'static str,
+    },
     /// The key points evaluate to NaN or infinity somewhere.
     #[error("invalid caoen file: the key points evaluate to a non-finite colour")]
     NonFinite,

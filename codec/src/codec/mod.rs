@@ -54,6 +54,8 @@ stages! {
     model;
     /// The adaptive quadtree.
     quadtree;
+    /// The restoration filters applied to the decoded planes.
+    restoration;
     /// Quality and effort mapping; the rate-target search.
     rate_control;
     /// Split flags and value residuals as coded symbols.
@@ -248,6 +250,9 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     memory.fixed = memory
         .fixed
         .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
+    memory.after = memory
+        .after
+        .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
     let workers = memory.workers(opts.limits.max_memory, rayon::current_num_threads());
     if workers == 0 {
         return Err(OverBudget {
@@ -306,18 +311,27 @@ pub struct EncodeMemory {
     pub per_tile: u64,
     /// Number of tiles.
     pub tiles: u64,
+    /// Bytes of the restoration fit, after the tiles: the file decoded again (its
+    /// detail layer and key points).
+    pub after: u64,
 }
 
 impl EncodeMemory {
     /// The need with `workers` tiles in progress.
     pub fn need(&self, workers: u64) -> u64 {
-        self.fixed
-            .saturating_add(self.per_tile.saturating_mul(workers.min(self.tiles)))
+        self.fixed.saturating_add(
+            self.per_tile
+                .saturating_mul(workers.min(self.tiles))
+                .max(self.after),
+        )
     }
 
     /// How many tiles may be in progress at once within `budget` and `threads`
     /// (0: not even one fits).
     pub fn workers(&self, budget: u64, threads: usize) -> usize {
+        if self.fixed.saturating_add(self.after) > budget {
+            return 0;
+        }
         let room = budget.saturating_sub(self.fixed) / self.per_tile.max(1);
         room.min(threads.max(1) as u64).min(self.tiles) as usize
     }
@@ -332,7 +346,10 @@ impl EncodeMemory {
 /// bound peak RSS measured on noisy photo-like images (the densest trees): about 280
 /// bytes per pixel at quality 5, 360 at 75 and 510 at 100. The whole image keeps its
 /// coded streams (at most 2 bytes per pixel) and its key points, which [`encode`] adds
-/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell.
+/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell. Once the tiles are done,
+/// the restoration fit decodes the file again: its detail layer holds at most a 4-byte
+/// level per coefficient (13 bytes per pixel with the blocks' bookkeeping), and its key
+/// points as many again.
 pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
     let q = f64::from(quality.clamp(0.0, 100.0)) / 100.0;
     let per_pixel = (300.0 + 240.0 * q * q).ceil() as u64;
@@ -348,6 +365,7 @@ pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
         fixed: crate::budget::bytes(width.into(), height.into(), 2).saturating_add(16 << 20),
         per_tile: crate::budget::bytes(tile_pixels, 1, per_pixel),
         tiles: tiling.count() as u64,
+        after: crate::budget::bytes(width.into(), height.into(), 13),
     }
 }
 

@@ -53,6 +53,8 @@ pub struct EncodeSettings {
     /// Mean key point area (pixels per luma key point) above which the network's
     /// steps shrink in proportion ([`network_step_factor`]).
     pub sparse_area: f64,
+    /// Fit restoration filters to the decoded planes (else none).
+    pub restoration: bool,
 }
 
 /// Detail-layer luma step at quality 0; it falls log-quadratically to
@@ -289,6 +291,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         colour_basis: ColourBasis::Luma,
         level_steps: true,
         sparse_area: PHOTO_NETWORK.sparse_area,
+        restoration: true,
     }
 }
 

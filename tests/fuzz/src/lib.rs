@@ -29,6 +29,7 @@ use caoen::codec::detail::{
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
 use caoen::codec::quadtree::TreeShape;
+use caoen::codec::restoration::{self, Restoration};
 use caoen::codec::tiling::SIDE_UNIT;
 use caoen::codec::ColourBasis;
 use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
@@ -312,6 +313,21 @@ fn choose_header(c: &mut Choices) -> Header {
         level_steps: c.bit(),
         weights: (detail_steps.is_some() && c.bit()).then(|| FrequencyWeights {
             tilts: [c.byte(), c.byte()],
+        }),
+        restoration: c.bit().then(|| {
+            let mut planes: Vec<Option<Vec<i32>>> = (0..layout.colour_channels())
+                .map(|p| {
+                    c.bit().then(|| {
+                        (0..restoration::shape(p).len())
+                            .map(|_| (i32::from(c.byte()) - 128) * 7)
+                            .collect()
+                    })
+                })
+                .collect();
+            if planes.iter().all(Option::is_none) {
+                planes[0] = Some(vec![0; restoration::shape(0).len()]);
+            }
+            Restoration { planes }
         }),
     }
 }

@@ -419,6 +419,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 tag::EXIF => "EXIF",
                 tag::XMP => "XMP",
                 tag::TILE => "tile",
+                tag::RESTORATION => "restoration",
                 tag::END => "end",
                 _ => "unknown",
             };
@@ -452,6 +453,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "colour_basis": colour_basis_name(h),
             "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2), "activity_field_region_px": a.field().map(|l| 1u32 << l)})),
             "frequency_tilts": h.weights.map(|w| json!({"luma": w.tilt(0), "chroma": w.tilt(1)})),
+            "restoration": h.restoration.as_ref().map(|r| r.planes.iter().map(|p| p.as_ref().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>())).collect::<Vec<_>>()),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
@@ -558,6 +560,22 @@ pub fn info(a: &InfoArgs) -> CliResult {
             }
         ),
         None => outln!(text, "detail:      none"),
+    }
+    match &h.restoration {
+        Some(r) => {
+            let names = ["Y", "C1", "C2"];
+            let planes: Vec<String> = r
+                .planes
+                .iter()
+                .enumerate()
+                .filter_map(|(c, p)| {
+                    p.as_ref()
+                        .map(|t| format!("{} ({} taps)", names.get(c).unwrap_or(&"?"), t.len()))
+                })
+                .collect();
+            outln!(text, "restoration: {}", planes.join(", "));
+        }
+        None => outln!(text, "restoration: none"),
     }
     outln!(
         text,

@@ -19,7 +19,7 @@ mod parse;
 mod reconstruct;
 
 pub use parse::{read, read_parsed};
-pub(crate) use reconstruct::{fill_holes, to_raster};
+pub(crate) use reconstruct::{fill_holes, to_raster, unrestored_bands};
 #[cfg(feature = "internals")]
 pub use reconstruct::{
     render_forward, render_identity, render_identity_raster, render_identity_raster_on,
@@ -89,8 +89,9 @@ const KEY_POINT_BYTES: u64 = 256;
 
 /// Estimated peak memory of decoding a file with `header` to `ow x oh` pixels, in
 /// bytes: the key points, the output of `sample_bytes` per sample (4 for a raster, 1
-/// or 2 for [`decode_interleaved`]) and, for forward mapping with `S x S` samples, the
-/// sample lattice and the accumulation planes.
+/// or 2 for [`decode_interleaved`]), the whole coding planes (4 bytes per sample) when
+/// the file restores and, for forward mapping with `S x S` samples, the sample lattice
+/// and the accumulation planes.
 pub fn decode_memory(
     header: &Header,
     (ow, oh): (u32, u32),
@@ -99,11 +100,14 @@ pub fn decode_memory(
 ) -> u64 {
     let channels = header.layout.channels() as u64;
     let keys = (u64::from(header.luma_count) + u64::from(header.chroma_count)) * KEY_POINT_BYTES;
+    let restored = header.restoration.as_ref().is_some_and(|r| r.any());
     let per_pixel = match supersample {
+        None if restored => (sample_bytes + 4) * channels,
         None => sample_bytes * channels,
         Some(s) => {
             let s = u64::from(s);
-            4 * channels + 4 * channels * s * s + 8 * channels + 8
+            // Restoring the lattice makes one plane of it at a time.
+            4 * channels + 4 * (channels + u64::from(restored)) * s * s + 8 * channels + 8
         }
     };
     keys.saturating_add(crate::budget::bytes(ow.into(), oh.into(), per_pixel))

@@ -39,6 +39,9 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
         let mut out: Vec<&mut [f32]> = colour.iter_mut().map(|p| p.as_mut_slice()).collect();
         DetailEval::new(detail, &grid).add_rows(0, &mut out);
     }
+    if let Some(r) = &h.restoration {
+        r.apply(&mut colour, (ow as usize, oh as usize), spacing(h, ow, oh));
+    }
     CodingPlanes {
         colour,
         alpha: luma.next().filter(|_| h.layout.has_alpha()),
@@ -170,6 +173,8 @@ pub(super) fn band_pass(
 ) -> Result<Raster, CodecError> {
     let n = ow as usize * oh as usize;
     debug_assert_eq!(samples.len(), n * h.layout.channels());
+    let restored = restored_planes(h, luma, chroma, detail, (ow, oh));
+    let restored = restored.as_ref();
     // Each band's rows of every output plane, handed to one task.
     let band_len = GridEval::BAND * ow as usize;
     let mut bands: Vec<Vec<&mut [f32]>> = (0..luma.bands()).map(|_| Vec::new()).collect();
@@ -181,7 +186,15 @@ pub(super) fn band_pass(
     let finite = bands.into_par_iter().enumerate().map_init(
         || (BandScratch::default(), Vec::new()),
         |(scratch, coding), (b, mut out)| {
-            band_colours(h, luma, chroma, detail, b, scratch, coding, &mut out);
+            band_colours(
+                h,
+                (luma, chroma, detail),
+                restored,
+                b,
+                scratch,
+                coding,
+                &mut out,
+            );
             // Checked here, in cache, rather than by a pass over the whole raster. The
             // colour conversion clamps, so only a kernel sum that underflowed could
             // leave a non-finite sample; chunked folds vectorise.
@@ -197,22 +210,29 @@ pub(super) fn band_pass(
     Raster::from_finite(ow, oh, h.layout, h.format, samples).map_err(CodecError::DecodedRaster)
 }
 
-/// Evaluates band `b` of both key sets into `coding` and converts it to the output
-/// colours in `out` (one slice per channel, the band's pixels).
-#[allow(clippy::too_many_arguments)]
-fn band_colours(
+/// The evaluators of an identity decode: luma, chroma and the detail layer.
+type Evaluators<'a> = (
+    &'a GridEval<'a>,
+    Option<&'a GridEval<'a>>,
+    Option<&'a DetailEval>,
+);
+
+/// Output pixels' spacing in coded pixels.
+fn spacing(h: &Header, ow: u32, oh: u32) -> (f64, f64) {
+    (h.width as f64 / ow as f64, h.height as f64 / oh as f64)
+}
+
+/// Evaluates band `b` of both key sets and the detail layer into `coding`: one slice
+/// of the band's pixels per coding plane (Y, alpha if any, then C1 and C2).
+fn band_coding(
     h: &Header,
-    luma: &GridEval,
-    chroma: Option<&GridEval>,
-    detail: Option<&DetailEval>,
+    (luma, chroma, detail): Evaluators,
     b: usize,
+    len: usize,
     scratch: &mut BandScratch,
     coding: &mut Vec<f32>,
-    out: &mut [&mut [f32]],
 ) {
-    let len = out[0].len();
-    let alpha = h.layout.has_alpha();
-    let nl = 1 + usize::from(alpha);
+    let nl = 1 + usize::from(h.layout.has_alpha());
     let nch = if chroma.is_some() { 2 } else { 0 };
     // Every value is overwritten below: no need to clear.
     coding.resize((nl + nch) * len, 0.0f32);
@@ -230,10 +250,142 @@ fn band_colours(
             .collect();
         detail.add_rows(b * GridEval::BAND, &mut colour);
     }
-    let colour: Vec<&[f32]> = std::iter::once(&*lp[0])
-        .chain(cp.iter().map(|p| &**p))
-        .collect();
-    colour::inverse_span(&colour, alpha.then(|| &*lp[1]), out, h.format, h.basis);
+}
+
+/// The whole output's coding planes (as [`band_coding`] orders them) before
+/// restoration, when the file restores: the filter reaches across bands.
+struct Restored {
+    planes: Vec<Vec<f32>>,
+    size: (usize, usize),
+    spacing: (f64, f64),
+}
+
+fn restored_planes(
+    h: &Header,
+    luma: &GridEval,
+    chroma: Option<&GridEval>,
+    detail: Option<&DetailEval>,
+    (ow, oh): (u32, u32),
+) -> Option<Restored> {
+    h.restoration.as_ref().filter(|r| r.any())?;
+    Some(Restored {
+        planes: banded_coding(h, (luma, chroma, detail), (ow, oh)),
+        size: (ow as usize, oh as usize),
+        spacing: spacing(h, ow, oh),
+    })
+}
+
+/// The whole output's coding planes, as [`band_coding`] orders them, bands in parallel.
+fn banded_coding(h: &Header, eval: Evaluators, (ow, oh): (u32, u32)) -> Vec<Vec<f32>> {
+    let w = ow as usize;
+    let nl = 1 + usize::from(h.layout.has_alpha());
+    let np = nl + if eval.1.is_some() { 2 } else { 0 };
+    let mut planes = vec![vec![0.0f32; w * oh as usize]; np];
+    let band_len = GridEval::BAND * w;
+    let mut bands: Vec<Vec<&mut [f32]>> = (0..eval.0.bands()).map(|_| Vec::new()).collect();
+    for plane in planes.iter_mut() {
+        for (b, rows) in plane.chunks_mut(band_len).enumerate() {
+            bands[b].push(rows);
+        }
+    }
+    bands.into_par_iter().enumerate().for_each_init(
+        || (BandScratch::default(), Vec::new()),
+        |(scratch, coding), (b, mut out)| {
+            let len = out[0].len();
+            band_coding(h, eval, b, len, scratch, coding);
+            for (o, c) in out.iter_mut().zip(coding.chunks_exact(len)) {
+                o.copy_from_slice(c);
+            }
+        },
+    );
+    planes
+}
+
+/// The colour planes (Y, or Y, C1, C2) of bands `bands` (of [`GridEval::BAND`] rows)
+/// of `d` at its coded size, before restoration, one entry per band: what the encoder
+/// fits the restoration filters to.
+pub(crate) fn unrestored_bands(d: &Decoded, bands: &[usize]) -> Vec<Vec<Vec<f32>>> {
+    let h = &d.header;
+    let frame = Frame::new(h.width, h.height);
+    let grid = Grid::pixel_centres(&frame, h.width, h.height);
+    let to_f32 = |planes: &[Vec<f64>]| -> Vec<Vec<f32>> {
+        planes
+            .iter()
+            .map(|v| v.iter().map(|&x| x as f32).collect())
+            .collect()
+    };
+    let luma =
+        GridEval::new(frame, &d.luma_cells, h.kernel, &grid).with_values(to_f32(&d.luma_values));
+    let chroma = (!d.chroma_cells.is_empty()).then(|| {
+        GridEval::new(frame, &d.chroma_cells, h.kernel, &grid).with_values(to_f32(&d.chroma_values))
+    });
+    let detail = d.detail.as_ref().map(|l| DetailEval::new(l, &grid));
+    let eval = (&luma, chroma.as_ref(), detail.as_ref());
+    let w = h.width as usize;
+    let alpha = h.layout.has_alpha();
+    bands
+        .par_iter()
+        .map_init(
+            || (BandScratch::default(), Vec::new()),
+            |(scratch, coding), &b| {
+                let rows = (h.height as usize - b * GridEval::BAND).min(GridEval::BAND);
+                let len = rows * w;
+                band_coding(h, eval, b, len, scratch, coding);
+                coding
+                    .chunks_exact(len)
+                    .enumerate()
+                    .filter(|&(c, _)| !(alpha && c == 1))
+                    .map(|(_, p)| p.to_vec())
+                    .collect()
+            },
+        )
+        .collect()
+}
+
+/// Band `b` of the coding planes (evaluated, or restored from `restored`), converted
+/// to the output colours in `out` (one slice per channel, the band's pixels).
+fn band_colours(
+    h: &Header,
+    eval: Evaluators,
+    restored: Option<&Restored>,
+    b: usize,
+    scratch: &mut BandScratch,
+    coding: &mut Vec<f32>,
+    out: &mut [&mut [f32]],
+) {
+    let len = out[0].len();
+    let alpha = h.layout.has_alpha();
+    let nl = 1 + usize::from(alpha);
+    match restored {
+        None => band_coding(h, eval, b, len, scratch, coding),
+        Some(r) => {
+            let np = r.planes.len();
+            coding.resize(np * len, 0.0f32);
+            let (w, hh) = r.size;
+            let rows = b * GridEval::BAND..(b * GridEval::BAND + len / w).min(hh);
+            let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
+            if alpha {
+                parts[1].copy_from_slice(&r.planes[1][rows.start * w..rows.end * w]);
+            }
+            let colour_idx: Vec<usize> = std::iter::once(0).chain(nl..np).collect();
+            let src: Vec<&[f32]> = colour_idx.iter().map(|&c| r.planes[c].as_slice()).collect();
+            let mut dst: Vec<&mut [f32]> = parts
+                .into_iter()
+                .enumerate()
+                .filter(|(c, _)| colour_idx.contains(c))
+                .map(|(_, p)| p)
+                .collect();
+            let restoration = h
+                .restoration
+                .as_ref()
+                .expect("restored planes come from a restoration");
+            restoration.apply_rows(&src, r.size, r.spacing, rows, &mut dst);
+        }
+    }
+    let parts: Vec<&[f32]> = coding.chunks_exact(len).collect();
+    let (lp, cp) = parts.split_at(nl);
+    let colour: Vec<&[f32]> = std::iter::once(lp[0]).chain(cp.iter().copied()).collect();
+    colour::inverse_span(&colour, alpha.then(|| lp[1]), out, h.format, h.basis);
 }
 
 /// [`band_pass`] into interleaved samples converted by `convert`: each band is
@@ -250,6 +402,9 @@ pub(super) fn band_pass_interleaved<T: Send>(
 ) -> bool {
     let ch = h.layout.channels();
     let band_len = GridEval::BAND * ow as usize;
+    let oh = out.len() / ch / ow as usize;
+    let restored = restored_planes(h, luma, chroma, detail, (ow, oh as u32));
+    let restored = restored.as_ref();
     out.par_chunks_mut(band_len * ch)
         .enumerate()
         .map_init(
@@ -258,7 +413,15 @@ pub(super) fn band_pass_interleaved<T: Send>(
                 let len = out.len() / ch;
                 planar.resize(ch * len, 0.0f32);
                 let mut planes: Vec<&mut [f32]> = planar.chunks_exact_mut(len).collect();
-                band_colours(h, luma, chroma, detail, b, scratch, coding, &mut planes);
+                band_colours(
+                    h,
+                    (luma, chroma, detail),
+                    restored,
+                    b,
+                    scratch,
+                    coding,
+                    &mut planes,
+                );
                 let finite = planar.iter().fold(true, |ok, v| ok & v.is_finite());
                 for (i, o) in out.iter_mut().enumerate() {
                     *o = convert(planar[(i % ch) * len + i / ch]);
@@ -322,6 +485,17 @@ pub fn render_forward(
             for (s, v) in samples[c].iter_mut().zip(plane) {
                 *s += v;
             }
+        }
+    }
+    if let Some(r) = &h.restoration {
+        // The lattice is the output this path samples the picture on.
+        let mut colour: Vec<Vec<f32>> = std::iter::once(0)
+            .chain(nl..samples.len())
+            .map(|c| std::mem::take(&mut samples[c]))
+            .collect();
+        r.apply(&mut colour, (grid.nx, grid.ny), (grid.dx, grid.dy));
+        for (c, plane) in std::iter::once(0).chain(nl..samples.len()).zip(colour) {
+            samples[c] = plane;
         }
     }
     let nc = samples.len();
@@ -438,7 +612,9 @@ pub fn to_raster<T: colour::CodingValue>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::codec::bitstream::TileStreams;
     use crate::codec::decoder::read;
+    use crate::codec::restoration::{shape, Restoration};
     use crate::codec::{decode, encode, DecodeOptions, EncodeOptions};
     use crate::raster::{ChannelLayout, SampleFormat};
 
@@ -472,40 +648,66 @@ mod tests {
                 quality: 90.0,
                 ..EncodeOptions::default()
             };
-            let bytes = encode(&img, &opts).unwrap();
-            let d = read(&bytes, u64::MAX).unwrap();
-            // Coded size, then up- and downscaled: bands of every height, the last short.
-            for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
-                let fused = render_identity_raster(&d, ow, oh).unwrap();
-                let reference = to_raster(&d.header, render_identity(&d, ow, oh), ow, oh);
-                assert_eq!(
-                    fused.samples(),
-                    reference.samples(),
-                    "{layout:?} {format:?} at {ow}x{oh}"
-                );
-                assert_eq!((fused.layout(), fused.format()), (layout, format));
-                // The portable scalar path gives the same bits as the vector unit.
-                let scalar = render_identity_raster_on(&d, ow, oh, Vectorisation::Scalar).unwrap();
-                assert_eq!(
-                    scalar.samples(),
-                    fused.samples(),
-                    "scalar vs dispatched ({}) at {ow}x{oh}",
-                    if crate::codec::keyset::has_vector_unit() {
-                        "vector unit"
-                    } else {
-                        "no vector unit on this CPU"
-                    }
-                );
-                // The overlapped decoder builds the same evaluators in another order.
-                let decoded = decode(
-                    &bytes,
-                    &DecodeOptions {
-                        size: Some((ow, oh)),
-                        ..DecodeOptions::default()
-                    },
-                )
-                .unwrap();
-                assert_eq!(decoded.samples(), fused.samples(), "decode at {ow}x{oh}");
+            let plain = encode(&img, &opts).unwrap();
+            // The same file restored: strong taps, so every plane's filter shows.
+            let restored = {
+                let parsed = bitstream::parse(&plain, u64::MAX).unwrap();
+                let mut header = parsed.header.clone();
+                header.restoration = Some(Restoration {
+                    planes: (0..layout.colour_channels())
+                        .map(|c| Some((0..shape(c).len() as i32).map(|k| 40 - 9 * k).collect()))
+                        .collect(),
+                });
+                let tiles: Vec<TileStreams> = parsed
+                    .tiles
+                    .iter()
+                    .map(|t| TileStreams {
+                        luma_count: t.luma_count,
+                        chroma_count: t.chroma_count,
+                        tree: t.tree.to_vec(),
+                        luma: t.luma.to_vec(),
+                        chroma: t.chroma.to_vec(),
+                        detail: t.detail.to_vec(),
+                    })
+                    .collect();
+                bitstream::write(&header, &parsed.metadata(), &tiles)
+            };
+            for bytes in [plain, restored] {
+                let d = read(&bytes, u64::MAX).unwrap();
+                // Coded size, then up- and downscaled: bands of every height, the last short.
+                for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
+                    let fused = render_identity_raster(&d, ow, oh).unwrap();
+                    let reference = to_raster(&d.header, render_identity(&d, ow, oh), ow, oh);
+                    assert_eq!(
+                        fused.samples(),
+                        reference.samples(),
+                        "{layout:?} {format:?} at {ow}x{oh}"
+                    );
+                    assert_eq!((fused.layout(), fused.format()), (layout, format));
+                    // The portable scalar path gives the same bits as the vector unit.
+                    let scalar =
+                        render_identity_raster_on(&d, ow, oh, Vectorisation::Scalar).unwrap();
+                    assert_eq!(
+                        scalar.samples(),
+                        fused.samples(),
+                        "scalar vs dispatched ({}) at {ow}x{oh}",
+                        if crate::codec::keyset::has_vector_unit() {
+                            "vector unit"
+                        } else {
+                            "no vector unit on this CPU"
+                        }
+                    );
+                    // The overlapped decoder builds the same evaluators in another order.
+                    let decoded = decode(
+                        &bytes,
+                        &DecodeOptions {
+                            size: Some((ow, oh)),
+                            ..DecodeOptions::default()
+                        },
+                    )
+                    .unwrap();
+                    assert_eq!(decoded.samples(), fused.samples(), "decode at {ow}x{oh}");
+                }
             }
         }
     }

@@ -1,0 +1,218 @@
+//! Restoration filters through the whole codec: the encoder fits them where they pay,
+//! the decoder's every path applies them alike, and they lower the error they were
+//! fitted to; damaged restoration sections are errors.
+
+use caoen::codec::bitstream::{self, tag, TileStreams};
+use caoen::codec::restoration::Restoration;
+use caoen::codec::{decode, encode, inspect, CodecError, DecodeOptions, EncodeOptions};
+use caoen::image_io;
+use caoen::metrics::psnr;
+use caoen::raster::Raster;
+
+fn natural(w: u32, h: u32, seed: u64) -> Raster {
+    let img = caoen_corpus::Spec {
+        class: caoen_corpus::Class::Natural,
+        width: w,
+        height: h,
+        seed,
+    }
+    .generate();
+    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
+}
+
+/// `bytes` rewritten with `f` applied to its header.
+fn rewrite(bytes: &[u8], f: impl FnOnce(&mut bitstream::Header)) -> Vec<u8> {
+    let parsed = bitstream::parse(bytes, u64::MAX).unwrap();
+    let mut header = parsed.header.clone();
+    f(&mut header);
+    let tiles: Vec<TileStreams> = parsed
+        .tiles
+        .iter()
+        .map(|t| TileStreams {
+            luma_count: t.luma_count,
+            chroma_count: t.chroma_count,
+            tree: t.tree.to_vec(),
+            luma: t.luma.to_vec(),
+            chroma: t.chroma.to_vec(),
+            detail: t.detail.to_vec(),
+        })
+        .collect();
+    bitstream::write(&header, &parsed.metadata(), &tiles)
+}
+
+#[test]
+fn the_encoder_restores_where_it_pays_and_the_filter_lowers_the_error() {
+    let img = natural(200, 150, 4);
+    let mut restored_any = false;
+    for q in [20.0, 45.0, 70.0] {
+        let opts = EncodeOptions {
+            quality: q,
+            ..EncodeOptions::default()
+        };
+        let bytes = encode(&img, &opts).unwrap();
+        let header = inspect(&bytes).unwrap().header;
+        let Some(r) = header.restoration else {
+            continue;
+        };
+        restored_any = true;
+        let with = decode(&bytes, &DecodeOptions::default()).unwrap();
+        let without = decode(
+            &rewrite(&bytes, |h| h.restoration = None),
+            &DecodeOptions::default(),
+        )
+        .unwrap();
+        let (p_with, p_without) = (psnr(&img, &with).unwrap(), psnr(&img, &without).unwrap());
+        assert!(
+            p_with > p_without,
+            "q{q}: {p_with:.4} dB restored, {p_without:.4} dB without ({r:?})"
+        );
+    }
+    assert!(restored_any, "no quality restored a noisy natural image");
+}
+
+#[test]
+fn a_resized_decode_restores_like_the_coded_size() {
+    // At twice the size each offset spans two output pixels: what the filter changes
+    // there, averaged back over 2x2 pixels, is what it changes at the coded size.
+    let (w, h) = (160u32, 120u32);
+    let img = natural(w, h, 9);
+    let opts = EncodeOptions {
+        quality: 25.0,
+        ..EncodeOptions::default()
+    };
+    let plain = encode(&img, &opts).unwrap();
+    let plain = rewrite(&plain, |h| h.restoration = None);
+    // A smoothing luma filter and a sharpening chroma one.
+    let bytes = rewrite(&plain, |h| {
+        h.restoration = Some(Restoration {
+            planes: vec![
+                Some(vec![30, 8, 2, 0, 6, 20, 6, 0, 0, 4, 0, 1]),
+                Some(vec![-20, -4, -5, -20, -5, -4]),
+                None,
+            ],
+        })
+    });
+    let at = |b: &[u8], size| {
+        decode(
+            b,
+            &DecodeOptions {
+                size: Some(size),
+                ..DecodeOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    let change = |size: (u32, u32)| -> Vec<f64> {
+        let (a, b) = (at(&bytes, size), at(&plain, size));
+        a.samples()
+            .iter()
+            .zip(b.samples())
+            .map(|(&x, &y)| (x - y) as f64)
+            .collect()
+    };
+    let native = change((w, h));
+    let double = change((2 * w, 2 * h));
+    let (wu, hu) = (w as usize, h as usize);
+    let mut averaged = vec![0.0; native.len()];
+    for c in 0..3 {
+        for y in 0..hu {
+            for x in 0..wu {
+                let at2 = |dx: usize, dy: usize| {
+                    double[c * 4 * wu * hu + (2 * y + dy) * 2 * wu + 2 * x + dx]
+                };
+                averaged[c * wu * hu + y * wu + x] =
+                    (at2(0, 0) + at2(1, 0) + at2(0, 1) + at2(1, 1)) / 4.0;
+            }
+        }
+    }
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    let corr = dot(&native, &averaged) / (dot(&native, &native) * dot(&averaged, &averaged)).sqrt();
+    assert!(
+        dot(&native, &native) > 0.0,
+        "the filter changes the coded-size decode"
+    );
+    assert!(
+        corr > 0.6,
+        "correlation {corr:.3} of the filter's changes at 1x and 2x"
+    );
+    // Forward mapping with supersampling applies it on its lattice: at the coded size
+    // it is the identity path's image.
+    let forward = decode(
+        &bytes,
+        &DecodeOptions {
+            supersample: Some(2),
+            ..DecodeOptions::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        forward.samples(),
+        decode(&bytes, &DecodeOptions::default()).unwrap().samples()
+    );
+}
+
+#[test]
+fn damaged_restoration_sections_are_errors() {
+    let img = natural(64, 48, 2);
+    let bytes = encode(
+        &img,
+        &EncodeOptions {
+            quality: 30.0,
+            ..EncodeOptions::default()
+        },
+    )
+    .unwrap();
+    let sections = inspect(&bytes).unwrap().sections;
+    let header = sections[0].offset;
+    // A section with the given tag and payload, CRC and all.
+    let section = |t: u8, payload: &[u8]| {
+        let mut out = vec![t];
+        out.extend((payload.len() as u32).to_le_bytes());
+        out.extend_from_slice(payload);
+        let crc = crc32fast::hash(&out);
+        out.extend(crc.to_le_bytes());
+        out
+    };
+    let unrestored = rewrite(&bytes, |h| h.restoration = None);
+    let end_of = |b: &[u8]| {
+        inspect(b)
+            .unwrap()
+            .sections
+            .iter()
+            .find(|s| s.tag == tag::END)
+            .unwrap()
+            .offset
+    };
+    let e = end_of(&unrestored);
+    let with = |payload: &[u8]| {
+        [
+            &unrestored[..e],
+            &section(tag::RESTORATION, payload),
+            &unrestored[e..],
+        ]
+        .concat()
+    };
+    for payload in [
+        &[][..],
+        &[0][..],
+        &[8, 0][..],
+        &[1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0][..],
+    ] {
+        match decode(&with(payload), &DecodeOptions::default()) {
+            Err(CodecError::Restoration { .. }) => {}
+            other => panic!("{payload:?}: {other:?}"),
+        }
+    }
+    // Before the tiles it is out of order.
+    let h_end = header + 9 + sections[0].payload.len();
+    let early = [
+        &unrestored[..h_end],
+        &section(tag::RESTORATION, &[1, 0x80, 0x80]),
+        &unrestored[h_end..],
+    ]
+    .concat();
+    assert!(matches!(
+        decode(&early, &DecodeOptions::default()),
+        Err(CodecError::SectionOrder { .. })
+    ));
+}
