@@ -95,7 +95,7 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
         }
         out.push(Some(taps));
     }
-    if bits.pos.div_ceil(8) != rest.len() || bits.pos % 8 != 0 && rest[bits.pos / 8] << (bits.pos % 8) != 0 {
+    if bits.pos.div_ceil(8) != rest.len() || !bits.pos.is_multiple_of(8) && rest[bits.pos / 8] << (bits.pos % 8) != 0 {
         return Err(bad("bytes or bits follow the taps"));
     }
     Ok(Restoration { planes: out })
