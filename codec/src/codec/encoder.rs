@@ -548,13 +548,21 @@ pub fn encode_with(
     Ok((bytes, stats))
 }
 
-/// Pixels the restoration filters' sums see at most: a dozen taps are fitted as well
-/// from a hundred thousand pixels as from forty million.
-const RESTORATION_SAMPLES: u64 = 1 << 17;
+/// How fast the codec's squared error falls with its rate on photographs: as
+/// `rate^-1.1`, 3.3 dB per doubling (`docs/benchmarks.md`).
+const RESTORATION_SLOPE: f64 = 1.1;
+/// Evaluation bands in each group the restoration fit samples.
+const RESTORATION_GROUP: usize = 3;
+/// Bytes of a restoration section besides its taps: tag, length, CRC and mask.
+const RESTORATION_SECTION_BYTES: usize = 10;
+/// Pixels the restoration filters' sums see at most. A filter that helps where it was
+/// fitted can hurt a region it never saw (smoothing a sharp one), so the sums see most
+/// of a photograph's rows and half a million pixels of a larger image.
+const RESTORATION_SAMPLES: u64 = 1 << 19;
 
 /// The restoration filters for the file `bytes` (all but the filters coded): each
 /// colour plane's least-squares filter from the decoded planes against the source's,
-/// where it pays for its bits at the detail layer's price of a bit.
+/// where it pays for its bits at the price the codec's own curve puts on a bit.
 ///
 /// The sums take the rows of every few evaluation bands that are at least the
 /// filters' reach from the band's edges, so only those bands are evaluated.
@@ -565,26 +573,41 @@ fn fit_restoration(
 ) -> Result<Option<Restoration>, CodecError> {
     let (w, h) = (src.width(), src.height());
     let (wu, hu) = (w as usize, h as usize);
+    // Groups of GROUP evaluation bands, every few bands, rows their reach from the
+    // group's edges: the rows cover every phase of the 8x8 blocks (a single band's
+    // inner rows would miss the rows by every other horizontal block edge).
     let band = GridEval::BAND;
     let reach = restoration::RADIUS;
-    let inner = band - 2 * reach;
+    let span = RESTORATION_GROUP * band;
     let bands = hu.div_ceil(band);
-    let every = ((bands * inner * wu) as u64).div_ceil(RESTORATION_SAMPLES).max(1) as usize;
-    let sampled: Vec<usize> = (0..bands).step_by(every).collect();
+    let per_group = ((span - 2 * reach) * wu) as u64;
+    let groups = (RESTORATION_SAMPLES / per_group.max(1)).max(1) as usize;
+    let every = bands.div_ceil(groups).max(RESTORATION_GROUP);
+    let starts: Vec<usize> = (0..bands).step_by(every).collect();
+    let needed: Vec<usize> = starts.iter().flat_map(|&g| g..(g + RESTORATION_GROUP).min(bands)).collect();
     let parsed = bitstream::parse(bytes, u64::MAX)?;
     let decoded = crate::codec::decoder::read_parsed(&parsed)?;
-    let evaluated = crate::codec::decoder::unrestored_bands(&decoded, &sampled);
+    let mut evaluated = crate::codec::decoder::unrestored_bands(&decoded, &needed).into_iter();
     drop(decoded);
     let planes = src.layout().colour_channels();
-    // Each band's sampled rows are contiguous: one source read and one sum per band.
-    // Every row they reach is in the band (or clamped at the image's edge as it is).
-    let chunks: Vec<Vec<Stats>> = sampled
+    // Each group's planes, its bands stacked.
+    let stacked: Vec<Vec<Vec<f32>>> = starts
+        .iter()
+        .map(|&g| {
+            let n = (g + RESTORATION_GROUP).min(bands) - g;
+            let parts: Vec<Vec<Vec<f32>>> = evaluated.by_ref().take(n).collect();
+            (0..planes).map(|c| parts.iter().flat_map(|p| p[c].iter().copied()).collect()).collect()
+        })
+        .collect();
+    // One source read and one sum per group; every row the sums reach is in the group
+    // (or clamped at the image's edge as it is).
+    let chunks: Vec<Vec<Stats>> = starts
         .par_iter()
-        .zip(&evaluated)
-        .map(|(&b, decoded)| {
-            let y0 = b * band;
-            let band_rows = (hu - y0).min(band);
-            let rows = reach..(band - reach).min(band_rows);
+        .zip(&stacked)
+        .map(|(&g, decoded)| {
+            let y0 = g * band;
+            let group_rows = (hu - y0).min(span);
+            let rows = reach..(span - reach).min(group_rows);
             let mut stats: Vec<Stats> = (0..planes).map(Stats::new).collect();
             if rows.is_empty() {
                 return stats;
@@ -597,24 +620,47 @@ fn fit_restoration(
             };
             let source = coding_planes(&src.region(rect), s).colour;
             for (c, (decoded, source)) in decoded.iter().zip(&source).enumerate() {
-                stats[c].accumulate(c, decoded, source, (wu, band_rows), rows.clone(), 1);
+                stats[c].accumulate(c, decoded, source, (wu, group_rows), rows.clone(), 1);
             }
             stats
         })
         .collect();
-    let mut filters = Vec::with_capacity(planes);
-    for c in 0..planes {
-        let mut total = Stats::new(c);
-        for chunk in &chunks {
-            total.add(&chunk[c]);
-        }
-        let step = if c == 0 {
-            s.detail_step_luma
-        } else {
-            s.detail_step_chroma
-        };
-        let scale = (wu * hu) as f64 / total.samples.max(1) as f64;
-        filters.push(restoration::fit::fit(&total, scale, s.detail_lambda * step * step));
+    let sum = |pick: &dyn Fn(usize) -> bool| -> Vec<Stats> {
+        (0..planes)
+            .map(|c| {
+                let mut total = Stats::new(c);
+                for (_, chunk) in chunks.iter().enumerate().filter(|(i, _)| pick(*i)) {
+                    total.add(&chunk[c]);
+                }
+                total
+            })
+            .collect()
+    };
+    let totals = sum(&|_| true);
+    // The groups in two halves: a filter must lower the error in both, so it follows
+    // the picture rather than the sums' noise.
+    let halves = [sum(&|i| i % 2 == 0), sum(&|i| i % 2 == 1)];
+    let scale = (wu * hu) as f64 / totals[0].samples.max(1) as f64;
+    // A bit is worth what the codec's own curve trades for it here: its distortion
+    // falls as rate^-RESTORATION_SLOPE, so a bit more lowers it by SLOPE D / R.
+    let error: f64 = totals.iter().map(|t| t.error).sum::<f64>() * scale;
+    let bit_cost = RESTORATION_SLOPE * error / (8 * bytes.len()) as f64;
+    let filters: Vec<Option<Vec<i32>>> = totals
+        .iter()
+        .enumerate()
+        .map(|(c, t)| {
+            restoration::fit::fit(t, scale, bit_cost)
+                .filter(|f| halves.iter().all(|h| h[c].samples == 0 || h[c].gain(f) > 0.0))
+        })
+        .collect();
+    // The section's own bytes (tag, length, CRC, mask) are paid once.
+    let net: f64 = totals
+        .iter()
+        .zip(&filters)
+        .filter_map(|(t, f)| f.as_ref().map(|f| t.gain(f) * scale - bit_cost * restoration::syntax::tap_bits_all(f) as f64))
+        .sum();
+    if net < bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64 {
+        return Ok(None);
     }
     let r = Restoration { planes: filters };
     Ok(r.any().then_some(r))

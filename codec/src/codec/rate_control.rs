@@ -326,6 +326,10 @@ impl EncodeSettings {
             // BT.601 luma is a display-referred weighting: float images keep the grey
             // basis, whose error is the same in every direction.
             self.colour_basis = ColourBasis::Grey;
+            // The filters are fitted in the coding planes' log-like curve, and on the
+            // corpus's float images they cost more than they gained by the bench's
+            // measure (`docs/codec-ablation.md`, "Restoration filters").
+            self.restoration = false;
             self = self.with_network(HDR_NETWORK);
         }
         self

@@ -18,6 +18,8 @@ pub struct Stats {
     /// `A`, row-major, upper triangle filled.
     a: Vec<f64>,
     b: Vec<f64>,
+    /// The squared error before filtering, `sum e^2`.
+    pub error: f64,
     /// Pixels seen.
     pub samples: u64,
 }
@@ -30,6 +32,7 @@ impl Stats {
             k,
             a: vec![0.0; k * k],
             b: vec![0.0; k],
+            error: 0.0,
             samples: 0,
         }
     }
@@ -42,6 +45,7 @@ impl Stats {
         for (x, y) in self.b.iter_mut().zip(&other.b) {
             *x += y;
         }
+        self.error += other.error;
         self.samples += other.samples;
     }
 
@@ -104,6 +108,7 @@ impl Stats {
             for x in 0..w {
                 e[x] = src[x] - centre[x] as f64;
             }
+            self.error += dot(&e, &e);
             for i in 0..K {
                 let ri = &r[i * w..(i + 1) * w];
                 self.b[i] += dot(ri, &e);
@@ -138,6 +143,9 @@ impl Stats {
     }
 }
 
+/// The ridge added to the normal equations' diagonal, relative to its mean.
+const RIDGE: f64 = 1e-4;
+
 /// `sum a_i b_i` in eight lanes, then across them.
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut lanes = [0.0f64; 8];
@@ -161,8 +169,8 @@ pub fn fit(stats: &Stats, scale: f64, bit_cost: f64) -> Option<Vec<i32>> {
     }
     let k = stats.k;
     let mut a = stats.matrix();
-    // A whisker of ridge keeps flat planes (A singular) solvable.
-    let ridge = 1e-9 * a.trace() / k as f64 + 1e-12;
+    // A little ridge keeps flat planes (A near singular) from taps that fit noise.
+    let ridge = RIDGE * a.trace() / k as f64 + 1e-12;
     for i in 0..k {
         a[(i, i)] += ridge;
     }
@@ -191,8 +199,9 @@ pub fn fit(stats: &Stats, scale: f64, bit_cost: f64) -> Option<Vec<i32>> {
             break;
         }
     }
-    // The plane's bit in the section's mask is charged too.
-    (best + bit_cost < 0.0).then_some(taps)
+    // Taps at the end of their range are a fit to noise on a plane with next to no
+    // texture; the plane's bit in the section's mask is charged too.
+    (best + bit_cost < 0.0 && taps.iter().all(|t| t.abs() < MAX_TAP)).then_some(taps)
 }
 
 #[cfg(test)]

@@ -17,12 +17,17 @@ pub fn tap_bits(v: i32) -> u32 {
     2 * n + 1 - ORDER
 }
 
+/// Bits of a plane's taps.
+pub fn tap_bits_all(taps: &[i32]) -> u32 {
+    taps.iter().map(|&v| tap_bits(v)).sum()
+}
+
 /// Bits of a whole payload with the planes `planes`.
 pub fn payload_bits(planes: &[Option<Vec<i32>>]) -> u32 {
     8 + planes
         .iter()
         .flatten()
-        .map(|t| t.iter().map(|&v| tap_bits(v)).sum::<u32>())
+        .map(|t| tap_bits_all(t))
         .sum::<u32>()
 }
 

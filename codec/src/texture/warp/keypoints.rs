@@ -53,8 +53,17 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
     let stride = 4 + nc;
     let pl = 2 + nl;
     let mut acc = Splat::new(w, h, nc);
+    // The restoration filters reach this many pixel rows past a band: each band's
+    // lattice is evaluated with them, filtered, and splatted without them.
+    let restoration = hd.restoration.as_ref().filter(|r| r.any());
+    let halo = if restoration.is_some() {
+        crate::codec::restoration::RADIUS
+    } else {
+        0
+    };
     for band in (0..h).step_by(BAND) {
-        let rows: Vec<Vec<f64>> = (band..(band + BAND).min(h))
+        let (y0, y1) = (band.saturating_sub(halo), (band + BAND + halo).min(h));
+        let mut rows: Vec<Vec<f64>> = (y0..y1)
             .into_par_iter()
             .map(|y| -> Result<_, TextureError> {
                 let pts = lat.row(w, y);
@@ -85,7 +94,30 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
                 Ok(out)
             })
             .collect::<Result<_, _>>()?;
-        for row in &rows {
+        if let Some(r) = restoration {
+            // The lattice's colour planes, filtered with the lattice's spacing (the
+            // decoder's forward path does the same on its whole lattice).
+            let colour: Vec<usize> = std::iter::once(4).chain(4 + nl..4 + nc).collect();
+            let size = (w * lat.s(), (y1 - y0) * lat.s());
+            let mut planes: Vec<Vec<f32>> = colour
+                .iter()
+                .map(|&c| {
+                    rows.iter()
+                        .flat_map(|row| row.chunks_exact(stride).map(move |v| v[c] as f32))
+                        .collect()
+                })
+                .collect();
+            r.apply(&mut planes, size, (lat.step, lat.step));
+            for (plane, &c) in planes.iter().zip(&colour) {
+                let mut values = plane.iter();
+                for row in rows.iter_mut() {
+                    for v in row.chunks_exact_mut(stride) {
+                        v[c] = *values.next().expect("one value per lattice point") as f64;
+                    }
+                }
+            }
+        }
+        for row in &rows[band - y0..(band + BAND).min(h) - y0] {
             for v in row.chunks_exact(stride) {
                 acc.add(v[0], v[1], v[2], v[3], &v[4..]);
             }

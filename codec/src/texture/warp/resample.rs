@@ -118,6 +118,11 @@ impl Lattice {
     }
 
     /// Sample positions of pixel row `y`, `[x0, y0, x1, y1, ...]`, sub-row by sub-row.
+    /// Samples per pixel along each axis.
+    pub(super) fn s(&self) -> usize {
+        self.s
+    }
+
     pub(super) fn row(&self, width: usize, y: usize) -> Vec<f64> {
         let s = self.s;
         let mut pts = Vec::with_capacity(width * s * s * 2);
