@@ -564,8 +564,9 @@ const RESTORATION_SAMPLES: u64 = 1 << 19;
 /// colour plane's least-squares filter from the decoded planes against the source's,
 /// where it pays for its bits at the price the codec's own curve puts on a bit.
 ///
-/// The sums take the rows of every few evaluation bands that are at least the
-/// filters' reach from the band's edges, so only those bands are evaluated.
+/// The sums take groups of [`RESTORATION_GROUP`] evaluation bands, every few bands,
+/// each group's rows at least the filters' reach from its edges, so only those bands
+/// are evaluated again.
 fn fit_restoration(
     bytes: &[u8],
     src: &(impl PixelSource + ?Sized),

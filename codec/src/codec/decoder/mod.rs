@@ -2,7 +2,8 @@
 //!
 //! Two evaluation paths: the identity fast path evaluates colours at output pixel
 //! centres band by band (luma and chroma side by side, each band converted to output
-//! colours while in cache); the forward-mapping path samples the domain S x S times per
+//! colours while in cache; with restoration filters, whole coding planes first, then
+//! filtered and converted band by band); the forward-mapping path samples the domain S x S times per
 //! pixel, maps every sample through the core network to an output position and colour,
 //! and splats the colour there (the paper's depth-buffer method in 2-D), filling any
 //! pixel no sample reached from its neighbours.

@@ -260,6 +260,7 @@ struct Restored {
     spacing: (f64, f64),
 }
 
+/// The whole output's coding planes for the restoration filters, if the file has any.
 fn restored_planes(
     h: &Header,
     luma: &GridEval,
