@@ -2,7 +2,7 @@
 //! the decoder's every path applies them alike, and they lower the error they were
 //! fitted to; damaged restoration sections are errors.
 
-use caoen::codec::bitstream::{self, tag, TileStreams};
+use caoen::codec::bitstream::{self, tag, TilePayload, TileStreams};
 use caoen::codec::restoration::Restoration;
 use caoen::codec::{decode, encode, inspect, CodecError, DecodeOptions, EncodeOptions};
 use caoen::image_io;
@@ -25,18 +25,7 @@ fn rewrite(bytes: &[u8], f: impl FnOnce(&mut bitstream::Header)) -> Vec<u8> {
     let parsed = bitstream::parse(bytes, u64::MAX).unwrap();
     let mut header = parsed.header.clone();
     f(&mut header);
-    let tiles: Vec<TileStreams> = parsed
-        .tiles
-        .iter()
-        .map(|t| TileStreams {
-            luma_count: t.luma_count,
-            chroma_count: t.chroma_count,
-            tree: t.tree.to_vec(),
-            luma: t.luma.to_vec(),
-            chroma: t.chroma.to_vec(),
-            detail: t.detail.to_vec(),
-        })
-        .collect();
+    let tiles: Vec<TileStreams> = parsed.tiles.iter().map(TilePayload::to_streams).collect();
     bitstream::write(&header, &parsed.metadata(), &tiles)
 }
 

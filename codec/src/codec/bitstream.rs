@@ -505,6 +505,18 @@ pub struct TilePayload<'a> {
 }
 
 impl<'a> TilePayload<'a> {
+    /// The tile's streams, owned: what [`write()`] takes to write the tile again.
+    pub fn to_streams(&self) -> TileStreams {
+        TileStreams {
+            luma_count: self.luma_count,
+            chroma_count: self.chroma_count,
+            tree: self.tree.to_vec(),
+            luma: self.luma.to_vec(),
+            chroma: self.chroma.to_vec(),
+            detail: self.detail.to_vec(),
+        }
+    }
+
     /// Splits and checks a tile section against the header.
     fn parse(
         p: &'a [u8],

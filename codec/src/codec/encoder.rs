@@ -532,7 +532,9 @@ pub fn encode_with(
         .map(|(m, detail)| TileStreams { detail, ..m.streams })
         .collect();
     let mut bytes = bitstream::write(&header, metadata, &streams);
-    if s.restoration {
+    // Images of one tile only: on camera-size images the fit's decode of the whole file
+    // costs a tenth of the encode, and its sparse rows mislead it (`docs/codec-ablation.md`).
+    if s.restoration && n == 1 {
         let mut header = header;
         header.restoration = fit_restoration(&bytes, img, &s)?;
         if header.restoration.is_some() {

@@ -250,9 +250,11 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     memory.fixed = memory
         .fixed
         .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
-    memory.after = memory
-        .after
-        .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
+    if memory.after > 0 {
+        memory.after = memory
+            .after
+            .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
+    }
     let workers = memory.workers(opts.limits.max_memory, rayon::current_num_threads());
     if workers == 0 {
         return Err(OverBudget {
@@ -346,8 +348,8 @@ impl EncodeMemory {
 /// bound peak RSS measured on noisy photo-like images (the densest trees): about 280
 /// bytes per pixel at quality 5, 360 at 75 and 510 at 100. The whole image keeps its
 /// coded streams (at most 2 bytes per pixel) and its key points, which [`encode`] adds
-/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell. Once the tiles are done,
-/// the restoration fit decodes the file again: its detail layer holds at most a 4-byte
+/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell. An image of one tile is
+/// then decoded again for the restoration fit: its detail layer holds at most a 4-byte
 /// level per coefficient (13 bytes per pixel with the blocks' bookkeeping), and its key
 /// points as many again.
 pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
@@ -365,7 +367,11 @@ pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
         fixed: crate::budget::bytes(width.into(), height.into(), 2).saturating_add(16 << 20),
         per_tile: crate::budget::bytes(tile_pixels, 1, per_pixel),
         tiles: tiling.count() as u64,
-        after: crate::budget::bytes(width.into(), height.into(), 13),
+        after: if tiling.count() == 1 {
+            crate::budget::bytes(width.into(), height.into(), 13)
+        } else {
+            0
+        },
     }
 }
 

@@ -53,7 +53,8 @@ pub struct EncodeSettings {
     /// Mean key point area (pixels per luma key point) above which the network's
     /// steps shrink in proportion ([`network_step_factor`]).
     pub sparse_area: f64,
-    /// Fit restoration filters to the decoded planes (else none).
+    /// Fit restoration filters to the decoded planes (else none; images of more than
+    /// one tile are coded without them).
     pub restoration: bool,
 }
 

@@ -14,7 +14,7 @@
 use std::cell::RefCell;
 use std::path::Path;
 
-use caoen::codec::bitstream::{self, Header, Parsed, TileStreams};
+use caoen::codec::bitstream::{self, Header, Parsed, TilePayload, TileStreams};
 use caoen::codec::decoder;
 use caoen::codec::detail::{
     self,
@@ -157,18 +157,7 @@ pub fn decode(data: &[u8]) -> Outcome {
 
 /// The container written again from its parsed parts must be the input itself.
 fn assert_canonical(data: &[u8], parsed: &Parsed) {
-    let tiles: Vec<TileStreams> = parsed
-        .tiles
-        .iter()
-        .map(|t| TileStreams {
-            luma_count: t.luma_count,
-            chroma_count: t.chroma_count,
-            tree: t.tree.to_vec(),
-            luma: t.luma.to_vec(),
-            chroma: t.chroma.to_vec(),
-            detail: t.detail.to_vec(),
-        })
-        .collect();
+    let tiles: Vec<TileStreams> = parsed.tiles.iter().map(TilePayload::to_streams).collect();
     let again = bitstream::write(&parsed.header, &parsed.metadata(), &tiles);
     if again != data {
         let at = again.iter().zip(data).take_while(|(a, b)| a == b).count();

@@ -613,7 +613,7 @@ pub fn to_raster<T: colour::CodingValue>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::bitstream::TileStreams;
+    use crate::codec::bitstream::{TilePayload, TileStreams};
     use crate::codec::decoder::read;
     use crate::codec::restoration::{shape, Restoration};
     use crate::codec::{decode, encode, DecodeOptions, EncodeOptions};
@@ -659,18 +659,8 @@ mod tests {
                         .map(|c| Some((0..shape(c).len() as i32).map(|k| 40 - 9 * k).collect()))
                         .collect(),
                 });
-                let tiles: Vec<TileStreams> = parsed
-                    .tiles
-                    .iter()
-                    .map(|t| TileStreams {
-                        luma_count: t.luma_count,
-                        chroma_count: t.chroma_count,
-                        tree: t.tree.to_vec(),
-                        luma: t.luma.to_vec(),
-                        chroma: t.chroma.to_vec(),
-                        detail: t.detail.to_vec(),
-                    })
-                    .collect();
+                let tiles: Vec<TileStreams> =
+                    parsed.tiles.iter().map(TilePayload::to_streams).collect();
                 bitstream::write(&header, &parsed.metadata(), &tiles)
             };
             for bytes in [plain, restored] {

@@ -86,7 +86,7 @@ impl Restoration {
         }
     }
 
-    /// The filtered planes of `w x h` samples `spacing` coded pixels apart, whole.
+    /// Filters whole planes of `w x h` samples `spacing` coded pixels apart, in place.
     pub fn apply(&self, planes: &mut [Vec<f32>], (w, h): (usize, usize), spacing: (f64, f64)) {
         for c in 0..planes.len().min(self.planes.len()) {
             if let Some(taps) = &self.planes[c] {
