@@ -186,12 +186,13 @@ fn scaled_rows(
         let bottom = plane[y1 * w + x0] * (1.0 - fx) + plane[y1 * w + x1] * fx;
         top * (1.0 - fy) + bottom * fy
     };
+    // The offsets in output pixels, the same for every pixel.
+    let offsets: Vec<(f64, f64)> = shape.iter().map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy)).collect();
     for (j, y) in rows.enumerate() {
         for x in 0..w {
             let c = plane[y * w + x];
             let mut acc = 0.0f32;
-            for (&(dx, dy), &k) in shape.iter().zip(wt) {
-                let (ox, oy) = (dx as f64 / sx, dy as f64 / sy);
+            for (&(ox, oy), &k) in offsets.iter().zip(wt) {
                 let (px, py) = (x as f64, y as f64);
                 acc += k * (at(px + ox, py + oy) + at(px - ox, py - oy) - 2.0 * c);
             }
