@@ -3,7 +3,7 @@
 //! fitted to; damaged restoration sections are errors.
 
 use caoen::codec::bitstream::{self, tag, TilePayload, TileStreams};
-use caoen::codec::restoration::Restoration;
+use caoen::codec::restoration::{PlaneFilter, Restoration};
 use caoen::codec::{decode, encode, inspect, CodecError, DecodeOptions, EncodeOptions};
 use caoen::image_io;
 use caoen::metrics::psnr;
@@ -71,59 +71,75 @@ fn a_resized_decode_restores_like_the_coded_size() {
     };
     let plain = encode(&img, &opts).unwrap();
     let plain = rewrite(&plain, |h| h.restoration = None);
-    // A smoothing luma filter and a sharpening chroma one.
-    let bytes = rewrite(&plain, |h| {
-        h.restoration = Some(Restoration {
-            planes: vec![
-                Some(vec![30, 8, 2, 0, 6, 20, 6, 0, 0, 4, 0, 1]),
-                Some(vec![-20, -4, -5, -20, -5, -4]),
-                None,
-            ],
-        })
-    });
-    let at = |b: &[u8], size| {
-        decode(
-            b,
-            &DecodeOptions {
-                size: Some(size),
-                ..DecodeOptions::default()
-            },
-        )
-        .unwrap()
-    };
-    let change = |size: (u32, u32)| -> Vec<f64> {
-        let (a, b) = (at(&bytes, size), at(&plain, size));
-        a.samples()
-            .iter()
-            .zip(b.samples())
-            .map(|(&x, &y)| (x - y) as f64)
-            .collect()
-    };
-    let native = change((w, h));
-    let double = change((2 * w, 2 * h));
-    let (wu, hu) = (w as usize, h as usize);
-    let mut averaged = vec![0.0; native.len()];
-    for c in 0..3 {
-        for y in 0..hu {
-            for x in 0..wu {
-                let at2 = |dx: usize, dy: usize| {
-                    double[c * 4 * wu * hu + (2 * y + dy) * 2 * wu + 2 * x + dx]
-                };
-                averaged[c * wu * hu + y * wu + x] =
-                    (at2(0, 0) + at2(1, 0) + at2(0, 1) + at2(1, 1)) / 4.0;
+    // A smoothing luma filter and a sharpening chroma one; then luma by pixel class,
+    // smoothing the flat classes and sharpening the busy ones.
+    let smoothing = vec![30, 8, 2, 0, 6, 20, 6, 0, 0, 4, 0, 1];
+    let sharpening = vec![-12, -3, 0, 0, -3, -12, -3, 0, 0, -2, 0, 0];
+    let lumas = [
+        PlaneFilter::single(smoothing.clone()),
+        PlaneFilter {
+            filters: vec![smoothing, sharpening],
+            classes: Some(std::array::from_fn(|k| 1 + (k >= 15) as u8)),
+        },
+    ];
+    let mut last = Vec::new();
+    for luma in lumas {
+        let bytes = rewrite(&plain, |h| {
+            h.restoration = Some(Restoration {
+                planes: vec![
+                    Some(luma),
+                    Some(PlaneFilter::single(vec![-20, -4, -5, -20, -5, -4])),
+                    None,
+                ],
+            })
+        });
+        let at = |b: &[u8], size| {
+            decode(
+                b,
+                &DecodeOptions {
+                    size: Some(size),
+                    ..DecodeOptions::default()
+                },
+            )
+            .unwrap()
+        };
+        let change = |size: (u32, u32)| -> Vec<f64> {
+            let (a, b) = (at(&bytes, size), at(&plain, size));
+            a.samples()
+                .iter()
+                .zip(b.samples())
+                .map(|(&x, &y)| (x - y) as f64)
+                .collect()
+        };
+        let native = change((w, h));
+        let double = change((2 * w, 2 * h));
+        let (wu, hu) = (w as usize, h as usize);
+        let mut averaged = vec![0.0; native.len()];
+        for c in 0..3 {
+            for y in 0..hu {
+                for x in 0..wu {
+                    let at2 = |dx: usize, dy: usize| {
+                        double[c * 4 * wu * hu + (2 * y + dy) * 2 * wu + 2 * x + dx]
+                    };
+                    averaged[c * wu * hu + y * wu + x] =
+                        (at2(0, 0) + at2(1, 0) + at2(0, 1) + at2(1, 1)) / 4.0;
+                }
             }
         }
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let corr =
+            dot(&native, &averaged) / (dot(&native, &native) * dot(&averaged, &averaged)).sqrt();
+        assert!(
+            dot(&native, &native) > 0.0,
+            "the filter changes the coded-size decode"
+        );
+        assert!(
+            corr > 0.6,
+            "correlation {corr:.3} of the filter's changes at 1x and 2x"
+        );
+        last = bytes;
     }
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-    let corr = dot(&native, &averaged) / (dot(&native, &native) * dot(&averaged, &averaged)).sqrt();
-    assert!(
-        dot(&native, &native) > 0.0,
-        "the filter changes the coded-size decode"
-    );
-    assert!(
-        corr > 0.6,
-        "correlation {corr:.3} of the filter's changes at 1x and 2x"
-    );
+    let bytes = last;
     // Forward mapping with supersampling applies it on its lattice: at the coded size
     // it is the identity path's image.
     let forward = decode(

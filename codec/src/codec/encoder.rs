@@ -17,7 +17,7 @@ use super::geometry::Frame;
 use super::keyset::{Grid, GridEval, KernelParams, KeySet, MIN_SIGMA_FACTOR};
 use super::model;
 use super::quadtree::Cell;
-use super::restoration::{self, fit::Stats, Restoration};
+use super::restoration::{self, fit::ClassStats, Restoration};
 use super::rate_control::{self, EncodeSettings};
 use super::source::PixelSource;
 use super::syntax::{self, LevelSteps, MAX_VALUE};
@@ -604,14 +604,14 @@ fn fit_restoration(
         .collect();
     // One source read and one sum per group; every row the sums reach is in the group
     // (or clamped at the image's edge as it is).
-    let chunks: Vec<Vec<Stats>> = starts
+    let chunks: Vec<Vec<ClassStats>> = starts
         .par_iter()
         .zip(&stacked)
         .map(|(&g, decoded)| {
             let y0 = g * band;
             let group_rows = (hu - y0).min(span);
             let rows = reach..(span - reach).min(group_rows);
-            let mut stats: Vec<Stats> = (0..planes).map(Stats::new).collect();
+            let mut stats: Vec<ClassStats> = (0..planes).map(ClassStats::new).collect();
             if rows.is_empty() {
                 return stats;
             }
@@ -622,16 +622,17 @@ fn fit_restoration(
                 height: rows.len() as u32,
             };
             let source = coding_planes(&src.region(rect), s).colour;
-            for (c, (decoded, source)) in decoded.iter().zip(&source).enumerate() {
-                stats[c].accumulate(c, decoded, source, (wu, group_rows), rows.clone(), 1);
+            for (c, (plane, source)) in decoded.iter().zip(&source).enumerate() {
+                // Every plane's classes come from the luma.
+                stats[c].accumulate(c, plane, &decoded[0], source, (wu, group_rows), rows.clone());
             }
             stats
         })
         .collect();
-    let sum = |pick: &dyn Fn(usize) -> bool| -> Vec<Stats> {
+    let sum = |pick: &dyn Fn(usize) -> bool| -> Vec<ClassStats> {
         (0..planes)
             .map(|c| {
-                let mut total = Stats::new(c);
+                let mut total = ClassStats::new(c);
                 for (_, chunk) in chunks.iter().enumerate().filter(|(i, _)| pick(*i)) {
                     total.add(&chunk[c]);
                 }
@@ -643,28 +644,22 @@ fn fit_restoration(
     // The groups in two halves: a filter must lower the error in both, so it follows
     // the picture rather than the sums' noise.
     let halves = [sum(&|i| i % 2 == 0), sum(&|i| i % 2 == 1)];
-    let scale = (wu * hu) as f64 / totals[0].samples.max(1) as f64;
+    let all: Vec<_> = totals.iter().map(ClassStats::total).collect();
+    let scale = (wu * hu) as f64 / all[0].samples.max(1) as f64;
     // A bit is worth what the codec's own curve trades for it here: its distortion
     // falls as rate^-RESTORATION_SLOPE, so a bit more lowers it by SLOPE D / R.
-    let error: f64 = totals.iter().map(|t| t.error).sum::<f64>() * scale;
+    let error: f64 = all.iter().map(|t| t.error).sum::<f64>() * scale;
     let bit_cost = RESTORATION_SLOPE * error / (8 * bytes.len()) as f64;
-    let filters: Vec<Option<Vec<i32>>> = totals
-        .iter()
-        .enumerate()
-        .map(|(c, t)| {
-            restoration::fit::fit(t, scale, bit_cost)
-                .filter(|f| halves.iter().all(|h| h[c].samples == 0 || h[c].gain(f) > 0.0))
-        })
+    let fitted: Vec<_> = (0..planes)
+        .into_par_iter()
+        .map(|c| restoration::fit::fit_plane(&totals[c], [&halves[0][c], &halves[1][c]], scale, bit_cost))
         .collect();
     // The section's own bytes (tag, length, CRC, mask) are paid once.
-    let net: f64 = totals
-        .iter()
-        .zip(&filters)
-        .filter_map(|(t, f)| f.as_ref().map(|f| t.gain(f) * scale - bit_cost * restoration::syntax::tap_bits_all(f) as f64))
-        .sum();
+    let net: f64 = fitted.iter().flatten().map(|(_, worth)| worth).sum();
     if net < bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64 {
         return Ok(None);
     }
+    let filters = fitted.into_iter().map(|f| f.map(|(f, _)| f)).collect();
     let r = Restoration { planes: filters };
     Ok(r.any().then_some(r))
 }

@@ -29,7 +29,7 @@ use caoen::codec::detail::{
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
 use caoen::codec::quadtree::TreeShape;
-use caoen::codec::restoration::{self, Restoration};
+use caoen::codec::restoration::{self, PlaneFilter, Restoration};
 use caoen::codec::tiling::SIDE_UNIT;
 use caoen::codec::ColourBasis;
 use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
@@ -304,17 +304,30 @@ fn choose_header(c: &mut Choices) -> Header {
             tilts: [c.byte(), c.byte()],
         }),
         restoration: c.bit().then(|| {
-            let mut planes: Vec<Option<Vec<i32>>> = (0..layout.colour_channels())
+            let mut planes: Vec<Option<PlaneFilter>> = (0..layout.colour_channels())
                 .map(|p| {
                     c.bit().then(|| {
-                        (0..restoration::shape(p).len())
-                            .map(|_| (i32::from(c.byte()) - 128) * 7)
-                            .collect()
+                        let n = if c.bit() {
+                            1 + usize::from(c.byte()) % restoration::MAX_FILTERS
+                        } else {
+                            1
+                        };
+                        let filters = (0..n)
+                            .map(|_| {
+                                (0..restoration::shape(p).len())
+                                    .map(|_| (i32::from(c.byte()) - 128) * 7)
+                                    .collect()
+                            })
+                            .collect();
+                        let classes = (n > 1 || c.bit()).then(|| {
+                            std::array::from_fn(|_| (usize::from(c.byte()) % (n + 1)) as u8)
+                        });
+                        PlaneFilter { filters, classes }
                     })
                 })
                 .collect();
             if planes.iter().all(Option::is_none) {
-                planes[0] = Some(vec![0; restoration::shape(0).len()]);
+                planes[0] = Some(PlaneFilter::single(vec![0; restoration::shape(0).len()]));
             }
             Restoration { planes }
         }),

@@ -453,7 +453,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
             "colour_basis": colour_basis_name(h),
             "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2), "activity_field_region_px": a.field().map(|l| 1u32 << l)})),
             "frequency_tilts": h.weights.map(|w| json!({"luma": w.tilt(0), "chroma": w.tilt(1)})),
-            "restoration": h.restoration.as_ref().map(|r| r.planes.iter().map(|p| p.as_ref().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>())).collect::<Vec<_>>()),
+            "restoration": h.restoration.as_ref().map(|r| r.planes.iter().map(|p| p.as_ref().map(|f| json!({
+                "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
+                "classes": f.classes.map(|m| m.to_vec()),
+            }))).collect::<Vec<_>>()),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
@@ -569,8 +572,17 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 .iter()
                 .enumerate()
                 .filter_map(|(c, p)| {
-                    p.as_ref()
-                        .map(|t| format!("{} ({} taps)", names.get(c).unwrap_or(&"?"), t.len()))
+                    p.as_ref().map(|f| {
+                        let name = names.get(c).unwrap_or(&"?");
+                        let taps = f.filters[0].len();
+                        match f.classes {
+                            Some(_) => format!(
+                                "{name} ({} filters of {taps} taps by pixel class)",
+                                f.filters.len()
+                            ),
+                            None => format!("{name} ({taps} taps)"),
+                        }
+                    })
                 })
                 .collect();
             outln!(text, "restoration: {}", planes.join(", "));

@@ -615,7 +615,7 @@ mod tests {
     use super::*;
     use crate::codec::bitstream::{TilePayload, TileStreams};
     use crate::codec::decoder::read;
-    use crate::codec::restoration::{shape, Restoration};
+    use crate::codec::restoration::{shape, PlaneFilter, Restoration};
     use crate::codec::{decode, encode, DecodeOptions, EncodeOptions};
     use crate::raster::{ChannelLayout, SampleFormat};
 
@@ -656,7 +656,21 @@ mod tests {
                 let mut header = parsed.header.clone();
                 header.restoration = Some(Restoration {
                     planes: (0..layout.colour_channels())
-                        .map(|c| Some((0..shape(c).len() as i32).map(|k| 40 - 9 * k).collect()))
+                        .map(|c| {
+                            let taps = |f: i32| {
+                                (0..shape(c).len() as i32)
+                                    .map(|k| 40 - 9 * k + 5 * f)
+                                    .collect()
+                            };
+                            // Luma by pixel class, chroma one filter each.
+                            Some(match c {
+                                0 => PlaneFilter {
+                                    filters: vec![taps(0), taps(3)],
+                                    classes: Some(std::array::from_fn(|k| (k % 3) as u8)),
+                                },
+                                _ => PlaneFilter::single(taps(0)),
+                            })
+                        })
                         .collect(),
                 });
                 let tiles: Vec<TileStreams> =

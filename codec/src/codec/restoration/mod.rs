@@ -1,4 +1,4 @@
-//! Restoration: a small linear filter per colour plane, fitted by the encoder to bring
+//! Restoration: small linear filters per colour plane, fitted by the encoder to bring
 //! the decoded colours closest to the source's and applied by the decoder last, on the
 //! coding planes before their conversion to output colours.
 //!
@@ -15,6 +15,10 @@
 //! so the filter follows the picture as the decode's scale changes. What the filter
 //! corrects is what the network and the 8x8 blocks leave behind: quantisation noise
 //! and ringing around edges, and edges softened by the network's blend.
+//!
+//! A plane has one filter, or one per class of pixels ([`classify_rows`]: the local
+//! activity and direction of the luma's second differences), so that flat regions can
+//! be smoothed and edges sharpened, each along its direction.
 
 pub mod fit;
 pub mod syntax;
@@ -53,11 +57,47 @@ pub fn shape(c: usize) -> &'static [(i32, i32)] {
     }
 }
 
+/// Activity levels of the pixel classes.
+pub const ACTIVITY_LEVELS: usize = 8;
+/// Directions of the pixel classes: none, across columns, across rows, and the two
+/// diagonals.
+pub const DIRECTIONS: usize = 5;
+/// Pixel classes a classified plane's filters are chosen by.
+pub const CLASSES: usize = ACTIVITY_LEVELS * DIRECTIONS;
+/// Most filters one plane has.
+pub const MAX_FILTERS: usize = 16;
+/// The activity levels' lower bounds: a pixel's activity is its window's sum of
+/// vertical and horizontal second differences, in plane units.
+pub const ACTIVITY_BOUNDS: [f32; ACTIVITY_LEVELS - 1] = [0.03, 0.08, 0.18, 0.4, 0.85, 1.9, 4.0];
+/// Half the side of the window the second differences are summed over, in coded pixels.
+pub const WINDOW: usize = 2;
+
+/// One colour plane's filters: one for every pixel, or one per pixel class.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PlaneFilter {
+    /// Each filter's taps in [`shape`]'s order (one to [`MAX_FILTERS`]).
+    pub filters: Vec<Vec<i32>>,
+    /// Per class ([`classify_rows`] of the unfiltered luma, for every plane): 0 for no
+    /// filter, else one more than the index of the class's filter. `None`: the first
+    /// filter for every pixel.
+    pub classes: Option<[u8; CLASSES]>,
+}
+
+impl PlaneFilter {
+    /// One filter for the whole plane.
+    pub fn single(taps: Vec<i32>) -> Self {
+        PlaneFilter {
+            filters: vec![taps],
+            classes: None,
+        }
+    }
+}
+
 /// The filters of a file's colour planes (`None` leaves a plane alone).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Restoration {
-    /// Per colour plane (Y, or Y, C1, C2): its taps in [`shape`]'s order.
-    pub planes: Vec<Option<Vec<i32>>>,
+    /// Per colour plane (Y, or Y, C1, C2).
+    pub planes: Vec<Option<PlaneFilter>>,
 }
 
 impl Restoration {
@@ -80,7 +120,7 @@ impl Restoration {
         for (c, (plane, out)) in planes.iter().zip(out.iter_mut()).enumerate() {
             let src = &plane[rows.start * w..rows.end * w];
             match self.planes.get(c).and_then(Option::as_ref) {
-                Some(taps) => filter_rows(plane, (w, h), spacing, shape(c), taps, rows.clone(), out),
+                Some(f) => filter_rows(plane, planes[0], (w, h), spacing, shape(c), f, rows.clone(), out),
                 None => out.copy_from_slice(src),
             }
         }
@@ -88,11 +128,19 @@ impl Restoration {
 
     /// Filters whole planes of `w x h` samples `spacing` coded pixels apart, in place.
     pub fn apply(&self, planes: &mut [Vec<f32>], (w, h): (usize, usize), spacing: (f64, f64)) {
-        for c in 0..planes.len().min(self.planes.len()) {
-            if let Some(taps) = &self.planes[c] {
-                let mut out = vec![0.0f32; w * h];
-                filter_rows(&planes[c], (w, h), spacing, shape(c), taps, 0..h, &mut out);
-                planes[c] = out;
+        // Every plane's classes come from the unfiltered luma.
+        let filtered: Vec<Option<Vec<f32>>> = (0..planes.len().min(self.planes.len()))
+            .map(|c| {
+                self.planes[c].as_ref().map(|f| {
+                    let mut out = vec![0.0f32; w * h];
+                    filter_rows(&planes[c], &planes[0], (w, h), spacing, shape(c), f, 0..h, &mut out);
+                    out
+                })
+            })
+            .collect();
+        for (c, f) in filtered.into_iter().enumerate() {
+            if let Some(f) = f {
+                planes[c] = f;
             }
         }
     }
@@ -105,21 +153,48 @@ fn weights(taps: &[i32]) -> Vec<f32> {
         .collect()
 }
 
-/// One plane's filter over rows `rows` into `out`.
+/// Rows the classified filter handles at once: its class and difference buffers are
+/// this many rows and the window's, whatever the band.
+const CLASS_CHUNK: usize = 32;
+
+/// One plane's filters over rows `rows` into `out`, its classes from `classes_of`.
+#[allow(clippy::too_many_arguments)]
 fn filter_rows(
     plane: &[f32],
+    classes_of: &[f32],
     (w, h): (usize, usize),
     spacing: (f64, f64),
     shape: &[(i32, i32)],
-    taps: &[i32],
+    f: &PlaneFilter,
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let wt = weights(taps);
-    if spacing == (1.0, 1.0) {
-        native_rows(plane, (w, h), shape, &wt, rows, out);
-    } else {
-        scaled_rows(plane, (w, h), spacing, shape, &wt, rows, out);
+    let Some(map) = &f.classes else {
+        let wt = weights(&f.filters[0]);
+        if spacing == (1.0, 1.0) {
+            native_rows(plane, (w, h), shape, &wt, rows, out);
+        } else {
+            scaled_rows(plane, (w, h), spacing, shape, &|_| Some(wt.as_slice()), rows, out);
+        }
+        return;
+    };
+    let wts: Vec<Vec<f32>> = f.filters.iter().map(|t| weights(t)).collect();
+    let by_class: Vec<Option<&[f32]>> = map
+        .iter()
+        .map(|&m| (m > 0).then(|| wts.get(m as usize - 1).map(Vec::as_slice)).flatten())
+        .collect();
+    let mut start = rows.start;
+    while start < rows.end {
+        let end = (start + CLASS_CHUNK).min(rows.end);
+        let classes = classify_rows(classes_of, (w, h), spacing, start..end);
+        let pick = |i: usize| by_class[classes[i] as usize];
+        let o = &mut out[(start - rows.start) * w..(end - rows.start) * w];
+        if spacing == (1.0, 1.0) {
+            native_classified_rows(plane, (w, h), shape, &classes, &by_class, start..end, o);
+        } else {
+            scaled_rows(plane, (w, h), spacing, shape, &pick, start..end, o);
+        }
+        start = end;
     }
 }
 
@@ -165,32 +240,94 @@ fn native_rows(
     }
 }
 
+/// The classified filter at the coded size: `classes` holds the class of each pixel of
+/// the rows (counted from the first) and `by_class` each class's weights, if it is
+/// filtered. Each row's terms `f(p + d) + f(p - d) - 2 f(p)` first, offset by offset,
+/// then each pixel's sum.
+fn native_classified_rows(
+    plane: &[f32],
+    (w, h): (usize, usize),
+    shape: &[(i32, i32)],
+    classes: &[u8],
+    by_class: &[Option<&[f32]>],
+    rows: std::ops::Range<usize>,
+    out: &mut [f32],
+) {
+    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    let mut terms = vec![0.0f32; shape.len() * w];
+    for (j, y) in rows.clone().enumerate() {
+        let centre = &plane[y * w..(y + 1) * w];
+        for (&(dx, dy), t) in shape.iter().zip(terms.chunks_exact_mut(w)) {
+            let up = &plane[clamp(y as isize - dy as isize, h) * w..][..w];
+            let down = &plane[clamp(y as isize + dy as isize, h) * w..][..w];
+            let dxu = dx.unsigned_abs() as usize;
+            // Columns `lo..hi` have both neighbours inside the row; the others clamp.
+            let lo = dxu.min(w);
+            let hi = w.saturating_sub(dxu).max(lo);
+            for x in lo..hi {
+                let (a, b) = if dx >= 0 {
+                    (down[x + dxu], up[x - dxu])
+                } else {
+                    (down[x - dxu], up[x + dxu])
+                };
+                t[x] = a + b - 2.0 * centre[x];
+            }
+            for x in (0..lo).chain(hi..w) {
+                let a = down[clamp(x as isize + dx as isize, w)];
+                let b = up[clamp(x as isize - dx as isize, w)];
+                t[x] = a + b - 2.0 * centre[x];
+            }
+        }
+        for x in 0..w {
+            let c = centre[x];
+            out[j * w + x] = match by_class[classes[j * w + x] as usize] {
+                Some(wt) => {
+                    let mut acc = 0.0f32;
+                    for (k, &wk) in wt.iter().enumerate() {
+                        acc += wk * terms[k * w + x];
+                    }
+                    c + acc
+                }
+                None => c,
+            };
+        }
+    }
+}
+
+/// `f` between output pixel centres: bilinear, positions clamped to the image.
+fn bilinear(plane: &[f32], (w, h): (usize, usize), x: f64, y: f64) -> f32 {
+    let x = x.clamp(0.0, (w - 1) as f64);
+    let y = y.clamp(0.0, (h - 1) as f64);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+    let top = plane[y0 * w + x0] * (1.0 - fx) + plane[y0 * w + x1] * fx;
+    let bottom = plane[y1 * w + x0] * (1.0 - fx) + plane[y1 * w + x1] * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
 /// The filter at another size: offsets of `d / spacing` output pixels, sampled by
-/// bilinear interpolation, positions clamped to the image.
-fn scaled_rows(
+/// bilinear interpolation, positions clamped to the image; `pick(i)` gives the
+/// weights of pixel `i` of the rows, if it is filtered.
+fn scaled_rows<'a>(
     plane: &[f32],
     (w, h): (usize, usize),
     (sx, sy): (f64, f64),
     shape: &[(i32, i32)],
-    wt: &[f32],
+    pick: &dyn Fn(usize) -> Option<&'a [f32]>,
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let at = |x: f64, y: f64| -> f32 {
-        let x = x.clamp(0.0, (w - 1) as f64);
-        let y = y.clamp(0.0, (h - 1) as f64);
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-        let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
-        let top = plane[y0 * w + x0] * (1.0 - fx) + plane[y0 * w + x1] * fx;
-        let bottom = plane[y1 * w + x0] * (1.0 - fx) + plane[y1 * w + x1] * fx;
-        top * (1.0 - fy) + bottom * fy
-    };
+    let at = |x: f64, y: f64| bilinear(plane, (w, h), x, y);
     // The offsets in output pixels, the same for every pixel.
     let offsets: Vec<(f64, f64)> = shape.iter().map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy)).collect();
     for (j, y) in rows.enumerate() {
         for x in 0..w {
             let c = plane[y * w + x];
+            let Some(wt) = pick(j * w + x) else {
+                out[j * w + x] = c;
+                continue;
+            };
             let mut acc = 0.0f32;
             for (&(ox, oy), &k) in offsets.iter().zip(wt) {
                 let (px, py) = (x as f64, y as f64);
@@ -199,6 +336,120 @@ fn scaled_rows(
             out[j * w + x] = c + acc;
         }
     }
+}
+
+/// The class of each pixel of rows `rows` (`rows.len() * w` entries, in `0..CLASSES`)
+/// of a plane of `w x h` samples `spacing` coded pixels apart.
+///
+/// At each pixel the absolute second differences across columns (`h`), rows (`v`)
+/// and the two diagonals (`d1` down-right, `d2` down-left) are taken one coded pixel
+/// either side, sampled as the filter samples. Each is summed over the window of
+/// `2 WINDOW + 1` coded pixels a side around the pixel (at another size, the output
+/// pixels within `round(WINDOW / spacing)` of it, scaled to the window's count),
+/// positions clamped to the image. The activity level is the number of
+/// [`ACTIVITY_BOUNDS`] at or below `v + h`. The direction is taken from the pair
+/// `h, v` where `max(h, v) min(d1, d2) > max(d1, d2) min(h, v)` (its larger sum over
+/// its smaller is the greater), else from `d1, d2`, if the pair's larger is more than
+/// twice its smaller: 1 where `h > v`, 2 for `v`, 3 where `d1 > d2`, 4 for `d2`; else
+/// 0. The class is `5 * level + direction`.
+pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64), rows: std::ops::Range<usize>) -> Vec<u8> {
+    let native = (sx, sy) == (1.0, 1.0);
+    let (rx, ry) = if native {
+        (WINDOW, WINDOW)
+    } else {
+        ((WINDOW as f64 / sx).round() as usize, (WINDOW as f64 / sy).round() as usize)
+    };
+    let norm = ((2 * WINDOW + 1) * (2 * WINDOW + 1)) as f32 / ((2 * rx + 1) * (2 * ry + 1)) as f32;
+    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    // The second differences of one row: h, v, d1, d2, each `w` long.
+    let diffs = |y: usize| -> [Vec<f32>; 4] {
+        let mut d: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
+        if native {
+            let row = |y: isize| &plane[clamp(y, h) * w..][..w];
+            let (up, mid, down) = (row(y as isize - 1), row(y as isize), row(y as isize + 1));
+            let [dh, dv, d1, d2] = &mut d;
+            for x in 0..w {
+                let (l, r) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let c = 2.0 * mid[x];
+                dh[x] = (c - mid[r] - mid[l]).abs();
+                dv[x] = (c - down[x] - up[x]).abs();
+                d1[x] = (c - down[r] - up[l]).abs();
+                d2[x] = (c - down[l] - up[r]).abs();
+            }
+            return d;
+        }
+        for x in 0..w {
+            let c = 2.0 * plane[y * w + x];
+            let pairs: [((f64, f64), (f64, f64)); 4] = [((1.0, 0.0), (-1.0, 0.0)), ((0.0, 1.0), (0.0, -1.0)), ((1.0, 1.0), (-1.0, -1.0)), ((-1.0, 1.0), (1.0, -1.0))];
+            for (k, ((ax, ay), (bx, by))) in pairs.into_iter().enumerate() {
+                let (px, py) = (x as f64, y as f64);
+                let a = bilinear(plane, (w, h), px + ax / sx, py + ay / sy);
+                let b = bilinear(plane, (w, h), px + bx / sx, py + by / sy);
+                d[k][x] = (c - a - b).abs();
+            }
+        }
+        d
+    };
+    let first = rows.start.saturating_sub(ry);
+    let last = (rows.end + ry).min(h);
+    let lines: Vec<[Vec<f32>; 4]> = (first..last).map(diffs).collect();
+    let mut out = Vec::with_capacity(rows.len() * w);
+    // Each difference's column sums, padded by `rx` clamped copies at either end, and
+    // its window sums: added in the window's order, so every pixel's sum is the same
+    // however its rows are banded.
+    let mut column: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w + 2 * rx]);
+    let mut sums: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
+    for y in rows {
+        for (k, col) in column.iter_mut().enumerate() {
+            let inner = &mut col[rx..rx + w];
+            inner.fill(0.0);
+            for j in 0..=2 * ry {
+                let yy = clamp(y as isize + j as isize - ry as isize, h);
+                for (s, v) in inner.iter_mut().zip(&lines[yy - first][k]) {
+                    *s += v;
+                }
+            }
+            let (left, right) = (col[rx], col[rx + w - 1]);
+            col[..rx].fill(left);
+            col[rx + w..].fill(right);
+        }
+        for (sum, col) in sums.iter_mut().zip(&column) {
+            sum.fill(0.0);
+            for i in 0..=2 * rx {
+                for (s, v) in sum.iter_mut().zip(&col[i..i + w]) {
+                    *s += v;
+                }
+            }
+        }
+        let [sh, sv, s1, s2] = &sums;
+        for (((&gh, &gv), &g1), &g2) in sh.iter().zip(sv).zip(s1).zip(s2) {
+            let [gh, gv, g1, g2] = [gh, gv, g1, g2].map(|v| v * norm);
+            let level = ACTIVITY_BOUNDS.iter().filter(|&&b| gh + gv >= b).count();
+            let (hi_hv, lo_hv) = (gh.max(gv), gh.min(gv));
+            let (hi_d, lo_d) = (g1.max(g2), g1.min(g2));
+            let direction = if hi_hv * lo_d > hi_d * lo_hv {
+                if hi_hv > 2.0 * lo_hv {
+                    if gh > gv {
+                        1
+                    } else {
+                        2
+                    }
+                } else {
+                    0
+                }
+            } else if hi_d > 2.0 * lo_d {
+                if g1 > g2 {
+                    3
+                } else {
+                    4
+                }
+            } else {
+                0
+            };
+            out.push((DIRECTIONS * level + direction) as u8);
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -240,12 +491,13 @@ mod tests {
             for c in [0, 1] {
                 let taps: Vec<i32> = (0..shape(c).len()).map(|k| (k as i32 * 37 % 61) - 30).collect();
                 let mut out = vec![0.0; w * h];
-                filter_rows(&plane, (w, h), (1.0, 1.0), shape(c), &taps, 0..h, &mut out);
+                let f = PlaneFilter::single(taps.clone());
+                filter_rows(&plane, &plane, (w, h), (1.0, 1.0), shape(c), &f, 0..h, &mut out);
                 assert_eq!(out, reference(&plane, (w, h), c, &taps), "{w}x{h} plane {c}");
                 // A band of rows is the same rows of the whole.
                 if h > 2 {
                     let mut band = vec![0.0; w];
-                    filter_rows(&plane, (w, h), (1.0, 1.0), shape(c), &taps, 1..2, &mut band);
+                    filter_rows(&plane, &plane, (w, h), (1.0, 1.0), shape(c), &f, 1..2, &mut band);
                     assert_eq!(band, out[w..2 * w]);
                 }
             }
@@ -261,7 +513,8 @@ mod tests {
         let mut native = vec![0.0; w * h];
         native_rows(&plane, (w, h), &LUMA_SHAPE, &weights(&taps), 0..h, &mut native);
         let mut scaled = vec![0.0; w * h];
-        scaled_rows(&plane, (w, h), (1.0, 1.0), &LUMA_SHAPE, &weights(&taps), 0..h, &mut scaled);
+        let wt = weights(&taps);
+        scaled_rows(&plane, (w, h), (1.0, 1.0), &LUMA_SHAPE, &|_| Some(wt.as_slice()), 0..h, &mut scaled);
         for (a, b) in native.iter().zip(&scaled) {
             assert!((a - b).abs() < 1e-5, "{a} {b}");
         }
@@ -272,7 +525,14 @@ mod tests {
         let (w, h) = (9, 8);
         let plane = vec![0.37f32; w * h];
         let r = Restoration {
-            planes: vec![Some(vec![MAX_TAP; 12]), Some(vec![-MAX_TAP; 6]), None],
+            planes: vec![
+                Some(PlaneFilter::single(vec![MAX_TAP; 12])),
+                Some(PlaneFilter {
+                    filters: vec![vec![-MAX_TAP; 6], vec![MAX_TAP; 6]],
+                    classes: Some(std::array::from_fn(|k| (k % 3) as u8)),
+                }),
+                None,
+            ],
         };
         for spacing in [(1.0, 1.0), (0.5, 0.7), (3.0, 2.0)] {
             let mut planes = vec![plane.clone(); 3];
@@ -282,4 +542,109 @@ mod tests {
             }
         }
     }
+
+    /// The classes by their definition, pixel by pixel, at the coded size.
+    fn reference_classes(plane: &[f32], (w, h): (usize, usize)) -> Vec<u8> {
+        let get = |x: isize, y: isize| plane[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize];
+        let second = |x: isize, y: isize, dx: isize, dy: isize| (2.0 * get(x, y) - get(x + dx, y + dy) - get(x - dx, y - dy)).abs();
+        let mut out = Vec::new();
+        for y in 0..h as isize {
+            for x in 0..w as isize {
+                let mut g = [0.0f32; 4];
+                for j in -(WINDOW as isize)..=WINDOW as isize {
+                    for i in -(WINDOW as isize)..=WINDOW as isize {
+                        let (px, py) = ((x + i).clamp(0, w as isize - 1), (y + j).clamp(0, h as isize - 1));
+                        g[0] += second(px, py, 1, 0);
+                        g[1] += second(px, py, 0, 1);
+                        g[2] += second(px, py, 1, 1);
+                        g[3] += second(px, py, -1, 1);
+                    }
+                }
+                let [gh, gv, g1, g2] = g;
+                let level = ACTIVITY_BOUNDS.iter().filter(|&&b| gh + gv >= b).count();
+                // The larger pair's ratio, cross-multiplied so that zeros compare.
+                let direction = if gh.max(gv) * g1.min(g2) > g1.max(g2) * gh.min(gv) {
+                    if gh.max(gv) > 2.0 * gh.min(gv) { if gh > gv { 1 } else { 2 } } else { 0 }
+                } else if g1.max(g2) > 2.0 * g1.min(g2) {
+                    if g1 > g2 { 3 } else { 4 }
+                } else {
+                    0
+                };
+                out.push((DIRECTIONS * level + direction) as u8);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn pixel_classes_are_their_definition_in_any_band() {
+        let mut seed = 23;
+        for &(w, h) in &[(1, 1), (3, 2), (9, 7), (31, 40)] {
+            // Noise at several amplitudes: every activity level.
+            let plane: Vec<f32> = noise(w * h, &mut seed)
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v * [0.001, 0.01, 0.05, 0.3][(i / w) % 4])
+                .collect();
+            let whole = classify_rows(&plane, (w, h), (1.0, 1.0), 0..h);
+            assert_eq!(whole, reference_classes(&plane, (w, h)), "{w}x{h}");
+            for start in 0..h {
+                let band = classify_rows(&plane, (w, h), (1.0, 1.0), start..(start + 5).min(h));
+                assert_eq!(band, whole[start * w..(start + 5).min(h) * w], "{w}x{h} from {start}");
+            }
+        }
+    }
+
+    #[test]
+    fn stripes_take_their_direction_and_flat_planes_the_first_class() {
+        let (w, h) = (24, 24);
+        let at = |f: &dyn Fn(usize, usize) -> f32| (0..w * h).map(|i| f(i % w, i / w)).collect::<Vec<f32>>();
+        let centre = |p: &[f32]| classify_rows(p, (w, h), (1.0, 1.0), 12..13)[12];
+        let flat = at(&|_, _| 0.5);
+        assert_eq!(centre(&flat), 0);
+        // Columns alternate: the second differences across columns are large.
+        let columns = at(&|x, _| (x % 2) as f32 * 0.2);
+        assert_eq!(centre(&columns) as usize % DIRECTIONS, 1);
+        assert_eq!(centre(&columns) as usize / DIRECTIONS, ACTIVITY_LEVELS - 1);
+        let rows = at(&|_, y| (y % 2) as f32 * 0.2);
+        assert_eq!(centre(&rows) as usize % DIRECTIONS, 2);
+        // Diagonal stripes along the down-left diagonal: across them is down-right.
+        let diagonal = at(&|x, y| ((x + y) % 4 / 2) as f32 * 0.1);
+        assert_eq!(centre(&diagonal) as usize % DIRECTIONS, 3);
+        let anti = at(&|x, y| ((x + h - y) % 4 / 2) as f32 * 0.1);
+        assert_eq!(centre(&anti) as usize % DIRECTIONS, 4);
+    }
+
+    #[test]
+    fn the_classified_filter_is_each_pixels_class_filter_in_any_band() {
+        let mut seed = 31;
+        let (w, h) = (37, 45);
+        let plane: Vec<f32> = noise(w * h, &mut seed).iter().enumerate().map(|(i, v)| v * [0.002, 0.02, 0.2][(i / 7) % 3]).collect();
+        let filters: Vec<Vec<i32>> = (0..3).map(|f| (0..12).map(|k| (k * 13 + f * 29) % 41 - 20).collect()).collect();
+        let map: [u8; CLASSES] = std::array::from_fn(|k| (k * 7 % 4) as u8);
+        let pf = PlaneFilter { filters: filters.clone(), classes: Some(map) };
+        let mut out = vec![0.0; w * h];
+        filter_rows(&plane, &plane, (w, h), (1.0, 1.0), &LUMA_SHAPE, &pf, 0..h, &mut out);
+        let classes = reference_classes(&plane, (w, h));
+        let each: Vec<Vec<f32>> = filters.iter().map(|t| reference(&plane, (w, h), 0, t)).collect();
+        for i in 0..w * h {
+            let want = match map[classes[i] as usize] {
+                0 => plane[i],
+                m => each[m as usize - 1][i],
+            };
+            assert!((out[i] - want).abs() < 1e-6, "pixel {i}: {} vs {want}", out[i]);
+        }
+        // Bands of any height give the same rows, at the coded size and scaled.
+        for spacing in [(1.0, 1.0), (0.5, 0.75), (2.0, 1.5)] {
+            let mut whole = vec![0.0; w * h];
+            filter_rows(&plane, &plane, (w, h), spacing, &LUMA_SHAPE, &pf, 0..h, &mut whole);
+            for start in (0..h).step_by(11) {
+                let end = (start + 11).min(h);
+                let mut band = vec![0.0; (end - start) * w];
+                filter_rows(&plane, &plane, (w, h), spacing, &LUMA_SHAPE, &pf, start..end, &mut band);
+                assert_eq!(band, whole[start * w..end * w], "{spacing:?} from {start}");
+            }
+        }
+    }
 }
+

@@ -1,9 +1,17 @@
 //! The restoration section's payload: a byte whose bit `c` says colour plane `c` is
-//! filtered, then each filtered plane's taps in [`shape`](super::shape)'s order, as
-//! signed Exp-Golomb codes of order [`ORDER`] packed most significant bit first, the
-//! last byte padded with zeros.
+//! filtered, then each filtered plane in turn, packed most significant bit first, the
+//! last byte padded with zeros. A plane is a bit saying whether it is classified, then:
+//!
+//! - unclassified: its filter's taps;
+//! - classified: the number of filters `n` less one (`1..=MAX_FILTERS`) as an
+//!   Exp-Golomb code of order 0, then for each of the `CLASSES` pixel classes its
+//!   filter (0 for none, else the filter's index plus one) in `width(n)` bits, the bits
+//!   needed to write `n`, then the `n` filters' taps.
+//!
+//! Taps are in [`shape`](super::shape)'s order, as signed Exp-Golomb codes of order
+//! [`ORDER`].
 
-use super::{shape, Restoration, MAX_TAP};
+use super::{shape, PlaneFilter, Restoration, CLASSES, MAX_FILTERS, MAX_TAP};
 use crate::codec::CodecError;
 
 /// Exp-Golomb order of the taps' codes: most taps are a few units of `2^-8` either
@@ -22,13 +30,33 @@ pub fn tap_bits_all(taps: &[i32]) -> u32 {
     taps.iter().map(|&v| tap_bits(v)).sum()
 }
 
+/// Bits of a class's filter index in a plane of `n` filters.
+pub fn index_width(n: usize) -> u32 {
+    usize::BITS - n.leading_zeros()
+}
+
+/// Bits of the Exp-Golomb code of order 0 of `v`.
+fn unsigned_bits(v: u32) -> u32 {
+    2 * (31 - (v + 1).leading_zeros()) + 1
+}
+
+/// Bits of a plane with `n` filters classified, besides the taps.
+pub fn classified_bits(n: usize) -> u32 {
+    1 + unsigned_bits(n as u32 - 1) + CLASSES as u32 * index_width(n)
+}
+
+/// Bits of one plane's filters.
+pub fn plane_bits(f: &PlaneFilter) -> u32 {
+    let taps: u32 = f.filters.iter().map(|t| tap_bits_all(t)).sum();
+    match f.classes {
+        Some(_) => classified_bits(f.filters.len()) + taps,
+        None => 1 + taps,
+    }
+}
+
 /// Bits of a whole payload with the planes `planes`.
-pub fn payload_bits(planes: &[Option<Vec<i32>>]) -> u32 {
-    8 + planes
-        .iter()
-        .flatten()
-        .map(|t| tap_bits_all(t))
-        .sum::<u32>()
+pub fn payload_bits(planes: &[Option<PlaneFilter>]) -> u32 {
+    8 + planes.iter().flatten().map(plane_bits).sum::<u32>()
 }
 
 fn zigzag(v: i32) -> u32 {
@@ -48,13 +76,22 @@ pub fn write(r: &Restoration) -> Vec<u8> {
         .filter(|(_, p)| p.is_some())
         .fold(0u8, |m, (c, _)| m | 1 << c);
     let mut bits = BitWriter::default();
-    for taps in r.planes.iter().flatten() {
-        for &v in taps {
-            debug_assert!(v.abs() <= MAX_TAP);
-            let u = zigzag(v) + (1 << ORDER);
-            let n = 31 - u.leading_zeros();
-            bits.put(0, n - ORDER);
-            bits.put(u, n + 1);
+    for f in r.planes.iter().flatten() {
+        debug_assert!((1..=MAX_FILTERS).contains(&f.filters.len()));
+        bits.put(u32::from(f.classes.is_some()), 1);
+        if let Some(map) = &f.classes {
+            let n = f.filters.len();
+            bits.exp_golomb(n as u32 - 1, 0);
+            for &m in map {
+                debug_assert!(usize::from(m) <= n);
+                bits.put(u32::from(m), index_width(n));
+            }
+        }
+        for taps in &f.filters {
+            for &v in taps {
+                debug_assert!(v.abs() <= MAX_TAP);
+                bits.exp_golomb(zigzag(v), ORDER);
+            }
         }
     }
     let mut out = vec![mask];
@@ -79,26 +116,40 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
             out.push(None);
             continue;
         }
-        let mut taps = Vec::with_capacity(shape(c).len());
-        for _ in 0..shape(c).len() {
-            let mut zeros = 0;
-            while bits.get(1).ok_or(bad("the taps run past the section"))? == 0 {
-                zeros += 1;
+        let past = || bad("the filters run past the section");
+        let classified = bits.get(1).ok_or_else(past)? == 1;
+        let (n, classes) = if classified {
+            // n <= MAX_FILTERS needs at most 4 leading zeros.
+            let n = bits.exp_golomb(0, 4).ok_or(bad("a plane's filter count is out of range"))? as usize + 1;
+            if n > MAX_FILTERS {
+                return Err(bad("a plane's filter count is out of range"));
+            }
+            let mut map = [0u8; CLASSES];
+            for m in map.iter_mut() {
+                let v = bits.get(index_width(n)).ok_or_else(past)? as usize;
+                if v > n {
+                    return Err(bad("a class's filter is past the plane's filters"));
+                }
+                *m = v as u8;
+            }
+            (n, Some(map))
+        } else {
+            (1, None)
+        };
+        let mut filters = Vec::with_capacity(n);
+        for _ in 0..n {
+            let mut taps = Vec::with_capacity(shape(c).len());
+            for _ in 0..shape(c).len() {
                 // |tap| <= MAX_TAP needs at most 10 leading zeros.
-                if zeros > 10 {
+                let v = unzigzag(bits.exp_golomb(ORDER, 10).ok_or(bad("a tap is out of range or past the section"))?);
+                if v.abs() > MAX_TAP {
                     return Err(bad("a tap is out of range"));
                 }
+                taps.push(v);
             }
-            let n = zeros + ORDER;
-            let low = bits.get(n).ok_or(bad("the taps run past the section"))?;
-            let u = (1 << n | low) - (1 << ORDER);
-            let v = unzigzag(u);
-            if v.abs() > MAX_TAP {
-                return Err(bad("a tap is out of range"));
-            }
-            taps.push(v);
+            filters.push(taps);
         }
-        out.push(Some(taps));
+        out.push(Some(PlaneFilter { filters, classes }));
     }
     if bits.pos.div_ceil(8) != rest.len() || !bits.pos.is_multiple_of(8) && rest[bits.pos / 8] << (bits.pos % 8) != 0 {
         return Err(bad("bytes or bits follow the taps"));
@@ -127,6 +178,14 @@ impl BitWriter {
         }
     }
 
+    /// Appends `u`'s Exp-Golomb code of order `k`.
+    fn exp_golomb(&mut self, u: u32, k: u32) {
+        let u = u + (1 << k);
+        let n = 31 - u.leading_zeros();
+        self.put(0, n - k);
+        self.put(u, n + 1);
+    }
+
     fn finish(mut self) -> Vec<u8> {
         if self.n > 0 {
             self.bytes.push((self.acc << (8 - self.n)) as u8);
@@ -151,6 +210,21 @@ impl BitReader<'_> {
         }
         Some(v)
     }
+
+    /// The next Exp-Golomb code of order `k` with at most `max_zeros` leading zeros,
+    /// or `None` past the end or past that many zeros.
+    fn exp_golomb(&mut self, k: u32, max_zeros: u32) -> Option<u32> {
+        let mut zeros = 0;
+        while self.get(1)? == 0 {
+            zeros += 1;
+            if zeros > max_zeros {
+                return None;
+            }
+        }
+        let n = zeros + k;
+        let low = self.get(n)?;
+        Some((1 << n | low) - (1 << k))
+    }
 }
 
 #[cfg(test)]
@@ -161,13 +235,31 @@ mod tests {
     fn payloads_round_trip_and_their_bits_are_counted() {
         let cases = [
             Restoration {
-                planes: vec![Some((0..12).map(|k| k * 97 % 2047 - MAX_TAP).collect()), None, Some(vec![0, 1, -1, 2, -2, MAX_TAP])],
+                planes: vec![
+                    Some(PlaneFilter::single((0..12).map(|k| k * 97 % 2047 - MAX_TAP).collect())),
+                    None,
+                    Some(PlaneFilter::single(vec![0, 1, -1, 2, -2, MAX_TAP])),
+                ],
             },
             Restoration {
-                planes: vec![Some(vec![-MAX_TAP; 12])],
+                planes: vec![Some(PlaneFilter::single(vec![-MAX_TAP; 12]))],
             },
             Restoration {
-                planes: vec![None, Some(vec![3, -4, 5, -6, 7, 0]), None],
+                planes: vec![None, Some(PlaneFilter::single(vec![3, -4, 5, -6, 7, 0])), None],
+            },
+            // Classified planes of one filter, of the most, and chroma classified too.
+            Restoration {
+                planes: vec![
+                    Some(PlaneFilter {
+                        filters: vec![vec![7; 12]],
+                        classes: Some(std::array::from_fn(|k| (k % 2) as u8)),
+                    }),
+                    Some(PlaneFilter {
+                        filters: (0..MAX_FILTERS as i32).map(|f| (0..6).map(|k| f * 11 - k * 5).collect()).collect(),
+                        classes: Some(std::array::from_fn(|k| (k % (MAX_FILTERS + 1)) as u8)),
+                    }),
+                    None,
+                ],
             },
         ];
         for r in cases {
@@ -180,9 +272,25 @@ mod tests {
     #[test]
     fn bad_payloads_are_errors() {
         let good = write(&Restoration {
-            planes: vec![Some(vec![5; 12]), None, None],
+            planes: vec![Some(PlaneFilter::single(vec![5; 12])), None, None],
         });
-        // Truncated, extra byte, no plane, plane past the image, out-of-range tap.
+        // A classified plane of two filters: an index past them, and a count past
+        // the most, must be errors.
+        let classified = |map_first: u8, n: usize| {
+            let mut bits = BitWriter::default();
+            bits.put(1, 1);
+            bits.exp_golomb(n as u32 - 1, 0);
+            for k in 0..CLASSES {
+                bits.put(if k == 0 { u32::from(map_first) } else { 1 }, index_width(n));
+            }
+            for _ in 0..n * 12 {
+                bits.exp_golomb(0, ORDER);
+            }
+            [vec![1u8], bits.finish()].concat()
+        };
+        assert!(parse(&classified(2, 2), 1).is_ok());
+        // Truncated, extra byte, no plane, plane past the image, out-of-range tap,
+        // a class's filter past the plane's, too many filters.
         let mut long = good.clone();
         long.push(0);
         let cases: Vec<(Vec<u8>, usize)> = vec![
@@ -192,6 +300,8 @@ mod tests {
             (vec![0], 3),
             (vec![2, 0xff], 1),
             ([vec![1], vec![0; 40]].concat(), 1),
+            (classified(3, 2), 1),
+            (classified(0, MAX_FILTERS + 1), 1),
         ];
         for (bytes, planes) in cases {
             assert!(
