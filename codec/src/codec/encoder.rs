@@ -610,7 +610,11 @@ fn fit_restoration(
         .map(|(&g, decoded)| {
             let y0 = g * band;
             let group_rows = (hu - y0).min(span);
-            let rows = reach..(span - reach).min(group_rows);
+            // At the image's top and bottom the group clamps as the image does, so
+            // those rows are exact too (all of an image of a few rows).
+            let top = if y0 == 0 { 0 } else { reach };
+            let bottom = if y0 + group_rows == hu { group_rows } else { (span - reach).min(group_rows) };
+            let rows = top..bottom;
             let mut stats: Vec<ClassStats> = (0..planes).map(ClassStats::new).collect();
             if rows.is_empty() {
                 return stats;

@@ -117,10 +117,13 @@ impl Restoration {
         rows: std::ops::Range<usize>,
         out: &mut [&mut [f32]],
     ) {
+        // The rows' classes once for every classified plane.
+        let classified = self.planes.iter().flatten().any(|f| f.classes.is_some());
+        let classes = classified.then(|| classify_rows(planes[0], (w, h), spacing, rows.clone()));
         for (c, (plane, out)) in planes.iter().zip(out.iter_mut()).enumerate() {
             let src = &plane[rows.start * w..rows.end * w];
             match self.planes.get(c).and_then(Option::as_ref) {
-                Some(f) => filter_rows(plane, planes[0], (w, h), spacing, shape(c), f, rows.clone(), out),
+                Some(f) => filter_rows(plane, (planes[0], classes.as_deref()), (w, h), spacing, shape(c), f, rows.clone(), out),
                 None => out.copy_from_slice(src),
             }
         }
@@ -128,19 +131,14 @@ impl Restoration {
 
     /// Filters whole planes of `w x h` samples `spacing` coded pixels apart, in place.
     pub fn apply(&self, planes: &mut [Vec<f32>], (w, h): (usize, usize), spacing: (f64, f64)) {
-        // Every plane's classes come from the unfiltered luma.
-        let filtered: Vec<Option<Vec<f32>>> = (0..planes.len().min(self.planes.len()))
-            .map(|c| {
-                self.planes[c].as_ref().map(|f| {
-                    let mut out = vec![0.0f32; w * h];
-                    filter_rows(&planes[c], &planes[0], (w, h), spacing, shape(c), f, 0..h, &mut out);
-                    out
-                })
-            })
-            .collect();
-        for (c, f) in filtered.into_iter().enumerate() {
-            if let Some(f) = f {
-                planes[c] = f;
+        // Every plane's classes come from the unfiltered luma, so it is filtered last;
+        // one plane's output at a time.
+        let n = planes.len().min(self.planes.len());
+        for c in (1..n).chain((n > 0).then_some(0)) {
+            if let Some(f) = &self.planes[c] {
+                let mut out = vec![0.0f32; w * h];
+                filter_rows(&planes[c], (&planes[0], None), (w, h), spacing, shape(c), f, 0..h, &mut out);
+                planes[c] = out;
             }
         }
     }
@@ -157,11 +155,12 @@ fn weights(taps: &[i32]) -> Vec<f32> {
 /// this many rows and the window's, whatever the band.
 const CLASS_CHUNK: usize = 32;
 
-/// One plane's filters over rows `rows` into `out`, its classes from `classes_of`.
+/// One plane's filters over rows `rows` into `out`, its classes from the luma plane
+/// `classes_of.0` (or, if known, `classes_of.1`: the classes of `rows`).
 #[allow(clippy::too_many_arguments)]
 fn filter_rows(
     plane: &[f32],
-    classes_of: &[f32],
+    classes_of: (&[f32], Option<&[u8]>),
     (w, h): (usize, usize),
     spacing: (f64, f64),
     shape: &[(i32, i32)],
@@ -186,7 +185,10 @@ fn filter_rows(
     let mut start = rows.start;
     while start < rows.end {
         let end = (start + CLASS_CHUNK).min(rows.end);
-        let classes = classify_rows(classes_of, (w, h), spacing, start..end);
+        let classes = match classes_of {
+            (_, Some(known)) => std::borrow::Cow::Borrowed(&known[(start - rows.start) * w..(end - rows.start) * w]),
+            (luma, None) => std::borrow::Cow::Owned(classify_rows(luma, (w, h), spacing, start..end)),
+        };
         let pick = |i: usize| by_class[classes[i] as usize];
         let o = &mut out[(start - rows.start) * w..(end - rows.start) * w];
         if spacing == (1.0, 1.0) {
@@ -343,23 +345,19 @@ fn scaled_rows<'a>(
 ///
 /// At each pixel the absolute second differences across columns (`h`), rows (`v`)
 /// and the two diagonals (`d1` down-right, `d2` down-left) are taken one coded pixel
-/// either side, sampled as the filter samples. Each is summed over the window of
-/// `2 WINDOW + 1` coded pixels a side around the pixel (at another size, the output
-/// pixels within `round(WINDOW / spacing)` of it, scaled to the window's count),
-/// positions clamped to the image. The activity level is the number of
-/// [`ACTIVITY_BOUNDS`] at or below `v + h`. The direction is taken from the pair
-/// `h, v` where `max(h, v) min(d1, d2) > max(d1, d2) min(h, v)` (its larger sum over
-/// its smaller is the greater), else from `d1, d2`, if the pair's larger is more than
-/// twice its smaller: 1 where `h > v`, 2 for `v`, 3 where `d1 > d2`, 4 for `d2`; else
-/// 0. The class is `5 * level + direction`.
+/// either side, sampled as the filter samples. Each is summed over the window of 5x5
+/// pixels at offsets `(round(i / sx), round(j / sy))` output pixels, `i, j` from
+/// `-WINDOW` to `WINDOW` coded pixels (at the coded size, the 5x5 pixels around it),
+/// positions clamped to the image: down each column, then across. The activity level is
+/// the number of [`ACTIVITY_BOUNDS`] at or below `v + h`. The direction is taken from
+/// the pair `h, v` where `max(h, v) min(d1, d2) > max(d1, d2) min(h, v)` (its larger
+/// sum over its smaller is the greater), else from `d1, d2`, if the pair's larger is
+/// more than twice its smaller: 1 where `h > v`, 2 for `v`, 3 where `d1 > d2`, 4 for
+/// `d2`; else 0. The class is `5 * level + direction`.
 pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64), rows: std::ops::Range<usize>) -> Vec<u8> {
     let native = (sx, sy) == (1.0, 1.0);
-    let (rx, ry) = if native {
-        (WINDOW, WINDOW)
-    } else {
-        ((WINDOW as f64 / sx).round() as usize, (WINDOW as f64 / sy).round() as usize)
-    };
-    let norm = ((2 * WINDOW + 1) * (2 * WINDOW + 1)) as f32 / ((2 * rx + 1) * (2 * ry + 1)) as f32;
+    let window = |s: f64| -> Vec<isize> { (-(WINDOW as isize)..=WINDOW as isize).map(|i| (i as f64 / s).round() as isize).collect() };
+    let (ox, oy) = (window(sx), window(sy));
     let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
     // The second differences of one row: h, v, d1, d2, each `w` long.
     let diffs = |y: usize| -> [Vec<f32>; 4] {
@@ -390,40 +388,48 @@ pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64)
         }
         d
     };
-    let first = rows.start.saturating_sub(ry);
-    let last = (rows.end + ry).min(h);
-    let lines: Vec<[Vec<f32>; 4]> = (first..last).map(diffs).collect();
+    // The rows the window reaches from one output row, kept for the next: at most
+    // 2 WINDOW + 1 rows of differences, whatever the scale.
+    let mut kept: Vec<(usize, [Vec<f32>; 4])> = Vec::new();
+    let pad = ox.iter().map(|o| o.unsigned_abs()).max().unwrap_or(0);
     let mut out = Vec::with_capacity(rows.len() * w);
-    // Each difference's column sums, padded by `rx` clamped copies at either end, and
+    // Each difference's column sums, padded by `pad` clamped copies at either end, and
     // its window sums: added in the window's order, so every pixel's sum is the same
     // however its rows are banded.
-    let mut column: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w + 2 * rx]);
+    let mut column: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w + 2 * pad]);
     let mut sums: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
     for y in rows {
+        let reach: Vec<usize> = oy.iter().map(|&o| clamp(y as isize + o, h)).collect();
+        kept.retain(|(r, _)| reach.contains(r));
+        for &r in &reach {
+            if !kept.iter().any(|(k, _)| *k == r) {
+                kept.push((r, diffs(r)));
+            }
+        }
+        let line = |r: usize| &kept.iter().find(|(k, _)| *k == r).expect("kept above").1;
         for (k, col) in column.iter_mut().enumerate() {
-            let inner = &mut col[rx..rx + w];
+            let inner = &mut col[pad..pad + w];
             inner.fill(0.0);
-            for j in 0..=2 * ry {
-                let yy = clamp(y as isize + j as isize - ry as isize, h);
-                for (s, v) in inner.iter_mut().zip(&lines[yy - first][k]) {
+            for &r in &reach {
+                for (s, v) in inner.iter_mut().zip(&line(r)[k]) {
                     *s += v;
                 }
             }
-            let (left, right) = (col[rx], col[rx + w - 1]);
-            col[..rx].fill(left);
-            col[rx + w..].fill(right);
+            let (left, right) = (col[pad], col[pad + w - 1]);
+            col[..pad].fill(left);
+            col[pad + w..].fill(right);
         }
         for (sum, col) in sums.iter_mut().zip(&column) {
             sum.fill(0.0);
-            for i in 0..=2 * rx {
-                for (s, v) in sum.iter_mut().zip(&col[i..i + w]) {
+            for &o in &ox {
+                let start = (pad as isize + o) as usize;
+                for (s, v) in sum.iter_mut().zip(&col[start..start + w]) {
                     *s += v;
                 }
             }
         }
         let [sh, sv, s1, s2] = &sums;
         for (((&gh, &gv), &g1), &g2) in sh.iter().zip(sv).zip(s1).zip(s2) {
-            let [gh, gv, g1, g2] = [gh, gv, g1, g2].map(|v| v * norm);
             let level = ACTIVITY_BOUNDS.iter().filter(|&&b| gh + gv >= b).count();
             let (hi_hv, lo_hv) = (gh.max(gv), gh.min(gv));
             let (hi_d, lo_d) = (g1.max(g2), g1.min(g2));
@@ -492,12 +498,12 @@ mod tests {
                 let taps: Vec<i32> = (0..shape(c).len()).map(|k| (k as i32 * 37 % 61) - 30).collect();
                 let mut out = vec![0.0; w * h];
                 let f = PlaneFilter::single(taps.clone());
-                filter_rows(&plane, &plane, (w, h), (1.0, 1.0), shape(c), &f, 0..h, &mut out);
+                filter_rows(&plane, (&plane, None), (w, h), (1.0, 1.0), shape(c), &f, 0..h, &mut out);
                 assert_eq!(out, reference(&plane, (w, h), c, &taps), "{w}x{h} plane {c}");
                 // A band of rows is the same rows of the whole.
                 if h > 2 {
                     let mut band = vec![0.0; w];
-                    filter_rows(&plane, &plane, (w, h), (1.0, 1.0), shape(c), &f, 1..2, &mut band);
+                    filter_rows(&plane, (&plane, None), (w, h), (1.0, 1.0), shape(c), &f, 1..2, &mut band);
                     assert_eq!(band, out[w..2 * w]);
                 }
             }
@@ -624,7 +630,7 @@ mod tests {
         let map: [u8; CLASSES] = std::array::from_fn(|k| (k * 7 % 4) as u8);
         let pf = PlaneFilter { filters: filters.clone(), classes: Some(map) };
         let mut out = vec![0.0; w * h];
-        filter_rows(&plane, &plane, (w, h), (1.0, 1.0), &LUMA_SHAPE, &pf, 0..h, &mut out);
+        filter_rows(&plane, (&plane, None), (w, h), (1.0, 1.0), &LUMA_SHAPE, &pf, 0..h, &mut out);
         let classes = reference_classes(&plane, (w, h));
         let each: Vec<Vec<f32>> = filters.iter().map(|t| reference(&plane, (w, h), 0, t)).collect();
         for i in 0..w * h {
@@ -637,11 +643,11 @@ mod tests {
         // Bands of any height give the same rows, at the coded size and scaled.
         for spacing in [(1.0, 1.0), (0.5, 0.75), (2.0, 1.5)] {
             let mut whole = vec![0.0; w * h];
-            filter_rows(&plane, &plane, (w, h), spacing, &LUMA_SHAPE, &pf, 0..h, &mut whole);
+            filter_rows(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, &pf, 0..h, &mut whole);
             for start in (0..h).step_by(11) {
                 let end = (start + 11).min(h);
                 let mut band = vec![0.0; (end - start) * w];
-                filter_rows(&plane, &plane, (w, h), spacing, &LUMA_SHAPE, &pf, start..end, &mut band);
+                filter_rows(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, &pf, start..end, &mut band);
                 assert_eq!(band, whole[start * w..end * w], "{spacing:?} from {start}");
             }
         }
