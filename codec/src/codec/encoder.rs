@@ -626,9 +626,10 @@ fn fit_restoration(
                 height: rows.len() as u32,
             };
             let source = coding_planes(&src.region(rect), s).colour;
+            // Every plane's classes come from the luma.
+            let classes = restoration::classify_rows(&decoded[0], (wu, group_rows), (1.0, 1.0), rows.clone());
             for (c, (plane, source)) in decoded.iter().zip(&source).enumerate() {
-                // Every plane's classes come from the luma.
-                stats[c].accumulate(c, plane, &decoded[0], source, (wu, group_rows), rows.clone());
+                stats[c].accumulate(c, plane, &classes, source, (wu, group_rows), rows.clone());
             }
             stats
         })

@@ -11,7 +11,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::syntax::{classified_bits, plane_bits, tap_bits};
-use super::{classify_rows, shape, PlaneFilter, CHROMA_SHAPE, CLASSES, LUMA_SHAPE, MAX_FILTERS, MAX_TAP, TAP_LOG2};
+use super::{shape, PlaneFilter, CHROMA_SHAPE, CLASSES, LUMA_SHAPE, MAX_FILTERS, MAX_TAP, TAP_LOG2};
 
 /// One plane's normal equations over the pixels seen.
 #[derive(Debug, Clone, PartialEq)]
@@ -81,7 +81,7 @@ impl Stats {
 /// One plane's normal equations per pixel class.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClassStats {
-    /// Per class, in [`classify_rows`]'s numbering.
+    /// Per class, in [`classify_rows`](super::classify_rows)'s numbering.
     pub classes: Vec<Stats>,
 }
 
@@ -110,13 +110,14 @@ impl ClassStats {
     }
 
     /// Adds rows `rows` of colour plane `c`: `decoded` is the whole decoded plane
-    /// (`w x h`, the coded size) and `source` the source's rows `rows` of the same plane.
-    pub fn accumulate(&mut self, c: usize, decoded: &[f32], classes_of: &[f32], source: &[f64], size: (usize, usize), rows: std::ops::Range<usize>) {
-        let classes = classify_rows(classes_of, size, (1.0, 1.0), rows.clone());
+    /// (`w x h`, the coded size), `classes` the class of each pixel of the rows
+    /// ([`classify_rows`](super::classify_rows) of the decoded luma) and `source` the source's rows `rows` of
+    /// the same plane.
+    pub fn accumulate(&mut self, c: usize, decoded: &[f32], classes: &[u8], source: &[f64], size: (usize, usize), rows: std::ops::Range<usize>) {
         if c == 0 {
-            self.accumulate_k::<12>(&LUMA_SHAPE, decoded, &classes, source, size, rows);
+            self.accumulate_k::<12>(&LUMA_SHAPE, decoded, classes, source, size, rows);
         } else {
-            self.accumulate_k::<6>(&CHROMA_SHAPE, decoded, &classes, source, size, rows);
+            self.accumulate_k::<6>(&CHROMA_SHAPE, decoded, classes, source, size, rows);
         }
     }
 
@@ -139,10 +140,18 @@ impl ClassStats {
             for (k, &(dx, dy)) in shape.iter().enumerate() {
                 let down = &decoded[clamp(y as isize + dy as isize, h) * w..][..w];
                 let up = &decoded[clamp(y as isize - dy as isize, h) * w..][..w];
-                for x in 0..w {
-                    let a = down[clamp(x as isize + dx as isize, w)];
-                    let b = up[clamp(x as isize - dx as isize, w)];
-                    r[x][k] = a as f64 + b as f64 - 2.0 * centre[x] as f64;
+                let term = |a: f32, b: f32, c: f32| a as f64 + b as f64 - 2.0 * c as f64;
+                // Columns `lo..hi` have both neighbours inside the row; the others clamp.
+                let d = dx.unsigned_abs() as usize;
+                let (lo, hi) = (d.min(w), w.saturating_sub(d).max(d.min(w)));
+                if hi > lo {
+                    let (a, b) = if dx >= 0 { (&down[2 * d..], up) } else { (down, &up[2 * d..]) };
+                    for (i, x) in (lo..hi).enumerate() {
+                        r[x][k] = term(a[i], b[i], centre[x]);
+                    }
+                }
+                for x in (0..lo).chain(hi..w) {
+                    r[x][k] = term(down[clamp(x as isize + dx as isize, w)], up[clamp(x as isize - dx as isize, w)], centre[x]);
                 }
             }
             for x in 0..w {
@@ -360,7 +369,7 @@ pub fn fit_plane(stats: &ClassStats, halves: [&ClassStats; 2], scale: f64, bit_c
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::restoration::Restoration;
+    use crate::codec::restoration::{classify_rows, Restoration};
 
     fn noise(n: usize, seed: &mut u64) -> Vec<f64> {
         (0..n)
@@ -387,7 +396,7 @@ mod tests {
             .collect();
         for c in [0, 1] {
             let mut classes = ClassStats::new(c);
-            classes.accumulate(c, &decoded, &decoded, &source, (w, h), 0..h);
+            classes.accumulate(c, &decoded, &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h), &source, (w, h), 0..h);
             let stats = classes.total();
             let taps = fit(&stats, 1.0, 1e-6).expect("smoothing noise pays");
             let err = |p: &[f32]| p.iter().zip(&source).map(|(&d, s)| (d as f64 - s).powi(2)).sum::<f64>();
@@ -422,7 +431,7 @@ mod tests {
             let source = noise(w * h, &mut seed);
             for c in [0, 1] {
                 let mut classes = ClassStats::new(c);
-                classes.accumulate(c, &decoded, &decoded, &source, (w, h), 0..h);
+                classes.accumulate(c, &decoded, &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h), &source, (w, h), 0..h);
                 let get = |x: isize, y: isize| decoded[y.clamp(0, h as isize - 1) as usize * w + x.clamp(0, w as isize - 1) as usize] as f64;
                 let k = shape(c).len();
                 let class = classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h);
@@ -465,13 +474,13 @@ mod tests {
         let source: Vec<f64> = (0..w * h).map(|i| (i % 7) as f64 * 0.1).collect();
         let decoded: Vec<f32> = source.iter().map(|&v| v as f32).collect();
         let mut stats = ClassStats::new(0);
-        stats.accumulate(0, &decoded, &decoded, &source, (w, h), 0..h);
+        stats.accumulate(0, &decoded, &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h), &source, (w, h), 0..h);
         assert_eq!(fit(&stats.total(), 1.0, 1e-9), None);
         assert_eq!(fit_plane(&stats, [&stats, &stats], 1.0, 1e-9), None);
         let mut seed = 5;
         let noisy: Vec<f32> = source.iter().zip(noise(w * h, &mut seed)).map(|(s, n)| (s + 0.01 * n) as f32).collect();
         let mut stats = ClassStats::new(0);
-        stats.accumulate(0, &noisy, &noisy, &source, (w, h), 0..h);
+        stats.accumulate(0, &noisy, &classify_rows(&noisy, (w, h), (1.0, 1.0), 0..h), &source, (w, h), 0..h);
         assert_eq!(fit(&stats.total(), 1.0, 1e3), None);
         assert_eq!(fit_plane(&stats, [&stats, &stats], 1.0, 1e3), None);
     }
@@ -505,7 +514,7 @@ mod tests {
             }
         }
         let mut stats = ClassStats::new(0);
-        stats.accumulate(0, &decoded, &decoded, &source, (w, h), 0..h);
+        stats.accumulate(0, &decoded, &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h), &source, (w, h), 0..h);
         let (f, worth) = fit_plane(&stats, [&stats, &stats], 1.0, 1e-7).expect("filters pay");
         assert!(f.classes.is_some() && f.filters.len() >= 2, "{f:?}");
         let single = fit(&stats.total(), 1.0, 1e-7).expect("one filter pays too");

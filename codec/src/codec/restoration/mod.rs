@@ -200,6 +200,32 @@ fn filter_rows(
     }
 }
 
+/// Row `y`'s terms `f(p + d) + f(p - d) - 2 f(p)` for offset `(dx, dy)` into `t`,
+/// positions clamped to the plane.
+fn offset_terms(plane: &[f32], (w, h): (usize, usize), y: usize, (dx, dy): (i32, i32), t: &mut [f32]) {
+    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    let centre = &plane[y * w..(y + 1) * w];
+    let up = &plane[clamp(y as isize - dy as isize, h) * w..][..w];
+    let down = &plane[clamp(y as isize + dy as isize, h) * w..][..w];
+    let dxu = dx.unsigned_abs() as usize;
+    // Columns `lo..hi` have both neighbours inside the row; the others clamp.
+    let lo = dxu.min(w);
+    let hi = w.saturating_sub(dxu).max(lo);
+    for x in lo..hi {
+        let (a, b) = if dx >= 0 {
+            (down[x + dxu], up[x - dxu])
+        } else {
+            (down[x - dxu], up[x + dxu])
+        };
+        t[x] = a + b - 2.0 * centre[x];
+    }
+    for x in (0..lo).chain(hi..w) {
+        let a = down[clamp(x as isize + dx as isize, w)];
+        let b = up[clamp(x as isize - dx as isize, w)];
+        t[x] = a + b - 2.0 * centre[x];
+    }
+}
+
 /// The filter at the coded size: every offset is a whole pixel.
 fn native_rows(
     plane: &[f32],
@@ -209,35 +235,19 @@ fn native_rows(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
     let mut line = vec![0.0f32; w];
+    let mut t = vec![0.0f32; w];
     for (j, y) in rows.clone().enumerate() {
         line.fill(0.0);
-        let centre = &plane[y * w..(y + 1) * w];
-        for (&(dx, dy), &k) in shape.iter().zip(wt) {
-            let up = &plane[clamp(y as isize - dy as isize, h) * w..][..w];
-            let down = &plane[clamp(y as isize + dy as isize, h) * w..][..w];
-            let dxu = dx.unsigned_abs() as usize;
-            // Columns `lo..hi` have both neighbours inside the row; the others clamp.
-            let lo = dxu.min(w);
-            let hi = w.saturating_sub(dxu).max(lo);
-            for x in lo..hi {
-                let (a, b) = if dx >= 0 {
-                    (down[x + dxu], up[x - dxu])
-                } else {
-                    (down[x - dxu], up[x + dxu])
-                };
-                line[x] += k * (a + b - 2.0 * centre[x]);
-            }
-            for x in (0..lo).chain(hi..w) {
-                let a = down[clamp(x as isize + dx as isize, w)];
-                let b = up[clamp(x as isize - dx as isize, w)];
-                line[x] += k * (a + b - 2.0 * centre[x]);
+        for (&d, &k) in shape.iter().zip(wt) {
+            offset_terms(plane, (w, h), y, d, &mut t);
+            for (l, &v) in line.iter_mut().zip(&t) {
+                *l += k * v;
             }
         }
-        let o = &mut out[j * w..(j + 1) * w];
-        for x in 0..w {
-            o[x] = centre[x] + line[x];
+        let centre = &plane[y * w..(y + 1) * w];
+        for ((o, &c), &l) in out[j * w..(j + 1) * w].iter_mut().zip(centre).zip(&line) {
+            *o = c + l;
         }
     }
 }
@@ -255,31 +265,12 @@ fn native_classified_rows(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
     let mut terms = vec![0.0f32; shape.len() * w];
     for (j, y) in rows.clone().enumerate() {
-        let centre = &plane[y * w..(y + 1) * w];
-        for (&(dx, dy), t) in shape.iter().zip(terms.chunks_exact_mut(w)) {
-            let up = &plane[clamp(y as isize - dy as isize, h) * w..][..w];
-            let down = &plane[clamp(y as isize + dy as isize, h) * w..][..w];
-            let dxu = dx.unsigned_abs() as usize;
-            // Columns `lo..hi` have both neighbours inside the row; the others clamp.
-            let lo = dxu.min(w);
-            let hi = w.saturating_sub(dxu).max(lo);
-            for x in lo..hi {
-                let (a, b) = if dx >= 0 {
-                    (down[x + dxu], up[x - dxu])
-                } else {
-                    (down[x - dxu], up[x + dxu])
-                };
-                t[x] = a + b - 2.0 * centre[x];
-            }
-            for x in (0..lo).chain(hi..w) {
-                let a = down[clamp(x as isize + dx as isize, w)];
-                let b = up[clamp(x as isize - dx as isize, w)];
-                t[x] = a + b - 2.0 * centre[x];
-            }
+        for (&d, t) in shape.iter().zip(terms.chunks_exact_mut(w)) {
+            offset_terms(plane, (w, h), y, d, t);
         }
+        let centre = &plane[y * w..(y + 1) * w];
         for x in 0..w {
             let c = centre[x];
             out[j * w + x] = match by_class[classes[j * w + x] as usize] {
