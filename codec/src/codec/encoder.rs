@@ -563,8 +563,9 @@ const RESTORATION_SECTION_BYTES: usize = 10;
 const RESTORATION_SAMPLES: u64 = 1 << 19;
 
 /// The restoration filters for the file `bytes` (all but the filters coded): each
-/// colour plane's least-squares filter from the decoded planes against the source's,
-/// where it pays for its bits at the price the codec's own curve puts on a bit.
+/// colour plane's least-squares filters from the decoded planes against the source's,
+/// one for the plane or one per group of pixel classes, where they pay for their bits
+/// at the price the codec's own curve puts on a bit.
 ///
 /// The sums take groups of [`RESTORATION_GROUP`] evaluation bands, every few bands,
 /// each group's rows at least the filters' reach from its edges, so only those bands
