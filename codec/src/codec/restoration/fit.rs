@@ -102,9 +102,14 @@ impl ClassStats {
 
     /// The sums over every class.
     pub fn total(&self) -> Stats {
+        self.sum_of(0..CLASSES)
+    }
+
+    /// The sums over the classes `classes`, added in their order.
+    pub fn sum_of(&self, classes: impl IntoIterator<Item = usize>) -> Stats {
         let mut t = Stats::new_k(self.classes[0].k);
-        for s in &self.classes {
-            t.add(s);
+        for c in classes {
+            t.add(&self.classes[c]);
         }
         t
     }
@@ -235,10 +240,7 @@ pub fn fit(stats: &Stats, scale: f64, bit_cost: f64) -> Option<Vec<i32>> {
 pub fn fit_plane(stats: &ClassStats, halves: [&ClassStats; 2], scale: f64, bit_cost: f64) -> Option<(PlaneFilter, f64)> {
     let holds = |classes: &[usize], taps: &[i32]| {
         halves.iter().all(|h| {
-            let mut t = Stats::new_k(stats.classes[0].k);
-            for &c in classes {
-                t.add(&h.classes[c]);
-            }
+            let t = h.sum_of(classes.iter().copied());
             t.samples == 0 || t.gain(taps) > 0.0
         })
     };
@@ -247,13 +249,7 @@ pub fn fit_plane(stats: &ClassStats, halves: [&ClassStats; 2], scale: f64, bit_c
             .filters
             .iter()
             .zip(classes)
-            .map(|(taps, cs)| {
-                let mut t = Stats::new_k(stats.classes[0].k);
-                for &c in cs {
-                    t.add(&stats.classes[c]);
-                }
-                t.gain(taps)
-            })
+            .map(|(taps, cs)| stats.sum_of(cs.iter().copied()).gain(taps))
             .sum();
         gain * scale - bit_cost * (plane_bits(f) + 1) as f64
     };
@@ -336,11 +332,7 @@ pub fn fit_plane(stats: &ClassStats, halves: [&ClassStats; 2], scale: f64, bit_c
         let mut kept = Vec::new();
         let mut map = [0u8; CLASSES];
         for g in groups {
-            let mut s = Stats::new_k(stats.classes[0].k);
-            for &c in &g {
-                s.add(&stats.classes[c]);
-            }
-            let Some((taps, cost)) = fit_taps(&s, scale, bit_cost) else { continue };
+            let Some((taps, cost)) = fit_taps(&stats.sum_of(g.iter().copied()), scale, bit_cost) else { continue };
             if cost >= 0.0 || !holds(&g, &taps) {
                 continue;
             }
