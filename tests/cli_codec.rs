@@ -529,3 +529,77 @@ fn a_wrong_magic_number_stops_the_reading() {
         assert!(err.contains("magic"), "{cmd:?}: {err}");
     }
 }
+
+#[test]
+fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
+    let d = tmpdir("half");
+    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 130, 90, 4);
+    let png = d.join("scene.png");
+    img.to_dynamic_image().save(&png).unwrap();
+    let cae = d.join("scene.cae");
+    let out = caoen(&[
+        "encode",
+        s(&png),
+        "-o",
+        s(&cae),
+        "-q",
+        "40",
+        "--resampling",
+        "half",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        (&j["width"], &j["height"]),
+        (&130.into(), &90.into()),
+        "{j}"
+    );
+    assert_eq!(
+        (&j["coded_width"], &j["coded_height"]),
+        (&65.into(), &45.into()),
+        "{j}"
+    );
+    let text = caoen(&["info", s(&cae)]);
+    assert!(String::from_utf8_lossy(&text.stdout).contains("130x90 (coded at 65x45)"));
+    let info: serde_json::Value =
+        serde_json::from_slice(&caoen(&["info", s(&cae), "--json"]).stdout).unwrap();
+    assert_eq!(
+        (&info["width"], &info["coded_width"]),
+        (&130.into(), &65.into()),
+        "{info}"
+    );
+    // The decoder's default size and its --scale are the image's.
+    let back = d.join("back.png");
+    assert!(caoen(&["decode", s(&cae), "-o", s(&back)]).status.success());
+    assert_eq!(image::image_dimensions(&back).unwrap(), (130, 90));
+    let half = d.join("half.png");
+    assert!(
+        caoen(&["decode", s(&cae), "-o", s(&half), "--scale", "0.5"])
+            .status
+            .success()
+    );
+    assert_eq!(image::image_dimensions(&half).unwrap(), (65, 45));
+    // `image::open` reads it at the image's size too, through the hooks.
+    caoen::register_image_hooks();
+    let opened = image::open(&cae).unwrap();
+    assert_eq!((opened.width(), opened.height()), (130, 90));
+    // Off keeps the image's size in the file.
+    let full = caoen(&[
+        "encode",
+        s(&png),
+        "-o",
+        s(&d.join("full.cae")),
+        "-q",
+        "40",
+        "--resampling",
+        "off",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&full.stdout).unwrap();
+    assert_eq!(j["coded_width"], 130, "{j}");
+}

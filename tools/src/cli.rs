@@ -499,9 +499,34 @@ pub struct EncodeArgs {
     /// Keep no metadata (the same as --metadata none).
     #[arg(long, conflicts_with = "metadata")]
     pub strip: bool,
+    /// Coding at half size per side, which the decoder draws at full size: auto (below
+    /// quality 55, where it pays by rate and distortion), off, or half (always).
+    #[arg(long, value_enum, default_value_t = ResamplingArg::Auto)]
+    pub resampling: ResamplingArg,
     /// Print statistics as JSON on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--resampling`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ResamplingArg {
+    /// Half size where it pays (tried below quality 55).
+    Auto,
+    /// Always the image's own size.
+    Off,
+    /// Always half size per side.
+    Half,
+}
+
+impl From<ResamplingArg> for caoen::Resampling {
+    fn from(a: ResamplingArg) -> Self {
+        match a {
+            ResamplingArg::Auto => caoen::Resampling::Auto,
+            ResamplingArg::Off => caoen::Resampling::Off,
+            ResamplingArg::Half => caoen::Resampling::Half,
+        }
+    }
 }
 
 /// Which metadata items a file keeps.

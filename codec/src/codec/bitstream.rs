@@ -18,7 +18,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 14;
+pub const VERSION: u8 = 15;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -90,12 +90,17 @@ pub struct Header {
     pub weights: Option<FrequencyWeights>,
     /// The restoration filters (the restoration section, after the tiles).
     pub restoration: Option<Restoration>,
+    /// The image's own size when it was coded at a smaller one (`width x height`),
+    /// which the decoder then outputs by default: the last 8 bytes of the header.
+    pub display: Option<(u32, u32)>,
 }
 
 /// Header bytes without the detail layer's steps.
 const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 2;
 /// Header bytes with them.
 const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
+/// Bytes of the display size, when the image was coded at a smaller size.
+const DISPLAY_LEN: usize = 8;
 /// Bytes of the deblocking parameters.
 const DEBLOCK_LEN: usize = 2;
 /// Bytes of the adaptive step factors and the activity field's region side.
@@ -123,6 +128,11 @@ const LAPPING_LEN: usize = 1;
 const WEIGHTS_LEN: usize = 2;
 
 impl Header {
+    /// The size the decoder outputs by default: the image's own size.
+    pub fn display_size(&self) -> (u32, u32) {
+        self.display.unwrap_or((self.width, self.height))
+    }
+
     /// How the key points' steps follow their cell sizes.
     pub fn level_steps(&self) -> LevelSteps {
         LevelSteps {
@@ -223,6 +233,10 @@ impl Header {
         if let Some(w) = self.weights {
             b.extend(w.tilts);
         }
+        if let Some((w, h)) = self.display {
+            b.extend(w.to_le_bytes());
+            b.extend(h.to_le_bytes());
+        }
         b
     }
 
@@ -267,13 +281,14 @@ impl Header {
                     0
                 }
         };
-        if p.len() != len {
+        if p.len() != len && p.len() != len + DISPLAY_LEN {
             return Err(CodecError::HeaderLength {
                 found: p.len() as u64,
                 expected: len as u64,
             });
         }
         let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
+        let display = (p.len() == len + DISPLAY_LEN).then(|| (u32_at(len), u32_at(len + 4)));
         let f32_at = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
         let (width, height) = (u32_at(0), u32_at(4));
         for (what, side) in [("width", width), ("height", height)] {
@@ -281,7 +296,26 @@ impl Header {
                 return Err(CodecError::range(what, side, 1.0, MAX_SIDE.into()));
             }
         }
-        let pixels = width as u64 * height as u64;
+        if let Some((dw, dh)) = display {
+            // Coded smaller on some side and larger on none: one canonical form.
+            for (what, side, coded) in
+                [("display width", dw, width), ("display height", dh, height)]
+            {
+                if side < coded || side > MAX_SIDE {
+                    return Err(CodecError::range(what, side, coded.into(), MAX_SIDE.into()));
+                }
+            }
+            if (dw, dh) == (width, height) {
+                return Err(CodecError::range(
+                    "display width",
+                    dw,
+                    f64::from(width) + 1.0,
+                    MAX_SIDE.into(),
+                ));
+            }
+        }
+        let (dw, dh) = display.unwrap_or((width, height));
+        let pixels = u64::from(dw) * u64::from(dh);
         if pixels > max_pixels {
             return Err(CodecError::Limit {
                 what: "pixels",
@@ -400,6 +434,7 @@ impl Header {
             level_steps: flags & FLAG_LEVEL_STEPS != 0,
             restoration: None,
             weights,
+            display,
         };
         let max = header.shape().max_leaves();
         if header.luma_count == 0 || header.luma_count as u64 > max {

@@ -525,6 +525,7 @@ pub fn encode_with(
         },
         level_steps: levels.on,
         restoration: None,
+        display: s.display,
     };
     let streams: Vec<TileStreams> = models
         .into_iter()
@@ -546,6 +547,7 @@ pub fn encode_with(
         chroma_keypoints: net.chroma_cells.len(),
         tiles: n,
         bytes: bytes.len(),
+        coded_size: (w, h),
     };
     Ok((bytes, stats))
 }

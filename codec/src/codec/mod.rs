@@ -15,6 +15,7 @@ pub mod bitstream;
 pub mod decoder;
 mod error;
 pub mod keypoint_map;
+pub mod resample;
 pub mod source;
 pub mod tiling;
 
@@ -56,6 +57,7 @@ stages! {
     quadtree;
     /// The restoration filters applied to the decoded planes.
     restoration;
+
     /// Quality and effort mapping; the rate-target search.
     rate_control;
     /// Split flags and value residuals as coded symbols.
@@ -117,7 +119,36 @@ pub struct EncodeOptions {
     pub metadata: Metadata,
     /// Memory limit of the call.
     pub limits: Limits,
+    /// Whether the image may be coded at a smaller size than its own.
+    pub resampling: Resampling,
 }
+
+/// Whether the encoder codes an image at a smaller size than its own, which the
+/// decoder draws at the image's size from the continuous network. At low rates that
+/// spends the bits on the frequencies that carry the most.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Resampling {
+    /// At half size per side where that pays by rate and distortion: tried below
+    /// quality [`RESAMPLE_BELOW`] on 8- and 16-bit images of at least
+    /// [`RESAMPLE_MIN_SIDE`] pixels per side.
+    #[default]
+    Auto,
+    /// Always at the image's own size.
+    Off,
+    /// Always at half size per side.
+    Half,
+}
+
+/// [`Resampling::Auto`] tries half size only below this quality: above it, half size
+/// did not pay on the photographs (`docs/codec-ablation.md`, "Coding at half size").
+pub const RESAMPLE_BELOW: f32 = 55.0;
+/// [`Resampling::Auto`] leaves images smaller than this on either side at their size.
+pub const RESAMPLE_MIN_SIDE: u32 = 64;
+/// PSNR (dB) per doubling of rate that [`Resampling::Auto`] weighs a half-size file's
+/// change of PSNR against its change of rate. Below the curve's own slope (2-3 dB
+/// per doubling there): a half-size file must win clearly, as sparse choices cost
+/// more than they gain (`docs/codec-ablation.md`, "Coding at half size").
+const RESAMPLE_SLOPE: f64 = 1.5;
 
 /// Statistics of one encode.
 #[derive(Debug, Clone, PartialEq)]
@@ -130,6 +161,8 @@ pub struct EncodeStats {
     pub tiles: usize,
     /// Bytes of the whole file.
     pub bytes: usize,
+    /// The size the image was coded at (its own, or a smaller one: [`Resampling`]).
+    pub coded_size: (u32, u32),
 }
 
 /// A rate target for the encoder's search.
@@ -150,6 +183,7 @@ impl Default for EncodeOptions {
             keypoints: None,
             metadata: Metadata::default(),
             limits: Limits::default(),
+            resampling: Resampling::Auto,
         }
     }
 }
@@ -157,7 +191,8 @@ impl Default for EncodeOptions {
 /// Decoder settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DecodeOptions {
-    /// Output size; `None` decodes at the coded size.
+    /// Output size; `None` decodes at the image's size (which a file coded at a
+    /// smaller size records in its header).
     pub size: Option<(u32, u32)>,
     /// Forward-mapping supersampling `S` (S x S samples per output pixel, 1..=4);
     /// `None` uses the identity fast path where the file allows it.
@@ -277,24 +312,117 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
             });
         }
     };
-    let md = &opts.metadata;
+    let code = |q: f32, progress: &mut (dyn FnMut(usize, usize) + Send)| {
+        encode_resampled(image, q, opts, &settings, workers, progress)
+    };
     let Some(target) = target else {
-        return encoder::encode_with(image, &settings(opts.quality), md, workers, progress);
+        return code(opts.quality, &mut progress);
     };
     let steps = 6 + opts.effort as usize;
     let mut done = 0;
     let (q, _) = rate_control::search_quality(target, 0.02, steps, |q| {
         done += 1;
         progress(done, steps + 1);
-        Ok(
-            encoder::encode_with(image, &settings(q), md, workers, |_, _| {})?
-                .0
-                .len(),
-        )
+        Ok(code(q, &mut |_, _| {})?.0.len())
     })?;
-    let out = encoder::encode_with(image, &settings(q), md, workers, |_, _| {})?;
+    let out = code(q, &mut |_, _| {})?;
     progress(steps + 1, steps + 1);
     Ok(out)
+}
+
+/// Codes `image` at quality `q` (`settings` maps a quality to the encoder's settings)
+/// at its own size or at half size, as `opts.resampling` asks or, for
+/// [`Resampling::Auto`], as pays: both are coded and decoded, and half size is kept
+/// when its change of PSNR plus [`RESAMPLE_SLOPE`] dB per doubling of rate it saves is
+/// positive.
+/// Half size is coded at [`rate_control::half_size_quality`], whose rate-distortion
+/// slope at the image's size is `q`'s.
+fn encode_resampled<S: PixelSource + ?Sized>(
+    image: &S,
+    q: f32,
+    opts: &EncodeOptions,
+    settings: &impl Fn(f32) -> rate_control::EncodeSettings,
+    workers: usize,
+    progress: &mut (dyn FnMut(usize, usize) + Send),
+) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+    let (w, h) = (image.width(), image.height());
+    let half_size = resample::coded_size(w, h, 2);
+    let half = |progress: &mut (dyn FnMut(usize, usize) + Send)| {
+        let small = resample::downscale(image, half_size);
+        let s = rate_control::EncodeSettings {
+            display: Some((w, h)),
+            ..settings(rate_control::half_size_quality(q))
+        };
+        encoder::encode_with(&small, &s, &opts.metadata, workers, progress)
+    };
+    let try_half = match opts.resampling {
+        Resampling::Off => false,
+        Resampling::Half => return half(progress),
+        Resampling::Auto => {
+            q < RESAMPLE_BELOW
+                && w.min(h) >= RESAMPLE_MIN_SIDE
+                && image.format() != crate::raster::SampleFormat::F32
+        }
+    };
+    let full = encoder::encode_with(image, &settings(q), &opts.metadata, workers, &mut *progress)?;
+    if !try_half {
+        return Ok(full);
+    }
+    // The trial holds the small source, then one decode at a time beside the file.
+    let channels = image.layout().channels();
+    let trial = resample::downscale_memory(w, h, channels, half_size)
+        .saturating_add(crate::budget::bytes(
+            w.into(),
+            h.into(),
+            4 * channels as u64 + 8,
+        ))
+        .saturating_add(16 << 20);
+    if opts.limits.check(String::new, trial).is_err() {
+        return Ok(full);
+    }
+    let small = half(&mut |_, _| {})?;
+    let error = |bytes: &[u8]| -> Result<f64, CodecError> {
+        let out = decode(bytes, &DecodeOptions::default())?;
+        Ok(squared_error(image, &out))
+    };
+    let (e_full, e_half) = (error(&full.0)?, error(&small.0)?);
+    let psnr_gain = 10.0 * (e_full.max(1e-30) / e_half.max(1e-30)).log10();
+    let doublings = (full.0.len() as f64 / small.0.len() as f64).log2();
+    Ok(if psnr_gain + RESAMPLE_SLOPE * doublings > 0.0 {
+        small
+    } else {
+        full
+    })
+}
+
+/// The sum of squared differences between `image` and `out` (of its size and layout),
+/// over every sample, read in strips.
+fn squared_error<S: PixelSource + ?Sized>(image: &S, out: &Raster) -> f64 {
+    let (w, h) = (image.width(), image.height());
+    let n = w as usize * h as usize;
+    let channels = image.layout().channels();
+    let mut sum = 0.0;
+    for y0 in (0..h).step_by(64) {
+        let rows = (h - y0).min(64);
+        let strip = image.region(tiling::TileRect {
+            x0: 0,
+            y0,
+            width: w,
+            height: rows,
+        });
+        let len = w as usize * rows as usize;
+        for c in 0..channels {
+            let a = &strip.samples()[c * len..(c + 1) * len];
+            let start = c * n + y0 as usize * w as usize;
+            let b = &out.samples()[start..start + len];
+            sum += a
+                .iter()
+                .zip(b)
+                .map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2))
+                .sum::<f64>();
+        }
+    }
+    sum
 }
 
 /// Bytes per key point the encoder keeps for the whole image: its cell and values as

@@ -56,6 +56,9 @@ pub struct EncodeSettings {
     /// Fit restoration filters to the decoded planes (else none; images of more than
     /// one tile are coded without them).
     pub restoration: bool,
+    /// The image's own size when the source given is a smaller copy of it
+    /// (none: the source is the image).
+    pub display: Option<(u32, u32)>,
 }
 
 /// Detail-layer luma step at quality 0; it falls log-quadratically to
@@ -248,7 +251,20 @@ pub fn min_cell_log2(q: f32) -> u8 {
 
 /// The detail layer's luma step at quality `q` (0..=100).
 fn detail_step(q: f64) -> f64 {
+    // `half_size_quality` inverts this exponent.
     DETAIL_STEP_0 * 10f64.powf(-q * (0.0003 + 0.000245 * q))
+}
+
+/// The quality to code an image at half size per side for quality `q`: the one whose
+/// detail step is half `q`'s. A coded pixel's error spreads over four of the image's,
+/// so that keeps the rate-distortion slope of `q`'s steps (the steps' squares are the
+/// encoder's Lagrange multipliers) at the image's size.
+pub fn half_size_quality(q: f32) -> f32 {
+    // Solves 0.000245 x^2 + 0.0003 x = f(q) + log10 2 for the exponent f of `detail_step`.
+    let q = f64::from(q.clamp(0.0, 100.0));
+    let (a, b) = (0.000245, 0.0003);
+    let c = q * (b + a * q) + std::f64::consts::LOG10_2;
+    (((b * b + 4.0 * a * c).sqrt() - b) / (2.0 * a)).min(100.0) as f32
 }
 
 /// Settings for quality `q` (0..=100) and effort `e` (1..=9).
@@ -294,6 +310,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         sparse_area: PHOTO_NETWORK.sparse_area,
         // The fit decodes most of the file again: a third of effort 1's encode.
         restoration: e >= 3,
+        display: None,
     }
 }
 

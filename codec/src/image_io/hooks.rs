@@ -90,7 +90,7 @@ fn image_error(e: CodecError) -> ImageError {
 
 impl ImageDecoder for CaeDecoder {
     fn dimensions(&self) -> (u32, u32) {
-        (self.header.width, self.header.height)
+        self.header.display_size()
     }
 
     fn color_type(&self) -> ColorType {

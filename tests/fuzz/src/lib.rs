@@ -139,7 +139,7 @@ pub fn decode(data: &[u8]) -> Outcome {
     assert_canonical(data, &parsed);
     let h = &parsed.header;
     let img = decoded.map_err(message)?;
-    assert_decoded(&img, h, (h.width, h.height));
+    assert_decoded(&img, h, h.display_size());
     if u64::from(h.width) * u64::from(h.height) <= FORWARD_MAX_PIXELS {
         // Narrower (a downscaled axis) and taller (an upscaled one).
         let size = ((h.width * 3).div_ceil(4), h.height + h.height / 2);
@@ -300,6 +300,18 @@ fn choose_header(c: &mut Choices) -> Header {
             ColourBasis::Grey
         },
         level_steps: c.bit(),
+        // A larger image coded at this size: each side grows by up to 64, within
+        // the pixels the decode target allows.
+        display: c
+            .bit()
+            .then(|| {
+                let grow =
+                    |side: u32, by: u8| (side + u32::from(by % 65)).min(caoen::codec::MAX_SIDE);
+                (grow(width, c.byte()), grow(height, c.byte()))
+            })
+            .filter(|&(dw, dh)| {
+                (dw, dh) != (width, height) && u64::from(dw) * u64::from(dh) <= DECODE_MAX_PIXELS
+            }),
         weights: (detail_steps.is_some() && c.bit()).then(|| FrequencyWeights {
             tilts: [c.byte(), c.byte()],
         }),

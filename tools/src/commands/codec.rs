@@ -172,6 +172,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         limits: Limits {
             max_memory: caoen::budget::get().saturating_sub(held),
         },
+        resampling: a.resampling.into(),
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
     let mut outputs = Outputs::new(global.force).input(&a.input);
@@ -213,6 +214,13 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         let raster = img
             .into_raster()
             .map_err(|e| CliError::Failed(e.to_string()))?;
+        // The key points are the coded image's: draw them over it.
+        let h = &decoded.header;
+        let raster = if (h.width, h.height) == (raster.width(), raster.height()) {
+            raster
+        } else {
+            caoen::codec::resample::downscale(&raster, (h.width, h.height))
+        };
         let picture = keypoint_map::render(&raster, &decoded);
         let png = image_io::encode(&picture, format).map_err(|e| encode_error(map, e))?;
         outputs.write_path(map, &png)?;
@@ -220,15 +228,21 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     }
     if a.json {
         let v = json!({"input": a.input, "output": out.display(), "bytes": bytes.len(), "bpp": bpp,
-            "width": width, "height": height, "tiles": stats.tiles, "luma_keypoints": stats.luma_keypoints,
+            "width": width, "height": height, "coded_width": stats.coded_size.0,
+            "coded_height": stats.coded_size.1, "tiles": stats.tiles, "luma_keypoints": stats.luma_keypoints,
             "chroma_keypoints": stats.chroma_keypoints, "seconds": secs,
             "metadata": metadata_json(&kept)});
         print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
     }
+    let coded = if stats.coded_size == (width, height) {
+        String::new()
+    } else {
+        format!(", coded at {}x{}", stats.coded_size.0, stats.coded_size.1)
+    };
     note(
         global,
         format!(
-            "{} -> {}: {} bytes, {bpp:.4} bpp, {} + {} key points, {secs:.2} s",
+            "{} -> {}: {} bytes, {bpp:.4} bpp, {} + {} key points{coded}, {secs:.2} s",
             a.input.display(),
             out.display(),
             bytes.len(),
@@ -273,7 +287,7 @@ fn parse_size(s: &str) -> CliResult<(u32, u32)> {
 pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     let bytes = read_input(&a.input)?;
     let parsed = bitstream::parse(&bytes, a.max_pixels).map_err(|e| codec_err(&a.input, e))?;
-    let (w, h) = (parsed.header.width, parsed.header.height);
+    let (w, h) = parsed.header.display_size();
     let size = match (&a.size, a.scale) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage("give --size or --scale, not both".into()))
@@ -426,7 +440,8 @@ pub fn info(a: &InfoArgs) -> CliResult {
             (s.tag as char, name, s.offset, s.payload.len() + 9)
         })
         .collect();
-    let px = h.width as f64 * h.height as f64;
+    let (dw, dh) = h.display_size();
+    let px = dw as f64 * dh as f64;
     // What the tiles' streams add up to, per kind.
     let streams = parsed.tiles.iter().fold([0usize; 4], |acc, t| {
         [
@@ -442,7 +457,8 @@ pub fn info(a: &InfoArgs) -> CliResult {
     if a.json {
         let v = json!({
             "file": a.input, "bytes": bytes.len(), "bpp": bytes.len() as f64 * 8.0 / px,
-            "version": bitstream::VERSION, "width": h.width, "height": h.height,
+            "version": bitstream::VERSION, "width": dw, "height": dh,
+            "coded_width": h.width, "coded_height": h.height,
             "channels": h.layout.channels(), "alpha": h.layout.has_alpha(),
             "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
             "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
@@ -474,11 +490,14 @@ pub fn info(a: &InfoArgs) -> CliResult {
         bytes.len() as f64 * 8.0 / px
     );
     outln!(text, "format:      caoen version {}", bitstream::VERSION);
+    let coded = if (dw, dh) == (h.width, h.height) {
+        String::new()
+    } else {
+        format!(" (coded at {}x{})", h.width, h.height)
+    };
     outln!(
         text,
-        "image:       {}x{}, {:?}, {:?} samples",
-        h.width,
-        h.height,
+        "image:       {dw}x{dh}{coded}, {:?}, {:?} samples",
         h.layout,
         h.format
     );

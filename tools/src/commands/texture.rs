@@ -188,12 +188,25 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         let d = decoder::read(&bytes, caoen::codec::DEFAULT_MAX_PIXELS)
             .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
         fmt_for(d.header.format)?;
-        let warp = Warp::new(d.header.width, d.header.height, &moves).map_err(tex_err)?;
-        check(global, &warp);
-        (
-            warp::warp_decoded(&d, &warp, a.supersample).map_err(tex_err)?,
-            warp,
-        )
+        if d.header.display.is_some() {
+            // Coded at a smaller size: the moves are in the image's pixels, so warp the
+            // image as decoded at its size.
+            let img = caoen::decode(&bytes, &caoen::DecodeOptions::default())
+                .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
+            let warp = Warp::new(img.width(), img.height(), &moves).map_err(tex_err)?;
+            check(global, &warp);
+            (
+                warp::warp_raster(&img, &warp, a.supersample).map_err(tex_err)?,
+                warp,
+            )
+        } else {
+            let warp = Warp::new(d.header.width, d.header.height, &moves).map_err(tex_err)?;
+            check(global, &warp);
+            (
+                warp::warp_decoded(&d, &warp, a.supersample).map_err(tex_err)?,
+                warp,
+            )
+        }
     } else {
         let img = image_io::load(&a.input).map_err(|e| CliError::Failed(e.to_string()))?;
         fmt_for(img.format())?;

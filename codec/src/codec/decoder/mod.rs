@@ -56,7 +56,7 @@ fn output_size(
     opts: &DecodeOptions,
     sample_bytes: u64,
 ) -> Result<(u32, u32), CodecError> {
-    let (ow, oh) = opts.size.unwrap_or((header.width, header.height));
+    let (ow, oh) = opts.size.unwrap_or(header.display_size());
     if ow == 0 || oh == 0 || ow > MAX_SIDE || oh > MAX_SIDE {
         return Err(CodecError::Parameter {
             name: "output size",

@@ -1,0 +1,177 @@
+//! Coding at half size: the header's display size, decoding at the image's size, the
+//! encoder's choice by rate and distortion, and the bounds a decoder enforces.
+
+use caoen::codec::bitstream;
+use caoen::codec::{
+    decode, encode, encode_with_progress, DecodeOptions, EncodeOptions, Resampling, RESAMPLE_BELOW,
+};
+use caoen::image_io;
+use caoen::raster::Raster;
+
+fn scene(w: u32, h: u32, seed: u64) -> Raster {
+    of_class(caoen_corpus::Class::Scene, w, h, seed)
+}
+
+fn of_class(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
+    let img = caoen_corpus::Spec {
+        class,
+        width: w,
+        height: h,
+        seed,
+    }
+    .generate();
+    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
+}
+
+fn opts(quality: f32, resampling: Resampling) -> EncodeOptions {
+    EncodeOptions {
+        quality,
+        resampling,
+        ..Default::default()
+    }
+}
+
+fn squared_error(a: &Raster, b: &Raster) -> f64 {
+    assert_eq!((a.width(), a.height()), (b.width(), b.height()));
+    a.samples()
+        .iter()
+        .zip(b.samples())
+        .map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2))
+        .sum()
+}
+
+#[test]
+fn a_half_size_file_decodes_at_the_image_size() {
+    let img = scene(161, 97, 3);
+    let (bytes, stats) =
+        encode_with_progress(&img, &opts(60.0, Resampling::Half), |_, _| {}).unwrap();
+    assert_eq!(stats.coded_size, (81, 49));
+    let h = bitstream::parse(&bytes, u64::MAX).unwrap().header;
+    assert_eq!((h.width, h.height, h.display), (81, 49, Some((161, 97))));
+    let out = decode(&bytes, &DecodeOptions::default()).unwrap();
+    assert_eq!(
+        (out.width(), out.height(), out.layout()),
+        (161, 97, img.layout())
+    );
+    let mse = squared_error(&img, &out) / img.samples().len() as f64;
+    let psnr = -10.0 * mse.log10();
+    assert!(psnr > 22.0, "PSNR {psnr:.2}");
+    // Other sizes still decode, by the same continuous network.
+    let small = decode(
+        &bytes,
+        &DecodeOptions {
+            size: Some((81, 49)),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!((small.width(), small.height()), (81, 49));
+}
+
+#[test]
+fn auto_keeps_the_cheaper_of_the_two_by_its_rule() {
+    // The rule: half size when its PSNR change plus 1.5 dB per doubling of the rate
+    // it saves is positive. Check it against files coded both ways.
+    let mut chosen = Vec::new();
+    for (seed, quality) in [(1, 20.0), (2, 35.0), (4, 45.0)] {
+        let img = scene(192, 128, seed);
+        let full = encode(&img, &opts(quality, Resampling::Off)).unwrap();
+        let auto = encode(&img, &opts(quality, Resampling::Auto)).unwrap();
+        let chose_half = bitstream::parse(&auto, u64::MAX)
+            .unwrap()
+            .header
+            .display
+            .is_some();
+        let error = |b: &[u8]| squared_error(&img, &decode(b, &DecodeOptions::default()).unwrap());
+        let half = encode(&img, &opts(quality, Resampling::Half)).unwrap();
+        let gain = 10.0 * (error(&full) / error(&half)).log10();
+        let doublings = (full.len() as f64 / half.len() as f64).log2();
+        let want_half = gain + 1.5 * doublings > 0.0;
+        assert_eq!(
+            chose_half, want_half,
+            "seed {seed} q {quality}: gain {gain:.3} dB, {doublings:.3} doublings"
+        );
+        assert_eq!(auto, if want_half { half } else { full });
+        chosen.push(want_half);
+    }
+    // The cases reach both sides of the rule.
+    assert!(
+        chosen.contains(&true) && chosen.contains(&false),
+        "{chosen:?}"
+    );
+}
+
+#[test]
+fn auto_codes_at_full_size_from_its_quality_bound_and_on_small_images() {
+    let img = scene(192, 128, 5);
+    for quality in [RESAMPLE_BELOW, 75.0] {
+        assert_eq!(
+            encode(&img, &opts(quality, Resampling::Auto)).unwrap(),
+            encode(&img, &opts(quality, Resampling::Off)).unwrap()
+        );
+    }
+    let tiny = scene(200, 40, 6);
+    assert_eq!(
+        encode(&tiny, &opts(10.0, Resampling::Auto)).unwrap(),
+        encode(&tiny, &opts(10.0, Resampling::Off)).unwrap()
+    );
+}
+
+#[test]
+fn half_size_pays_at_low_rates_on_flat_regions() {
+    // Flat regions lose little over a 2x upscale, and at low quality half size
+    // saves much of the rate: the encoder takes it.
+    let img = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let (bytes, stats) =
+        encode_with_progress(&img, &opts(5.0, Resampling::Auto), |_, _| {}).unwrap();
+    let full = encode(&img, &opts(5.0, Resampling::Off)).unwrap();
+    assert_eq!(stats.coded_size, (128, 96));
+    assert!(
+        bytes.len() < full.len(),
+        "{} against {}",
+        bytes.len(),
+        full.len()
+    );
+}
+
+#[test]
+fn the_decoder_checks_the_display_size() {
+    let img = scene(96, 80, 8);
+    let bytes = encode(&img, &opts(60.0, Resampling::Half)).unwrap();
+    let parsed = bitstream::parse(&bytes, u64::MAX).unwrap();
+    let h0 = parsed.header.clone();
+    // Rewrite the display size in place (the last 8 bytes of the header's payload)
+    // and fix the section's CRC, to reach the header's own checks.
+    let hs = &parsed.sections[0];
+    assert_eq!(hs.tag, bitstream::tag::HEADER);
+    let end = hs.offset + 5 + hs.payload.len();
+    let with_display = |dw: u32, dh: u32| {
+        let mut b = bytes.clone();
+        b[end - 8..end - 4].copy_from_slice(&dw.to_le_bytes());
+        b[end - 4..end].copy_from_slice(&dh.to_le_bytes());
+        let crc = crc32fast::hash(&b[hs.offset..end]);
+        b[end..end + 4].copy_from_slice(&crc.to_le_bytes());
+        b
+    };
+    // The unchanged rewrite parses; smaller than coded, equal, or past the side limit fail.
+    assert_eq!(
+        bitstream::parse(&with_display(96, 80), u64::MAX)
+            .unwrap()
+            .header,
+        h0
+    );
+    for (dw, dh) in [(47, 80), (96, 39), (48, 40), (16385, 80)] {
+        let e = bitstream::parse(&with_display(dw, dh), u64::MAX).unwrap_err();
+        assert!(e.to_string().contains("display"), "{dw}x{dh}: {e}");
+    }
+    // The pixel limit counts the display size.
+    let e = decode(
+        &bytes,
+        &DecodeOptions {
+            max_pixels: 96 * 80 - 1,
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("pixels"), "{e}");
+}
