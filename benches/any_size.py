@@ -4,11 +4,12 @@
     python3 benches/any_size.py [WORKDIR]
 
 Each photograph in ../shared/photos is downscaled to half its size per side (Lanczos),
-encoded by the release `caoen` at q50 and q75, and then decoded two ways: by caoen at
-the full size (`--size`, the continuous layers evaluated at the output positions) and
-at its coded size, upscaled with Lanczos. Both are scored by RGB PSNR against the
-full-size photograph; the script prints, per quality, the mean, smallest and largest
-difference (full-size decode minus upscale). Needs Pillow and numpy.
+encoded by the release `caoen` at q50 and q75 at that size (`--resampling off`), and
+then decoded two ways: by caoen at the full size (`--size`, the continuous layers
+evaluated at the output positions) and at its coded size, upscaled with Lanczos. Both
+are scored by RGB PSNR against the full-size photograph; the script prints, per
+quality, the mean, smallest and largest difference (full-size decode minus upscale).
+Needs Pillow and numpy.
 """
 import glob
 import os
@@ -48,7 +49,7 @@ def main():
             cae = os.path.join(WORK, f"{name}-q{q}.cae")
             big = os.path.join(WORK, f"{name}-q{q}-full.png")
             small = os.path.join(WORK, f"{name}-q{q}-half.png")
-            caoen("encode", half, "-q", str(q), "-o", cae)
+            caoen("encode", half, "-q", str(q), "--resampling", "off", "-o", cae)
             caoen("decode", cae, "--size", f"{w}x{h}", "-o", big)
             caoen("decode", cae, "-o", small)
             direct = psnr(Image.open(big).convert("RGB"), full)

@@ -102,7 +102,7 @@ fn auto_keeps_the_cheaper_of_the_two_by_its_rule() {
 }
 
 #[test]
-fn auto_codes_at_full_size_from_its_quality_bound_and_on_small_images() {
+fn auto_codes_at_full_size_from_its_quality_bound_at_low_effort_and_on_small_images() {
     let img = scene(192, 128, 5);
     for quality in [RESAMPLE_BELOW, 75.0] {
         assert_eq!(
@@ -110,6 +110,17 @@ fn auto_codes_at_full_size_from_its_quality_bound_and_on_small_images() {
             encode(&img, &opts(quality, Resampling::Off)).unwrap()
         );
     }
+    // Efforts 1 and 2 keep the image's size, even where effort 5 halves it
+    // (`half_size_pays_at_low_rates_on_flat_regions`).
+    let flat = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let fast = |resampling| EncodeOptions {
+        effort: 2,
+        ..opts(5.0, resampling)
+    };
+    assert_eq!(
+        encode(&flat, &fast(Resampling::Auto)).unwrap(),
+        encode(&flat, &fast(Resampling::Off)).unwrap()
+    );
     let tiny = scene(200, 40, 6);
     assert_eq!(
         encode(&tiny, &opts(10.0, Resampling::Auto)).unwrap(),
@@ -132,6 +143,27 @@ fn half_size_pays_at_low_rates_on_flat_regions() {
         bytes.len(),
         full.len()
     );
+}
+
+#[test]
+fn half_size_of_a_line_or_a_pixel() {
+    // One side of 1 stays 1; a 1x1 image is coded at its size.
+    for (w, h, coded) in [(9u32, 1u32, (5u32, 1u32)), (1, 1, (1, 1)), (1, 4, (1, 2))] {
+        let samples: Vec<f32> = (0..w * h * 3).map(|i| (i % 7) as f32 / 7.0).collect();
+        let img = Raster::new(
+            w,
+            h,
+            caoen::raster::ChannelLayout::Rgb,
+            caoen::raster::SampleFormat::U8,
+            samples,
+        )
+        .unwrap();
+        let (bytes, stats) =
+            encode_with_progress(&img, &opts(30.0, Resampling::Half), |_, _| {}).unwrap();
+        assert_eq!(stats.coded_size, coded);
+        let out = decode(&bytes, &DecodeOptions::default()).unwrap();
+        assert_eq!((out.width(), out.height()), (w, h));
+    }
 }
 
 #[test]

@@ -500,7 +500,8 @@ pub struct EncodeArgs {
     #[arg(long, conflicts_with = "metadata")]
     pub strip: bool,
     /// Coding at half size per side, which the decoder draws at full size: auto (below
-    /// quality 55, where it pays by rate and distortion), off, or half (always).
+    /// quality 55 from effort 3, where it pays by rate and distortion), off, or half
+    /// (always).
     #[arg(long, value_enum, default_value_t = ResamplingArg::Auto)]
     pub resampling: ResamplingArg,
     /// Print statistics as JSON on stdout.
@@ -511,7 +512,7 @@ pub struct EncodeArgs {
 /// `--resampling`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ResamplingArg {
-    /// Half size where it pays (tried below quality 55).
+    /// Half size where it pays (tried below quality 55 from effort 3).
     Auto,
     /// Always the image's own size.
     Off,

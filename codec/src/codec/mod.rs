@@ -129,7 +129,7 @@ pub struct EncodeOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Resampling {
     /// At half size per side where that pays by rate and distortion: tried below
-    /// quality [`RESAMPLE_BELOW`] on 8- and 16-bit images of at least
+    /// quality [`RESAMPLE_BELOW`] from effort 3, on 8- and 16-bit images of at least
     /// [`RESAMPLE_MIN_SIDE`] pixels per side.
     #[default]
     Auto,
@@ -334,9 +334,8 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
 /// at its own size or at half size, as `opts.resampling` asks or, for
 /// [`Resampling::Auto`], as pays: both are coded and decoded, and half size is kept
 /// when its change of PSNR plus [`RESAMPLE_SLOPE`] dB per doubling of rate it saves is
-/// positive.
-/// Half size is coded at [`rate_control::half_size_quality`], whose rate-distortion
-/// slope at the image's size is `q`'s.
+/// positive. Half size is coded at [`rate_control::half_size_quality`], whose
+/// rate-distortion slope at the image's size is `q`'s.
 fn encode_resampled<S: PixelSource + ?Sized>(
     image: &S,
     q: f32,
@@ -347,19 +346,24 @@ fn encode_resampled<S: PixelSource + ?Sized>(
 ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
     let (w, h) = (image.width(), image.height());
     let half_size = resample::coded_size(w, h, 2);
+    let half_q = rate_control::half_size_quality(q);
     let half = |progress: &mut (dyn FnMut(usize, usize) + Send)| {
         let small = resample::downscale(image, half_size);
         let s = rate_control::EncodeSettings {
             display: Some((w, h)),
-            ..settings(rate_control::half_size_quality(q))
+            ..settings(half_q)
         };
         encoder::encode_with(&small, &s, &opts.metadata, workers, progress)
     };
     let try_half = match opts.resampling {
         Resampling::Off => false,
+        // A 1x1 image has no smaller size.
+        Resampling::Half if half_size == (w, h) => false,
         Resampling::Half => return half(progress),
         Resampling::Auto => {
-            q < RESAMPLE_BELOW
+            // Efforts 1 and 2 spend no second encode, as they fit no restoration filters.
+            opts.effort >= 3
+                && q < RESAMPLE_BELOW
                 && w.min(h) >= RESAMPLE_MIN_SIDE
                 && image.format() != crate::raster::SampleFormat::F32
         }
@@ -368,24 +372,35 @@ fn encode_resampled<S: PixelSource + ?Sized>(
     if !try_half {
         return Ok(full);
     }
-    // The trial holds the small source, then one decode at a time beside the file.
+    // The trial holds the small source and its encode, then one decode at a time
+    // beside the two files (at most 2 bytes per pixel each).
     let channels = image.layout().channels();
+    let coding = encode_memory(half_size.0, half_size.1, half_q).need(workers as u64);
+    let decoding =
+        crate::budget::bytes(w.into(), h.into(), 8 * channels as u64 + 8).saturating_add(16 << 20);
     let trial = resample::downscale_memory(w, h, channels, half_size)
-        .saturating_add(crate::budget::bytes(
-            w.into(),
-            h.into(),
-            4 * channels as u64 + 8,
-        ))
-        .saturating_add(16 << 20);
+        .saturating_add(coding.max(decoding))
+        .saturating_add(crate::budget::bytes(w.into(), h.into(), 4));
     if opts.limits.check(String::new, trial).is_err() {
         return Ok(full);
     }
     let small = half(&mut |_, _| {})?;
     let error = |bytes: &[u8]| -> Result<f64, CodecError> {
-        let out = decode(bytes, &DecodeOptions::default())?;
+        let out = decode(
+            bytes,
+            &DecodeOptions {
+                limits: opts.limits,
+                ..DecodeOptions::default()
+            },
+        )?;
         Ok(squared_error(image, &out))
     };
-    let (e_full, e_half) = (error(&full.0)?, error(&small.0)?);
+    let (e_full, e_half) = match (error(&full.0), error(&small.0)) {
+        (Ok(a), Ok(b)) => (a, b),
+        // The estimate above fell short: the trial is optional, the full-size file stands.
+        (Err(CodecError::Memory(_)), _) | (_, Err(CodecError::Memory(_))) => return Ok(full),
+        (Err(e), _) | (_, Err(e)) => return Err(e),
+    };
     let psnr_gain = 10.0 * (e_full.max(1e-30) / e_half.max(1e-30)).log10();
     let doublings = (full.0.len() as f64 / small.0.len() as f64).log2();
     Ok(if psnr_gain + RESAMPLE_SLOPE * doublings > 0.0 {

@@ -287,21 +287,37 @@ fn native_classified_rows(
     }
 }
 
-/// `f` between output pixel centres: bilinear, positions clamped to the image.
-fn bilinear(plane: &[f32], (w, h): (usize, usize), x: f64, y: f64) -> f32 {
-    let x = x.clamp(0.0, (w - 1) as f64);
-    let y = y.clamp(0.0, (h - 1) as f64);
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
-    let (fx, fy) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+/// One axis of [`bilinear`] at `v`: the two samples and the second one's weight.
+#[inline]
+fn lerp_taps(v: f64, n: usize) -> (usize, usize, f32) {
+    let v = v.clamp(0.0, (n - 1) as f64);
+    let v0 = v.floor() as usize;
+    (v0, (v0 + 1).min(n - 1), (v - v0 as f64) as f32)
+}
+
+/// [`lerp_taps`] at `x + offset` for every `x` in `0..n`: an axis's taps depend on
+/// that axis alone, so rows of samples at a fixed offset share them.
+fn lerp_table(n: usize, offset: f64) -> Vec<(usize, usize, f32)> {
+    (0..n).map(|x| lerp_taps(x as f64 + offset, n)).collect()
+}
+
+/// [`bilinear`] from tabulated taps, in its order of operations (so the same value).
+#[inline]
+fn lerp_at(plane: &[f32], w: usize, (x0, x1, fx): (usize, usize, f32), (y0, y1, fy): (usize, usize, f32)) -> f32 {
     let top = plane[y0 * w + x0] * (1.0 - fx) + plane[y0 * w + x1] * fx;
     let bottom = plane[y1 * w + x0] * (1.0 - fx) + plane[y1 * w + x1] * fx;
     top * (1.0 - fy) + bottom * fy
 }
 
+/// `f` between output pixel centres: bilinear, positions clamped to the image.
+fn bilinear(plane: &[f32], (w, h): (usize, usize), x: f64, y: f64) -> f32 {
+    lerp_at(plane, w, lerp_taps(x, w), lerp_taps(y, h))
+}
+
 /// The filter at another size: offsets of `d / spacing` output pixels, sampled by
 /// bilinear interpolation, positions clamped to the image; `pick(i)` gives the
-/// weights of pixel `i` of the rows, if it is filtered.
+/// weights of pixel `i` of the rows, if it is filtered. Each offset's column taps are
+/// tabulated once and its row taps once per row.
 fn scaled_rows<'a>(
     plane: &[f32],
     (w, h): (usize, usize),
@@ -311,10 +327,13 @@ fn scaled_rows<'a>(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let at = |x: f64, y: f64| bilinear(plane, (w, h), x, y);
     // The offsets in output pixels, the same for every pixel.
     let offsets: Vec<(f64, f64)> = shape.iter().map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy)).collect();
+    let plus: Vec<_> = offsets.iter().map(|&(ox, _)| lerp_table(w, ox)).collect();
+    let minus: Vec<_> = offsets.iter().map(|&(ox, _)| lerp_table(w, -ox)).collect();
     for (j, y) in rows.enumerate() {
+        let py = y as f64;
+        let ys: Vec<_> = offsets.iter().map(|&(_, oy)| (lerp_taps(py + oy, h), lerp_taps(py - oy, h))).collect();
         for x in 0..w {
             let c = plane[y * w + x];
             let Some(wt) = pick(j * w + x) else {
@@ -322,9 +341,9 @@ fn scaled_rows<'a>(
                 continue;
             };
             let mut acc = 0.0f32;
-            for (&(ox, oy), &k) in offsets.iter().zip(wt) {
-                let (px, py) = (x as f64, y as f64);
-                acc += k * (at(px + ox, py + oy) + at(px - ox, py - oy) - 2.0 * c);
+            for (k, &wk) in wt.iter().enumerate() {
+                let (up, down) = ys[k];
+                acc += wk * (lerp_at(plane, w, plus[k][x], up) + lerp_at(plane, w, minus[k][x], down) - 2.0 * c);
             }
             out[j * w + x] = c + acc;
         }
@@ -350,6 +369,14 @@ pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64)
     let window = |s: f64| -> Vec<isize> { (-(WINDOW as isize)..=WINDOW as isize).map(|i| (i as f64 / s).round() as isize).collect() };
     let (ox, oy) = (window(sx), window(sy));
     let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
+    // The sample pairs of h, v, d1, d2, in coded pixels across and down; off the coded
+    // size their column taps, at -1, 0 and 1 coded pixel, are tabulated once.
+    const PAIRS: [((i32, i32), (i32, i32)); 4] = [((1, 0), (-1, 0)), ((0, 1), (0, -1)), ((1, 1), (-1, -1)), ((-1, 1), (1, -1))];
+    let xs: Vec<Vec<(usize, usize, f32)>> = if native {
+        Vec::new()
+    } else {
+        [-1.0, 0.0, 1.0].iter().map(|&a| lerp_table(w, a / sx)).collect()
+    };
     // The second differences of one row: h, v, d1, d2, each `w` long.
     let diffs = |y: usize| -> [Vec<f32>; 4] {
         let mut d: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
@@ -367,13 +394,13 @@ pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64)
             }
             return d;
         }
+        let py = y as f64;
+        let ys = [-1.0, 0.0, 1.0].map(|a| lerp_taps(py + a / sy, h));
         for x in 0..w {
             let c = 2.0 * plane[y * w + x];
-            let pairs: [((f64, f64), (f64, f64)); 4] = [((1.0, 0.0), (-1.0, 0.0)), ((0.0, 1.0), (0.0, -1.0)), ((1.0, 1.0), (-1.0, -1.0)), ((-1.0, 1.0), (1.0, -1.0))];
-            for (k, ((ax, ay), (bx, by))) in pairs.into_iter().enumerate() {
-                let (px, py) = (x as f64, y as f64);
-                let a = bilinear(plane, (w, h), px + ax / sx, py + ay / sy);
-                let b = bilinear(plane, (w, h), px + bx / sx, py + by / sy);
+            for (k, ((ax, ay), (bx, by))) in PAIRS.into_iter().enumerate() {
+                let a = lerp_at(plane, w, xs[(ax + 1) as usize][x], ys[(ay + 1) as usize]);
+                let b = lerp_at(plane, w, xs[(bx + 1) as usize][x], ys[(by + 1) as usize]);
                 d[k][x] = (c - a - b).abs();
             }
         }
