@@ -287,7 +287,8 @@ fn native_classified_rows(
     }
 }
 
-/// One axis of [`bilinear`] at `v`: the two samples and the second one's weight.
+/// One axis of the bilinear interpolation of `f` between output pixel centres at `v`
+/// (clamped to the image): the two samples and the second one's weight.
 #[inline]
 fn lerp_taps(v: f64, n: usize) -> (usize, usize, f32) {
     let v = v.clamp(0.0, (n - 1) as f64);
@@ -301,17 +302,12 @@ fn lerp_table(n: usize, offset: f64) -> Vec<(usize, usize, f32)> {
     (0..n).map(|x| lerp_taps(x as f64 + offset, n)).collect()
 }
 
-/// [`bilinear`] from tabulated taps, in its order of operations (so the same value).
+/// `f` at the point whose two axes' taps are given: bilinear.
 #[inline]
 fn lerp_at(plane: &[f32], w: usize, (x0, x1, fx): (usize, usize, f32), (y0, y1, fy): (usize, usize, f32)) -> f32 {
     let top = plane[y0 * w + x0] * (1.0 - fx) + plane[y0 * w + x1] * fx;
     let bottom = plane[y1 * w + x0] * (1.0 - fx) + plane[y1 * w + x1] * fx;
     top * (1.0 - fy) + bottom * fy
-}
-
-/// `f` between output pixel centres: bilinear, positions clamped to the image.
-fn bilinear(plane: &[f32], (w, h): (usize, usize), x: f64, y: f64) -> f32 {
-    lerp_at(plane, w, lerp_taps(x, w), lerp_taps(y, h))
 }
 
 /// The filter at another size: offsets of `d / spacing` output pixels, sampled by
