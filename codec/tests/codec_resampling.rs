@@ -207,3 +207,30 @@ fn the_decoder_checks_the_display_size() {
     .unwrap_err();
     assert!(e.to_string().contains("pixels"), "{e}");
 }
+
+#[test]
+fn rate_targets_land_where_the_size_changes() {
+    // The rate jumps where the choice of size changes with the quality; the search
+    // runs at each size on its own and lands on the target either way.
+    use caoen::codec::RateTarget;
+    let img = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let mut sizes = Vec::new();
+    for bpp in [0.08, 0.15, 0.3] {
+        let o = EncodeOptions {
+            target: Some(RateTarget::BitsPerPixel(bpp)),
+            ..opts(75.0, Resampling::Auto)
+        };
+        let (bytes, stats) = encode_with_progress(&img, &o, |_, _| {}).unwrap();
+        let got = bytes.len() as f64 * 8.0 / (256.0 * 192.0);
+        assert!(
+            (got / bpp - 1.0).abs() <= 0.03,
+            "target {bpp}: {got:.4} bpp"
+        );
+        sizes.push(stats.coded_size);
+    }
+    // The targets reach both sizes.
+    assert!(
+        sizes.contains(&(128, 96)) && sizes.contains(&(256, 192)),
+        "{sizes:?}"
+    );
+}

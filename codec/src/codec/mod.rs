@@ -312,102 +312,172 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
             });
         }
     };
-    let code = |q: f32, progress: &mut (dyn FnMut(usize, usize) + Send)| {
-        encode_resampled(image, q, opts, &settings, workers, progress)
+    let coder = Coder {
+        image,
+        opts,
+        settings: &settings,
+        workers,
     };
     let Some(target) = target else {
-        return code(opts.quality, &mut progress);
+        return coder.encode(opts.quality, &mut progress);
     };
+    // Rate targets search the quality at each size on its own (the rate jumps where
+    // the choice of size changes), then choose between the two files by the same rule.
     let steps = 6 + opts.effort as usize;
+    let total = if opts.resampling == Resampling::Auto {
+        2 * steps + 2
+    } else {
+        steps + 1
+    };
     let mut done = 0;
-    let (q, _) = rate_control::search_quality(target, 0.02, steps, |q| {
-        done += 1;
-        progress(done, steps + 1);
-        Ok(code(q, &mut |_, _| {})?.0.len())
-    })?;
-    let out = code(q, &mut |_, _| {})?;
-    progress(steps + 1, steps + 1);
+    let mut search = |half: bool, progress: &mut dyn FnMut(usize, usize)| {
+        rate_control::search_quality(target, 0.02, steps, |q| {
+            done += 1;
+            progress(done, total);
+            Ok(coder.sized(q, half, &mut |_, _| {})?.0.len())
+        })
+        .map(|(q, _)| q)
+    };
+    let out = match opts.resampling {
+        Resampling::Off | Resampling::Half => {
+            let half = opts.resampling == Resampling::Half && coder.can_halve();
+            let q = search(half, &mut progress)?;
+            coder.sized(q, half, &mut |_, _| {})?
+        }
+        Resampling::Auto => {
+            let q = search(false, &mut progress)?;
+            let full = coder.sized(q, false, &mut |_, _| {})?;
+            if coder.tries_half(q) {
+                let qh = search(true, &mut progress)?;
+                coder.better(full, qh)?
+            } else {
+                full
+            }
+        }
+    };
+    progress(total, total);
     Ok(out)
 }
 
-/// Codes `image` at quality `q` (`settings` maps a quality to the encoder's settings)
-/// at its own size or at half size, as `opts.resampling` asks or, for
-/// [`Resampling::Auto`], as pays: both are coded and decoded, and half size is kept
-/// when its change of PSNR plus [`RESAMPLE_SLOPE`] dB per doubling of rate it saves is
-/// positive. Half size is coded at [`rate_control::half_size_quality`], whose
-/// rate-distortion slope at the image's size is `q`'s.
-fn encode_resampled<S: PixelSource + ?Sized>(
-    image: &S,
-    q: f32,
-    opts: &EncodeOptions,
-    settings: &impl Fn(f32) -> rate_control::EncodeSettings,
+/// What every encode of one call shares: the image, the options, the settings per
+/// quality and the tiles in progress at once.
+struct Coder<'a, S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> {
+    image: &'a S,
+    opts: &'a EncodeOptions,
+    settings: &'a F,
     workers: usize,
-    progress: &mut (dyn FnMut(usize, usize) + Send),
-) -> Result<(Vec<u8>, EncodeStats), CodecError> {
-    let (w, h) = (image.width(), image.height());
-    let half_size = resample::coded_size(w, h, 2);
-    let half_q = rate_control::half_size_quality(q);
-    let half = |progress: &mut (dyn FnMut(usize, usize) + Send)| {
-        let small = resample::downscale(image, half_size);
-        let s = rate_control::EncodeSettings {
-            display: Some((w, h)),
-            ..settings(half_q)
-        };
-        encoder::encode_with(&small, &s, &opts.metadata, workers, progress)
-    };
-    let try_half = match opts.resampling {
-        Resampling::Off => false,
-        // A 1x1 image has no smaller size.
-        Resampling::Half if half_size == (w, h) => false,
-        Resampling::Half => return half(progress),
-        Resampling::Auto => {
-            // Efforts 1 and 2 spend no second encode, as they fit no restoration filters.
-            opts.effort >= 3
-                && q < RESAMPLE_BELOW
-                && w.min(h) >= RESAMPLE_MIN_SIDE
-                && image.format() != crate::raster::SampleFormat::F32
+}
+
+impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<'_, S, F> {
+    /// The size half size codes the image at.
+    fn half_size(&self) -> (u32, u32) {
+        resample::coded_size(self.image.width(), self.image.height(), 2)
+    }
+
+    /// Whether the image has a smaller size (a 1x1 image has none).
+    fn can_halve(&self) -> bool {
+        self.half_size() != (self.image.width(), self.image.height())
+    }
+
+    /// Codes the image at quality `q`, at half size or its own. Half size is coded at
+    /// [`rate_control::half_size_quality`], whose rate-distortion slope at the image's
+    /// size is `q`'s.
+    fn sized(
+        &self,
+        q: f32,
+        half: bool,
+        progress: &mut (dyn FnMut(usize, usize) + Send),
+    ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+        let (image, md) = (self.image, &self.opts.metadata);
+        if !half {
+            return encoder::encode_with(image, &(self.settings)(q), md, self.workers, progress);
         }
-    };
-    let full = encoder::encode_with(image, &settings(q), &opts.metadata, workers, &mut *progress)?;
-    if !try_half {
-        return Ok(full);
+        let small = resample::downscale(image, self.half_size());
+        let s = rate_control::EncodeSettings {
+            display: Some((image.width(), image.height())),
+            ..(self.settings)(rate_control::half_size_quality(q))
+        };
+        encoder::encode_with(&small, &s, md, self.workers, progress)
     }
-    // The trial holds the small source and its encode, then one decode at a time
-    // beside the two files (at most 2 bytes per pixel each).
-    let channels = image.layout().channels();
-    let coding = encode_memory(half_size.0, half_size.1, half_q).need(workers as u64);
-    let decoding =
-        crate::budget::bytes(w.into(), h.into(), 8 * channels as u64 + 8).saturating_add(16 << 20);
-    let trial = resample::downscale_memory(w, h, channels, half_size)
-        .saturating_add(coding.max(decoding))
-        .saturating_add(crate::budget::bytes(w.into(), h.into(), 4));
-    if opts.limits.check(String::new, trial).is_err() {
-        return Ok(full);
+
+    /// Codes the image at quality `q` at its own size or at half size, as
+    /// `opts.resampling` asks or, for [`Resampling::Auto`], as [`Self::better`] finds.
+    fn encode(
+        &self,
+        q: f32,
+        progress: &mut (dyn FnMut(usize, usize) + Send),
+    ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+        match self.opts.resampling {
+            Resampling::Off => self.sized(q, false, progress),
+            Resampling::Half => self.sized(q, self.can_halve(), progress),
+            Resampling::Auto => {
+                let full = self.sized(q, false, progress)?;
+                if self.tries_half(q) {
+                    self.better(full, q)
+                } else {
+                    Ok(full)
+                }
+            }
+        }
     }
-    let small = half(&mut |_, _| {})?;
-    let error = |bytes: &[u8]| -> Result<f64, CodecError> {
-        let out = decode(
-            bytes,
-            &DecodeOptions {
-                limits: opts.limits,
+
+    /// Whether [`Resampling::Auto`] tries half size at quality `q`: below
+    /// [`RESAMPLE_BELOW`] from effort 3 (efforts 1 and 2 spend no second encode, as they
+    /// fit no restoration filters), on 8- and 16-bit images of at least
+    /// [`RESAMPLE_MIN_SIDE`] pixels a side, where the trial fits the memory budget.
+    fn tries_half(&self, q: f32) -> bool {
+        let (w, h) = (self.image.width(), self.image.height());
+        if !(self.opts.effort >= 3
+            && q < RESAMPLE_BELOW
+            && w.min(h) >= RESAMPLE_MIN_SIDE
+            && self.image.format() != crate::raster::SampleFormat::F32)
+        {
+            return false;
+        }
+        // The trial holds the small source and its encode, then one decode at a time
+        // beside the two files (at most 2 bytes per pixel each).
+        let channels = self.image.layout().channels();
+        let (hw, hh) = self.half_size();
+        let coding =
+            encode_memory(hw, hh, rate_control::half_size_quality(q)).need(self.workers as u64);
+        let decoding = crate::budget::bytes(w.into(), h.into(), 8 * channels as u64 + 8)
+            .saturating_add(16 << 20);
+        let trial = resample::downscale_memory(w, h, channels, (hw, hh))
+            .saturating_add(coding.max(decoding))
+            .saturating_add(crate::budget::bytes(w.into(), h.into(), 4));
+        self.opts.limits.check(String::new, trial).is_ok()
+    }
+
+    /// The image coded at half size at quality `q`, where that pays against `full`: both
+    /// are decoded at the image's size, and half size is kept when its change of PSNR
+    /// plus [`RESAMPLE_SLOPE`] dB per doubling of rate it saves is positive.
+    fn better(
+        &self,
+        full: (Vec<u8>, EncodeStats),
+        q: f32,
+    ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+        let small = self.sized(q, true, &mut |_, _| {})?;
+        let error = |bytes: &[u8]| -> Result<f64, CodecError> {
+            let opts = DecodeOptions {
+                limits: self.opts.limits,
                 ..DecodeOptions::default()
-            },
-        )?;
-        Ok(squared_error(image, &out))
-    };
-    let (e_full, e_half) = match (error(&full.0), error(&small.0)) {
-        (Ok(a), Ok(b)) => (a, b),
-        // The estimate above fell short: the trial is optional, the full-size file stands.
-        (Err(CodecError::Memory(_)), _) | (_, Err(CodecError::Memory(_))) => return Ok(full),
-        (Err(e), _) | (_, Err(e)) => return Err(e),
-    };
-    let psnr_gain = 10.0 * (e_full.max(1e-30) / e_half.max(1e-30)).log10();
-    let doublings = (full.0.len() as f64 / small.0.len() as f64).log2();
-    Ok(if psnr_gain + RESAMPLE_SLOPE * doublings > 0.0 {
-        small
-    } else {
-        full
-    })
+            };
+            Ok(squared_error(self.image, &decode(bytes, &opts)?))
+        };
+        let (e_full, e_half) = match (error(&full.0), error(&small.0)) {
+            (Ok(a), Ok(b)) => (a, b),
+            // The estimate fell short: the trial is optional, the full-size file stands.
+            (Err(CodecError::Memory(_)), _) | (_, Err(CodecError::Memory(_))) => return Ok(full),
+            (Err(e), _) | (_, Err(e)) => return Err(e),
+        };
+        let psnr_gain = 10.0 * (e_full.max(1e-30) / e_half.max(1e-30)).log10();
+        let doublings = (full.0.len() as f64 / small.0.len() as f64).log2();
+        Ok(if psnr_gain + RESAMPLE_SLOPE * doublings > 0.0 {
+            small
+        } else {
+            full
+        })
+    }
 }
 
 /// The sum of squared differences between `image` and `out` (of its size and layout),
