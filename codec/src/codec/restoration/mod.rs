@@ -297,9 +297,21 @@ fn lerp_taps(v: f64, n: usize) -> (usize, usize, f32) {
 }
 
 /// [`lerp_taps`] at `x + offset` for every `x` in `0..n`: an axis's taps depend on
-/// that axis alone, so rows of samples at a fixed offset share them.
-fn lerp_table(n: usize, offset: f64) -> Vec<(usize, usize, f32)> {
-    (0..n).map(|x| lerp_taps(x as f64 + offset, n)).collect()
+/// that axis alone, so rows of samples at a fixed offset share them. Stored in 12
+/// bytes (sides are at most 16384), read back by [`tap`].
+fn lerp_table(n: usize, offset: f64) -> Vec<(u32, u32, f32)> {
+    (0..n)
+        .map(|x| {
+            let (a, b, f) = lerp_taps(x as f64 + offset, n);
+            (a as u32, b as u32, f)
+        })
+        .collect()
+}
+
+/// A [`lerp_table`] entry as [`lerp_taps`] gives it.
+#[inline]
+fn tap((a, b, f): (u32, u32, f32)) -> (usize, usize, f32) {
+    (a as usize, b as usize, f)
 }
 
 /// `f` at the point whose two axes' taps are given: bilinear.
@@ -339,7 +351,7 @@ fn scaled_rows<'a>(
             let mut acc = 0.0f32;
             for (k, &wk) in wt.iter().enumerate() {
                 let (up, down) = ys[k];
-                acc += wk * (lerp_at(plane, w, plus[k][x], up) + lerp_at(plane, w, minus[k][x], down) - 2.0 * c);
+                acc += wk * (lerp_at(plane, w, tap(plus[k][x]), up) + lerp_at(plane, w, tap(minus[k][x]), down) - 2.0 * c);
             }
             out[j * w + x] = c + acc;
         }
@@ -368,7 +380,7 @@ pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64)
     // The sample pairs of h, v, d1, d2, in coded pixels across and down; off the coded
     // size their column taps, at -1, 0 and 1 coded pixel, are tabulated once.
     const PAIRS: [((i32, i32), (i32, i32)); 4] = [((1, 0), (-1, 0)), ((0, 1), (0, -1)), ((1, 1), (-1, -1)), ((-1, 1), (1, -1))];
-    let xs: Vec<Vec<(usize, usize, f32)>> = if native {
+    let xs: Vec<Vec<(u32, u32, f32)>> = if native {
         Vec::new()
     } else {
         [-1.0, 0.0, 1.0].iter().map(|&a| lerp_table(w, a / sx)).collect()
@@ -395,8 +407,8 @@ pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64)
         for x in 0..w {
             let c = 2.0 * plane[y * w + x];
             for (k, ((ax, ay), (bx, by))) in PAIRS.into_iter().enumerate() {
-                let a = lerp_at(plane, w, xs[(ax + 1) as usize][x], ys[(ay + 1) as usize]);
-                let b = lerp_at(plane, w, xs[(bx + 1) as usize][x], ys[(by + 1) as usize]);
+                let a = lerp_at(plane, w, tap(xs[(ax + 1) as usize][x]), ys[(ay + 1) as usize]);
+                let b = lerp_at(plane, w, tap(xs[(bx + 1) as usize][x]), ys[(by + 1) as usize]);
                 d[k][x] = (c - a - b).abs();
             }
         }
