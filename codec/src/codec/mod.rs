@@ -317,6 +317,7 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
         opts,
         settings: &settings,
         workers,
+        small: std::sync::OnceLock::new(),
     };
     let Some(target) = target else {
         return coder.encode(opts.quality, &mut progress);
@@ -366,6 +367,8 @@ struct Coder<'a, S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSett
     opts: &'a EncodeOptions,
     settings: &'a F,
     workers: usize,
+    /// The image at half size, made once for every half-size encode of the call.
+    small: std::sync::OnceLock<Raster>,
 }
 
 impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<'_, S, F> {
@@ -392,12 +395,14 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
         if !half {
             return encoder::encode_with(image, &(self.settings)(q), md, self.workers, progress);
         }
-        let small = resample::downscale(image, self.half_size());
+        let small = self
+            .small
+            .get_or_init(|| resample::downscale(image, self.half_size()));
         let s = rate_control::EncodeSettings {
             display: Some((image.width(), image.height())),
             ..(self.settings)(rate_control::half_size_quality(q))
         };
-        encoder::encode_with(&small, &s, md, self.workers, progress)
+        encoder::encode_with(small, &s, md, self.workers, progress)
     }
 
     /// Codes the image at quality `q` at its own size or at half size, as

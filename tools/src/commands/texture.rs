@@ -183,40 +183,39 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         .input_opt(a.moves_file.as_deref());
     outputs.check(&target)?;
     let start = Instant::now();
-    let (img, warp) = if is_cae(&a.input) {
+    // A caoen file is warped through its key points, unless it was coded at a smaller
+    // size: the moves are in the image's pixels, so it is warped as decoded at its size.
+    enum Source {
+        KeyPoints(Box<decoder::Decoded>),
+        Pixels(caoen::Raster),
+    }
+    let source = if is_cae(&a.input) {
         let bytes = caoen::budget::read(&a.input).map_err(|e| CliError::io(&a.input, e))?;
-        let d = decoder::read(&bytes, caoen::codec::DEFAULT_MAX_PIXELS)
-            .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
+        let failed =
+            |e: caoen::codec::CodecError| CliError::Failed(format!("{}: {e}", a.input.display()));
+        let d = decoder::read(&bytes, caoen::codec::DEFAULT_MAX_PIXELS).map_err(failed)?;
         fmt_for(d.header.format)?;
         if d.header.display.is_some() {
-            // Coded at a smaller size: the moves are in the image's pixels, so warp the
-            // image as decoded at its size.
-            let img = caoen::decode(&bytes, &caoen::DecodeOptions::default())
-                .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
-            let warp = Warp::new(img.width(), img.height(), &moves).map_err(tex_err)?;
-            check(global, &warp);
-            (
-                warp::warp_raster(&img, &warp, a.supersample).map_err(tex_err)?,
-                warp,
-            )
+            Source::Pixels(caoen::decode(&bytes, &caoen::DecodeOptions::default()).map_err(failed)?)
         } else {
-            let warp = Warp::new(d.header.width, d.header.height, &moves).map_err(tex_err)?;
-            check(global, &warp);
-            (
-                warp::warp_decoded(&d, &warp, a.supersample).map_err(tex_err)?,
-                warp,
-            )
+            Source::KeyPoints(Box::new(d))
         }
     } else {
         let img = image_io::load(&a.input).map_err(|e| CliError::Failed(e.to_string()))?;
         fmt_for(img.format())?;
-        let warp = Warp::new(img.width(), img.height(), &moves).map_err(tex_err)?;
-        check(global, &warp);
-        (
-            warp::warp_raster(&img, &warp, a.supersample).map_err(tex_err)?,
-            warp,
-        )
+        Source::Pixels(img)
     };
+    let (w, h) = match &source {
+        Source::KeyPoints(d) => (d.header.width, d.header.height),
+        Source::Pixels(img) => (img.width(), img.height()),
+    };
+    let warp = Warp::new(w, h, &moves).map_err(tex_err)?;
+    check(global, &warp);
+    let img = match &source {
+        Source::KeyPoints(d) => warp::warp_decoded(d, &warp, a.supersample),
+        Source::Pixels(img) => warp::warp_raster(img, &warp, a.supersample),
+    }
+    .map_err(tex_err)?;
     let img = if a.grid {
         warp::draw_grid(img, &warp).map_err(tex_err)?
     } else {
