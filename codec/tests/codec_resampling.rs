@@ -73,7 +73,7 @@ fn auto_keeps_the_cheaper_of_the_two_by_its_rule() {
     // The rule: half size when its PSNR change plus 1.5 dB per doubling of the rate
     // it saves is positive. Check it against files coded both ways.
     let mut chosen = Vec::new();
-    for (seed, quality) in [(1, 20.0), (2, 35.0), (4, 45.0)] {
+    for (seed, quality) in [(1, 20.0), (5, 40.0), (4, 45.0)] {
         let img = scene(192, 128, seed);
         let full = encode(&img, &opts(quality, Resampling::Off)).unwrap();
         let auto = encode(&img, &opts(quality, Resampling::Auto)).unwrap();

@@ -18,7 +18,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 15;
+pub const VERSION: u8 = 16;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -644,6 +644,9 @@ fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
     out.extend(crc.to_le_bytes());
 }
 
+/// Bytes of a section besides its payload: tag, length and CRC.
+pub const SECTION_OVERHEAD: usize = 9;
+
 /// Assembles a file from the header, the metadata and the tiles' streams (raster
 /// order of tiles).
 pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec<u8> {
@@ -654,10 +657,10 @@ pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec
         (tag::XMP, &metadata.xmp),
     ];
     let len = 64
-        + payloads.iter().map(|p| p.len() + 9).sum::<usize>()
+        + payloads.iter().map(|p| p.len() + SECTION_OVERHEAD).sum::<usize>()
         + items
             .iter()
-            .map(|(_, m)| m.as_ref().map_or(0, |m| m.len() + 9))
+            .map(|(_, m)| m.as_ref().map_or(0, |m| m.len() + SECTION_OVERHEAD))
             .sum::<usize>();
     let mut out = Vec::with_capacity(len);
     out.extend(MAGIC);

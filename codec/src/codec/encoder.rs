@@ -537,7 +537,13 @@ pub fn encode_with(
     // costs a tenth of the encode, and its sparse rows mislead it (`docs/codec-ablation.md`).
     if s.restoration && n == 1 {
         let mut header = header;
-        header.restoration = fit_restoration(&bytes, img, &s)?;
+        // The metadata's bytes are no part of the picture's rate: with them the price
+        // of a bit, and so the filters, would follow the file's ICC profile.
+        let metadata_bytes: usize = [&metadata.icc, &metadata.exif, &metadata.xmp]
+            .iter()
+            .map(|m| m.as_ref().map_or(0, |m| m.len() + bitstream::SECTION_OVERHEAD))
+            .sum();
+        header.restoration = fit_restoration(&bytes, bytes.len() - metadata_bytes, img, &s)?;
         if header.restoration.is_some() {
             bytes = bitstream::write(&header, metadata, &streams);
         }
@@ -564,7 +570,8 @@ const RESTORATION_SECTION_BYTES: usize = 10;
 /// of a photograph's rows and half a million pixels of a larger image.
 const RESTORATION_SAMPLES: u64 = 1 << 19;
 
-/// The restoration filters for the file `bytes` (all but the filters coded): each
+/// The restoration filters for the file `bytes` (all but the filters coded; `coded_bytes`
+/// of it the picture's, without metadata): each
 /// colour plane's least-squares filters from the decoded planes against the source's,
 /// one for the plane or one per group of pixel classes, where they pay for their bits
 /// at the price the codec's own curve puts on a bit.
@@ -574,6 +581,7 @@ const RESTORATION_SAMPLES: u64 = 1 << 19;
 /// are evaluated again.
 fn fit_restoration(
     bytes: &[u8],
+    coded_bytes: usize,
     src: &(impl PixelSource + ?Sized),
     s: &EncodeSettings,
 ) -> Result<Option<Restoration>, CodecError> {
@@ -657,7 +665,7 @@ fn fit_restoration(
     // A bit is worth what the codec's own curve trades for it here: its distortion
     // falls as rate^-RESTORATION_SLOPE, so a bit more lowers it by SLOPE D / R.
     let error: f64 = all.iter().map(|t| t.error).sum::<f64>() * scale;
-    let bit_cost = RESTORATION_SLOPE * error / (8 * bytes.len()) as f64;
+    let bit_cost = RESTORATION_SLOPE * error / (8 * coded_bytes) as f64;
     let fitted: Vec<_> = (0..planes)
         .into_par_iter()
         .map(|c| restoration::fit::fit_plane(&totals[c], [&halves[0][c], &halves[1][c]], scale, bit_cost))

@@ -19,6 +19,8 @@
 mod parse;
 mod reconstruct;
 
+#[cfg(feature = "internals")]
+pub use parse::detail_models;
 pub use parse::{read, read_parsed};
 pub(crate) use reconstruct::{fill_holes, to_raster, unrestored_bands};
 #[cfg(feature = "internals")]

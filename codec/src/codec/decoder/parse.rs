@@ -81,8 +81,8 @@ fn detail_steps(header: &Header) -> Option<Vec<f64>> {
     Some(steps)
 }
 
-/// Entropy-decodes one tile: tree, values (luma and chroma side by side) and detail.
-fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError> {
+/// Decodes one tile's tree: its shape and its leaves.
+fn read_tree(header: &Header, t: &TilePayload) -> Result<(TreeShape, Vec<Cell>), CodecError> {
     let r = t.rect;
     let shape = TreeShape {
         width: r.width,
@@ -105,6 +105,13 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
             stream: "tree payload",
         });
     }
+    Ok((shape, cells))
+}
+
+/// Entropy-decodes one tile: tree, values (luma and chroma side by side) and detail.
+fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError> {
+    let r = t.rect;
+    let (shape, cells) = read_tree(header, t)?;
     let size = (r.width, r.height);
     let (luma_steps, _) = steps(header);
     let colour = header.layout.colour_channels() == 3;
@@ -152,6 +159,35 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
         chroma_values,
         detail: detail?,
     })
+}
+
+/// Every tile's detail streams' models as each stream ends (luma's, then chroma's): the
+/// statistics the contexts' starting tables are trained from
+/// ([`crate::codec::detail::context_tables`]). A file without a detail layer has none.
+#[cfg(feature = "internals")]
+pub fn detail_models(
+    parsed: &Parsed,
+) -> Result<Vec<Vec<crate::codec::detail::syntax::ModelState>>, CodecError> {
+    let header = &parsed.header;
+    let Some(steps) = detail_steps(header) else {
+        return Ok(Vec::new());
+    };
+    let mut out = Vec::new();
+    for t in parsed.tiles.iter().filter(|t| !t.detail.is_empty()) {
+        let (_, cells) = read_tree(header, t)?;
+        let classes = block_classes(&cells, t.rect.width, t.rect.height);
+        let field = header.adaptive.and_then(|a| a.field());
+        let (_, contexts) = Detail::read_with_contexts(
+            t.detail,
+            t.rect.width,
+            t.rect.height,
+            steps.clone(),
+            &classes,
+            field,
+        )?;
+        out.extend(contexts.iter().map(|c| c.models()));
+    }
+    Ok(out)
 }
 
 /// Entropy-decodes every tile (in parallel) and joins them into the image's key points

@@ -15,6 +15,7 @@
 //! defined everywhere in its block, not a table of pixels.
 
 pub mod adaptive;
+pub mod context_tables;
 pub mod dct;
 pub mod deblock;
 pub mod field;
@@ -467,7 +468,7 @@ impl Detail {
             if let Some(f) = self.field.as_ref().filter(|_| kind == 0) {
                 f.write(classes, luma.map_or(0, |l| l.cols), &mut sink);
             }
-            let mut ctx = DetailContexts::default();
+            let mut ctx = DetailContexts::for_step(self.steps[0]);
             const EMPTY: [i32; COEFFS] = [0; COEFFS];
             for (c, p) in planes.iter().enumerate() {
                 let mut walk = Walk::new(classes, p.cols, p.rows, kind);
@@ -523,6 +524,18 @@ impl Detail {
         classes: &[u8],
         field_log2: Option<u8>,
     ) -> Result<Self, CodecError> {
+        Self::read_with_contexts(payload, width, height, steps, classes, field_log2).map(|(d, _)| d)
+    }
+
+    /// [`Detail::read`], with the luma and the chroma stream's contexts as each ends.
+    pub fn read_with_contexts(
+        payload: &[u8],
+        width: u32,
+        height: u32,
+        steps: Vec<f64>,
+        classes: &[u8],
+        field_log2: Option<u8>,
+    ) -> Result<(Self, [DetailContexts; 2]), CodecError> {
         let (cols, rows) = blocks(width, height);
         assert_eq!(classes.len(), cols * rows, "one class per block");
         if payload.len() < 4 {
@@ -555,7 +568,7 @@ impl Detail {
                 Some(l) => Some(ActivityField::read(l, width, height, classes, &mut src)?),
                 None => None,
             };
-            let mut ctx = DetailContexts::default();
+            let mut ctx = DetailContexts::for_step(steps[0]);
             let planes = (0..planes)
                 .map(|c| DetailPlane::read(cols, rows, classes, kind, luma.map(|l| (l, c)), &mut ctx, &mut src))
                 .collect::<Result<Vec<_>, _>>()?;
@@ -564,14 +577,14 @@ impl Detail {
                     stream: "detail stream",
                 });
             }
-            Ok((field, planes))
+            Ok((field, planes, ctx))
         };
         // Chroma reads after luma: which chroma blocks have a luma factor depends on
         // the luma blocks' levels.
-        let (field, mut planes) = stream(luma, 0, 1, None)?;
-        let (_, c) = stream(chroma, 1, steps.len() - 1, planes.first())?;
+        let (field, mut planes, luma_ctx) = stream(luma, 0, 1, None)?;
+        let (_, c, chroma_ctx) = stream(chroma, 1, steps.len() - 1, planes.first())?;
         planes.extend(c);
-        Ok(Detail {
+        let detail = Detail {
             planes,
             steps,
             deblock: None,
@@ -579,7 +592,8 @@ impl Detail {
             block_steps: None,
             weights: None,
             field,
-        })
+        };
+        Ok((detail, [luma_ctx, chroma_ctx]))
     }
 
     /// The layer at one position (coded pixels), one value per plane: the same

@@ -525,10 +525,11 @@ pub fn code_layer(
     // The search prices symbols with each stream's contexts; the field's bits are
     // settled after it (regions without a coded block cost least), so the payload is
     // written from the chosen levels.
-    let mut ctx = DetailContexts::default();
+    let start = DetailContexts::for_step(q[0].step);
+    let mut ctx = start.clone();
     let luma = code_plane(&residuals[0], size, q[0], 0, blocks_of, None, &mut ctx, &mut CostSink::default());
     // Chroma follows luma: its blocks may add a factor of the coded luma blocks.
-    let mut ctx = DetailContexts::default();
+    let mut ctx = start;
     let chroma: Vec<DetailPlane> = (1..residuals.len())
         .map(|c| {
             let reference = LumaReference {

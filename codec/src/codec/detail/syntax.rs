@@ -20,7 +20,8 @@
 
 use super::adaptive::CLASSES;
 use super::dct::{COEFFS, N, ZIGZAG};
-use crate::codec::entropy::{AnsSource, BinModel, Cdf, SymbolSink, CDF_FLOOR, CDF_ONE, MAX_RAW_BITS};
+use super::context_tables::{ANCHORS, ANCHOR_STEPS, STATE_LEN};
+use crate::codec::entropy::{AnsSource, BinModel, Cdf, SymbolSink, Trained, CDF_FLOOR, CDF_ONE, MAX_RAW_BITS};
 use crate::codec::CodecError;
 
 /// Magnitudes `0..LITERALS` are tokens of their own; token `LITERALS` escapes.
@@ -187,6 +188,88 @@ impl Default for DetailContexts {
             factor: [[FactorCdf::new(&two_sided(2 * FACTOR_LIMIT as usize, 0.5)); FACTOR_CONTEXTS]; 2],
         }
     }
+}
+
+/// A model's probabilities ([`Trained::probabilities`]) and the symbols it has seen.
+pub type ModelState = (Vec<u16>, u32);
+
+/// Symbols a trained start counts as seen: distributions then adapt at `2^-4` and
+/// binary models at `2^-min(6, start + 2)` (`docs/format.md`), fast enough to follow
+/// the picture and slow enough to keep what the training knew.
+pub const TRAINED_SEEN: u8 = 8;
+
+impl DetailContexts {
+    /// The contexts a stream starts from, for a file whose luma detail step is `step`:
+    /// the trained probabilities ([`super::context_tables`]) at the two anchor steps
+    /// around `step` mixed linearly (in 1/256), or the nearest anchor's outside them,
+    /// each model as if it had seen [`TRAINED_SEEN`] symbols.
+    pub fn for_step(step: f64) -> Self {
+        let (a, b, w) = anchors(step);
+        let (ta, tb) = (&ANCHORS[a], &ANCHORS[b]);
+        let mut c = DetailContexts::default();
+        let mut at = 0;
+        let mut buf = [0u16; 32];
+        c.each_model(&mut |m| {
+            let n = m.count();
+            for (k, p) in buf[..n].iter_mut().enumerate() {
+                *p = ((ta[at + k] as u32 * (256 - w) + tb[at + k] as u32 * w) >> 8) as u16;
+            }
+            m.start_from(&buf[..n], TRAINED_SEEN);
+            at += n;
+        });
+        debug_assert_eq!(at, STATE_LEN);
+        c
+    }
+
+    /// Every model in the trained tables' order: the luma kind's (coded bins, last
+    /// positions, signs, last-position bits, tokens, last levels, escape class, merge
+    /// bins), the chroma kind's in the same order, then the chroma factors.
+    fn each_model(&mut self, f: &mut dyn FnMut(&mut dyn Trained)) {
+        for k in 0..2 {
+            self.coded[k].iter_mut().flatten().for_each(|m| f(m));
+            self.last[k].iter_mut().flatten().for_each(|m| f(m));
+            self.sign[k].iter_mut().flatten().for_each(|m| f(m));
+            self.last_bits[k].iter_mut().flatten().for_each(|m| f(m));
+            let t = TOKENS / 2;
+            self.token[k * t..(k + 1) * t].iter_mut().for_each(|m| f(m));
+            let l = BANDS * LEVELS;
+            self.first[k * l..(k + 1) * l].iter_mut().for_each(|m| f(m));
+            f(&mut self.class[k]);
+            self.merge[k].iter_mut().flatten().for_each(|m| f(m));
+        }
+        self.factor.iter_mut().flatten().for_each(|m| f(m));
+    }
+
+    /// Every model's probabilities and symbols seen, in the trained tables' order (the
+    /// statistics the tables are trained from).
+    pub fn models(&self) -> Vec<ModelState> {
+        let mut c = self.clone();
+        let mut out = Vec::new();
+        c.each_model(&mut |m| {
+            let mut p = Vec::with_capacity(m.count());
+            m.probabilities(&mut p);
+            out.push((p, m.seen()));
+        });
+        out
+    }
+}
+
+/// The anchors around `step` (as the header stores it, in single precision) and the
+/// second's weight in 1/256: plain arithmetic on the stored values, so every machine
+/// picks the same.
+fn anchors(step: f64) -> (usize, usize, u32) {
+    let s = step as f32 as f64;
+    let last = ANCHOR_STEPS.len() - 1;
+    if s.is_nan() || s <= ANCHOR_STEPS[0] as f64 {
+        return (0, 0, 0);
+    }
+    if s >= ANCHOR_STEPS[last] as f64 {
+        return (last, last, 0);
+    }
+    let i = ANCHOR_STEPS.iter().rposition(|&a| a as f64 <= s).unwrap_or(0).min(last - 1);
+    let (lo, hi) = (ANCHOR_STEPS[i] as f64, ANCHOR_STEPS[i + 1] as f64);
+    let w = ((s - lo) / (hi - lo) * 256.0).round().clamp(0.0, 256.0) as u32;
+    (i, i + 1, w)
 }
 
 /// Token models: by kind, band, magnitude class and neighbour magnitude context.
@@ -771,7 +854,48 @@ impl BlockRates<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::codec::entropy::{AnsSink, CostSink, OverlayCostSink};
+    use crate::codec::entropy::{valid_cdf, AnsSink, CostSink, OverlayCostSink};
+
+    /// Every anchor holds one valid start per model, in the models' order, and the
+    /// anchors' steps rise.
+    #[test]
+    fn the_trained_tables_hold_a_valid_start_for_every_model() {
+        let plain = DetailContexts::default().models();
+        assert_eq!(plain.iter().map(|(p, _)| p.len()).sum::<usize>(), STATE_LEN);
+        assert!(ANCHOR_STEPS.windows(2).all(|w| w[0] < w[1]));
+        for table in ANCHORS.iter() {
+            let mut at = 0;
+            for (p, _) in &plain {
+                let part = &table[at..at + p.len()];
+                if p.len() == 1 {
+                    assert!((64..=65536 - 64).contains(&(part[0] as u32)), "a binary model's P(0) within its limits");
+                } else {
+                    assert!(valid_cdf(part), "a trained distribution keeps the floor");
+                }
+                at += p.len();
+            }
+        }
+    }
+
+    /// At an anchor's step the contexts start from that anchor's table; between two
+    /// anchors from their mix, each entry between the two; past the ends from the
+    /// nearest; and every model as if it had seen the trained count.
+    #[test]
+    fn contexts_start_from_the_anchors_mixed_by_the_step() {
+        let flat = |c: &DetailContexts| -> Vec<u16> { c.models().into_iter().flat_map(|(p, _)| p).collect() };
+        for (k, &s) in ANCHOR_STEPS.iter().enumerate() {
+            assert_eq!(flat(&DetailContexts::for_step(s as f64)), ANCHORS[k].to_vec());
+        }
+        let last = ANCHOR_STEPS.len() - 1;
+        assert_eq!(flat(&DetailContexts::for_step(1e-6)), ANCHORS[0].to_vec());
+        assert_eq!(flat(&DetailContexts::for_step(100.0)), ANCHORS[last].to_vec());
+        let (lo, hi) = (ANCHOR_STEPS[1] as f64, ANCHOR_STEPS[2] as f64);
+        let mid = flat(&DetailContexts::for_step((lo + hi) / 2.0));
+        for ((&m, &a), &b) in mid.iter().zip(&ANCHORS[1]).zip(&ANCHORS[2]) {
+            assert_eq!(m as u32, (a as u32 + b as u32) / 2, "halfway is the mean");
+        }
+        assert!(DetailContexts::for_step(lo).models().iter().all(|(_, seen)| *seen == TRAINED_SEEN as u32));
+    }
 
     #[test]
     fn overlay_pricing_equals_pricing_a_copy_and_leaves_the_contexts_alone() {

@@ -21,7 +21,9 @@ pub use coder::{AnsSink, AnsSource, SymbolSink, MAX_RAW_BITS};
 // `CostSink` prices for the design experiments (with `internals`) and the tests.
 #[cfg_attr(not(feature = "internals"), allow(unused_imports))]
 pub use cost::{CostSink, OverlayCostSink};
-pub use model::{BinModel, Cdf, CDF_FLOOR, CDF_ONE};
+#[cfg(any(test, feature = "internals"))]
+pub use model::valid_cdf;
+pub use model::{BinModel, Cdf, Trained, CDF_FLOOR, CDF_ONE};
 
 #[cfg(test)]
 mod tests {

@@ -55,6 +55,73 @@ impl BinModel {
     }
 }
 
+/// A model whose probabilities can start from trained values: read as numbers for
+/// training, and set from them (with a count of symbols as if seen, which sets how fast
+/// the model then adapts).
+pub trait Trained {
+    /// Numbers of the probabilities: 1 for a binary model, `M` for a distribution.
+    fn count(&self) -> usize;
+    /// The probabilities: a binary model's P(0) in 2^-16, a distribution's entries
+    /// `F[1..=M]` in 2^-15.
+    fn probabilities(&self, out: &mut Vec<u16>);
+    /// Symbols seen so far (saturating).
+    fn seen(&self) -> u32;
+    /// Starts from `p` ([`Trained::probabilities`]' form, valid: the caller checks) as
+    /// if `seen` symbols had been coded.
+    fn start_from(&mut self, p: &[u16], seen: u8);
+}
+
+impl Trained for BinModel {
+    fn count(&self) -> usize {
+        1
+    }
+    fn probabilities(&self, out: &mut Vec<u16>) {
+        out.push(self.p0);
+    }
+    fn seen(&self) -> u32 {
+        self.seen.into()
+    }
+    fn start_from(&mut self, p: &[u16], seen: u8) {
+        self.p0 = p[0].clamp(LIMIT as u16, (ONE - LIMIT) as u16);
+        self.seen = seen;
+    }
+}
+
+impl<const W: usize> Trained for Cdf<W> {
+    fn count(&self) -> usize {
+        Self::M
+    }
+    fn probabilities(&self, out: &mut Vec<u16>) {
+        out.extend((0..Self::M).map(|i| self.entry(i) as u16));
+    }
+    fn seen(&self) -> u32 {
+        self.seen.into()
+    }
+    fn start_from(&mut self, p: &[u16], seen: u8) {
+        debug_assert!(valid_cdf(p), "a distribution's entries keep the floor apart");
+        let mut w = [0u64; W];
+        for (i, &f) in p.iter().enumerate().take(Self::M) {
+            w[i / 4] |= (f as u64) << (16 * (i % 4));
+        }
+        self.w = w;
+        self.seen = seen.into();
+    }
+}
+
+/// Whether `f` holds a distribution's entries `F[1..=M]`: each at least [`CDF_FLOOR`]
+/// above the one before (and `F[1]` above 0), the last at least the floor below
+/// [`CDF_ONE`].
+pub fn valid_cdf(f: &[u16]) -> bool {
+    let mut prev = 0u32;
+    for &x in f {
+        if (x as u32) < prev + CDF_FLOOR as u32 {
+            return false;
+        }
+        prev = x as u32;
+    }
+    prev + CDF_FLOOR as u32 <= CDF_ONE as u32
+}
+
 /// Precision of the multi-symbol models: probabilities in units of 2^-15.
 pub(super) const CDF_PRECISION: usize = 15;
 /// The total of every multi-symbol distribution.
