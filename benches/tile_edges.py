@@ -52,7 +52,10 @@ def main():
     for q in QUALITIES:
         cae = os.path.join(WORK, f"q{q}.cae")
         png = os.path.join(WORK, f"q{q}.png")
-        subprocess.run([CAOEN, "encode", source, "-q", str(q), "-o", cae, "-f", "--quiet"], check=True)
+        # At its own size: the measure is of the tiles' edges in the coded image.
+        subprocess.run(
+            [CAOEN, "encode", source, "-q", str(q), "--resampling", "off", "-o", cae, "-f", "--quiet"], check=True
+        )
         subprocess.run([CAOEN, "decode", cae, "-o", png, "-f", "--quiet"], check=True)
         img = Image.open(png).convert("RGB")
         decoded[q] = img
