@@ -657,7 +657,10 @@ pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec
         (tag::XMP, &metadata.xmp),
     ];
     let len = 64
-        + payloads.iter().map(|p| p.len() + SECTION_OVERHEAD).sum::<usize>()
+        + payloads
+            .iter()
+            .map(|p| p.len() + SECTION_OVERHEAD)
+            .sum::<usize>()
         + items
             .iter()
             .map(|(_, m)| m.as_ref().map_or(0, |m| m.len() + SECTION_OVERHEAD))
