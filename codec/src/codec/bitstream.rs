@@ -645,7 +645,15 @@ fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
 }
 
 /// Bytes of a section besides its payload: tag, length and CRC.
-pub const SECTION_OVERHEAD: usize = 9;
+const SECTION_OVERHEAD: usize = 9;
+
+/// Bytes the metadata's sections take in a file.
+pub fn metadata_bytes(metadata: &Metadata) -> usize {
+    [&metadata.icc, &metadata.exif, &metadata.xmp]
+        .iter()
+        .map(|m| m.as_ref().map_or(0, |m| m.len() + SECTION_OVERHEAD))
+        .sum()
+}
 
 /// Assembles a file from the header, the metadata and the tiles' streams (raster
 /// order of tiles).
@@ -661,10 +669,7 @@ pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec
             .iter()
             .map(|p| p.len() + SECTION_OVERHEAD)
             .sum::<usize>()
-        + items
-            .iter()
-            .map(|(_, m)| m.as_ref().map_or(0, |m| m.len() + SECTION_OVERHEAD))
-            .sum::<usize>();
+        + metadata_bytes(metadata);
     let mut out = Vec::with_capacity(len);
     out.extend(MAGIC);
     out.push(VERSION);

@@ -539,11 +539,8 @@ pub fn encode_with(
         let mut header = header;
         // The metadata's bytes are no part of the picture's rate: with them the price
         // of a bit, and so the filters, would follow the file's ICC profile.
-        let metadata_bytes: usize = [&metadata.icc, &metadata.exif, &metadata.xmp]
-            .iter()
-            .map(|m| m.as_ref().map_or(0, |m| m.len() + bitstream::SECTION_OVERHEAD))
-            .sum();
-        header.restoration = fit_restoration(&bytes, bytes.len() - metadata_bytes, img, &s)?;
+        let coded = bytes.len() - bitstream::metadata_bytes(metadata);
+        header.restoration = fit_restoration(&bytes, coded, img, &s)?;
         if header.restoration.is_some() {
             bytes = bitstream::write(&header, metadata, &streams);
         }
