@@ -188,12 +188,15 @@ fn a_budget_too_small_for_one_tile_is_refused_before_any_work() {
 #[test]
 fn the_encode_estimate_stays_bounded_per_pixel_for_large_images() {
     // A tile's working set does not grow with the image: at camera sizes the estimate
-    // is a few bytes per pixel beyond the tiles in progress.
+    // is a few bytes per pixel beyond the tiles in progress, or the restoration fit's
+    // decode of the file (13 bytes per pixel) and its sampled rows (a few hundred rows
+    // of 16 bytes per pixel).
     for (w, h) in [(4032u32, 3024u32), (8064, 6048), (16384, 16384)] {
         let m = encode_memory(w, h, 75.0);
         let px = w as u64 * h as u64;
         assert!(m.fixed <= 3 * px + (16 << 20), "{w}x{h}: {m:?}");
         assert_eq!(m.per_tile, encode_memory(4032, 3024, 75.0).per_tile);
+        assert!(m.after <= 13 * px + 16 * 500 * w as u64, "{w}x{h}: {m:?}");
         assert!(m.need(2) < 24 * px, "{w}x{h}: {m:?}");
     }
 }
@@ -288,6 +291,33 @@ fn files_that_lie_about_their_tiles_are_refused() {
     expect_err(&s, "metadata out of order", |e| {
         matches!(e, CodecError::SectionOrder { .. })
     });
+}
+
+#[test]
+fn images_of_several_tiles_get_restoration_filters_that_lower_their_error() {
+    let img = image_io::from_dynamic(natural(1100, 600)).unwrap();
+    assert!(Tiling::choose(1100, 600).count() > 1);
+    let opts = EncodeOptions {
+        quality: 50.0,
+        resampling: Resampling::Off,
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&img, &opts).unwrap();
+    let parsed = inspect(&bytes).unwrap();
+    assert!(parsed.header.restoration.is_some());
+    let without: Vec<(u8, Vec<u8>)> = parsed
+        .sections
+        .iter()
+        .filter(|s| s.tag != tag::RESTORATION)
+        .map(|s| (s.tag, s.payload.to_vec()))
+        .collect();
+    assert!(without.len() < parsed.sections.len());
+    let error = |file: &[u8]| -> f64 {
+        let d = decode(file, &DecodeOptions::default()).unwrap();
+        squared_errors(&img, &d).iter().sum()
+    };
+    let (restored, plain) = (error(&bytes), error(&rebuild(&without)));
+    assert!(restored < plain, "{restored} against {plain}");
 }
 
 #[test]

@@ -533,9 +533,7 @@ pub fn encode_with(
         .map(|(m, detail)| TileStreams { detail, ..m.streams })
         .collect();
     let mut bytes = bitstream::write(&header, metadata, &streams);
-    // Images of one tile only: on camera-size images the fit's decode of the whole file
-    // costs a tenth of the encode, and its sparse rows mislead it (`docs/codec-ablation.md`).
-    if s.restoration && n == 1 {
+    if s.restoration {
         let mut header = header;
         // The metadata's bytes are no part of the picture's rate: with them the price
         // of a bit, and so the filters, would follow the file's ICC profile.
@@ -562,10 +560,23 @@ const RESTORATION_SLOPE: f64 = 1.1;
 const RESTORATION_GROUP: usize = 3;
 /// Bytes of a restoration section besides its taps: tag, length, CRC and mask.
 const RESTORATION_SECTION_BYTES: usize = 10;
-/// Pixels the restoration filters' sums see at most. A filter that helps where it was
-/// fitted can hurt a region it never saw (smoothing a sharp one), so the sums see most
-/// of a photograph's rows and half a million pixels of a larger image.
-const RESTORATION_SAMPLES: u64 = 1 << 19;
+/// Pixels the restoration filters' sums see, unless [`RESTORATION_MIN_GROUPS`] need
+/// more: every row of a photograph of a megapixel or less.
+const RESTORATION_SAMPLES: u64 = 1 << 20;
+/// Groups of bands the restoration fit samples at least. A filter that helps where it
+/// was fitted can hurt a region it never saw (smoothing a sharp one): on a 12-megapixel
+/// photograph three groups led to filters that lost up to 0.18 dB, where six or more
+/// gained (`docs/codec-ablation.md`).
+const RESTORATION_MIN_GROUPS: usize = 8;
+
+/// The most pixels the restoration fit evaluates again for a `w x h` image: its
+/// groups of bands, their margins included.
+pub(crate) fn restoration_fit_pixels(w: u32, h: u32) -> u64 {
+    let span = (RESTORATION_GROUP * GridEval::BAND) as u64;
+    let per_group = (span - 2 * restoration::RADIUS as u64) * u64::from(w);
+    let groups = (RESTORATION_SAMPLES / per_group.max(1)).max(RESTORATION_MIN_GROUPS as u64);
+    (groups.saturating_add(1).saturating_mul(span).saturating_mul(u64::from(w))).min(u64::from(w) * u64::from(h))
+}
 
 /// The restoration filters for the file `bytes` (all but the filters coded; `coded_bytes`
 /// of it the picture's, without metadata): each
@@ -592,7 +603,7 @@ fn fit_restoration(
     let span = RESTORATION_GROUP * band;
     let bands = hu.div_ceil(band);
     let per_group = ((span - 2 * reach) * wu) as u64;
-    let groups = (RESTORATION_SAMPLES / per_group.max(1)).max(1) as usize;
+    let groups = ((RESTORATION_SAMPLES / per_group.max(1)) as usize).max(RESTORATION_MIN_GROUPS);
     let every = bands.div_ceil(groups).max(RESTORATION_GROUP);
     let starts: Vec<usize> = (0..bands).step_by(every).collect();
     let needed: Vec<usize> = starts.iter().flat_map(|&g| g..(g + RESTORATION_GROUP).min(bands)).collect();

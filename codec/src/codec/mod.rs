@@ -265,7 +265,7 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
         opts.quality
     };
     let (w, h) = (image.width(), image.height());
-    let settings = |q: f32| {
+    let base_settings = |q: f32| {
         rate_control::settings(q, opts.effort, opts.keypoints)
             .adapted_to(image.format(), image.layout().has_alpha())
     };
@@ -277,19 +277,28 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     } else {
         opts.quality
     };
-    let min_log2 =
-        (settings(lowest_quality).model.min_log2).min(settings(worst_quality).model.min_log2);
+    let min_log2 = (base_settings(lowest_quality).model.min_log2)
+        .min(base_settings(worst_quality).model.min_log2);
     let smallest = 1u64 << (2 * min_log2.min(31));
     let keys = (u64::from(w) * u64::from(h) / smallest).max(1);
     let keys = opts.keypoints.map_or(keys, |n| keys.min(n as u64));
     memory.fixed = memory
         .fixed
         .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
-    if memory.after > 0 {
-        memory.after = memory
-            .after
-            .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
+    memory.after = memory
+        .after
+        .saturating_add(keys.saturating_mul(KEY_POINT_BYTES));
+    // The restoration fit decodes the file again once the tiles are done: where that
+    // would not fit the budget, the image is coded without filters rather than refused.
+    let restore = memory.fixed.saturating_add(memory.after) <= opts.limits.max_memory;
+    if !restore {
+        memory.after = 0;
     }
+    let settings = |q: f32| {
+        let mut s = base_settings(q);
+        s.restoration &= restore;
+        s
+    };
     let workers = memory.workers(opts.limits.max_memory, rayon::current_num_threads());
     if workers == 0 {
         return Err(OverBudget {
@@ -532,7 +541,7 @@ pub struct EncodeMemory {
     /// Number of tiles.
     pub tiles: u64,
     /// Bytes of the restoration fit, after the tiles: the file decoded again (its
-    /// detail layer and key points).
+    /// detail layer and key points) and the rows it samples.
     pub after: u64,
 }
 
@@ -566,10 +575,11 @@ impl EncodeMemory {
 /// bound peak RSS measured on noisy photo-like images (the densest trees): about 280
 /// bytes per pixel at quality 5, 360 at 75 and 510 at 100. The whole image keeps its
 /// coded streams (at most 2 bytes per pixel) and its key points, which [`encode`] adds
-/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell. An image of one tile is
-/// then decoded again for the restoration fit: its detail layer holds at most a 4-byte
-/// level per coefficient (13 bytes per pixel with the blocks' bookkeeping), and its key
-/// points as many again.
+/// at [`KEY_POINT_BYTES`] each once it knows the smallest cell. The file is then
+/// decoded again for the restoration fit: its detail layer holds at most a 4-byte level
+/// per coefficient (13 bytes per pixel with the blocks' bookkeeping), its key points as
+/// many again, and the rows the fit samples their decoded planes (16 bytes per sampled
+/// pixel, the rows around them included).
 pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
     let q = f64::from(quality.clamp(0.0, 100.0)) / 100.0;
     let per_pixel = (300.0 + 240.0 * q * q).ceil() as u64;
@@ -585,11 +595,9 @@ pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
         fixed: crate::budget::bytes(width.into(), height.into(), 2).saturating_add(16 << 20),
         per_tile: crate::budget::bytes(tile_pixels, 1, per_pixel),
         tiles: tiling.count() as u64,
-        after: if tiling.count() == 1 {
-            crate::budget::bytes(width.into(), height.into(), 13)
-        } else {
-            0
-        },
+        after: crate::budget::bytes(width.into(), height.into(), 13).saturating_add(
+            crate::budget::bytes(encoder::restoration_fit_pixels(width, height), 1, 16),
+        ),
     }
 }
 

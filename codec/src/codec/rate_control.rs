@@ -53,8 +53,7 @@ pub struct EncodeSettings {
     /// Mean key point area (pixels per luma key point) above which the network's
     /// steps shrink in proportion ([`network_step_factor`]).
     pub sparse_area: f64,
-    /// Fit restoration filters to the decoded planes (else none; images of more than
-    /// one tile are coded without them).
+    /// Fit restoration filters to the decoded planes (else none).
     pub restoration: bool,
     /// The image's own size when the source given is a smaller copy of it
     /// (none: the source is the image).

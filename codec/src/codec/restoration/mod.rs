@@ -168,9 +168,39 @@ fn filter_rows(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
+    filter_sampled(plane, classes_of, (w, h), spacing, shape, f, rows, out, whole_offsets(shape, (w, h), spacing).as_deref());
+}
+
+/// The offsets of `shape` in output pixels, if every one is a whole number of them:
+/// read directly, their samples are the interpolation's values exactly.
+fn whole_offsets(shape: &[(i32, i32)], (w, h): (usize, usize), (sx, sy): (f64, f64)) -> Option<Vec<(i32, i32)>> {
+    shape
+        .iter()
+        .map(|&(dx, dy)| {
+            let (ox, oy) = (dx as f64 / sx, dy as f64 / sy);
+            (ox.fract() == 0.0 && oy.fract() == 0.0 && ox.abs() <= w as f64 && oy.abs() <= h as f64)
+                .then_some((ox as i32, oy as i32))
+        })
+        .collect()
+}
+
+/// [`filter_rows`], sampling at `whole` offsets directly where given (else by
+/// interpolation).
+#[allow(clippy::too_many_arguments)]
+fn filter_sampled(
+    plane: &[f32],
+    classes_of: (&[f32], Option<&[u8]>),
+    (w, h): (usize, usize),
+    spacing: (f64, f64),
+    shape: &[(i32, i32)],
+    f: &PlaneFilter,
+    rows: std::ops::Range<usize>,
+    out: &mut [f32],
+    whole: Option<&[(i32, i32)]>,
+) {
     let Some(map) = &f.classes else {
         let wt = weights(&f.filters[0]);
-        if spacing == (1.0, 1.0) {
+        if let Some(shape) = whole {
             native_rows(plane, (w, h), shape, &wt, rows, out);
         } else {
             scaled_rows(plane, (w, h), spacing, shape, &|_| Some(wt.as_slice()), rows, out);
@@ -187,11 +217,17 @@ fn filter_rows(
         let end = (start + CLASS_CHUNK).min(rows.end);
         let classes = match classes_of {
             (_, Some(known)) => std::borrow::Cow::Borrowed(&known[(start - rows.start) * w..(end - rows.start) * w]),
-            (luma, None) => std::borrow::Cow::Owned(classify_rows(luma, (w, h), spacing, start..end)),
+            (luma, None) => std::borrow::Cow::Owned(classify_sampled(
+                luma,
+                (w, h),
+                spacing,
+                start..end,
+                whole.and(whole_pixels((1.0 / spacing.0, 1.0 / spacing.1))),
+            )),
         };
         let pick = |i: usize| by_class[classes[i] as usize];
         let o = &mut out[(start - rows.start) * w..(end - rows.start) * w];
-        if spacing == (1.0, 1.0) {
+        if let Some(shape) = whole {
             native_classified_rows(plane, (w, h), shape, &classes, &by_class, start..end, o);
         } else {
             scaled_rows(plane, (w, h), spacing, shape, &pick, start..end, o);
@@ -287,6 +323,12 @@ fn native_classified_rows(
     }
 }
 
+/// The output pixels per coded pixel along each axis, where both are whole numbers.
+fn whole_pixels((px, py): (f64, f64)) -> Option<(usize, usize)> {
+    let whole = |v: f64| (v.fract() == 0.0 && (1.0..=65536.0).contains(&v)).then_some(v as usize);
+    Some((whole(px)?, whole(py)?))
+}
+
 /// One axis of the bilinear interpolation of `f` between output pixel centres at `v`
 /// (clamped to the image): the two samples and the second one's weight.
 #[inline]
@@ -373,7 +415,21 @@ fn scaled_rows<'a>(
 /// more than twice its smaller: 1 where `h > v`, 2 for `v`, 3 where `d1 > d2`, 4 for
 /// `d2`; else 0. The class is `5 * level + direction`.
 pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64), rows: std::ops::Range<usize>) -> Vec<u8> {
-    let native = (sx, sy) == (1.0, 1.0);
+    // Where a coded pixel is a whole number of output pixels the samples fall on pixels:
+    // read directly, they are the interpolation's values exactly.
+    classify_sampled(plane, (w, h), (sx, sy), rows, whole_pixels((1.0 / sx, 1.0 / sy)))
+}
+
+/// [`classify_rows`], its samples read directly `whole` output pixels apart (else
+/// interpolated).
+fn classify_sampled(
+    plane: &[f32],
+    (w, h): (usize, usize),
+    (sx, sy): (f64, f64),
+    rows: std::ops::Range<usize>,
+    whole: Option<(usize, usize)>,
+) -> Vec<u8> {
+    let native = whole.is_some();
     let window = |s: f64| -> Vec<isize> { (-(WINDOW as isize)..=WINDOW as isize).map(|i| (i as f64 / s).round() as isize).collect() };
     let (ox, oy) = (window(sx), window(sy));
     let clamp = |v: isize, n: usize| v.clamp(0, n as isize - 1) as usize;
@@ -388,12 +444,12 @@ pub fn classify_rows(plane: &[f32], (w, h): (usize, usize), (sx, sy): (f64, f64)
     // The second differences of one row: h, v, d1, d2, each `w` long.
     let diffs = |y: usize| -> [Vec<f32>; 4] {
         let mut d: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
-        if native {
+        if let Some((mx, my)) = whole {
             let row = |y: isize| &plane[clamp(y, h) * w..][..w];
-            let (up, mid, down) = (row(y as isize - 1), row(y as isize), row(y as isize + 1));
+            let (up, mid, down) = (row(y as isize - my as isize), row(y as isize), row(y as isize + my as isize));
             let [dh, dv, d1, d2] = &mut d;
             for x in 0..w {
-                let (l, r) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let (l, r) = (x.saturating_sub(mx), (x + mx).min(w - 1));
                 let c = 2.0 * mid[x];
                 dh[x] = (c - mid[r] - mid[l]).abs();
                 dv[x] = (c - down[x] - up[x]).abs();
@@ -549,6 +605,41 @@ mod tests {
         scaled_rows(&plane, (w, h), (1.0, 1.0), &LUMA_SHAPE, &|_| Some(wt.as_slice()), 0..h, &mut scaled);
         for (a, b) in native.iter().zip(&scaled) {
             assert!((a - b).abs() < 1e-5, "{a} {b}");
+        }
+    }
+
+    #[test]
+    fn whole_pixel_offsets_read_directly_equal_the_interpolated_samples() {
+        let mut seed = 29;
+        let (w, h) = (37, 45);
+        let plane: Vec<f32> = noise(w * h, &mut seed)
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v * [0.002, 0.02, 0.1, 0.5][(i / w / 3) % 4])
+            .collect();
+        let classified = PlaneFilter {
+            filters: vec![(0..12).map(|k| 40 - 7 * k).collect(), (0..12).map(|k| 3 * k - 9).collect()],
+            classes: Some(std::array::from_fn(|k| (k % 3) as u8)),
+        };
+        let single = PlaneFilter::single((0..12).map(|k| 25 - 4 * k).collect());
+        for spacing in [(0.5, 0.5), (0.25, 0.5), (1.0, 0.5), (1.0 / 3.0, 0.5)] {
+            let whole = whole_offsets(&LUMA_SHAPE, (w, h), spacing);
+            if spacing.0 != 1.0 / 3.0 {
+                assert!(whole.is_some(), "{spacing:?}");
+            }
+            let steps = whole_pixels((1.0 / spacing.0, 1.0 / spacing.1));
+            assert_eq!(
+                classify_sampled(&plane, (w, h), spacing, 0..h, steps),
+                classify_sampled(&plane, (w, h), spacing, 0..h, None),
+                "{spacing:?}"
+            );
+            for f in [&classified, &single] {
+                let mut direct = vec![0.0; w * h];
+                let mut lerped = vec![0.0; w * h];
+                filter_sampled(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, f, 0..h, &mut direct, whole.as_deref());
+                filter_sampled(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, f, 0..h, &mut lerped, None);
+                assert_eq!(direct, lerped, "{spacing:?}");
+            }
         }
     }
 
