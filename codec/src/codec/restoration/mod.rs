@@ -155,22 +155,6 @@ fn weights(taps: &[i32]) -> Vec<f32> {
 /// this many rows and the window's, whatever the band.
 const CLASS_CHUNK: usize = 32;
 
-/// One plane's filters over rows `rows` into `out`, its classes from the luma plane
-/// `classes_of.0` (or, if known, `classes_of.1`: the classes of `rows`).
-#[allow(clippy::too_many_arguments)]
-fn filter_rows(
-    plane: &[f32],
-    classes_of: (&[f32], Option<&[u8]>),
-    (w, h): (usize, usize),
-    spacing: (f64, f64),
-    shape: &[(i32, i32)],
-    f: &PlaneFilter,
-    rows: std::ops::Range<usize>,
-    out: &mut [f32],
-) {
-    filter_sampled(plane, classes_of, (w, h), spacing, shape, f, rows, out, whole_offsets(shape, (w, h), spacing).as_deref());
-}
-
 /// The offsets of `shape` in output pixels, if every one is a whole number of them:
 /// read directly, their samples are the interpolation's values exactly.
 fn whole_offsets(shape: &[(i32, i32)], (w, h): (usize, usize), (sx, sy): (f64, f64)) -> Option<Vec<(i32, i32)>> {
@@ -184,10 +168,10 @@ fn whole_offsets(shape: &[(i32, i32)], (w, h): (usize, usize), (sx, sy): (f64, f
         .collect()
 }
 
-/// [`filter_rows`], sampling at `whole` offsets directly where given (else by
-/// interpolation).
+/// One plane's filters over rows `rows` into `out`, its classes from the luma plane
+/// `classes_of.0` (or, if known, `classes_of.1`: the classes of `rows`).
 #[allow(clippy::too_many_arguments)]
-fn filter_sampled(
+fn filter_rows(
     plane: &[f32],
     classes_of: (&[f32], Option<&[u8]>),
     (w, h): (usize, usize),
@@ -196,8 +180,9 @@ fn filter_sampled(
     f: &PlaneFilter,
     rows: std::ops::Range<usize>,
     out: &mut [f32],
-    whole: Option<&[(i32, i32)]>,
 ) {
+    let whole = whole_offsets(shape, (w, h), spacing);
+    let whole = whole.as_deref();
     let Some(map) = &f.classes else {
         let wt = weights(&f.filters[0]);
         if let Some(shape) = whole {
@@ -217,13 +202,7 @@ fn filter_sampled(
         let end = (start + CLASS_CHUNK).min(rows.end);
         let classes = match classes_of {
             (_, Some(known)) => std::borrow::Cow::Borrowed(&known[(start - rows.start) * w..(end - rows.start) * w]),
-            (luma, None) => std::borrow::Cow::Owned(classify_sampled(
-                luma,
-                (w, h),
-                spacing,
-                start..end,
-                whole.and(whole_pixels((1.0 / spacing.0, 1.0 / spacing.1))),
-            )),
+            (luma, None) => std::borrow::Cow::Owned(classify_rows(luma, (w, h), spacing, start..end)),
         };
         let pick = |i: usize| by_class[classes[i] as usize];
         let o = &mut out[(start - rows.start) * w..(end - rows.start) * w];
@@ -633,11 +612,22 @@ mod tests {
                 classify_sampled(&plane, (w, h), spacing, 0..h, None),
                 "{spacing:?}"
             );
+            // The interpolating path: every pixel's class, then its filter sampled
+            // between pixels.
+            let classes = classify_sampled(&plane, (w, h), spacing, 0..h, None);
             for f in [&classified, &single] {
                 let mut direct = vec![0.0; w * h];
+                filter_rows(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, f, 0..h, &mut direct);
+                let wts: Vec<Vec<f32>> = f.filters.iter().map(|t| weights(t)).collect();
+                let pick = |i: usize| match &f.classes {
+                    None => Some(wts[0].as_slice()),
+                    Some(map) => match map[classes[i] as usize] {
+                        0 => None,
+                        m => Some(wts[m as usize - 1].as_slice()),
+                    },
+                };
                 let mut lerped = vec![0.0; w * h];
-                filter_sampled(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, f, 0..h, &mut direct, whole.as_deref());
-                filter_sampled(&plane, (&plane, None), (w, h), spacing, &LUMA_SHAPE, f, 0..h, &mut lerped, None);
+                scaled_rows(&plane, (w, h), spacing, &LUMA_SHAPE, &pick, 0..h, &mut lerped);
                 assert_eq!(direct, lerped, "{spacing:?}");
             }
         }
