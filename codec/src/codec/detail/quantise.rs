@@ -74,6 +74,18 @@ fn distortion(x: &[f64; COEFFS], levels: &[i32; COEFFS]) -> f64 {
     x.iter().zip(levels).map(|(&x, &l)| (x - l as f64).powi(2)).sum()
 }
 
+/// The squared error (in steps) no levels can go below on coefficients `c`: each
+/// coefficient's distance to the nearest whole step. Term by term no larger than
+/// [`distortion`]'s and summed in the same order, so never above it in floating point.
+fn unavoidable_error(c: &[f64; COEFFS], q: Quantiser) -> f64 {
+    c.iter()
+        .map(|&c| {
+            let x = c / q.step;
+            (x - x.round()).powi(2)
+        })
+        .sum()
+}
+
 /// The moves the level search tries at coefficient `z` (level `l`, coefficient `x` in
 /// steps), in order: a step towards zero, then a step away from it where rounding fell
 /// short by more than half a step.
@@ -118,6 +130,20 @@ fn choose(
         };
     }
     let cost = |d: f64, r: u64| d + q.lambda * r as f64 / 256.0;
+    // The most bits (1/256) a candidate of squared error `d` can cost and still be
+    // below `j`: two units and a relative 4e-9 above it, so that a candidate priced
+    // past the limit is one the comparisons below would have rejected too.
+    let limit = |j: f64, d: f64| -> u64 {
+        if q.lambda <= 0.0 {
+            return u64::MAX;
+        }
+        let room = j * (1.0 + 4e-9) / (1.0 - 4e-9) - d;
+        if room < 0.0 {
+            0
+        } else {
+            (room * 256.0 / q.lambda).floor().min(1e18) as u64 + 2
+        }
+    };
     let mut d = distortion(&x, &levels);
     let r = rates.rate(&levels, COEFFS);
     let mut best = (cost(d, r), levels);
@@ -129,8 +155,11 @@ fn choose(
             for m in moves(l, x[z]).into_iter().flatten() {
                 let mut trial = best.1;
                 trial[z] = m;
-                let r = rates.rate(&trial, k + 1);
-                let estimate = cost(d - (x[z] - l as f64).powi(2) + (x[z] - m as f64).powi(2), r);
+                let d_trial = d - (x[z] - l as f64).powi(2) + (x[z] - m as f64).powi(2);
+                let Some(r) = rates.rate_within(&trial, k + 1, limit(best.0, d_trial)) else {
+                    continue;
+                };
+                let estimate = cost(d_trial, r);
                 let margin = 1e-9 * (best.0.abs() + estimate.abs());
                 let better = if estimate < best.0 - margin {
                     true
@@ -160,20 +189,24 @@ fn choose(
         }
         tries += 1;
         trimmed[z] = 0;
-        let (d, r) = (distortion(&x, &trimmed), rates.rate(&trimmed, COEFFS));
-        let j = cost(d, r);
-        if j < best.0 {
-            best = (j, trimmed);
-            best_dr = (d, r);
+        let d = distortion(&x, &trimmed);
+        if let Some(r) = rates.rate_within(&trimmed, COEFFS, limit(best.0, d)) {
+            let j = cost(d, r);
+            if j < best.0 {
+                best = (j, trimmed);
+                best_dr = (d, r);
+            }
         }
     }
     // The loop stops at the empty block only when there were few enough.
     let empty = [0; COEFFS];
-    let (d, r) = (distortion(&x, &empty), rates.rate(&empty, COEFFS));
-    let j = cost(d, r);
-    if j < best.0 {
-        best = (j, empty);
-        best_dr = (d, r);
+    let d = distortion(&x, &empty);
+    if let Some(r) = rates.rate_within(&empty, COEFFS, limit(best.0, d)) {
+        let j = cost(d, r);
+        if j < best.0 {
+            best = (j, empty);
+            best_dr = (d, r);
+        }
     }
     Chosen {
         levels: best.1,
@@ -236,13 +269,28 @@ struct Plane<'a> {
 }
 
 impl Plane<'_> {
-    /// The merged option of the level-`g` group at block `i`: its cost with the
-    /// merge bin `g` and the levels.
-    fn merged(&self, i: usize, g: GroupContext, at: BlockContext, pricer: &mut BlockPricer) -> (f64, [i32; COEFFS]) {
+    /// The merged option of the level-`g` group at block `i`, if it can cost less
+    /// than `apart`: its cost with the merge bin `g` and the levels.
+    ///
+    /// The search is skipped when the error no levels can avoid (the dropped
+    /// frequencies and each kept coefficient's distance to the nearest whole step)
+    /// already costs `apart`: the search could not have chosen merging, so the choice
+    /// is the same and in textured regions most of the time is saved.
+    fn merged(
+        &self,
+        i: usize,
+        g: GroupContext,
+        at: BlockContext,
+        apart: f64,
+        pricer: &mut BlockPricer,
+    ) -> Option<(f64, [i32; COEFFS])> {
         let (low, high) = self.transforms[i].as_ref().and_then(|t| t[g.level - 1].as_ref()).expect("a group start has its transforms");
-        let m = choose(low, self.q, self.ctx, at, pricer);
         let dropped = high / (self.q.step * self.q.step);
-        (m.cost(self.q, syntax::merge_cost(self.ctx, g, true), dropped), m.levels)
+        if unavoidable_error(low, self.q) + dropped >= apart {
+            return None;
+        }
+        let m = choose(low, self.q, self.ctx, at, pricer);
+        Some((m.cost(self.q, syntax::merge_cost(self.ctx, g, true), dropped), m.levels))
     }
 
     /// Chooses between merging the 2x2 group at block `i` and coding its blocks apart,
@@ -282,11 +330,9 @@ impl Plane<'_> {
             j_apart += other.cost(q, 0, 0.0);
             others[k] = other.levels;
         }
-        let (j_merged, m) = self.merged(i, g, at, pricer);
-        if j_merged < j_apart {
-            (j_merged, 1, m)
-        } else {
-            (j_apart, 0, first)
+        match self.merged(i, g, at, j_apart, pricer) {
+            Some((j_merged, m)) if j_merged < j_apart => (j_merged, 1, m),
+            _ => (j_apart, 0, first),
         }
     }
 
@@ -345,11 +391,9 @@ impl Plane<'_> {
             merged[k + 1] = sub.1 != 0;
             j_apart += sub.0;
         }
-        let (j_merged, m) = self.merged(i, g2, at, pricer);
-        if j_merged < j_apart {
-            (j_merged, 2, m)
-        } else {
-            (j_apart, first.1, first.2)
+        match self.merged(i, g2, at, j_apart, pricer) {
+            Some((j_merged, m)) if j_merged < j_apart => (j_merged, 2, m),
+            _ => (j_apart, first.1, first.2),
         }
     }
 }
@@ -722,6 +766,10 @@ mod tests {
                     for (extra, dropped) in [(0, 0.0), (300, 0.0), (77, 1.25)] {
                         let again = block_cost(&c, &expected, q, &ctx, at, &mut pricer, extra, dropped);
                         assert_eq!(chosen.cost(q, extra, dropped).to_bits(), again.to_bits(), "block {i}");
+                    }
+                    // What a merged group's search is skipped by stays below its cost.
+                    for (extra, dropped) in [(0, 0.0), (0, 3.5)] {
+                        assert!(unavoidable_error(&c, q) + dropped <= chosen.cost(q, extra, dropped), "block {i}");
                     }
                     let rounded: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
                     changed += usize::from(expected != rounded);
