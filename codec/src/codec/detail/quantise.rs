@@ -36,8 +36,10 @@ const TRIMS: usize = 4;
 /// Level of coefficient `c` under `q`.
 #[inline]
 fn level(c: f64, q: Quantiser) -> i32 {
-    let m = (c.abs() / q.step + 0.5 - q.deadzone).floor().max(0.0);
-    (m.min(syntax::MAX_LEVEL as f64) as i32) * if c < 0.0 { -1 } else { 1 }
+    // Truncation is the floor wherever the level is above zero, and unlike `floor` it
+    // is an instruction, not a call, on baseline x86-64 (the search's inner loop).
+    let m = ((c.abs() / q.step + 0.5 - q.deadzone) as i64).clamp(0, syntax::MAX_LEVEL as i64) as i32;
+    m * if c < 0.0 { -1 } else { 1 }
 }
 
 /// Block `(bx, by)` of a `width x height` plane, pixels past the image edge repeating
@@ -80,8 +82,15 @@ fn distortion(x: &[f64; COEFFS], levels: &[i32; COEFFS]) -> f64 {
 fn unavoidable_error(c: &[f64; COEFFS], q: Quantiser) -> f64 {
     c.iter()
         .map(|&c| {
-            let x = c / q.step;
-            (x - x.round()).powi(2)
+            // The distances to the whole steps either side, both exact in floating
+            // point (from 2^52 up every float is whole).
+            let x = (c / q.step).abs();
+            if x < (1u64 << 52) as f64 {
+                let below = x - (x as u64) as f64;
+                below.min(1.0 - below).powi(2)
+            } else {
+                0.0
+            }
         })
         .sum()
 }
