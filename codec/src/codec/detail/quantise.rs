@@ -278,28 +278,20 @@ struct Plane<'a> {
 }
 
 impl Plane<'_> {
-    /// The merged option of the level-`g` group at block `i`, if it can cost less
-    /// than `apart`: its cost with the merge bin `g` and the levels.
-    ///
-    /// The search is skipped when the error no levels can avoid (the dropped
-    /// frequencies and each kept coefficient's distance to the nearest whole step)
-    /// already costs `apart`: the search could not have chosen merging, so the choice
-    /// is the same and in textured regions most of the time is saved.
-    fn merged(
-        &self,
-        i: usize,
-        g: GroupContext,
-        at: BlockContext,
-        apart: f64,
-        pricer: &mut BlockPricer,
-    ) -> Option<(f64, [i32; COEFFS])> {
+    /// The merged option of the level-`g` group at block `i`, searched when first
+    /// asked for.
+    fn merged(&self, i: usize, g: GroupContext, at: BlockContext) -> MergedOption<'_> {
         let (low, high) = self.transforms[i].as_ref().and_then(|t| t[g.level - 1].as_ref()).expect("a group start has its transforms");
         let dropped = high / (self.q.step * self.q.step);
-        if unavoidable_error(low, self.q) + dropped >= apart {
-            return None;
+        MergedOption {
+            plane: self,
+            low,
+            dropped,
+            bound: unavoidable_error(low, self.q) + dropped,
+            g,
+            at,
+            found: None,
         }
-        let m = choose(low, self.q, self.ctx, at, pricer);
-        Some((m.cost(self.q, syntax::merge_cost(self.ctx, g, true), dropped), m.levels))
     }
 
     /// Chooses between merging the 2x2 group at block `i` and coding its blocks apart,
@@ -329,7 +321,11 @@ impl Plane<'_> {
         let s0 = Summary::of(&first);
         let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
         let mut others = [[0; COEFFS]; 3];
+        let mut merged = self.merged(i, g, at);
         for k in 0..3 {
+            if let Some((j_merged, m)) = merged.beats(j_apart, pricer) {
+                return (j_merged, 1, m);
+            }
             let at = match k {
                 0 => context(s0, above),
                 1 => context(left, s0),
@@ -339,9 +335,9 @@ impl Plane<'_> {
             j_apart += other.cost(q, 0, 0.0);
             others[k] = other.levels;
         }
-        match self.merged(i, g, at, j_apart, pricer) {
-            Some((j_merged, m)) if j_merged < j_apart => (j_merged, 1, m),
-            _ => (j_apart, 0, first),
+        match merged.beats(j_apart, pricer) {
+            Some((j_merged, m)) => (j_merged, 1, m),
+            None => (j_apart, 0, first),
         }
     }
 
@@ -379,7 +375,11 @@ impl Plane<'_> {
         let context = |l, a| BlockContext::new(at.kind, at.class, l, a);
         let mut subs = [s0; 3];
         let mut merged = [first.1 != 0, false, false, false];
+        let mut whole = self.merged(i, g2, at);
         for k in 0..3 {
+            if let Some((j_merged, m)) = whole.beats(j_apart, pricer) {
+                return (j_merged, 2, m);
+            }
             let j = [i + 2, i + 2 * cols, i + 2 * cols + 2][k];
             let (at, nb) = match k {
                 0 => (context(s0, above(j)), (s0, above(j + 1))),
@@ -400,10 +400,45 @@ impl Plane<'_> {
             merged[k + 1] = sub.1 != 0;
             j_apart += sub.0;
         }
-        match self.merged(i, g2, at, j_apart, pricer) {
-            Some((j_merged, m)) if j_merged < j_apart => (j_merged, 2, m),
-            _ => (j_apart, first.1, first.2),
+        match whole.beats(j_apart, pricer) {
+            Some((j_merged, m)) => (j_merged, 2, m),
+            None => (j_apart, first.1, first.2),
         }
+    }
+}
+
+/// A group's merged option, its level search run only once the blocks coded apart
+/// might cost more than it: coding apart costs at least what its blocks chosen so far
+/// cost, so a search that could not beat that is skipped, and one that already beats
+/// it ends the choice before the remaining blocks are searched. Either way the choice
+/// is the one a full comparison makes.
+struct MergedOption<'a> {
+    plane: &'a Plane<'a>,
+    low: &'a [f64; COEFFS],
+    /// Squared error of the frequencies the group drops, in steps.
+    dropped: f64,
+    /// A cost the search cannot go below: the error no levels avoid (see
+    /// [`unavoidable_error`]) and the dropped frequencies'.
+    bound: f64,
+    g: GroupContext,
+    at: BlockContext,
+    /// The search's cost (merge bin included) and levels, once run.
+    found: Option<(f64, [i32; COEFFS])>,
+}
+
+impl MergedOption<'_> {
+    /// The merged group's cost and levels if they cost less than `apart`, the cost of
+    /// coding the group apart or a part of it.
+    fn beats(&mut self, apart: f64, pricer: &mut BlockPricer) -> Option<(f64, [i32; COEFFS])> {
+        if self.bound >= apart {
+            return None;
+        }
+        let p = self.plane;
+        let found = *self.found.get_or_insert_with(|| {
+            let m = choose(self.low, p.q, p.ctx, self.at, pricer);
+            (m.cost(p.q, syntax::merge_cost(p.ctx, self.g, true), self.dropped), m.levels)
+        });
+        (found.0 < apart).then_some(found)
     }
 }
 
@@ -742,6 +777,56 @@ mod tests {
             syntax::write_block(&mut ctx, at, &levels, &mut crate::codec::entropy::AnsSink::new());
         }
         assert!(moved > 30, "the search changes some blocks ({moved} of 300)");
+    }
+
+    /// A merged option asked with rising costs apart (as a group's blocks are added)
+    /// answers as a full search compared with each would.
+    #[test]
+    fn a_merged_option_answers_as_its_full_search_would() {
+        let mut seed = 31u64;
+        let ctx = DetailContexts::default();
+        let mut pricer = BlockPricer::default();
+        let (mut searched, mut skipped) = (0, 0);
+        for i in 0..400 {
+            let q = Quantiser {
+                step: [1.0, 0.4, 2.5][i % 3],
+                deadzone: 0.2,
+                lambda: 0.09,
+                per_coefficient: i % 2 == 0,
+            };
+            let low = residual_block(&mut seed, if i % 4 == 0 { 40.0 } else { 6.0 });
+            let high = (i % 7) as f64 * 0.8;
+            let transforms = [Some([Some((low, high)), None])];
+            let plane = Plane {
+                coeffs: &[],
+                transforms: &transforms,
+                cols: 1,
+                q,
+                ctx: &ctx,
+            };
+            let g = GroupContext {
+                kind: 0,
+                level: 1,
+                class: 1,
+                merged: i % 3,
+            };
+            let at = syntax::BlockContext {
+                kind: 0,
+                ..syntax::BlockContext::varied(i)
+            };
+            let full = choose(&low, q, &ctx, at, &mut pricer);
+            let j_full = full.cost(q, syntax::merge_cost(&ctx, g, true), high / (q.step * q.step));
+            let mut option = plane.merged(0, g, at);
+            for f in [0.1, 0.5, 0.9, 1.0, 1.1, 2.0] {
+                let apart = j_full * f;
+                let expected = (j_full < apart).then_some((j_full, full.levels));
+                assert_eq!(option.beats(apart, &mut pricer), expected, "group {i} at {f}");
+                // Answered by the bound alone, without a search.
+                skipped += usize::from(option.found.is_none());
+            }
+            searched += usize::from(option.found.is_some());
+        }
+        assert!(searched > 100 && skipped > 10, "searched {searched}, skipped {skipped}");
     }
 
     #[test]
