@@ -120,7 +120,8 @@ fn moves(l: i32, x: f64) -> [Option<i32>; 2] {
 /// A moved candidate's distortion is first estimated from the current best's by the
 /// one term that changed; only when that leaves the comparison within a margin far
 /// above the rounding error is it summed in full, so the choices are those of summing
-/// every candidate ([`reference::choose`] is tested equal).
+/// every candidate ([`reference::choose`] is tested equal). A candidate whose price
+/// passes what would let it beat the best so far is not priced to the end.
 fn choose(
     c: &[f64; COEFFS],
     q: Quantiser,
