@@ -285,15 +285,24 @@ impl KeySet {
                 let mut cols = Vec::with_capacity(rows.len() * w * 8);
                 let mut vals = Vec::with_capacity(rows.len() * w * 8);
                 let mut lens = Vec::with_capacity(rows.len() * w);
+                // The second pixel of a bucket's pair, kept aside while the first's
+                // entries are written.
+                let (mut cols2, mut vals2) = (Vec::new(), Vec::new());
                 for y in rows {
                     let by = y / BUCKET as usize;
-                    for x in 0..w {
+                    // The two pixels of a bucket's row share its candidates: each
+                    // candidate is read once for both.
+                    for x in (0..w).step_by(BUCKET as usize) {
+                        let pair = x + 1 < w;
                         let p = self.frame.embed(x as f64 + 0.5, y as f64 + 0.5);
+                        let p2 = self.frame.embed(x as f64 + 1.5, y as f64 + 0.5);
                         let b = by * buckets.cols as usize + x / BUCKET as usize;
                         let items =
                             &buckets.items[buckets.start[b] as usize..buckets.start[b + 1] as usize];
                         let first = vals.len();
-                        let mut sum = 0.0;
+                        cols2.clear();
+                        vals2.clear();
+                        let (mut sum, mut sum2) = (0.0, 0.0);
                         for &i in items {
                             let c = &packed[i as usize];
                             let s = p[0] * c[0] + p[1] * c[1] + p[2] * c[2];
@@ -303,12 +312,25 @@ impl KeySet {
                                 cols.push(i);
                                 vals.push(k);
                             }
+                            let s2 = p2[0] * c[0] + p2[1] * c[1] + p2[2] * c[2];
+                            let k2 = c[4] * Blend::Compact.value(s2, c[3]);
+                            if k2 != 0.0 {
+                                sum2 += k2;
+                                cols2.push(i);
+                                vals2.push(k2);
+                            }
                         }
                         let inv = if sum > 0.0 { 1.0 / sum } else { 0.0 };
                         for v in &mut vals[first..] {
                             *v *= inv;
                         }
                         lens.push((vals.len() - first) as u32);
+                        if pair {
+                            let inv = if sum2 > 0.0 { 1.0 / sum2 } else { 0.0 };
+                            cols.extend_from_slice(&cols2);
+                            vals.extend(vals2.iter().map(|v| v * inv));
+                            lens.push(vals2.len() as u32);
+                        }
                     }
                 }
                 (cols, vals, lens)
