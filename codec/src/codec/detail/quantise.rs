@@ -188,6 +188,18 @@ fn choose(
         }
     }
     let mut trimmed = best.1;
+    // A candidate ending elsewhere shares no prefix with the last: priced in full,
+    // kept if cheaper.
+    let mut offer = |levels: [i32; COEFFS]| {
+        let d = distortion(&x, &levels);
+        if let Some(r) = rates.rate_within(&levels, COEFFS, limit(best.0, d)) {
+            let j = cost(d, r);
+            if j < best.0 {
+                best = (j, levels);
+                best_dr = (d, r);
+            }
+        }
+    };
     let mut tries = 0;
     for k in (0..COEFFS).rev() {
         let z = ZIGZAG[k] as usize;
@@ -199,25 +211,10 @@ fn choose(
         }
         tries += 1;
         trimmed[z] = 0;
-        let d = distortion(&x, &trimmed);
-        if let Some(r) = rates.rate_within(&trimmed, COEFFS, limit(best.0, d)) {
-            let j = cost(d, r);
-            if j < best.0 {
-                best = (j, trimmed);
-                best_dr = (d, r);
-            }
-        }
+        offer(trimmed);
     }
     // The loop stops at the empty block only when there were few enough.
-    let empty = [0; COEFFS];
-    let d = distortion(&x, &empty);
-    if let Some(r) = rates.rate_within(&empty, COEFFS, limit(best.0, d)) {
-        let j = cost(d, r);
-        if j < best.0 {
-            best = (j, empty);
-            best_dr = (d, r);
-        }
-    }
+    offer([0; COEFFS]);
     Chosen {
         levels: best.1,
         distortion: best_dr.0,

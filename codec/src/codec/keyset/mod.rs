@@ -278,6 +278,10 @@ impl KeySet {
             .zip(&self.weight)
             .map(|((s, &q), &wt)| [s[0], s[1], s[2], q, wt])
             .collect();
+        let kernel = |p: &[f64; 3], c: &[f64; 5]| {
+            let s = p[0] * c[0] + p[1] * c[1] + p[2] * c[2];
+            c[4] * Blend::Compact.value(s, c[3])
+        };
         let bands: Vec<(Vec<u32>, Vec<f64>, Vec<u32>)> = (0..h.div_ceil(BAND))
             .into_par_iter()
             .map(|band| {
@@ -305,15 +309,13 @@ impl KeySet {
                         let (mut sum, mut sum2) = (0.0, 0.0);
                         for &i in items {
                             let c = &packed[i as usize];
-                            let s = p[0] * c[0] + p[1] * c[1] + p[2] * c[2];
-                            let k = c[4] * Blend::Compact.value(s, c[3]);
+                            let k = kernel(&p, c);
                             if k != 0.0 {
                                 sum += k;
                                 cols.push(i);
                                 vals.push(k);
                             }
-                            let s2 = p2[0] * c[0] + p2[1] * c[1] + p2[2] * c[2];
-                            let k2 = c[4] * Blend::Compact.value(s2, c[3]);
+                            let k2 = kernel(&p2, c);
                             if k2 != 0.0 {
                                 sum2 += k2;
                                 cols2.push(i);
