@@ -36,6 +36,8 @@ pub const MIN_SIGMA_FACTOR: f64 = 0.3;
 
 /// Side of the pixel buckets that index key points by their support rectangles.
 const BUCKET: u32 = 2;
+// `KeySet::pixel_weights` reads a bucket's candidates for two pixels of a row at once.
+const _: () = assert!(BUCKET == 2);
 
 /// Key points in coding order with everything evaluation needs.
 #[derive(Debug, Clone)]
