@@ -573,9 +573,17 @@ const RESTORATION_MIN_GROUPS: usize = 8;
 /// groups of bands, their margins included.
 pub(crate) fn restoration_fit_pixels(w: u32, h: u32) -> u64 {
     let span = (RESTORATION_GROUP * GridEval::BAND) as u64;
-    let per_group = (span - 2 * restoration::RADIUS as u64) * u64::from(w);
-    let groups = (RESTORATION_SAMPLES / per_group.max(1)).max(RESTORATION_MIN_GROUPS as u64);
+    let groups = restoration_groups(w) as u64;
     (groups.saturating_add(1).saturating_mul(span).saturating_mul(u64::from(w))).min(u64::from(w) * u64::from(h))
+}
+
+/// Groups of bands the restoration fit asks for in a `w`-pixel-wide image: enough for
+/// [`RESTORATION_SAMPLES`] pixels inside their reach, and at least
+/// [`RESTORATION_MIN_GROUPS`].
+fn restoration_groups(w: u32) -> usize {
+    let span = RESTORATION_GROUP * GridEval::BAND;
+    let per_group = ((span - 2 * restoration::RADIUS) as u64) * u64::from(w);
+    ((RESTORATION_SAMPLES / per_group.max(1)) as usize).max(RESTORATION_MIN_GROUPS)
 }
 
 /// The restoration filters for the file `bytes` (all but the filters coded; `coded_bytes`
@@ -602,8 +610,7 @@ fn fit_restoration(
     let reach = restoration::RADIUS;
     let span = RESTORATION_GROUP * band;
     let bands = hu.div_ceil(band);
-    let per_group = ((span - 2 * reach) * wu) as u64;
-    let groups = ((RESTORATION_SAMPLES / per_group.max(1)) as usize).max(RESTORATION_MIN_GROUPS);
+    let groups = restoration_groups(w);
     let every = bands.div_ceil(groups).max(RESTORATION_GROUP);
     let starts: Vec<usize> = (0..bands).step_by(every).collect();
     let needed: Vec<usize> = starts.iter().flat_map(|&g| g..(g + RESTORATION_GROUP).min(bands)).collect();
