@@ -292,7 +292,7 @@ fn container_errors_are_specific_and_printable() {
     fails_cleanly(
         &["info", &bad("R8-tag-0x1c-control-char.cae")],
         1,
-        "CRC mismatch in section 0x1c at byte 93: stored",
+        "CRC mismatch in section 0x1c at byte 51: stored",
     );
     let dir = scratch("container");
     fails_cleanly(
@@ -303,7 +303,7 @@ fn container_errors_are_specific_and_printable() {
             &dir.join("e.png").display().to_string(),
         ],
         1,
-        "the end section at byte 97 carries 4 bytes; it must be empty",
+        "the end section at byte 53 carries 4 bytes; it must be empty",
     );
     fails_cleanly(
         &["surface", "info", &bad("R10-surface-trailing-garbage.json")],

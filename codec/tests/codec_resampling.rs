@@ -172,19 +172,15 @@ fn the_decoder_checks_the_display_size() {
     let bytes = encode(&img, &opts(60.0, Resampling::Half)).unwrap();
     let parsed = bitstream::parse(&bytes, u64::MAX).unwrap();
     let h0 = parsed.header.clone();
-    // Rewrite the display size in place (the last 8 bytes of the header's payload)
-    // and fix the section's CRC, to reach the header's own checks.
-    let hs = &parsed.sections[0];
-    assert_eq!(hs.tag, bitstream::tag::HEADER);
-    let end = hs.offset + 5 + hs.payload.len();
+    // The file again with another display size: the header's own checks, behind a
+    // right CRC.
+    let tiles: Vec<_> = parsed.tiles.iter().map(|t| t.to_streams()).collect();
     let with_display = |dw: u32, dh: u32| {
-        let mut b = bytes.clone();
-        b[end - 8..end - 4].copy_from_slice(&dw.to_le_bytes());
-        b[end - 4..end].copy_from_slice(&dh.to_le_bytes());
-        let crc = crc32fast::hash(&b[hs.offset..end]);
-        b[end..end + 4].copy_from_slice(&crc.to_le_bytes());
-        b
+        let mut h = h0.clone();
+        h.display = Some((dw, dh));
+        bitstream::write(&h, &parsed.metadata(), &tiles)
     };
+    assert_eq!(with_display(96, 80), bytes);
     // The unchanged rewrite parses; smaller than coded, equal, or past the side limit fail.
     assert_eq!(
         bitstream::parse(&with_display(96, 80), u64::MAX)

@@ -94,25 +94,61 @@ fn bad_headers_have_clear_messages() {
             "{e}"
         );
     }
-    // The header's length: 38 bytes, 46 with the detail layer's steps, 48 with its
-    // deblocking, 52 with adaptive steps (and the activity field's region side), 53
-    // lapped, 55 with frequency weights.
-    let hl = u32::from_le_bytes(file[6..10].try_into().unwrap()) as usize;
-    assert!([38, 46, 48, 50, 52, 53, 55].contains(&hl), "{hl}");
-    // Absurd size with a valid CRC: width 2^31.
-    let mut absurd = file.clone();
-    absurd[10..14].copy_from_slice(&(1u32 << 31).to_le_bytes());
-    let crc = crc32fast::hash(&absurd[5..5 + 5 + hl]);
-    absurd[5 + 5 + hl..5 + 5 + hl + 4].copy_from_slice(&crc.to_le_bytes());
+    // The header section: tag at byte 5, its length as one LEB128 byte at 6, the
+    // payload from 7. The payload: width, height (one LEB128 byte each here), channel
+    // byte, levels, footprint (2), exponent, flags at 7, the luma, chroma and alpha
+    // steps (2 each), key point counts (1 each here), tile side, the detail steps (2
+    // each), deblocking (2) at 21, step factors (3) and region side at 23, lapping
+    // weight at 27, tilts (2): 30 bytes.
+    assert_eq!(file[5], b'H');
+    let hl = file[6] as usize;
+    assert_eq!(
+        hl, 30,
+        "the small file's detail layer is deblocked and lapped, its steps adapt and tilt"
+    );
+    let payload = file[7..7 + hl].to_vec();
+    // The file with another header payload, its length and CRC made to match.
+    let with_payload = |p: &[u8]| {
+        let mut section = vec![b'H'];
+        let mut n = p.len();
+        while n >= 128 {
+            section.push((n & 127) as u8 | 128);
+            n >>= 7;
+        }
+        section.push(n as u8);
+        section.extend_from_slice(p);
+        let crc = crc32fast::hash(&section);
+        section.extend(crc.to_le_bytes());
+        [&file[..5], &section, &file[7 + hl + 4..]].concat()
+    };
+    assert_eq!(with_payload(&payload), file);
+    // Absurd size with a valid CRC: width 2^31, five LEB128 bytes.
+    let absurd = with_payload(&[&[128, 128, 128, 128, 8], &payload[1..]].concat());
     let e = decode(&absurd, &DecodeOptions::default()).unwrap_err();
     assert!(
         matches!(e, CodecError::OutOfRange { what: "width", value, hi, .. } if value == 2147483648.0 && hi == 16384.0),
         "{e}"
     );
+    // A width in more bytes than it needs is refused: one form per value.
+    let e = decode(
+        &with_payload(&[&[21 | 128, 0], &payload[1..]].concat()),
+        &DecodeOptions::default(),
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            CodecError::Varint {
+                what: "the width",
+                offset: 7
+            }
+        ),
+        "{e}"
+    );
     // A wrong CRC names both values.
     let mut flipped = file.clone();
-    flipped[5 + 5] ^= 1;
-    let stored = u32::from_le_bytes(file[5 + 5 + hl..5 + 5 + hl + 4].try_into().unwrap());
+    flipped[7] ^= 1;
+    let stored = u32::from_le_bytes(file[7 + hl..7 + hl + 4].try_into().unwrap());
     let e = decode(&flipped, &DecodeOptions::default()).unwrap_err();
     assert!(
         matches!(e, CodecError::CrcMismatch { offset: 5, stored: s, computed, .. } if s == stored && computed != stored),
@@ -120,67 +156,64 @@ fn bad_headers_have_clear_messages() {
     );
     // Deblocking parameters, step factors or the lapping weight out of range, or any
     // of them without the detail layer.
-    assert_eq!(
-        hl, 55,
-        "the small file's detail layer is deblocked and lapped, its steps adapt and tilt"
-    );
     let with_header = |edit: &dyn Fn(&mut [u8])| {
-        let mut f = file.clone();
-        edit(&mut f[10..10 + hl]);
-        let crc = crc32fast::hash(&f[5..5 + 5 + hl]);
-        f[5 + 5 + hl..5 + 5 + hl + 4].copy_from_slice(&crc.to_le_bytes());
-        decode(&f, &DecodeOptions::default()).unwrap_err()
+        let mut p = payload.clone();
+        edit(&mut p);
+        decode(&with_payload(&p), &DecodeOptions::default()).unwrap_err()
     };
-    for (at, value) in [(46, 0u8), (47, 0), (47, 17)] {
+    for (at, value) in [(21, 0u8), (22, 0), (22, 17)] {
         let e = with_header(&|h: &mut [u8]| h[at] = value);
         assert!(
-            matches!(e, CodecError::Deblock { strength, radius } if [strength, radius][at - 46] == value),
+            matches!(e, CodecError::Deblock { strength, radius } if [strength, radius][at - 21] == value),
             "{e}"
         );
     }
-    for at in 48..51 {
+    for at in 23..26 {
         let e = with_header(&|h: &mut [u8]| h[at] = 0);
         assert!(
-            matches!(e, CodecError::AdaptiveSteps { factors, .. } if factors[at - 48] == 0),
+            matches!(e, CodecError::AdaptiveSteps { factors, .. } if factors[at - 23] == 0),
             "{e}"
         );
     }
     for value in [1u8, 2, 8, 255] {
-        let e = with_header(&|h: &mut [u8]| h[51] = value);
+        let e = with_header(&|h: &mut [u8]| h[26] = value);
         assert!(
             matches!(e, CodecError::AdaptiveSteps { field_log2, .. } if field_log2 == value),
             "{e}"
         );
     }
     for value in [0u8, 128, 255] {
-        let e = with_header(&|h: &mut [u8]| h[52] = value);
+        let e = with_header(&|h: &mut [u8]| h[27] = value);
         assert!(
             matches!(e, CodecError::OutOfRange { what: "lapping weight", value: v, lo, hi } if v == value as f64 && (lo, hi) == (1.0, 127.0)),
             "{e}"
         );
     }
-    let e = with_header(&|h: &mut [u8]| h[15] &= !2);
+    let e = with_header(&|h: &mut [u8]| h[7] &= !2);
     assert!(
         matches!(e, CodecError::Flags { flags } if flags & 156 == 156),
         "{e}"
     );
     // Without their flags the factors, the lapping weight and the tilts are bytes the
     // header does not have room for.
-    for (flag, expected) in [(8u8, 51u64), (16, 54), (128, 53)] {
-        let e = with_header(&|h: &mut [u8]| h[15] &= !flag);
+    for (flag, expected) in [(8u8, 26u64), (16, 29), (128, 28)] {
+        let e = with_header(&|h: &mut [u8]| h[7] &= !flag);
         assert!(
-            matches!(e, CodecError::HeaderLength { found: 55, expected: x } if x == expected),
+            matches!(e, CodecError::HeaderLength { found: 30, expected: x } if x == expected),
             "flag {flag}: {e}"
         );
     }
+    // The channel byte's top bits are reserved.
+    let e = with_header(&|h: &mut [u8]| h[2] |= 64);
+    assert!(matches!(e, CodecError::OutOfRange { .. }), "{e}");
     // The luma basis (bit 5) is the encoder's choice for colour; it needs three colour
     // channels, so a grey file that claims it is refused.
     assert_ne!(
-        file[10 + 15] & 32,
+        payload[7] & 32,
         0,
         "an RGBA file is coded in the luma basis"
     );
-    let e = with_header(&|h: &mut [u8]| h[8] = 2);
+    let e = with_header(&|h: &mut [u8]| h[2] = 2);
     assert!(
         matches!(e, CodecError::Flags { flags } if flags & 32 == 32)
             && e.to_string().contains("bit 5 luma basis"),

@@ -206,12 +206,7 @@ fn rebuild(sections: &[(u8, Vec<u8>)]) -> Vec<u8> {
     let mut out = bitstream::MAGIC.to_vec();
     out.push(bitstream::VERSION);
     for (t, p) in sections {
-        let start = out.len();
-        out.push(*t);
-        out.extend((p.len() as u32).to_le_bytes());
-        out.extend(p);
-        let crc = crc32fast::hash(&out[start..]);
-        out.extend(crc.to_le_bytes());
+        bitstream::push_section(&mut out, *t, p);
     }
     out
 }
@@ -238,30 +233,63 @@ fn files_that_lie_about_their_tiles_are_refused() {
     expect_err(&s, "a tile missing", |e| {
         matches!(e, CodecError::SectionOrder { .. })
     });
+    // The file written again with a changed header or tile.
+    let tiles: Vec<_> = parsed.tiles.iter().map(|t| t.to_streams()).collect();
+    let written = |edit: &dyn Fn(&mut bitstream::Header, &mut [bitstream::TileStreams])| {
+        let (mut h, mut t) = (parsed.header.clone(), tiles.clone());
+        edit(&mut h, &mut t);
+        decode(
+            &bitstream::write(&h, &parsed.metadata(), &t),
+            &DecodeOptions::default(),
+        )
+        .unwrap_err()
+    };
+    assert_eq!(
+        bitstream::write(&parsed.header, &parsed.metadata(), &tiles),
+        bytes
+    );
     // A tile's key-point count that disagrees with the header's total (one fewer: a
     // tile split down to its smallest cells has no room for one more).
-    let mut s = sections.clone();
-    let n = u32::from_le_bytes(s[first_tile].1[0..4].try_into().unwrap());
-    s[first_tile].1[0..4].copy_from_slice(&(n - 1).to_le_bytes());
-    expect_err(&s, "a key-point count", |e| {
+    let e = written(&|_, t| t[0].luma_count -= 1);
+    assert!(
         matches!(e, CodecError::CountMismatch { unit: "key points", found, declared, .. }
-            if found + 1 == *declared)
-    });
+            if found + 1 == declared),
+        "a key-point count: {e:?}"
+    );
     // More key points than the tile has cells.
-    let mut s = sections.clone();
-    s[first_tile].1[0..4].copy_from_slice(&(1u32 << 30).to_le_bytes());
-    expect_err(&s, "a count past the tile's cells", |e| {
+    let e = written(&|_, t| t[0].luma_count = 1 << 30);
+    assert!(
         matches!(
             e,
             CodecError::OutOfRange {
                 what: "a tile's luma key point count",
                 ..
             }
-        )
-    });
-    // A stream length past the tile's payload.
+        ),
+        "a count past the tile's cells: {e:?}"
+    );
+    // A stream length past the tile's payload: the tile's fields by hand (LEB128).
+    let varint = |mut v: u32, out: &mut Vec<u8>| loop {
+        let more = v >= 128;
+        out.push((v & 127) as u8 | if more { 128 } else { 0 });
+        v >>= 7;
+        if !more {
+            break;
+        }
+    };
+    let t = &parsed.tiles[0];
+    let mut payload = Vec::new();
+    for v in [
+        t.luma_count,
+        t.chroma_count,
+        u32::MAX,
+        t.luma.len() as u32,
+        t.chroma.len() as u32,
+    ] {
+        varint(v, &mut payload);
+    }
     let mut s = sections.clone();
-    s[first_tile].1[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+    s[first_tile].1 = [&payload[..], t.tree, t.luma, t.chroma, t.detail].concat();
     expect_err(&s, "a stream past the payload", |e| {
         matches!(
             e,
@@ -271,19 +299,19 @@ fn files_that_lie_about_their_tiles_are_refused() {
             }
         )
     });
-    // A tile side that is not a multiple of 128.
-    let mut s = sections.clone();
-    s[0].1[36..38].copy_from_slice(&300u16.to_le_bytes());
-    expect_err(&s, "a tile side", |e| {
+    // A tile side of no multiple of 128.
+    let e = written(&|h, _| h.tile_side = 0);
+    assert!(
         matches!(
             e,
             CodecError::TileSide {
-                side: 300,
+                side: 0,
                 unit: 128,
                 ..
             }
-        )
-    });
+        ),
+        "a tile side: {e:?}"
+    );
     // A metadata item out of order.
     let mut s = sections.clone();
     s.insert(first_tile, (tag::EXIF, b"II*\0".to_vec()));
@@ -317,7 +345,10 @@ fn images_of_several_tiles_get_restoration_filters_that_lower_their_error() {
         squared_errors(&img, &d).iter().sum()
     };
     let (restored, plain) = (error(&bytes), error(&rebuild(&without)));
-    assert!(restored < plain, "{restored} against {plain}");
+    // The planks' seams lie on rows by the edges of the fit's groups of bands (every
+    // 48 rows): a fit that leaves those rows out smooths the seams and gains nothing
+    // overall (it measured 0.14% here); with them the filters take 9% off.
+    assert!(restored < 0.95 * plain, "{restored} against {plain}");
 }
 
 #[test]

@@ -173,11 +173,8 @@ fn damaged_restoration_sections_are_errors() {
     let header = sections[0].offset;
     // A section with the given tag and payload, CRC and all.
     let section = |t: u8, payload: &[u8]| {
-        let mut out = vec![t];
-        out.extend((payload.len() as u32).to_le_bytes());
-        out.extend_from_slice(payload);
-        let crc = crc32fast::hash(&out);
-        out.extend(crc.to_le_bytes());
+        let mut out = Vec::new();
+        bitstream::push_section(&mut out, t, payload);
         out
     };
     let unrestored = rewrite(&bytes, |h| h.restoration = None);
@@ -211,7 +208,7 @@ fn damaged_restoration_sections_are_errors() {
         }
     }
     // Before the tiles it is out of order.
-    let h_end = header + 9 + sections[0].payload.len();
+    let h_end = header + sections[0].file_bytes();
     let early = [
         &unrestored[..h_end],
         &section(tag::RESTORATION, &[1, 0x80, 0x80]),

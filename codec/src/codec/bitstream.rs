@@ -11,6 +11,7 @@ use super::quadtree::TreeShape;
 use super::restoration::{self, Restoration};
 use super::syntax::LevelSteps;
 use super::tiling::{TileRect, Tiling, SIDE_UNIT};
+use super::varint;
 use super::{CodecError, MAX_SIDE};
 use crate::metadata::{Metadata, MAX_ITEM_BYTES};
 use crate::raster::{ChannelLayout, SampleFormat};
@@ -18,7 +19,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 16;
+pub const VERSION: u8 = 17;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -36,6 +37,84 @@ pub mod tag {
     pub const RESTORATION: u8 = b'R';
     /// End of file.
     pub const END: u8 = b'E';
+}
+
+/// The step the header stores for a channel the image lacks (grey images' chroma,
+/// opaque images' alpha): none is written, and parsing gives this.
+pub const ABSENT_STEP: f32 = 1.0;
+
+/// A quantiser step as the header stores it: the upper 16 bits of its `f32`
+/// (sign, exponent and 7 bits of mantissa), rounded to nearest.
+fn step_bits(step: f32) -> u16 {
+    (step.to_bits().saturating_add(0x8000) >> 16) as u16
+}
+
+/// The step that 16 stored bits stand for.
+fn step_from_bits(bits: u16) -> f32 {
+    f32::from_bits(u32::from(bits) << 16)
+}
+
+/// `step` rounded to what the header can store: the encoder quantises with exactly
+/// the step the decoder will read.
+pub fn stored_step(step: f64) -> f64 {
+    f64::from(step_from_bits(step_bits(step as f32)))
+}
+
+/// Reads a section's fields in order, naming what runs short.
+struct Fields<'a> {
+    /// The section's payload.
+    p: &'a [u8],
+    /// Bytes read so far.
+    pos: usize,
+    /// Where the payload starts in the file, for messages.
+    base: usize,
+}
+
+impl<'a> Fields<'a> {
+    fn new(p: &'a [u8], base: usize) -> Self {
+        Fields { p, pos: 0, base }
+    }
+
+    fn remaining(&self) -> usize {
+        self.p.len() - self.pos
+    }
+
+    fn take(&mut self, n: usize, what: &'static str) -> Result<&'a [u8], CodecError> {
+        if self.remaining() < n {
+            return Err(CodecError::Truncated {
+                what,
+                offset: (self.base + self.pos) as u64,
+                need: n as u64,
+                available: self.remaining() as u64,
+            });
+        }
+        let s = &self.p[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+
+    fn array<const N: usize>(&mut self, what: &'static str) -> Result<[u8; N], CodecError> {
+        Ok(self.take(N, what)?.try_into().expect("N bytes"))
+    }
+
+    fn u8(&mut self, what: &'static str) -> Result<u8, CodecError> {
+        Ok(self.array::<1>(what)?[0])
+    }
+
+    fn u16(&mut self, what: &'static str) -> Result<u16, CodecError> {
+        Ok(u16::from_le_bytes(self.array(what)?))
+    }
+
+    fn step(&mut self, what: &'static str) -> Result<f32, CodecError> {
+        Ok(step_from_bits(self.u16(what)?))
+    }
+
+    /// A LEB128 number of at most 32 bits, in its shortest form (one form per value).
+    fn varint(&mut self, what: &'static str) -> Result<u32, CodecError> {
+        let (v, used) = varint::read(&self.p[self.pos..], what, self.base + self.pos)?;
+        self.pos += used;
+        Ok(v)
+    }
 }
 
 /// Everything the header records, and the restoration filters of their own section.
@@ -95,16 +174,10 @@ pub struct Header {
     pub display: Option<(u32, u32)>,
 }
 
-/// Header bytes without the detail layer's steps.
-const HEADER_LEN: usize = 4 + 4 + 1 + 1 + 1 + 1 + 2 + 1 + 1 + 4 * 3 + 4 + 4 + 2;
-/// Header bytes with them.
-const HEADER_LEN_DETAIL: usize = HEADER_LEN + 4 * 2;
-/// Bytes of the display size, when the image was coded at a smaller size.
-const DISPLAY_LEN: usize = 8;
-/// Bytes of the deblocking parameters.
-const DEBLOCK_LEN: usize = 2;
-/// Bytes of the adaptive step factors and the activity field's region side.
-const ADAPTIVE_LEN: usize = CLASSES + 1;
+/// Bytes of a section besides its payload at least: tag, a 1-byte length and CRC.
+const SECTION_MIN: usize = 6;
+/// Bit of the header's channel byte: the display size ends the header.
+const KIND_DISPLAY: u8 = 32;
 /// Flag bit: chroma on the pruned tree.
 const FLAG_PRUNED: u8 = 1;
 /// Flag bit: the detail layer is present.
@@ -122,11 +195,6 @@ const FLAG_LUMA_BASIS: u8 = 32;
 const FLAG_LEVEL_STEPS: u8 = 64;
 /// Flag bit: the detail layer's steps grow with frequency (only with [`FLAG_DETAIL`]).
 const FLAG_WEIGHTED: u8 = 128;
-/// Bytes of the lapping parameter.
-const LAPPING_LEN: usize = 1;
-/// Bytes of the frequency weights' tilts.
-const WEIGHTS_LEN: usize = 2;
-
 impl Header {
     /// The size the decoder outputs by default: the image's own size.
     pub fn display_size(&self) -> (u32, u32) {
@@ -160,65 +228,49 @@ impl Header {
     }
 
     fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(HEADER_LEN);
-        b.extend(self.width.to_le_bytes());
-        b.extend(self.height.to_le_bytes());
-        b.push(self.layout.channels() as u8);
-        b.push(match self.format {
+        let mut b = Vec::with_capacity(48);
+        varint::push(&mut b, self.width);
+        varint::push(&mut b, self.height);
+        let format = match self.format {
             SampleFormat::U8 => 0,
             SampleFormat::U16 => 1,
             SampleFormat::F32 => 2,
-        });
-        b.push(self.block_log2);
-        b.push(self.min_log2);
-        b.extend(((self.kernel.sigma_factor * 1024.0).round() as u16).to_le_bytes());
-        b.push((self.kernel.weight_exponent * 16.0).round() as u8);
+        };
         b.push(
-            if self.chroma_pruned { FLAG_PRUNED } else { 0 }
-                | if self.detail_steps.is_some() {
-                    FLAG_DETAIL
-                } else {
-                    0
-                }
-                | if self.deblock.is_some() {
-                    FLAG_DEBLOCK
-                } else {
-                    0
-                }
-                | if self.adaptive.is_some() {
-                    FLAG_ADAPTIVE
-                } else {
-                    0
-                }
-                | if self.lapping.is_some() {
-                    FLAG_LAPPED
-                } else {
-                    0
-                }
-                | if self.basis == ColourBasis::Luma {
-                    FLAG_LUMA_BASIS
-                } else {
-                    0
-                }
-                | if self.level_steps {
-                    FLAG_LEVEL_STEPS
-                } else {
-                    0
-                }
-                | if self.weights.is_some() {
-                    FLAG_WEIGHTED
+            self.layout.channels() as u8
+                | format << 3
+                | if self.display.is_some() {
+                    KIND_DISPLAY
                 } else {
                     0
                 },
         );
-        for s in [self.step_luma, self.step_chroma, self.step_alpha] {
-            b.extend(s.to_le_bytes());
+        b.push(self.block_log2 | self.min_log2 << 4);
+        b.extend(((self.kernel.sigma_factor * 1024.0).round() as u16).to_le_bytes());
+        b.push((self.kernel.weight_exponent * 16.0).round() as u8);
+        let flag = |on: bool, bit: u8| if on { bit } else { 0 };
+        b.push(
+            flag(self.chroma_pruned, FLAG_PRUNED)
+                | flag(self.detail_steps.is_some(), FLAG_DETAIL)
+                | flag(self.deblock.is_some(), FLAG_DEBLOCK)
+                | flag(self.adaptive.is_some(), FLAG_ADAPTIVE)
+                | flag(self.lapping.is_some(), FLAG_LAPPED)
+                | flag(self.basis == ColourBasis::Luma, FLAG_LUMA_BASIS)
+                | flag(self.level_steps, FLAG_LEVEL_STEPS)
+                | flag(self.weights.is_some(), FLAG_WEIGHTED),
+        );
+        b.extend(step_bits(self.step_luma).to_le_bytes());
+        if self.layout.colour_channels() == 3 {
+            b.extend(step_bits(self.step_chroma).to_le_bytes());
         }
-        b.extend(self.luma_count.to_le_bytes());
-        b.extend(self.chroma_count.to_le_bytes());
-        b.extend((self.tile_side as u16).to_le_bytes());
-        for s in self.detail_steps.iter().flatten() {
-            b.extend(s.to_le_bytes());
+        if self.layout.has_alpha() {
+            b.extend(step_bits(self.step_alpha).to_le_bytes());
+        }
+        varint::push(&mut b, self.luma_count);
+        varint::push(&mut b, self.chroma_count);
+        b.push((self.tile_side / SIDE_UNIT) as u8);
+        for &s in self.detail_steps.iter().flatten() {
+            b.extend(step_bits(s).to_le_bytes());
         }
         if let Some(d) = self.deblock {
             b.extend([d.strength, d.radius]);
@@ -234,67 +286,144 @@ impl Header {
             b.extend(w.tilts);
         }
         if let Some((w, h)) = self.display {
-            b.extend(w.to_le_bytes());
-            b.extend(h.to_le_bytes());
+            varint::push(&mut b, w);
+            varint::push(&mut b, h);
         }
         b
     }
 
-    fn parse(p: &[u8], max_pixels: u64) -> Result<Self, CodecError> {
-        let flags = p.get(15).copied().unwrap_or(0);
-        let colour_channels = ChannelLayout::from_channels(p.get(8).copied().unwrap_or(0) as usize)
-            .map_or(0, |l| l.colour_channels());
-        // Every bit of the flags byte has a meaning: only combinations are invalid.
-        if (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED | FLAG_WEIGHTED) != 0
-            && flags & FLAG_DETAIL == 0)
-            || (flags & FLAG_LUMA_BASIS != 0 && colour_channels != 3)
-        {
-            return Err(CodecError::Flags { flags });
-        }
-        // The optional fields follow in flag order.
-        let deblock_at = HEADER_LEN_DETAIL;
-        let adaptive_at = deblock_at
-            + if flags & FLAG_DEBLOCK != 0 {
-                DEBLOCK_LEN
-            } else {
-                0
-            };
-        let lapping_at = adaptive_at
-            + if flags & FLAG_ADAPTIVE != 0 {
-                ADAPTIVE_LEN
-            } else {
-                0
-            };
-        let weights_at = lapping_at
-            + if flags & FLAG_LAPPED != 0 {
-                LAPPING_LEN
-            } else {
-                0
-            };
-        let len = if flags & FLAG_DETAIL == 0 {
-            HEADER_LEN
-        } else {
-            weights_at
-                + if flags & FLAG_WEIGHTED != 0 {
-                    WEIGHTS_LEN
-                } else {
-                    0
-                }
-        };
-        if p.len() != len && p.len() != len + DISPLAY_LEN {
-            return Err(CodecError::HeaderLength {
-                found: p.len() as u64,
-                expected: len as u64,
-            });
-        }
-        let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
-        let display = (p.len() == len + DISPLAY_LEN).then(|| (u32_at(len), u32_at(len + 4)));
-        let f32_at = |i: usize| f32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
-        let (width, height) = (u32_at(0), u32_at(4));
+    /// Reads the header section's payload, which starts at byte `offset` of the file.
+    fn parse(p: &[u8], offset: usize, max_pixels: u64) -> Result<Self, CodecError> {
+        let mut f = Fields::new(p, offset);
+        let width = f.varint("the width")?;
+        let height = f.varint("the height")?;
         for (what, side) in [("width", width), ("height", height)] {
             if side == 0 || side > MAX_SIDE {
                 return Err(CodecError::range(what, side, 1.0, MAX_SIDE.into()));
             }
+        }
+        let kind = f.u8("the channels and sample format")?;
+        let layout = ChannelLayout::from_channels((kind & 7) as usize)
+            .ok_or_else(|| CodecError::range("channel count", kind & 7, 1.0, 4.0))?;
+        if kind >> 6 != 0 {
+            return Err(CodecError::range(
+                "reserved bits of the channel byte",
+                kind >> 6,
+                0.0,
+                0.0,
+            ));
+        }
+        let format = match (kind >> 3) & 3 {
+            0 => SampleFormat::U8,
+            1 => SampleFormat::U16,
+            2 => SampleFormat::F32,
+            v => return Err(CodecError::range("sample format", v, 0.0, 2.0)),
+        };
+        let levels = f.u8("the tree's levels")?;
+        let (block_log2, min_log2) = (levels & 15, levels >> 4);
+        if !(1..=7).contains(&block_log2) {
+            return Err(CodecError::range("root block level", block_log2, 1.0, 7.0));
+        }
+        if min_log2 > block_log2.min(4) {
+            return Err(CodecError::range(
+                "smallest cell level",
+                min_log2,
+                0.0,
+                block_log2.min(4).into(),
+            ));
+        }
+        let kernel = KernelParams {
+            sigma_factor: f.u16("the kernel footprint")? as f64 / 1024.0,
+            weight_exponent: f.u8("the weight exponent")? as f64 / 16.0,
+        };
+        if !(0.3..=4.0).contains(&kernel.sigma_factor) {
+            return Err(CodecError::range(
+                "kernel footprint",
+                kernel.sigma_factor,
+                0.3,
+                4.0,
+            ));
+        }
+        let flags = f.u8("the flags")?;
+        // Every bit of the flags byte has a meaning: only combinations are invalid.
+        if (flags & (FLAG_DEBLOCK | FLAG_ADAPTIVE | FLAG_LAPPED | FLAG_WEIGHTED) != 0
+            && flags & FLAG_DETAIL == 0)
+            || (flags & FLAG_LUMA_BASIS != 0 && layout.colour_channels() != 3)
+        {
+            return Err(CodecError::Flags { flags });
+        }
+        let step_luma = f.step("luma quantiser step")?;
+        let step_chroma = if layout.colour_channels() == 3 {
+            f.step("chroma quantiser step")?
+        } else {
+            ABSENT_STEP
+        };
+        let step_alpha = if layout.has_alpha() {
+            f.step("alpha quantiser step")?
+        } else {
+            ABSENT_STEP
+        };
+        let luma_count = f.varint("the luma key point count")?;
+        let chroma_count = f.varint("the chroma key point count")?;
+        let tile_units = u32::from(f.u8("the tile side")?);
+        let tile_side = tile_units * SIDE_UNIT;
+        if tile_units == 0 || tile_side > MAX_SIDE {
+            return Err(CodecError::TileSide {
+                side: tile_side,
+                unit: SIDE_UNIT,
+                max: MAX_SIDE,
+            });
+        }
+        let detail_steps = if flags & FLAG_DETAIL != 0 {
+            Some([
+                f.step("detail luma quantiser step")?,
+                f.step("detail chroma quantiser step")?,
+            ])
+        } else {
+            None
+        };
+        let deblock = if flags & FLAG_DEBLOCK != 0 {
+            let [strength, radius] = f.array("the deblocking parameters")?;
+            Some(Deblock { strength, radius })
+        } else {
+            None
+        };
+        let adaptive = if flags & FLAG_ADAPTIVE != 0 {
+            let a: [u8; CLASSES + 1] = f.array("the adaptive step factors")?;
+            Some(AdaptiveSteps {
+                factors: std::array::from_fn(|i| a[i]),
+                field_log2: a[CLASSES],
+            })
+        } else {
+            None
+        };
+        let lapping = if flags & FLAG_LAPPED != 0 {
+            Some(Lapping {
+                weight: f.u8("the lapping weight")?,
+            })
+        } else {
+            None
+        };
+        let weights = if flags & FLAG_WEIGHTED != 0 {
+            Some(FrequencyWeights {
+                tilts: f.array("the frequency tilts")?,
+            })
+        } else {
+            None
+        };
+        let display = if kind & KIND_DISPLAY != 0 {
+            Some((
+                f.varint("the display width")?,
+                f.varint("the display height")?,
+            ))
+        } else {
+            None
+        };
+        if f.remaining() > 0 {
+            return Err(CodecError::HeaderLength {
+                found: p.len() as u64,
+                expected: f.pos as u64,
+            });
         }
         if let Some((dw, dh)) = display {
             // Coded smaller on some side and larger on none: one canonical form.
@@ -323,54 +452,6 @@ impl Header {
                 limit: max_pixels,
             });
         }
-        let layout = ChannelLayout::from_channels(p[8] as usize)
-            .ok_or_else(|| CodecError::range("channel count", p[8], 1.0, 4.0))?;
-        let format = match p[9] {
-            0 => SampleFormat::U8,
-            1 => SampleFormat::U16,
-            2 => SampleFormat::F32,
-            v => return Err(CodecError::range("sample format", v, 0.0, 2.0)),
-        };
-        let (block_log2, min_log2) = (p[10], p[11]);
-        if !(1..=7).contains(&block_log2) {
-            return Err(CodecError::range("root block level", block_log2, 1.0, 7.0));
-        }
-        if min_log2 > block_log2.min(4) {
-            return Err(CodecError::range(
-                "smallest cell level",
-                min_log2,
-                0.0,
-                block_log2.min(4).into(),
-            ));
-        }
-        let kernel = KernelParams {
-            sigma_factor: u16::from_le_bytes([p[12], p[13]]) as f64 / 1024.0,
-            weight_exponent: p[14] as f64 / 16.0,
-        };
-        if !(0.3..=4.0).contains(&kernel.sigma_factor) {
-            return Err(CodecError::range(
-                "kernel footprint",
-                kernel.sigma_factor,
-                0.3,
-                4.0,
-            ));
-        }
-        let (step_luma, step_chroma, step_alpha) = (f32_at(16), f32_at(20), f32_at(24));
-        let detail_steps = (flags & FLAG_DETAIL != 0).then(|| [f32_at(38), f32_at(42)]);
-        let deblock = (flags & FLAG_DEBLOCK != 0).then(|| Deblock {
-            strength: p[deblock_at],
-            radius: p[deblock_at + 1],
-        });
-        let adaptive = (flags & FLAG_ADAPTIVE != 0).then(|| AdaptiveSteps {
-            factors: std::array::from_fn(|i| p[adaptive_at + i]),
-            field_log2: p[adaptive_at + CLASSES],
-        });
-        let lapping = (flags & FLAG_LAPPED != 0).then(|| Lapping {
-            weight: p[lapping_at],
-        });
-        let weights = (flags & FLAG_WEIGHTED != 0).then(|| FrequencyWeights {
-            tilts: [p[weights_at], p[weights_at + 1]],
-        });
         let basis = if flags & FLAG_LUMA_BASIS != 0 {
             ColourBasis::Luma
         } else {
@@ -389,14 +470,6 @@ impl Header {
             return Err(CodecError::Deblock {
                 strength: d.strength,
                 radius: d.radius,
-            });
-        }
-        let tile_side = u16::from_le_bytes([p[36], p[37]]) as u32;
-        if tile_side == 0 || !tile_side.is_multiple_of(SIDE_UNIT) || tile_side > MAX_SIDE {
-            return Err(CodecError::TileSide {
-                side: tile_side,
-                unit: SIDE_UNIT,
-                max: MAX_SIDE,
             });
         }
         let [detail_luma, detail_chroma] = detail_steps.unwrap_or([1.0; 2]);
@@ -423,8 +496,8 @@ impl Header {
             step_luma,
             step_chroma,
             step_alpha,
-            luma_count: u32_at(28),
-            chroma_count: u32_at(32),
+            luma_count,
+            chroma_count,
             tile_side,
             detail_steps,
             deblock,
@@ -473,10 +546,10 @@ impl Header {
     }
 }
 
-/// Bytes of a tile section's own header: luma and chroma key-point counts, then the
-/// lengths of the tree, luma and chroma streams (u32 LE each); the detail stream is
-/// the rest of the payload.
-const TILE_HEADER_LEN: usize = 5 * 4;
+/// Bytes of a tile section's own fields at most: luma and chroma key-point counts,
+/// then the lengths of the tree, luma and chroma streams (LEB128 each); the detail
+/// stream is the rest of the payload.
+const TILE_FIELDS_MAX: usize = 5 * 5;
 
 /// One tile's coded streams, as the encoder produces them.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -498,7 +571,7 @@ pub struct TileStreams {
 impl TileStreams {
     fn to_payload(&self) -> Vec<u8> {
         let mut b = Vec::with_capacity(
-            TILE_HEADER_LEN
+            TILE_FIELDS_MAX
                 + self.tree.len()
                 + self.luma.len()
                 + self.chroma.len()
@@ -511,7 +584,7 @@ impl TileStreams {
             self.luma.len() as u32,
             self.chroma.len() as u32,
         ] {
-            b.extend(v.to_le_bytes());
+            varint::push(&mut b, v);
         }
         for s in [&self.tree, &self.luma, &self.chroma, &self.detail] {
             b.extend_from_slice(s);
@@ -552,29 +625,27 @@ impl<'a> TilePayload<'a> {
         }
     }
 
-    /// Splits and checks a tile section against the header.
+    /// Splits and checks a tile section (its payload at byte `offset` of the file)
+    /// against the header.
     fn parse(
         p: &'a [u8],
         rect: TileRect,
         header: &Header,
         offset: usize,
     ) -> Result<Self, CodecError> {
-        if p.len() < TILE_HEADER_LEN {
-            return Err(CodecError::Truncated {
-                what: "a tile's counts and stream lengths",
-                offset: offset as u64,
-                need: TILE_HEADER_LEN as u64,
-                available: p.len() as u64,
-            });
-        }
-        let u32_at = |i: usize| u32::from_le_bytes([p[i], p[i + 1], p[i + 2], p[i + 3]]);
-        let (luma_count, chroma_count) = (u32_at(0), u32_at(4));
-        let lens = [u32_at(8) as u64, u32_at(12) as u64, u32_at(16) as u64];
-        let body = (p.len() - TILE_HEADER_LEN) as u64;
+        let mut f = Fields::new(p, offset);
+        let luma_count = f.varint("a tile's luma key point count")?;
+        let chroma_count = f.varint("a tile's chroma key point count")?;
+        let lens = [
+            f.varint("a tile's tree stream length")? as u64,
+            f.varint("a tile's luma stream length")? as u64,
+            f.varint("a tile's chroma stream length")? as u64,
+        ];
+        let body = f.remaining() as u64;
         if lens.iter().sum::<u64>() > body {
             return Err(CodecError::Truncated {
                 what: "a tile's streams",
-                offset: (offset + TILE_HEADER_LEN) as u64,
+                offset: (offset + f.pos) as u64,
                 need: lens.iter().sum(),
                 available: body,
             });
@@ -609,7 +680,7 @@ impl<'a> TilePayload<'a> {
                 channels: header.layout.colour_channels(),
             });
         }
-        let mut rest = &p[TILE_HEADER_LEN..];
+        let mut rest = &p[f.pos..];
         let mut take = |n: u64| {
             let (a, b) = rest.split_at(n as usize);
             rest = b;
@@ -634,24 +705,26 @@ impl<'a> TilePayload<'a> {
     }
 }
 
-/// Appends a section: tag, payload length (u32 LE), payload, CRC-32 of all three.
-fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
+/// Appends a section: tag, payload length (LEB128), payload, CRC-32 of all three.
+pub fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
     let start = out.len();
     out.push(tag);
-    out.extend((payload.len() as u32).to_le_bytes());
+    varint::push(out, payload.len() as u32);
     out.extend_from_slice(payload);
     let crc = crc32fast::hash(&out[start..]);
     out.extend(crc.to_le_bytes());
 }
 
-/// Bytes of a section besides its payload: tag, length and CRC.
-const SECTION_OVERHEAD: usize = 9;
+/// Bytes a section with a payload of `len` bytes takes.
+fn section_bytes(len: usize) -> usize {
+    1 + varint::len(len as u32) + len + 4
+}
 
 /// Bytes the metadata's sections take in a file.
 pub fn metadata_bytes(metadata: &Metadata) -> usize {
     [&metadata.icc, &metadata.exif, &metadata.xmp]
         .iter()
-        .map(|m| m.as_ref().map_or(0, |m| m.len() + SECTION_OVERHEAD))
+        .map(|m| m.as_ref().map_or(0, |m| section_bytes(m.len())))
         .sum()
 }
 
@@ -667,7 +740,7 @@ pub fn write(header: &Header, metadata: &Metadata, tiles: &[TileStreams]) -> Vec
     let len = 64
         + payloads
             .iter()
-            .map(|p| p.len() + SECTION_OVERHEAD)
+            .map(|p| section_bytes(p.len()))
             .sum::<usize>()
         + metadata_bytes(metadata);
     let mut out = Vec::with_capacity(len);
@@ -696,8 +769,17 @@ pub struct Section<'a> {
     pub tag: u8,
     /// Offset of the tag in the file.
     pub offset: usize,
+    /// Offset of the payload in the file.
+    pub payload_offset: usize,
     /// Payload.
     pub payload: &'a [u8],
+}
+
+impl Section<'_> {
+    /// Bytes the section takes in the file: tag, length, payload and CRC.
+    pub fn file_bytes(&self) -> usize {
+        self.payload_offset - self.offset + self.payload.len() + 4
+    }
 }
 
 /// A parsed file: header, section payloads and tiles (borrowed).
@@ -764,30 +846,29 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
     let mut sections = Vec::new();
     let mut pos = 5;
     loop {
-        if bytes.len() - pos < 9 {
+        if bytes.len() - pos < SECTION_MIN {
             return Err(CodecError::Truncated {
                 what: "a section's tag, length and CRC",
                 offset: pos as u64,
-                need: 9,
+                need: SECTION_MIN as u64,
                 available: (bytes.len() - pos) as u64,
             });
         }
         let tag = bytes[pos];
-        let len = u32::from_le_bytes([
-            bytes[pos + 1],
-            bytes[pos + 2],
-            bytes[pos + 3],
-            bytes[pos + 4],
-        ]) as usize;
-        let end = pos + 5 + len;
-        if len > bytes.len() - pos - 9 {
+        let length_bytes = &bytes[pos + 1..(pos + 1 + 5).min(bytes.len())];
+        let (len, used) = varint::read(length_bytes, "a section's length", pos + 1)?;
+        let len = len as usize;
+        let start = pos + 1 + used;
+        let available = bytes.len().saturating_sub(start + 4);
+        if start + 4 > bytes.len() || len > available {
             return Err(CodecError::Truncated {
                 what: "a section's payload",
-                offset: pos as u64 + 5,
+                offset: start as u64,
                 need: len as u64,
-                available: (bytes.len() - pos - 9) as u64,
+                available: available as u64,
             });
         }
+        let end = start + len;
         let stored =
             u32::from_le_bytes([bytes[end], bytes[end + 1], bytes[end + 2], bytes[end + 3]]);
         let computed = crc32fast::hash(&bytes[pos..end]);
@@ -808,7 +889,8 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
         sections.push(Section {
             tag,
             offset: pos,
-            payload: &bytes[pos + 5..end],
+            payload_offset: start,
+            payload: &bytes[start..end],
         });
         pos = end + 4;
         if tag == tag::END {
@@ -822,7 +904,9 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
     }
     let tags: Vec<u8> = sections.iter().map(|s| s.tag).collect();
     let header = match tags.first() {
-        Some(&tag::HEADER) => Header::parse(sections[0].payload, max_pixels)?,
+        Some(&tag::HEADER) => {
+            Header::parse(sections[0].payload, sections[0].payload_offset, max_pixels)?
+        }
         first => {
             return Err(CodecError::HeaderNotFirst {
                 first: first.map(|&t| Tag(t)),
@@ -863,7 +947,7 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
     let tiles = sections[i..i + count]
         .iter()
         .enumerate()
-        .map(|(k, s)| TilePayload::parse(s.payload, tiling.rect(k), &header, s.offset))
+        .map(|(k, s)| TilePayload::parse(s.payload, tiling.rect(k), &header, s.payload_offset))
         .collect::<Result<Vec<_>, _>>()?;
     let (luma, chroma) = tiles.iter().fold((0u64, 0u64), |(l, c), t| {
         (l + t.luma_count as u64, c + t.chroma_count as u64)
@@ -886,4 +970,86 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
         sections,
         tiles,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_round_to_the_nearest_stored_value_and_keep_their_range() {
+        let mut s = 1e-7f64;
+        while s <= 1e4 {
+            let r = stored_step(s);
+            // Seven bits of mantissa: within half a unit, 2^-8 of the value.
+            assert!((r - s).abs() <= s * (1.0 / 256.0) * 1.0000001, "{s} -> {r}");
+            assert!((1e-7..=1e4).contains(&r), "{s} -> {r}");
+            assert_eq!(stored_step(r), r, "stored steps are fixed points");
+            assert_eq!(f64::from(step_from_bits(step_bits(r as f32))), r);
+            s *= 1.0137;
+        }
+        assert_eq!(stored_step(0.5), 0.5);
+        assert_eq!(stored_step(1.0 + 1.0 / 128.0), 1.0 + 1.0 / 128.0);
+        assert_eq!(stored_step(1.0 + 1.0 / 512.0), 1.0);
+    }
+
+    #[test]
+    fn headers_read_back_with_only_the_steps_their_channels_use() {
+        let base = Header {
+            width: 300,
+            height: 20,
+            layout: ChannelLayout::Rgb,
+            format: SampleFormat::U8,
+            block_log2: 5,
+            min_log2: 3,
+            kernel: KernelParams {
+                sigma_factor: 0.5,
+                weight_exponent: 1.0,
+            },
+            chroma_pruned: true,
+            step_luma: 0.25,
+            step_chroma: 0.375,
+            step_alpha: ABSENT_STEP,
+            luma_count: 100,
+            chroma_count: 40,
+            tile_side: 384,
+            detail_steps: Some([0.5, 0.625]),
+            deblock: None,
+            adaptive: None,
+            lapping: None,
+            basis: ColourBasis::Luma,
+            level_steps: true,
+            weights: None,
+            restoration: None,
+            display: Some((600, 40)),
+        };
+        let grey = Header {
+            layout: ChannelLayout::GreyAlpha,
+            step_chroma: ABSENT_STEP,
+            step_alpha: 2.0,
+            chroma_count: 0,
+            basis: ColourBasis::Grey,
+            display: None,
+            ..base.clone()
+        };
+        for h in [base, grey] {
+            let b = h.to_bytes();
+            // Width 300 takes two bytes, the height one; the steps present two each.
+            let steps =
+                2 * (1 + h.layout.colour_channels() / 3 + usize::from(h.layout.has_alpha()) + 2);
+            let display = if h.display.is_some() { 3 } else { 0 };
+            assert_eq!(
+                b.len(),
+                3 + 1 + 1 + 2 + 1 + 1 + steps + 2 + 1 + display,
+                "{h:?}"
+            );
+            assert_eq!(Header::parse(&b, 0, u64::MAX).unwrap(), h);
+            // One byte more than the fields call for.
+            let e = Header::parse(&[&b[..], &[0]].concat(), 0, u64::MAX).unwrap_err();
+            assert!(
+                matches!(e, CodecError::HeaderLength { found, expected } if found == expected + 1),
+                "{e}"
+            );
+        }
+    }
 }

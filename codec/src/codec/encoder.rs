@@ -419,12 +419,10 @@ pub fn encode_with(
             });
         }
     }
-    // Steps are stored as f32: quantise with exactly what the decoder will read.
-    s.step_luma = s.step_luma as f32 as f64;
-    s.step_chroma = s.step_chroma as f32 as f64;
-    s.step_alpha = s.step_alpha as f32 as f64;
-    s.detail_step_luma = s.detail_step_luma as f32 as f64;
-    s.detail_step_chroma = s.detail_step_chroma as f32 as f64;
+    // Quantise with exactly the steps the decoder will read.
+    for step in [&mut s.step_luma, &mut s.step_chroma, &mut s.step_alpha, &mut s.detail_step_luma, &mut s.detail_step_chroma] {
+        *step = bitstream::stored_step(*step);
+    }
     for (name, item) in [("ICC profile", &metadata.icc), ("EXIF", &metadata.exif), ("XMP", &metadata.xmp)] {
         if let Some(item) = item.as_ref().filter(|i| i.len() > MAX_ITEM_BYTES) {
             return Err(CodecError::Parameter {
@@ -474,7 +472,7 @@ pub fn encode_with(
             1.0
         };
     for step in [&mut s.step_luma, &mut s.step_chroma, &mut s.step_alpha] {
-        *step = (*step * factor).clamp(1e-7, 1e4) as f32 as f64;
+        *step = bitstream::stored_step((*step * factor).clamp(1e-7, 1e4));
     }
     let mut models: Vec<TileModel> = fits
         .into_par_iter()
@@ -505,8 +503,16 @@ pub fn encode_with(
         kernel,
         chroma_pruned: s.model.chroma_pruned,
         step_luma: s.step_luma as f32,
-        step_chroma: s.step_chroma as f32,
-        step_alpha: s.step_alpha as f32,
+        step_chroma: if img.layout().colour_channels() == 3 {
+            s.step_chroma as f32
+        } else {
+            bitstream::ABSENT_STEP
+        },
+        step_alpha: if img.layout().has_alpha() {
+            s.step_alpha as f32
+        } else {
+            bitstream::ABSENT_STEP
+        },
         luma_count: net.luma_cells.len() as u32,
         chroma_count: net.chroma_cells.len() as u32,
         tile_side: tiling.side,
@@ -558,8 +564,9 @@ pub fn encode_with(
 const RESTORATION_SLOPE: f64 = 1.1;
 /// Evaluation bands in each group the restoration fit samples.
 const RESTORATION_GROUP: usize = 3;
-/// Bytes of a restoration section besides its taps: tag, length, CRC and mask.
-const RESTORATION_SECTION_BYTES: usize = 10;
+/// Bytes of a restoration section besides its taps: tag, length (one byte), CRC and
+/// mask.
+const RESTORATION_SECTION_BYTES: usize = 7;
 /// Pixels the restoration filters' sums see, unless [`RESTORATION_MIN_GROUPS`] need
 /// more: every row of a photograph of a megapixel or less.
 const RESTORATION_SAMPLES: u64 = 1 << 20;
@@ -593,8 +600,8 @@ fn restoration_groups(w: u32) -> usize {
 /// at the price the codec's own curve puts on a bit.
 ///
 /// The sums take groups of [`RESTORATION_GROUP`] evaluation bands, every few bands,
-/// each group's rows at least the filters' reach from its edges, so only those bands
-/// are evaluated again.
+/// so only those bands are evaluated again: all of a group's rows where its neighbours
+/// are evaluated too, else those at least the filters' reach from its edges.
 fn fit_restoration(
     bytes: &[u8],
     coded_bytes: usize,
@@ -608,7 +615,6 @@ fn fit_restoration(
     // inner rows would miss the rows by every other horizontal block edge).
     let band = GridEval::BAND;
     let reach = restoration::RADIUS;
-    let span = RESTORATION_GROUP * band;
     let bands = hu.div_ceil(band);
     let groups = restoration_groups(w);
     let every = bands.div_ceil(groups).max(RESTORATION_GROUP);
@@ -616,31 +622,30 @@ fn fit_restoration(
     let needed: Vec<usize> = starts.iter().flat_map(|&g| g..(g + RESTORATION_GROUP).min(bands)).collect();
     let parsed = bitstream::parse(bytes, u64::MAX)?;
     let decoded = crate::codec::decoder::read_parsed(&parsed)?;
-    let mut evaluated = crate::codec::decoder::unrestored_bands(&decoded, &needed).into_iter();
+    let evaluated = crate::codec::decoder::unrestored_bands(&decoded, &needed);
     drop(decoded);
     let planes = src.layout().colour_channels();
-    // Each group's planes, its bands stacked.
-    let stacked: Vec<Vec<Vec<f32>>> = starts
-        .iter()
-        .map(|&g| {
-            let n = (g + RESTORATION_GROUP).min(bands) - g;
-            let parts: Vec<Vec<Vec<f32>>> = evaluated.by_ref().take(n).collect();
-            (0..planes).map(|c| parts.iter().flat_map(|p| p[c].iter().copied()).collect()).collect()
-        })
-        .collect();
-    // One source read and one sum per group; every row the sums reach is in the group
-    // (or clamped at the image's edge as it is).
+    let index = |b: usize| needed.binary_search(&b).ok();
+    // One source read and one sum per group. A group whose neighbouring bands are
+    // evaluated anyway (groups side by side, as in images of a megapixel or less)
+    // takes them as context, so its rows by the group's edges are exact too; else those
+    // rows are left out. At the image's top and bottom the group clamps as the image
+    // does, so those rows are exact (all of an image of a few rows).
     let chunks: Vec<Vec<ClassStats>> = starts
         .par_iter()
-        .zip(&stacked)
-        .map(|(&g, decoded)| {
-            let y0 = g * band;
-            let group_rows = (hu - y0).min(span);
-            // At the image's top and bottom the group clamps as the image does, so
-            // those rows are exact too (all of an image of a few rows).
-            let top = if y0 == 0 { 0 } else { reach };
-            let bottom = if y0 + group_rows == hu { group_rows } else { (span - reach).min(group_rows) };
-            let rows = top..bottom;
+        .map(|&g| {
+            let end = (g + RESTORATION_GROUP).min(bands);
+            let first = if g > 0 && index(g - 1).is_some() { g - 1 } else { g };
+            let last = if end < bands && index(end).is_some() { end + 1 } else { end };
+            let window: Vec<&Vec<Vec<f32>>> = (first..last).map(|b| &evaluated[index(b).expect("evaluated")]).collect();
+            let decoded: Vec<Vec<f32>> =
+                (0..planes).map(|c| window.iter().flat_map(|p| p[c].iter().copied()).collect()).collect();
+            let y0 = first * band;
+            let window_rows = (hu - y0).min((last - first) * band);
+            let (own_top, own_bottom) = ((g - first) * band, ((end - first) * band).min(window_rows));
+            let top = if y0 + own_top == 0 || first < g { own_top } else { own_top + reach };
+            let bottom = if y0 + own_bottom == hu || last > end { own_bottom } else { own_bottom.saturating_sub(reach) };
+            let rows = top..bottom.max(top);
             let mut stats: Vec<ClassStats> = (0..planes).map(ClassStats::new).collect();
             if rows.is_empty() {
                 return stats;
@@ -653,9 +658,9 @@ fn fit_restoration(
             };
             let source = coding_planes(&src.region(rect), s).colour;
             // Every plane's classes come from the luma.
-            let classes = restoration::classify_rows(&decoded[0], (wu, group_rows), (1.0, 1.0), rows.clone());
+            let classes = restoration::classify_rows(&decoded[0], (wu, window_rows), (1.0, 1.0), rows.clone());
             for (c, (plane, source)) in decoded.iter().zip(&source).enumerate() {
-                stats[c].accumulate(c, plane, &classes, source, (wu, group_rows), rows.clone());
+                stats[c].accumulate(c, plane, &classes, source, (wu, window_rows), rows.clone());
             }
             stats
         })

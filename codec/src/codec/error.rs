@@ -39,6 +39,14 @@ pub enum CodecError {
         /// Bytes left in the file.
         available: u64,
     },
+    /// A length or count is not a LEB128 number of at most 32 bits in its shortest form.
+    #[error("invalid caoen file: {what} at byte {offset} is not a LEB128 number of at most 32 bits in its shortest form")]
+    Varint {
+        /// What was being read.
+        what: &'static str,
+        /// Where it starts.
+        offset: u64,
+    },
     /// A section's CRC does not match its contents.
     #[error("invalid caoen file: CRC mismatch in section {tag} at byte {offset}: stored {stored:08x}, computed {computed:08x}")]
     CrcMismatch {

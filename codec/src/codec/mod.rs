@@ -57,6 +57,8 @@ stages! {
     quadtree;
     /// The restoration filters applied to the decoded planes.
     restoration;
+    /// LEB128 lengths and counts.
+    varint;
 
     /// Quality and effort mapping; the rate-target search.
     rate_control;

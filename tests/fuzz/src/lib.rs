@@ -256,7 +256,7 @@ fn choose_header(c: &mut Choices) -> Header {
     // Log-uniform over the valid 1e-7..=1e4.
     let mut step = || {
         let t = f64::from(c.u16()) / 65535.0;
-        ((1e-7 * 1e11f64.powf(t)) as f32).clamp(1e-7, 1e4)
+        bitstream::stored_step((1e-7 * 1e11f64.powf(t)).clamp(1e-7, 1e4)) as f32
     };
     let (step_luma, step_chroma, step_alpha) = (step(), step(), step());
     let detail = [step(), step()];
@@ -276,8 +276,17 @@ fn choose_header(c: &mut Choices) -> Header {
         kernel,
         chroma_pruned,
         step_luma,
-        step_chroma,
-        step_alpha,
+        // The header stores no step for a channel the image lacks.
+        step_chroma: if layout.colour_channels() == 3 {
+            step_chroma
+        } else {
+            bitstream::ABSENT_STEP
+        },
+        step_alpha: if layout.has_alpha() {
+            step_alpha
+        } else {
+            bitstream::ABSENT_STEP
+        },
         luma_count: 0,
         chroma_count: 0,
         tile_side: SIDE_UNIT * (1 + u32::from(c.bit())),
@@ -520,16 +529,6 @@ fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
     (file, header)
 }
 
-/// Appends a section with its CRC (`docs/format.md`).
-fn push_section(out: &mut Vec<u8>, tag: u8, payload: &[u8]) {
-    let start = out.len();
-    out.push(tag);
-    out.extend((payload.len() as u32).to_le_bytes());
-    out.extend_from_slice(payload);
-    let crc = crc32fast::hash(&out[start..]);
-    out.extend(crc.to_le_bytes());
-}
-
 /// Damages a valid file in one way the fuzzer chooses, keeping every CRC right, so the
 /// damage reaches the parsers behind the container check.
 fn damage(file: &[u8], how: u8, c: &mut Choices) -> Vec<u8> {
@@ -586,7 +585,7 @@ fn damage(file: &[u8], how: u8, c: &mut Choices) -> Vec<u8> {
     out.extend(bitstream::MAGIC);
     out.push(bitstream::VERSION);
     for (t, p) in &sections {
-        push_section(&mut out, *t, p);
+        bitstream::push_section(&mut out, *t, p);
     }
     out
 }

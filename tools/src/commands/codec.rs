@@ -437,7 +437,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 tag::END => "end",
                 _ => "unknown",
             };
-            (s.tag as char, name, s.offset, s.payload.len() + 9)
+            (s.tag as char, name, s.offset, s.file_bytes())
         })
         .collect();
     let (dw, dh) = h.display_size();

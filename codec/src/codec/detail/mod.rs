@@ -33,6 +33,7 @@ use lapping::Lapping;
 
 use super::entropy::{AnsSink, AnsSource};
 use super::keyset::Grid;
+use super::varint;
 use super::CodecError;
 use syntax::{BlockContext, DetailContexts, FactorContext, GroupContext, Summary, GROUP_LEVELS};
 
@@ -505,8 +506,8 @@ impl Detail {
         let split = self.planes.len().min(1);
         let luma = stream(&self.planes[..split], 0);
         let chroma = stream(&self.planes[split..], 1);
-        let mut payload = Vec::with_capacity(4 + luma.len() + chroma.len());
-        payload.extend((luma.len() as u32).to_le_bytes());
+        let mut payload = Vec::with_capacity(5 + luma.len() + chroma.len());
+        varint::push(&mut payload, luma.len() as u32);
         payload.extend(luma);
         payload.extend(chroma);
         payload
@@ -514,8 +515,8 @@ impl Detail {
 
     /// Reads the section of a `width x height` image with these steps (one per colour
     /// channel), its blocks of cell-size classes `classes` ([`adaptive::block_classes`])
-    /// and, if the file has one, an activity field of regions of side `2^field_log2`: a
-    /// u32 byte count of the luma stream, the luma stream, the chroma stream.
+    /// and, if the file has one, an activity field of regions of side `2^field_log2`: the
+    /// luma stream's byte count (LEB128), the luma stream, the chroma stream.
     pub fn read(
         payload: &[u8],
         width: u32,
@@ -538,24 +539,17 @@ impl Detail {
     ) -> Result<(Self, [DetailContexts; 2]), CodecError> {
         let (cols, rows) = blocks(width, height);
         assert_eq!(classes.len(), cols * rows, "one class per block");
-        if payload.len() < 4 {
-            return Err(CodecError::Truncated {
-                what: "the detail section's stream length",
-                offset: 0,
-                need: 4,
-                available: payload.len() as u64,
-            });
-        }
-        let n = u32::from_le_bytes([payload[0], payload[1], payload[2], payload[3]]) as usize;
-        if n > payload.len() - 4 {
+        let (n, used) = varint::read(payload, "the detail section's luma stream length", 0)?;
+        let n = n as usize;
+        if n > payload.len() - used {
             return Err(CodecError::Truncated {
                 what: "the detail section's luma stream",
-                offset: 4,
+                offset: used as u64,
                 need: n as u64,
-                available: payload.len() as u64 - 4,
+                available: (payload.len() - used) as u64,
             });
         }
-        let (luma, chroma) = payload[4..].split_at(n);
+        let (luma, chroma) = payload[used..].split_at(n);
         let per_plane = syntax::MAX_SYMBOLS_PER_BLOCK * (cols * rows) as u64;
         let regions = field_log2.map_or(0, |l| {
             let (c, r) = ActivityField::regions(width, height, l);
