@@ -626,6 +626,17 @@ fn fit_restoration(
     drop(decoded);
     let planes = src.layout().colour_channels();
     let index = |b: usize| needed.binary_search(&b).ok();
+    let band_rows = |b: usize| (hu - b * band).min(band);
+    // Each plane's evaluated bands in one buffer, in `needed`'s order: band `needed[i]`
+    // starts at row `i * band`, so bands that neighbour in the image neighbour here, and
+    // a group with its context is one slice.
+    let total = needed.iter().map(|&b| band_rows(b) * wu).sum::<usize>();
+    let mut flat: Vec<Vec<f32>> = (0..planes).map(|_| Vec::with_capacity(total)).collect();
+    for parts in evaluated {
+        for (plane, part) in flat.iter_mut().zip(parts) {
+            plane.extend(part);
+        }
+    }
     // One source read and one sum per group. A group whose neighbouring bands are
     // evaluated anyway (groups side by side, as in images of a megapixel or less)
     // takes them as context, so its rows by the group's edges are exact too; else those
@@ -637,9 +648,9 @@ fn fit_restoration(
             let end = (g + RESTORATION_GROUP).min(bands);
             let first = if g > 0 && index(g - 1).is_some() { g - 1 } else { g };
             let last = if end < bands && index(end).is_some() { end + 1 } else { end };
-            let window: Vec<&Vec<Vec<f32>>> = (first..last).map(|b| &evaluated[index(b).expect("evaluated")]).collect();
-            let decoded: Vec<Vec<f32>> =
-                (0..planes).map(|c| window.iter().flat_map(|p| p[c].iter().copied()).collect()).collect();
+            let at = |b: usize| index(b).expect("evaluated") * band * wu;
+            let slice = at(first)..at(last - 1) + band_rows(last - 1) * wu;
+            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[slice.clone()]).collect();
             let y0 = first * band;
             let window_rows = (hu - y0).min((last - first) * band);
             let (own_top, own_bottom) = ((g - first) * band, ((end - first) * band).min(window_rows));
@@ -658,8 +669,8 @@ fn fit_restoration(
             };
             let source = coding_planes(&src.region(rect), s).colour;
             // Every plane's classes come from the luma.
-            let classes = restoration::classify_rows(&decoded[0], (wu, window_rows), (1.0, 1.0), rows.clone());
-            for (c, (plane, source)) in decoded.iter().zip(&source).enumerate() {
+            let classes = restoration::classify_rows(decoded[0], (wu, window_rows), (1.0, 1.0), rows.clone());
+            for (c, (&plane, source)) in decoded.iter().zip(&source).enumerate() {
                 stats[c].accumulate(c, plane, &classes, source, (wu, window_rows), rows.clone());
             }
             stats
