@@ -71,12 +71,12 @@ pub enum CodecError {
         /// Largest allowed.
         hi: f64,
     },
-    /// The header section is not the length its flags call for.
-    #[error("invalid caoen file: header is {found} bytes, expected {expected}")]
+    /// The header section is longer than the fields its flags call for.
+    #[error("invalid caoen file: header is {found} bytes, its fields take {expected}")]
     HeaderLength {
         /// The section's length.
         found: u64,
-        /// The length the header's flags call for.
+        /// The bytes the header's fields take.
         expected: u64,
     },
     /// The header's flags ask for deblocking, adaptive steps, lapping or frequency
