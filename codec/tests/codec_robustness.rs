@@ -2,7 +2,7 @@
 //! error or a bounded image, never a panic, hang or huge allocation; wrong magic,
 //! future versions and absurd headers give clear messages.
 
-use caoen::codec::bitstream::VERSION;
+use caoen::codec::bitstream::{self, VERSION};
 use caoen::codec::{decode, encode, CodecError, DecodeOptions, EncodeOptions};
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 
@@ -109,17 +109,9 @@ fn bad_headers_have_clear_messages() {
     let payload = file[7..7 + hl].to_vec();
     // The file with another header payload, its length and CRC made to match.
     let with_payload = |p: &[u8]| {
-        let mut section = vec![b'H'];
-        let mut n = p.len();
-        while n >= 128 {
-            section.push((n & 127) as u8 | 128);
-            n >>= 7;
-        }
-        section.push(n as u8);
-        section.extend_from_slice(p);
-        let crc = crc32fast::hash(&section);
-        section.extend(crc.to_le_bytes());
-        [&file[..5], &section, &file[7 + hl + 4..]].concat()
+        let mut f = file[..5].to_vec();
+        bitstream::push_section(&mut f, bitstream::tag::HEADER, p);
+        [&f[..], &file[7 + hl + 4..]].concat()
     };
     assert_eq!(with_payload(&payload), file);
     // Absurd size with a valid CRC: width 2^31, five LEB128 bytes.

@@ -268,15 +268,7 @@ fn files_that_lie_about_their_tiles_are_refused() {
         ),
         "a count past the tile's cells: {e:?}"
     );
-    // A stream length past the tile's payload: the tile's fields by hand (LEB128).
-    let varint = |mut v: u32, out: &mut Vec<u8>| loop {
-        let more = v >= 128;
-        out.push((v & 127) as u8 | if more { 128 } else { 0 });
-        v >>= 7;
-        if !more {
-            break;
-        }
-    };
+    // A stream length past the tile's payload: the tile's fields by hand.
     let t = &parsed.tiles[0];
     let mut payload = Vec::new();
     for v in [
@@ -286,7 +278,7 @@ fn files_that_lie_about_their_tiles_are_refused() {
         t.luma.len() as u32,
         t.chroma.len() as u32,
     ] {
-        varint(v, &mut payload);
+        caoen::codec::varint::push(&mut payload, v);
     }
     let mut s = sections.clone();
     s[first_tile].1 = [&payload[..], t.tree, t.luma, t.chroma, t.detail].concat();

@@ -536,6 +536,17 @@ impl Header {
         Ok(header)
     }
 
+    /// The detail layer's step for each colour plane (Y, or Y, C1, C2), if the file has
+    /// the layer.
+    pub fn detail_plane_steps(&self) -> Option<Vec<f64>> {
+        let [luma, chroma] = self.detail_steps?;
+        let mut steps = vec![f64::from(luma)];
+        if self.layout.colour_channels() == 3 {
+            steps.extend([f64::from(chroma); 2]);
+        }
+        Some(steps)
+    }
+
     /// The tiles of the image.
     pub fn tiling(&self) -> Tiling {
         Tiling {

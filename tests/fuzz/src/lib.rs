@@ -426,15 +426,12 @@ fn choose_detail(c: &mut Choices, header: &Header, (width, height): (u32, u32)) 
                 .collect(),
         }
     });
-    // The header's steps: the streams' starting contexts follow the luma step.
-    let [luma, chroma] = header.detail_steps.expect("a header with the layer");
-    let mut steps = vec![f64::from(luma)];
-    if channels == 3 {
-        steps.extend([f64::from(chroma); 2]);
-    }
     Detail {
         planes,
-        steps,
+        // The header's steps: the streams' starting contexts follow the luma step.
+        steps: header
+            .detail_plane_steps()
+            .expect("a header with the layer"),
         deblock: header.deblock,
         lapping: header.lapping,
         // Only the payload is written: the factors and the weights live in the header.

@@ -71,16 +71,6 @@ struct TileDecoded {
     detail: Option<Detail>,
 }
 
-/// The detail layer's quantiser steps, one per colour channel, if the file has it.
-fn detail_steps(header: &Header) -> Option<Vec<f64>> {
-    let [luma, chroma] = header.detail_steps?;
-    let mut steps = vec![luma as f64];
-    if header.layout.colour_channels() == 3 {
-        steps.extend([chroma as f64; 2]);
-    }
-    Some(steps)
-}
-
 /// Decodes one tile's tree: its shape and its leaves.
 fn read_tree(header: &Header, t: &TilePayload) -> Result<(TreeShape, Vec<Cell>), CodecError> {
     let r = t.rect;
@@ -138,7 +128,7 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                     Ok((cc, values))
                 },
                 || -> Result<_, CodecError> {
-                    match detail_steps(header) {
+                    match header.detail_plane_steps() {
                         Some(steps) if !t.detail.is_empty() => {
                             let classes = block_classes(&cells, r.width, r.height);
                             let field = header.adaptive.and_then(|a| a.field());
@@ -169,7 +159,7 @@ pub fn detail_models(
     parsed: &Parsed,
 ) -> Result<Vec<Vec<crate::codec::detail::syntax::ModelState>>, CodecError> {
     let header = &parsed.header;
-    let Some(steps) = detail_steps(header) else {
+    let Some(steps) = header.detail_plane_steps() else {
         return Ok(Vec::new());
     };
     let mut out = Vec::new();
@@ -224,7 +214,7 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
     let (luma_cells, luma_values) = into_image_order(&luma_cells, &luma_values, header.block_log2);
     let (chroma_cells, chroma_values) =
         into_image_order(&chroma_cells, &chroma_values, header.block_log2);
-    let detail = detail_steps(&header).map(|steps| {
+    let detail = header.detail_plane_steps().map(|steps| {
         let (cols, rows) = detail_blocks(header.width, header.height);
         let planes = (0..steps.len())
             .map(|c| {
