@@ -195,8 +195,8 @@ fn bad_headers_have_clear_messages() {
             "flag {flag}: {e}"
         );
     }
-    // The channel byte's top bits are reserved.
-    let e = with_header(&|h: &mut [u8]| h[2] |= 64);
+    // The channel byte's top bit is reserved.
+    let e = with_header(&|h: &mut [u8]| h[2] |= 128);
     assert!(matches!(e, CodecError::OutOfRange { .. }), "{e}");
     // The luma basis (bit 5) is the encoder's choice for colour; it needs three colour
     // channels, so a grey file that claims it is refused.

@@ -1,6 +1,7 @@
 //! The container: magic, version, then CRC-checked sections (see `docs/format.md`).
 
 use super::colour::ColourBasis;
+use super::deringing::{Deringing, Strengths};
 use super::detail::adaptive::{AdaptiveSteps, CLASSES};
 use super::detail::deblock::Deblock;
 use super::detail::lapping::Lapping;
@@ -19,7 +20,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 17;
+pub const VERSION: u8 = 18;
 
 /// Section tags, in the order they must appear.
 pub mod tag {
@@ -169,6 +170,8 @@ pub struct Header {
     pub weights: Option<FrequencyWeights>,
     /// The restoration filters (the restoration section, after the tiles).
     pub restoration: Option<Restoration>,
+    /// The deringing after the restoration (the channel byte's bit 6).
+    pub deringing: Option<Deringing>,
     /// The image's own size when it was coded at a smaller one (`width x height`),
     /// which the decoder then outputs by default: the last 8 bytes of the header.
     pub display: Option<(u32, u32)>,
@@ -178,6 +181,8 @@ pub struct Header {
 const SECTION_MIN: usize = 6;
 /// Bit of the header's channel byte: the display size ends the header.
 const KIND_DISPLAY: u8 = 32;
+/// Bit of the header's channel byte: the deringing strengths precede the display size.
+const KIND_DERINGING: u8 = 64;
 /// Flag bit: chroma on the pruned tree.
 const FLAG_PRUNED: u8 = 1;
 /// Flag bit: the detail layer is present.
@@ -199,6 +204,13 @@ impl Header {
     /// The size the decoder outputs by default: the image's own size.
     pub fn display_size(&self) -> (u32, u32) {
         self.display.unwrap_or((self.width, self.height))
+    }
+
+    /// The steps the deringing strengths are stored in units of, luma's and chroma's:
+    /// the detail layer's, else the key points'.
+    pub fn deringing_steps(&self) -> [f32; 2] {
+        self.detail_steps
+            .unwrap_or([self.step_luma, self.step_chroma])
     }
 
     /// How the key points' steps follow their cell sizes.
@@ -243,6 +255,11 @@ impl Header {
                     KIND_DISPLAY
                 } else {
                     0
+                }
+                | if self.deringing.is_some() {
+                    KIND_DERINGING
+                } else {
+                    0
                 },
         );
         b.push(self.block_log2 | self.min_log2 << 4);
@@ -285,6 +302,12 @@ impl Header {
         if let Some(w) = self.weights {
             b.extend(w.tilts);
         }
+        if let Some(d) = self.deringing {
+            b.extend([d.luma.primary, d.luma.secondary, d.luma.cutoff]);
+            if self.layout.colour_channels() == 3 {
+                b.extend([d.chroma.primary, d.chroma.secondary, d.chroma.cutoff]);
+            }
+        }
         if let Some((w, h)) = self.display {
             varint::push(&mut b, w);
             varint::push(&mut b, h);
@@ -305,10 +328,10 @@ impl Header {
         let kind = f.u8("the channels and sample format")?;
         let layout = ChannelLayout::from_channels((kind & 7) as usize)
             .ok_or_else(|| CodecError::range("channel count", kind & 7, 1.0, 4.0))?;
-        if kind >> 6 != 0 {
+        if kind >> 7 != 0 {
             return Err(CodecError::range(
-                "reserved bits of the channel byte",
-                kind >> 6,
+                "reserved bit of the channel byte",
+                kind >> 7,
                 0.0,
                 0.0,
             ));
@@ -411,6 +434,41 @@ impl Header {
         } else {
             None
         };
+        let deringing = if kind & KIND_DERINGING != 0 {
+            let strengths = |a: [u8; 3]| Strengths {
+                primary: a[0],
+                secondary: a[1],
+                cutoff: a[2],
+            };
+            let luma = strengths(f.array("the luma deringing strengths")?);
+            let chroma = if layout.colour_channels() == 3 {
+                strengths(f.array("the chroma deringing strengths")?)
+            } else {
+                Strengths::OFF
+            };
+            for (what, s) in [("luma deringing", luma), ("chroma deringing", chroma)] {
+                if !s.is_valid() {
+                    return Err(CodecError::Deringing {
+                        what,
+                        primary: s.primary,
+                        secondary: s.secondary,
+                        cutoff: s.cutoff,
+                    });
+                }
+            }
+            let d = Deringing { luma, chroma };
+            if !d.any() {
+                return Err(CodecError::Deringing {
+                    what: "every plane's deringing",
+                    primary: 0,
+                    secondary: 0,
+                    cutoff: 0,
+                });
+            }
+            Some(d)
+        } else {
+            None
+        };
         let display = if kind & KIND_DISPLAY != 0 {
             Some((
                 f.varint("the display width")?,
@@ -506,6 +564,7 @@ impl Header {
             basis,
             level_steps: flags & FLAG_LEVEL_STEPS != 0,
             restoration: None,
+            deringing,
             weights,
             display,
         };
@@ -1032,6 +1091,14 @@ mod tests {
             level_steps: true,
             weights: None,
             restoration: None,
+            deringing: Some(Deringing {
+                luma: Strengths {
+                    primary: 96,
+                    secondary: 16,
+                    cutoff: 80,
+                },
+                chroma: Strengths::OFF,
+            }),
             display: Some((600, 40)),
         };
         let grey = Header {
@@ -1043,15 +1110,22 @@ mod tests {
             display: None,
             ..base.clone()
         };
-        for h in [base, grey] {
+        let plain = Header {
+            deringing: None,
+            ..base.clone()
+        };
+        for h in [base.clone(), grey, plain] {
             let b = h.to_bytes();
             // Width 300 takes two bytes, the height one; the steps present two each.
             let steps =
                 2 * (1 + h.layout.colour_channels() / 3 + usize::from(h.layout.has_alpha()) + 2);
             let display = if h.display.is_some() { 3 } else { 0 };
+            let deringing = h
+                .deringing
+                .map_or(0, |_| 3 * (1 + h.layout.colour_channels() / 3));
             assert_eq!(
                 b.len(),
-                3 + 1 + 1 + 2 + 1 + 1 + steps + 2 + 1 + display,
+                3 + 1 + 1 + 2 + 1 + 1 + steps + 2 + 1 + deringing + display,
                 "{h:?}"
             );
             assert_eq!(Header::parse(&b, 0, u64::MAX).unwrap(), h);
@@ -1062,5 +1136,77 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    #[test]
+    fn deringing_strengths_that_make_no_filter_are_refused() {
+        let base = Header {
+            width: 64,
+            height: 64,
+            layout: ChannelLayout::Rgb,
+            format: SampleFormat::U8,
+            block_log2: 5,
+            min_log2: 3,
+            kernel: KernelParams {
+                sigma_factor: 0.5,
+                weight_exponent: 1.0,
+            },
+            chroma_pruned: true,
+            step_luma: 0.25,
+            step_chroma: 0.375,
+            step_alpha: ABSENT_STEP,
+            luma_count: 16,
+            chroma_count: 4,
+            tile_side: 128,
+            detail_steps: None,
+            deblock: None,
+            adaptive: None,
+            lapping: None,
+            basis: ColourBasis::Luma,
+            level_steps: true,
+            weights: None,
+            restoration: None,
+            deringing: None,
+            display: None,
+        };
+        let on = Strengths {
+            primary: 32,
+            secondary: 8,
+            cutoff: 128,
+        };
+        let ok = Header {
+            deringing: Some(Deringing {
+                luma: on,
+                chroma: on,
+            }),
+            ..base.clone()
+        };
+        assert_eq!(Header::parse(&ok.to_bytes(), 0, u64::MAX).unwrap(), ok);
+        for (luma, chroma) in [
+            // A strength without a cutoff.
+            (Strengths { cutoff: 0, ..on }, on),
+            // A cutoff without a strength.
+            (
+                on,
+                Strengths {
+                    cutoff: 9,
+                    ..Strengths::OFF
+                },
+            ),
+            // Nothing filtered at all.
+            (Strengths::OFF, Strengths::OFF),
+        ] {
+            let h = Header {
+                deringing: Some(Deringing { luma, chroma }),
+                ..base.clone()
+            };
+            let e = Header::parse(&h.to_bytes(), 0, u64::MAX).unwrap_err();
+            assert!(matches!(e, CodecError::Deringing { .. }), "{e}");
+        }
+        // The channel byte's last bit stays reserved.
+        let mut b = base.to_bytes();
+        b[2] |= 128;
+        let e = Header::parse(&b, 0, u64::MAX).unwrap_err();
+        assert!(e.to_string().contains("reserved bit"), "{e}");
     }
 }

@@ -17,6 +17,7 @@ use super::geometry::Frame;
 use super::keyset::{Grid, GridEval, KernelParams, KeySet, MIN_SIGMA_FACTOR};
 use super::model;
 use super::quadtree::Cell;
+use super::deringing::{self, Deringing, Strengths};
 use super::restoration::{self, fit::ClassStats, Restoration};
 use super::rate_control::{self, EncodeSettings};
 use super::source::PixelSource;
@@ -531,6 +532,7 @@ pub fn encode_with(
         },
         level_steps: levels.on,
         restoration: None,
+        deringing: None,
         display: s.display,
     };
     let streams: Vec<TileStreams> = models
@@ -544,8 +546,8 @@ pub fn encode_with(
         // The metadata's bytes are no part of the picture's rate: with them the price
         // of a bit, and so the filters, would follow the file's ICC profile.
         let coded = bytes.len() - bitstream::metadata_bytes(metadata);
-        header.restoration = fit_restoration(&bytes, coded, img, &s)?;
-        if header.restoration.is_some() {
+        (header.restoration, header.deringing) = fit_post_filters(&bytes, coded, img, &s)?;
+        if header.restoration.is_some() || header.deringing.is_some() {
             bytes = bitstream::write(&header, metadata, &streams);
         }
     }
@@ -576,6 +578,10 @@ const RESTORATION_SAMPLES: u64 = 1 << 20;
 /// gained (`docs/codec-ablation.md`).
 const RESTORATION_MIN_GROUPS: usize = 8;
 
+/// Pixels per plane the deringing's sums take, about: three numbers per plane kind
+/// are settled on fewer than the restoration's taps need.
+const DERINGING_SAMPLES: usize = 1 << 18;
+
 /// The most pixels the restoration fit evaluates again for a `w x h` image: its
 /// groups of bands, their margins included.
 pub(crate) fn restoration_fit_pixels(w: u32, h: u32) -> u64 {
@@ -602,12 +608,12 @@ fn restoration_groups(w: u32) -> usize {
 /// The sums take groups of [`RESTORATION_GROUP`] evaluation bands, every few bands,
 /// so only those bands are evaluated again: all of a group's rows where its neighbours
 /// are evaluated too, else those at least the filters' reach from its edges.
-fn fit_restoration(
+fn fit_post_filters(
     bytes: &[u8],
     coded_bytes: usize,
     src: &(impl PixelSource + ?Sized),
     s: &EncodeSettings,
-) -> Result<Option<Restoration>, CodecError> {
+) -> Result<(Option<Restoration>, Option<Deringing>), CodecError> {
     let (w, h) = (src.width(), src.height());
     let (wu, hu) = (w as usize, h as usize);
     // Groups of GROUP evaluation bands, every few bands, rows their reach from the
@@ -642,21 +648,32 @@ fn fit_restoration(
     // takes them as context, so its rows by the group's edges are exact too; else those
     // rows are left out. At the image's top and bottom the group clamps as the image
     // does, so those rows are exact (all of an image of a few rows).
-    let chunks: Vec<Vec<ClassStats>> = starts
-        .par_iter()
+    let windows: Vec<FitWindow> = starts
+        .iter()
         .map(|&g| {
             let end = (g + RESTORATION_GROUP).min(bands);
             let first = if g > 0 && index(g - 1).is_some() { g - 1 } else { g };
             let last = if end < bands && index(end).is_some() { end + 1 } else { end };
             let at = |b: usize| index(b).expect("evaluated") * band * wu;
             let slice = at(first)..at(last - 1) + band_rows(last - 1) * wu;
-            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[slice.clone()]).collect();
             let y0 = first * band;
-            let window_rows = (hu - y0).min((last - first) * band);
-            let (own_top, own_bottom) = ((g - first) * band, ((end - first) * band).min(window_rows));
+            let rows_held = (hu - y0).min((last - first) * band);
+            let (own_top, own_bottom) = ((g - first) * band, ((end - first) * band).min(rows_held));
             let top = if y0 + own_top == 0 || first < g { own_top } else { own_top + reach };
             let bottom = if y0 + own_bottom == hu || last > end { own_bottom } else { own_bottom.saturating_sub(reach) };
-            let rows = top..bottom.max(top);
+            FitWindow {
+                slice,
+                y0,
+                rows_held,
+                rows: top..bottom.max(top),
+            }
+        })
+        .collect();
+    let chunks: Vec<Vec<ClassStats>> = windows
+        .par_iter()
+        .map(|win| {
+            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
+            let (y0, window_rows, rows) = (win.y0, win.rows_held, win.rows.clone());
             let mut stats: Vec<ClassStats> = (0..planes).map(ClassStats::new).collect();
             if rows.is_empty() {
                 return stats;
@@ -703,12 +720,103 @@ fn fit_restoration(
         .collect();
     // The section's own bytes (tag, length, CRC, mask) are paid once.
     let net: f64 = fitted.iter().flatten().map(|(_, worth)| worth).sum();
-    if net < bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64 {
-        return Ok(None);
+    let restoration = if net < bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64 {
+        None
+    } else {
+        let filters = fitted.into_iter().map(|f| f.map(|(f, _)| f)).collect();
+        Some(Restoration { planes: filters }).filter(Restoration::any)
+    };
+    if !s.deringing {
+        return Ok((restoration, None));
     }
-    let filters = fitted.into_iter().map(|f| f.map(|(f, _)| f)).collect();
-    let r = Restoration { planes: filters };
-    Ok(r.any().then_some(r))
+    // The deringing's sums on the restored groups, rows far enough from a group's
+    // edges that the restoration and the deringing both see what the decoder sees.
+    let margin = reach + 2;
+    let steps = parsed.header.deringing_steps();
+    // Three numbers per plane kind need fewer rows than the restoration's taps: every
+    // `stride`-th row, odd so that the rows still cover every phase of the blocks.
+    let seen: usize = windows.iter().map(|win| win.rows.len() * wu).sum();
+    let stride = (seen / DERINGING_SAMPLES).max(1) | 1;
+    let sums: Vec<[deringing::fit::Sums; 2]> = windows
+        .par_iter()
+        .map(|win| {
+            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
+            let n = decoded[0].len();
+            let mut restored: Vec<Vec<f32>> = (0..planes).map(|_| vec![0.0f32; n]).collect();
+            match &restoration {
+                Some(r) => {
+                    let mut out: Vec<&mut [f32]> = restored.iter_mut().map(Vec::as_mut_slice).collect();
+                    r.apply_rows(&decoded, (wu, win.rows_held), (1.0, 1.0), 0..win.rows_held, &mut out);
+                }
+                None => {
+                    for (r, d) in restored.iter_mut().zip(&decoded) {
+                        r.copy_from_slice(d);
+                    }
+                }
+            }
+            let top = if win.y0 + win.rows.start == 0 { 0 } else { win.rows.start.max(margin) };
+            let bottom = if win.y0 + win.rows.end == hu { win.rows.end } else { win.rows.end.min(win.rows_held.saturating_sub(margin)) };
+            let mut sums: [deringing::fit::Sums; 2] = Default::default();
+            if top >= bottom {
+                return sums;
+            }
+            let rows = top..bottom;
+            let rect = TileRect {
+                x0: 0,
+                y0: (win.y0 + rows.start) as u32,
+                width: w,
+                height: rows.len() as u32,
+            };
+            let source = coding_planes(&src.region(rect), s).colour;
+            // Image rows: the window starts on a block row, so its blocks are the image's.
+            let abs = win.y0 + rows.start..win.y0 + rows.end;
+            let dirs = deringing::directions(&restored[0], (wu, hu), win.y0, (1, 1), abs.clone());
+            for (c, (plane, source)) in restored.iter().zip(&source).enumerate() {
+                let kind = usize::from(c > 0);
+                deringing::fit::accumulate(&mut sums[kind], plane, (wu, hu), win.y0, &dirs, abs.clone(), source, steps[kind], stride);
+            }
+            sums
+        })
+        .collect();
+    let kind = |k: usize, pick: &dyn Fn(usize) -> bool| {
+        let mut t = deringing::fit::Sums::default();
+        for (_, s) in sums.iter().enumerate().filter(|(i, _)| pick(*i)) {
+            t.add(&s[k]);
+        }
+        t
+    };
+    let choose = |k: usize| -> Strengths {
+        let total = kind(k, &|_| true);
+        let scale = (wu * hu) as f64 / total.samples.max(1) as f64 * if k == 0 { 1.0 } else { 2.0 };
+        let Some((best, gain)) = total.best() else {
+            return Strengths::OFF;
+        };
+        let both = (0..2).all(|h| kind(k, &|i| i % 2 == h).gain_of(best) > 0.0);
+        // Three header bytes per plane kind.
+        if both && gain * scale > bit_cost * 24.0 {
+            best
+        } else {
+            Strengths::OFF
+        }
+    };
+    let d = Deringing {
+        luma: choose(0),
+        chroma: if planes == 3 { choose(1) } else { Strengths::OFF },
+    };
+    Ok((restoration, d.any().then_some(d)))
+}
+
+/// One group of the post-filter fit: its rows and their context in the evaluated
+/// bands' buffer.
+struct FitWindow {
+    /// The samples of each plane's buffer it takes (whole rows).
+    slice: std::ops::Range<usize>,
+    /// Its first row in the image.
+    y0: usize,
+    /// Rows it holds.
+    rows_held: usize,
+    /// The rows, counted from its first, whose sums are taken.
+    rows: std::ops::Range<usize>,
 }
 
 /// Checks an image can be encoded.

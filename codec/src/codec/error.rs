@@ -199,6 +199,18 @@ pub enum CodecError {
         /// What is wrong with it.
         reason: &'static str,
     },
+    /// The header's deringing strengths are not a valid filter.
+    #[error("invalid caoen file: {what} strengths: primary {primary}, secondary {secondary}, cutoff {cutoff} (a filter with a strength needs a cutoff of 1..=255, one without is all zero, and at least one plane is filtered)")]
+    Deringing {
+        /// Which plane kind's.
+        what: &'static str,
+        /// The stored primary strength.
+        primary: u8,
+        /// The stored secondary strength.
+        secondary: u8,
+        /// The stored cutoff.
+        cutoff: u8,
+    },
     /// The key points evaluate to NaN or infinity somewhere.
     #[error("invalid caoen file: the key points evaluate to a non-finite colour")]
     NonFinite,

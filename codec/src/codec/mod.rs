@@ -6,13 +6,14 @@
 //! These calls are all most callers need: [`encode`], [`decode`], [`inspect`], also
 //! re-exported at the crate root with their options and error.
 //!
-//! Beside them, the CLI's tools need three stages: [`bitstream`] (the container,
-//! for `caoen info`), [`decoder`] (the decoded key points, for distortion and integer
-//! output) and [`keypoint_map`]. The other stages are the codec's internals: public only
+//! Beside them, the CLI's tools need four stages: [`bitstream`] (the container,
+//! for `caoen info`), [`deringing`] (the header's deringing strengths), [`decoder`]
+//! (the decoded key points, for distortion and integer output) and [`keypoint_map`]. The other stages are the codec's internals: public only
 //! with the `internals` feature, for the fuzz targets and experiments.
 
 pub mod bitstream;
 pub mod decoder;
+pub mod deringing;
 mod error;
 pub mod keypoint_map;
 pub mod resample;
@@ -543,7 +544,8 @@ pub struct EncodeMemory {
     /// Number of tiles.
     pub tiles: u64,
     /// Bytes of the restoration fit, after the tiles: the file decoded again (its
-    /// detail layer and key points) and the rows it samples.
+    /// detail layer and key points) and the rows it samples, and their restored copies
+    /// the deringing is chosen on.
     pub after: u64,
 }
 
@@ -580,8 +582,9 @@ impl EncodeMemory {
 /// at [`KEY_POINT_BYTES`] each once it knows the smallest cell. The file is then
 /// decoded again for the restoration fit: its detail layer holds at most a 4-byte level
 /// per coefficient (13 bytes per pixel with the blocks' bookkeeping), its key points as
-/// many again, and the rows the fit samples their decoded planes (16 bytes per sampled
-/// pixel, the rows around them included).
+/// many again, and the rows the fit samples their decoded planes and the restored
+/// copies the deringing is chosen on (28 bytes per sampled pixel, the rows around them
+/// included).
 pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
     let q = f64::from(quality.clamp(0.0, 100.0)) / 100.0;
     let per_pixel = (300.0 + 240.0 * q * q).ceil() as u64;
@@ -598,7 +601,7 @@ pub fn encode_memory(width: u32, height: u32, quality: f32) -> EncodeMemory {
         per_tile: crate::budget::bytes(tile_pixels, 1, per_pixel),
         tiles: tiling.count() as u64,
         after: crate::budget::bytes(width.into(), height.into(), 13).saturating_add(
-            crate::budget::bytes(encoder::restoration_fit_pixels(width, height), 1, 16),
+            crate::budget::bytes(encoder::restoration_fit_pixels(width, height), 1, 28),
         ),
     }
 }

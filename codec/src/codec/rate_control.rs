@@ -55,6 +55,9 @@ pub struct EncodeSettings {
     pub sparse_area: f64,
     /// Fit restoration filters to the decoded planes (else none).
     pub restoration: bool,
+    /// Choose deringing strengths on the decoded planes (with `restoration`, whose fit
+    /// finds them; else none).
+    pub deringing: bool,
     /// The image's own size when the source given is a smaller copy of it
     /// (none: the source is the image).
     pub display: Option<(u32, u32)>,
@@ -309,6 +312,7 @@ pub fn settings(quality: f32, effort: u8, keypoints: Option<usize>) -> EncodeSet
         sparse_area: PHOTO_NETWORK.sparse_area,
         // The fit decodes most of the file again: a third of effort 1's encode.
         restoration: e >= 3,
+        deringing: true,
         display: None,
     }
 }
@@ -348,6 +352,7 @@ impl EncodeSettings {
             // corpus's float images they cost more than they gained by the bench's
             // measure (`docs/codec-ablation.md`, "Restoration filters").
             self.restoration = false;
+            self.deringing = false;
             self = self.with_network(HDR_NETWORK);
         }
         self

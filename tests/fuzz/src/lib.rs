@@ -16,6 +16,7 @@ use std::path::Path;
 
 use caoen::codec::bitstream::{self, Header, Parsed, TilePayload, TileStreams};
 use caoen::codec::decoder;
+use caoen::codec::deringing::{Deringing, Strengths};
 use caoen::codec::detail::{
     self,
     adaptive::{block_classes, AdaptiveSteps},
@@ -351,6 +352,37 @@ fn choose_header(c: &mut Choices) -> Header {
                 planes[0] = Some(PlaneFilter::single(vec![0; restoration::shape(0).len()]));
             }
             Restoration { planes }
+        }),
+        deringing: c.bit().then(|| {
+            let mut strengths = || {
+                if c.bit() {
+                    Strengths {
+                        primary: c.byte(),
+                        secondary: c.byte(),
+                        cutoff: c.byte().max(1),
+                    }
+                } else {
+                    Strengths::OFF
+                }
+            };
+            let luma = strengths();
+            let chroma = if layout.colour_channels() == 3 {
+                strengths()
+            } else {
+                Strengths::OFF
+            };
+            let on = |s: Strengths| if s.is_on() { s } else { Strengths::OFF };
+            let (luma, chroma) = (on(luma), on(chroma));
+            let luma = if luma.is_on() || chroma.is_on() {
+                luma
+            } else {
+                Strengths {
+                    primary: 1,
+                    secondary: 0,
+                    cutoff: 1,
+                }
+            };
+            Deringing { luma, chroma }
         }),
     }
 }

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use caoen::codec::bitstream::{self, tag};
+use caoen::codec::deringing::{self, Strengths};
 use caoen::codec::{
     decoder, keypoint_map, DecodeOptions, EncodeOptions, Limits, PixelSource, RateTarget,
 };
@@ -473,6 +474,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
                 "classes": f.classes.map(|m| m.to_vec()),
             }))).collect::<Vec<_>>()),
+            "deringing": h.deringing.map(|d| json!({"luma": strengths_json(d.luma), "chroma": strengths_json(d.chroma)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
             "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
@@ -608,6 +610,28 @@ pub fn info(a: &InfoArgs) -> CliResult {
         }
         None => outln!(text, "restoration: none"),
     }
+    match &h.deringing {
+        Some(d) => {
+            let kind = |name: &str, s: Strengths| {
+                if s.is_on() {
+                    format!(
+                        "{name} (primary {}, secondary {}, cutoff {} steps)",
+                        s.primary as f32 / deringing::STRENGTH_DIVISOR,
+                        s.secondary as f32 / deringing::STRENGTH_DIVISOR,
+                        s.cutoff as f32 / deringing::CUTOFF_DIVISOR
+                    )
+                } else {
+                    format!("{name} off")
+                }
+            };
+            let mut kinds = vec![kind("Y", d.luma)];
+            if h.layout.colour_channels() == 3 {
+                kinds.push(kind("C1 and C2", d.chroma));
+            }
+            outln!(text, "deringing:   {}", kinds.join(", "));
+        }
+        None => outln!(text, "deringing:   none"),
+    }
     outln!(
         text,
         "tiles:       {} ({} x {}) of {} px",
@@ -638,6 +662,19 @@ pub fn info(a: &InfoArgs) -> CliResult {
 }
 
 /// The colour basis as `info` names it (`null` in JSON for grey images).
+/// One plane kind's deringing strengths in its steps, for `--json`.
+fn strengths_json(s: Strengths) -> serde_json::Value {
+    s.is_on()
+        .then(|| {
+            json!({
+                "primary_steps": s.primary as f32 / deringing::STRENGTH_DIVISOR,
+                "secondary_steps": s.secondary as f32 / deringing::STRENGTH_DIVISOR,
+                "cutoff_steps": s.cutoff as f32 / deringing::CUTOFF_DIVISOR,
+            })
+        })
+        .into()
+}
+
 fn colour_basis_name(h: &bitstream::Header) -> Option<&'static str> {
     (h.layout.colour_channels() == 3).then_some(match h.basis {
         caoen::codec::ColourBasis::Grey => "grey-axis opponent",

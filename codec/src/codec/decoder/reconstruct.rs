@@ -9,6 +9,7 @@ use super::parse::read_parsed;
 use super::Decoded;
 use crate::codec::bitstream::{self, Header};
 use crate::codec::colour::{self, CodingPlanes};
+use crate::codec::deringing::{self, Deringing};
 use crate::codec::detail::DetailEval;
 use crate::codec::geometry::Frame;
 use crate::codec::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
@@ -41,6 +42,14 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
     }
     if let Some(r) = &h.restoration {
         r.apply(&mut colour, (ow as usize, oh as usize), spacing(h, ow, oh));
+    }
+    if let Some(d) = &h.deringing {
+        d.apply(
+            &mut colour,
+            (ow as usize, oh as usize),
+            spacing(h, ow, oh),
+            h.deringing_steps(),
+        );
     }
     CodingPlanes {
         colour,
@@ -175,24 +184,25 @@ pub(super) fn band_pass(
     debug_assert_eq!(samples.len(), n * h.layout.channels());
     let restored = restored_planes(h, luma, chroma, detail, (ow, oh));
     let restored = restored.as_ref();
-    // Each band's rows of every output plane, handed to one task.
-    let band_len = GridEval::BAND * ow as usize;
-    let mut bands: Vec<Vec<&mut [f32]>> = (0..luma.bands()).map(|_| Vec::new()).collect();
+    // Each task's rows of every output plane.
+    let band_len = task_rows(restored) * ow as usize;
+    let mut bands: Vec<Vec<&mut [f32]>> = (0..(oh as usize).div_ceil(task_rows(restored)))
+        .map(|_| Vec::new())
+        .collect();
     for plane in samples.chunks_mut(n) {
         for (b, rows) in plane.chunks_mut(band_len).enumerate() {
             bands[b].push(rows);
         }
     }
     let finite = bands.into_par_iter().enumerate().map_init(
-        || (BandScratch::default(), Vec::new()),
-        |(scratch, coding), (b, mut out)| {
+        || (BandScratch::default(), Vec::new(), Vec::new()),
+        |(scratch, coding, post), (b, mut out)| {
             band_colours(
                 h,
                 (luma, chroma, detail),
                 restored,
                 b,
-                scratch,
-                coding,
+                (scratch, coding, post),
                 &mut out,
             );
             // Checked here, in cache, rather than by a pass over the whole raster. The
@@ -253,14 +263,16 @@ fn band_coding(
 }
 
 /// The whole output's coding planes (as [`band_coding`] orders them) before
-/// restoration, when the file restores: the filter reaches across bands.
+/// restoration and deringing, when the file has either: the filters reach across
+/// bands.
 struct Restored {
     planes: Vec<Vec<f32>>,
     size: (usize, usize),
     spacing: (f64, f64),
 }
 
-/// The whole output's coding planes for the restoration filters, if the file has any.
+/// The whole output's coding planes for the restoration filters and the deringing, if
+/// the file has either.
 fn restored_planes(
     h: &Header,
     luma: &GridEval,
@@ -268,7 +280,9 @@ fn restored_planes(
     detail: Option<&DetailEval>,
     (ow, oh): (u32, u32),
 ) -> Option<Restored> {
-    h.restoration.as_ref().filter(|r| r.any())?;
+    if !h.restoration.as_ref().is_some_and(|r| r.any()) && !h.deringing.is_some_and(|d| d.any()) {
+        return None;
+    }
     Some(Restored {
         planes: banded_coding(h, (luma, chroma, detail), (ow, oh)),
         size: (ow as usize, oh as usize),
@@ -350,8 +364,7 @@ fn band_colours(
     eval: Evaluators,
     restored: Option<&Restored>,
     b: usize,
-    scratch: &mut BandScratch,
-    coding: &mut Vec<f32>,
+    (scratch, coding, post): (&mut BandScratch, &mut Vec<f32>, &mut Vec<f32>),
     out: &mut [&mut [f32]],
 ) {
     let len = out[0].len();
@@ -363,7 +376,8 @@ fn band_colours(
             let np = r.planes.len();
             coding.resize(np * len, 0.0f32);
             let (w, hh) = r.size;
-            let rows = b * GridEval::BAND..(b * GridEval::BAND + len / w).min(hh);
+            let first = b * task_rows(restored);
+            let rows = first..(first + len / w).min(hh);
             let mut parts: Vec<&mut [f32]> = coding.chunks_exact_mut(len).collect();
             if alpha {
                 parts[1].copy_from_slice(&r.planes[1][rows.start * w..rows.end * w]);
@@ -376,17 +390,74 @@ fn band_colours(
                 .filter(|(c, _)| colour_idx.contains(c))
                 .map(|(_, p)| p)
                 .collect();
-            let restoration = h
-                .restoration
-                .as_ref()
-                .expect("restored planes come from a restoration");
-            restoration.apply_rows(&src, r.size, r.spacing, rows, &mut dst);
+            post_filter_rows(h, &src, r, rows, post, &mut dst);
         }
     }
     let parts: Vec<&[f32]> = coding.chunks_exact(len).collect();
     let (lp, cp) = parts.split_at(nl);
     let colour: Vec<&[f32]> = std::iter::once(lp[0]).chain(cp.iter().copied()).collect();
     colour::inverse_span(&colour, alpha.then(|| lp[1]), out, h.format, h.basis);
+}
+
+/// Band `b`'s rows of output, in tasks of this many rows: a band of the evaluators, or,
+/// with the post-filters, several, so that the rows the deringing restores past a
+/// task's own are few beside them.
+fn task_rows(restored: Option<&Restored>) -> usize {
+    GridEval::BAND
+        * if restored.is_some() {
+            POST_FILTER_BANDS
+        } else {
+            1
+        }
+}
+
+/// Evaluation bands in a task of the post-filtered path.
+const POST_FILTER_BANDS: usize = 4;
+
+/// Rows `rows` of the colour planes `src` (the whole output's, before restoration)
+/// restored and deringed into `dst`. The deringing reads restored rows past `rows`:
+/// those are restored here too, into `scratch`.
+fn post_filter_rows(
+    h: &Header,
+    src: &[&[f32]],
+    r: &Restored,
+    rows: std::ops::Range<usize>,
+    scratch: &mut Vec<f32>,
+    dst: &mut [&mut [f32]],
+) {
+    let (w, hh) = r.size;
+    let restore = |rows: std::ops::Range<usize>, out: &mut [&mut [f32]]| match h
+        .restoration
+        .as_ref()
+        .filter(|f| f.any())
+    {
+        Some(f) => f.apply_rows(src, r.size, r.spacing, rows, out),
+        None => {
+            for (o, s) in out.iter_mut().zip(src) {
+                o.copy_from_slice(&s[rows.start * w..rows.end * w]);
+            }
+        }
+    };
+    let Some(d) = h.deringing.filter(|d| d.any()) else {
+        return restore(rows, dst);
+    };
+    let scale = deringing::scale(r.spacing);
+    let reach = Deringing::reach(rows.clone(), hh, scale);
+    let len = reach.len() * w;
+    // Every value is overwritten by the restoration: no need to clear.
+    scratch.resize(src.len() * len, 0.0);
+    let mut parts: Vec<&mut [f32]> = scratch.chunks_exact_mut(len).collect();
+    restore(reach.clone(), &mut parts);
+    let window: Vec<&[f32]> = scratch.chunks_exact(len).collect();
+    d.filter_rows(
+        &window,
+        (w, hh),
+        reach.start,
+        scale,
+        h.deringing_steps(),
+        rows,
+        dst,
+    );
 }
 
 /// [`band_pass`] into interleaved samples converted by `convert`: each band is
@@ -402,15 +473,15 @@ pub(super) fn band_pass_interleaved<T: Send>(
     convert: impl Fn(f32) -> T + Sync,
 ) -> bool {
     let ch = h.layout.channels();
-    let band_len = GridEval::BAND * ow as usize;
     let oh = out.len() / ch / ow as usize;
     let restored = restored_planes(h, luma, chroma, detail, (ow, oh as u32));
     let restored = restored.as_ref();
+    let band_len = task_rows(restored) * ow as usize;
     out.par_chunks_mut(band_len * ch)
         .enumerate()
         .map_init(
-            || (BandScratch::default(), Vec::new(), Vec::new()),
-            |(scratch, coding, planar), (b, out)| {
+            || (BandScratch::default(), Vec::new(), Vec::new(), Vec::new()),
+            |(scratch, coding, post, planar), (b, out)| {
                 let len = out.len() / ch;
                 planar.resize(ch * len, 0.0f32);
                 let mut planes: Vec<&mut [f32]> = planar.chunks_exact_mut(len).collect();
@@ -419,8 +490,7 @@ pub(super) fn band_pass_interleaved<T: Send>(
                     (luma, chroma, detail),
                     restored,
                     b,
-                    scratch,
-                    coding,
+                    (scratch, coding, post),
                     &mut planes,
                 );
                 let finite = planar.iter().fold(true, |ok, v| ok & v.is_finite());
@@ -488,13 +558,23 @@ pub fn render_forward(
             }
         }
     }
-    if let Some(r) = &h.restoration {
+    if h.restoration.is_some() || h.deringing.is_some() {
         // The lattice is the output this path samples the picture on.
         let mut colour: Vec<Vec<f32>> = std::iter::once(0)
             .chain(nl..samples.len())
             .map(|c| std::mem::take(&mut samples[c]))
             .collect();
-        r.apply(&mut colour, (grid.nx, grid.ny), (grid.dx, grid.dy));
+        if let Some(r) = &h.restoration {
+            r.apply(&mut colour, (grid.nx, grid.ny), (grid.dx, grid.dy));
+        }
+        if let Some(d) = &h.deringing {
+            d.apply(
+                &mut colour,
+                (grid.nx, grid.ny),
+                (grid.dx, grid.dy),
+                h.deringing_steps(),
+            );
+        }
         for (c, plane) in std::iter::once(0).chain(nl..samples.len()).zip(colour) {
             samples[c] = plane;
         }
@@ -615,6 +695,7 @@ mod tests {
     use super::*;
     use crate::codec::bitstream::{TilePayload, TileStreams};
     use crate::codec::decoder::read;
+    use crate::codec::deringing::{Deringing, Strengths};
     use crate::codec::restoration::{shape, PlaneFilter, Restoration};
     use crate::codec::{decode, encode, DecodeOptions, EncodeOptions};
     use crate::raster::{ChannelLayout, SampleFormat};
@@ -677,7 +758,30 @@ mod tests {
                     parsed.tiles.iter().map(TilePayload::to_streams).collect();
                 bitstream::write(&header, &parsed.metadata(), &tiles)
             };
-            for bytes in [plain, restored] {
+            // Both files deringed too (strong, so every plane's filter shows): the
+            // deringing reads restored rows past each band.
+            let deringed = |bytes: &[u8]| {
+                let parsed = bitstream::parse(bytes, u64::MAX).unwrap();
+                let mut header = parsed.header.clone();
+                let strong = |primary: u8| Strengths {
+                    primary,
+                    secondary: primary / 3,
+                    cutoff: 60,
+                };
+                header.deringing = Some(Deringing {
+                    luma: strong(200),
+                    chroma: if layout.colour_channels() == 3 {
+                        strong(90)
+                    } else {
+                        Strengths::OFF
+                    },
+                });
+                let tiles: Vec<TileStreams> =
+                    parsed.tiles.iter().map(TilePayload::to_streams).collect();
+                bitstream::write(&header, &parsed.metadata(), &tiles)
+            };
+            let both = [deringed(&plain), deringed(&restored)];
+            for bytes in [plain, restored].into_iter().chain(both) {
                 let d = read(&bytes, u64::MAX).unwrap();
                 // Coded size, then up- and downscaled: bands of every height, the last short.
                 for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {

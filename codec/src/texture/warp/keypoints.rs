@@ -56,11 +56,10 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
     // The restoration filters reach this many pixel rows past a band: each band's
     // lattice is evaluated with them, filtered, and splatted without them.
     let restoration = hd.restoration.as_ref().filter(|r| r.any());
-    let halo = if restoration.is_some() {
-        crate::codec::restoration::RADIUS
-    } else {
-        0
-    };
+    let deringing = hd.deringing.filter(|d| d.any());
+    // The deringing reads a direction block and two pixels past the rows it filters.
+    let halo = restoration.map_or(0, |_| crate::codec::restoration::RADIUS)
+        + deringing.map_or(0, |_| crate::codec::deringing::BLOCK + 2);
     for band in (0..h).step_by(BAND) {
         let (y0, y1) = (band.saturating_sub(halo), (band + BAND + halo).min(h));
         let mut rows: Vec<Vec<f64>> = (y0..y1)
@@ -94,7 +93,7 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
                 Ok(out)
             })
             .collect::<Result<_, _>>()?;
-        if let Some(r) = restoration {
+        if restoration.is_some() || deringing.is_some() {
             // The lattice's colour planes, filtered with the lattice's spacing (the
             // decoder's forward path does the same on its whole lattice).
             let colour: Vec<usize> = std::iter::once(4).chain(4 + nl..4 + nc).collect();
@@ -107,7 +106,17 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
                         .collect()
                 })
                 .collect();
-            r.apply(&mut planes, size, (lat.step, lat.step));
+            if let Some(r) = restoration {
+                r.apply(&mut planes, size, (lat.step, lat.step));
+            }
+            if let Some(d) = deringing {
+                d.apply(
+                    &mut planes,
+                    size,
+                    (lat.step, lat.step),
+                    hd.deringing_steps(),
+                );
+            }
             for (plane, &c) in planes.iter().zip(&colour) {
                 let mut values = plane.iter();
                 for row in rows.iter_mut() {
