@@ -67,6 +67,20 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
         .iter()
         .any(|s| s["tag"] == "R");
     assert_eq!(j["restoration"].is_array(), restored, "{j}");
+    // The deringing strengths, in steps of each plane kind, where the header has them.
+    let text = caoen(&["info", s(&cae)]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("deringing:"))
+        .expect("a deringing line");
+    match j["deringing"].as_object() {
+        Some(d) => assert!(
+            d.contains_key("luma") && d.contains_key("chroma") && line.contains("Y ("),
+            "{j} {line}"
+        ),
+        None => assert!(line.ends_with("none"), "{j} {line}"),
+    }
     let total: u64 = j["sections"]
         .as_array()
         .unwrap()
