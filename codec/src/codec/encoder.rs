@@ -599,11 +599,13 @@ fn restoration_groups(w: u32) -> usize {
     ((RESTORATION_SAMPLES / per_group.max(1)) as usize).max(RESTORATION_MIN_GROUPS)
 }
 
-/// The restoration filters for the file `bytes` (all but the filters coded; `coded_bytes`
-/// of it the picture's, without metadata): each
+/// The restoration filters and the deringing for the file `bytes` (all but the
+/// post-filters coded; `coded_bytes` of it the picture's, without metadata): each
 /// colour plane's least-squares filters from the decoded planes against the source's,
 /// one for the plane or one per group of pixel classes, where they pay for their bits
-/// at the price the codec's own curve puts on a bit.
+/// at the price the codec's own curve puts on a bit; then, on the same rows restored,
+/// each plane kind's deringing strengths that lower the error most, where they pay for
+/// theirs.
 ///
 /// The sums take groups of [`RESTORATION_GROUP`] evaluation bands, every few bands,
 /// so only those bands are evaluated again: all of a group's rows where its neighbours
