@@ -1063,9 +1063,9 @@ mod tests {
         assert_eq!(stored_step(1.0 + 1.0 / 512.0), 1.0);
     }
 
-    #[test]
-    fn headers_read_back_with_only_the_steps_their_channels_use() {
-        let base = Header {
+    /// A 300x20 RGB header with a detail layer, deringing and a display size.
+    fn rgb_header() -> Header {
+        Header {
             width: 300,
             height: 20,
             layout: ChannelLayout::Rgb,
@@ -1100,7 +1100,12 @@ mod tests {
                 chroma: Strengths::OFF,
             }),
             display: Some((600, 40)),
-        };
+        }
+    }
+
+    #[test]
+    fn headers_read_back_with_only_the_steps_their_channels_use() {
+        let base = rgb_header();
         let grey = Header {
             layout: ChannelLayout::GreyAlpha,
             step_chroma: ABSENT_STEP,
@@ -1143,31 +1148,13 @@ mod tests {
         let base = Header {
             width: 64,
             height: 64,
-            layout: ChannelLayout::Rgb,
-            format: SampleFormat::U8,
-            block_log2: 5,
-            min_log2: 3,
-            kernel: KernelParams {
-                sigma_factor: 0.5,
-                weight_exponent: 1.0,
-            },
-            chroma_pruned: true,
-            step_luma: 0.25,
-            step_chroma: 0.375,
-            step_alpha: ABSENT_STEP,
             luma_count: 16,
             chroma_count: 4,
             tile_side: 128,
             detail_steps: None,
-            deblock: None,
-            adaptive: None,
-            lapping: None,
-            basis: ColourBasis::Luma,
-            level_steps: true,
-            weights: None,
-            restoration: None,
             deringing: None,
             display: None,
+            ..rgb_header()
         };
         let on = Strengths {
             primary: 32,

@@ -462,7 +462,7 @@ pub fn block_direction(
 
 /// The line of each direction that sample `(j, i)` of a block lies on.
 #[inline(always)]
-fn line_of(i: usize, j: usize) -> [usize; 8] {
+const fn line_of(i: usize, j: usize) -> [usize; 8] {
     [
         i + j,
         i + j / 2,
@@ -482,16 +482,7 @@ const WHOLE_BLOCK_COUNTS: [[u8; 15]; 8] = {
     while i < BLOCK {
         let mut j = 0;
         while j < BLOCK {
-            let l = [
-                i + j,
-                i + j / 2,
-                i,
-                3 + i - j / 2,
-                7 + i - j,
-                3 + j - i / 2,
-                j,
-                i / 2 + j,
-            ];
+            let l = line_of(i, j);
             let mut d = 0;
             while d < 8 {
                 c[d][l[d]] += 1;
