@@ -206,6 +206,13 @@ impl Header {
         self.display.unwrap_or((self.width, self.height))
     }
 
+    /// Whether the decoded planes are filtered after their evaluation (restoration or
+    /// deringing): both reach across rows, so the decoder evaluates whole planes first.
+    pub fn post_filtered(&self) -> bool {
+        self.restoration.as_ref().is_some_and(|r| r.any())
+            || self.deringing.is_some_and(|d| d.any())
+    }
+
     /// The steps the deringing strengths are stored in units of, luma's and chroma's:
     /// the detail layer's, else the key points'.
     pub fn deringing_steps(&self) -> [f32; 2] {

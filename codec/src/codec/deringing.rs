@@ -240,12 +240,8 @@ impl Deringing {
         let active: Vec<usize> = (0..TAPS).filter(|&t| params[t].0 > 0.0).collect();
         let taps: Vec<(f32, f32, f32)> = active.iter().map(|&t| params[t]).collect();
         let arch = pulp::Arch::new();
-        let offsets: [[(isize, isize); TAPS]; 8] = std::array::from_fn(|d| {
-            self::taps(d as u8).map(|(dx, dy)| (dx * scale.0 as isize, dy * scale.1 as isize))
-        });
-        // Each active tap's neighbours along the row, gathered block by block (a
-        // neighbour past the image is the pixel itself, a difference of 0), then the
-        // row's sums tap by tap.
+        let offsets = scaled_offsets(scale);
+        // Each active tap's neighbours along the row, then the row's sums tap by tap.
         let mut neighbours = vec![0.0f32; active.len() * w];
         let mut acc = vec![0.0f32; w];
         for (j, y) in rows.enumerate() {
@@ -256,38 +252,16 @@ impl Deringing {
                 continue;
             }
             let row_dirs = &dirs[(y / sy - first_block_row) * cols..][..cols];
-            // Runs of blocks with one direction share their taps' offsets: one copy each.
-            let mut bx = 0;
-            while bx < cols {
-                let d = row_dirs[bx];
-                let run = row_dirs[bx..].iter().take_while(|&&e| e == d).count();
-                let xs = bx * sx..((bx + run) * sx).min(w);
-                bx += run;
-                for (a, &t) in active.iter().enumerate() {
-                    let (dx, dy) = offsets[d as usize][t];
-                    let nb = &mut neighbours[a * w..(a + 1) * w];
-                    let yy = y as isize + dy;
-                    if yy < 0 || yy >= h as isize {
-                        nb[xs.clone()].copy_from_slice(&centre[xs.clone()]);
-                        continue;
-                    }
-                    let row = &plane[(yy as usize - y0) * w..][..w];
-                    let lo = (xs.start as isize)
-                        .max(-dx)
-                        .clamp(xs.start as isize, xs.end as isize)
-                        as usize;
-                    let hi = (xs.end as isize)
-                        .min(w as isize - dx)
-                        .clamp(lo as isize, xs.end as isize) as usize;
-                    nb[xs.start..lo].copy_from_slice(&centre[xs.start..lo]);
-                    if lo < hi {
-                        nb[lo..hi].copy_from_slice(
-                            &row[(lo as isize + dx) as usize..(hi as isize + dx) as usize],
-                        );
-                    }
-                    nb[hi..xs.end].copy_from_slice(&centre[hi..xs.end]);
-                }
-            }
+            gather_row(
+                plane,
+                (w, h),
+                y0,
+                y,
+                (sx, &offsets),
+                row_dirs,
+                &active,
+                &mut neighbours,
+            );
             arch.dispatch(RowSums {
                 neighbours: &neighbours,
                 centre,
@@ -295,6 +269,62 @@ impl Deringing {
                 acc: &mut acc,
                 out: o,
             });
+        }
+    }
+}
+
+/// Each direction's taps ([`taps`]) in output pixels at `scale`.
+fn scaled_offsets(scale: (usize, usize)) -> [[(isize, isize); TAPS]; 8] {
+    std::array::from_fn(|d| {
+        taps(d as u8).map(|(dx, dy)| (dx * scale.0 as isize, dy * scale.1 as isize))
+    })
+}
+
+/// Row `y`'s neighbours at the taps `active` (indices into [`taps`]) into
+/// `neighbours`, a row of `w` per tap: each block of `side` columns at the offsets of
+/// its direction in `row_dirs`, a neighbour past the image the pixel itself (a
+/// difference of 0). `plane` holds the rows from `y0` on. Runs of blocks with one
+/// direction share their offsets: one copy per tap.
+#[allow(clippy::too_many_arguments)]
+fn gather_row(
+    plane: &[f32],
+    (w, h): (usize, usize),
+    y0: usize,
+    y: usize,
+    (side, offsets): (usize, &[[(isize, isize); TAPS]; 8]),
+    row_dirs: &[u8],
+    active: &[usize],
+    neighbours: &mut [f32],
+) {
+    let centre = &plane[(y - y0) * w..][..w];
+    let mut bx = 0;
+    while bx < row_dirs.len() {
+        let d = row_dirs[bx];
+        let run = row_dirs[bx..].iter().take_while(|&&e| e == d).count();
+        let xs = bx * side..((bx + run) * side).min(w);
+        bx += run;
+        for (a, &t) in active.iter().enumerate() {
+            let (dx, dy) = offsets[d as usize][t];
+            let nb = &mut neighbours[a * w..(a + 1) * w];
+            let yy = y as isize + dy;
+            if yy < 0 || yy >= h as isize {
+                nb[xs.clone()].copy_from_slice(&centre[xs.clone()]);
+                continue;
+            }
+            let row = &plane[(yy as usize - y0) * w..][..w];
+            let lo = (xs.start as isize)
+                .max(-dx)
+                .clamp(xs.start as isize, xs.end as isize) as usize;
+            let hi = (xs.end as isize)
+                .min(w as isize - dx)
+                .clamp(lo as isize, xs.end as isize) as usize;
+            nb[xs.start..lo].copy_from_slice(&centre[xs.start..lo]);
+            if lo < hi {
+                nb[lo..hi].copy_from_slice(
+                    &row[(lo as isize + dx) as usize..(hi as isize + dx) as usize],
+                );
+            }
+            nb[hi..xs.end].copy_from_slice(&centre[hi..xs.end]);
         }
     }
 }
@@ -632,42 +662,34 @@ pub mod fit {
         let first_block_row = rows.start / BLOCK;
         // Each tap's difference for the row: primary taps first (k, sign), then the
         // secondary ones (k, side, sign).
-        let mut diffs = vec![0.0f32; 12 * w];
-        let mut valid = vec![false; 12 * w];
+        let mut diffs = vec![0.0f32; TAPS * w];
         let mut e = vec![0.0f32; w];
         let mut prim = vec![0.0f32; NP * w];
         let mut sec = vec![0.0f32; NS * w];
         let arch = pulp::Arch::new();
+        let offsets = scaled_offsets((1, 1));
+        let all: [usize; TAPS] = std::array::from_fn(|t| t);
         for y in rows.clone().step_by(stride.max(1)) {
             let centre = &window[(y - y0) * w..][..w];
             let src = &source[(y - rows.start) * w..][..w];
             for ((e, &s), &c) in e.iter_mut().zip(src).zip(centre) {
                 *e = (s - c as f64) as f32;
             }
-            valid.fill(false);
+            // The neighbours, then their differences (0 past the image: no correction).
             let row_dirs = &dirs[(y / BLOCK - first_block_row) * cols..][..cols];
-            for (bx, &d) in row_dirs.iter().enumerate() {
-                let d = d as usize;
-                let taps = taps(d as u8);
-                for (t, &(dx, dy)) in taps.iter().enumerate() {
-                    let yy = y as isize + dy;
-                    if yy < 0 || yy >= h as isize {
-                        continue;
-                    }
-                    let row = &window[(yy as usize - y0) * w..][..w];
-                    for x in bx * BLOCK..((bx + 1) * BLOCK).min(w) {
-                        let xx = x as isize + dx;
-                        if xx >= 0 && xx < w as isize {
-                            diffs[t * w + x] = row[xx as usize] - centre[x];
-                            valid[t * w + x] = true;
-                        }
-                    }
-                }
-            }
-            for (t, v) in valid.iter().enumerate() {
-                if !v {
-                    // A tap past the image: a difference the filter ignores.
-                    diffs[t] = f32::INFINITY;
+            gather_row(
+                window,
+                (w, h),
+                y0,
+                y,
+                (BLOCK, &offsets),
+                row_dirs,
+                &all,
+                &mut diffs,
+            );
+            for tap in diffs.chunks_exact_mut(w) {
+                for (d, &c) in tap.iter_mut().zip(centre) {
+                    *d -= c;
                 }
             }
             arch.dispatch(RowFit {
@@ -771,9 +793,7 @@ pub mod fit {
         let k = s / cutoff;
         for (t, &wt) in wts.iter().enumerate() {
             for (o, &d) in out.iter_mut().zip(&diffs[t * w..][..w]) {
-                // An ignored tap's infinite difference constrains to zero.
-                let a = d.abs();
-                *o += wt * a.min((s - k * a).max(0.0)).copysign(d);
+                *o += wt * constrain(d, s, k);
             }
         }
     }

@@ -743,19 +743,17 @@ fn fit_post_filters(
         .par_iter()
         .map(|win| {
             let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-            let n = decoded[0].len();
-            let mut restored: Vec<Vec<f32>> = (0..planes).map(|_| vec![0.0f32; n]).collect();
-            match &restoration {
+            // The restored rows, or the decoded ones themselves without filters.
+            let restored: Vec<std::borrow::Cow<[f32]>> = match &restoration {
                 Some(r) => {
-                    let mut out: Vec<&mut [f32]> = restored.iter_mut().map(Vec::as_mut_slice).collect();
-                    r.apply_rows(&decoded, (wu, win.rows_held), (1.0, 1.0), 0..win.rows_held, &mut out);
+                    let n = decoded[0].len();
+                    let mut out: Vec<Vec<f32>> = (0..planes).map(|_| vec![0.0f32; n]).collect();
+                    let mut parts: Vec<&mut [f32]> = out.iter_mut().map(Vec::as_mut_slice).collect();
+                    r.apply_rows(&decoded, (wu, win.rows_held), (1.0, 1.0), 0..win.rows_held, &mut parts);
+                    out.into_iter().map(std::borrow::Cow::Owned).collect()
                 }
-                None => {
-                    for (r, d) in restored.iter_mut().zip(&decoded) {
-                        r.copy_from_slice(d);
-                    }
-                }
-            }
+                None => decoded.iter().map(|&d| std::borrow::Cow::Borrowed(d)).collect(),
+            };
             let top = if win.y0 + win.rows.start == 0 { 0 } else { win.rows.start.max(margin) };
             let bottom = if win.y0 + win.rows.end == hu { win.rows.end } else { win.rows.end.min(win.rows_held.saturating_sub(margin)) };
             let mut sums: [deringing::fit::Sums; 2] = Default::default();

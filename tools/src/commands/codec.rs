@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use caoen::codec::bitstream::{self, tag};
-use caoen::codec::deringing::{self, Strengths};
+use caoen::codec::deringing::Strengths;
 use caoen::codec::{
     decoder, keypoint_map, DecodeOptions, EncodeOptions, Limits, PixelSource, RateTarget,
 };
@@ -614,12 +614,8 @@ pub fn info(a: &InfoArgs) -> CliResult {
         Some(d) => {
             let kind = |name: &str, s: Strengths| {
                 if s.is_on() {
-                    format!(
-                        "{name} (primary {}, secondary {}, cutoff {} steps)",
-                        s.primary as f32 / deringing::STRENGTH_DIVISOR,
-                        s.secondary as f32 / deringing::STRENGTH_DIVISOR,
-                        s.cutoff as f32 / deringing::CUTOFF_DIVISOR
-                    )
+                    let (p, sec, cut) = s.in_plane_units(1.0);
+                    format!("{name} (primary {p}, secondary {sec}, cutoff {cut} steps)")
                 } else {
                     format!("{name} off")
                 }
@@ -661,20 +657,17 @@ pub fn info(a: &InfoArgs) -> CliResult {
     print(text)
 }
 
-/// The colour basis as `info` names it (`null` in JSON for grey images).
 /// One plane kind's deringing strengths in its steps, for `--json`.
 fn strengths_json(s: Strengths) -> serde_json::Value {
     s.is_on()
         .then(|| {
-            json!({
-                "primary_steps": s.primary as f32 / deringing::STRENGTH_DIVISOR,
-                "secondary_steps": s.secondary as f32 / deringing::STRENGTH_DIVISOR,
-                "cutoff_steps": s.cutoff as f32 / deringing::CUTOFF_DIVISOR,
-            })
+            let (primary, secondary, cutoff) = s.in_plane_units(1.0);
+            json!({"primary_steps": primary, "secondary_steps": secondary, "cutoff_steps": cutoff})
         })
         .into()
 }
 
+/// The colour basis as `info` names it (`null` in JSON for grey images).
 fn colour_basis_name(h: &bitstream::Header) -> Option<&'static str> {
     (h.layout.colour_channels() == 3).then_some(match h.basis {
         caoen::codec::ColourBasis::Grey => "grey-axis opponent",

@@ -103,8 +103,7 @@ pub fn decode_memory(
 ) -> u64 {
     let channels = header.layout.channels() as u64;
     let keys = (u64::from(header.luma_count) + u64::from(header.chroma_count)) * KEY_POINT_BYTES;
-    let restored = header.restoration.as_ref().is_some_and(|r| r.any())
-        || header.deringing.is_some_and(|d| d.any());
+    let restored = header.post_filtered();
     let per_pixel = match supersample {
         None if restored => (sample_bytes + 4) * channels,
         None => sample_bytes * channels,

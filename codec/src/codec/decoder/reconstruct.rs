@@ -280,7 +280,7 @@ fn restored_planes(
     detail: Option<&DetailEval>,
     (ow, oh): (u32, u32),
 ) -> Option<Restored> {
-    if !h.restoration.as_ref().is_some_and(|r| r.any()) && !h.deringing.is_some_and(|d| d.any()) {
+    if !h.post_filtered() {
         return None;
     }
     Some(Restored {
