@@ -68,6 +68,32 @@ fn a_half_size_file_decodes_at_the_image_size() {
     assert_eq!((small.width(), small.height()), (81, 49));
 }
 
+/// A half-size file's steps tilt by the image's frequencies (half the tilt per coded
+/// frequency of a file at the image's size) and carry the asked quality's activity
+/// field: none at q30, though the quality it is coded at (about q47) has one.
+#[test]
+fn a_half_size_file_is_shaped_by_the_image_and_the_asked_quality() {
+    let img = scene(192, 128, 2);
+    let header = |q: f32, resampling: Resampling| {
+        let bytes = encode(&img, &opts(q, resampling)).unwrap();
+        bitstream::parse(&bytes, u64::MAX).unwrap().header
+    };
+    let field = |h: &bitstream::Header| h.adaptive.and_then(|a| a.field());
+    for q in [30.0, 50.0] {
+        let (full, half) = (header(q, Resampling::Off), header(q, Resampling::Half));
+        assert_eq!(half.display, Some((192, 128)));
+        let tilts = full.weights.expect("tilted steps").tilts;
+        assert_eq!(
+            half.weights.map(|w| w.tilts),
+            Some(tilts.map(|t| t / 2)),
+            "q{q}"
+        );
+        assert_eq!(field(&half), field(&full), "q{q}");
+    }
+    assert_eq!(field(&header(30.0, Resampling::Half)), None);
+    assert!(field(&header(50.0, Resampling::Half)).is_some());
+}
+
 #[test]
 fn auto_keeps_the_cheaper_of_the_two_by_its_rule() {
     // The rule: half size when its PSNR change plus 1.5 dB per doubling of the rate

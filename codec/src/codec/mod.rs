@@ -396,7 +396,7 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
 
     /// Codes the image at quality `q`, at half size or its own. Half size is coded at
     /// [`rate_control::half_size_quality`], whose rate-distortion slope at the image's
-    /// size is `q`'s.
+    /// size is `q`'s, shaped by [`rate_control::at_half_size`].
     fn sized(
         &self,
         q: f32,
@@ -412,7 +412,7 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
             .get_or_init(|| resample::downscale(image, self.half_size()));
         let s = rate_control::EncodeSettings {
             display: Some((image.width(), image.height())),
-            ..(self.settings)(rate_control::half_size_quality(q))
+            ..rate_control::at_half_size((self.settings)(rate_control::half_size_quality(q)), q)
         };
         encoder::encode_with(small, &s, md, self.workers, progress)
     }

@@ -269,6 +269,24 @@ pub fn half_size_quality(q: f32) -> f32 {
     (((b * b + 4.0 * a * c).sqrt() - b) / (2.0 * a)).min(100.0) as f32
 }
 
+/// Settings `s`, made for [`half_size_quality`]`(q)`, for coding the image at half size
+/// per side for quality `q`: the steps stay `s`'s, and what shapes them for the
+/// structural metrics follows the image rather than the coded size. The frequency
+/// tilts halve, since a coded frequency is half the image's (the tilt is per cycle per
+/// 16 pixels). The activity field takes `q`'s strength, which is what the metrics lag
+/// by at the rates half size serves: none below [`FIELD_FROM_QUALITY`]. Measured in
+/// `docs/codec-ablation.md`, "Coding at half size".
+pub fn at_half_size(mut s: EncodeSettings, q: f32) -> EncodeSettings {
+    s.detail_weights = s.detail_weights.and_then(|w| {
+        let tilts = w.tilts.map(|t| t / 2);
+        (tilts != [0, 0]).then_some(FrequencyWeights { tilts })
+    });
+    if s.detail_field.is_some() {
+        s.detail_field = detail_field(f64::from(q.clamp(0.0, 100.0)));
+    }
+    s
+}
+
 /// Settings for quality `q` (0..=100) and effort `e` (1..=9).
 ///
 /// Quality sets the detail layer's step on a log-quadratic scale; the network's steps
@@ -474,5 +492,32 @@ mod tests {
         // Float images keep one step per plane.
         let hdr = settings(60.0, 5, None).adapted_to(crate::raster::SampleFormat::F32, false);
         assert_eq!((hdr.detail_adaptive, hdr.detail_field), (None, None));
+    }
+
+    #[test]
+    fn half_size_keeps_the_finer_steps_and_shapes_them_by_the_image_and_the_asked_quality() {
+        for q in [20.0f32, 30.0, 45.0, 50.0] {
+            let hq = half_size_quality(q);
+            let (own, half) = (settings(hq, 5, None), at_half_size(settings(hq, 5, None), q));
+            // Half the asked quality's detail step, as the slope argument sets it.
+            assert!((detail_step(hq.into()) / detail_step(q.into()) - 0.5).abs() < 1e-6, "{q}");
+            assert_eq!(
+                (half.detail_step_luma, half.detail_step_chroma, half.step_luma, half.model.split_threshold),
+                (own.detail_step_luma, own.detail_step_chroma, own.step_luma, own.model.split_threshold)
+            );
+            assert_eq!(half.detail_weights.map(|w| w.tilts), Some(DETAIL_WEIGHTS.tilts.map(|t| t / 2)), "{q}");
+            assert_eq!(half.detail_field, detail_field(q.into()), "{q}");
+        }
+        // q30 codes at about q47, which would have a field: half size takes none.
+        assert!(settings(half_size_quality(30.0), 5, None).detail_field.is_some());
+        assert_eq!(at_half_size(settings(half_size_quality(30.0), 5, None), 30.0).detail_field, None);
+        // What the caller turned off stays off.
+        let plain = EncodeSettings {
+            detail_field: None,
+            detail_weights: None,
+            ..settings(half_size_quality(50.0), 5, None)
+        };
+        let half = at_half_size(plain, 50.0);
+        assert_eq!((half.detail_field, half.detail_weights), (None, None));
     }
 }
