@@ -274,9 +274,9 @@ pub fn half_size_quality(q: f32) -> f32 {
 /// per side for quality `q`: the steps stay `s`'s, and what shapes them for the
 /// structural metrics follows the image rather than the coded size. The frequency
 /// tilts halve, since a coded frequency is half the image's (the tilt is per cycle per
-/// 16 pixels). The activity field takes `q`'s strength, which is what the metrics lag
-/// by at the rates half size serves: none below [`FIELD_FROM_QUALITY`]. Measured in
-/// `docs/codec-ablation.md`, "Coding at half size".
+/// 16 pixels). The activity field takes `q`'s strength, the one set for the rates the
+/// file serves: none below [`FIELD_FROM_QUALITY`], where the structural metrics are
+/// ahead without one. Measured in `docs/codec-ablation.md`, "Coding at half size".
 pub fn at_half_size(mut s: EncodeSettings, q: f32) -> EncodeSettings {
     s.detail_weights = s.detail_weights.and_then(|w| {
         let tilts = w.tilts.map(|t| t / 2);
