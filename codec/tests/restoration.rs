@@ -60,6 +60,40 @@ fn the_encoder_restores_where_it_pays_and_the_filter_lowers_the_error() {
 }
 
 #[test]
+fn the_encoders_colour_map_lowers_the_error_where_it_is_kept() {
+    let mut mapped = 0;
+    for seed in [1, 4, 9] {
+        let img = natural(240, 160, seed);
+        for q in [15.0, 30.0, 50.0] {
+            let opts = EncodeOptions {
+                quality: q,
+                resampling: Resampling::Off,
+                ..EncodeOptions::default()
+            };
+            let bytes = encode(&img, &opts).unwrap();
+            let header = inspect(&bytes).unwrap().header;
+            let Some(map) = header.restoration.as_ref().and_then(|r| r.colour.clone()) else {
+                continue;
+            };
+            mapped += 1;
+            assert!(map.is_valid() && map.planes() == 3, "{map:?}");
+            let with = decode(&bytes, &DecodeOptions::default()).unwrap();
+            let unmapped = rewrite(&bytes, |h| {
+                let r = h.restoration.as_mut().unwrap();
+                r.colour = None;
+                if !r.any() {
+                    h.restoration = None;
+                }
+            });
+            let without = decode(&unmapped, &DecodeOptions::default()).unwrap();
+            let (p_with, p_without) = (psnr(&img, &with).unwrap(), psnr(&img, &without).unwrap());
+            assert!(p_with > p_without, "seed {seed} q{q}: {p_with:.4} dB mapped, {p_without:.4} dB without ({map:?})");
+        }
+    }
+    assert!(mapped > 0, "no natural image at any quality took a colour map");
+}
+
+#[test]
 fn a_resized_decode_restores_like_the_coded_size() {
     // At twice the size each offset spans two output pixels: what the filter changes
     // there, averaged back over 2x2 pixels, is what it changes at the coded size.
@@ -88,6 +122,7 @@ fn a_resized_decode_restores_like_the_coded_size() {
     for luma in lumas {
         let bytes = rewrite(&plain, |h| {
             h.restoration = Some(Restoration {
+                colour: None,
                 planes: vec![
                     Some(luma),
                     Some(PlaneFilter::single(vec![-20, -4, -5, -20, -5, -4])),

@@ -18,6 +18,7 @@ use super::keyset::{Grid, GridEval, KernelParams, KeySet, MIN_SIGMA_FACTOR};
 use super::model;
 use super::quadtree::Cell;
 use super::deringing::{self, Deringing, Strengths};
+use super::restoration::colour_map::{self, ColourSums};
 use super::restoration::{self, fit::ClassStats, Restoration};
 use super::rate_control::{self, EncodeSettings};
 use super::source::PixelSource;
@@ -720,13 +721,57 @@ fn fit_post_filters(
         .into_par_iter()
         .map(|c| restoration::fit::fit_plane(&totals[c], [&halves[0][c], &halves[1][c]], scale, bit_cost))
         .collect();
-    // The section's own bytes (tag, length, CRC, mask) are paid once.
     let net: f64 = fitted.iter().flatten().map(|(_, worth)| worth).sum();
-    let restoration = if net < bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64 {
+    let filtered = Restoration {
+        planes: fitted.into_iter().map(|f| f.map(|(f, _)| f)).collect(),
+        colour: None,
+    };
+    // The colour map, on the rows the filters restored.
+    let map = {
+        let sums: Vec<ColourSums> = windows
+            .par_iter()
+            .map(|win| {
+                let mut sums = ColourSums::new(planes);
+                if win.rows.is_empty() {
+                    return sums;
+                }
+                let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
+                let restored = restored_rows(&filtered, &decoded, (wu, win.rows_held));
+                let rect = TileRect {
+                    x0: 0,
+                    y0: (win.y0 + win.rows.start) as u32,
+                    width: w,
+                    height: win.rows.len() as u32,
+                };
+                let source = coding_planes(&src.region(rect), s).colour;
+                let rows = win.rows.start * wu..win.rows.end * wu;
+                let restored: Vec<&[f32]> = restored.iter().map(|p| &p[rows.clone()]).collect();
+                let source: Vec<&[f64]> = source.iter().map(Vec::as_slice).collect();
+                sums.accumulate(&restored, &source);
+                sums
+            })
+            .collect();
+        let sum = |pick: &dyn Fn(usize) -> bool| {
+            let mut total = ColourSums::new(planes);
+            for (_, part) in sums.iter().enumerate().filter(|(i, _)| pick(*i)) {
+                total.add(part);
+            }
+            total
+        };
+        let (total, halves) = (sum(&|_| true), [sum(&|i| i % 2 == 0), sum(&|i| i % 2 == 1)]);
+        let scale = (wu * hu) as f64 / total.samples.max(1) as f64;
+        colour_map::fit(&total, [&halves[0], &halves[1]], scale, bit_cost)
+    };
+    // The section's own bytes (tag, length, CRC, mask) are paid once.
+    let worth = net + map.as_ref().map_or(0.0, |(_, w)| *w);
+    let restoration = if worth < bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64 {
         None
     } else {
-        let filters = fitted.into_iter().map(|f| f.map(|(f, _)| f)).collect();
-        Some(Restoration { planes: filters }).filter(Restoration::any)
+        Some(Restoration {
+            colour: map.map(|(m, _)| m),
+            ..filtered
+        })
+        .filter(Restoration::any)
     };
     if !s.deringing {
         return Ok((restoration, None));
@@ -743,17 +788,11 @@ fn fit_post_filters(
         .par_iter()
         .map(|win| {
             let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-            // The restored rows, or the decoded ones themselves without filters.
-            let restored: Vec<std::borrow::Cow<[f32]>> = match &restoration {
-                Some(r) => {
-                    let n = decoded[0].len();
-                    let mut out: Vec<Vec<f32>> = (0..planes).map(|_| vec![0.0f32; n]).collect();
-                    let mut parts: Vec<&mut [f32]> = out.iter_mut().map(Vec::as_mut_slice).collect();
-                    r.apply_rows(&decoded, (wu, win.rows_held), (1.0, 1.0), 0..win.rows_held, &mut parts);
-                    out.into_iter().map(std::borrow::Cow::Owned).collect()
-                }
-                None => decoded.iter().map(|&d| std::borrow::Cow::Borrowed(d)).collect(),
+            let none = Restoration {
+                planes: Vec::new(),
+                colour: None,
             };
+            let restored = restored_rows(restoration.as_ref().unwrap_or(&none), &decoded, (wu, win.rows_held));
             let top = if win.y0 + win.rows.start == 0 { 0 } else { win.rows.start.max(margin) };
             let bottom = if win.y0 + win.rows.end == hu { win.rows.end } else { win.rows.end.min(win.rows_held.saturating_sub(margin)) };
             let mut sums: [deringing::fit::Sums; 2] = Default::default();
@@ -804,6 +843,19 @@ fn fit_post_filters(
         chroma: if planes == 3 { choose(1) } else { Strengths::OFF },
     };
     Ok((restoration, d.any().then_some(d)))
+}
+
+/// The rows `decoded` (`w x rows` samples per colour plane) restored by `r`, or the
+/// decoded rows themselves if `r` does nothing.
+fn restored_rows<'a>(r: &Restoration, decoded: &[&'a [f32]], (w, rows): (usize, usize)) -> Vec<std::borrow::Cow<'a, [f32]>> {
+    if !r.any() {
+        return decoded.iter().map(|&d| std::borrow::Cow::Borrowed(d)).collect();
+    }
+    let n = decoded[0].len();
+    let mut out: Vec<Vec<f32>> = decoded.iter().map(|_| vec![0.0f32; n]).collect();
+    let mut parts: Vec<&mut [f32]> = out.iter_mut().map(Vec::as_mut_slice).collect();
+    r.apply_rows(decoded, (w, rows), (1.0, 1.0), 0..rows, &mut parts);
+    out.into_iter().map(std::borrow::Cow::Owned).collect()
 }
 
 /// One group of the post-filter fit: its rows and their context in the evaluated

@@ -474,6 +474,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
                 "classes": f.classes.map(|m| m.to_vec()),
             }))).collect::<Vec<_>>()),
+            "colour_map": h.restoration.as_ref().and_then(|r| r.colour.as_ref()).map(|m| json!({
+                "matrix": m.real().iter().map(|r| r[..r.len() - 1].to_vec()).collect::<Vec<_>>(),
+                "offsets": m.real().iter().map(|r| r[r.len() - 1]).collect::<Vec<_>>(),
+            })),
             "deringing": h.deringing.map(|d| json!({"luma": strengths_json(d.luma), "chroma": strengths_json(d.chroma)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
@@ -606,7 +610,15 @@ pub fn info(a: &InfoArgs) -> CliResult {
                     })
                 })
                 .collect();
-            outln!(text, "restoration: {}", planes.join(", "));
+            let planes = if planes.is_empty() { "no filters".to_string() } else { planes.join(", ") };
+            let map = match &r.colour {
+                Some(m) => format!(
+                    "; colour map (largest change {:.4})",
+                    m.real().iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()))
+                ),
+                None => String::new(),
+            };
+            outln!(text, "restoration: {planes}{map}");
         }
         None => outln!(text, "restoration: none"),
     }

@@ -696,7 +696,7 @@ mod tests {
     use crate::codec::bitstream::{TilePayload, TileStreams};
     use crate::codec::decoder::read;
     use crate::codec::deringing::{Deringing, Strengths};
-    use crate::codec::restoration::{shape, PlaneFilter, Restoration};
+    use crate::codec::restoration::{colour_map::ColourMap, shape, PlaneFilter, Restoration};
     use crate::codec::{decode, encode, DecodeOptions, EncodeOptions};
     use crate::raster::{ChannelLayout, SampleFormat};
 
@@ -753,6 +753,12 @@ mod tests {
                             })
                         })
                         .collect(),
+                    // A colour map after them: a gain, a cast and an offset in each plane.
+                    colour: Some(ColourMap {
+                        rows: (0..layout.colour_channels())
+                            .map(|c| (0..=layout.colour_channels()).map(|k| if k == c { 30 } else { 11 - 7 * k as i32 }).collect())
+                            .collect(),
+                    }),
                 });
                 let tiles: Vec<TileStreams> =
                     parsed.tiles.iter().map(TilePayload::to_streams).collect();

@@ -18,8 +18,10 @@
 //!
 //! A plane has one filter, or one per class of pixels ([`classify_rows`]: the local
 //! activity and direction of the luma's second differences), so that flat regions can
-//! be smoothed and edges sharpened, each along its direction.
+//! be smoothed and edges sharpened, each along its direction. After the filters, a
+//! [`ColourMap`](colour_map::ColourMap) may map the colour planes together.
 
+pub mod colour_map;
 pub mod fit;
 pub mod syntax;
 
@@ -93,17 +95,20 @@ impl PlaneFilter {
     }
 }
 
-/// The filters of a file's colour planes (`None` leaves a plane alone).
+/// The filters of a file's colour planes (`None` leaves a plane alone) and the colour
+/// map after them.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Restoration {
     /// Per colour plane (Y, or Y, C1, C2).
     pub planes: Vec<Option<PlaneFilter>>,
+    /// The affine map of the filtered colour planes, if any.
+    pub colour: Option<colour_map::ColourMap>,
 }
 
 impl Restoration {
-    /// Whether any plane is filtered.
+    /// Whether any plane is filtered or mapped.
     pub fn any(&self) -> bool {
-        self.planes.iter().any(Option::is_some)
+        self.planes.iter().any(Option::is_some) || self.colour.is_some()
     }
 
     /// Applies the filters to rows `rows` of `planes` (`w x h` samples each, output
@@ -127,6 +132,9 @@ impl Restoration {
                 None => out.copy_from_slice(src),
             }
         }
+        if let Some(m) = &self.colour {
+            m.apply(out);
+        }
     }
 
     /// Filters whole planes of `w x h` samples `spacing` coded pixels apart, in place.
@@ -140,6 +148,10 @@ impl Restoration {
                 filter_rows(&planes[c], (&planes[0], None), (w, h), spacing, shape(c), f, 0..h, &mut out);
                 planes[c] = out;
             }
+        }
+        if let Some(m) = &self.colour {
+            let mut parts: Vec<&mut [f32]> = planes.iter_mut().take(m.planes()).map(|p| &mut p[..w * h]).collect();
+            m.apply(&mut parts);
         }
     }
 }
@@ -646,12 +658,49 @@ mod tests {
                 }),
                 None,
             ],
+            colour: None,
         };
         for spacing in [(1.0, 1.0), (0.5, 0.7), (3.0, 2.0)] {
             let mut planes = vec![plane.clone(); 3];
             r.apply(&mut planes, (w, h), spacing);
             for p in &planes {
                 assert!(p.iter().all(|&v| (v - 0.37).abs() < 1e-5));
+            }
+        }
+    }
+
+    #[test]
+    fn the_colour_map_follows_the_filters_in_bands_as_on_whole_planes() {
+        let (w, h) = (23, 19);
+        let planes: Vec<Vec<f32>> = (0..3)
+            .map(|c| (0..w * h).map(|i| (((i * (7 + c)) % 13) as f32 / 13.0) * 0.8 + 0.1 * c as f32).collect())
+            .collect();
+        let map = colour_map::ColourMap { rows: vec![vec![40, -7, 3, 12], vec![0, -25, 9, -30], vec![5, 0, 60, 0]] };
+        let r = Restoration {
+            planes: vec![Some(PlaneFilter::single((0..12).map(|k| 20 - 3 * k).collect())), None, Some(PlaneFilter::single(vec![9, -4, 6, 1, 0, 2]))],
+            colour: Some(map.clone()),
+        };
+        for spacing in [(1.0, 1.0), (0.5, 0.7)] {
+            let mut whole = planes.clone();
+            r.apply(&mut whole, (w, h), spacing);
+            // The filters alone, then the map by its definition at every pixel.
+            let mut filtered = planes.clone();
+            Restoration { colour: None, ..r.clone() }.apply(&mut filtered, (w, h), spacing);
+            let m = map.real();
+            for i in 0..w * h {
+                for c in 0..3 {
+                    let want = filtered[c][i] as f64 + (0..3).map(|k| m[c][k] * filtered[k][i] as f64).sum::<f64>() + m[c][3];
+                    assert!((whole[c][i] as f64 - want).abs() < 1e-5, "pixel {i} plane {c}");
+                }
+            }
+            let src: Vec<&[f32]> = planes.iter().map(Vec::as_slice).collect();
+            for rows in [0..5, 5..19] {
+                let mut band: Vec<Vec<f32>> = vec![vec![0.0; rows.len() * w]; 3];
+                let mut out: Vec<&mut [f32]> = band.iter_mut().map(Vec::as_mut_slice).collect();
+                r.apply_rows(&src, (w, h), spacing, rows.clone(), &mut out);
+                for c in 0..3 {
+                    assert_eq!(band[c], whole[c][rows.start * w..rows.end * w]);
+                }
             }
         }
     }

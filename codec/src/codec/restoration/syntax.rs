@@ -1,6 +1,7 @@
-//! The restoration section's payload: a byte whose bit `c` says colour plane `c` is
-//! filtered, then each filtered plane in turn, packed most significant bit first, the
-//! last byte padded with zeros. A plane is a bit saying whether it is classified, then:
+//! The restoration section's payload: a byte whose bit `c` (0 to 2) says colour plane
+//! `c` is filtered and whose bit 7 says a colour map follows the filters, then each
+//! filtered plane in turn, then the map, packed most significant bit first, the last
+//! byte padded with zeros. A plane is a bit saying whether it is classified, then:
 //!
 //! - unclassified: its filter's taps;
 //! - classified: the number of filters `n` less one (`1..=MAX_FILTERS`) as an
@@ -9,9 +10,15 @@
 //!   needed to write `n`, then the `n` filters' taps.
 //!
 //! Taps are in [`shape`](super::shape)'s order, as signed Exp-Golomb codes of order
-//! [`ORDER`].
+//! [`ORDER`]. The colour map is its rows in plane order, each row's coefficients and
+//! then its offset, as signed Exp-Golomb codes of order
+//! [`MAP_ORDER`](super::colour_map::MAP_ORDER).
 
+use super::colour_map::{ColourMap, MAP_ORDER, MAX_COEFFICIENT};
 use super::{shape, PlaneFilter, Restoration, CLASSES, MAX_FILTERS, MAX_TAP};
+
+/// The mask's bit saying a colour map follows the filters.
+pub const COLOUR_MAP_BIT: u8 = 0x80;
 use crate::codec::CodecError;
 
 /// Exp-Golomb order of the taps' codes: most taps are a few units of `2^-8` either
@@ -20,9 +27,14 @@ pub const ORDER: u32 = 2;
 
 /// Bits of tap `v`'s code.
 pub fn tap_bits(v: i32) -> u32 {
-    let u = zigzag(v) + (1 << ORDER);
+    signed_bits(v, ORDER)
+}
+
+/// Bits of the signed Exp-Golomb code of order `k` of `v`.
+pub fn signed_bits(v: i32, k: u32) -> u32 {
+    let u = zigzag(v) + (1 << k);
     let n = 31 - u.leading_zeros();
-    2 * n + 1 - ORDER
+    2 * n + 1 - k
 }
 
 /// Bits of a plane's taps.
@@ -54,7 +66,7 @@ pub fn plane_bits(f: &PlaneFilter) -> u32 {
     }
 }
 
-/// Bits of a whole payload with the planes `planes`.
+/// Bits of a whole payload with the planes `planes` and no colour map.
 pub fn payload_bits(planes: &[Option<PlaneFilter>]) -> u32 {
     8 + planes.iter().flatten().map(plane_bits).sum::<u32>()
 }
@@ -67,14 +79,16 @@ fn unzigzag(u: u32) -> i32 {
     (u >> 1) as i32 ^ -((u & 1) as i32)
 }
 
-/// The payload of `r` (at most eight colour planes; taps within [`MAX_TAP`]).
+/// The payload of `r` (at most three colour planes; taps within [`MAX_TAP`], a colour
+/// map [`ColourMap::is_valid`]).
 pub fn write(r: &Restoration) -> Vec<u8> {
     let mask = r
         .planes
         .iter()
         .enumerate()
         .filter(|(_, p)| p.is_some())
-        .fold(0u8, |m, (c, _)| m | 1 << c);
+        .fold(0u8, |m, (c, _)| m | 1 << c)
+        | if r.colour.is_some() { COLOUR_MAP_BIT } else { 0 };
     let mut bits = BitWriter::default();
     for f in r.planes.iter().flatten() {
         debug_assert!((1..=MAX_FILTERS).contains(&f.filters.len()));
@@ -94,6 +108,10 @@ pub fn write(r: &Restoration) -> Vec<u8> {
             }
         }
     }
+    for &v in r.colour.iter().flat_map(|m| &m.rows).flatten() {
+        debug_assert!(v.abs() <= MAX_COEFFICIENT);
+        bits.exp_golomb(zigzag(v), MAP_ORDER);
+    }
     let mut out = vec![mask];
     out.extend(bits.finish());
     out
@@ -104,9 +122,9 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
     let bad = |reason: &'static str| CodecError::Restoration { reason };
     let (&mask, rest) = payload.split_first().ok_or(bad("the section is empty"))?;
     if mask == 0 {
-        return Err(bad("no plane is filtered"));
+        return Err(bad("no plane is filtered and no colour map follows"));
     }
-    if u32::from(mask) >> planes != 0 {
+    if u32::from(mask & !COLOUR_MAP_BIT) >> planes != 0 {
         return Err(bad("a filtered plane is past the image's colour planes"));
     }
     let mut bits = BitReader { bytes: rest, pos: 0 };
@@ -151,10 +169,28 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
         }
         out.push(Some(PlaneFilter { filters, classes }));
     }
+    let colour = if mask & COLOUR_MAP_BIT != 0 {
+        let mut rows = Vec::with_capacity(planes);
+        for _ in 0..planes {
+            let mut row = Vec::with_capacity(planes + 1);
+            for _ in 0..=planes {
+                // |v| <= MAX_COEFFICIENT needs at most 12 leading zeros.
+                let v = unzigzag(bits.exp_golomb(MAP_ORDER, 12).ok_or(bad("a colour map coefficient is out of range or past the section"))?);
+                if v.abs() > MAX_COEFFICIENT {
+                    return Err(bad("a colour map coefficient is out of range"));
+                }
+                row.push(v);
+            }
+            rows.push(row);
+        }
+        Some(ColourMap { rows })
+    } else {
+        None
+    };
     if bits.pos.div_ceil(8) != rest.len() || !bits.pos.is_multiple_of(8) && rest[bits.pos / 8] << (bits.pos % 8) != 0 {
         return Err(bad("bytes or bits follow the taps"));
     }
-    Ok(Restoration { planes: out })
+    Ok(Restoration { planes: out, colour })
 }
 
 #[derive(Default)]
@@ -240,12 +276,21 @@ mod tests {
                     None,
                     Some(PlaneFilter::single(vec![0, 1, -1, 2, -2, MAX_TAP])),
                 ],
+                colour: None,
             },
+            // One plane with a gain and offset at the ends of their range.
             Restoration {
                 planes: vec![Some(PlaneFilter::single(vec![-MAX_TAP; 12]))],
+                colour: Some(ColourMap { rows: vec![vec![MAX_COEFFICIENT, -MAX_COEFFICIENT]] }),
             },
             Restoration {
                 planes: vec![None, Some(PlaneFilter::single(vec![3, -4, 5, -6, 7, 0])), None],
+                colour: Some(ColourMap { rows: vec![vec![0, 1, -2, 3], vec![-40, 0, 0, 7], vec![25, -13, 0, 0]] }),
+            },
+            // A colour map alone.
+            Restoration {
+                planes: vec![None, None, None],
+                colour: Some(ColourMap { rows: vec![vec![1, 0, 0, 0], vec![0; 4], vec![0, 0, -1, 100]] }),
             },
             // Classified planes of one filter, of the most, and chroma classified too.
             Restoration {
@@ -260,12 +305,14 @@ mod tests {
                     }),
                     None,
                 ],
+                colour: None,
             },
         ];
         for r in cases {
             let bytes = write(&r);
             assert_eq!(parse(&bytes, r.planes.len()).unwrap(), r);
-            assert_eq!(bytes.len() as u32, payload_bits(&r.planes).div_ceil(8));
+            let map = r.colour.as_ref().map_or(0, super::super::colour_map::map_bits);
+            assert_eq!(bytes.len() as u32, (payload_bits(&r.planes) + map).div_ceil(8));
         }
     }
 
@@ -273,7 +320,15 @@ mod tests {
     fn bad_payloads_are_errors() {
         let good = write(&Restoration {
             planes: vec![Some(PlaneFilter::single(vec![5; 12])), None, None],
+            colour: None,
         });
+        // A grey image's colour map, whose offset is out of range.
+        let far_map = {
+            let mut bits = BitWriter::default();
+            bits.exp_golomb(0, MAP_ORDER);
+            bits.exp_golomb(zigzag(MAX_COEFFICIENT + 1), MAP_ORDER);
+            [vec![COLOUR_MAP_BIT], bits.finish()].concat()
+        };
         // A classified plane of two filters: an index past them, and a count past
         // the most, must be errors.
         let classified = |map_first: u8, n: usize| {
@@ -290,7 +345,8 @@ mod tests {
         };
         assert!(parse(&classified(2, 2), 1).is_ok());
         // Truncated, extra byte, no plane, plane past the image, out-of-range tap,
-        // a class's filter past the plane's, too many filters.
+        // a class's filter past the plane's, too many filters, a colour map cut short
+        // and one out of range.
         let mut long = good.clone();
         long.push(0);
         let cases: Vec<(Vec<u8>, usize)> = vec![
@@ -302,6 +358,8 @@ mod tests {
             ([vec![1], vec![0; 40]].concat(), 1),
             (classified(3, 2), 1),
             (classified(0, MAX_FILTERS + 1), 1),
+            (vec![COLOUR_MAP_BIT, 0x80], 3),
+            (far_map, 1),
         ];
         for (bytes, planes) in cases {
             assert!(
