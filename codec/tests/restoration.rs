@@ -10,8 +10,12 @@ use caoen::metrics::psnr;
 use caoen::raster::Raster;
 
 fn natural(w: u32, h: u32, seed: u64) -> Raster {
+    corpus(caoen_corpus::Class::Natural, w, h, seed)
+}
+
+fn corpus(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
     let img = caoen_corpus::Spec {
-        class: caoen_corpus::Class::Natural,
+        class,
         width: w,
         height: h,
         seed,
@@ -94,6 +98,39 @@ fn the_encoders_colour_map_lowers_the_error_where_it_is_kept() {
 }
 
 #[test]
+fn the_encoders_last_filter_lowers_the_error_where_it_is_kept() {
+    let mut kept = 0;
+    for (class, seed) in [(caoen_corpus::Class::Scene, 1), (caoen_corpus::Class::Scene, 2), (caoen_corpus::Class::FlatEdges, 3), (caoen_corpus::Class::Natural, 4)] {
+        let img = corpus(class, 320, 240, seed);
+        for q in [15.0, 30.0, 50.0, 70.0] {
+            let opts = EncodeOptions {
+                quality: q,
+                resampling: Resampling::Off,
+                ..EncodeOptions::default()
+            };
+            let bytes = encode(&img, &opts).unwrap();
+            let header = inspect(&bytes).unwrap().header;
+            let Some(taps) = header.restoration.as_ref().and_then(|r| r.last.clone()) else {
+                continue;
+            };
+            kept += 1;
+            let with = decode(&bytes, &DecodeOptions::default()).unwrap();
+            let without = rewrite(&bytes, |h| {
+                let r = h.restoration.as_mut().unwrap();
+                r.last = None;
+                if !r.any() {
+                    h.restoration = None;
+                }
+            });
+            let without = decode(&without, &DecodeOptions::default()).unwrap();
+            let (p_with, p_without) = (psnr(&img, &with).unwrap(), psnr(&img, &without).unwrap());
+            assert!(p_with > p_without, "{class:?} {seed} q{q}: {p_with:.4} dB with the last filter, {p_without:.4} dB without ({taps:?})");
+        }
+    }
+    assert!(kept > 0, "no natural image at any quality took a last filter");
+}
+
+#[test]
 fn a_resized_decode_restores_like_the_coded_size() {
     // At twice the size each offset spans two output pixels: what the filter changes
     // there, averaged back over 2x2 pixels, is what it changes at the coded size.
@@ -123,6 +160,7 @@ fn a_resized_decode_restores_like_the_coded_size() {
         let bytes = rewrite(&plain, |h| {
             h.restoration = Some(Restoration {
                 colour: None,
+                last: None,
                 planes: vec![
                     Some(luma),
                     Some(PlaneFilter::single(vec![-20, -4, -5, -20, -5, -4])),

@@ -725,6 +725,7 @@ fn fit_post_filters(
     let filtered = Restoration {
         planes: fitted.into_iter().map(|f| f.map(|(f, _)| f)).collect(),
         colour: None,
+        last: None,
     };
     // The colour map, on the rows the filters restored.
     let map = {
@@ -791,6 +792,7 @@ fn fit_post_filters(
             let none = Restoration {
                 planes: Vec::new(),
                 colour: None,
+                last: None,
             };
             let restored = restored_rows(restoration.as_ref().unwrap_or(&none), &decoded, (wu, win.rows_held));
             let top = if win.y0 + win.rows.start == 0 { 0 } else { win.rows.start.max(margin) };
@@ -842,7 +844,80 @@ fn fit_post_filters(
         luma: choose(0),
         chroma: if planes == 3 { choose(1) } else { Strengths::OFF },
     };
-    Ok((restoration, d.any().then_some(d)))
+    let deringing = d.any().then_some(d);
+    // The last luma filter, on the same rows deringed: what the deringing leaves that
+    // a linear filter takes.
+    let none = Restoration {
+        planes: Vec::new(),
+        colour: None,
+        last: None,
+    };
+    let stats: Vec<ClassStats> = windows
+        .par_iter()
+        .map(|win| {
+            let mut stats = ClassStats::new(0);
+            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
+            let restored = restored_rows(restoration.as_ref().unwrap_or(&none), &decoded, (wu, win.rows_held));
+            let at_top = |r: usize| win.y0 + r == 0;
+            let at_bottom = |r: usize| win.y0 + r == hu;
+            let top = if at_top(win.rows.start) { 0 } else { win.rows.start.max(margin) };
+            let bottom = if at_bottom(win.rows.end) { win.rows.end } else { win.rows.end.min(win.rows_held.saturating_sub(margin)) };
+            if top >= bottom {
+                return stats;
+            }
+            // Deringed rows `top..bottom` of the window, then the sums on those the
+            // last filter's reach from their edges (all of them at the image's).
+            let luma: std::borrow::Cow<[f32]> = match &deringing {
+                Some(d) => {
+                    let window: Vec<&[f32]> = restored.iter().map(|p| p.as_ref()).collect();
+                    let mut out: Vec<Vec<f32>> = (0..planes).map(|_| vec![0.0f32; (bottom - top) * wu]).collect();
+                    let mut parts: Vec<&mut [f32]> = out.iter_mut().map(Vec::as_mut_slice).collect();
+                    d.filter_rows(&window, (wu, hu), win.y0, (1, 1), steps, win.y0 + top..win.y0 + bottom, &mut parts);
+                    std::borrow::Cow::Owned(out.swap_remove(0))
+                }
+                None => std::borrow::Cow::Owned(restored[0][top * wu..bottom * wu].to_vec()),
+            };
+            let first = if at_top(top) { 0 } else { reach };
+            let last = if at_bottom(bottom) { bottom - top } else { (bottom - top).saturating_sub(reach) };
+            if first >= last {
+                return stats;
+            }
+            let rect = TileRect {
+                x0: 0,
+                y0: (win.y0 + top + first) as u32,
+                width: w,
+                height: (last - first) as u32,
+            };
+            let source = coding_planes(&src.region(rect), s).colour;
+            let classes = vec![0u8; (last - first) * wu];
+            stats.accumulate(0, &luma, &classes, &source[0], (wu, bottom - top), first..last);
+            stats
+        })
+        .collect();
+    let luma_sum = |pick: &dyn Fn(usize) -> bool| {
+        let mut t = ClassStats::new(0);
+        for (_, part) in stats.iter().enumerate().filter(|(i, _)| pick(*i)) {
+            t.add(part);
+        }
+        t.total()
+    };
+    let (total, halves) = (luma_sum(&|_| true), [luma_sum(&|i| i % 2 == 0), luma_sum(&|i| i % 2 == 1)]);
+    let scale = (wu * hu) as f64 / total.samples.max(1) as f64;
+    let last = restoration::fit::fit(&total, scale, bit_cost).filter(|taps| halves.iter().all(|h| h.gain(taps) > 0.0));
+    let restoration = match (restoration, last) {
+        (Some(r), last) => Some(Restoration { last, ..r }),
+        // Alone, the last filter pays for the section's own bytes too.
+        (None, Some(taps)) => {
+            let worth = total.gain(&taps) * scale - bit_cost * f64::from(restoration::syntax::tap_bits_all(&taps));
+            (worth > bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64).then(|| Restoration {
+                planes: vec![None; planes],
+                colour: None,
+                last: Some(taps),
+            })
+        }
+        (None, None) => None,
+    };
+    Ok((restoration, deringing))
 }
 
 /// The rows `decoded` (`w x rows` samples per colour plane) restored by `r`, or the

@@ -478,6 +478,7 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 "matrix": m.real().iter().map(|r| r[..r.len() - 1].to_vec()).collect::<Vec<_>>(),
                 "offsets": m.real().iter().map(|r| r[r.len() - 1]).collect::<Vec<_>>(),
             })),
+            "last_luma_filter": h.restoration.as_ref().and_then(|r| r.last.as_ref()).map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()),
             "deringing": h.deringing.map(|d| json!({"luma": strengths_json(d.luma), "chroma": strengths_json(d.chroma)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
@@ -618,7 +619,8 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 ),
                 None => String::new(),
             };
-            outln!(text, "restoration: {planes}{map}");
+            let last = if r.last.is_some() { "; last luma filter (12 taps)" } else { "" };
+            outln!(text, "restoration: {planes}{map}{last}");
         }
         None => outln!(text, "restoration: none"),
     }

@@ -10,6 +10,7 @@ use super::Decoded;
 use crate::codec::bitstream::{self, Header};
 use crate::codec::colour::{self, CodingPlanes};
 use crate::codec::deringing::{self, Deringing};
+use crate::codec::restoration::Restoration;
 use crate::codec::detail::DetailEval;
 use crate::codec::geometry::Frame;
 use crate::codec::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
@@ -50,6 +51,9 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
             spacing(h, ow, oh),
             h.deringing_steps(),
         );
+    }
+    if let Some(r) = &h.restoration {
+        r.apply_last(&mut colour[0], (ow as usize, oh as usize), spacing(h, ow, oh));
     }
     CodingPlanes {
         colour,
@@ -415,9 +419,39 @@ fn task_rows(restored: Option<&Restored>) -> usize {
 const POST_FILTER_BANDS: usize = 4;
 
 /// Rows `rows` of the colour planes `src` (the whole output's, before restoration)
-/// restored and deringed into `dst`. The deringing reads restored rows past `rows`:
-/// those are restored here too, into `scratch`.
+/// restored, deringed and given the last filter into `dst`. The last filter reads
+/// deringed rows past `rows`, and the deringing restored rows past those: both are
+/// made here too, the restored ones into `scratch`.
 fn post_filter_rows(
+    h: &Header,
+    src: &[&[f32]],
+    r: &Restored,
+    rows: std::ops::Range<usize>,
+    scratch: &mut Vec<f32>,
+    dst: &mut [&mut [f32]],
+) {
+    let Some(f) = h.restoration.as_ref().filter(|f| f.last.is_some()) else {
+        return deringed_rows(h, src, r, rows, scratch, dst);
+    };
+    let (w, hh) = r.size;
+    let spacing = r.spacing;
+    let reach = Restoration::last_reach(spacing);
+    let ext = rows.start.saturating_sub(reach)..(rows.end + reach).min(hh);
+    let len = ext.len() * w;
+    let mut window = vec![0.0f32; src.len() * len];
+    let mut parts: Vec<&mut [f32]> = window.chunks_exact_mut(len).collect();
+    deringed_rows(h, src, r, ext.clone(), scratch, &mut parts);
+    let own = (rows.start - ext.start) * w..(rows.end - ext.start) * w;
+    for (d, part) in dst.iter_mut().zip(window.chunks_exact(len)).skip(1) {
+        d.copy_from_slice(&part[own.clone()]);
+    }
+    f.apply_last_rows(&window[..len], (w, hh), ext.start, spacing, rows, dst[0]);
+}
+
+/// Rows `rows` of the colour planes `src` restored and deringed into `dst`. The
+/// deringing reads restored rows past `rows`: those are restored here too, into
+/// `scratch`.
+fn deringed_rows(
     h: &Header,
     src: &[&[f32]],
     r: &Restored,
@@ -574,6 +608,9 @@ pub fn render_forward(
                 (grid.dx, grid.dy),
                 h.deringing_steps(),
             );
+        }
+        if let Some(r) = &h.restoration {
+            r.apply_last(&mut colour[0], (grid.nx, grid.ny), (grid.dx, grid.dy));
         }
         for (c, plane) in std::iter::once(0).chain(nl..samples.len()).zip(colour) {
             samples[c] = plane;
@@ -759,6 +796,8 @@ mod tests {
                             .map(|c| (0..=layout.colour_channels()).map(|k| if k == c { 30 } else { 11 - 7 * k as i32 }).collect())
                             .collect(),
                     }),
+                    // And a last luma filter after the deringing.
+                    last: Some((0..12).map(|k| 25 - 6 * k).collect()),
                 });
                 let tiles: Vec<TileStreams> =
                     parsed.tiles.iter().map(TilePayload::to_streams).collect();

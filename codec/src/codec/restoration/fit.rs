@@ -397,6 +397,7 @@ mod tests {
             let r = Restoration {
                 planes: vec![Some(PlaneFilter::single(taps.clone()))],
                 colour: None,
+                last: None,
             };
             // Plane 0 takes the luma shape; chroma's is checked through plane 1.
             let after = if c == 0 {
@@ -407,6 +408,7 @@ mod tests {
                 Restoration {
                     planes: vec![None, Some(PlaneFilter::single(taps.clone()))],
                     colour: None,
+                    last: None,
                 }
                 .apply(&mut two, (w, h), (1.0, 1.0));
                 err(&two[1])
@@ -515,7 +517,7 @@ mod tests {
         assert!(worth > stats.total().gain(&single), "{worth} vs one filter's {}", stats.total().gain(&single));
         let err = |p: &[f32]| p.iter().zip(&source).map(|(&d, s)| (d as f64 - s).powi(2)).sum::<f64>();
         let mut planes = vec![decoded.clone()];
-        Restoration { planes: vec![Some(f.clone())], colour: None }.apply(&mut planes, (w, h), (1.0, 1.0));
+        Restoration { planes: vec![Some(f.clone())], colour: None, last: None }.apply(&mut planes, (w, h), (1.0, 1.0));
         let gain = err(&decoded) - err(&planes[0]);
         let bits = 1e-7 * (plane_bits(&f) + 1) as f64;
         assert!((gain - bits - worth).abs() < 1e-3 * gain, "{gain} - {bits} vs {worth}");

@@ -103,12 +103,54 @@ pub struct Restoration {
     pub planes: Vec<Option<PlaneFilter>>,
     /// The affine map of the filtered colour planes, if any.
     pub colour: Option<colour_map::ColourMap>,
+    /// One luma filter ([`LUMA_SHAPE`]) applied last, after the deringing, if any.
+    pub last: Option<Vec<i32>>,
 }
 
 impl Restoration {
     /// Whether any plane is filtered or mapped.
     pub fn any(&self) -> bool {
-        self.planes.iter().any(Option::is_some) || self.colour.is_some()
+        self.planes.iter().any(Option::is_some) || self.colour.is_some() || self.last.is_some()
+    }
+
+    /// Output rows the last filter reads either side of a row, at `spacing` coded
+    /// pixels per output pixel (bilinear sampling reads one more).
+    pub fn last_reach(spacing: (f64, f64)) -> usize {
+        ((RADIUS as f64 / spacing.1).ceil() as usize).saturating_add(1)
+    }
+
+    /// Applies the last filter to rows `rows` of `window`, the luma of rows `y0..` of
+    /// an output `h` rows high (`w` samples each, `spacing` coded pixels per output
+    /// pixel), into `out`. The window holds every row the filter reads
+    /// ([`Self::last_reach`]) that the image has, so reading it is reading the image.
+    #[allow(clippy::too_many_arguments)]
+    pub fn apply_last_rows(
+        &self,
+        window: &[f32],
+        (w, h): (usize, usize),
+        y0: usize,
+        spacing: (f64, f64),
+        rows: std::ops::Range<usize>,
+        out: &mut [f32],
+    ) {
+        let Some(taps) = &self.last else {
+            out.copy_from_slice(&window[(rows.start - y0) * w..(rows.end - y0) * w]);
+            return;
+        };
+        let held = window.len() / w.max(1);
+        debug_assert!(y0 + held <= h && (y0 == 0 || y0 + Self::last_reach(spacing) <= rows.start));
+        let f = PlaneFilter::single(taps.clone());
+        filter_rows(window, (window, None), (w, held), spacing, &LUMA_SHAPE, &f, rows.start - y0..rows.end - y0, out);
+    }
+
+    /// Applies the last filter to the whole luma plane `luma` (`w x h`, `spacing` coded
+    /// pixels per output pixel), in place.
+    pub fn apply_last(&self, luma: &mut Vec<f32>, (w, h): (usize, usize), spacing: (f64, f64)) {
+        if let Some(taps) = &self.last {
+            let mut out = vec![0.0f32; w * h];
+            filter_rows(luma, (luma, None), (w, h), spacing, &LUMA_SHAPE, &PlaneFilter::single(taps.clone()), 0..h, &mut out);
+            *luma = out;
+        }
     }
 
     /// Applies the filters to rows `rows` of `planes` (`w x h` samples each, output
@@ -659,6 +701,7 @@ mod tests {
                 None,
             ],
             colour: None,
+            last: None,
         };
         for spacing in [(1.0, 1.0), (0.5, 0.7), (3.0, 2.0)] {
             let mut planes = vec![plane.clone(); 3];
@@ -679,6 +722,7 @@ mod tests {
         let r = Restoration {
             planes: vec![Some(PlaneFilter::single((0..12).map(|k| 20 - 3 * k).collect())), None, Some(PlaneFilter::single(vec![9, -4, 6, 1, 0, 2]))],
             colour: Some(map.clone()),
+            last: None,
         };
         for spacing in [(1.0, 1.0), (0.5, 0.7)] {
             let mut whole = planes.clone();
@@ -701,6 +745,29 @@ mod tests {
                 for c in 0..3 {
                     assert_eq!(band[c], whole[c][rows.start * w..rows.end * w]);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn the_last_filter_in_windows_is_the_filter_on_the_whole_plane() {
+        let (w, h) = (21, 40);
+        let plane: Vec<f32> = (0..w * h).map(|i| (((i * 37) % 17) as f32 / 17.0) + 0.02 * (i / w) as f32).collect();
+        let r = Restoration {
+            planes: vec![None],
+            colour: None,
+            last: Some((0..12).map(|k| 30 - 7 * k).collect()),
+        };
+        for spacing in [(1.0, 1.0), (0.5, 0.7), (2.0, 2.0), (1.0, 0.3)] {
+            let mut whole = plane.clone();
+            r.apply_last(&mut whole, (w, h), spacing);
+            assert_ne!(whole, plane);
+            let reach = Restoration::last_reach(spacing);
+            for rows in [0..7usize, 7..19, 19..40, 13..14] {
+                let window = rows.start.saturating_sub(reach)..(rows.end + reach).min(h);
+                let mut out = vec![0.0f32; rows.len() * w];
+                r.apply_last_rows(&plane[window.start * w..window.end * w], (w, h), window.start, spacing, rows.clone(), &mut out);
+                assert_eq!(out, whole[rows.start * w..rows.end * w], "rows {rows:?} at {spacing:?}");
             }
         }
     }

@@ -1,7 +1,8 @@
 //! The restoration section's payload: a byte whose bit `c` (0 to 2) says colour plane
-//! `c` is filtered and whose bit 7 says a colour map follows the filters, then each
-//! filtered plane in turn, then the map, packed most significant bit first, the last
-//! byte padded with zeros. A plane is a bit saying whether it is classified, then:
+//! `c` is filtered, whose bit 7 says a colour map follows the filters and whose bit 6
+//! says a last luma filter follows the map, then each filtered plane in turn, the map
+//! and the last filter's taps, packed most significant bit first, the last byte padded
+//! with zeros. A plane is a bit saying whether it is classified, then:
 //!
 //! - unclassified: its filter's taps;
 //! - classified: the number of filters `n` less one (`1..=MAX_FILTERS`) as an
@@ -15,10 +16,12 @@
 //! [`MAP_ORDER`](super::colour_map::MAP_ORDER).
 
 use super::colour_map::{ColourMap, MAP_ORDER, MAX_COEFFICIENT};
-use super::{shape, PlaneFilter, Restoration, CLASSES, MAX_FILTERS, MAX_TAP};
+use super::{shape, PlaneFilter, Restoration, CLASSES, LUMA_SHAPE, MAX_FILTERS, MAX_TAP};
 
 /// The mask's bit saying a colour map follows the filters.
 pub const COLOUR_MAP_BIT: u8 = 0x80;
+/// The mask's bit saying the last luma filter's taps follow the colour map.
+pub const LAST_FILTER_BIT: u8 = 0x40;
 use crate::codec::CodecError;
 
 /// Exp-Golomb order of the taps' codes: most taps are a few units of `2^-8` either
@@ -88,7 +91,8 @@ pub fn write(r: &Restoration) -> Vec<u8> {
         .enumerate()
         .filter(|(_, p)| p.is_some())
         .fold(0u8, |m, (c, _)| m | 1 << c)
-        | if r.colour.is_some() { COLOUR_MAP_BIT } else { 0 };
+        | if r.colour.is_some() { COLOUR_MAP_BIT } else { 0 }
+        | if r.last.is_some() { LAST_FILTER_BIT } else { 0 };
     let mut bits = BitWriter::default();
     for f in r.planes.iter().flatten() {
         debug_assert!((1..=MAX_FILTERS).contains(&f.filters.len()));
@@ -112,6 +116,10 @@ pub fn write(r: &Restoration) -> Vec<u8> {
         debug_assert!(v.abs() <= MAX_COEFFICIENT);
         bits.exp_golomb(zigzag(v), MAP_ORDER);
     }
+    for &v in r.last.iter().flatten() {
+        debug_assert!(v.abs() <= MAX_TAP);
+        bits.exp_golomb(zigzag(v), ORDER);
+    }
     let mut out = vec![mask];
     out.extend(bits.finish());
     out
@@ -122,9 +130,9 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
     let bad = |reason: &'static str| CodecError::Restoration { reason };
     let (&mask, rest) = payload.split_first().ok_or(bad("the section is empty"))?;
     if mask == 0 {
-        return Err(bad("no plane is filtered and no colour map follows"));
+        return Err(bad("no plane is filtered and no colour map or last filter follows"));
     }
-    if u32::from(mask & !COLOUR_MAP_BIT) >> planes != 0 {
+    if u32::from(mask & !(COLOUR_MAP_BIT | LAST_FILTER_BIT)) >> planes != 0 {
         return Err(bad("a filtered plane is past the image's colour planes"));
     }
     let mut bits = BitReader { bytes: rest, pos: 0 };
@@ -187,10 +195,23 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
     } else {
         None
     };
+    let last = if mask & LAST_FILTER_BIT != 0 {
+        let mut taps = Vec::with_capacity(LUMA_SHAPE.len());
+        for _ in 0..LUMA_SHAPE.len() {
+            let v = unzigzag(bits.exp_golomb(ORDER, 10).ok_or(bad("a last filter's tap is out of range or past the section"))?);
+            if v.abs() > MAX_TAP {
+                return Err(bad("a last filter's tap is out of range"));
+            }
+            taps.push(v);
+        }
+        Some(taps)
+    } else {
+        None
+    };
     if bits.pos.div_ceil(8) != rest.len() || !bits.pos.is_multiple_of(8) && rest[bits.pos / 8] << (bits.pos % 8) != 0 {
         return Err(bad("bytes or bits follow the taps"));
     }
-    Ok(Restoration { planes: out, colour })
+    Ok(Restoration { planes: out, colour, last })
 }
 
 #[derive(Default)]
@@ -277,20 +298,30 @@ mod tests {
                     Some(PlaneFilter::single(vec![0, 1, -1, 2, -2, MAX_TAP])),
                 ],
                 colour: None,
+                last: None,
             },
             // One plane with a gain and offset at the ends of their range.
             Restoration {
                 planes: vec![Some(PlaneFilter::single(vec![-MAX_TAP; 12]))],
                 colour: Some(ColourMap { rows: vec![vec![MAX_COEFFICIENT, -MAX_COEFFICIENT]] }),
+                last: Some(vec![MAX_TAP, -MAX_TAP, 0, 1, -1, 2, -2, 3, 30, -30, 300, -300]),
             },
             Restoration {
                 planes: vec![None, Some(PlaneFilter::single(vec![3, -4, 5, -6, 7, 0])), None],
                 colour: Some(ColourMap { rows: vec![vec![0, 1, -2, 3], vec![-40, 0, 0, 7], vec![25, -13, 0, 0]] }),
+                last: None,
             },
             // A colour map alone.
             Restoration {
                 planes: vec![None, None, None],
                 colour: Some(ColourMap { rows: vec![vec![1, 0, 0, 0], vec![0; 4], vec![0, 0, -1, 100]] }),
+                last: None,
+            },
+            // A last filter alone.
+            Restoration {
+                planes: vec![None, None, None],
+                colour: None,
+                last: Some(vec![-5, 12, 3, 0, 0, 7, -1, 2, 2, 0, 9, -4]),
             },
             // Classified planes of one filter, of the most, and chroma classified too.
             Restoration {
@@ -306,13 +337,15 @@ mod tests {
                     None,
                 ],
                 colour: None,
+                last: None,
             },
         ];
         for r in cases {
             let bytes = write(&r);
             assert_eq!(parse(&bytes, r.planes.len()).unwrap(), r);
             let map = r.colour.as_ref().map_or(0, super::super::colour_map::map_bits);
-            assert_eq!(bytes.len() as u32, (payload_bits(&r.planes) + map).div_ceil(8));
+            let last = r.last.as_ref().map_or(0, |t| tap_bits_all(t));
+            assert_eq!(bytes.len() as u32, (payload_bits(&r.planes) + map + last).div_ceil(8));
         }
     }
 
@@ -321,6 +354,7 @@ mod tests {
         let good = write(&Restoration {
             planes: vec![Some(PlaneFilter::single(vec![5; 12])), None, None],
             colour: None,
+                last: None,
         });
         // A grey image's colour map, whose offset is out of range.
         let far_map = {
@@ -359,6 +393,8 @@ mod tests {
             (classified(3, 2), 1),
             (classified(0, MAX_FILTERS + 1), 1),
             (vec![COLOUR_MAP_BIT, 0x80], 3),
+            (vec![LAST_FILTER_BIT, 0x80], 3),
+            (vec![0x20], 3),
             (far_map, 1),
         ];
         for (bytes, planes) in cases {
