@@ -110,7 +110,7 @@ fn the_encoders_last_filter_lowers_the_error_where_it_is_kept() {
             };
             let bytes = encode(&img, &opts).unwrap();
             let header = inspect(&bytes).unwrap().header;
-            let Some(taps) = header.restoration.as_ref().and_then(|r| r.last.clone()) else {
+            let Some(last) = header.restoration.as_ref().and_then(|r| r.last.clone()) else {
                 continue;
             };
             kept += 1;
@@ -124,7 +124,7 @@ fn the_encoders_last_filter_lowers_the_error_where_it_is_kept() {
             });
             let without = decode(&without, &DecodeOptions::default()).unwrap();
             let (p_with, p_without) = (psnr(&img, &with).unwrap(), psnr(&img, &without).unwrap());
-            assert!(p_with > p_without, "{class:?} {seed} q{q}: {p_with:.4} dB with the last filter, {p_without:.4} dB without ({taps:?})");
+            assert!(p_with > p_without, "{class:?} {seed} q{q}: {p_with:.4} dB with the last filters, {p_without:.4} dB without ({last:?})");
         }
     }
     assert!(kept > 0, "no natural image at any quality took a last filter");

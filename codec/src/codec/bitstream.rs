@@ -20,7 +20,7 @@ use crate::raster::{ChannelLayout, SampleFormat};
 /// File signature.
 pub const MAGIC: [u8; 4] = *b"CAOE";
 /// Format version this code writes and reads.
-pub const VERSION: u8 = 20;
+pub const VERSION: u8 = 21;
 
 /// Section tags, in the order they must appear.
 pub mod tag {

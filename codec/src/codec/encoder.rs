@@ -845,8 +845,8 @@ fn fit_post_filters(
         chroma: if planes == 3 { choose(1) } else { Strengths::OFF },
     };
     let deringing = d.any().then_some(d);
-    // The last luma filter, on the same rows deringed: what the deringing leaves that
-    // a linear filter takes.
+    // The last luma filters, on the same rows deringed: what the deringing leaves that
+    // linear filters take, by pixel class where that pays.
     let none = Restoration {
         planes: Vec::new(),
         colour: None,
@@ -889,7 +889,8 @@ fn fit_post_filters(
                 height: (last - first) as u32,
             };
             let source = coding_planes(&src.region(rect), s).colour;
-            let classes = vec![0u8; (last - first) * wu];
+            // The classes of the deringed luma, as the decoder finds them.
+            let classes = restoration::classify_rows(&luma, (wu, bottom - top), (1.0, 1.0), first..last);
             stats.accumulate(0, &luma, &classes, &source[0], (wu, bottom - top), first..last);
             stats
         })
@@ -899,22 +900,22 @@ fn fit_post_filters(
         for (_, part) in stats.iter().enumerate().filter(|(i, _)| pick(*i)) {
             t.add(part);
         }
-        t.total()
+        t
     };
     let (total, halves) = (luma_sum(&|_| true), [luma_sum(&|i| i % 2 == 0), luma_sum(&|i| i % 2 == 1)]);
-    let scale = (wu * hu) as f64 / total.samples.max(1) as f64;
-    let last = restoration::fit::fit(&total, scale, bit_cost).filter(|taps| halves.iter().all(|h| h.gain(taps) > 0.0));
+    let scale = (wu * hu) as f64 / total.total().samples.max(1) as f64;
+    let last = restoration::fit::fit_plane(&total, [&halves[0], &halves[1]], scale, bit_cost);
     let restoration = match (restoration, last) {
-        (Some(r), last) => Some(Restoration { last, ..r }),
-        // Alone, the last filter pays for the section's own bytes too.
-        (None, Some(taps)) => {
-            let worth = total.gain(&taps) * scale - bit_cost * f64::from(restoration::syntax::tap_bits_all(&taps));
-            (worth > bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64).then(|| Restoration {
-                planes: vec![None; planes],
-                colour: None,
-                last: Some(taps),
-            })
-        }
+        (Some(r), last) => Some(Restoration {
+            last: last.map(|(f, _)| f),
+            ..r
+        }),
+        // Alone, the last filters pay for the section's own bytes too.
+        (None, Some((f, worth))) => (worth > bit_cost * (8 * RESTORATION_SECTION_BYTES) as f64).then(|| Restoration {
+            planes: vec![None; planes],
+            colour: None,
+            last: Some(f),
+        }),
         (None, None) => None,
     };
     Ok((restoration, deringing))

@@ -478,7 +478,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 "matrix": m.real().iter().map(|r| r[..r.len() - 1].to_vec()).collect::<Vec<_>>(),
                 "offsets": m.real().iter().map(|r| r[r.len() - 1]).collect::<Vec<_>>(),
             })),
-            "last_luma_filter": h.restoration.as_ref().and_then(|r| r.last.as_ref()).map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()),
+            "last_luma_filters": h.restoration.as_ref().and_then(|r| r.last.as_ref()).map(|f| json!({
+                "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
+                "classes": f.classes.map(|m| m.to_vec()),
+            })),
             "deringing": h.deringing.map(|d| json!({"luma": strengths_json(d.luma), "chroma": strengths_json(d.chroma)})),
             "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
             "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
@@ -619,7 +622,11 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 ),
                 None => String::new(),
             };
-            let last = if r.last.is_some() { "; last luma filter (12 taps)" } else { "" };
+            let last = match &r.last {
+                Some(f) if f.classes.is_some() => format!("; last luma filters ({} by pixel class)", f.filters.len()),
+                Some(_) => "; last luma filter".to_string(),
+                None => String::new(),
+            };
             outln!(text, "restoration: {planes}{map}{last}");
         }
         None => outln!(text, "restoration: none"),

@@ -796,8 +796,11 @@ mod tests {
                             .map(|c| (0..=layout.colour_channels()).map(|k| if k == c { 30 } else { 11 - 7 * k as i32 }).collect())
                             .collect(),
                     }),
-                    // And a last luma filter after the deringing.
-                    last: Some((0..12).map(|k| 25 - 6 * k).collect()),
+                    // And last luma filters by pixel class after the deringing.
+                    last: Some(PlaneFilter {
+                        filters: vec![(0..12).map(|k| 25 - 6 * k).collect(), vec![-9; 12]],
+                        classes: Some(std::array::from_fn(|k| (k % 5 % 3) as u8)),
+                    }),
                 });
                 let tiles: Vec<TileStreams> =
                     parsed.tiles.iter().map(TilePayload::to_streams).collect();

@@ -103,8 +103,9 @@ pub struct Restoration {
     pub planes: Vec<Option<PlaneFilter>>,
     /// The affine map of the filtered colour planes, if any.
     pub colour: Option<colour_map::ColourMap>,
-    /// One luma filter ([`LUMA_SHAPE`]) applied last, after the deringing, if any.
-    pub last: Option<Vec<i32>>,
+    /// The luma's filters ([`LUMA_SHAPE`]) applied last, after the deringing, one or
+    /// one per pixel class of the deringed luma, if any.
+    pub last: Option<PlaneFilter>,
 }
 
 impl Restoration {
@@ -114,9 +115,12 @@ impl Restoration {
     }
 
     /// Output rows the last filter reads either side of a row, at `spacing` coded
-    /// pixels per output pixel (bilinear sampling reads one more).
+    /// pixels per output pixel: its offsets and the classes' windows of second
+    /// differences, with a row more for bilinear sampling.
     pub fn last_reach(spacing: (f64, f64)) -> usize {
-        ((RADIUS as f64 / spacing.1).ceil() as usize).saturating_add(1)
+        let taps = (RADIUS as f64 / spacing.1).ceil() as usize;
+        let classes = WINDOW + (1.0 / spacing.1).ceil() as usize;
+        taps.max(classes).saturating_add(1)
     }
 
     /// Applies the last filter to rows `rows` of `window`, the luma of rows `y0..` of
@@ -133,22 +137,21 @@ impl Restoration {
         rows: std::ops::Range<usize>,
         out: &mut [f32],
     ) {
-        let Some(taps) = &self.last else {
+        let Some(f) = &self.last else {
             out.copy_from_slice(&window[(rows.start - y0) * w..(rows.end - y0) * w]);
             return;
         };
         let held = window.len() / w.max(1);
         debug_assert!(y0 + held <= h && (y0 == 0 || y0 + Self::last_reach(spacing) <= rows.start));
-        let f = PlaneFilter::single(taps.clone());
-        filter_rows(window, (window, None), (w, held), spacing, &LUMA_SHAPE, &f, rows.start - y0..rows.end - y0, out);
+        filter_rows(window, (window, None), (w, held), spacing, &LUMA_SHAPE, f, rows.start - y0..rows.end - y0, out);
     }
 
     /// Applies the last filter to the whole luma plane `luma` (`w x h`, `spacing` coded
     /// pixels per output pixel), in place.
     pub fn apply_last(&self, luma: &mut Vec<f32>, (w, h): (usize, usize), spacing: (f64, f64)) {
-        if let Some(taps) = &self.last {
+        if let Some(f) = &self.last {
             let mut out = vec![0.0f32; w * h];
-            filter_rows(luma, (luma, None), (w, h), spacing, &LUMA_SHAPE, &PlaneFilter::single(taps.clone()), 0..h, &mut out);
+            filter_rows(luma, (luma, None), (w, h), spacing, &LUMA_SHAPE, f, 0..h, &mut out);
             *luma = out;
         }
     }
@@ -756,7 +759,10 @@ mod tests {
         let r = Restoration {
             planes: vec![None],
             colour: None,
-            last: Some((0..12).map(|k| 30 - 7 * k).collect()),
+            last: Some(PlaneFilter {
+                filters: vec![(0..12).map(|k| 30 - 7 * k).collect(), (0..12).map(|k| 5 * k - 20).collect()],
+                classes: Some(std::array::from_fn(|k| (k % 3) as u8)),
+            }),
         };
         for spacing in [(1.0, 1.0), (0.5, 0.7), (2.0, 2.0), (1.0, 0.3)] {
             let mut whole = plane.clone();

@@ -1,7 +1,7 @@
 //! The restoration section's payload: a byte whose bit `c` (0 to 2) says colour plane
 //! `c` is filtered, whose bit 7 says a colour map follows the filters and whose bit 6
-//! says a last luma filter follows the map, then each filtered plane in turn, the map
-//! and the last filter's taps, packed most significant bit first, the last byte padded
+//! says last luma filters follow the map, then each filtered plane in turn, the map
+//! and the last filters (as a luma plane's), packed most significant bit first, the last byte padded
 //! with zeros. A plane is a bit saying whether it is classified, then:
 //!
 //! - unclassified: its filter's taps;
@@ -16,11 +16,11 @@
 //! [`MAP_ORDER`](super::colour_map::MAP_ORDER).
 
 use super::colour_map::{ColourMap, MAP_ORDER, MAX_COEFFICIENT};
-use super::{shape, PlaneFilter, Restoration, CLASSES, LUMA_SHAPE, MAX_FILTERS, MAX_TAP};
+use super::{shape, PlaneFilter, Restoration, CLASSES, MAX_FILTERS, MAX_TAP};
 
 /// The mask's bit saying a colour map follows the filters.
 pub const COLOUR_MAP_BIT: u8 = 0x80;
-/// The mask's bit saying the last luma filter's taps follow the colour map.
+/// The mask's bit saying the last luma filters follow the colour map.
 pub const LAST_FILTER_BIT: u8 = 0x40;
 use crate::codec::CodecError;
 
@@ -95,30 +95,14 @@ pub fn write(r: &Restoration) -> Vec<u8> {
         | if r.last.is_some() { LAST_FILTER_BIT } else { 0 };
     let mut bits = BitWriter::default();
     for f in r.planes.iter().flatten() {
-        debug_assert!((1..=MAX_FILTERS).contains(&f.filters.len()));
-        bits.put(u32::from(f.classes.is_some()), 1);
-        if let Some(map) = &f.classes {
-            let n = f.filters.len();
-            bits.exp_golomb(n as u32 - 1, 0);
-            for &m in map {
-                debug_assert!(usize::from(m) <= n);
-                bits.put(u32::from(m), index_width(n));
-            }
-        }
-        for taps in &f.filters {
-            for &v in taps {
-                debug_assert!(v.abs() <= MAX_TAP);
-                bits.exp_golomb(zigzag(v), ORDER);
-            }
-        }
+        write_plane(&mut bits, f);
     }
     for &v in r.colour.iter().flat_map(|m| &m.rows).flatten() {
         debug_assert!(v.abs() <= MAX_COEFFICIENT);
         bits.exp_golomb(zigzag(v), MAP_ORDER);
     }
-    for &v in r.last.iter().flatten() {
-        debug_assert!(v.abs() <= MAX_TAP);
-        bits.exp_golomb(zigzag(v), ORDER);
+    if let Some(f) = &r.last {
+        write_plane(&mut bits, f);
     }
     let mut out = vec![mask];
     out.extend(bits.finish());
@@ -142,40 +126,7 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
             out.push(None);
             continue;
         }
-        let past = || bad("the filters run past the section");
-        let classified = bits.get(1).ok_or_else(past)? == 1;
-        let (n, classes) = if classified {
-            // n <= MAX_FILTERS needs at most 4 leading zeros.
-            let n = bits.exp_golomb(0, 4).ok_or(bad("a plane's filter count is out of range"))? as usize + 1;
-            if n > MAX_FILTERS {
-                return Err(bad("a plane's filter count is out of range"));
-            }
-            let mut map = [0u8; CLASSES];
-            for m in map.iter_mut() {
-                let v = bits.get(index_width(n)).ok_or_else(past)? as usize;
-                if v > n {
-                    return Err(bad("a class's filter is past the plane's filters"));
-                }
-                *m = v as u8;
-            }
-            (n, Some(map))
-        } else {
-            (1, None)
-        };
-        let mut filters = Vec::with_capacity(n);
-        for _ in 0..n {
-            let mut taps = Vec::with_capacity(shape(c).len());
-            for _ in 0..shape(c).len() {
-                // |tap| <= MAX_TAP needs at most 10 leading zeros.
-                let v = unzigzag(bits.exp_golomb(ORDER, 10).ok_or(bad("a tap is out of range or past the section"))?);
-                if v.abs() > MAX_TAP {
-                    return Err(bad("a tap is out of range"));
-                }
-                taps.push(v);
-            }
-            filters.push(taps);
-        }
-        out.push(Some(PlaneFilter { filters, classes }));
+        out.push(Some(parse_plane(&mut bits, c)?));
     }
     let colour = if mask & COLOUR_MAP_BIT != 0 {
         let mut rows = Vec::with_capacity(planes);
@@ -196,15 +147,7 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
         None
     };
     let last = if mask & LAST_FILTER_BIT != 0 {
-        let mut taps = Vec::with_capacity(LUMA_SHAPE.len());
-        for _ in 0..LUMA_SHAPE.len() {
-            let v = unzigzag(bits.exp_golomb(ORDER, 10).ok_or(bad("a last filter's tap is out of range or past the section"))?);
-            if v.abs() > MAX_TAP {
-                return Err(bad("a last filter's tap is out of range"));
-            }
-            taps.push(v);
-        }
-        Some(taps)
+        Some(parse_plane(&mut bits, 0)?)
     } else {
         None
     };
@@ -212,6 +155,65 @@ pub fn parse(payload: &[u8], planes: usize) -> Result<Restoration, CodecError> {
         return Err(bad("bytes or bits follow the taps"));
     }
     Ok(Restoration { planes: out, colour, last })
+}
+
+/// Appends one plane's filters.
+fn write_plane(bits: &mut BitWriter, f: &PlaneFilter) {
+    debug_assert!((1..=MAX_FILTERS).contains(&f.filters.len()));
+    bits.put(u32::from(f.classes.is_some()), 1);
+    if let Some(map) = &f.classes {
+        let n = f.filters.len();
+        bits.exp_golomb(n as u32 - 1, 0);
+        for &m in map {
+            debug_assert!(usize::from(m) <= n);
+            bits.put(u32::from(m), index_width(n));
+        }
+    }
+    for taps in &f.filters {
+        for &v in taps {
+            debug_assert!(v.abs() <= MAX_TAP);
+            bits.exp_golomb(zigzag(v), ORDER);
+        }
+    }
+}
+
+/// Reads one plane's filters (colour plane `c`'s shape).
+fn parse_plane(bits: &mut BitReader, c: usize) -> Result<PlaneFilter, CodecError> {
+    let bad = |reason: &'static str| CodecError::Restoration { reason };
+    let past = || bad("the filters run past the section");
+    let classified = bits.get(1).ok_or_else(past)? == 1;
+    let (n, classes) = if classified {
+        // n <= MAX_FILTERS needs at most 4 leading zeros.
+        let n = bits.exp_golomb(0, 4).ok_or(bad("a plane's filter count is out of range"))? as usize + 1;
+        if n > MAX_FILTERS {
+            return Err(bad("a plane's filter count is out of range"));
+        }
+        let mut map = [0u8; CLASSES];
+        for m in map.iter_mut() {
+            let v = bits.get(index_width(n)).ok_or_else(past)? as usize;
+            if v > n {
+                return Err(bad("a class's filter is past the plane's filters"));
+            }
+            *m = v as u8;
+        }
+        (n, Some(map))
+    } else {
+        (1, None)
+    };
+    let mut filters = Vec::with_capacity(n);
+    for _ in 0..n {
+        let mut taps = Vec::with_capacity(shape(c).len());
+        for _ in 0..shape(c).len() {
+            // |tap| <= MAX_TAP needs at most 10 leading zeros.
+            let v = unzigzag(bits.exp_golomb(ORDER, 10).ok_or(bad("a tap is out of range or past the section"))?);
+            if v.abs() > MAX_TAP {
+                return Err(bad("a tap is out of range"));
+            }
+            taps.push(v);
+        }
+        filters.push(taps);
+    }
+    Ok(PlaneFilter { filters, classes })
 }
 
 #[derive(Default)]
@@ -304,7 +306,7 @@ mod tests {
             Restoration {
                 planes: vec![Some(PlaneFilter::single(vec![-MAX_TAP; 12]))],
                 colour: Some(ColourMap { rows: vec![vec![MAX_COEFFICIENT, -MAX_COEFFICIENT]] }),
-                last: Some(vec![MAX_TAP, -MAX_TAP, 0, 1, -1, 2, -2, 3, 30, -30, 300, -300]),
+                last: Some(PlaneFilter::single(vec![MAX_TAP, -MAX_TAP, 0, 1, -1, 2, -2, 3, 30, -30, 300, -300])),
             },
             Restoration {
                 planes: vec![None, Some(PlaneFilter::single(vec![3, -4, 5, -6, 7, 0])), None],
@@ -321,7 +323,10 @@ mod tests {
             Restoration {
                 planes: vec![None, None, None],
                 colour: None,
-                last: Some(vec![-5, 12, 3, 0, 0, 7, -1, 2, 2, 0, 9, -4]),
+                last: Some(PlaneFilter {
+                    filters: vec![vec![-5, 12, 3, 0, 0, 7, -1, 2, 2, 0, 9, -4], vec![1; 12]],
+                    classes: Some(std::array::from_fn(|k| (k % 3) as u8)),
+                }),
             },
             // Classified planes of one filter, of the most, and chroma classified too.
             Restoration {
@@ -344,7 +349,7 @@ mod tests {
             let bytes = write(&r);
             assert_eq!(parse(&bytes, r.planes.len()).unwrap(), r);
             let map = r.colour.as_ref().map_or(0, super::super::colour_map::map_bits);
-            let last = r.last.as_ref().map_or(0, |t| tap_bits_all(t));
+            let last = r.last.as_ref().map_or(0, plane_bits);
             assert_eq!(bytes.len() as u32, (payload_bits(&r.planes) + map + last).div_ceil(8));
         }
     }
