@@ -737,7 +737,7 @@ fn fit_post_filters(
                     return sums;
                 }
                 let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-                let restored = restored_rows(&filtered, &decoded, (wu, win.rows_held));
+                let restored = restored_rows(Some(&filtered), &decoded, (wu, win.rows_held));
                 let rect = TileRect {
                     x0: 0,
                     y0: (win.y0 + win.rows.start) as u32,
@@ -789,12 +789,7 @@ fn fit_post_filters(
         .par_iter()
         .map(|win| {
             let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-            let none = Restoration {
-                planes: Vec::new(),
-                colour: None,
-                last: None,
-            };
-            let restored = restored_rows(restoration.as_ref().unwrap_or(&none), &decoded, (wu, win.rows_held));
+            let restored = restored_rows(restoration.as_ref(), &decoded, (wu, win.rows_held));
             let top = if win.y0 + win.rows.start == 0 { 0 } else { win.rows.start.max(margin) };
             let bottom = if win.y0 + win.rows.end == hu { win.rows.end } else { win.rows.end.min(win.rows_held.saturating_sub(margin)) };
             let mut sums: [deringing::fit::Sums; 2] = Default::default();
@@ -847,17 +842,12 @@ fn fit_post_filters(
     let deringing = d.any().then_some(d);
     // The last luma filters, on the same rows deringed: what the deringing leaves that
     // linear filters take, by pixel class where that pays.
-    let none = Restoration {
-        planes: Vec::new(),
-        colour: None,
-        last: None,
-    };
     let stats: Vec<ClassStats> = windows
         .par_iter()
         .map(|win| {
             let mut stats = ClassStats::new(0);
             let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-            let restored = restored_rows(restoration.as_ref().unwrap_or(&none), &decoded, (wu, win.rows_held));
+            let restored = restored_rows(restoration.as_ref(), &decoded, (wu, win.rows_held));
             let at_top = |r: usize| win.y0 + r == 0;
             let at_bottom = |r: usize| win.y0 + r == hu;
             let top = if at_top(win.rows.start) { 0 } else { win.rows.start.max(margin) };
@@ -867,15 +857,15 @@ fn fit_post_filters(
             }
             // Deringed rows `top..bottom` of the window, then the sums on those the
             // last filter's reach from their edges (all of them at the image's).
-            let luma: std::borrow::Cow<[f32]> = match &deringing {
+            let luma: Vec<f32> = match &deringing {
                 Some(d) => {
                     let window: Vec<&[f32]> = restored.iter().map(|p| p.as_ref()).collect();
                     let mut out: Vec<Vec<f32>> = (0..planes).map(|_| vec![0.0f32; (bottom - top) * wu]).collect();
                     let mut parts: Vec<&mut [f32]> = out.iter_mut().map(Vec::as_mut_slice).collect();
                     d.filter_rows(&window, (wu, hu), win.y0, (1, 1), steps, win.y0 + top..win.y0 + bottom, &mut parts);
-                    std::borrow::Cow::Owned(out.swap_remove(0))
+                    out.swap_remove(0)
                 }
-                None => std::borrow::Cow::Owned(restored[0][top * wu..bottom * wu].to_vec()),
+                None => restored[0][top * wu..bottom * wu].to_vec(),
             };
             let first = if at_top(top) { 0 } else { reach };
             let last = if at_bottom(bottom) { bottom - top } else { (bottom - top).saturating_sub(reach) };
@@ -922,11 +912,11 @@ fn fit_post_filters(
 }
 
 /// The rows `decoded` (`w x rows` samples per colour plane) restored by `r`, or the
-/// decoded rows themselves if `r` does nothing.
-fn restored_rows<'a>(r: &Restoration, decoded: &[&'a [f32]], (w, rows): (usize, usize)) -> Vec<std::borrow::Cow<'a, [f32]>> {
-    if !r.any() {
+/// decoded rows themselves without restoration.
+fn restored_rows<'a>(r: Option<&Restoration>, decoded: &[&'a [f32]], (w, rows): (usize, usize)) -> Vec<std::borrow::Cow<'a, [f32]>> {
+    let Some(r) = r.filter(|r| r.any()) else {
         return decoded.iter().map(|&d| std::borrow::Cow::Borrowed(d)).collect();
-    }
+    };
     let n = decoded[0].len();
     let mut out: Vec<Vec<f32>> = decoded.iter().map(|_| vec![0.0f32; n]).collect();
     let mut parts: Vec<&mut [f32]> = out.iter_mut().map(Vec::as_mut_slice).collect();
@@ -1001,7 +991,11 @@ mod tests {
         assert!(flat.iter().all(|&i| exponent(i) <= 0), "{:?}", steps.field);
         assert!(busy.iter().all(|&i| exponent(i) > 0), "{:?}", steps.field);
         let mean = |set: &[usize]| set.iter().map(|&i| exponent(i) as f64).sum::<f64>() / set.len() as f64;
-        assert!(mean(&flat) < 0.0 && mean(&busy) - mean(&flat) > 1.5, "{:?}", steps.field);
+        // The busy half's variance is about 30 times the flat half's (floored), so the
+        // exponents (4 log2 of the step factor) differ by `4 strength log2 30` before
+        // rounding, normalising and settling the flat regions; at least half of it shows.
+        let strength = rate_control::detail_field(65.0).expect("a field at q65").strength;
+        assert!(mean(&flat) < 0.0 && mean(&busy) - mean(&flat) > 2.0 * strength * 30f64.log2(), "{:?}", steps.field);
         for i in 0..steps.field.len() {
             let class = steps.steps.factor(steps.classes[i]);
             assert_eq!(steps.factor(i), class * field::factor(exponent(i)));
