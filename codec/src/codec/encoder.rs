@@ -727,17 +727,28 @@ fn fit_post_filters(
         colour: None,
         last: None,
     };
+    // Each group restored by the filters once: the colour map's sums take it, then,
+    // mapped, the deringing's and the last filters'.
+    let mut restored_windows: Vec<Vec<Vec<f32>>> = windows
+        .par_iter()
+        .map(|win| {
+            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
+            restored_rows(Some(&filtered), &decoded, (wu, win.rows_held))
+                .into_iter()
+                .map(std::borrow::Cow::into_owned)
+                .collect()
+        })
+        .collect();
     // The colour map, on the rows the filters restored.
     let map = {
         let sums: Vec<ColourSums> = windows
             .par_iter()
-            .map(|win| {
+            .zip(&restored_windows)
+            .map(|(win, restored)| {
                 let mut sums = ColourSums::new(planes);
                 if win.rows.is_empty() {
                     return sums;
                 }
-                let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-                let restored = restored_rows(Some(&filtered), &decoded, (wu, win.rows_held));
                 let rect = TileRect {
                     x0: 0,
                     y0: (win.y0 + win.rows.start) as u32,
@@ -777,6 +788,20 @@ fn fit_post_filters(
     if !s.deringing {
         return Ok((restoration, None));
     }
+    match restoration.as_ref().map(|r| &r.colour) {
+        Some(Some(m)) => restored_windows.par_iter_mut().for_each(|planes| {
+            let mut parts: Vec<&mut [f32]> = planes.iter_mut().map(Vec::as_mut_slice).collect();
+            m.apply(&mut parts);
+        }),
+        Some(None) => {}
+        // Without the section the decoder sees the decoded rows themselves.
+        None => {
+            restored_windows = windows
+                .iter()
+                .map(|win| flat.iter().map(|p| p[win.slice.clone()].to_vec()).collect())
+                .collect()
+        }
+    }
     // The deringing's sums on the restored groups, rows far enough from a group's
     // edges that the restoration and the deringing both see what the decoder sees.
     let margin = reach + 2;
@@ -787,9 +812,8 @@ fn fit_post_filters(
     let stride = (seen / DERINGING_SAMPLES).max(1) | 1;
     let sums: Vec<[deringing::fit::Sums; 2]> = windows
         .par_iter()
-        .map(|win| {
-            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-            let restored = restored_rows(restoration.as_ref(), &decoded, (wu, win.rows_held));
+        .zip(&restored_windows)
+        .map(|(win, restored)| {
             let top = if win.y0 + win.rows.start == 0 { 0 } else { win.rows.start.max(margin) };
             let bottom = if win.y0 + win.rows.end == hu { win.rows.end } else { win.rows.end.min(win.rows_held.saturating_sub(margin)) };
             let mut sums: [deringing::fit::Sums; 2] = Default::default();
@@ -844,10 +868,9 @@ fn fit_post_filters(
     // linear filters take, by pixel class where that pays.
     let stats: Vec<ClassStats> = windows
         .par_iter()
-        .map(|win| {
+        .zip(&restored_windows)
+        .map(|(win, restored)| {
             let mut stats = ClassStats::new(0);
-            let decoded: Vec<&[f32]> = flat.iter().map(|p| &p[win.slice.clone()]).collect();
-            let restored = restored_rows(restoration.as_ref(), &decoded, (wu, win.rows_held));
             let at_top = |r: usize| win.y0 + r == 0;
             let at_bottom = |r: usize| win.y0 + r == hu;
             let top = if at_top(win.rows.start) { 0 } else { win.rows.start.max(margin) };
