@@ -326,32 +326,40 @@ fn choose_header(c: &mut Choices) -> Header {
             tilts: [c.byte(), c.byte()],
         }),
         restoration: c.bit().then(|| {
-            let mut planes: Vec<Option<PlaneFilter>> = (0..layout.colour_channels())
-                .map(|p| {
-                    c.bit().then(|| {
-                        let n = if c.bit() {
-                            1 + usize::from(c.byte()) % restoration::MAX_FILTERS
-                        } else {
-                            1
-                        };
-                        let filters = (0..n)
-                            .map(|_| {
-                                (0..restoration::shape(p).len())
-                                    .map(|_| (i32::from(c.byte()) - 128) * 7)
-                                    .collect()
-                            })
-                            .collect();
-                        let classes = (n > 1 || c.bit()).then(|| {
-                            std::array::from_fn(|_| (usize::from(c.byte()) % (n + 1)) as u8)
-                        });
-                        PlaneFilter { filters, classes }
+            let plane = |c: &mut Choices, p: usize| {
+                let n = if c.bit() {
+                    1 + usize::from(c.byte()) % restoration::MAX_FILTERS
+                } else {
+                    1
+                };
+                let filters = (0..n)
+                    .map(|_| {
+                        (0..restoration::shape(p).len())
+                            .map(|_| (i32::from(c.byte()) - 128) * 7)
+                            .collect()
                     })
-                })
-                .collect();
-            if planes.iter().all(Option::is_none) {
+                    .collect();
+                let classes = (n > 1 || c.bit()).then(|| {
+                    std::array::from_fn(|_| (usize::from(c.byte()) % (n + 1)) as u8)
+                });
+                PlaneFilter { filters, classes }
+            };
+            let colours = layout.colour_channels();
+            let mut planes: Vec<Option<PlaneFilter>> = Vec::with_capacity(colours);
+            for p in 0..colours {
+                let filtered = c.bit();
+                planes.push(filtered.then(|| plane(c, p)));
+            }
+            let colour = c.bit().then(|| restoration::colour_map::ColourMap {
+                rows: (0..colours)
+                    .map(|_| (0..=colours).map(|_| (i32::from(c.byte()) - 128) * 15).collect())
+                    .collect(),
+            });
+            let last = c.bit().then(|| plane(c, 0));
+            if planes.iter().all(Option::is_none) && colour.is_none() && last.is_none() {
                 planes[0] = Some(PlaneFilter::single(vec![0; restoration::shape(0).len()]));
             }
-            Restoration { planes }
+            Restoration { planes, colour, last }
         }),
         deringing: c.bit().then(|| {
             let mut strengths = || {
