@@ -96,7 +96,10 @@ fn kept_stages_lower_the_error(
             });
             let without = decode(&without, &DecodeOptions::default()).unwrap();
             let (p_with, p_without) = (psnr(img, &with).unwrap(), psnr(img, &without).unwrap());
-            assert!(p_with > p_without, "{name} q{q}: {p_with:.4} dB with the stage, {p_without:.4} dB without ({r:?})");
+            assert!(
+                p_with > p_without,
+                "{name} q{q}: {p_with:.4} dB with the stage, {p_without:.4} dB without ({r:?})"
+            );
         }
     }
     kept
@@ -104,24 +107,40 @@ fn kept_stages_lower_the_error(
 
 #[test]
 fn the_encoders_colour_map_lowers_the_error_where_it_is_kept() {
-    let images: Vec<(String, Raster)> = [1, 4, 9].map(|seed| (format!("natural {seed}"), natural(240, 160, seed))).into();
+    let images: Vec<(String, Raster)> = [1, 4, 9]
+        .map(|seed| (format!("natural {seed}"), natural(240, 160, seed)))
+        .into();
     let has = |r: &Restoration| {
         r.colour.as_ref().is_some_and(|m| {
             assert!(m.is_valid() && m.planes() == 3, "{m:?}");
             true
         })
     };
-    let mapped = kept_stages_lower_the_error(&images, &[15.0, 30.0, 50.0], has, |r| r.colour = None);
-    assert!(mapped > 0, "no natural image at any quality took a colour map");
+    let mapped =
+        kept_stages_lower_the_error(&images, &[15.0, 30.0, 50.0], has, |r| r.colour = None);
+    assert!(
+        mapped > 0,
+        "no natural image at any quality took a colour map"
+    );
 }
 
 #[test]
 fn the_encoders_last_filter_lowers_the_error_where_it_is_kept() {
     use caoen_corpus::Class;
-    let images: Vec<(String, Raster)> = [(Class::Scene, 1), (Class::Scene, 2), (Class::FlatEdges, 3), (Class::Natural, 4)]
-        .map(|(class, seed)| (format!("{class:?} {seed}"), corpus(class, 320, 240, seed)))
-        .into();
-    let kept = kept_stages_lower_the_error(&images, &[15.0, 30.0, 50.0, 70.0], |r| r.last.is_some(), |r| r.last = None);
+    let images: Vec<(String, Raster)> = [
+        (Class::Scene, 1),
+        (Class::Scene, 2),
+        (Class::FlatEdges, 3),
+        (Class::Natural, 4),
+    ]
+    .map(|(class, seed)| (format!("{class:?} {seed}"), corpus(class, 320, 240, seed)))
+    .into();
+    let kept = kept_stages_lower_the_error(
+        &images,
+        &[15.0, 30.0, 50.0, 70.0],
+        |r| r.last.is_some(),
+        |r| r.last = None,
+    );
     assert!(kept > 0, "no corpus image at any quality took last filters");
 }
 

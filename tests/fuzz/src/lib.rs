@@ -339,9 +339,8 @@ fn choose_header(c: &mut Choices) -> Header {
                             .collect()
                     })
                     .collect();
-                let classes = (n > 1 || c.bit()).then(|| {
-                    std::array::from_fn(|_| (usize::from(c.byte()) % (n + 1)) as u8)
-                });
+                let classes = (n > 1 || c.bit())
+                    .then(|| std::array::from_fn(|_| (usize::from(c.byte()) % (n + 1)) as u8));
                 PlaneFilter { filters, classes }
             };
             let colours = layout.colour_channels();
@@ -352,14 +351,22 @@ fn choose_header(c: &mut Choices) -> Header {
             }
             let colour = c.bit().then(|| restoration::colour_map::ColourMap {
                 rows: (0..colours)
-                    .map(|_| (0..=colours).map(|_| (i32::from(c.byte()) - 128) * 15).collect())
+                    .map(|_| {
+                        (0..=colours)
+                            .map(|_| (i32::from(c.byte()) - 128) * 15)
+                            .collect()
+                    })
                     .collect(),
             });
             let last = c.bit().then(|| plane(c, 0));
             if planes.iter().all(Option::is_none) && colour.is_none() && last.is_none() {
                 planes[0] = Some(PlaneFilter::single(vec![0; restoration::shape(0).len()]));
             }
-            Restoration { planes, colour, last }
+            Restoration {
+                planes,
+                colour,
+                last,
+            }
         }),
         deringing: c.bit().then(|| {
             let mut strengths = || {

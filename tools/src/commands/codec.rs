@@ -614,16 +614,25 @@ pub fn info(a: &InfoArgs) -> CliResult {
                     })
                 })
                 .collect();
-            let planes = if planes.is_empty() { "no filters".to_string() } else { planes.join(", ") };
+            let planes = if planes.is_empty() {
+                "no filters".to_string()
+            } else {
+                planes.join(", ")
+            };
             let map = match &r.colour {
                 Some(m) => format!(
                     "; colour map (largest change {:.4})",
-                    m.real().iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()))
+                    m.real()
+                        .iter()
+                        .flatten()
+                        .fold(0.0f64, |a, v| a.max(v.abs()))
                 ),
                 None => String::new(),
             };
             let last = match &r.last {
-                Some(f) if f.classes.is_some() => format!("; last luma filters ({} by pixel class)", f.filters.len()),
+                Some(f) if f.classes.is_some() => {
+                    format!("; last luma filters ({} by pixel class)", f.filters.len())
+                }
                 Some(_) => "; last luma filter".to_string(),
                 None => String::new(),
             };

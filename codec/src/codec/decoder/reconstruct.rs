@@ -10,10 +10,10 @@ use super::Decoded;
 use crate::codec::bitstream::{self, Header};
 use crate::codec::colour::{self, CodingPlanes};
 use crate::codec::deringing::{self, Deringing};
-use crate::codec::restoration::Restoration;
 use crate::codec::detail::DetailEval;
 use crate::codec::geometry::Frame;
 use crate::codec::keyset::{BandScratch, Grid, GridEval, KeySet, Vectorisation};
+use crate::codec::restoration::Restoration;
 use crate::codec::{CodecError, DecodeOptions};
 use crate::raster::Raster;
 
@@ -53,7 +53,11 @@ pub fn render_identity(d: &Decoded, ow: u32, oh: u32) -> CodingPlanes<f32> {
         );
     }
     if let Some(r) = &h.restoration {
-        r.apply_last(&mut colour[0], (ow as usize, oh as usize), spacing(h, ow, oh));
+        r.apply_last(
+            &mut colour[0],
+            (ow as usize, oh as usize),
+            spacing(h, ow, oh),
+        );
     }
     CodingPlanes {
         colour,
@@ -793,7 +797,11 @@ mod tests {
                     // A colour map after them: a gain, a cast and an offset in each plane.
                     colour: Some(ColourMap {
                         rows: (0..layout.colour_channels())
-                            .map(|c| (0..=layout.colour_channels()).map(|k| if k == c { 30 } else { 11 - 7 * k as i32 }).collect())
+                            .map(|c| {
+                                (0..=layout.colour_channels())
+                                    .map(|k| if k == c { 30 } else { 11 - 7 * k as i32 })
+                                    .collect()
+                            })
                             .collect(),
                     }),
                     // And last luma filters by pixel class after the deringing.

@@ -60,9 +60,9 @@ pub fn warp_decoded(d: &Decoded, warp: &Warp, s: u32) -> Result<Raster, TextureE
     // The deringing reads a direction block and two pixels past the rows it filters.
     let halo = restoration.map_or(0, |_| crate::codec::restoration::RADIUS)
         + deringing.map_or(0, |_| crate::codec::deringing::BLOCK + 2)
-        + restoration
-            .filter(|r| r.last.is_some())
-            .map_or(0, |_| crate::codec::restoration::Restoration::last_reach((lat.step, lat.step)));
+        + restoration.filter(|r| r.last.is_some()).map_or(0, |_| {
+            crate::codec::restoration::Restoration::last_reach((lat.step, lat.step))
+        });
     for band in (0..h).step_by(BAND) {
         let (y0, y1) = (band.saturating_sub(halo), (band + BAND + halo).min(h));
         let mut rows: Vec<Vec<f64>> = (y0..y1)
