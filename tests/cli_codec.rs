@@ -616,4 +616,28 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     ]);
     let j: serde_json::Value = serde_json::from_slice(&full.stdout).unwrap();
     assert_eq!(j["coded_width"], 130, "{j}");
+    // Any size in tenths per side: 0.7 of 130x90 is 91x63.
+    let seven = caoen(&[
+        "encode",
+        s(&png),
+        "-o",
+        s(&d.join("seven.cae")),
+        "-q",
+        "40",
+        "--resampling",
+        "0.7",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&seven.stdout).unwrap();
+    assert_eq!(
+        (&j["coded_width"], &j["coded_height"]),
+        (&91.into(), &63.into()),
+        "{j}"
+    );
+    for bad in ["0.75", "1.5", "0", "quarter"] {
+        let out = caoen(&["encode", s(&png), "-o", s(&d.join("bad.cae")), "--resampling", bad]);
+        assert_eq!(out.status.code(), Some(2), "--resampling {bad}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("tenths"), "--resampling {bad}");
+        assert!(!d.join("bad.cae").exists());
+    }
 }

@@ -50,7 +50,7 @@ pub mod texture;
 pub use codec::bitstream::{Header, Parsed};
 pub use codec::{
     decode, encode, encode_with_progress, inspect, CodecError as Error, DecodeOptions,
-    EncodeOptions, EncodeStats, Limits, PixelSource, RateTarget, Resampling,
+    EncodeOptions, EncodeStats, Limits, PixelSource, RateTarget, Resampling, Scale,
 };
 pub use image_io::{load, register_image_hooks, save, CaeDecoder, ImageIoError};
 pub use metadata::Metadata;

@@ -1,9 +1,10 @@
-//! Coding at half size: the header's display size, decoding at the image's size, the
-//! encoder's choice by rate and distortion, and the bounds a decoder enforces.
+//! Coding at a smaller size: the header's display size, decoding at the image's size,
+//! the encoder's choice by rate and distortion, and the bounds a decoder enforces.
 
 use caoen::codec::bitstream;
 use caoen::codec::{
-    decode, encode, encode_with_progress, DecodeOptions, EncodeOptions, Resampling, RESAMPLE_BELOW,
+    decode, encode, encode_with_progress, DecodeOptions, EncodeOptions, Resampling, Scale,
+    RESAMPLE_BELOW, RESAMPLE_SCALES,
 };
 use caoen::image_io;
 use caoen::raster::Raster;
@@ -44,7 +45,7 @@ fn squared_error(a: &Raster, b: &Raster) -> f64 {
 fn a_half_size_file_decodes_at_the_image_size() {
     let img = scene(161, 97, 3);
     let (bytes, stats) =
-        encode_with_progress(&img, &opts(60.0, Resampling::Half), |_, _| {}).unwrap();
+        encode_with_progress(&img, &opts(60.0, Resampling::At(Scale::HALF)), |_, _| {}).unwrap();
     assert_eq!(stats.coded_size, (81, 49));
     let h = bitstream::parse(&bytes, u64::MAX).unwrap().header;
     assert_eq!((h.width, h.height, h.display), (81, 49, Some((161, 97))));
@@ -70,7 +71,7 @@ fn a_half_size_file_decodes_at_the_image_size() {
 
 /// A half-size file's steps tilt by the image's frequencies (half the tilt per coded
 /// frequency of a file at the image's size) and carry the asked quality's activity
-/// field: none at q30, though the quality it is coded at (about q47) has one.
+/// field: none at q30, though the quality it is coded at (about q46) has one.
 #[test]
 fn a_half_size_file_is_shaped_by_the_image_and_the_asked_quality() {
     let img = scene(192, 128, 2);
@@ -80,7 +81,7 @@ fn a_half_size_file_is_shaped_by_the_image_and_the_asked_quality() {
     };
     let field = |h: &bitstream::Header| h.adaptive.and_then(|a| a.field());
     for q in [30.0, 50.0] {
-        let (full, half) = (header(q, Resampling::Off), header(q, Resampling::Half));
+        let (full, half) = (header(q, Resampling::Off), header(q, Resampling::At(Scale::HALF)));
         assert_eq!(half.display, Some((192, 128)));
         let tilts = full.weights.expect("tilted steps").tilts;
         assert_eq!(
@@ -90,41 +91,56 @@ fn a_half_size_file_is_shaped_by_the_image_and_the_asked_quality() {
         );
         assert_eq!(field(&half), field(&full), "q{q}");
     }
-    assert_eq!(field(&header(30.0, Resampling::Half)), None);
-    assert!(field(&header(50.0, Resampling::Half)).is_some());
+    assert_eq!(field(&header(30.0, Resampling::At(Scale::HALF))), None);
+    assert!(field(&header(50.0, Resampling::At(Scale::HALF))).is_some());
 }
 
 #[test]
-fn auto_keeps_the_cheaper_of_the_two_by_its_rule() {
-    // The rule: half size when its PSNR change plus 1.5 dB per doubling of the rate
-    // it saves is positive. Check it against files coded both ways.
+fn a_file_at_seven_tenths_decodes_at_the_image_size() {
+    let img = scene(161, 97, 3);
+    let seven = Scale::new(7).unwrap();
+    let (bytes, stats) =
+        encode_with_progress(&img, &opts(50.0, Resampling::At(seven)), |_, _| {}).unwrap();
+    // Each side rounded up: 112.7 and 67.9.
+    assert_eq!(stats.coded_size, (113, 68));
+    let h = bitstream::parse(&bytes, u64::MAX).unwrap().header;
+    assert_eq!((h.width, h.height, h.display), (113, 68, Some((161, 97))));
+    let out = decode(&bytes, &DecodeOptions::default()).unwrap();
+    assert_eq!((out.width(), out.height()), (161, 97));
+    let psnr = -10.0 * (squared_error(&img, &out) / img.samples().len() as f64).log10();
+    assert!(psnr > 22.0, "PSNR {psnr:.2}");
+    assert_eq!(Scale::new(0), None);
+    assert_eq!(Scale::new(11), None);
+}
+
+#[test]
+fn auto_keeps_the_best_of_the_sizes_by_its_rule() {
+    // The rule: each smaller size tried at the quality scores its PSNR change plus 1.5
+    // dB per doubling of the rate it saves against the full-size file; the best
+    // positive score is kept, else the full-size file. Check it against files coded
+    // at every size.
     let mut chosen = Vec::new();
-    for (seed, quality) in [(1, 20.0), (5, 40.0), (4, 50.0)] {
+    for (seed, quality) in [(1, 20.0), (5, 40.0), (4, 50.0), (2, 58.0)] {
         let img = scene(192, 128, seed);
         let full = encode(&img, &opts(quality, Resampling::Off)).unwrap();
         let auto = encode(&img, &opts(quality, Resampling::Auto)).unwrap();
-        let chose_half = bitstream::parse(&auto, u64::MAX)
-            .unwrap()
-            .header
-            .display
-            .is_some();
         let error = |b: &[u8]| squared_error(&img, &decode(b, &DecodeOptions::default()).unwrap());
-        let half = encode(&img, &opts(quality, Resampling::Half)).unwrap();
-        let gain = 10.0 * (error(&full) / error(&half)).log10();
-        let doublings = (full.len() as f64 / half.len() as f64).log2();
-        let want_half = gain + 1.5 * doublings > 0.0;
-        assert_eq!(
-            chose_half, want_half,
-            "seed {seed} q {quality}: gain {gain:.3} dB, {doublings:.3} doublings"
-        );
-        assert_eq!(auto, if want_half { half } else { full });
-        chosen.push(want_half);
+        let e_full = error(&full);
+        let mut want = (0.0, full.clone(), 10);
+        for r in RESAMPLE_SCALES.iter().filter(|r| quality < r.below) {
+            let small = encode(&img, &opts(quality, Resampling::At(r.scale))).unwrap();
+            let gain = 10.0 * (e_full / error(&small)).log10();
+            let doublings = (full.len() as f64 / small.len() as f64).log2();
+            let score = gain + 1.5 * doublings;
+            if score > want.0 {
+                want = (score, small, r.scale.tenths());
+            }
+        }
+        assert!(auto == want.1, "seed {seed} q {quality}: want tenths {}", want.2);
+        chosen.push(want.2);
     }
-    // The cases reach both sides of the rule.
-    assert!(
-        chosen.contains(&true) && chosen.contains(&false),
-        "{chosen:?}"
-    );
+    // The cases reach the image's size and a smaller one.
+    assert!(chosen.contains(&10) && chosen.iter().any(|&t| t < 10), "{chosen:?}");
 }
 
 #[test]
@@ -185,7 +201,7 @@ fn half_size_of_a_line_or_a_pixel() {
         )
         .unwrap();
         let (bytes, stats) =
-            encode_with_progress(&img, &opts(30.0, Resampling::Half), |_, _| {}).unwrap();
+            encode_with_progress(&img, &opts(30.0, Resampling::At(Scale::HALF)), |_, _| {}).unwrap();
         assert_eq!(stats.coded_size, coded);
         let out = decode(&bytes, &DecodeOptions::default()).unwrap();
         assert_eq!((out.width(), out.height()), (w, h));
@@ -195,7 +211,7 @@ fn half_size_of_a_line_or_a_pixel() {
 #[test]
 fn the_decoder_checks_the_display_size() {
     let img = scene(96, 80, 8);
-    let bytes = encode(&img, &opts(60.0, Resampling::Half)).unwrap();
+    let bytes = encode(&img, &opts(60.0, Resampling::At(Scale::HALF))).unwrap();
     let parsed = bitstream::parse(&bytes, u64::MAX).unwrap();
     let h0 = parsed.header.clone();
     // The file again with another display size: the header's own checks, behind a
@@ -252,9 +268,9 @@ fn rate_targets_land_where_the_size_changes() {
         );
         sizes.push(stats.coded_size);
     }
-    // The targets reach both sizes.
+    // The targets reach the image's size and a smaller one.
     assert!(
-        sizes.contains(&(128, 96)) && sizes.contains(&(256, 192)),
+        sizes.contains(&(256, 192)) && sizes.iter().any(|&(w, _)| w < 256),
         "{sizes:?}"
     );
 }

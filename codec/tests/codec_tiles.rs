@@ -7,7 +7,7 @@ use caoen::codec::bitstream::{self, tag};
 use caoen::codec::tiling::Tiling;
 use caoen::codec::{
     decode, encode, encode_memory, inspect, CodecError, DecodeOptions, EncodeOptions, Limits,
-    Resampling,
+    Resampling, Scale,
 };
 use caoen::image_io::{self, EncodeSource};
 use caoen::raster::Raster;
@@ -349,7 +349,7 @@ fn deringing_is_chosen_where_it_lowers_the_error_at_the_coded_size_and_at_twice_
     let img = image_io::from_dynamic(natural(1100, 600)).unwrap();
     // At full size, and coded at half size to be decoded at twice that (its taps and
     // blocks scaled by 2).
-    for (quality, resampling) in [(30.0, Resampling::Off), (20.0, Resampling::Half)] {
+    for (quality, resampling) in [(30.0, Resampling::Off), (20.0, Resampling::At(Scale::HALF))] {
         let opts = EncodeOptions {
             quality,
             resampling,

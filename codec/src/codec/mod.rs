@@ -68,6 +68,7 @@ stages! {
 }
 
 pub use colour::ColourBasis;
+pub use resample::Scale;
 pub use error::{CodecError, Tag};
 pub use quadtree::Cell;
 pub use source::PixelSource;
@@ -131,26 +132,59 @@ pub struct EncodeOptions {
 /// spends the bits on the frequencies that carry the most.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Resampling {
-    /// At half size per side where that pays by rate and distortion: tried below
-    /// quality [`RESAMPLE_BELOW`] from effort 3, on 8- and 16-bit images of at least
-    /// [`RESAMPLE_MIN_SIDE`] pixels per side.
+    /// At a smaller size where that pays by rate and distortion: each of
+    /// [`RESAMPLE_SCALES`] tried below its quality from its effort, on 8- and 16-bit
+    /// images of at least [`RESAMPLE_MIN_SIDE`] pixels per side.
     #[default]
     Auto,
     /// Always at the image's own size.
     Off,
-    /// Always at half size per side.
-    Half,
+    /// Always at this size ([`Scale::HALF`]: half size per side); an image too small
+    /// to get smaller keeps its size.
+    At(Scale),
 }
 
-/// [`Resampling::Auto`] tries half size only below this quality: above it, half size
-/// did not pay on the photographs (`docs/codec-ablation.md`, "Coding at half size").
-pub const RESAMPLE_BELOW: f32 = 55.0;
+/// A smaller size [`Resampling::Auto`] tries: the coded side over the image's, and
+/// from which effort and below which quality it is tried.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ResampleScale {
+    /// The coded size.
+    pub scale: resample::Scale,
+    /// Lowest effort that tries it.
+    pub from_effort: u8,
+    /// Qualities below this try it.
+    pub below: f32,
+}
+
+/// The smaller sizes [`Resampling::Auto`] tries, the coarsest first. Half size pays
+/// most below 0.1 bpp; 0.7 and 0.8 per side pay where half size is too coarse, up to
+/// about 0.3 bpp on the photographs; above quality 60 none paid
+/// (`docs/codec-ablation.md`, "Coding at a smaller size").
+pub const RESAMPLE_SCALES: [ResampleScale; 3] = [
+    ResampleScale {
+        scale: resample::Scale::HALF,
+        from_effort: 3,
+        below: 55.0,
+    },
+    ResampleScale {
+        scale: resample::Scale::of_tenths(7),
+        from_effort: 5,
+        below: 60.0,
+    },
+    ResampleScale {
+        scale: resample::Scale::of_tenths(8),
+        from_effort: 5,
+        below: 60.0,
+    },
+];
+/// [`Resampling::Auto`] codes every image at its own size from this quality up.
+pub const RESAMPLE_BELOW: f32 = 60.0;
 /// [`Resampling::Auto`] leaves images smaller than this on either side at their size.
 pub const RESAMPLE_MIN_SIDE: u32 = 64;
-/// PSNR (dB) per doubling of rate that [`Resampling::Auto`] weighs a half-size file's
+/// PSNR (dB) per doubling of rate that [`Resampling::Auto`] weighs a smaller file's
 /// change of PSNR against its change of rate. Below the curve's own slope (2-3 dB
-/// per doubling there): a half-size file must win clearly, as sparse choices cost
-/// more than they gain (`docs/codec-ablation.md`, "Coding at half size").
+/// per doubling there): a smaller file must win clearly, as sparse choices cost
+/// more than they gain (`docs/codec-ablation.md`, "Coding at a smaller size").
 const RESAMPLE_SLOPE: f64 = 1.5;
 
 /// Statistics of one encode.
@@ -329,47 +363,58 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
         opts,
         settings: &settings,
         workers,
-        small: std::sync::OnceLock::new(),
     };
     let Some(target) = target else {
         return coder.encode(opts.quality, &mut progress);
     };
     // Rate targets search the quality at each size on its own (the rate jumps where
-    // the choice of size changes), then choose between the two files by the same rule.
+    // the choice of size changes), then choose among the files by the same rule.
     let steps = 6 + opts.effort as usize;
-    let total = if opts.resampling == Resampling::Auto {
-        2 * steps + 2
-    } else {
-        steps + 1
+    let full_size = || match opts.resampling {
+        Resampling::At(scale) if scale.coded_size(image.width(), image.height()) != (image.width(), image.height()) => {
+            Some(scale)
+        }
+        _ => None,
     };
     let mut done = 0;
-    let mut search = |half: bool, progress: &mut dyn FnMut(usize, usize)| {
+    let mut search = |scale: Option<(resample::Scale, &Raster)>, total: usize, progress: &mut dyn FnMut(usize, usize)| {
         rate_control::search_quality(target, 0.02, steps, |q| {
             done += 1;
             progress(done, total);
-            Ok(coder.sized(q, half, &mut |_, _| {})?.0.len())
+            Ok(coder.sized(q, scale, &mut |_, _| {})?.0.len())
         })
         .map(|(q, _)| q)
     };
-    let out = match opts.resampling {
-        Resampling::Off | Resampling::Half => {
-            let half = opts.resampling == Resampling::Half && coder.can_halve();
-            let q = search(half, &mut progress)?;
-            coder.sized(q, half, &mut |_, _| {})?
+    let first_total = if opts.resampling == Resampling::Auto {
+        (RESAMPLE_SCALES.len() + 1) * steps + 1
+    } else {
+        steps + 1
+    };
+    let first = match full_size() {
+        Some(scale) => {
+            let small = coder.smaller(scale);
+            let q = search(Some((scale, &small)), first_total, &mut progress)?;
+            coder.sized(q, Some((scale, &small)), &mut |_, _| {})?
         }
-        Resampling::Auto => {
-            let q = search(false, &mut progress)?;
-            let full = coder.sized(q, false, &mut |_, _| {})?;
-            if coder.tries_half(q) {
-                let qh = search(true, &mut progress)?;
-                coder.better(full, qh)?
-            } else {
+        None => {
+            let q = search(None, first_total, &mut progress)?;
+            let full = coder.sized(q, None, &mut |_, _| {})?;
+            let tried = coder.scales(q);
+            if tried.is_empty() {
                 full
+            } else {
+                let mut chooser = coder.chooser(full)?;
+                for scale in tried {
+                    let small = coder.smaller(scale);
+                    let qs = search(Some((scale, &small)), first_total, &mut progress)?;
+                    chooser.offer(coder.sized(qs, Some((scale, &small)), &mut |_, _| {})?)?;
+                }
+                chooser.best
             }
         }
     };
-    progress(total, total);
-    Ok(out)
+    progress(first_total, first_total);
+    Ok(first)
 }
 
 /// What every encode of one call shares: the image, the options, the settings per
@@ -379,121 +424,164 @@ struct Coder<'a, S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSett
     opts: &'a EncodeOptions,
     settings: &'a F,
     workers: usize,
-    /// The image at half size, made once for every half-size encode of the call.
-    small: std::sync::OnceLock<Raster>,
 }
 
 impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<'_, S, F> {
-    /// The size half size codes the image at.
-    fn half_size(&self) -> (u32, u32) {
-        resample::coded_size(self.image.width(), self.image.height(), 2)
+    /// The image at `scale` of its size.
+    fn smaller(&self, scale: resample::Scale) -> Raster {
+        resample::downscale(self.image, scale.coded_size(self.image.width(), self.image.height()))
     }
 
-    /// Whether the image has a smaller size (a 1x1 image has none).
-    fn can_halve(&self) -> bool {
-        self.half_size() != (self.image.width(), self.image.height())
-    }
-
-    /// Codes the image at quality `q`, at half size or its own. Half size is coded at
-    /// [`rate_control::half_size_quality`], whose rate-distortion slope at the image's
-    /// size is `q`'s, shaped by [`rate_control::at_half_size`].
+    /// Codes the image at quality `q`, at its own size or at a smaller one from its
+    /// downscaled source. A smaller size is coded at [`rate_control::scaled_quality`],
+    /// whose rate-distortion slope at the image's size is `q`'s, shaped by
+    /// [`rate_control::at_scale`].
     fn sized(
         &self,
         q: f32,
-        half: bool,
+        at: Option<(resample::Scale, &Raster)>,
         progress: &mut (dyn FnMut(usize, usize) + Send),
     ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
         let (image, md) = (self.image, &self.opts.metadata);
-        if !half {
+        let Some((scale, small)) = at else {
             return encoder::encode_with(image, &(self.settings)(q), md, self.workers, progress);
-        }
-        let small = self
-            .small
-            .get_or_init(|| resample::downscale(image, self.half_size()));
+        };
+        let f = scale.factor();
         let s = rate_control::EncodeSettings {
             display: Some((image.width(), image.height())),
-            ..rate_control::at_half_size((self.settings)(rate_control::half_size_quality(q)), q)
+            ..rate_control::at_scale((self.settings)(rate_control::scaled_quality(q, f)), q, f)
         };
         encoder::encode_with(small, &s, md, self.workers, progress)
     }
 
-    /// Codes the image at quality `q` at its own size or at half size, as
-    /// `opts.resampling` asks or, for [`Resampling::Auto`], as [`Self::better`] finds.
+    /// Codes the image at quality `q` at its own size or a smaller one, as
+    /// `opts.resampling` asks or, for [`Resampling::Auto`], as [`Chooser`] finds.
     fn encode(
         &self,
         q: f32,
         progress: &mut (dyn FnMut(usize, usize) + Send),
     ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+        let (w, h) = (self.image.width(), self.image.height());
         match self.opts.resampling {
-            Resampling::Off => self.sized(q, false, progress),
-            Resampling::Half => self.sized(q, self.can_halve(), progress),
+            Resampling::Off => self.sized(q, None, progress),
+            Resampling::At(scale) if scale.coded_size(w, h) != (w, h) => {
+                let small = self.smaller(scale);
+                self.sized(q, Some((scale, &small)), progress)
+            }
+            Resampling::At(_) => self.sized(q, None, progress),
             Resampling::Auto => {
-                let full = self.sized(q, false, progress)?;
-                if self.tries_half(q) {
-                    self.better(full, q)
-                } else {
-                    Ok(full)
+                let full = self.sized(q, None, progress)?;
+                let tried = self.scales(q);
+                if tried.is_empty() {
+                    return Ok(full);
                 }
+                let mut chooser = self.chooser(full)?;
+                for scale in tried {
+                    // One smaller source at a time: it is dropped once coded.
+                    let small = self.smaller(scale);
+                    chooser.offer(self.sized(q, Some((scale, &small)), &mut |_, _| {})?)?;
+                }
+                Ok(chooser.best)
             }
         }
     }
 
-    /// Whether [`Resampling::Auto`] tries half size at quality `q`: below
-    /// [`RESAMPLE_BELOW`] from effort 3 (efforts 1 and 2 spend no second encode, as they
-    /// fit no restoration filters), on 8- and 16-bit images of at least
+    /// The smaller sizes [`Resampling::Auto`] tries at quality `q`: those of
+    /// [`RESAMPLE_SCALES`] for `q` and the effort, on 8- and 16-bit images of at least
     /// [`RESAMPLE_MIN_SIDE`] pixels a side, where the trial fits the memory budget.
-    fn tries_half(&self, q: f32) -> bool {
+    /// Efforts 1 and 2 try none: built for speed, they fit no restoration filters.
+    fn scales(&self, q: f32) -> Vec<resample::Scale> {
         let (w, h) = (self.image.width(), self.image.height());
-        if !(self.opts.effort >= 3
-            && q < RESAMPLE_BELOW
-            && w.min(h) >= RESAMPLE_MIN_SIDE
-            && self.image.format() != crate::raster::SampleFormat::F32)
-        {
-            return false;
+        if w.min(h) < RESAMPLE_MIN_SIDE || self.image.format() == crate::raster::SampleFormat::F32 {
+            return Vec::new();
         }
-        // The trial holds the small source and its encode, then one decode at a time
-        // beside the two files (at most 2 bytes per pixel each).
-        let channels = self.image.layout().channels();
-        let (hw, hh) = self.half_size();
-        let coding =
-            encode_memory(hw, hh, rate_control::half_size_quality(q)).need(self.workers as u64);
-        let decoding = crate::budget::bytes(w.into(), h.into(), 8 * channels as u64 + 8)
-            .saturating_add(16 << 20);
-        let trial = resample::downscale_memory(w, h, channels, (hw, hh))
-            .saturating_add(coding.max(decoding))
-            .saturating_add(crate::budget::bytes(w.into(), h.into(), 4));
-        self.opts.limits.check(String::new, trial).is_ok()
+        RESAMPLE_SCALES
+            .iter()
+            .filter(|r| self.opts.effort >= r.from_effort && q < r.below)
+            .map(|r| r.scale)
+            .filter(|&scale| {
+                // The trial holds the small source and its encode, then one decode at a
+                // time beside the two files kept (at most 2 bytes per pixel each).
+                let channels = self.image.layout().channels();
+                let (sw, sh) = scale.coded_size(w, h);
+                let coding = encode_memory(sw, sh, rate_control::scaled_quality(q, scale.factor()))
+                    .need(self.workers as u64);
+                let decoding = crate::budget::bytes(w.into(), h.into(), 8 * channels as u64 + 8)
+                    .saturating_add(16 << 20);
+                let trial = resample::downscale_memory(w, h, channels, (sw, sh))
+                    .saturating_add(coding.max(decoding))
+                    .saturating_add(crate::budget::bytes(w.into(), h.into(), 4));
+                self.opts.limits.check(String::new, trial).is_ok()
+            })
+            .collect()
     }
 
-    /// The image coded at half size at quality `q`, where that pays against `full`: both
-    /// are decoded at the image's size, and half size is kept when its change of PSNR
-    /// plus [`RESAMPLE_SLOPE`] dB per doubling of rate it saves is positive.
-    fn better(
-        &self,
-        full: (Vec<u8>, EncodeStats),
-        q: f32,
-    ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
-        let small = self.sized(q, true, &mut |_, _| {})?;
-        let error = |bytes: &[u8]| -> Result<f64, CodecError> {
-            let opts = DecodeOptions {
-                limits: self.opts.limits,
-                ..DecodeOptions::default()
-            };
-            Ok(squared_error(self.image, &decode(bytes, &opts)?))
+    /// A [`Chooser`] starting from the file at the image's size.
+    fn chooser(&self, full: (Vec<u8>, EncodeStats)) -> Result<Chooser<'_, S>, CodecError> {
+        let mut c = Chooser {
+            image: self.image,
+            limits: self.opts.limits,
+            full_error: 0.0,
+            full_len: full.0.len() as f64,
+            best_score: 0.0,
+            best: full,
+            spent: false,
         };
-        let (e_full, e_half) = match (error(&full.0), error(&small.0)) {
-            (Ok(a), Ok(b)) => (a, b),
-            // The estimate fell short: the trial is optional, the full-size file stands.
-            (Err(CodecError::Memory(_)), _) | (_, Err(CodecError::Memory(_))) => return Ok(full),
-            (Err(e), _) | (_, Err(e)) => return Err(e),
+        match c.error(&c.best.0) {
+            Ok(e) => c.full_error = e,
+            // The estimate fell short: the trials are optional, the full-size file stands.
+            Err(CodecError::Memory(_)) => c.spent = true,
+            Err(e) => return Err(e),
+        }
+        Ok(c)
+    }
+}
+
+/// Keeps the best of the files offered for one quality: each is decoded at the image's
+/// size and scored by its change of PSNR against the full-size file plus
+/// [`RESAMPLE_SLOPE`] dB per doubling of rate it saves; a smaller file is kept when its
+/// score is positive and the highest.
+struct Chooser<'a, S: PixelSource + ?Sized> {
+    image: &'a S,
+    limits: Limits,
+    full_error: f64,
+    full_len: f64,
+    best_score: f64,
+    /// The file kept so far.
+    best: (Vec<u8>, EncodeStats),
+    /// A decode did not fit the budget: the file kept stands.
+    spent: bool,
+}
+
+impl<S: PixelSource + ?Sized> Chooser<'_, S> {
+    fn error(&self, bytes: &[u8]) -> Result<f64, CodecError> {
+        let opts = DecodeOptions {
+            limits: self.limits,
+            ..DecodeOptions::default()
         };
-        let psnr_gain = 10.0 * (e_full.max(1e-30) / e_half.max(1e-30)).log10();
-        let doublings = (full.0.len() as f64 / small.0.len() as f64).log2();
-        Ok(if psnr_gain + RESAMPLE_SLOPE * doublings > 0.0 {
-            small
-        } else {
-            full
-        })
+        Ok(squared_error(self.image, &decode(bytes, &opts)?))
+    }
+
+    fn offer(&mut self, file: (Vec<u8>, EncodeStats)) -> Result<(), CodecError> {
+        if self.spent {
+            return Ok(());
+        }
+        let e = match self.error(&file.0) {
+            Ok(e) => e,
+            Err(CodecError::Memory(_)) => {
+                self.spent = true;
+                return Ok(());
+            }
+            Err(e) => return Err(e),
+        };
+        let psnr_gain = 10.0 * (self.full_error.max(1e-30) / e.max(1e-30)).log10();
+        let doublings = (self.full_len / file.0.len() as f64).log2();
+        let score = psnr_gain + RESAMPLE_SLOPE * doublings;
+        if score > self.best_score {
+            self.best_score = score;
+            self.best = file;
+        }
+        Ok(())
     }
 }
 

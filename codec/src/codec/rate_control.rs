@@ -258,32 +258,34 @@ pub fn min_cell_log2(q: f32) -> u8 {
 
 /// The detail layer's luma step at quality `q` (0..=100).
 fn detail_step(q: f64) -> f64 {
-    // `half_size_quality` inverts this exponent.
+    // `scaled_quality` inverts this exponent.
     DETAIL_STEP_0 * 10f64.powf(-q * (0.0003 + 0.000245 * q))
 }
 
-/// The quality to code an image at half size per side for quality `q`: the one whose
-/// detail step is half `q`'s. A coded pixel's error spreads over four of the image's,
-/// so that keeps the rate-distortion slope of `q`'s steps (the steps' squares are the
-/// encoder's Lagrange multipliers) at the image's size.
-pub fn half_size_quality(q: f32) -> f32 {
-    // Solves 0.000245 x^2 + 0.0003 x = f(q) + log10 2 for the exponent f of `detail_step`.
+/// The quality to code an image at `scale` of its size per side for quality `q`: the
+/// one whose detail step is `scale` times `q`'s. A coded pixel's error spreads over
+/// `1 / scale^2` of the image's, so that keeps the rate-distortion slope of `q`'s steps
+/// (the steps' squares are the encoder's Lagrange multipliers) at the image's size.
+pub fn scaled_quality(q: f32, scale: f64) -> f32 {
+    // Solves 0.000245 x^2 + 0.0003 x = f(q) - log10 scale for the exponent f of
+    // `detail_step`.
     let q = f64::from(q.clamp(0.0, 100.0));
     let (a, b) = (0.000245, 0.0003);
-    let c = q * (b + a * q) + std::f64::consts::LOG10_2;
+    let c = q * (b + a * q) - scale.log10();
     (((b * b + 4.0 * a * c).sqrt() - b) / (2.0 * a)).min(100.0) as f32
 }
 
-/// Settings `s`, made for [`half_size_quality`]`(q)`, for coding the image at half size
-/// per side for quality `q`: the steps stay `s`'s, and what shapes them for the
-/// structural metrics follows the image rather than the coded size. The frequency
-/// tilts halve, since a coded frequency is half the image's (the tilt is per cycle per
-/// 16 pixels). The activity field takes `q`'s strength, the one set for the rates the
-/// file serves: none below [`FIELD_FROM_QUALITY`], where the structural metrics are
-/// ahead without one. Measured in `docs/codec-ablation.md`, "Coding at half size".
-pub fn at_half_size(mut s: EncodeSettings, q: f32) -> EncodeSettings {
+/// Settings `s`, made for [`scaled_quality`]`(q, scale)`, for coding the image at
+/// `scale` of its size per side for quality `q`: the steps stay `s`'s, and what shapes
+/// them for the structural metrics follows the image rather than the coded size. The
+/// frequency tilts scale with the size, since a coded frequency is `scale` times the
+/// image's (the tilt is per cycle per 16 pixels). The activity field takes `q`'s
+/// strength, the one set for the rates the file serves: none below
+/// [`FIELD_FROM_QUALITY`], where the structural metrics are ahead without one. Measured
+/// in `docs/codec-ablation.md`, "Coding at a smaller size".
+pub fn at_scale(mut s: EncodeSettings, q: f32, scale: f64) -> EncodeSettings {
     s.detail_weights = s.detail_weights.and_then(|w| {
-        let tilts = w.tilts.map(|t| t / 2);
+        let tilts = w.tilts.map(|t| (f64::from(t) * scale).round() as u8);
         (tilts != [0, 0]).then_some(FrequencyWeights { tilts })
     });
     if s.detail_field.is_some() {
@@ -500,29 +502,34 @@ mod tests {
     }
 
     #[test]
-    fn half_size_keeps_the_finer_steps_and_shapes_them_by_the_image_and_the_asked_quality() {
-        for q in [20.0f32, 30.0, 45.0, 50.0] {
-            let hq = half_size_quality(q);
-            let (own, half) = (settings(hq, 5, None), at_half_size(settings(hq, 5, None), q));
-            // Half the asked quality's detail step, as the slope argument sets it.
-            assert!((detail_step(hq.into()) / detail_step(q.into()) - 0.5).abs() < 1e-6, "{q}");
-            assert_eq!(
-                (half.detail_step_luma, half.detail_step_chroma, half.step_luma, half.model.split_threshold),
-                (own.detail_step_luma, own.detail_step_chroma, own.step_luma, own.model.split_threshold)
-            );
-            assert_eq!(half.detail_weights.map(|w| w.tilts), Some(DETAIL_WEIGHTS.tilts.map(|t| t / 2)), "{q}");
-            assert_eq!(half.detail_field, detail_field(q.into()), "{q}");
+    fn a_smaller_size_keeps_the_finer_steps_and_shapes_them_by_the_image_and_the_asked_quality() {
+        for (scale, tilts) in [(0.5, [4u8, 16]), (0.7, [6, 22]), (0.8, [6, 26])] {
+            for q in [20.0f32, 30.0, 45.0, 50.0, 58.0] {
+                let sq = scaled_quality(q, scale);
+                let (own, small) = (settings(sq, 5, None), at_scale(settings(sq, 5, None), q, scale));
+                // `scale` times the asked quality's detail step, as the slope argument sets it.
+                assert!((detail_step(sq.into()) / detail_step(q.into()) - scale).abs() < 1e-6, "{q}");
+                assert_eq!(
+                    (small.detail_step_luma, small.detail_step_chroma, small.step_luma, small.model.split_threshold),
+                    (own.detail_step_luma, own.detail_step_chroma, own.step_luma, own.model.split_threshold)
+                );
+                // The image's tilts (8 and 32) per coded frequency.
+                assert_eq!(small.detail_weights.map(|w| w.tilts), Some(tilts), "{scale} {q}");
+                assert_eq!(small.detail_field, detail_field(q.into()), "{q}");
+            }
         }
-        // q30 codes at about q47, which would have a field: half size takes none.
-        assert!(settings(half_size_quality(30.0), 5, None).detail_field.is_some());
-        assert_eq!(at_half_size(settings(half_size_quality(30.0), 5, None), 30.0).detail_field, None);
+        // Half size at q30 codes at about q46, which would have a field: it takes none.
+        let hq = scaled_quality(30.0, 0.5);
+        assert!((hq - 45.93).abs() < 0.01, "{hq}");
+        assert!(settings(hq, 5, None).detail_field.is_some());
+        assert_eq!(at_scale(settings(hq, 5, None), 30.0, 0.5).detail_field, None);
         // What the caller turned off stays off.
         let plain = EncodeSettings {
             detail_field: None,
             detail_weights: None,
-            ..settings(half_size_quality(50.0), 5, None)
+            ..settings(scaled_quality(50.0, 0.5), 5, None)
         };
-        let half = at_half_size(plain, 50.0);
+        let half = at_scale(plain, 50.0, 0.5);
         assert_eq!((half.detail_field, half.detail_weights), (None, None));
     }
 }

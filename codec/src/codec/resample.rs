@@ -10,9 +10,48 @@ use rayon::prelude::*;
 /// Source rows read at once by the horizontal pass.
 const STRIP_ROWS: u32 = 64;
 
-/// The coded size of a `width x height` image coded at `1/factor` of it per side.
-pub fn coded_size(width: u32, height: u32, factor: u32) -> (u32, u32) {
-    (width.div_ceil(factor), height.div_ceil(factor))
+/// A coded size relative to the image's: `tenths / 10` of each side, rounded up.
+/// Tenths keep the sizes exact integers on every machine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Scale {
+    /// The coded side over the image's, in tenths (1..=10).
+    tenths: u32,
+}
+
+impl Scale {
+    /// Half size per side.
+    pub const HALF: Scale = Scale { tenths: 5 };
+
+    /// `tenths / 10`, for `tenths` in 1..=10.
+    pub const fn new(tenths: u32) -> Option<Scale> {
+        if tenths >= 1 && tenths <= 10 {
+            Some(Scale { tenths })
+        } else {
+            None
+        }
+    }
+
+    /// `tenths / 10` of a constant in 1..=10.
+    pub(crate) const fn of_tenths(tenths: u32) -> Scale {
+        assert!(tenths >= 1 && tenths <= 10);
+        Scale { tenths }
+    }
+
+    /// The coded side over the image's, in tenths.
+    pub fn tenths(self) -> u32 {
+        self.tenths
+    }
+
+    /// The coded side over the image's.
+    pub fn factor(self) -> f64 {
+        f64::from(self.tenths) / 10.0
+    }
+
+    /// The coded size of a `width x height` image (at least 1 x 1).
+    pub fn coded_size(self, width: u32, height: u32) -> (u32, u32) {
+        let side = |v: u32| (u64::from(v) * u64::from(self.tenths)).div_ceil(10).max(1) as u32;
+        (side(width), side(height))
+    }
 }
 
 /// Bytes [`downscale`] holds at its peak, beside its output: the horizontal pass's
@@ -159,7 +198,7 @@ mod tests {
             s,
         )
         .unwrap();
-        let (tw, th) = coded_size(w as u32, h as u32, 2);
+        let (tw, th) = Scale::HALF.coded_size(w as u32, h as u32);
         let d = downscale(&img, (tw, th));
         assert_eq!((d.width(), d.height()), (19, 10));
         assert!(d.plane(0).iter().all(|&v| (v - 0.25).abs() < 1e-6));

@@ -173,7 +173,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         limits: Limits {
             max_memory: caoen::budget::get().saturating_sub(held),
         },
-        resampling: a.resampling.into(),
+        resampling: a.resampling,
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
     let mut outputs = Outputs::new(global.force).input(&a.input);
