@@ -635,9 +635,19 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
         "{j}"
     );
     for bad in ["0.75", "1.5", "0", "quarter"] {
-        let out = caoen(&["encode", s(&png), "-o", s(&d.join("bad.cae")), "--resampling", bad]);
+        let out = caoen(&[
+            "encode",
+            s(&png),
+            "-o",
+            s(&d.join("bad.cae")),
+            "--resampling",
+            bad,
+        ]);
         assert_eq!(out.status.code(), Some(2), "--resampling {bad}");
-        assert!(String::from_utf8_lossy(&out.stderr).contains("tenths"), "--resampling {bad}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("tenths"),
+            "--resampling {bad}"
+        );
         assert!(!d.join("bad.cae").exists());
     }
 }

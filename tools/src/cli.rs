@@ -522,7 +522,9 @@ fn resampling(s: &str) -> Result<caoen::Resampling, String> {
         .filter(|v| (0.1..=1.0).contains(v) && (v * 10.0 - (v * 10.0).round()).abs() < 1e-9)
         .and_then(|v| caoen::Scale::new((v * 10.0).round() as u32))
         .map(caoen::Resampling::At)
-        .ok_or_else(|| format!("`{s}`: expected auto, off, half or a size per side in tenths (0.1 to 1.0)"))
+        .ok_or_else(|| {
+            format!("`{s}`: expected auto, off, half or a size per side in tenths (0.1 to 1.0)")
+        })
 }
 
 /// Which metadata items a file keeps.

@@ -68,9 +68,9 @@ stages! {
 }
 
 pub use colour::ColourBasis;
-pub use resample::Scale;
 pub use error::{CodecError, Tag};
 pub use quadtree::Cell;
+pub use resample::Scale;
 pub use source::PixelSource;
 
 use crate::budget::{OverBudget, DEFAULT_BUDGET};
@@ -182,10 +182,10 @@ pub const RESAMPLE_BELOW: f32 = 60.0;
 /// [`Resampling::Auto`] leaves images smaller than this on either side at their size.
 pub const RESAMPLE_MIN_SIDE: u32 = 64;
 /// PSNR (dB) per doubling of rate that [`Resampling::Auto`] weighs a smaller file's
-/// change of PSNR against its change of rate. Below the curve's own slope (2-3 dB
+/// change of PSNR against its change of rate. Below the curve's own slope (3-3.7 dB
 /// per doubling there): a smaller file must win clearly, as sparse choices cost
 /// more than they gain (`docs/codec-ablation.md`, "Coding at a smaller size").
-const RESAMPLE_SLOPE: f64 = 1.5;
+const RESAMPLE_SLOPE: f64 = 2.0;
 
 /// Statistics of one encode.
 #[derive(Debug, Clone, PartialEq)]
@@ -371,13 +371,18 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     // the choice of size changes), then choose among the files by the same rule.
     let steps = 6 + opts.effort as usize;
     let full_size = || match opts.resampling {
-        Resampling::At(scale) if scale.coded_size(image.width(), image.height()) != (image.width(), image.height()) => {
+        Resampling::At(scale)
+            if scale.coded_size(image.width(), image.height())
+                != (image.width(), image.height()) =>
+        {
             Some(scale)
         }
         _ => None,
     };
     let mut done = 0;
-    let mut search = |scale: Option<(resample::Scale, &Raster)>, total: usize, progress: &mut dyn FnMut(usize, usize)| {
+    let mut search = |scale: Option<(resample::Scale, &Raster)>,
+                      total: usize,
+                      progress: &mut dyn FnMut(usize, usize)| {
         rate_control::search_quality(target, 0.02, steps, |q| {
             done += 1;
             progress(done, total);
@@ -429,7 +434,10 @@ struct Coder<'a, S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSett
 impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<'_, S, F> {
     /// The image at `scale` of its size.
     fn smaller(&self, scale: resample::Scale) -> Raster {
-        resample::downscale(self.image, scale.coded_size(self.image.width(), self.image.height()))
+        resample::downscale(
+            self.image,
+            scale.coded_size(self.image.width(), self.image.height()),
+        )
     }
 
     /// Codes the image at quality `q`, at its own size or at a smaller one from its

@@ -112,7 +112,7 @@ pub const WEIGHTS_FADE_QUALITY: f64 = 75.0;
 /// field"), the strength trades BD-rate by PSNR for BD-rate by MS-SSIM and
 /// SSIMULACRA2 along one line. The last luma filters gain MS-SSIM, and this strength
 /// and [`FIELD_STRENGTH_HIGH`] spend it on PSNR ("The structural metrics' margin":
-/// 0.056 and 0.119 against 0.08 and 0.17 gain about a point of BD-rate by RGB PSNR at
+/// 0.056 and 0.119 against 0.08 and 0.17 gained about a point of BD-rate by RGB PSNR at
 /// 0.3-2 bpp for 1.5 by MS-SSIM).
 pub const FIELD_STRENGTH: f64 = 0.056;
 /// The activity field's region side, log2 pixels: its exponents cost 1.4-1.8 bits per
@@ -124,12 +124,15 @@ pub const FIELD_FLOOR: f64 = 0.0009;
 /// Quality up to which the encoder codes no field: at the lowest rates its bits are a
 /// tenth of the file, and the structural metrics are well ahead there without it.
 pub const FIELD_FROM_QUALITY: f64 = 40.0;
-/// Quality from which the field has its full strength.
-pub const FIELD_FULL_QUALITY: f64 = 55.0;
+/// Quality at which the field reaches [`FIELD_STRENGTH`]: a slow rise leaves the rates
+/// of 0.3-0.5 bpp (about q55-65 on photographs) to PSNR, where caoen is closest to
+/// AVIF, and [`FIELD_STRENGTH_HIGH`] buys MS-SSIM back above them
+/// (`docs/codec-ablation.md`, "The structural metrics' margin").
+pub const FIELD_FULL_QUALITY: f64 = 65.0;
 /// The field's strength from [`FIELD_HIGH_QUALITY`], rising from [`FIELD_STRENGTH`] at
 /// [`FIELD_FULL_QUALITY`]: MS-SSIM lags most at 0.3-2 bpp, and there the strength buys
 /// it at half the PSNR it costs at the low rates.
-pub const FIELD_STRENGTH_HIGH: f64 = 0.119;
+pub const FIELD_STRENGTH_HIGH: f64 = 0.15;
 /// Quality from which the field has [`FIELD_STRENGTH_HIGH`].
 pub const FIELD_HIGH_QUALITY: f64 = 70.0;
 /// Quality above which the field fades, to none at 100.
