@@ -285,3 +285,63 @@ fn rate_targets_land_where_the_size_changes() {
         "{sizes:?}"
     );
 }
+
+#[test]
+fn the_quality_bound_is_the_last_size_tried() {
+    let last = RESAMPLE_SCALES
+        .iter()
+        .map(|r| r.below)
+        .fold(0.0f32, f32::max);
+    assert_eq!(RESAMPLE_BELOW, last);
+    // Coarsest first, each size smaller than the image's.
+    assert!(RESAMPLE_SCALES
+        .windows(2)
+        .all(|p| p[0].scale.tenths() < p[1].scale.tenths()));
+    assert!(RESAMPLE_SCALES.iter().all(|r| r.scale.tenths() < 10));
+}
+
+#[test]
+fn sizes_between_are_chosen_where_they_pay_and_only_from_effort_5() {
+    // A scene at q50: half size is too coarse there, a size between pays.
+    let img = scene(192, 128, 4);
+    let (_, stats) = encode_with_progress(&img, &opts(50.0, Resampling::Auto), |_, _| {}).unwrap();
+    assert!(
+        [(135, 90), (154, 103)].contains(&stats.coded_size),
+        "{:?}",
+        stats.coded_size
+    );
+    // Effort 4 tries half size alone.
+    let four = EncodeOptions {
+        effort: 4,
+        ..opts(50.0, Resampling::Auto)
+    };
+    let (_, stats) = encode_with_progress(&img, &four, |_, _| {}).unwrap();
+    assert!(
+        [(96, 64), (192, 128)].contains(&stats.coded_size),
+        "{:?}",
+        stats.coded_size
+    );
+}
+
+#[test]
+fn a_rate_target_keeps_the_size_asked_for() {
+    use caoen::codec::RateTarget;
+    let img = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    for (resampling, size) in [
+        (Resampling::Off, (256, 192)),
+        (Resampling::At(Scale::new(7).unwrap()), (180, 135)),
+    ] {
+        let o = EncodeOptions {
+            target: Some(RateTarget::BitsPerPixel(0.15)),
+            ..opts(75.0, resampling)
+        };
+        let mut last = (0, 1);
+        let (_, stats) = encode_with_progress(&img, &o, |d, t| {
+            assert!(d <= t, "{d} of {t}");
+            last = (d, t);
+        })
+        .unwrap();
+        assert_eq!(stats.coded_size, size, "{resampling:?}");
+        assert_eq!(last.0, last.1, "progress ends at its total");
+    }
+}

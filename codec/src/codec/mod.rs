@@ -370,18 +370,17 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
     // Rate targets search the quality at each size on its own (the rate jumps where
     // the choice of size changes), then choose among the files by the same rule.
     let steps = 6 + opts.effort as usize;
-    let full_size = || match opts.resampling {
-        Resampling::At(scale)
-            if scale.coded_size(image.width(), image.height())
-                != (image.width(), image.height()) =>
-        {
-            Some(scale)
-        }
+    let forced = match opts.resampling {
+        Resampling::At(scale) if scale.coded_size(w, h) != (w, h) => Some(scale),
         _ => None,
+    };
+    let total = if opts.resampling == Resampling::Auto {
+        (RESAMPLE_SCALES.len() + 1) * steps + 1
+    } else {
+        steps + 1
     };
     let mut done = 0;
     let mut search = |scale: Option<(resample::Scale, &Raster)>,
-                      total: usize,
                       progress: &mut dyn FnMut(usize, usize)| {
         rate_control::search_quality(target, 0.02, steps, |q| {
             done += 1;
@@ -390,19 +389,14 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
         })
         .map(|(q, _)| q)
     };
-    let first_total = if opts.resampling == Resampling::Auto {
-        (RESAMPLE_SCALES.len() + 1) * steps + 1
-    } else {
-        steps + 1
-    };
-    let first = match full_size() {
+    let out = match forced {
         Some(scale) => {
             let small = coder.smaller(scale);
-            let q = search(Some((scale, &small)), first_total, &mut progress)?;
+            let q = search(Some((scale, &small)), &mut progress)?;
             coder.sized(q, Some((scale, &small)), &mut |_, _| {})?
         }
         None => {
-            let q = search(None, first_total, &mut progress)?;
+            let q = search(None, &mut progress)?;
             let full = coder.sized(q, None, &mut |_, _| {})?;
             let tried = coder.scales(q);
             if tried.is_empty() {
@@ -410,16 +404,19 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
             } else {
                 let mut chooser = coder.chooser(full)?;
                 for scale in tried {
+                    if chooser.spent {
+                        break;
+                    }
                     let small = coder.smaller(scale);
-                    let qs = search(Some((scale, &small)), first_total, &mut progress)?;
+                    let qs = search(Some((scale, &small)), &mut progress)?;
                     chooser.offer(coder.sized(qs, Some((scale, &small)), &mut |_, _| {})?)?;
                 }
                 chooser.best
             }
         }
     };
-    progress(first_total, first_total);
-    Ok(first)
+    progress(total, total);
+    Ok(out)
 }
 
 /// What every encode of one call shares: the image, the options, the settings per
@@ -478,29 +475,39 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
             }
             Resampling::At(_) => self.sized(q, None, progress),
             Resampling::Auto => {
-                let full = self.sized(q, None, progress)?;
                 let tried = self.scales(q);
+                // Each encode is an equal part of the progress.
+                let parts = 1 + tried.len();
+                let full = self.sized(q, None, &mut |d, t| progress(d, t * parts))?;
                 if tried.is_empty() {
                     return Ok(full);
                 }
                 let mut chooser = self.chooser(full)?;
-                for scale in tried {
+                for (i, scale) in tried.into_iter().enumerate() {
+                    if chooser.spent {
+                        break;
+                    }
                     // One smaller source at a time: it is dropped once coded.
                     let small = self.smaller(scale);
-                    chooser.offer(self.sized(q, Some((scale, &small)), &mut |_, _| {})?)?;
+                    let part = &mut |d, t| progress(t * (i + 1) + d, t * parts);
+                    chooser.offer(self.sized(q, Some((scale, &small)), part)?)?;
                 }
                 Ok(chooser.best)
             }
         }
     }
 
-    /// The smaller sizes [`Resampling::Auto`] tries at quality `q`: those of
+    /// The smaller sizes [`Resampling::Auto`] tries at quality `q` (none under another
+    /// [`Resampling`]): those of
     /// [`RESAMPLE_SCALES`] for `q` and the effort, on 8- and 16-bit images of at least
     /// [`RESAMPLE_MIN_SIDE`] pixels a side, where the trial fits the memory budget.
     /// Efforts 1 and 2 try none: built for speed, they fit no restoration filters.
     fn scales(&self, q: f32) -> Vec<resample::Scale> {
         let (w, h) = (self.image.width(), self.image.height());
-        if w.min(h) < RESAMPLE_MIN_SIDE || self.image.format() == crate::raster::SampleFormat::F32 {
+        if self.opts.resampling != Resampling::Auto
+            || w.min(h) < RESAMPLE_MIN_SIDE
+            || self.image.format() == crate::raster::SampleFormat::F32
+        {
             return Vec::new();
         }
         RESAMPLE_SCALES

@@ -111,9 +111,8 @@ pub const WEIGHTS_FADE_QUALITY: f64 = 75.0;
 /// around it, RGB PSNR does not: measured in `docs/codec-ablation.md` ("The activity
 /// field"), the strength trades BD-rate by PSNR for BD-rate by MS-SSIM and
 /// SSIMULACRA2 along one line. The last luma filters gain MS-SSIM, and this strength
-/// and [`FIELD_STRENGTH_HIGH`] spend it on PSNR ("The structural metrics' margin":
-/// 0.056 and 0.119 against 0.08 and 0.17 gained about a point of BD-rate by RGB PSNR at
-/// 0.3-2 bpp for 1.5 by MS-SSIM).
+/// spends it on PSNR ("The structural metrics' margin": 0.7 of 0.08 gained about a
+/// point of BD-rate by RGB PSNR at 0.3-2 bpp for 1.5 by MS-SSIM).
 pub const FIELD_STRENGTH: f64 = 0.056;
 /// The activity field's region side, log2 pixels: its exponents cost 1.4-1.8 bits per
 /// region; 8-pixel regions cost more than they gain, 32-pixel ones gain less.
