@@ -1000,7 +1000,7 @@ mod tests {
             .collect();
         let samples: Vec<f32> = (0..3).flat_map(|_| plane.iter().copied()).collect();
         let img = Raster::new(w, h, ChannelLayout::Rgb, SampleFormat::U8, samples).unwrap();
-        let s = rate_control::settings(65.0, 5, None);
+        let s = rate_control::settings(70.0, 5, None);
         let (bytes, _) = encode_with(&img, &s, &Metadata::default(), 1, |_, _| {}).unwrap();
         let decoded = crate::codec::decoder::read(&bytes, 1 << 28).unwrap();
         let adaptive = decoded.header.adaptive.expect("adaptive steps");
@@ -1017,7 +1017,7 @@ mod tests {
         // The busy half's variance is about 30 times the flat half's (floored), so the
         // exponents (4 log2 of the step factor) differ by `4 strength log2 30` before
         // rounding, normalising and settling the flat regions; at least half of it shows.
-        let strength = rate_control::detail_field(65.0).expect("a field at q65").strength;
+        let strength = rate_control::detail_field(70.0).expect("a field at q70").strength;
         assert!(mean(&flat) < 0.0 && mean(&busy) - mean(&flat) > 2.0 * strength * 30f64.log2(), "{:?}", steps.field);
         for i in 0..steps.field.len() {
             let class = steps.steps.factor(steps.classes[i]);
