@@ -398,21 +398,10 @@ pub fn encode_with_progress<S: PixelSource + ?Sized>(
         None => {
             let q = search(None, &mut progress)?;
             let full = coder.sized(q, None, &mut |_, _| {})?;
-            let tried = coder.scales(q);
-            if tried.is_empty() {
-                full
-            } else {
-                let mut chooser = coder.chooser(full)?;
-                for scale in tried {
-                    if chooser.spent {
-                        break;
-                    }
-                    let small = coder.smaller(scale);
-                    let qs = search(Some((scale, &small)), &mut progress)?;
-                    chooser.offer(coder.sized(qs, Some((scale, &small)), &mut |_, _| {})?)?;
-                }
-                chooser.best
-            }
+            coder.choose(full, coder.scales(q), |_, scale, small| {
+                let qs = search(Some((scale, small)), &mut progress)?;
+                coder.sized(qs, Some((scale, small)), &mut |_, _| {})
+            })?
         }
     };
     progress(total, total);
@@ -479,20 +468,10 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
                 // Each encode is an equal part of the progress.
                 let parts = 1 + tried.len();
                 let full = self.sized(q, None, &mut |d, t| progress(d, t * parts))?;
-                if tried.is_empty() {
-                    return Ok(full);
-                }
-                let mut chooser = self.chooser(full)?;
-                for (i, scale) in tried.into_iter().enumerate() {
-                    if chooser.spent {
-                        break;
-                    }
-                    // One smaller source at a time: it is dropped once coded.
-                    let small = self.smaller(scale);
+                self.choose(full, tried, |i, scale, small| {
                     let part = &mut |d, t| progress(t * (i + 1) + d, t * parts);
-                    chooser.offer(self.sized(q, Some((scale, &small)), part)?)?;
-                }
-                Ok(chooser.best)
+                    self.sized(q, Some((scale, small)), part)
+                })
             }
         }
     }
@@ -529,6 +508,33 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
                 self.opts.limits.check(String::new, trial).is_ok()
             })
             .collect()
+    }
+
+    /// The best of `full` and the sizes of `tried` by [`Chooser`]'s rule, the `i`th size
+    /// coded by `code(i, scale, source at that size)`. One smaller source at a time: each
+    /// is dropped once coded, and the trials stop once a decode is over the budget.
+    fn choose(
+        &self,
+        full: (Vec<u8>, EncodeStats),
+        tried: Vec<resample::Scale>,
+        mut code: impl FnMut(
+            usize,
+            resample::Scale,
+            &Raster,
+        ) -> Result<(Vec<u8>, EncodeStats), CodecError>,
+    ) -> Result<(Vec<u8>, EncodeStats), CodecError> {
+        if tried.is_empty() {
+            return Ok(full);
+        }
+        let mut chooser = self.chooser(full)?;
+        for (i, scale) in tried.into_iter().enumerate() {
+            if chooser.spent {
+                break;
+            }
+            let small = self.smaller(scale);
+            chooser.offer(code(i, scale, &small)?)?;
+        }
+        Ok(chooser.best)
     }
 
     /// A [`Chooser`] starting from the file at the image's size.
