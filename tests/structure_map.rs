@@ -14,7 +14,7 @@ const DATA: [&str; 7] = [
     "tests/fuzz/seeds/",
     "tests/fuzz/dicts/",
     "docs/bench/",
-    "tools/assets/",
+    "tools/caoen-cli/assets/",
 ];
 
 /// Not part of the repository: build output, version control and what the README's

@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 // The library's tests and these share the property-test settings.
-#[path = "../../codec/tests/common/proptest_seed.rs"]
+#[path = "../../codec/caoen/tests/common/proptest_seed.rs"]
 mod proptest_seed;
 #[allow(unused_imports)] // Only the property-test crates call it.
 pub use proptest_seed::proptest_config;

@@ -29,11 +29,11 @@ use caoen::codec::detail::{
 };
 use caoen::codec::entropy::AnsSink;
 use caoen::codec::keyset::KernelParams;
-use caoen::codec::quadtree::TreeShape;
+use caoen::codec::quadtree::{self, TreeShape};
 use caoen::codec::restoration::{self, PlaneFilter, Restoration};
 use caoen::codec::tiling::SIDE_UNIT;
 use caoen::codec::ColourBasis;
-use caoen::codec::{self, model, syntax, DecodeOptions, EncodeOptions};
+use caoen::codec::{self, syntax, DecodeOptions, EncodeOptions};
 use caoen::conversion::mesh_file;
 use caoen::conversion::polygon_mesh::PolygonMesh;
 use caoen::frep::node::MAX_NODES;
@@ -534,7 +534,7 @@ fn choose_file(c: &mut Choices) -> (Vec<u8>, Header) {
         let choices = RefCell::new(&mut *c);
         let luma_cells = syntax::write_tree(&shape, |_| choices.borrow_mut().bit(), &mut tree);
         let chroma_cells = if colour {
-            model::chroma_cells(&shape, &luma_cells, header.chroma_pruned)
+            quadtree::chroma_cells(&shape, &luma_cells, header.chroma_pruned)
         } else {
             Vec::new()
         };

@@ -1,0 +1,320 @@
+//! The memory budget: the most memory one operation may take for its working set.
+//!
+//! Every allocation that grows with the input (decoded images, coding planes, the
+//! encoder's design matrix, rendered frames, textures) is estimated from declared sizes
+//! — an image header, a caoen header, the requested output size — and checked here
+//! before anything is allocated, so a small hostile file cannot demand gigabytes.
+//!
+//! The budget is process-wide (the `caoen` command line sets it once from
+//! `--max-memory`): the checks sit deep inside loaders that scenes, textures and volume
+//! slices reach through many layers, and one number for the whole process is what a
+//! user can reason about.
+//!
+//! What a command keeps while it works (the samples of every height map a model loads,
+//! each texture) is held as a [`Reservation`]; every [`check`] counts the memory held
+//! so, so one command's loads together stay within one budget.
+
+use std::io::Read;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use thiserror::Error;
+
+/// The default budget, 2 GiB: what a laptop survives alongside everything else.
+pub const DEFAULT_BUDGET: u64 = 2 << 30;
+
+static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BUDGET);
+
+/// Bytes held by live [`Reservation`]s.
+static HELD: AtomicU64 = AtomicU64::new(0);
+
+/// The largest need (with what was held) any [`check`] has passed or refused.
+static LARGEST: AtomicU64 = AtomicU64::new(0);
+
+/// The words of every [`OverBudget`] message before the budget: a program that sets
+/// the budget from its own option can find them to say how to raise it.
+pub const OVER_BUDGET: &str = "over the memory budget of";
+
+/// An operation would need more memory than the budget allows.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[error("{what} needs about {}, {OVER_BUDGET} {}", human(*.need), human(*.budget))]
+pub struct OverBudget {
+    /// What would have been allocated.
+    pub what: String,
+    /// Its estimated size in bytes.
+    pub need: u64,
+    /// The budget in force, in bytes.
+    pub budget: u64,
+}
+
+/// Sets the process-wide budget in bytes.
+pub fn set(bytes: u64) {
+    BUDGET.store(bytes, Ordering::Relaxed);
+}
+
+/// The process-wide budget in bytes.
+pub fn get() -> u64 {
+    BUDGET.load(Ordering::Relaxed)
+}
+
+/// Checks an estimated need, on top of the memory held by live reservations, against
+/// the budget; `what` is only formatted on failure.
+pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
+    let budget = get();
+    let held = held();
+    LARGEST.fetch_max(need.saturating_add(held), Ordering::Relaxed);
+    if need.saturating_add(held) <= budget {
+        Ok(())
+    } else {
+        Err(OverBudget {
+            what: if held == 0 {
+                what()
+            } else {
+                format!("{} (with {} already loaded)", what(), human(held))
+            },
+            need: need.saturating_add(held),
+            budget,
+        })
+    }
+}
+
+/// The largest estimate checked so far in this process, with what was held at the time:
+/// the command's estimate of its peak, which the measured peak is compared with.
+pub fn largest_checked() -> u64 {
+    LARGEST.load(Ordering::Relaxed)
+}
+
+/// Bytes held by live reservations: what the loads so far keep.
+pub fn held() -> u64 {
+    HELD.load(Ordering::Relaxed)
+}
+
+/// Memory a loaded asset keeps, counted by every [`check`] until it is dropped.
+#[derive(Debug, Default)]
+pub struct Reservation {
+    bytes: u64,
+}
+
+impl Reservation {
+    /// The bytes reserved.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+}
+
+impl Drop for Reservation {
+    fn drop(&mut self) {
+        HELD.fetch_sub(self.bytes, Ordering::Relaxed);
+    }
+}
+
+/// Two reservations are alike whatever they hold: they are bookkeeping, not content.
+impl PartialEq for Reservation {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+/// Checks `need` like [`check`] and, when it fits, holds it until the reservation is
+/// dropped.
+pub fn reserve(what: impl FnOnce() -> String, need: u64) -> Result<Reservation, OverBudget> {
+    check(what, need)?;
+    HELD.fetch_add(need, Ordering::Relaxed);
+    Ok(Reservation { bytes: need })
+}
+
+/// `a * b * c` bytes, saturating: an estimate that overflows is over any budget.
+pub fn bytes(a: u64, b: u64, c: u64) -> u64 {
+    a.saturating_mul(b).saturating_mul(c)
+}
+
+/// Reads a whole file (or all of `reader`), refusing one larger than the budget before
+/// reading it: a file's bytes are held in memory, so they count like any allocation.
+pub fn read_all(mut reader: impl std::io::Read, len_hint: Option<u64>) -> std::io::Result<Vec<u8>> {
+    let budget = get();
+    let too_big = |what: &str, need: u64| {
+        std::io::Error::other(OverBudget {
+            what: what.into(),
+            need,
+            budget,
+        })
+    };
+    if let Some(len) = len_hint.filter(|&l| l > budget) {
+        return Err(too_big("reading the file", len));
+    }
+    let mut buf = Vec::new();
+    // One byte past the budget tells a stream that is too long.
+    (&mut reader)
+        .take(budget.saturating_add(1))
+        .read_to_end(&mut buf)?;
+    if buf.len() as u64 > budget {
+        return Err(too_big(
+            "reading the input (it goes on past the budget)",
+            buf.len() as u64,
+        ));
+    }
+    Ok(buf)
+}
+
+/// [`read_all`] of the file at `path`.
+pub fn read(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+    let file = std::fs::File::open(path)?;
+    let len = file
+        .metadata()
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
+    read_all(file, len)
+}
+
+/// [`read`] as UTF-8 text.
+pub fn read_to_string(path: &std::path::Path) -> std::io::Result<String> {
+    String::from_utf8(read(path)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+}
+
+/// Why a size did not parse.
+#[derive(Debug, Clone, PartialEq, Eq, Error)]
+pub enum SizeError {
+    /// The number is missing or malformed.
+    #[error("`{text}`: expected a size like 2G, 512M or 1000000")]
+    Number {
+        /// The text given.
+        text: String,
+    },
+    /// The unit after the number is not one of K, M, G or T.
+    #[error("`{text}`: unknown unit `{unit}` (use K, M, G or T)")]
+    Unit {
+        /// The text given.
+        text: String,
+        /// The unit found.
+        unit: String,
+    },
+    /// The size is below one byte or beyond what 64 bits hold.
+    #[error("`{text}`: the budget must be at least one byte")]
+    Range {
+        /// The text given.
+        text: String,
+    },
+}
+
+/// Parses a size such as `2G`, `512M`, `1.5GiB` or `1000000` (bytes).
+pub fn parse_size(s: &str) -> Result<u64, SizeError> {
+    let t = s.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let value: f64 = num
+        .parse()
+        .map_err(|_| SizeError::Number { text: s.into() })?;
+    let scale = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 1u64,
+        "k" | "kb" | "kib" => 1 << 10,
+        "m" | "mb" | "mib" => 1 << 20,
+        "g" | "gb" | "gib" => 1 << 30,
+        "t" | "tb" | "tib" => 1 << 40,
+        _ => {
+            return Err(SizeError::Unit {
+                text: s.into(),
+                unit: unit.into(),
+            })
+        }
+    };
+    let b = value * scale as f64;
+    if !(b.is_finite() && b >= 1.0 && b <= u64::MAX as f64) {
+        return Err(SizeError::Range { text: s.into() });
+    }
+    Ok(b as u64)
+}
+
+/// A byte count for messages: `1.3 GiB`, `512.0 MiB`, `900 bytes`.
+pub fn human(b: u64) -> String {
+    const UNITS: [(&str, u64); 4] = [
+        ("TiB", 1 << 40),
+        ("GiB", 1 << 30),
+        ("MiB", 1 << 20),
+        ("KiB", 1 << 10),
+    ];
+    UNITS.iter().find(|(_, u)| b >= *u).map_or_else(
+        || format!("{b} bytes"),
+        |(n, u)| format!("{:.1} {n}", b as f64 / *u as f64),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_with_binary_units() {
+        assert_eq!(parse_size("2G"), Ok(2 << 30));
+        assert_eq!(parse_size("512M"), Ok(512 << 20));
+        assert_eq!(parse_size("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_size("1000"), Ok(1000));
+        assert!(matches!(parse_size("-1G"), Err(SizeError::Number { .. })));
+        assert!(matches!(parse_size("0"), Err(SizeError::Range { .. })));
+        assert!(matches!(parse_size("1e400"), Err(SizeError::Unit { .. })));
+        assert!(matches!(parse_size("2X"), Err(SizeError::Unit { unit, .. }) if unit == "X"));
+        assert!(matches!(parse_size("NaN"), Err(SizeError::Number { .. })));
+    }
+
+    #[test]
+    fn reservations_count_in_every_check_until_dropped() {
+        // Relative to what other tests hold: the counter is process-wide.
+        let before = held();
+        let r = reserve(|| "a map".into(), 1000).unwrap();
+        assert_eq!(r.bytes(), 1000);
+        assert!(held() >= before + 1000);
+        let e = check(|| "more".into(), get() - 999).unwrap_err();
+        assert!(e.what.starts_with("more (with "), "{}", e.what);
+        drop(r);
+        assert!(reserve(|| "too much".into(), u64::MAX).is_err());
+    }
+
+    #[test]
+    fn estimates_saturate_and_messages_name_both_sizes() {
+        assert_eq!(bytes(u64::MAX, 2, 3), u64::MAX);
+        assert_eq!(human(3 << 29), "1.5 GiB");
+        assert_eq!(human(900), "900 bytes");
+        let e = OverBudget {
+            what: "decoding 16384x4096".into(),
+            need: 3 << 30,
+            budget: 2 << 30,
+        };
+        assert_eq!(
+            e.to_string(),
+            "decoding 16384x4096 needs about 3.0 GiB, over the memory budget of 2.0 GiB"
+        );
+    }
+}
+
+/// Resource limits of one encode or decode call, checked before allocating.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// The most memory the call may allocate, in bytes (its input, already held by
+    /// the caller, not counted).
+    pub max_memory: u64,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_memory: DEFAULT_BUDGET,
+        }
+    }
+}
+
+impl Limits {
+    /// Checks an estimated need; `what` is only formatted on failure.
+    pub fn check(&self, what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
+        if need <= self.max_memory {
+            Ok(())
+        } else {
+            Err(OverBudget {
+                what: what(),
+                need,
+                budget: self.max_memory,
+            })
+        }
+    }
+}

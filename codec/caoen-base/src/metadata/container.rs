@@ -1,0 +1,254 @@
+//! The metadata items found in JPEG (APP1/APP2 segments), PNG (iCCP, eXIf, iTXt) and
+//! WebP (ICCP, EXIF, XMP chunks) files, every declared size checked before copying.
+
+use super::{
+    check_size, corrupt, strip_exif_prefix, Item, Metadata, MetadataError, MAX_ITEM_BYTES,
+};
+
+/// The metadata of an image file, from its bytes: JPEG (APP2 ICC chunks, APP1 EXIF and
+/// XMP), PNG (iCCP, eXIf, iTXt XMP) and WebP (ICCP, EXIF, XMP chunks); other formats
+/// give none. Every declared size is checked against the file and against
+/// [`MAX_ITEM_BYTES`] before the item is copied.
+pub fn read_container(bytes: &[u8]) -> Result<Metadata, MetadataError> {
+    if bytes.starts_with(&[0xff, 0xd8]) {
+        read_jpeg(bytes)
+    } else if bytes.starts_with(PNG_SIGNATURE) {
+        read_png(bytes)
+    } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
+        read_webp(bytes)
+    } else {
+        Ok(Metadata::default())
+    }
+}
+
+pub const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
+
+fn read_jpeg(b: &[u8]) -> Result<Metadata, MetadataError> {
+    const EXIF: &[u8] = b"Exif\0\0";
+    const XMP: &[u8] = b"http://ns.adobe.com/xap/1.0/\0";
+    const ICC: &[u8] = b"ICC_PROFILE\0";
+    let mut meta = Metadata::default();
+    // (sequence number, chunk count, data) of each ICC chunk, borrowed until assembled.
+    let mut icc: Vec<(u8, u8, &[u8])> = Vec::new();
+    let mut icc_total = 0u64;
+    let mut pos = 2;
+    while let Some(&byte) = b.get(pos) {
+        // Stray bytes between segments: the pixel decoder skips them, so the metadata
+        // read so far stands and the scan stops.
+        if byte != 0xff {
+            break;
+        }
+        while b.get(pos) == Some(&0xff) {
+            pos += 1;
+        }
+        let Some(&marker) = b.get(pos) else { break };
+        pos += 1;
+        match marker {
+            // Markers without a payload.
+            0x01 | 0xd0..=0xd8 => continue,
+            // Metadata comes before the scan; a short file is the pixel decoder's to report.
+            0xd9 | 0xda => break,
+            _ => {}
+        }
+        let Some(len) = b.get(pos..pos + 2) else {
+            break;
+        };
+        let len = usize::from(u16::from_be_bytes([len[0], len[1]]));
+        let remain = b.len() - pos;
+        if len < 2 || len > remain {
+            return Err(corrupt(
+                "JPEG",
+                format!(
+                    "segment {marker:#04x} at offset {} declares {len} bytes, {remain} remain",
+                    pos - 2
+                ),
+            ));
+        }
+        let payload = &b[pos + 2..pos + len];
+        pos += len;
+        match marker {
+            0xe1 if meta.exif.is_none() && payload.starts_with(EXIF) => {
+                meta.exif = Some(payload[EXIF.len()..].to_vec());
+            }
+            0xe1 if meta.xmp.is_none() && payload.starts_with(XMP) => {
+                meta.xmp = Some(payload[XMP.len()..].to_vec());
+            }
+            0xe2 if payload.starts_with(ICC) && payload.len() >= ICC.len() + 2 => {
+                let (seq, count) = (payload[ICC.len()], payload[ICC.len() + 1]);
+                let data = &payload[ICC.len() + 2..];
+                if seq == 1 && data.len() >= 4 {
+                    // The profile's header declares its whole size.
+                    let declared = u32::from_be_bytes([data[0], data[1], data[2], data[3]]);
+                    check_size(Item::Icc, declared.into())?;
+                }
+                icc_total += data.len() as u64;
+                check_size(Item::Icc, icc_total)?;
+                icc.push((seq, count, data));
+            }
+            _ => {}
+        }
+    }
+    if !icc.is_empty() {
+        icc.sort_by_key(|c| c.0);
+        let count = icc[0].1;
+        let in_order = icc
+            .iter()
+            .enumerate()
+            .all(|(i, c)| usize::from(c.0) == i + 1 && c.1 == count);
+        if !in_order || icc.len() != usize::from(count) {
+            let seqs: Vec<(u8, u8)> = icc.iter().map(|c| (c.0, c.1)).collect();
+            return Err(corrupt(
+                "ICC profile",
+                format!("JPEG chunks (number, count) {seqs:?} are not 1..=count of one count"),
+            ));
+        }
+        let mut out = Vec::with_capacity(icc_total as usize);
+        for (_, _, data) in icc {
+            out.extend_from_slice(data);
+        }
+        meta.icc = Some(out);
+    }
+    Ok(meta)
+}
+
+/// The text up to the first NUL within `max` bytes, and the bytes after the NUL.
+fn nul_terminated(b: &[u8], max: usize) -> Option<(&[u8], &[u8])> {
+    let end = b.iter().take(max + 1).position(|&c| c == 0)?;
+    Some((&b[..end], &b[end + 1..]))
+}
+
+/// Inflates a zlib stream of at most [`MAX_ITEM_BYTES`].
+fn inflate(item: Item, z: &[u8]) -> Result<Vec<u8>, MetadataError> {
+    use miniz_oxide::inflate::{decompress_to_vec_zlib_with_limit, TINFLStatus};
+    decompress_to_vec_zlib_with_limit(z, MAX_ITEM_BYTES).map_err(|e| match e.status {
+        TINFLStatus::HasMoreOutput => MetadataError::InflatesTooLarge {
+            item,
+            max: MAX_ITEM_BYTES,
+        },
+        status => MetadataError::Corrupt {
+            item: match item {
+                Item::Icc => "ICC profile",
+                Item::Exif => "EXIF",
+                Item::Xmp => "XMP packet",
+            },
+            reason: format!("damaged zlib stream ({status:?})"),
+        },
+    })
+}
+
+fn read_png(b: &[u8]) -> Result<Metadata, MetadataError> {
+    let mut meta = Metadata::default();
+    let mut pos = PNG_SIGNATURE.len();
+    while let Some(head) = b.get(pos..pos + 8) {
+        let len = u64::from(u32::from_be_bytes([head[0], head[1], head[2], head[3]]));
+        let kind: [u8; 4] = [head[4], head[5], head[6], head[7]];
+        let start = pos + 8;
+        if &kind == b"eXIf" {
+            check_size(Item::Exif, len)?;
+        }
+        let remain = b.len() - start;
+        if len > remain as u64 {
+            return Err(corrupt(
+                "PNG",
+                format!(
+                    "chunk {} at offset {pos} declares {len} bytes, {remain} remain",
+                    String::from_utf8_lossy(&kind)
+                ),
+            ));
+        }
+        let data = &b[start..start + len as usize];
+        match &kind {
+            b"IEND" => break,
+            b"iCCP" if meta.icc.is_none() => meta.icc = Some(png_iccp(data)?),
+            b"eXIf" if meta.exif.is_none() => meta.exif = Some(strip_exif_prefix(data).to_vec()),
+            b"iTXt" if meta.xmp.is_none() => meta.xmp = png_xmp(data)?,
+            _ => {}
+        }
+        // The chunk's CRC follows; the pixel decoder checks it.
+        pos = start + len as usize + 4;
+    }
+    Ok(meta)
+}
+
+fn png_iccp(data: &[u8]) -> Result<Vec<u8>, MetadataError> {
+    let bad = |what: &str| corrupt("ICC profile", format!("PNG iCCP chunk: {what}"));
+    let (_, rest) = nul_terminated(data, 79).ok_or_else(|| bad("no profile name"))?;
+    let (&method, z) = rest
+        .split_first()
+        .ok_or_else(|| bad("no compression method"))?;
+    if method != 0 {
+        return Err(bad(&format!("unknown compression method {method}")));
+    }
+    // The profile's header declares its size: refuse an oversized one before inflating.
+    use miniz_oxide::inflate::decompress_to_vec_zlib_with_limit;
+    let head = decompress_to_vec_zlib_with_limit(z, 4).unwrap_or_else(|e| e.output);
+    if let [a, b, c, d] = head[..] {
+        check_size(Item::Icc, u32::from_be_bytes([a, b, c, d]).into())?;
+    }
+    inflate(Item::Icc, z)
+}
+
+/// The XMP packet of an iTXt chunk, if the chunk is the XMP one.
+fn png_xmp(data: &[u8]) -> Result<Option<Vec<u8>>, MetadataError> {
+    let bad = |what: &str| corrupt("XMP packet", format!("PNG iTXt chunk: {what}"));
+    let Some((keyword, rest)) = nul_terminated(data, 79) else {
+        return Ok(None);
+    };
+    if keyword != b"XML:com.adobe.xmp" {
+        return Ok(None);
+    }
+    let [flag, method, rest @ ..] = rest else {
+        return Err(bad("no compression flag"));
+    };
+    let (_, rest) = nul_terminated(rest, rest.len()).ok_or_else(|| bad("no language tag"))?;
+    let (_, text) = nul_terminated(rest, rest.len()).ok_or_else(|| bad("no translated keyword"))?;
+    match (flag, method) {
+        (0, _) => {
+            check_size(Item::Xmp, text.len() as u64)?;
+            Ok(Some(text.to_vec()))
+        }
+        (1, 0) => inflate(Item::Xmp, text).map(Some),
+        _ => Err(bad(&format!("compression flag {flag}, method {method}"))),
+    }
+}
+
+fn read_webp(b: &[u8]) -> Result<Metadata, MetadataError> {
+    let mut meta = Metadata::default();
+    let mut pos = 12;
+    while let Some(head) = b.get(pos..pos + 8) {
+        let len = u64::from(u32::from_le_bytes([head[4], head[5], head[6], head[7]]));
+        let kind = &head[..4];
+        let item = match kind {
+            b"ICCP" => Some(Item::Icc),
+            b"EXIF" => Some(Item::Exif),
+            b"XMP " => Some(Item::Xmp),
+            _ => None,
+        };
+        if let Some(item) = item {
+            check_size(item, len)?;
+        }
+        let start = pos + 8;
+        let remain = b.len() - start;
+        if len > remain as u64 {
+            return Err(corrupt(
+                "WebP",
+                format!(
+                    "chunk {} at offset {pos} declares {len} bytes, {remain} remain",
+                    String::from_utf8_lossy(kind)
+                ),
+            ));
+        }
+        let data = &b[start..start + len as usize];
+        match item {
+            Some(Item::Icc) if meta.icc.is_none() => meta.icc = Some(data.to_vec()),
+            Some(Item::Exif) if meta.exif.is_none() => {
+                meta.exif = Some(strip_exif_prefix(data).to_vec())
+            }
+            Some(Item::Xmp) if meta.xmp.is_none() => meta.xmp = Some(data.to_vec()),
+            _ => {}
+        }
+        // Chunks are padded to an even length.
+        pos = start + len as usize + (len as usize & 1);
+    }
+    Ok(meta)
+}

@@ -1,0 +1,88 @@
+//! The `.cae` format and its decoder: the container, the entropy-coded key points and
+//! detail layer, and the reconstruction at any size (paper section 9: an image as a
+//! Cao En network whose outputs are `(x, y, colour)` points over a hypersphere
+//! domain). `docs/format.md` is the bitstream's specification.
+//!
+//! [`decode`] and [`inspect`] are all most callers need. The coding stages are public
+//! modules because the encoder (`caoen-encoder`) and the texture tools build on them.
+//! With the default `parallel` feature the decoder spreads its work over rayon's
+//! threads; without it, it runs on the caller's thread and pulls in no thread pool
+//! (the WebAssembly build). The output is the same either way.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod bitstream;
+/// Opponent colour bases and the HDR curve.
+pub mod colour;
+pub mod decoder;
+pub mod deringing;
+/// The transform-coded detail layer over the network's colours.
+pub mod detail;
+/// Adaptive binary and multi-symbol models on the ANS coder; the bit counter.
+pub mod entropy;
+mod error;
+/// Pixels embedded on the sphere; sharpness for a footprint.
+pub mod geometry;
+/// Key-point sets and their evaluation on a grid.
+pub mod keyset;
+mod par;
+/// The adaptive quadtree.
+pub mod quadtree;
+/// The restoration filters applied to the decoded planes.
+pub mod restoration;
+/// Split flags and value residuals as coded symbols.
+pub mod syntax;
+pub mod tiling;
+/// LEB128 lengths and counts.
+pub mod varint;
+
+pub use caoen_base::budget::Limits;
+pub use colour::ColourBasis;
+pub use error::{CodecError, Tag};
+pub use quadtree::Cell;
+
+use caoen_base::raster::Raster;
+
+/// Decoder settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DecodeOptions {
+    /// Output size; `None` decodes at the image's size (which a file coded at a
+    /// smaller size records in its header).
+    pub size: Option<(u32, u32)>,
+    /// Forward-mapping supersampling `S` (S x S samples per output pixel, 1..=4);
+    /// `None` uses the identity fast path where the file allows it.
+    pub supersample: Option<u32>,
+    /// Largest output the decoder will allocate, in pixels.
+    pub max_pixels: u64,
+    /// Memory limit of the call.
+    pub limits: Limits,
+}
+
+/// Default decode limit on pixels (2^28, 16384 x 16384: the memory budget is the limit
+/// that binds).
+pub const DEFAULT_MAX_PIXELS: u64 = 1 << 28;
+/// Largest image side the format allows.
+pub const MAX_SIDE: u32 = 16384;
+
+impl Default for DecodeOptions {
+    fn default() -> Self {
+        DecodeOptions {
+            size: None,
+            supersample: None,
+            max_pixels: DEFAULT_MAX_PIXELS,
+            limits: Limits::default(),
+        }
+    }
+}
+
+/// Decodes a caoen file.
+pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
+    decoder::decode(bytes, opts)
+}
+
+/// Describes a caoen file without decoding it: the header and the sections, with every
+/// container check [`decode`] makes. There is no pixel limit, since nothing is
+/// allocated for the image.
+pub fn inspect(bytes: &[u8]) -> Result<bitstream::Parsed<'_>, CodecError> {
+    bitstream::parse(bytes, u64::MAX)
+}

@@ -1,0 +1,329 @@
+//! Meshes of F-rep solids: marching tetrahedra over the model's box, then every vertex
+//! moved onto the surface by Newton steps along the gradient (linear interpolation on
+//! a cell edge only approximates the crossing), with normals from the exact gradient.
+//! Where sharp set operations (`a = 1`: max and min) meet, and along a box's or a
+//! cylinder's edges, the crease is made sharp as for convex-solid CSG
+//! (`render::crease`): the field's pieces below the sharp operations are its leaves.
+
+use super::interval::Aabb;
+use super::node::Node;
+use super::primitive::Primitive;
+use super::rfunction::SetOp;
+use caoen_geometry::crease::{sharpen_with, Leaves};
+use caoen_geometry::mesh::Mesh;
+use caoen_geometry::polygonise::{polygonise, polygonise_closed};
+use caoen_geometry::printable::{make_printable, Repair};
+
+/// One smooth piece of a field below its sharp set operations.
+#[derive(Debug, Clone, Copy)]
+enum Piece<'a> {
+    /// A whole sub-model (smooth, or sharp in ways not split further).
+    Whole(&'a Node),
+    /// `h^2 - (p - c)_axis^2`: a box's or a cylinder's pair of faces across `axis`.
+    Slab {
+        centre: [f64; 3],
+        half: f64,
+        axis: usize,
+    },
+    /// `r^2 - (p - c)_x^2 - (p - c)_y^2`: a cylinder's side.
+    Side { centre: [f64; 3], radius: f64 },
+}
+
+impl Piece<'_> {
+    fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        match *self {
+            Piece::Whole(n) => n.value_gradient(p),
+            Piece::Slab { centre, half, axis } => {
+                let q = p[axis] - centre[axis];
+                let mut g = [0.0; 3];
+                g[axis] = -2.0 * q;
+                (half * half - q * q, g)
+            }
+            Piece::Side { centre, radius } => {
+                let (x, y) = (p[0] - centre[0], p[1] - centre[1]);
+                (radius * radius - x * x - y * y, [-2.0 * x, -2.0 * y, 0.0])
+            }
+        }
+    }
+}
+
+/// A model's leaves for sharpening: its pieces in depth-first order, each with the sign
+/// it enters the model with (-1 below an odd number of subtractions).
+struct FieldLeaves<'a> {
+    root: &'a Node,
+    pieces: Vec<(Piece<'a>, f64)>,
+}
+
+/// Whether `node` is a set operation computed as max or min.
+fn sharp_op(node: &Node) -> Option<(SetOp, &[Node])> {
+    match node {
+        Node::SetOp { op, a, operands } if *a == 1.0 => Some((*op, operands)),
+        _ => None,
+    }
+}
+
+fn collect<'a>(node: &'a Node, sign: f64, out: &mut Vec<(Piece<'a>, f64)>) {
+    if let Some((op, operands)) = sharp_op(node) {
+        for (k, n) in operands.iter().enumerate() {
+            let flip = op == SetOp::Difference && k > 0;
+            collect(n, if flip { -sign } else { sign }, out);
+        }
+        return;
+    }
+    match node {
+        Node::Primitive(Primitive::Box { centre, half }) => {
+            for (axis, h) in half.iter().enumerate() {
+                let piece = Piece::Slab {
+                    centre: *centre,
+                    half: *h,
+                    axis,
+                };
+                out.push((piece, sign));
+            }
+        }
+        Node::Primitive(Primitive::Cylinder {
+            centre,
+            radius,
+            length,
+        }) => {
+            let side = Piece::Side {
+                centre: *centre,
+                radius: *radius,
+            };
+            let caps = Piece::Slab {
+                centre: *centre,
+                half: 0.5 * length,
+                axis: 2,
+            };
+            out.push((side, sign));
+            out.push((caps, sign));
+        }
+        _ => out.push((Piece::Whole(node), sign)),
+    }
+}
+
+impl FieldLeaves<'_> {
+    /// The model's value at `p` (as `Node::value`: max and min are exact) and the piece
+    /// it comes from; `next` is the index of the first piece of `node`.
+    fn eval(&self, node: &Node, p: [f64; 3], next: &mut usize) -> (f64, usize) {
+        if let Some((op, operands)) = sharp_op(node) {
+            let mut acc: Option<(f64, usize)> = None;
+            for (k, n) in operands.iter().enumerate() {
+                let (v, i) = self.eval(n, p, next);
+                let v = if op == SetOp::Difference && k > 0 {
+                    -v
+                } else {
+                    v
+                };
+                acc = Some(match acc {
+                    None => (v, i),
+                    Some(a) => {
+                        let take = match op {
+                            SetOp::Union => v > a.0,
+                            SetOp::Intersection | SetOp::Difference => v < a.0,
+                        };
+                        if take {
+                            (v, i)
+                        } else {
+                            a
+                        }
+                    }
+                });
+            }
+            return acc.expect("set operations have operands");
+        }
+        let count = match node {
+            Node::Primitive(Primitive::Box { .. }) => 3,
+            Node::Primitive(Primitive::Cylinder { .. }) => 2,
+            _ => 1,
+        };
+        let first = *next;
+        *next += count;
+        (first..first + count)
+            .map(|i| (self.pieces[i].0.value_gradient(p).0, i))
+            .fold((f64::INFINITY, first), |a, b| if b.0 < a.0 { b } else { a })
+    }
+}
+
+impl Leaves for FieldLeaves<'_> {
+    fn leaf(&self, i: usize, p: [f64; 3]) -> (f64, [f64; 3]) {
+        // The crease module's fields are negative inside.
+        let (piece, sign) = &self.pieces[i];
+        let (v, g) = piece.value_gradient(p);
+        (-sign * v, g.map(|x| -sign * x))
+    }
+
+    fn active(&self, p: [f64; 3]) -> usize {
+        self.eval(self.root, p, &mut 0).1
+    }
+}
+
+/// Newton steps per vertex: each roughly squares the relative error of a smooth field.
+const PROJECTION_STEPS: u32 = 4;
+
+/// The closed mesh of `node`'s boundary within `bounds`, `cells` cells along the
+/// longest side, with vertices on the creases where the model's pieces below its sharp
+/// set operations meet (one normal per vertex).
+pub fn mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
+    sharp(node, bounds, cells, false)
+}
+
+/// As [`mesh`], with the vertices on a crease split between the pieces that meet there,
+/// each with its own piece's normal, so shading keeps the crease sharp (for rendering).
+pub fn render_mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
+    sharp(node, bounds, cells, true)
+}
+
+fn sharp(node: &Node, bounds: &Aabb, cells: usize, split: bool) -> Mesh {
+    let m = smooth_mesh(node, bounds, cells);
+    let mut pieces = Vec::new();
+    collect(node, 1.0, &mut pieces);
+    if pieces.len() < 2 {
+        return m;
+    }
+    let cells = cells.max(1) as f64;
+    let cell = bounds.padded(bounds.longest() / cells).longest() / cells;
+    sharpen_with(m, &FieldLeaves { root: node, pieces }, cell, split)
+}
+
+/// Why a solid's mesh cannot be printed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SolidMeshError {
+    /// No triangles at all.
+    #[error(
+        "the mesh is empty: no grid point of {cells} cells along the longest side (cell {cell:.3e}) \
+         is inside the model; the solid is empty or thinner than a cell (try more cells)"
+    )]
+    Empty {
+        /// Cells along the longest side.
+        cells: usize,
+        /// The cell's side.
+        cell: f64,
+    },
+    /// Edges not shared by exactly two consistently wound triangles.
+    #[error("the mesh is not closed: {bad_edges} edges are not shared by exactly two consistently wound triangles")]
+    Open {
+        /// How many.
+        bad_edges: usize,
+    },
+    /// Zero-area triangles no collapse could remove.
+    #[error("{0} zero-area triangles could not be removed without breaking the surface")]
+    Degenerate(usize),
+}
+
+/// Pieces smaller than this fraction of the largest piece's volume are specks of the
+/// polygonisation (a spike thinner than a cell), not parts of the model.
+pub const SPECK_FRACTION: f64 = 1e-3;
+
+/// A mesh to print: as [`mesh`] on a grid whose outer layer is outside (closed even
+/// where the solid reaches `bounds`, which then cuts it), vertices clamped into
+/// `bounds`, zero-area triangles collapsed away and specks dropped; an error if the
+/// result is empty or not a closed, consistently wound manifold.
+///
+/// A grid whose vertices fold onto one line where no collapse or flip can undo it (a
+/// rare coincidence of the grid with the surface) is replaced by one with a cell more
+/// (at most two more); `Repair::cells` says which grid made the mesh.
+pub fn solid_mesh(
+    node: &Node,
+    bounds: &Aabb,
+    cells: usize,
+) -> Result<(Mesh, Repair), SolidMeshError> {
+    let cells = cells.max(1);
+    let mut first = None;
+    for c in cells..cells + 3 {
+        match solid_mesh_on(node, bounds, c) {
+            Ok((m, mut rep)) => {
+                rep.cells = c;
+                return Ok((m, rep));
+            }
+            Err(e @ SolidMeshError::Empty { .. }) => return Err(e),
+            Err(e) => {
+                first.get_or_insert(e);
+            }
+        }
+    }
+    Err(first.expect("three tries"))
+}
+
+fn solid_mesh_on(
+    node: &Node,
+    bounds: &Aabb,
+    cells: usize,
+) -> Result<(Mesh, Repair), SolidMeshError> {
+    let pad = bounds.longest() / cells as f64;
+    let b = bounds.padded(pad);
+    let (mut m, on_cut) = polygonise_closed(&|p| -node.value(p), b.lo, b.hi, cells);
+    let cell = b.longest() / cells as f64;
+    if m.triangles.is_empty() {
+        return Err(SolidMeshError::Empty { cells, cell });
+    }
+    project(node, &mut m, pad, &on_cut);
+    let mut pieces = Vec::new();
+    collect(node, 1.0, &mut pieces);
+    if pieces.len() >= 2 {
+        m = sharpen_with(m, &FieldLeaves { root: node, pieces }, cell, false);
+    }
+    // Thinner than a hundred-thousandth of a cell: zero area to any slicer.
+    let (m, rep) = make_printable(m, bounds.lo, bounds.hi, 1e-5 * cell, SPECK_FRACTION);
+    if m.triangles.is_empty() {
+        return Err(SolidMeshError::Empty { cells, cell });
+    }
+    if rep.bad_edges > 0 {
+        return Err(SolidMeshError::Open {
+            bad_edges: rep.bad_edges,
+        });
+    }
+    if rep.degenerate_left > 0 {
+        return Err(SolidMeshError::Degenerate(rep.degenerate_left));
+    }
+    Ok((m, rep))
+}
+
+/// The mesh without sharpened creases: every vertex projected onto the surface, with
+/// the gradient's direction as its normal.
+pub fn smooth_mesh(node: &Node, bounds: &Aabb, cells: usize) -> Mesh {
+    // One cell of margin so the surface never touches the grid's faces.
+    let pad = bounds.longest() / cells.max(1) as f64;
+    let b = bounds.padded(pad);
+    // polygonise puts the inside where the field is negative.
+    let mut m = polygonise(&|p| -node.value(p), b.lo, b.hi, cells);
+    project(node, &mut m, pad, &[]);
+    m
+}
+
+/// Moves every vertex not flagged in `fixed` onto the surface by Newton steps (at most
+/// `limit` from where it starts) and sets every normal from the gradient.
+fn project(node: &Node, m: &mut Mesh, limit: f64, fixed: &[bool]) {
+    for (i, (p, n)) in m.positions.iter_mut().zip(m.normals.iter_mut()).enumerate() {
+        let start = *p;
+        let steps = if fixed.get(i).copied().unwrap_or(false) {
+            0
+        } else {
+            PROJECTION_STEPS
+        };
+        for _ in 0..steps {
+            let (f, g) = node.value_gradient(*p);
+            let g2 = g[0] * g[0] + g[1] * g[1] + g[2] * g[2];
+            if g2.is_nan() || g2 <= 0.0 || !f.is_finite() {
+                break;
+            }
+            let q = [0, 1, 2].map(|k| p[k] - f * g[k] / g2);
+            // A step that leaves the vertex's cell would jump to another sheet of the
+            // surface (near a sharp edge or a thin part): keep the last good point.
+            let moved = (0..3)
+                .map(|k| (q[k] - start[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if moved.is_nan() || moved > limit {
+                break;
+            }
+            *p = q;
+        }
+        let (_, g) = node.value_gradient(*p);
+        let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        if len > 0.0 {
+            // Outward: f decreases outwards.
+            *n = g.map(|v| -v / len);
+        }
+    }
+}

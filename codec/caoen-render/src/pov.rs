@@ -1,0 +1,174 @@
+//! POV-Ray export of scenes: a `.pov` scene that POV-Ray renders as the same picture.
+//!
+//! Every F-rep object is an `isosurface` of the negated model function (POV-Ray's
+//! inside is below the threshold, F-rep's is `f >= 0`), its function declared by
+//! `frep::pov`. The camera is caoen's resolved camera (same eye, direction, up and
+//! field of view), the lights are parallel lights along the same directions, shadows
+//! as the scene has them. Materials map to POV-Ray's finish, pigment transmit and
+//! interior so that its reflection, refraction and shadows are `render::rays`'s.
+
+use std::fmt::Write as _;
+
+use super::camera::{Camera, Projection};
+use super::scene::{Scene, Shape};
+use caoen_frep::pov::{
+    declare, max_gradient_with, num, unexportable, v3, Unexportable, R_FUNCTIONS,
+};
+
+/// Why a scene cannot be exported.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PovError {
+    /// An object that is not an F-rep solid.
+    #[error("object {index} (`{name}`) is not an F-rep solid; only F-rep objects are exported")]
+    NotFrep {
+        /// The object's position in the scene.
+        index: usize,
+        /// The object's name.
+        name: String,
+    },
+    /// An F-rep object holding something POV-Ray cannot draw.
+    #[error("object {index} (`{name}`): {why}")]
+    Unexportable {
+        /// The object's position in the scene.
+        index: usize,
+        /// The object's name.
+        name: String,
+        /// What cannot be drawn.
+        why: Unexportable,
+    },
+}
+
+/// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface;
+/// surfaces and convex solids are not exported (an error names the first).
+pub fn export(scene: &Scene, camera: &Camera) -> Result<String, PovError> {
+    export_with(scene, camera, &|_, _| {})
+}
+
+/// [`export`], calling `progress(done, total)` while the objects' `max_gradient` is
+/// measured (most of the time a large model takes).
+pub fn export_with(
+    scene: &Scene,
+    camera: &Camera,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<String, PovError> {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "// POV-Ray 3.7 scene written by caoen (frep export-pov): the model's function\n\
+         // negated as an isosurface, axes swapped (caoen z up = POV-Ray y up).\n\
+         #version 3.7;\n\
+         global_settings {{ assumed_gamma 1.0 }}"
+    );
+    let bg = scene.background;
+    let _ = writeln!(
+        out,
+        "background {{ rgb <{}, {}, {}> }}",
+        bg[0], bg[1], bg[2]
+    );
+    let aspect = camera.width as f64 / camera.height as f64;
+    let target = [0, 1, 2].map(|k| camera.eye[k] + camera.forward[k]);
+    match camera.projection {
+        Projection::Perspective { fov_y_deg } => {
+            let half_h = (0.5 * fov_y_deg.to_radians()).tan();
+            let fov_x = 2.0 * (half_h * aspect).atan().to_degrees();
+            let _ = writeln!(
+                out,
+                "camera {{\n  perspective\n  location {}\n  right x*{}\n  up y\n  sky {}\n  angle {}\n  look_at {}\n}}",
+                v3(camera.eye),
+                num(aspect),
+                v3(camera.up),
+                num(fov_x),
+                v3(target)
+            );
+        }
+        Projection::Orthographic { height } => {
+            let _ = writeln!(
+                out,
+                "camera {{\n  orthographic\n  location {}\n  right x*{}\n  up y*{}\n  sky {}\n  look_at {}\n}}",
+                v3(camera.eye),
+                num(height * aspect),
+                num(height),
+                v3(camera.up),
+                v3(target)
+            );
+        }
+    }
+    let amb = scene.lighting.ambient;
+    let _ = writeln!(
+        out,
+        "global_settings {{ ambient_light rgb <{}, {}, {}> max_trace_level {} adc_bailout 1/255 }}",
+        amb[0], amb[1], amb[2], scene.max_depth
+    );
+    for l in &scene.lighting.lights {
+        let far = l.direction.map(|v| v * 1e4);
+        let _ = writeln!(
+            out,
+            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0>{} }}",
+            v3(far),
+            l.radiance[0],
+            l.radiance[1],
+            l.radiance[2],
+            if scene.shadows { "" } else { " shadowless" }
+        );
+    }
+    out.push_str(R_FUNCTIONS);
+    let mut next = 0;
+    for (i, obj) in scene.objects.iter().enumerate() {
+        let Shape::Field { node, bounds } = &obj.shape else {
+            return Err(PovError::NotFrep {
+                index: i,
+                name: obj.name.clone(),
+            });
+        };
+        if let Some(why) = unexportable(node) {
+            return Err(PovError::Unexportable {
+                index: i,
+                name: obj.name.clone(),
+                why,
+            });
+        }
+        let top = declare(node, &mut out, &mut next);
+        // A little margin so the container never clips the surface.
+        let b = bounds.padded(1e-3 * bounds.longest());
+        let m = &obj.material;
+        let _ = writeln!(
+            out,
+            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  pigment {{ rgbt <{}, {}, {}, {}> }}\n  finish {{ ambient {} diffuse {} specular {} roughness {}{} }}{}\n}}",
+            v3(b.lo),
+            v3(b.hi),
+            num(1e-5 * b.longest()),
+            num(max_gradient_with(node, &b, 6, progress)),
+            m.colour[0],
+            m.colour[1],
+            m.colour[2],
+            m.transmit,
+            m.ambient,
+            m.diffuse,
+            m.specular,
+            num(1.0 / m.shininess.max(1.0) as f64),
+            reflection(m),
+            if m.transmit > 0.0 {
+                format!("\n  interior {{ ior {} }}", num(m.ior))
+            } else {
+                String::new()
+            }
+        );
+    }
+    Ok(out)
+}
+
+/// The finish's reflection: constant for an opaque mirror; for a transmitting material
+/// Fresnel-weighted up to `reflect`, with the transmitted light reduced by what is
+/// reflected (`conserve_energy`), as `render::rays` computes it.
+fn reflection(m: &super::shading::Material) -> String {
+    if m.transmit > 0.0 {
+        format!(
+            " reflection {{ 0, {} fresnel on }} conserve_energy",
+            m.reflect
+        )
+    } else if m.reflect > 0.0 {
+        format!(" reflection {{ {} }}", m.reflect)
+    } else {
+        String::new()
+    }
+}

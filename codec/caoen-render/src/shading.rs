@@ -1,0 +1,199 @@
+//! Shading (paper section 7): Lambert's cosine law with an ambient term and any number
+//! of directional lights, plus an optional Blinn-Phong highlight. All arithmetic is in
+//! linear light; gamma encoding happens once, when the image is written.
+
+use std::sync::Arc;
+
+use super::texture::{Texture, Wrap};
+use caoen_geometry::vector::{add, dot, unit};
+
+/// A directional light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Light {
+    /// Unit direction from the surface towards the light.
+    pub direction: [f64; 3],
+    /// Linear colour times intensity.
+    pub radiance: [f32; 3],
+}
+
+impl Light {
+    /// A light shining from `towards_light` with linear colour `colour` scaled by `intensity`.
+    pub fn new(towards_light: [f64; 3], colour: [f32; 3], intensity: f32) -> Self {
+        Light {
+            direction: unit(towards_light),
+            radiance: colour.map(|c| c * intensity),
+        }
+    }
+}
+
+/// The scene's lights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Lighting {
+    /// Linear ambient light colour.
+    pub ambient: [f32; 3],
+    /// Directional lights.
+    pub lights: Vec<Light>,
+}
+
+impl Default for Lighting {
+    /// A key light from the upper left front, a dimmer fill from the right, soft ambient.
+    fn default() -> Self {
+        Lighting {
+            ambient: [0.06; 3],
+            lights: vec![
+                Light::new([-1.0, -0.5, 1.0], [1.0, 0.96, 0.9], 1.0),
+                Light::new([1.0, -0.3, 0.2], [0.7, 0.8, 1.0], 0.25),
+            ],
+        }
+    }
+}
+
+/// How a surface reflects light.
+#[derive(Debug, Clone)]
+pub struct Material {
+    /// Linear base colour (multiplied by the texture, if any).
+    pub colour: [f32; 3],
+    /// Ambient reflectance.
+    pub ambient: f32,
+    /// Diffuse (Lambert) reflectance.
+    pub diffuse: f32,
+    /// Blinn-Phong specular reflectance (0 turns the highlight off).
+    pub specular: f32,
+    /// Blinn-Phong exponent.
+    pub shininess: f32,
+    /// Texture on the domain, with its wrap mode.
+    pub texture: Option<(Arc<Texture>, Wrap)>,
+    /// Mirror reflectance in [0, 1] (times the Fresnel reflectance when transmitting).
+    pub reflect: f32,
+    /// Share of light passing through the surface, in [0, 1].
+    pub transmit: f32,
+    /// Index of refraction of the inside (>= 1).
+    pub ior: f64,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            colour: [0.30, 0.38, 0.62],
+            ambient: 1.0,
+            diffuse: 1.0,
+            specular: 0.25,
+            shininess: 40.0,
+            texture: None,
+            reflect: 0.0,
+            transmit: 0.0,
+            ior: 1.0,
+        }
+    }
+}
+
+impl Material {
+    /// The base colour at texture coordinates `uv` (NaN: untextured point), unfiltered.
+    pub fn albedo(&self, uv: [f32; 2]) -> [f32; 3] {
+        self.albedo_filtered(uv, [[0.0; 2]; 2])
+    }
+
+    /// The base colour at texture coordinates `uv` for a sample whose neighbours one
+    /// sample step away in x and y lie `duv[0]` and `duv[1]` away in texture
+    /// coordinates: the texture is read at the pyramid level of that footprint.
+    pub fn albedo_filtered(&self, uv: [f32; 2], duv: [[f32; 2]; 2]) -> [f32; 3] {
+        match &self.texture {
+            Some((tex, wrap)) if uv[0].is_finite() => {
+                let (w, h) = (tex.image().width as f64, tex.image().height as f64);
+                let side = |d: [f32; 2]| (d[0] as f64 * w).hypot(d[1] as f64 * h);
+                let footprint = side(duv[0]).max(side(duv[1]));
+                let t = tex.sample_filtered([uv[0] as f64, uv[1] as f64], footprint, *wrap);
+                [
+                    t[0] * self.colour[0],
+                    t[1] * self.colour[1],
+                    t[2] * self.colour[2],
+                ]
+            }
+            _ => self.colour,
+        }
+    }
+}
+
+/// Linear radiance leaving a surface point with unit normal `normal`, seen along
+/// `to_eye` (unit, from the surface towards the eye), with base colour `albedo`.
+///
+/// The normal is turned to face the viewer first: a Cao En map may orient its surface
+/// either way (and a zero normal, at a singular point, shades with ambient light only).
+pub fn shade(
+    lighting: &Lighting,
+    material: &Material,
+    albedo: [f32; 3],
+    normal: [f64; 3],
+    to_eye: [f64; 3],
+) -> [f32; 3] {
+    shade_lit(lighting, material, albedo, normal, to_eye, 1.0, &|_| 1.0)
+}
+
+/// [`shade`] with an opacity (the share of ambient and diffuse light the surface
+/// keeps, `1 - transmit`; the highlight is not scaled, as in POV-Ray) and the share of
+/// each light that reaches the point, `visible(direction towards the light)` (asked
+/// only of lights in front of the surface).
+pub fn shade_lit(
+    lighting: &Lighting,
+    material: &Material,
+    albedo: [f32; 3],
+    normal: [f64; 3],
+    to_eye: [f64; 3],
+    opacity: f32,
+    visible: &dyn Fn([f64; 3]) -> f32,
+) -> [f32; 3] {
+    let mut n = normal;
+    if dot(n, to_eye) < 0.0 {
+        n = n.map(|v| -v);
+    }
+    let mut out = [0.0f32; 3];
+    for k in 0..3 {
+        out[k] = lighting.ambient[k] * material.ambient * albedo[k] * opacity;
+    }
+    for light in &lighting.lights {
+        let cos = dot(n, light.direction);
+        if cos <= 0.0 {
+            continue;
+        }
+        let seen = visible(light.direction);
+        if seen <= 0.0 {
+            continue;
+        }
+        let diffuse = material.diffuse * cos as f32 * opacity;
+        let mut spec = 0.0f32;
+        if material.specular > 0.0 {
+            let h = unit(add(light.direction, to_eye));
+            let c = dot(n, h).max(0.0) as f32;
+            spec = material.specular * c.powf(material.shininess);
+        }
+        for k in 0..3 {
+            out[k] += seen * light.radiance[k] * (diffuse * albedo[k] + spec);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lambert_follows_the_cosine_law() {
+        let lighting = Lighting {
+            ambient: [0.0; 3],
+            lights: vec![Light::new([0.0, 0.0, 1.0], [1.0; 3], 1.0)],
+        };
+        let m = Material {
+            specular: 0.0,
+            ..Material::default()
+        };
+        let a = [1.0f32; 3];
+        let head_on = shade(&lighting, &m, a, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]);
+        let s = 0.5f64.sqrt();
+        let tilted = shade(&lighting, &m, a, [s, 0.0, s], [0.0, 0.0, 1.0]);
+        assert!((tilted[0] / head_on[0] - s as f32).abs() < 1e-6);
+        // Facing away from the viewer flips the normal, not the light.
+        let back = shade(&lighting, &m, a, [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]);
+        assert_eq!(back, head_on);
+    }
+}
