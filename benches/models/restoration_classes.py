@@ -4,7 +4,7 @@ the 12-tap luma diamond, one per class, bring the decoded BT.601 luma closest to
 original's, and the luma PSNR they add is printed for five classings: one class; 5 and
 8 activity levels; 5 and 8 activity levels by 5 directions (none, across columns,
 across rows, the two diagonals), from second differences summed over 5x5 windows as
-`codec/src/codec/restoration/mod.rs` classifies. Nothing is charged for the taps.
+`codec/caoen-decoder/src/restoration/mod.rs` classifies. Nothing is charged for the taps.
 
     CAOEN=target/release/caoen python3 restoration_classes.py [PHOTOS_DIR]
 """

@@ -5,6 +5,8 @@
 
 pub mod deviation;
 pub mod fit;
+pub mod job;
+pub mod measure;
 pub mod mesh_file;
 pub mod model;
 pub mod openings;
@@ -15,6 +17,8 @@ pub mod support;
 pub mod winding;
 
 pub use fit::{convert, Conversion, ConvertOptions, LevelReport};
+pub use job::{convert_file, convert_mesh, ConvertError, ConvertJob, ConvertReport, Holes};
+pub use measure::{measure, MeasureOptions, Measured};
 pub use mesh_file::{read, MeshError};
 pub use model::{Bump, ImplicitField, ImplicitModel, InUnitCube};
 pub use polygon_mesh::{Openness, PolygonMesh, Topology, UnitFrame};
