@@ -15,9 +15,16 @@ fn copy_crate(root: &Path, to: &Path) {
     let _ = std::fs::remove_dir_all(to);
     std::fs::create_dir_all(to.join("src")).unwrap();
     let manifest = std::fs::read_to_string(from.join("Cargo.toml")).unwrap();
-    let codec = root.join("codec/caoen").display().to_string().replace('\\', "/");
+    let codec = root
+        .join("codec/caoen")
+        .display()
+        .to_string()
+        .replace('\\', "/");
     assert!(manifest.contains("path = \"../../codec/caoen\""));
-    let manifest = manifest.replace("path = \"../../codec/caoen\"", &format!("path = \"{codec}\""));
+    let manifest = manifest.replace(
+        "path = \"../../codec/caoen\"",
+        &format!("path = \"{codec}\""),
+    );
     std::fs::write(to.join("Cargo.toml"), manifest).unwrap();
     std::fs::copy(from.join("src/main.rs"), to.join("src/main.rs")).unwrap();
     std::fs::copy(root.join("Cargo.lock"), to.join("Cargo.lock")).unwrap();
