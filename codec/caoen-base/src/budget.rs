@@ -16,6 +16,7 @@
 
 use std::io::Read;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 
 use thiserror::Error;
 
@@ -88,10 +89,12 @@ pub fn held() -> u64 {
     HELD.load(Ordering::Relaxed)
 }
 
-/// Memory a loaded asset keeps, counted by every [`check`] until it is dropped.
+/// Memory a loaded asset keeps, counted by every check of its job until it is dropped.
 #[derive(Debug, Default)]
 pub struct Reservation {
     bytes: u64,
+    /// The job's ledger; `None` for the process-wide count.
+    ledger: Option<Arc<Ledger>>,
 }
 
 impl Reservation {
@@ -103,7 +106,10 @@ impl Reservation {
 
 impl Drop for Reservation {
     fn drop(&mut self) {
-        HELD.fetch_sub(self.bytes, Ordering::Relaxed);
+        match &self.ledger {
+            Some(l) => l.held.fetch_sub(self.bytes, Ordering::Relaxed),
+            None => HELD.fetch_sub(self.bytes, Ordering::Relaxed),
+        };
     }
 }
 
@@ -119,7 +125,10 @@ impl PartialEq for Reservation {
 pub fn reserve(what: impl FnOnce() -> String, need: u64) -> Result<Reservation, OverBudget> {
     check(what, need)?;
     HELD.fetch_add(need, Ordering::Relaxed);
-    Ok(Reservation { bytes: need })
+    Ok(Reservation {
+        bytes: need,
+        ledger: None,
+    })
 }
 
 /// `a * b * c` bytes, saturating: an estimate that overflows is over any budget.
@@ -129,8 +138,16 @@ pub fn bytes(a: u64, b: u64, c: u64) -> u64 {
 
 /// Reads a whole file (or all of `reader`), refusing one larger than the budget before
 /// reading it: a file's bytes are held in memory, so they count like any allocation.
-pub fn read_all(mut reader: impl std::io::Read, len_hint: Option<u64>) -> std::io::Result<Vec<u8>> {
-    let budget = get();
+pub fn read_all(reader: impl std::io::Read, len_hint: Option<u64>) -> std::io::Result<Vec<u8>> {
+    read_within(reader, len_hint, get())
+}
+
+/// [`read_all`] within `budget` bytes.
+fn read_within(
+    mut reader: impl std::io::Read,
+    len_hint: Option<u64>,
+    budget: u64,
+) -> std::io::Result<Vec<u8>> {
     let too_big = |what: &str, need: u64| {
         std::io::Error::other(OverBudget {
             what: what.into(),
@@ -272,6 +289,36 @@ mod tests {
     }
 
     #[test]
+    fn a_jobs_reservations_count_in_its_checks_and_its_clones_only() {
+        let limits = Limits::new(10_000);
+        let other = limits.fresh();
+        let r = limits.reserve(|| "a map".into(), 6_000).unwrap();
+        assert_eq!(limits.held(), 6_000);
+        assert_eq!(limits.clone().held(), 6_000, "clones share the ledger");
+        assert_eq!(other.held(), 0, "a fresh job holds nothing");
+        let e = limits.check(|| "more".into(), 5_000).unwrap_err();
+        assert_eq!((e.need, e.budget), (11_000, 10_000));
+        assert!(e.what.starts_with("more (with "), "{}", e.what);
+        assert!(other.check(|| "more".into(), 5_000).is_ok());
+        assert_eq!(limits.largest_checked(), 11_000);
+        drop(r);
+        assert_eq!(limits.held(), 0);
+        assert!(limits.check(|| "more".into(), 5_000).is_ok());
+        assert_eq!(limits, other, "alike by what they allow");
+    }
+
+    #[test]
+    fn reads_stop_at_the_limit() {
+        let limits = Limits::new(8);
+        assert_eq!(limits.read_all(&b"12345678"[..], None).unwrap().len(), 8);
+        assert!(limits.read_all(&b"123456789"[..], None).is_err());
+        assert!(
+            limits.read_all(&b""[..], Some(9)).is_err(),
+            "a declared size is checked first"
+        );
+    }
+
+    #[test]
     fn estimates_saturate_and_messages_name_both_sizes() {
         assert_eq!(bytes(u64::MAX, 2, 3), u64::MAX);
         assert_eq!(human(3 << 29), "1.5 GiB");
@@ -288,33 +335,126 @@ mod tests {
     }
 }
 
-/// Resource limits of one encode or decode call, checked before allocating.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The memory limit of one job, checked before allocating, and what the job holds.
+///
+/// Every allocation that grows with the input is estimated from declared sizes and
+/// checked with [`Limits::check`] before it is made. What a job keeps while it works
+/// (every height map and texture a model or scene loads) is held as a
+/// [`Reservation`] from [`Limits::reserve`], and every later check counts it, so one
+/// job's loads together stay within one limit. Clones share what is held: hand the
+/// same `Limits` (or a clone) to every call of one job.
+#[derive(Debug, Clone)]
 pub struct Limits {
-    /// The most memory the call may allocate, in bytes (its input, already held by
+    /// The most memory the job may allocate, in bytes (its input, already held by
     /// the caller, not counted).
     pub max_memory: u64,
+    ledger: Arc<Ledger>,
+}
+
+/// What a job's calls hold and the largest need they checked.
+#[derive(Debug, Default)]
+struct Ledger {
+    held: AtomicU64,
+    largest: AtomicU64,
 }
 
 impl Default for Limits {
     fn default() -> Self {
-        Limits {
-            max_memory: DEFAULT_BUDGET,
-        }
+        Limits::new(DEFAULT_BUDGET)
     }
 }
 
+/// Two limits are alike when they allow the same: what they hold is bookkeeping.
+impl PartialEq for Limits {
+    fn eq(&self, other: &Self) -> bool {
+        self.max_memory == other.max_memory
+    }
+}
+
+impl Eq for Limits {}
+
 impl Limits {
-    /// Checks an estimated need; `what` is only formatted on failure.
+    /// A limit of `max_memory` bytes, holding nothing yet.
+    pub fn new(max_memory: u64) -> Self {
+        Limits {
+            max_memory,
+            ledger: Arc::default(),
+        }
+    }
+
+    /// The same limit for a new job, sharing nothing held with this one.
+    pub fn fresh(&self) -> Self {
+        Limits::new(self.max_memory)
+    }
+
+    /// Checks an estimated need, on top of what the job's reservations hold, against
+    /// the limit; `what` is only formatted on failure.
     pub fn check(&self, what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
-        if need <= self.max_memory {
+        let held = self.held();
+        let total = need.saturating_add(held);
+        self.ledger.largest.fetch_max(total, Ordering::Relaxed);
+        if total <= self.max_memory {
             Ok(())
         } else {
             Err(OverBudget {
-                what: what(),
-                need,
+                what: if held == 0 {
+                    what()
+                } else {
+                    format!("{} (with {} already loaded)", what(), human(held))
+                },
+                need: total,
                 budget: self.max_memory,
             })
         }
+    }
+
+    /// Checks `need` like [`Limits::check`] and, when it fits, holds it until the
+    /// reservation is dropped.
+    pub fn reserve(
+        &self,
+        what: impl FnOnce() -> String,
+        need: u64,
+    ) -> Result<Reservation, OverBudget> {
+        self.check(what, need)?;
+        self.ledger.held.fetch_add(need, Ordering::Relaxed);
+        Ok(Reservation {
+            bytes: need,
+            ledger: Some(self.ledger.clone()),
+        })
+    }
+
+    /// Bytes held by live reservations: what the job's loads so far keep.
+    pub fn held(&self) -> u64 {
+        self.ledger.held.load(Ordering::Relaxed)
+    }
+
+    /// The largest need checked so far (with what was held at the time): the job's
+    /// estimate of its peak, which a measured peak is compared with.
+    pub fn largest_checked(&self) -> u64 {
+        self.ledger.largest.load(Ordering::Relaxed)
+    }
+
+    /// Reads all of `reader` (`len_hint`: its size where known), refusing input larger
+    /// than the limit before reading it: a file's bytes are held in memory, so they
+    /// count like any allocation.
+    pub fn read_all(&self, reader: impl Read, len_hint: Option<u64>) -> std::io::Result<Vec<u8>> {
+        read_within(reader, len_hint, self.max_memory)
+    }
+
+    /// [`Limits::read_all`] of the file at `path`.
+    pub fn read(&self, path: &std::path::Path) -> std::io::Result<Vec<u8>> {
+        let file = std::fs::File::open(path)?;
+        let len = file
+            .metadata()
+            .ok()
+            .filter(|m| m.is_file())
+            .map(|m| m.len());
+        self.read_all(file, len)
+    }
+
+    /// [`Limits::read`] as UTF-8 text.
+    pub fn read_to_string(&self, path: &std::path::Path) -> std::io::Result<String> {
+        String::from_utf8(self.read(path)?)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
     }
 }

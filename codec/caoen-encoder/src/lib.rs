@@ -442,7 +442,7 @@ impl<S: PixelSource + ?Sized, F: Fn(f32) -> rate_control::EncodeSettings> Coder<
     fn chooser(&self, full: (Vec<u8>, EncodeStats)) -> Result<Chooser<'_, S>, CodecError> {
         let mut c = Chooser {
             image: self.image,
-            limits: self.opts.limits,
+            limits: self.opts.limits.clone(),
             full_error: 0.0,
             full_len: full.0.len() as f64,
             best_score: 0.0,
@@ -478,7 +478,7 @@ struct Chooser<'a, S: PixelSource + ?Sized> {
 impl<S: PixelSource + ?Sized> Chooser<'_, S> {
     fn error(&self, bytes: &[u8]) -> Result<f64, CodecError> {
         let opts = DecodeOptions {
-            limits: self.limits,
+            limits: self.limits.clone(),
             ..DecodeOptions::default()
         };
         Ok(squared_error(self.image, &decode(bytes, &opts)?))

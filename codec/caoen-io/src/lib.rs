@@ -13,6 +13,7 @@ mod error;
 mod exr;
 mod hooks;
 mod read;
+pub mod transcode;
 mod write;
 
 pub use convert::{from_dynamic, load_for_encoding, to_dynamic8, EncodeSource};
@@ -21,6 +22,9 @@ pub use hooks::{register_image_hooks, CaeDecoder};
 pub use read::{
     load, load_from_memory, load_from_memory_with_metadata, load_with_limits, load_with_metadata,
     read_metadata,
+};
+pub use transcode::{
+    decode_file, decode_to_image, DecodeToImage, DecodedImage, FormatChoice, TranscodeError,
 };
 pub use write::{
     encode, encode_memory, encode_png_interleaved, encode_png_interleaved_with, encode_with,

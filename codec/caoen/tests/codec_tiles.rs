@@ -145,9 +145,7 @@ fn bytes_do_not_depend_on_workers_threads_or_the_source_form() {
     // A budget for exactly one tile at a time: the same file.
     let one = encode_memory(w, h, opts.quality);
     let limited = EncodeOptions {
-        limits: Limits {
-            max_memory: one.need(1) + (64 << 20),
-        },
+        limits: Limits::new(one.need(1) + (64 << 20)),
         ..opts.clone()
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -164,9 +162,7 @@ fn bytes_do_not_depend_on_workers_threads_or_the_source_form() {
 fn a_budget_too_small_for_one_tile_is_refused_before_any_work() {
     let img = image_io::from_dynamic(natural(600, 600)).unwrap();
     let opts = EncodeOptions {
-        limits: Limits {
-            max_memory: 1 << 20,
-        },
+        limits: Limits::new(1 << 20),
         ..EncodeOptions::default()
     };
     match encode(&img, &opts) {
@@ -178,7 +174,7 @@ fn a_budget_too_small_for_one_tile_is_refused_before_any_work() {
         other => panic!("{other:?}"),
     }
     let d = DecodeOptions {
-        limits: Limits { max_memory: 1000 },
+        limits: Limits::new(1000),
         ..DecodeOptions::default()
     };
     let bytes = encode(&img, &EncodeOptions::default()).unwrap();

@@ -40,6 +40,14 @@ pub struct Metadata {
 }
 
 impl Metadata {
+    /// Bytes of the items together.
+    pub fn bytes(&self) -> u64 {
+        [&self.icc, &self.exif, &self.xmp]
+            .iter()
+            .map(|m| m.as_ref().map_or(0, |b| b.len() as u64))
+            .sum()
+    }
+
     /// Whether no item is present.
     pub fn is_empty(&self) -> bool {
         self.icc.is_none() && self.exif.is_none() && self.xmp.is_none()

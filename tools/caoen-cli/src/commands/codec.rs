@@ -8,7 +8,7 @@ use caoen::codec::deringing::Strengths;
 use caoen::codec::{
     decoder, keypoint_map, DecodeOptions, EncodeOptions, Limits, PixelSource, RateTarget,
 };
-use caoen::image_io;
+use caoen::image_io::{self, transcode, DecodeToImage, FormatChoice};
 use caoen::metadata::Metadata;
 use caoen::raster::Raster;
 use serde_json::json;
@@ -17,9 +17,6 @@ use crate::cli::{DecodeArgs, EncodeArgs, GlobalArgs, InfoArgs};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::{print, Outputs, Target};
-
-/// Memory the allocator may hold free beside a command's working set.
-const ALLOCATOR_SLACK: u64 = 32 << 20;
 
 /// Reads a `.cae` input within the memory budget. The first four bytes are read on
 /// their own: a file that does not start with the magic number is handed to the
@@ -170,9 +167,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         keypoints: a.keypoints,
         metadata: kept.clone(),
         // One budget for the command: what the input already holds is spent.
-        limits: Limits {
-            max_memory: caoen::budget::get().saturating_sub(held),
-        },
+        limits: Limits::new(caoen::budget::get().saturating_sub(held)),
         resampling: a.resampling,
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
@@ -287,136 +282,81 @@ fn parse_size(s: &str) -> CliResult<(u32, u32)> {
 /// Decodes (or, without `-o`, validates) a `.cae` file.
 pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     let bytes = read_input(&a.input)?;
-    let parsed = bitstream::parse(&bytes, a.max_pixels).map_err(|e| codec_err(&a.input, e))?;
-    let (w, h) = parsed.header.display_size();
     let size = match (&a.size, a.scale) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage("give --size or --scale, not both".into()))
         }
         (Some(s), None) => Some(parse_size(s)?),
-        (None, Some(f)) if f.is_finite() && f > 0.0 => Some((
-            ((w as f64 * f).round() as u32).max(1),
-            ((h as f64 * f).round() as u32).max(1),
-        )),
-        (None, Some(f)) => {
+        (None, Some(f)) if !(f.is_finite() && f > 0.0) => {
             return Err(CliError::Usage(format!(
                 "--scale {f}: must be a positive number"
             )))
         }
-        (None, None) => None,
+        _ => None,
     };
-    let opts = DecodeOptions {
+    let decode = DecodeOptions {
         size,
         supersample: a.supersample,
         max_pixels: a.max_pixels,
-        limits: Limits {
-            max_memory: caoen::budget::get(),
-        },
+        limits: crate::commands::limits(),
     };
     let target = a
         .output
         .as_deref()
         .map(|o| Target::from_arg(Some(o), PathBuf::new));
     let format = match target.as_ref().and_then(Target::path) {
-        None => image_io::OutputFormat::natural(parsed.header.format),
-        Some(out) => image_format(out, parsed.header.format, "output")?,
+        None => FormatChoice::Natural,
+        Some(out) => {
+            // The extension alone decides whether a format is written at all.
+            image_format(out, caoen::raster::SampleFormat::U8, "output")?;
+            FormatChoice::ForPath(out.to_path_buf())
+        }
     };
     let mut outputs = Outputs::new(global.force).input(&a.input);
     if let Some(t) = &target {
         outputs.check(t)?;
     }
-    // PNG output from the identity path is decoded straight to its integer samples,
-    // with no full-size float raster. Supersampling at the coded size is the identity
-    // (the decoder skips it), so it takes this path too.
-    let identity = a.supersample.is_none() || size.is_none_or(|s| s == (w, h));
-    let depth = match (&target, identity, format) {
-        (Some(_), true, image_io::OutputFormat::Png8) => Some(decoder::Depth::Eight),
-        (Some(_), true, image_io::OutputFormat::Png16) => Some(decoder::Depth::Sixteen),
-        _ => None,
+    let opts = DecodeToImage {
+        decode,
+        scale: a.scale,
+        format,
+        png: image_io::PngCompression::parse(&a.png_compression).expect("clap checked it"),
+        metadata: a.metadata.policy(a.strip),
     };
-    // The whole job against the budget before any of it starts: the decode and the
-    // output file's buffers.
-    let header = &parsed.header;
-    let channels = header.layout.channels();
-    let (ow, oh) = size.unwrap_or((w, h));
-    let need =
-        match depth {
-            Some(d) => {
-                let b = if d == decoder::Depth::Eight { 1 } else { 2 };
-                // The samples, the file (counted at their size) and, for 16 bits, the
-                // samples as bytes.
-                decoder::decode_memory(header, (ow, oh), None, b).saturating_add(
-                    caoen::budget::bytes(u64::from(ow) * u64::from(oh), channels as u64, 2 * b - 1),
-                )
-            }
-            None => decoder::decode_memory(header, (ow, oh), a.supersample, 4).saturating_add(
-                target
-                    .as_ref()
-                    .map_or(0, |_| image_io::encode_memory(ow, oh, channels, format)),
-            ),
-        }
-        // Decoding's freed buffers, which the allocator keeps for reuse (`main.rs`)
-        // while the output file's buffer is mapped on its own.
-        .saturating_add(ALLOCATOR_SLACK);
-    let kept = stored_metadata(&parsed).filtered(a.metadata.policy(a.strip));
-    // The metadata is copied into the output, and the output once more to make room.
-    let meta_bytes = [&kept.icc, &kept.exif, &kept.xmp]
-        .iter()
-        .map(|m| m.as_ref().map_or(0, |b| b.len() as u64))
-        .sum::<u64>();
-    let need = need.saturating_add(2 * meta_bytes);
-    caoen::budget::check(|| format!("decoding to {ow}x{oh}"), need)
-        .map_err(|e| CliError::Failed(format!("{}: {e}", a.input.display())))?;
-    let png = image_io::PngCompression::parse(&a.png_compression).expect("clap checked it");
     let start = Instant::now();
-    let (encoded, (iw, ih)) = match depth {
-        Some(d) => {
-            let opts = DecodeOptions {
-                supersample: None,
-                ..opts
-            };
-            let img = decoder::decode_interleaved(&bytes, &opts, d)
-                .map_err(|e| codec_err(&a.input, e))?;
-            let size = (img.width, img.height);
-            (
-                Some(image_io::encode_png_interleaved_with(&img, png, &kept)),
-                size,
-            )
-        }
-        None => {
-            let img = caoen::codec::decode(&bytes, &opts).map_err(|e| codec_err(&a.input, e))?;
-            let size = (img.width(), img.height());
-            (
-                target
-                    .as_ref()
-                    .map(|_| image_io::encode_with_metadata(&img, format, png, &kept)),
-                size,
-            )
-        }
-    };
-    let secs = start.elapsed().as_secs_f64();
-    match (&target, encoded) {
-        (Some(target), Some(encoded)) => {
-            let encoded = encoded.map_err(|e| encode_error(Path::new(&target.display()), e))?;
-            outputs.write(target, &encoded)?;
-            note(
-                global,
-                format!(
-                    "{} -> {}: {iw}x{ih} in {secs:.3} s",
-                    a.input.display(),
-                    target.display(),
-                ),
-            );
-        }
-        _ => note(
+    let Some(target) = target else {
+        let (w, h) = transcode::validate(&bytes, &a.input, &opts).map_err(transcode_err)?;
+        let secs = start.elapsed().as_secs_f64();
+        note(
             global,
             format!(
-                "{}: valid, {iw}x{ih} decoded in {secs:.3} s",
+                "{}: valid, {w}x{h} decoded in {secs:.3} s",
                 a.input.display()
             ),
+        );
+        return Ok(());
+    };
+    let image = image_io::decode_to_image(&bytes, &a.input, &opts).map_err(transcode_err)?;
+    let secs = start.elapsed().as_secs_f64();
+    outputs.write(&target, &image.bytes)?;
+    note(
+        global,
+        format!(
+            "{} -> {}: {}x{} in {secs:.3} s",
+            a.input.display(),
+            target.display(),
+            image.width,
+            image.height
         ),
-    }
+    );
     Ok(())
+}
+
+fn transcode_err(e: image_io::TranscodeError) -> CliError {
+    match e {
+        image_io::TranscodeError::Codec { path, source } => codec_err(&path, source),
+        image_io::TranscodeError::Image(e) => CliError::Failed(e.to_string()),
+    }
 }
 
 /// Describes a `.cae` file: header, sections, key points.

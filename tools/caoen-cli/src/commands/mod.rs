@@ -84,9 +84,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
 /// Prints an informational line on stderr unless quiet.
 /// The memory limits of the command's library calls: the budget `--max-memory` set.
 pub(crate) fn limits() -> caoen::Limits {
-    caoen::Limits {
-        max_memory: caoen::budget::get(),
-    }
+    caoen::Limits::new(caoen::budget::get())
 }
 
 pub(crate) fn note(global: &crate::cli::GlobalArgs, msg: impl std::fmt::Display) {
