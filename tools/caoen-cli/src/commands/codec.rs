@@ -306,10 +306,17 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         .map(|o| Target::from_arg(Some(o), PathBuf::new));
     let format = match target.as_ref().and_then(Target::path) {
         None => FormatChoice::Natural,
+        // The extension alone decides whether a format is written at all; a stream's
+        // name says nothing, so it gets the file's natural format.
         Some(out) => {
-            // The extension alone decides whether a format is written at all.
-            image_format(out, caoen::raster::SampleFormat::U8, "output")?;
-            FormatChoice::ForPath(out.to_path_buf())
+            let named = image_io::OutputFormat::for_path(out, caoen::raster::SampleFormat::U8);
+            match named {
+                Some(_) => FormatChoice::ForPath(out.to_path_buf()),
+                None => {
+                    image_format(out, caoen::raster::SampleFormat::U8, "output")?;
+                    FormatChoice::Natural
+                }
+            }
         }
     };
     let mut outputs = Outputs::new(global.force).input(&a.input);
@@ -363,96 +370,138 @@ fn transcode_err(e: image_io::TranscodeError) -> CliError {
 pub fn info(a: &InfoArgs) -> CliResult {
     let bytes = read_input(&a.input)?;
     let parsed = caoen::codec::inspect(&bytes).map_err(|e| codec_err(&a.input, e))?;
-    let h = &parsed.header;
-    let sections: Vec<_> = parsed
-        .sections
-        .iter()
-        .map(|s| {
-            let name = match s.tag {
-                tag::HEADER => "header",
-                tag::ICC => "ICC profile",
-                tag::EXIF => "EXIF",
-                tag::XMP => "XMP",
-                tag::TILE => "tile",
-                tag::RESTORATION => "restoration",
-                tag::END => "end",
-                _ => "unknown",
-            };
-            (s.tag as char, name, s.offset, s.file_bytes())
-        })
-        .collect();
-    let (dw, dh) = h.display_size();
-    let px = dw as f64 * dh as f64;
-    // What the tiles' streams add up to, per kind.
-    let streams = parsed.tiles.iter().fold([0usize; 4], |acc, t| {
-        [
-            acc[0] + t.tree.len(),
-            acc[1] + t.luma.len(),
-            acc[2] + t.chroma.len(),
-            acc[3] + t.detail.len(),
-        ]
-    });
-    let tiling = h.tiling();
-    let meta = stored_metadata(&parsed);
-    let mut text = String::new();
+    let about = About::of(&parsed, bytes.len());
     if a.json {
-        let v = json!({
-            "file": a.input, "bytes": bytes.len(), "bpp": bytes.len() as f64 * 8.0 / px,
-            "version": bitstream::VERSION, "width": dw, "height": dh,
-            "coded_width": h.width, "coded_height": h.height,
-            "channels": h.layout.channels(), "alpha": h.layout.has_alpha(),
-            "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
-            "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
-            "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
-            "step_alpha": h.step_alpha, "level_steps": h.level_steps, "detail_steps": h.detail_steps,
-            "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
-            "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
-            "colour_basis": colour_basis_name(h),
-            "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2), "activity_field_region_px": a.field().map(|l| 1u32 << l)})),
-            "frequency_tilts": h.weights.map(|w| json!({"luma": w.tilt(0), "chroma": w.tilt(1)})),
-            "restoration": h.restoration.as_ref().map(|r| r.planes.iter().map(|p| p.as_ref().map(|f| json!({
-                "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
-                "classes": f.classes.map(|m| m.to_vec()),
-            }))).collect::<Vec<_>>()),
-            "colour_map": h.restoration.as_ref().and_then(|r| r.colour.as_ref()).map(|m| json!({
-                "matrix": m.real().iter().map(|r| r[..r.len() - 1].to_vec()).collect::<Vec<_>>(),
-                "offsets": m.real().iter().map(|r| r[r.len() - 1]).collect::<Vec<_>>(),
-            })),
-            "last_luma_filters": h.restoration.as_ref().and_then(|r| r.last.as_ref()).map(|f| json!({
-                "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
-                "classes": f.classes.map(|m| m.to_vec()),
-            })),
-            "deringing": h.deringing.map(|d| json!({"luma": strengths_json(d.luma), "chroma": strengths_json(d.chroma)})),
-            "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
-            "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
-            "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
-            "metadata": metadata_json(&meta),
-            "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
-        });
-        outln!(text, "{}", serde_json::to_string_pretty(&v).expect("json"));
-        return print(text);
+        let v = info_json(&a.input, &parsed, &about);
+        return print(serde_json::to_string_pretty(&v).expect("json") + "\n");
     }
+    let h = &parsed.header;
+    let mut text = String::new();
+    info_head(&mut text, &a.input, &parsed, &about);
+    info_detail(&mut text, h);
+    info_restoration(&mut text, h);
+    info_deringing(&mut text, h);
+    info_tail(&mut text, &parsed, &about);
+    print(text)
+}
+
+/// What `caoen info` adds up from a parsed file.
+struct About {
+    /// Each section's tag, name, offset and bytes in the file.
+    sections: Vec<(char, &'static str, usize, usize)>,
+    /// The tiles' stream bytes: tree, luma, chroma, detail.
+    streams: [usize; 4],
+    /// The file's size in bytes.
+    bytes: usize,
+    /// Bits per pixel of the image's own size.
+    bpp: f64,
+}
+
+impl About {
+    fn of(parsed: &bitstream::Parsed<'_>, bytes: usize) -> About {
+        let sections: Vec<_> = parsed
+            .sections
+            .iter()
+            .map(|s| {
+                let name = match s.tag {
+                    tag::HEADER => "header",
+                    tag::ICC => "ICC profile",
+                    tag::EXIF => "EXIF",
+                    tag::XMP => "XMP",
+                    tag::TILE => "tile",
+                    tag::RESTORATION => "restoration",
+                    tag::END => "end",
+                    _ => "unknown",
+                };
+                (s.tag as char, name, s.offset, s.file_bytes())
+            })
+            .collect();
+        // What the tiles' streams add up to, per kind.
+        let streams = parsed.tiles.iter().fold([0usize; 4], |acc, t| {
+            [
+                acc[0] + t.tree.len(),
+                acc[1] + t.luma.len(),
+                acc[2] + t.chroma.len(),
+                acc[3] + t.detail.len(),
+            ]
+        });
+        let (dw, dh) = parsed.header.display_size();
+        About {
+            sections,
+            streams,
+            bytes,
+            bpp: bytes as f64 * 8.0 / (dw as f64 * dh as f64),
+        }
+    }
+}
+
+/// `caoen info --json`.
+fn info_json(input: &Path, parsed: &bitstream::Parsed<'_>, about: &About) -> serde_json::Value {
+    let h = &parsed.header;
+    let (dw, dh) = h.display_size();
+    let tiling = h.tiling();
+    let (sections, streams) = (&about.sections, about.streams);
+    let meta = stored_metadata(parsed);
+    json!({
+        "file": input, "bytes": about.bytes, "bpp": about.bpp,
+        "version": bitstream::VERSION, "width": dw, "height": dh,
+        "coded_width": h.width, "coded_height": h.height,
+        "channels": h.layout.channels(), "alpha": h.layout.has_alpha(),
+        "sample_format": format!("{:?}", h.format), "block_log2": h.block_log2, "min_log2": h.min_log2,
+        "sigma_factor": h.kernel.sigma_factor, "weight_exponent": h.kernel.weight_exponent,
+        "chroma_pruned": h.chroma_pruned, "step_luma": h.step_luma, "step_chroma": h.step_chroma,
+        "step_alpha": h.step_alpha, "level_steps": h.level_steps, "detail_steps": h.detail_steps,
+        "deblock": h.deblock.map(|d| json!({"strength_percent": d.strength, "radius_px": d.radius as f64 / 4.0})),
+        "lapping": h.lapping.map(|l| json!({"weight": l.weight as f64 / 256.0})),
+        "colour_basis": colour_basis_name(h),
+        "adaptive_steps": h.adaptive.map(|a| json!({"cells_8px": a.factor(0), "cells_16px": a.factor(1), "cells_32px": a.factor(2), "activity_field_region_px": a.field().map(|l| 1u32 << l)})),
+        "frequency_tilts": h.weights.map(|w| json!({"luma": w.tilt(0), "chroma": w.tilt(1)})),
+        "restoration": h.restoration.as_ref().map(|r| r.planes.iter().map(|p| p.as_ref().map(|f| json!({
+            "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "classes": f.classes.map(|m| m.to_vec()),
+        }))).collect::<Vec<_>>()),
+        "colour_map": h.restoration.as_ref().and_then(|r| r.colour.as_ref()).map(|m| json!({
+            "matrix": m.real().iter().map(|r| r[..r.len() - 1].to_vec()).collect::<Vec<_>>(),
+            "offsets": m.real().iter().map(|r| r[r.len() - 1]).collect::<Vec<_>>(),
+        })),
+        "last_luma_filters": h.restoration.as_ref().and_then(|r| r.last.as_ref()).map(|f| json!({
+            "filters": f.filters.iter().map(|t| t.iter().map(|&v| v as f64 / 256.0).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            "classes": f.classes.map(|m| m.to_vec()),
+        })),
+        "deringing": h.deringing.map(|d| json!({"luma": strengths_json(d.luma), "chroma": strengths_json(d.chroma)})),
+        "luma_keypoints": h.luma_count, "chroma_keypoints": h.chroma_count,
+        "tiles": {"count": tiling.count(), "side": tiling.side, "columns": tiling.columns(), "rows": tiling.rows()},
+        "streams": {"tree": streams[0], "luma": streams[1], "chroma": streams[2], "detail": streams[3]},
+        "metadata": metadata_json(&meta),
+        "sections": sections.iter().map(|(t, n, o, b)| json!({"tag": t.to_string(), "name": n, "offset": o, "bytes": b})).collect::<Vec<_>>(),
+    })
+}
+
+/// The file, format, image, tree, kernel, key point, colour and quantiser lines.
+fn info_head(text: &mut String, input: &Path, parsed: &bitstream::Parsed<'_>, about: &About) {
+    let h = &parsed.header;
+    let (dw, dh) = h.display_size();
     outln!(
-        text,
+        *text,
         "file:        {} ({} bytes, {:.4} bpp)",
-        a.input.display(),
-        bytes.len(),
-        bytes.len() as f64 * 8.0 / px
+        input.display(),
+        about.bytes,
+        about.bpp
     );
-    outln!(text, "format:      caoen version {}", bitstream::VERSION);
+    outln!(*text, "format:      caoen version {}", bitstream::VERSION);
     let coded = if (dw, dh) == (h.width, h.height) {
         String::new()
     } else {
         format!(" (coded at {}x{})", h.width, h.height)
     };
     outln!(
-        text,
+        *text,
         "image:       {dw}x{dh}{coded}, {:?}, {:?} samples",
         h.layout,
         h.format
     );
     outln!(
-        text,
+        *text,
         "tree:        blocks of {} px, cells down to {} px",
         1 << h.block_log2,
         1 << h.min_log2
@@ -463,12 +512,12 @@ pub fn info(a: &InfoArgs) -> CliResult {
         format!("cell^-{}", h.kernel.weight_exponent)
     };
     outln!(
-        text,
+        *text,
         "kernel:      compact, sigma = {} x cell, weight = {weight}",
         h.kernel.sigma_factor
     );
     outln!(
-        text,
+        *text,
         "key points:  {} luma, {} chroma{}",
         h.luma_count,
         h.chroma_count,
@@ -479,10 +528,10 @@ pub fn info(a: &InfoArgs) -> CliResult {
         }
     );
     if let Some(basis) = colour_basis_name(h) {
-        outln!(text, "colour:      {basis} basis");
+        outln!(*text, "colour:      {basis} basis");
     }
     outln!(
-        text,
+        *text,
         "quantiser:   luma {}, chroma {}, alpha {}{}",
         h.step_luma,
         h.step_chroma,
@@ -493,9 +542,13 @@ pub fn info(a: &InfoArgs) -> CliResult {
             ""
         }
     );
+}
+
+/// The detail layer's line.
+fn info_detail(text: &mut String, h: &bitstream::Header) {
     match h.detail_steps {
         Some([l, c]) => outln!(
-            text,
+            *text,
             "detail:      8x8 DCT blocks (merged into 16x16 or 32x32 under cells that large, chroma into 16x16 anywhere, where that pays), step luma {l}, chroma {c}, {}, {}, {}, {}",
             match h.deblock {
                 Some(d) => format!(
@@ -531,8 +584,12 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 None => "flat in frequency".to_string(),
             }
         ),
-        None => outln!(text, "detail:      none"),
+        None => outln!(*text, "detail:      none"),
     }
+}
+
+/// The restoration filters' line.
+fn info_restoration(text: &mut String, h: &bitstream::Header) {
     match &h.restoration {
         Some(r) => {
             let names = ["Y", "C1", "C2"];
@@ -576,10 +633,14 @@ pub fn info(a: &InfoArgs) -> CliResult {
                 Some(_) => "; last luma filter".to_string(),
                 None => String::new(),
             };
-            outln!(text, "restoration: {planes}{map}{last}");
+            outln!(*text, "restoration: {planes}{map}{last}");
         }
-        None => outln!(text, "restoration: none"),
+        None => outln!(*text, "restoration: none"),
     }
+}
+
+/// The deringing's line.
+fn info_deringing(text: &mut String, h: &bitstream::Header) {
     match &h.deringing {
         Some(d) => {
             let kind = |name: &str, s: Strengths| {
@@ -594,12 +655,19 @@ pub fn info(a: &InfoArgs) -> CliResult {
             if h.layout.colour_channels() == 3 {
                 kinds.push(kind("C1 and C2", d.chroma));
             }
-            outln!(text, "deringing:   {}", kinds.join(", "));
+            outln!(*text, "deringing:   {}", kinds.join(", "));
         }
-        None => outln!(text, "deringing:   none"),
+        None => outln!(*text, "deringing:   none"),
     }
+}
+
+/// The tiles, streams, metadata and sections lines.
+fn info_tail(text: &mut String, parsed: &bitstream::Parsed<'_>, about: &About) {
+    let tiling = parsed.header.tiling();
+    let (sections, streams) = (&about.sections, about.streams);
+    let meta = stored_metadata(parsed);
     outln!(
-        text,
+        *text,
         "tiles:       {} ({} x {}) of {} px",
         tiling.count(),
         tiling.columns(),
@@ -607,24 +675,23 @@ pub fn info(a: &InfoArgs) -> CliResult {
         tiling.side
     );
     outln!(
-        text,
+        *text,
         "streams:     tree {} bytes, luma {}, chroma {}, detail {}",
         streams[0],
         streams[1],
         streams[2],
         streams[3]
     );
-    outln!(text, "metadata:    {}", metadata_text(&meta));
-    outln!(text, "sections:");
+    outln!(*text, "metadata:    {}", metadata_text(&meta));
+    outln!(*text, "sections:");
     for (t, n, o, b) in sections.iter().filter(|s| s.0 != tag::TILE as char) {
-        outln!(text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
+        outln!(*text, "  '{t}' {n:<14} at {o:>8}: {b:>8} bytes");
     }
     let (count, bytes) = sections
         .iter()
         .filter(|s| s.0 == tag::TILE as char)
         .fold((0, 0), |(n, b), s| (n + 1, b + s.3));
-    outln!(text, "  'G' tiles          x{count:>7}: {bytes:>8} bytes");
-    print(text)
+    outln!(*text, "  'G' tiles          x{count:>7}: {bytes:>8} bytes");
 }
 
 /// One plane kind's deringing strengths in its steps, for `--json`.
