@@ -147,7 +147,7 @@ pub fn run(args: &CorpusArgs) -> Result<(), CorpusError> {
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
-            .map_err(|e| CorpusError::ThreadPool(e.to_string()))?
+            .map_err(CorpusError::ThreadPool)?
             .install(job)?,
         None => job()?,
     };

@@ -65,7 +65,7 @@ pub enum CorpusError {
 
     /// A rayon thread pool could not be built.
     #[error("cannot start worker threads: {0}")]
-    ThreadPool(String),
+    ThreadPool(#[source] rayon::ThreadPoolBuildError),
 }
 
 impl CorpusError {

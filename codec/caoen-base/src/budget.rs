@@ -189,29 +189,48 @@ pub fn read_to_string(path: &std::path::Path) -> std::io::Result<String> {
         .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
-/// Why a size did not parse.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-pub enum SizeError {
+/// A size that did not parse: the text given and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("`{text}`: {}", match self.unit() {
+    Some(unit) => format!("unknown unit `{unit}` (use K, M, G or T)"),
+    None => self.fault.to_string(),
+})]
+pub struct SizeError {
+    /// The text given.
+    pub text: String,
+    /// What is wrong with it.
+    pub fault: SizeFault,
+}
+
+/// What is wrong with a size's text.
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+pub enum SizeFault {
     /// The number is missing or malformed.
-    #[error("`{text}`: expected a size like 2G, 512M or 1000000")]
-    Number {
-        /// The text given.
-        text: String,
-    },
-    /// The unit after the number is not one of K, M, G or T.
-    #[error("`{text}`: unknown unit `{unit}` (use K, M, G or T)")]
+    #[error("expected a size like 2G, 512M or 1000000")]
+    Number,
+    /// The unit after the number, from this byte of the text on, is not one of K, M, G
+    /// or T.
+    #[error("unknown unit (use K, M, G or T)")]
     Unit {
-        /// The text given.
-        text: String,
-        /// The unit found.
-        unit: String,
+        /// Where the unit starts in the text.
+        at: usize,
     },
     /// The size is below one byte or beyond what 64 bits hold.
-    #[error("`{text}`: the budget must be at least one byte")]
+    #[error("the budget must be at least one byte ({bytes} bytes given)")]
     Range {
-        /// The text given.
-        text: String,
+        /// The size given, in bytes.
+        bytes: f64,
     },
+}
+
+impl SizeError {
+    /// The unit the text gave, where that was the fault.
+    pub fn unit(&self) -> Option<&str> {
+        match self.fault {
+            SizeFault::Unit { at } => self.text.get(at..).map(str::trim),
+            _ => None,
+        }
+    }
 }
 
 /// Parses a size such as `2G`, `512M`, `1.5GiB` or `1000000` (bytes).
@@ -221,9 +240,11 @@ pub fn parse_size(s: &str) -> Result<u64, SizeError> {
         .find(|c: char| !(c.is_ascii_digit() || c == '.'))
         .unwrap_or(t.len());
     let (num, unit) = t.split_at(split);
-    let value: f64 = num
-        .parse()
-        .map_err(|_| SizeError::Number { text: s.into() })?;
+    let error = |fault| SizeError {
+        text: s.into(),
+        fault,
+    };
+    let value: f64 = num.parse().map_err(|_| error(SizeFault::Number))?;
     let scale = match unit.trim().to_ascii_lowercase().as_str() {
         "" | "b" => 1u64,
         "k" | "kb" | "kib" => 1 << 10,
@@ -231,15 +252,13 @@ pub fn parse_size(s: &str) -> Result<u64, SizeError> {
         "g" | "gb" | "gib" => 1 << 30,
         "t" | "tb" | "tib" => 1 << 40,
         _ => {
-            return Err(SizeError::Unit {
-                text: s.into(),
-                unit: unit.into(),
-            })
+            let at = s.len() - s.trim_start().len() + split;
+            return Err(error(SizeFault::Unit { at }));
         }
     };
     let b = value * scale as f64;
     if !(b.is_finite() && b >= 1.0 && b <= u64::MAX as f64) {
-        return Err(SizeError::Range { text: s.into() });
+        return Err(error(SizeFault::Range { bytes: b }));
     }
     Ok(b as u64)
 }
@@ -268,11 +287,16 @@ mod tests {
         assert_eq!(parse_size("512M"), Ok(512 << 20));
         assert_eq!(parse_size("1.5GiB"), Ok(3 << 29));
         assert_eq!(parse_size("1000"), Ok(1000));
-        assert!(matches!(parse_size("-1G"), Err(SizeError::Number { .. })));
-        assert!(matches!(parse_size("0"), Err(SizeError::Range { .. })));
-        assert!(matches!(parse_size("1e400"), Err(SizeError::Unit { .. })));
-        assert!(matches!(parse_size("2X"), Err(SizeError::Unit { unit, .. }) if unit == "X"));
-        assert!(matches!(parse_size("NaN"), Err(SizeError::Number { .. })));
+        let fault = |s: &str| parse_size(s).unwrap_err().fault;
+        assert_eq!(fault("-1G"), SizeFault::Number);
+        assert_eq!(fault("0"), SizeFault::Range { bytes: 0.0 });
+        assert!(matches!(fault("1e400"), SizeFault::Unit { .. }));
+        assert_eq!(parse_size(" 2X").unwrap_err().unit(), Some("X"));
+        assert_eq!(fault("NaN"), SizeFault::Number);
+        assert_eq!(
+            parse_size("2X").unwrap_err().to_string(),
+            "`2X`: unknown unit `X` (use K, M, G or T)"
+        );
     }
 
     #[test]

@@ -113,10 +113,14 @@ pub enum TextureError {
         domain: Domain,
     },
     /// A surface whose box is a point or not finite.
-    #[error("surface `{surface}` has no extent to project a picture onto")]
+    #[error(
+        "surface `{surface}` has no extent to project a picture onto (its box's largest side is {largest_side})"
+    )]
     NoExtent {
         /// The surface's name.
         surface: String,
+        /// The largest side of its box: zero, or not finite.
+        largest_side: f64,
     },
     /// A volume spec names no slices, or a slice stack is empty.
     #[error("volume: the slice stack is empty (\"slices\": [])")]

@@ -138,6 +138,7 @@ pub fn surface_box(
     if !(largest.is_finite() && largest > 0.0) {
         return Err(TextureError::NoExtent {
             surface: model.name.clone(),
+            largest_side: largest,
         });
     }
     for k in 0..3 {
