@@ -115,6 +115,32 @@ pub enum ImageIoError {
     },
 }
 
+/// The name errors of in-memory images carry until a caller names them.
+pub const IN_MEMORY: &str = "<memory>";
+
+impl ImageIoError {
+    /// The error with `path` in place of [`IN_MEMORY`]: an image made in memory for a
+    /// file is named after that file.
+    pub fn named(mut self, path: &Path) -> Self {
+        let slot = match &mut self {
+            ImageIoError::Corrupt { path, .. }
+            | ImageIoError::Truncated { path, .. }
+            | ImageIoError::Empty { path, .. }
+            | ImageIoError::NonFinite { path, .. }
+            | ImageIoError::Unsupported { path, .. }
+            | ImageIoError::TooLarge { path, .. }
+            | ImageIoError::Memory { path, .. }
+            | ImageIoError::Metadata { path, .. }
+            | ImageIoError::UnknownOutputFormat { path }
+            | ImageIoError::Io { path, .. } => path,
+        };
+        if slot.as_os_str() == IN_MEMORY {
+            *slot = path.to_path_buf();
+        }
+        self
+    }
+}
+
 /// Runs a third-party decoder, turning a panic inside it into [`ImageIoError::Corrupt`]:
 /// a bad file must never bring the program down.
 pub(super) fn guarded<T>(

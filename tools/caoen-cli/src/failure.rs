@@ -1,4 +1,11 @@
 //! Command failures and their exit codes: 1 for a failed operation, 2 for bad usage.
+//!
+//! A library's error is kept whole, with its causes, rather than flattened into text:
+//! `main` prints the error and every cause its message does not already say, on one
+//! line.
+
+use std::error::Error as StdError;
+use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
@@ -19,9 +26,58 @@ pub enum CliError {
         /// The underlying error.
         source: std::io::Error,
     },
-    /// Any other failure of the operation.
+    /// A `.cae` file could not be coded or decoded.
+    #[error("{}: {source}", path.display())]
+    Codec {
+        /// The file involved.
+        path: PathBuf,
+        /// The codec's error.
+        source: caoen::codec::CodecError,
+    },
+    /// An image file could not be read or written (its errors name the file).
+    #[error(transparent)]
+    Image(#[from] caoen::image_io::ImageIoError),
+    /// A mesh could not be read, converted or measured.
+    #[error(transparent)]
+    Convert(#[from] caoen::conversion::ConvertError),
+    /// A job would need more memory than its limit.
+    #[error(transparent)]
+    Memory(#[from] caoen::budget::OverBudget),
+    /// A library call on a file failed.
+    #[error("{}: {source}", path.display())]
+    File {
+        /// The file involved.
+        path: PathBuf,
+        /// The library's error.
+        source: Box<dyn StdError + Send + Sync>,
+    },
+    /// A library call failed.
+    #[error(transparent)]
+    Library(Box<dyn StdError + Send + Sync>),
+    /// The command's own check failed: what was found, where a library has no error
+    /// for it.
     #[error("{0}")]
     Failed(String),
+}
+
+impl From<caoen::image_io::TranscodeError> for CliError {
+    fn from(e: caoen::image_io::TranscodeError) -> Self {
+        match e {
+            caoen::image_io::TranscodeError::Codec { path, source } => codec(&path, source),
+            caoen::image_io::TranscodeError::Image(e) => CliError::Image(e),
+        }
+    }
+}
+
+/// A codec error on `path`: a refused parameter is the user's to fix (exit code 2).
+pub fn codec(path: &Path, e: caoen::codec::CodecError) -> CliError {
+    match e {
+        caoen::codec::CodecError::Parameter { .. } => CliError::Usage(e.to_string()),
+        source => CliError::Codec {
+            path: path.to_path_buf(),
+            source,
+        },
+    }
 }
 
 impl CliError {
@@ -41,13 +97,64 @@ impl CliError {
     }
 
     /// An I/O error on `path`.
-    pub fn io(path: impl AsRef<std::path::Path>, source: std::io::Error) -> Self {
+    pub fn io(path: impl AsRef<Path>, source: std::io::Error) -> Self {
         CliError::Io {
             path: path.as_ref().display().to_string(),
             source,
         }
     }
+
+    /// A library's error on the file `path`.
+    pub fn file(path: impl AsRef<Path>, source: impl StdError + Send + Sync + 'static) -> Self {
+        CliError::File {
+            path: path.as_ref().to_path_buf(),
+            source: Box::new(source),
+        }
+    }
+
+    /// A library's error that names its own file, if any.
+    pub fn library(source: impl StdError + Send + Sync + 'static) -> Self {
+        CliError::Library(Box::new(source))
+    }
+
+    /// The error and each cause whose text its message does not already hold, joined
+    /// on one line.
+    pub fn chain(&self) -> String {
+        let mut message = self.to_string();
+        let mut cause = self.source();
+        while let Some(c) = cause {
+            let text = c.to_string();
+            if !message.contains(&text) {
+                message.push_str(": ");
+                message.push_str(&text);
+            }
+            cause = c.source();
+        }
+        message
+    }
 }
 
 /// Result alias for commands.
 pub type CliResult<T = ()> = Result<T, CliError>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, Error)]
+    #[error("outer")]
+    struct Outer(#[source] Inner);
+
+    #[derive(Debug, Error)]
+    #[error("inner")]
+    struct Inner;
+
+    #[test]
+    fn the_chain_says_each_cause_once() {
+        let e = CliError::file("m.json", Outer(Inner));
+        assert_eq!(e.chain(), "m.json: outer: inner");
+        let io = CliError::io("x.png", std::io::Error::other("disk full"));
+        assert_eq!(io.chain(), "x.png: disk full");
+        assert_eq!(CliError::Usage("bad".into()).exit_code(), 2);
+    }
+}

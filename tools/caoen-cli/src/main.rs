@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn fail(e: &caoen_cli::failure::CliError) -> ExitCode {
-    let mut message = e.to_string();
+    let mut message = e.chain();
     // The library states the need and the budget; how to raise the budget is this
     // program's to say, since the budget is its option.
     if message.contains(caoen::budget::OVER_BUDGET) {

@@ -68,8 +68,10 @@ pub fn load_image(path: &Path) -> CliResult<Raster> {
 /// [`load_image`] with the file's metadata (its EXIF saying orientation 1).
 pub fn load_image_with_metadata(path: &Path) -> CliResult<(Raster, Metadata)> {
     // Image errors name their file already.
-    image_io::load_with_metadata(path, &image_io::LoadLimits::default())
-        .map_err(|e| CliError::Failed(e.to_string()))
+    Ok(image_io::load_with_metadata(
+        path,
+        &image_io::LoadLimits::default(),
+    )?)
 }
 
 /// The metadata a `.cae` file carries.
@@ -113,16 +115,11 @@ fn metadata_text(meta: &Metadata) -> String {
 /// An error encoding an image in memory for the output `path`: named after the output
 /// rather than the encoder's placeholder.
 pub fn encode_error(path: &Path, e: image_io::ImageIoError) -> CliError {
-    let msg = e.to_string();
-    let msg = msg.strip_prefix("<memory>: ").unwrap_or(&msg);
-    CliError::Failed(format!("{}: {msg}", path.display()))
+    CliError::Image(e.named(path))
 }
 
 fn codec_err(path: &Path, e: caoen::codec::CodecError) -> CliError {
-    match e {
-        caoen::codec::CodecError::Parameter { .. } => CliError::Usage(e.to_string()),
-        e => CliError::Failed(format!("{}: {e}", path.display())),
-    }
+    crate::failure::codec(path, e)
 }
 
 fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBar> {
@@ -146,8 +143,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
         ..image_io::LoadLimits::default()
     };
-    let (img, metadata) = image_io::load_for_encoding(&a.input, &limits)
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+    let (img, metadata) = image_io::load_for_encoding(&a.input, &limits)?;
     let held = img.held_bytes();
     let kept = metadata.filtered(a.metadata.policy(a.strip));
     let target = match (a.target_bpp, a.target_size) {
@@ -207,9 +203,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     let bpp = bytes.len() as f64 * 8.0 / (width as f64 * height as f64);
     if let (Some(map), Some(format)) = (&a.keypoint_map, map_format) {
         let decoded = decoder::read(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
-        let raster = img
-            .into_raster()
-            .map_err(|e| CliError::Failed(e.to_string()))?;
+        let raster = img.into_raster()?;
         // The key points are the coded image's: draw them over it.
         let h = &decoded.header;
         let raster = if (h.width, h.height) == (raster.width(), raster.height()) {
@@ -332,7 +326,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     };
     let start = Instant::now();
     let Some(target) = target else {
-        let (w, h) = transcode::validate(&bytes, &a.input, &opts).map_err(transcode_err)?;
+        let (w, h) = transcode::validate(&bytes, &a.input, &opts)?;
         let secs = start.elapsed().as_secs_f64();
         note(
             global,
@@ -343,7 +337,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         );
         return Ok(());
     };
-    let image = image_io::decode_to_image(&bytes, &a.input, &opts).map_err(transcode_err)?;
+    let image = image_io::decode_to_image(&bytes, &a.input, &opts)?;
     let secs = start.elapsed().as_secs_f64();
     outputs.write(&target, &image.bytes)?;
     note(
@@ -357,13 +351,6 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         ),
     );
     Ok(())
-}
-
-fn transcode_err(e: image_io::TranscodeError) -> CliError {
-    match e {
-        image_io::TranscodeError::Codec { path, source } => codec_err(&path, source),
-        image_io::TranscodeError::Image(e) => CliError::Failed(e.to_string()),
-    }
 }
 
 /// Describes a `.cae` file: header, sections, key points.

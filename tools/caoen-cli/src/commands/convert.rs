@@ -15,7 +15,7 @@ use crate::failure::{CliError, CliResult};
 use crate::output::Outputs;
 
 fn read_mesh(path: &Path) -> CliResult<PolygonMesh> {
-    conversion::read(path).map_err(|e| CliError::Failed(e.to_string()))
+    conversion::read(path).map_err(CliError::library)
 }
 
 /// Prints the current phase on stderr whenever nothing else was printed for 4 s.
@@ -126,8 +126,7 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
             );
             heartbeat.phase("fitting the next level", true);
         }
-    })
-    .map_err(|e| CliError::Failed(e.to_string()))?;
+    })?;
     let text = serde_json::to_string(&report.model).expect("JSON of numbers");
     outputs.write_path(&a.output, text.as_bytes())?;
     drop(heartbeat);
@@ -257,12 +256,10 @@ fn measure_png(
 ) -> CliResult<(Measured, Option<Vec<u8>>)> {
     let n = conversion::measure::grid_side(opts.size);
     note(global, format!("sampling the field on a {n}^3 grid"));
-    let (m, picture) = measure(field, unit, opts, &crate::commands::limits())
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+    let (m, picture) = measure(field, unit, opts, &crate::commands::limits())?;
     let png = picture
         .map(|p| caoen::image_io::encode(&p, caoen::image_io::OutputFormat::Png8))
-        .transpose()
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+        .transpose()?;
     Ok((m, png))
 }
 
@@ -315,7 +312,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
             note(global, format!("fitting the RBF baseline with {n} centres"));
             let normals = unit.outward_normals();
             let rbf = conversion::rbf_baseline::fit(&unit, &normals, n as usize, 0.01)
-                .map_err(|e| CliError::Failed(e.to_string()))?;
+                .map_err(CliError::library)?;
             (
                 format!("RBF baseline, {} centres", rbf.centres.len()),
                 rbf.numbers(),
