@@ -112,7 +112,7 @@ pub fn read_cae(
     if head != bitstream::MAGIC {
         return Ok(head);
     }
-    let rest = budget::read_all(reader, len.map(|l| l.saturating_sub(head.len() as u64)))?;
+    let rest = limits.read_all(reader, len.map(|l| l.saturating_sub(head.len() as u64)))?;
     head.extend(rest);
     Ok(head)
 }

@@ -18,45 +18,22 @@ use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::{print, Outputs, Target};
 
-/// Reads a `.cae` input within the memory budget. The first four bytes are read on
-/// their own: a file that does not start with the magic number is handed to the
-/// decoder as those bytes alone (which it refuses), so `/dev/zero` or an endless pipe
-/// is not read any further.
+/// Reads a `.cae` input (`-`: standard input) within the memory budget
+/// ([`transcode::read_cae`]).
 fn read_input(path: &Path) -> CliResult<Vec<u8>> {
-    use std::io::Read;
-    let name = if path.as_os_str() == "-" {
-        Path::new("<stdin>")
-    } else {
-        path
-    };
-    let (mut reader, len): (Box<dyn Read>, Option<u64>) = if path.as_os_str() == "-" {
-        (Box::new(std::io::stdin().lock()), None)
-    } else {
-        let file = std::fs::File::open(path).map_err(|e| CliError::io(path, e))?;
-        let len = file
-            .metadata()
-            .ok()
-            .filter(|m| m.is_file())
-            .map(|m| m.len());
-        // A regular file's size is known: one too large is refused before any read.
-        if let Some(len) = len {
-            caoen::budget::check(|| "reading the file".into(), len)
-                .map_err(|e| CliError::io(path, std::io::Error::other(e)))?;
-        }
-        (Box::new(file), len)
-    };
-    let mut head = Vec::with_capacity(bitstream::MAGIC.len());
-    (&mut reader)
-        .take(bitstream::MAGIC.len() as u64)
-        .read_to_end(&mut head)
-        .map_err(|e| CliError::io(name, e))?;
-    if head != bitstream::MAGIC {
-        return Ok(head);
+    let limits = crate::commands::limits();
+    if path.as_os_str() == "-" {
+        return transcode::read_cae(std::io::stdin().lock(), None, &limits)
+            .map_err(|e| CliError::io("<stdin>", e));
     }
-    let rest = caoen::budget::read_all(reader, len.map(|l| l.saturating_sub(head.len() as u64)))
-        .map_err(|e| CliError::io(name, e))?;
-    head.extend(rest);
-    Ok(head)
+    let file = std::fs::File::open(path).map_err(|e| CliError::io(path, e))?;
+    // A regular file's size is known: one too large is refused before any read.
+    let len = file
+        .metadata()
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
+    transcode::read_cae(file, len, &limits).map_err(|e| CliError::io(path, e))
 }
 
 /// Loads an image file into a raster, upright by its EXIF orientation, with a clear
