@@ -24,6 +24,7 @@ use super::source::PixelSource;
 use super::syntax::{self, LevelSteps, MAX_VALUE};
 use super::tiling::{into_image_order, permute, TileRect, Tiling};
 use super::{CodecError, EncodeStats};
+use crate::deringing_fit;
 use crate::quantise::{self as detail_quantise, Quantiser};
 use crate::restoration_fit::{self, ClassStats};
 use caoen_base::metadata::{Metadata, MAX_ITEM_BYTES};
@@ -907,7 +908,7 @@ fn fit_post_filters(
     // `stride`-th row, odd so that the rows still cover every phase of the blocks.
     let seen: usize = windows.iter().map(|win| win.rows.len() * wu).sum();
     let stride = (seen / DERINGING_SAMPLES).max(1) | 1;
-    let sums: Vec<[deringing::fit::Sums; 2]> = windows
+    let sums: Vec<[deringing_fit::Sums; 2]> = windows
         .par_iter()
         .zip(&restored_windows)
         .map(|(win, restored)| {
@@ -921,7 +922,7 @@ fn fit_post_filters(
             } else {
                 win.rows.end.min(win.rows_held.saturating_sub(margin))
             };
-            let mut sums: [deringing::fit::Sums; 2] = Default::default();
+            let mut sums: [deringing_fit::Sums; 2] = Default::default();
             if top >= bottom {
                 return sums;
             }
@@ -938,7 +939,7 @@ fn fit_post_filters(
             let dirs = deringing::directions(&restored[0], (wu, hu), win.y0, (1, 1), abs.clone());
             for (c, (plane, source)) in restored.iter().zip(&source).enumerate() {
                 let kind = usize::from(c > 0);
-                deringing::fit::accumulate(
+                deringing_fit::accumulate(
                     &mut sums[kind],
                     plane,
                     (wu, hu),
@@ -954,7 +955,7 @@ fn fit_post_filters(
         })
         .collect();
     let kind = |k: usize, pick: &dyn Fn(usize) -> bool| {
-        let mut t = deringing::fit::Sums::default();
+        let mut t = deringing_fit::Sums::default();
         for (_, s) in sums.iter().enumerate().filter(|(i, _)| pick(*i)) {
             t.add(&s[k]);
         }
