@@ -296,3 +296,35 @@ fn neighbours_match_the_owner_map() {
         }
     }
 }
+
+/// A tree split wherever it can be has the most flags; near thin or tiny images its
+/// nodes have single children, so there are more flags than leaves.
+#[test]
+fn max_flags_counts_the_fully_split_tree() {
+    for (width, height, block_log2, min_log2) in [
+        (1, 1, 7, 0),
+        (1, 37, 7, 0),
+        (37, 1, 5, 1),
+        (3, 3, 2, 0),
+        (100, 60, 6, 2),
+    ] {
+        let shape = TreeShape {
+            width,
+            height,
+            block_log2,
+            min_log2,
+        };
+        let flags = std::cell::Cell::new(0u64);
+        let mut sink = AnsSink::new();
+        let leaves = write_tree(
+            &shape,
+            |_| {
+                flags.set(flags.get() + 1);
+                true
+            },
+            &mut sink,
+        );
+        assert_eq!(flags.get(), shape.max_flags(), "{width}x{height}");
+        assert_eq!(leaves.len() as u64, shape.max_leaves(), "{width}x{height}");
+    }
+}
