@@ -223,38 +223,6 @@ pub fn random_tree(
 mod tests {
     use super::*;
 
-    /// A tree split wherever it can be has the most flags; near thin or tiny images its
-    /// nodes have single children, so there are more flags than leaves.
-    #[test]
-    fn max_flags_counts_the_fully_split_tree() {
-        for (width, height, block_log2, min_log2) in [
-            (1, 1, 7, 0),
-            (1, 37, 7, 0),
-            (37, 1, 5, 1),
-            (3, 3, 2, 0),
-            (100, 60, 6, 2),
-        ] {
-            let shape = TreeShape {
-                width,
-                height,
-                block_log2,
-                min_log2,
-            };
-            let flags = std::cell::Cell::new(0u64);
-            let mut sink = crate::entropy::AnsSink::new();
-            let leaves = crate::syntax::write_tree(
-                &shape,
-                |_| {
-                    flags.set(flags.get() + 1);
-                    true
-                },
-                &mut sink,
-            );
-            assert_eq!(flags.get(), shape.max_flags(), "{width}x{height}");
-            assert_eq!(leaves.len() as u64, shape.max_leaves(), "{width}x{height}");
-        }
-    }
-
     /// The pruning by its definition: count each parent's leaf children.
     fn pruned_by_counting(shape: &TreeShape, leaves: &[Cell]) -> Vec<Cell> {
         use std::collections::{HashMap, HashSet};

@@ -8,6 +8,7 @@
 
 /// Edge and per-scale detail maps that start the tree.
 pub mod analysis;
+pub mod deringing_fit;
 #[cfg(test)]
 mod detail_tests;
 /// Quantisation and assembly of a file.

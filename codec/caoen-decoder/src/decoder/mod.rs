@@ -13,17 +13,19 @@
 //! Interpolating the key points' absolute positions instead would shift edges: the
 //! normalised average of cell centres is biased wherever cell sizes change.
 //!
-//! `parse` turns the file into key points, `reconstruct` evaluates them; this module
-//! holds the calls and the shapes of their output.
+//! `parse` turns the file into key points, `reconstruct` evaluates them by the identity
+//! path and `forward` by forward mapping; this module holds the calls and the shapes of
+//! their output.
 
+mod forward;
 mod parse;
 mod reconstruct;
 
+pub use forward::{fill_holes, render_forward};
 pub use parse::detail_models;
 pub use parse::{read, read_parsed};
-pub use reconstruct::{fill_holes, to_raster, unrestored_bands};
 pub use reconstruct::{
-    render_forward, render_identity, render_identity_raster, render_identity_raster_on,
+    render_identity, render_identity_raster, render_identity_raster_on, to_raster, unrestored_bands,
 };
 
 use super::bitstream::Header;
@@ -135,7 +137,7 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
         // path exactly (each output centre is a lattice sample); skip the extra work.
         return reconstruct::render_identity_raster(&d, ow, oh);
     }
-    let planes = reconstruct::render_forward(&d, ow, oh, s)?;
+    let planes = forward::render_forward(&d, ow, oh, s)?;
     Ok(to_raster(&d.header, planes, ow, oh))
 }
 
