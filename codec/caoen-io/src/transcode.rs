@@ -171,7 +171,7 @@ pub fn decode_to_image(
     opts: &DecodeToImage,
 ) -> Result<DecodedImage, TranscodeError> {
     let parsed = bitstream::parse(cae, opts.decode.max_pixels).map_err(codec_error(name))?;
-    transcode(cae, &parsed, name, opts)
+    transcode(&parsed, name, opts)
 }
 
 /// The [`TranscodeError`] of a decoder error on the file `name`.
@@ -206,7 +206,6 @@ fn sized(opts: &DecodeToImage, header: &Header) -> Result<DecodeOptions, CodecEr
 
 /// [`decode_to_image`] of a file already parsed.
 fn transcode(
-    cae: &[u8],
     parsed: &bitstream::Parsed<'_>,
     name: &Path,
     opts: &DecodeToImage,
@@ -229,7 +228,7 @@ fn transcode(
         .map_err(|e| codec(CodecError::Memory(e)))?;
     let (bytes, (width, height)) = match direct_depth(header, &decode, format) {
         Some(depth) => {
-            let img = decoder::decode_interleaved(cae, &decode, depth).map_err(&codec)?;
+            let img = decoder::decode_interleaved_parsed(parsed, &decode, depth).map_err(&codec)?;
             let size = (img.width, img.height);
             (
                 write::encode_png_interleaved_with(&img, opts.png, &metadata)?,
@@ -237,7 +236,7 @@ fn transcode(
             )
         }
         None => {
-            let img = caoen_decoder::decode(cae, &decode).map_err(&codec)?;
+            let img = decoder::decode_parsed(parsed, &decode).map_err(&codec)?;
             let size = (img.width(), img.height());
             (
                 write::encode_with_metadata(&img, format, opts.png, &metadata)?,
@@ -270,7 +269,7 @@ pub fn validate(
         .limits
         .check(|| format!("decoding to {ow}x{oh}"), need)
         .map_err(|e| codec(CodecError::Memory(e)))?;
-    let img = caoen_decoder::decode(cae, &decode).map_err(&codec)?;
+    let img = decoder::decode_parsed(&parsed, &decode).map_err(&codec)?;
     Ok((img.width(), img.height()))
 }
 
@@ -305,7 +304,7 @@ pub fn decode_file(
         },
         _ => opts.clone(),
     };
-    let image = transcode(&cae, &parsed, input, &opts)?;
+    let image = transcode(&parsed, input, &opts)?;
     let mut options = std::fs::OpenOptions::new();
     options.write(true);
     if overwrite {

@@ -28,7 +28,7 @@ pub use reconstruct::{
     render_identity, render_identity_raster, render_identity_raster_on, to_raster, unrestored_bands,
 };
 
-use super::bitstream::Header;
+use super::bitstream::{self, Header, Parsed};
 use super::detail::Detail;
 use super::quadtree::Cell;
 use super::{CodecError, DecodeOptions, MAX_SIDE};
@@ -119,8 +119,14 @@ pub fn decode_memory(
 
 /// Decodes a file into a raster.
 pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
+    decode_parsed(&bitstream::parse(bytes, opts.max_pixels)?, opts)
+}
+
+/// [`decode`] of a file already parsed (so a caller that inspected it first does not
+/// parse it again).
+pub fn decode_parsed(parsed: &Parsed<'_>, opts: &DecodeOptions) -> Result<Raster, CodecError> {
     let s = match opts.supersample {
-        None => return decode_identity(bytes, opts),
+        None => return decode_identity(parsed, opts),
         Some(s) if (1..=4).contains(&s) => s,
         Some(s) => {
             return Err(CodecError::Parameter {
@@ -130,7 +136,7 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
             });
         }
     };
-    let d = read(bytes, opts.max_pixels)?;
+    let d = read_parsed(parsed)?;
     let (ow, oh) = output_size(&d.header, opts, 4)?;
     if (ow, oh) == (d.header.width, d.header.height) {
         // Forward mapping of an unedited file at its own size reproduces the identity
@@ -143,9 +149,9 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
 
 /// [`decode`] by the identity fast path: equal to `render_identity_raster(&read(..)?, ..)`,
 /// with the output allocated while the tree decodes.
-fn decode_identity(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> {
+fn decode_identity(parsed: &Parsed<'_>, opts: &DecodeOptions) -> Result<Raster, CodecError> {
     identity_with(
-        bytes,
+        parsed,
         opts,
         4,
         |h, (ow, oh)| vec![0.0f32; ow as usize * oh as usize * h.layout.channels()],
@@ -161,6 +167,15 @@ pub fn decode_interleaved(
     opts: &DecodeOptions,
     depth: Depth,
 ) -> Result<Interleaved, CodecError> {
+    decode_interleaved_parsed(&bitstream::parse(bytes, opts.max_pixels)?, opts, depth)
+}
+
+/// [`decode_interleaved`] of a file already parsed.
+pub fn decode_interleaved_parsed(
+    parsed: &Parsed<'_>,
+    opts: &DecodeOptions,
+    depth: Depth,
+) -> Result<Interleaved, CodecError> {
     let opts = DecodeOptions {
         supersample: None,
         ..opts.clone()
@@ -170,7 +185,7 @@ pub fn decode_interleaved(
         Depth::Sixteen => 2,
     };
     identity_with(
-        bytes,
+        parsed,
         &opts,
         sample_bytes,
         |h, (ow, oh)| {

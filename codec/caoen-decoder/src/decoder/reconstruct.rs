@@ -119,7 +119,7 @@ pub(super) fn non_finite() -> CodecError {
 /// The identity path with its output made by `alloc` (while the tree decodes) and filled
 /// by `finish` from the two evaluators.
 pub(super) fn identity_with<O: Send, R>(
-    bytes: &[u8],
+    parsed: &bitstream::Parsed<'_>,
     opts: &DecodeOptions,
     sample_bytes: u64,
     alloc: impl FnOnce(&Header, (u32, u32)) -> O + Send,
@@ -132,12 +132,11 @@ pub(super) fn identity_with<O: Send, R>(
         O,
     ) -> Result<R, CodecError>,
 ) -> Result<R, CodecError> {
-    let parsed = bitstream::parse(bytes, opts.max_pixels)?;
     let header = &parsed.header;
     let (ow, oh) = output_size(header, opts, sample_bytes)?;
     let frame = Frame::new(header.width, header.height);
     let grid = Grid::pixel_centres(&frame, ow, oh);
-    let (decoded, samples) = crate::par::join(|| read_parsed(&parsed), || alloc(header, (ow, oh)));
+    let (decoded, samples) = crate::par::join(|| read_parsed(parsed), || alloc(header, (ow, oh)));
     let mut d = decoded?;
     let layer = d.detail.take();
     let to_f32 = |planes: Vec<Vec<f64>>| -> Vec<Vec<f32>> {
