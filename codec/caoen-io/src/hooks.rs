@@ -49,7 +49,9 @@ impl CaeDecoder {
     /// Reads a whole `.cae` file (counted against the memory budget) and checks its
     /// container; the pixels are decoded by `read_image`.
     pub fn new(mut reader: impl Read) -> ImageResult<CaeDecoder> {
-        let bytes = caoen_base::budget::read_all(&mut reader, None).map_err(ImageError::IoError)?;
+        let bytes = caoen_base::budget::Limits::default()
+            .read_all(&mut reader, None)
+            .map_err(ImageError::IoError)?;
         let parsed = inspect(&bytes).map_err(image_error)?;
         let (header, metadata) = (parsed.header.clone(), parsed.metadata());
         Ok(CaeDecoder {

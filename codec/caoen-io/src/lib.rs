@@ -33,6 +33,7 @@ pub use write::{
 
 use std::path::Path;
 
+use caoen_base::budget::Limits;
 use caoen_base::raster::SampleFormat;
 
 /// Default limit on either side, matching the codec's [`caoen_decoder::MAX_SIDE`].
@@ -44,13 +45,16 @@ pub const DEFAULT_MAX_PIXELS: u64 = 1 << 26;
 /// The four bytes every OpenEXR file starts with.
 pub const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 
-/// Size limits checked against an image's header before its pixels are decoded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Size limits checked against an image's header before its pixels are decoded, and
+/// the memory limit the decode is checked against.
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct LoadLimits {
     /// Largest accepted width or height.
     pub max_side: u32,
     /// Largest accepted `width * height`.
     pub max_pixels: u64,
+    /// The memory the load may take (with what its job already holds).
+    pub memory: Limits,
 }
 
 impl Default for LoadLimits {
@@ -58,6 +62,17 @@ impl Default for LoadLimits {
         LoadLimits {
             max_side: DEFAULT_MAX_SIDE,
             max_pixels: DEFAULT_MAX_PIXELS,
+            memory: Limits::default(),
+        }
+    }
+}
+
+impl LoadLimits {
+    /// The default sizes within the memory limit `memory`.
+    pub fn within(memory: &Limits) -> Self {
+        LoadLimits {
+            memory: memory.clone(),
+            ..LoadLimits::default()
         }
     }
 }
@@ -96,12 +111,12 @@ impl LoadLimits {
         channels: u64,
     ) -> Result<(), ImageIoError> {
         let need = caoen_base::budget::bytes(width, height, decoded_bytes + 4 * channels);
-        caoen_base::budget::check(|| format!("decoding {width}x{height}"), need).map_err(|source| {
-            ImageIoError::Memory {
+        self.memory
+            .check(|| format!("decoding {width}x{height}"), need)
+            .map_err(|source| ImageIoError::Memory {
                 path: path.to_path_buf(),
                 source,
-            }
-        })
+            })
     }
 
     /// The same limits for the `image` crate: strict sides, and an allocation budget
@@ -112,7 +127,7 @@ impl LoadLimits {
         limits.max_image_width = Some(self.max_side);
         limits.max_image_height = Some(self.max_side);
         let alloc = self.max_pixels.saturating_mul(16).saturating_add(64 << 20);
-        limits.max_alloc = Some(alloc.min(caoen_base::budget::get()));
+        limits.max_alloc = Some(alloc.min(self.memory.max_memory));
         limits
     }
 }

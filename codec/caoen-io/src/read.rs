@@ -67,10 +67,13 @@ pub(super) fn read_oriented(
     limits: &LoadLimits,
     compact: bool,
 ) -> Result<(EncodeSource, Metadata), ImageIoError> {
-    let bytes = caoen_base::budget::read(path).map_err(|source| ImageIoError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = limits
+        .memory
+        .read(path)
+        .map_err(|source| ImageIoError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     oriented(
         &bytes,
         path,

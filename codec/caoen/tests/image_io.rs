@@ -137,6 +137,7 @@ fn limits_are_checked_with_the_values() {
     let limits = LoadLimits {
         max_side: 16384,
         max_pixels: 31,
+        ..LoadLimits::default()
     };
     match image_io::load_with_limits(&path, &limits) {
         Err(ImageIoError::TooLarge {
@@ -152,6 +153,7 @@ fn limits_are_checked_with_the_values() {
     let limits = LoadLimits {
         max_side: 7,
         max_pixels: 1000,
+        ..LoadLimits::default()
     };
     assert!(matches!(
         image_io::load_with_limits(&exr, &limits),

@@ -664,7 +664,8 @@ pub fn container(data: &[u8]) -> Outcome {
 /// The image's metadata and its upright pixels: items within their size limit, the kept
 /// EXIF saying orientation 1 (or none), and as many pixels as the image stores.
 fn image_metadata(data: &[u8]) {
-    let Ok((upright, meta)) = image_io::load_from_memory_with_metadata(data, &IMAGE_LIMITS) else {
+    let Ok((upright, meta)) = image_io::load_from_memory_with_metadata(data, &image_limits())
+    else {
         return;
     };
     assert!(meta.check_sizes().is_ok(), "metadata over its size limit");
@@ -675,7 +676,7 @@ fn image_metadata(data: &[u8]) {
             "kept EXIF orientation {o:?}"
         );
     }
-    if let Ok(stored) = image_io::load_from_memory(data, &IMAGE_LIMITS) {
+    if let Ok(stored) = image_io::load_from_memory(data, &image_limits()) {
         assert_eq!(
             upright.pixel_count(),
             stored.pixel_count(),
@@ -686,10 +687,13 @@ fn image_metadata(data: &[u8]) {
 
 /// Limits of the image target: small, so a run takes milliseconds; the limit checks are
 /// the same code at any size.
-const IMAGE_LIMITS: LoadLimits = LoadLimits {
-    max_side: 1024,
-    max_pixels: 1 << 16,
-};
+fn image_limits() -> LoadLimits {
+    LoadLimits {
+        max_side: 1024,
+        max_pixels: 1 << 16,
+        ..LoadLimits::default()
+    }
+}
 
 /// Largest loaded image also encoded and decoded again.
 const ENCODE_MAX_PIXELS: usize = 256;
@@ -699,11 +703,11 @@ const ENCODE_MAX_PIXELS: usize = 256;
 /// have the image's size, layout and format.
 pub fn image(data: &[u8]) -> Outcome {
     image_metadata(data);
-    let img = image_io::load_from_memory(data, &IMAGE_LIMITS).map_err(message)?;
+    let img = image_io::load_from_memory(data, &image_limits()).map_err(message)?;
     assert!(
-        img.width() <= IMAGE_LIMITS.max_side
-            && img.height() <= IMAGE_LIMITS.max_side
-            && img.pixel_count() as u64 <= IMAGE_LIMITS.max_pixels,
+        img.width() <= image_limits().max_side
+            && img.height() <= image_limits().max_side
+            && img.pixel_count() as u64 <= image_limits().max_pixels,
         "loaded {}x{}, over the limits",
         img.width(),
         img.height()
