@@ -47,7 +47,7 @@ pub fn load_image_with_metadata(path: &Path) -> CliResult<(Raster, Metadata)> {
     // Image errors name their file already.
     Ok(image_io::load_with_metadata(
         path,
-        &image_io::LoadLimits::default(),
+        &image_io::LoadLimits::within(&crate::commands::limits()),
     )?)
 }
 
@@ -118,7 +118,7 @@ fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBa
 pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     let limits = image_io::LoadLimits {
         max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
-        ..image_io::LoadLimits::default()
+        ..image_io::LoadLimits::within(&crate::commands::limits())
     };
     let (img, metadata) = image_io::load_for_encoding(&a.input, &limits)?;
     let held = img.held_bytes();
