@@ -274,10 +274,16 @@ pub enum TextureError {
         name: String,
     },
     /// Colours not in the form `RRGGBB,RRGGBB`.
-    #[error("colours {text:?}: expected two sRGB hex colours RRGGBB,RRGGBB")]
+    #[error(
+        "colours {text:?}: {}expected two sRGB hex colours RRGGBB,RRGGBB",
+        match colour { Some(0) => "the first is not a colour; ", Some(_) => "the second is not a colour; ", None => "" }
+    )]
     Colours {
         /// The text given.
         text: String,
+        /// Which of the two colours is malformed (0: the first); `None` when the text
+        /// is not two colours.
+        colour: Option<usize>,
     },
 
     // Limits.

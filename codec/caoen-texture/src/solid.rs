@@ -403,19 +403,20 @@ impl Volume {
 /// Parses two colours `RRGGBB,RRGGBB` (gamma-encoded sRGB hex, an optional `#` each)
 /// into linear light.
 pub fn parse_colours(s: &str) -> Result<[[f32; 3]; 2], TextureError> {
-    let bad = || TextureError::Colours {
+    let bad = |colour: Option<usize>| TextureError::Colours {
         text: s.to_string(),
+        colour,
     };
-    let (a, b) = s.split_once(',').ok_or_else(bad)?;
-    let one = |c: &str| -> Result<[f32; 3], TextureError> {
+    let (a, b) = s.split_once(',').ok_or_else(|| bad(None))?;
+    let one = |k: usize, c: &str| -> Result<[f32; 3], TextureError> {
         let c = c.trim().trim_start_matches('#');
         if c.len() != 6 || !c.is_ascii() {
-            return Err(bad());
+            return Err(bad(Some(k)));
         }
-        let byte = |i: usize| u8::from_str_radix(&c[i..i + 2], 16).map_err(|_| bad());
+        let byte = |i: usize| u8::from_str_radix(&c[i..i + 2], 16).map_err(|_| bad(Some(k)));
         Ok(srgb8_to_linear([byte(0)?, byte(2)?, byte(4)?]))
     };
-    Ok([one(a)?, one(b)?])
+    Ok([one(0, a)?, one(1, b)?])
 }
 
 #[cfg(test)]
