@@ -10,11 +10,12 @@ pub mod measure;
 pub mod mesh_file;
 pub mod model;
 pub mod openings;
-pub mod polygon_mesh;
 pub mod quadric;
 pub mod rbf_baseline;
 pub mod support;
-pub mod winding;
+
+/// The mesh the conversion reads, with the geometry it asks of it.
+pub use caoen_geometry::{polygon_mesh, winding};
 
 pub use fit::{convert, Conversion, ConvertOptions, LevelReport};
 pub use job::{convert_file, convert_mesh, ConvertError, ConvertJob, ConvertReport, Holes};

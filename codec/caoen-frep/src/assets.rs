@@ -2,68 +2,43 @@
 //! levels of any image the library reads) and closed Cao En surfaces (tessellated into
 //! the field of their inside).
 
-use serde_json::Value;
-
-use super::height_map::{Base, HeightMap, SamplesHandle, SAMPLE_BYTES};
+use super::height_map::{Base, HeightMap, Interp, SamplesHandle, SAMPLE_BYTES};
 use super::interval::Aabb;
 use super::mesh_field::MeshField;
-use super::model_file::{bad, err, fields, get, image_file, interp_of, number, numbers, vec3};
+use super::model_file::{
+    bad, err, number, numbers, FileBase, FileHeightMap, FileSurface, Projection,
+};
 use super::node::{Node, MIN_LENGTH, WORLD_LIMIT};
 use caoen_surface::json::FieldError;
 
-/// Parses a height map node and reads its image (grey level in [0, 1] times `height`).
+/// Checks a height map node's numbers and reads its image (grey level in [0, 1] times
+/// `height`).
 pub(super) fn height_map(
-    v: &Value,
+    h: &FileHeightMap,
     here: &str,
     base_dir: &std::path::Path,
 ) -> Result<HeightMap, FieldError> {
     let w = WORLD_LIMIT;
-    let f = fields(
-        v,
-        here,
-        &["image", "base", "rect", "height", "threshold", "interp"],
-    )?;
-    let base = match get(f, "base", here)? {
-        Value::String(s) if s == "plane" => Base::Plane,
-        Value::Object(o) if o.len() == 1 && o.contains_key("ellipsoid") => Base::Ellipsoid(vec3(
-            &o["ellipsoid"],
+    let base = match h.base {
+        FileBase::Plane => Base::Plane,
+        FileBase::Ellipsoid(r) => Base::Ellipsoid(numbers(
+            r,
             &format!("{here}.base.ellipsoid"),
             MIN_LENGTH,
             w,
         )?),
-        Value::Object(o) if o.len() == 1 && o.contains_key("cylinder") => Base::Cylinder(number(
-            &o["cylinder"],
-            &format!("{here}.base.cylinder"),
-            MIN_LENGTH,
-            w,
-        )?),
-        other => {
-            return err(
-                &format!("{here}.base"),
-                format!(
-                "{other}: expected \"plane\", {{\"ellipsoid\": [a, b, c]}} or {{\"cylinder\": r}}"
-            ),
-            )
+        FileBase::Cylinder(r) => {
+            Base::Cylinder(number(r, &format!("{here}.base.cylinder"), MIN_LENGTH, w)?)
         }
     };
-    let rect = numbers(
-        get(f, "rect", here)?,
-        &format!("{here}.rect"),
-        -w,
-        w,
-        "[u0, v0, u1, v1]",
-    )?;
-    let height = match f.get("height") {
-        Some(h) => number(h, &format!("{here}.height"), -w, w)?,
-        None => 1.0,
-    };
-    let threshold = match f.get("threshold") {
+    let rect = numbers(h.rect, &format!("{here}.rect"), -w, w)?;
+    let height = number(h.height, &format!("{here}.height"), -w, w)?;
+    let threshold = match h.threshold {
         Some(t) => number(t, &format!("{here}.threshold"), -w, w)?,
         None => f64::NEG_INFINITY,
     };
-    let interp = interp_of(f, here)?;
-    let file = image_file(f, here, base_dir)?;
-    load_map(&file, here, height, base, rect, threshold, interp)
+    let file = base_dir.join(&h.image);
+    load_map(&file, here, height, base, rect, threshold, h.interp)
 }
 
 /// Samples of the height maps and pictures loaded and still alive, by file and scale:
@@ -80,7 +55,7 @@ fn load_map(
     base: Base,
     rect: [f64; 4],
     threshold: f64,
-    interp: super::height_map::Interp,
+    interp: Interp,
 ) -> Result<HeightMap, FieldError> {
     let key = std::fs::canonicalize(file).unwrap_or_else(|_| file.to_path_buf());
     let lock = || {
@@ -119,24 +94,18 @@ pub const MAX_SURFACE_DETAIL: u32 = 7;
 /// (a `caoen-surface/1` file relative to the model, three shape components) tessellated
 /// at `detail` (default 5) as the field of its inside.
 pub(super) fn surface_field(
-    v: &Value,
+    s: &FileSurface,
     here: &str,
     base_dir: &std::path::Path,
 ) -> Result<Node, FieldError> {
     use caoen_surface::tessellate::{tessellate, NormalMode};
-    let f = fields(v, here, &["file", "detail"])?;
-    let Some(name) = get(f, "file", here)?.as_str() else {
-        return err(&format!("{here}.file"), "expected a file name");
-    };
-    let detail = match f.get("detail") {
-        Some(d) => number(
-            d,
-            &format!("{here}.detail"),
-            0.0,
-            f64::from(MAX_SURFACE_DETAIL),
-        )?,
-        None => 5.0,
-    };
+    let name = &s.file;
+    let detail = number(
+        s.detail,
+        &format!("{here}.detail"),
+        0.0,
+        f64::from(MAX_SURFACE_DETAIL),
+    )?;
     if detail.fract() != 0.0 {
         return err(
             &format!("{here}.detail"),
@@ -164,41 +133,43 @@ pub(super) fn surface_field(
     Ok(Node::Surface(std::sync::Arc::new(field)))
 }
 
-/// A picture with its projection (`pattern` and `relief` nodes): `image` (grey levels
-/// in [0, 1]), `projection` planar (along z), cylindrical (around z) or spherical
-/// (around the origin), `rect` in the projection's parameters (default: the box's x, y
-/// for planar, all angles and the box's z for cylindrical, all angles for spherical),
-/// `interp`.
+/// A picture with its projection, as `pattern` and `relief` nodes give it.
+pub(crate) struct Picture<'a> {
+    /// The image file (grey levels in [0, 1]), relative to the model.
+    pub image: &'a str,
+    /// Planar (along z), cylindrical (around z) or spherical (around the origin).
+    pub projection: Projection,
+    /// Where the picture lies in the projection's parameters; None for the default
+    /// (the box's x, y for planar, all angles and the box's z for cylindrical, all
+    /// angles for spherical).
+    pub rect: Option<[f64; 4]>,
+    /// How grey levels between samples are interpolated.
+    pub interp: Interp,
+}
+
+/// The height map of a picture; `bounds` is the box its default `rect` comes from.
 pub(super) fn picture(
-    v: &Value,
+    p: &Picture<'_>,
     here: &str,
     base_dir: &std::path::Path,
     bounds: Option<&Aabb>,
 ) -> Result<HeightMap, FieldError> {
     use std::f64::consts::{FRAC_PI_2, PI};
     let w = WORLD_LIMIT;
-    let o = v.as_object().expect("checked by the caller");
-    let base = match o.get("projection").and_then(Value::as_str) {
-        Some("planar") | None => Base::Plane,
-        Some("cylindrical") => Base::Cylinder(1.0),
-        Some("spherical") => Base::Ellipsoid([1.0; 3]),
-        Some(other) => {
-            return err(
-                &format!("{here}.projection"),
-                format!("`{other}`: expected planar, cylindrical or spherical"),
-            )
-        }
+    let base = match p.projection {
+        Projection::Planar => Base::Plane,
+        Projection::Cylindrical => Base::Cylinder(1.0),
+        Projection::Spherical => Base::Ellipsoid([1.0; 3]),
     };
-    let rect = match (o.get("rect"), bounds, base) {
-        (Some(r), _, _) => numbers(r, &format!("{here}.rect"), -w, w, "[u0, v0, u1, v1]")?,
+    let rect = match (p.rect, bounds, base) {
+        (Some(r), _, _) => numbers(r, &format!("{here}.rect"), -w, w)?,
         (None, Some(b), Base::Plane) => [b.lo[0], b.lo[1], b.hi[0], b.hi[1]],
         (None, Some(b), Base::Cylinder(_)) => [-PI, b.lo[2], PI, b.hi[2]],
         (None, _, Base::Ellipsoid(_)) => [-PI, -FRAC_PI_2, PI, FRAC_PI_2],
         (None, None, _) => return err(here, "needs `rect` (the picture's place)"),
     };
-    let interp = interp_of(o, here)?;
-    let file = image_file(o, here, base_dir)?;
-    load_map(&file, here, 1.0, base, rect, f64::NEG_INFINITY, interp)
+    let file = base_dir.join(p.image);
+    load_map(&file, here, 1.0, base, rect, f64::NEG_INFINITY, p.interp)
 }
 
 /// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.

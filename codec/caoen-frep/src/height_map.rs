@@ -31,10 +31,13 @@ pub enum Base {
     Cylinder(f64),
 }
 
-/// How heights between samples are interpolated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// How heights between samples are interpolated (`"bilinear"`, the default, or
+/// `"bicubic"` in a model file).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Interp {
     /// Bilinear: continuous, exact at the samples, bounded by them.
+    #[default]
     Bilinear,
     /// Catmull-Rom bicubic: C1, exact at the samples, may overshoot them a little.
     Bicubic,

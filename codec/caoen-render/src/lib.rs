@@ -11,7 +11,6 @@ pub mod depth_buffer;
 pub mod error;
 pub mod framebuffer;
 pub mod mesh;
-pub mod mesh_io;
 pub mod pov;
 pub mod raster;
 pub mod rays;
@@ -22,6 +21,9 @@ pub mod shading;
 pub mod texture;
 
 pub use camera::{Camera, Projection, Ray};
+/// Mesh files (OBJ with its material library, PLY, STL), read and written where the
+/// meshes are defined.
+pub use caoen_geometry::mesh_file as mesh_io;
 /// Ray tracing of convex implicit solids (the tracer belongs to the solids).
 pub use caoen_surface::tracer as raytrace;
 pub use error::RenderError;

@@ -2,6 +2,9 @@
 
 use std::path::Path;
 
+use serde::{Deserialize, Deserializer};
+
+use caoen::json::FieldError;
 use caoen::render::mesh_io::{write_obj, write_ply, write_stl};
 use caoen::render::scene::Shape;
 use caoen::render::{Method, RenderOptions, Scene};
@@ -27,6 +30,50 @@ pub fn run(global: &GlobalArgs, cmd: FrepCommand) -> CliResult {
     }
 }
 
+/// An F-rep model file: its format tag, the model, and the fields the scene it is
+/// drawn in takes as written (the scene reader checks them).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelFile {
+    #[serde(rename = "format")]
+    _format: FrepFormat,
+    model: serde_json::Value,
+    #[serde(default, deserialize_with = "present")]
+    name: Option<serde_json::Value>,
+    #[serde(default, deserialize_with = "present")]
+    bounds: Option<serde_json::Value>,
+    #[serde(default, deserialize_with = "present")]
+    material: Option<serde_json::Value>,
+    #[serde(default, deserialize_with = "present")]
+    camera: Option<serde_json::Value>,
+    #[serde(default, deserialize_with = "present")]
+    background: Option<serde_json::Value>,
+    #[serde(default, deserialize_with = "present")]
+    lights: Option<serde_json::Value>,
+}
+
+/// A field that is present, `null` included (the scene decides what `null` means).
+fn present<'de, D: Deserializer<'de>>(d: D) -> Result<Option<serde_json::Value>, D::Error> {
+    serde_json::Value::deserialize(d).map(Some)
+}
+
+/// The format tag of a model file; a scene's is named in the error, since `frep`
+/// commands read both.
+struct FrepFormat;
+
+impl<'de> Deserialize<'de> for FrepFormat {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let tag = String::deserialize(d)?;
+        if tag == FREP_FORMAT {
+            return Ok(FrepFormat);
+        }
+        Err(serde::de::Error::invalid_value(
+            serde::de::Unexpected::Str(&tag),
+            &"`caoen-frep/1` (a model) or `caoen-scene/1` (a scene)",
+        ))
+    }
+}
+
 /// Loads an F-rep model file (wrapped into a one-object scene) or a scene file.
 pub fn load(path: &Path) -> CliResult<Scene> {
     let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
@@ -37,51 +84,33 @@ pub fn load(path: &Path) -> CliResult<Scene> {
     }
     let v: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| failed(format!("not JSON: {e}")))?;
-    let Some(o) = v.as_object() else {
+    // serde's derived structs also take a list of their fields in order.
+    if !v.is_object() {
         return Err(failed("expected a JSON object".into()));
-    };
-    match o.get("format").and_then(|f| f.as_str()) {
-        Some(FREP_FORMAT) => {}
-        Some(other) => {
-            return Err(failed(format!(
-                "format `{other}`: expected `{FREP_FORMAT}` (a model) or `caoen-scene/1` (a scene)"
-            )))
-        }
-        None => return Err(failed(format!("no `format` field (`{FREP_FORMAT}`)"))),
     }
-    for k in o.keys() {
-        if ![
-            "format",
-            "name",
-            "model",
-            "bounds",
-            "material",
-            "camera",
-            "background",
-            "lights",
-        ]
-        .contains(&k.as_str())
-        {
-            return Err(failed(format!("unknown field `{k}`")));
-        }
-    }
-    let model = o
-        .get("model")
-        .ok_or_else(|| failed("missing field `model`".into()))?;
-    let mut object = serde_json::json!({"name": o.get("name").cloned().unwrap_or("model".into()), "frep": model});
-    for k in ["bounds", "material"] {
-        if let Some(x) = o.get(k) {
-            object[k] = x.clone();
+    let file: ModelFile = serde_path_to_error::deserialize(&v)
+        .map_err(|e| failed(FieldError::from_path_error("", &e).printable().to_string()))?;
+    let mut object = serde_json::json!({
+        "name": file.name.clone().unwrap_or("model".into()),
+        "frep": file.model,
+    });
+    for (k, x) in [("bounds", file.bounds), ("material", file.material)] {
+        if let Some(x) = x {
+            object[k] = x;
         }
     }
     let mut scene = serde_json::json!({
         "format": "caoen-scene/1",
-        "name": o.get("name").cloned().unwrap_or("F-rep model".into()),
+        "name": file.name.unwrap_or("F-rep model".into()),
         "objects": [object],
     });
-    for k in ["camera", "background", "lights"] {
-        if let Some(x) = o.get(k) {
-            scene[k] = x.clone();
+    for (k, x) in [
+        ("camera", file.camera),
+        ("background", file.background),
+        ("lights", file.lights),
+    ] {
+        if let Some(x) = x {
+            scene[k] = x;
         }
     }
     Scene::from_json(&scene.to_string(), &base).map_err(|e| failed(e.to_string()))

@@ -13,6 +13,11 @@ use super::primitive::Primitive;
 use super::rfunction::{self, SetOp};
 use caoen_geometry::transform::Affine;
 
+mod relief;
+
+pub use relief::relief_warp;
+use relief::{relief_point, relief_warp_box};
+
 /// Deepest nesting a model may have.
 pub const MAX_DEPTH: usize = 64;
 /// Most nodes a model may have.
@@ -606,121 +611,6 @@ fn shell_interval(f: Interval, t: f64) -> Interval {
     Interval::new(f.lo.min(t - f.hi), f.hi.min(t - f.lo).min(0.5 * t))
 }
 
-/// The fade of a planar relief's push over the base's z range `ramp`: 0 below, 1
-/// above, smoothstep between (C1, slope at most `1.5 / (z1 - z0)`), and its slope.
-fn ramp_of(ramp: [f64; 2], z: f64) -> (f64, f64) {
-    let span = ramp[1] - ramp[0];
-    let t = (z - ramp[0]) / span;
-    if t.is_nan() || t <= 0.0 {
-        (0.0, 0.0)
-    } else if t >= 1.0 {
-        (1.0, 0.0)
-    } else {
-        (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t) / span)
-    }
-}
-
-/// The push direction of a cylindrical or spherical relief at `p`: the mask `m` of the
-/// axes it acts on (x and y, or all three), `q = m p` and `|q|`.
-fn radial(base: super::height_map::Base, p: [f64; 3]) -> ([f64; 3], [f64; 3], f64) {
-    let m = if matches!(base, super::height_map::Base::Cylinder(_)) {
-        [1.0, 1.0, 0.0]
-    } else {
-        [1.0; 3]
-    };
-    let q = [0, 1, 2].map(|k| m[k] * p[k]);
-    (m, q, (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt())
-}
-
-/// The point a relief reads its base at, `W(p)`, and the Jacobian `dW_i / dp_k`.
-/// Planar: `W = p - depth h s(z) e_z` (`s` the ramp); cylindrical and spherical:
-/// `W = p - depth h q / |q|` with `q` the part of `p` off the z axis or all of it.
-pub fn relief_warp(
-    map: &HeightMap,
-    depth: f64,
-    ramp: [f64; 2],
-    p: [f64; 3],
-) -> ([f64; 3], [[f64; 3]; 3]) {
-    let (h, gh) = map.perturbation(p);
-    let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    match map.parts().0 {
-        super::height_map::Base::Plane => {
-            let (s, ds) = ramp_of(ramp, p[2]);
-            for k in 0..3 {
-                j[2][k] -= depth * gh[k] * s;
-            }
-            j[2][2] -= depth * h * ds;
-            ([p[0], p[1], p[2] - depth * h * s], j)
-        }
-        base => {
-            let (m, q, r) = radial(base, p);
-            if r.is_nan() || r <= 0.0 || h == 0.0 && gh == [0.0; 3] {
-                return (p, j);
-            }
-            // W_i = p_i + (c - 1) q_i with c = 1 - depth h / r.
-            let c1 = -depth * h / r;
-            let dc = [0, 1, 2].map(|k| -depth * (gh[k] / r - h * q[k] / (r * r * r)));
-            for i in 0..3 {
-                for k in 0..3 {
-                    j[i][k] = if i == k { 1.0 + c1 * m[i] } else { 0.0 } + q[i] * dc[k];
-                }
-            }
-            ([0, 1, 2].map(|k| p[k] + c1 * q[k]), j)
-        }
-    }
-}
-
-/// `W(p)` of [`relief_warp`] alone, without the Jacobian (for point values).
-fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64; 3]) -> [f64; 3] {
-    let h = map.perturbation_value(p);
-    match map.parts().0 {
-        super::height_map::Base::Plane => {
-            let (s, _) = ramp_of(ramp, p[2]);
-            [p[0], p[1], p[2] - depth * h * s]
-        }
-        base => {
-            let (_, q, r) = radial(base, p);
-            // No push: the point itself (where relief_warp also moves it by zero).
-            if r.is_nan() || r <= 0.0 || h == 0.0 {
-                return p;
-            }
-            let c1 = -depth * h / r;
-            [0, 1, 2].map(|k| p[k] + c1 * q[k])
-        }
-    }
-}
-
-/// A box holding `W(p)` for every `p` in `b`.
-fn relief_warp_box(map: &HeightMap, depth: f64, ramp: [f64; 2], b: &Aabb) -> Aabb {
-    let push = map.perturbation_range(b).scale(depth);
-    match map.parts().0 {
-        super::height_map::Base::Plane => {
-            // s is increasing in z, in [0, 1].
-            let s = Interval::new(ramp_of(ramp, b.lo[2]).0, ramp_of(ramp, b.hi[2]).0);
-            let z = Interval::new(b.lo[2], b.hi[2]) - push * s;
-            Aabb {
-                lo: [b.lo[0], b.lo[1], z.lo],
-                hi: [b.hi[0], b.hi[1], z.hi],
-            }
-        }
-        base => {
-            // Each component of q / |q| lies in [-1, 1].
-            let most = push.lo.abs().max(push.hi.abs());
-            let axes = if matches!(base, super::height_map::Base::Cylinder(_)) {
-                2
-            } else {
-                3
-            };
-            let mut w = *b;
-            for k in 0..axes {
-                w.lo[k] -= most;
-                w.hi[k] += most;
-            }
-            w
-        }
-    }
-}
-
 /// The box holding the image of box `b` under `m` (interval arithmetic per row).
 fn map_box(m: &Affine, b: &Aabb) -> Aabb {
     let axes = b.axes();
@@ -764,69 +654,4 @@ pub fn mean_surface_gradient(node: &Node, b: &Aabb) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn ball() -> Node {
-        Node::Primitive(Primitive::Sphere {
-            centre: [0.1, -0.2, 0.05],
-            radius: 0.6,
-        })
-    }
-
-    #[test]
-    fn a_frep_shell_is_the_wall_between_the_surface_and_the_inner_level() {
-        let t = 0.1;
-        let shell = Node::Shell {
-            thickness: t,
-            operand: Box::new(ball()),
-        };
-        let f = ball();
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        for _ in 0..2000 {
-            let p = [next(), next(), next()];
-            let (v, g) = shell.value_gradient(p);
-            let fv = f.value(p);
-            assert_eq!(v, fv.min(t - fv));
-            assert_eq!(v, shell.value(p));
-            // Inside the wall exactly where the operand is between 0 and the thickness.
-            assert_eq!(v >= 0.0, (0.0..=t).contains(&fv), "{p:?}");
-            // Away from the crease at f = t / 2 the gradient is the derivative.
-            if (fv - 0.5 * t).abs() > 1e-3 {
-                let h = 1e-6;
-                for k in 0..3 {
-                    let (mut a, mut b) = (p, p);
-                    a[k] += h;
-                    b[k] -= h;
-                    let fd = (shell.value(a) - shell.value(b)) / (2.0 * h);
-                    assert!((fd - g[k]).abs() < 1e-6, "{p:?} {k}: {fd} {}", g[k]);
-                }
-            }
-            // The bound over a box around the point holds every value sampled in it.
-            let r = 0.2 * (next() + 1.0);
-            let b = Aabb::new(p.map(|x| x - r), p.map(|x| x + r));
-            let i = shell.interval(&b);
-            for _ in 0..20 {
-                let q = [0, 1, 2].map(|k| p[k] + r * next());
-                let v = shell.value(q);
-                assert!(i.lo <= v && v <= i.hi, "{q:?} {v} {i:?}");
-            }
-        }
-        // The peak: half the thickness, reached inside a box holding f = t / 2.
-        let i = shell_interval(Interval::new(-1.0, 1.0), t);
-        assert_eq!((i.lo, i.hi), (-1.0, 0.5 * t));
-        let i = shell_interval(Interval::new(0.02, 0.03), t);
-        assert_eq!((i.lo, i.hi), (0.02, 0.03));
-        let i = shell_interval(Interval::new(0.07, 0.09), t);
-        assert!(
-            (i.lo - 0.01).abs() < 1e-12 && (i.hi - 0.03).abs() < 1e-12,
-            "{i:?}"
-        );
-    }
-}
+mod tests;

@@ -13,7 +13,7 @@
 //! conversion asks of it.
 
 use super::polygon_mesh::PolygonMesh;
-use caoen_geometry::vector::{add, cross, dot, norm, scale, sub};
+use crate::vector::{add, cross, dot, norm, scale, sub};
 
 /// Opening distance over cluster radius.
 const BETA: f64 = 3.0;

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use rayon::prelude::*;
 
 use super::winding::{solid_angle_half, WindingTree};
-use caoen_geometry::vector::{cross, dot, sub, unit};
+use crate::vector::{cross, dot, sub, unit};
 
 /// A triangle mesh: positions and counter-clockwise triangles (quads and polygons are
 /// split into fans when read).
@@ -342,7 +342,7 @@ impl PolygonMesh {
     /// The triangulated unit-radius icosphere subdivided `level` times, scaled by
     /// `radii` along the axes: the test solids whose conversion is one quadric.
     pub fn ellipsoid(radii: [f64; 3], level: u32) -> PolygonMesh {
-        let (p, t) = caoen_geometry::mesh::icosphere(level);
+        let (p, t) = crate::mesh::icosphere(level);
         PolygonMesh {
             positions: p
                 .into_iter()
@@ -353,9 +353,9 @@ impl PolygonMesh {
     }
 }
 
-#[cfg(test)]
 impl PolygonMesh {
-    /// A UV sphere of `radius` about the origin with `n` bands, wound outward (tests').
+    /// A UV sphere of `radius` about the origin with `n` (at least 2) bands, wound
+    /// outward.
     pub fn uv_sphere(n: usize, radius: f64) -> PolygonMesh {
         let mut positions = vec![[0.0, 0.0, radius], [0.0, 0.0, -radius]];
         for i in 1..n {
