@@ -10,6 +10,7 @@ mod ply;
 mod stl;
 
 use std::path::Path;
+use std::path::PathBuf;
 
 use thiserror::Error;
 
@@ -28,37 +29,37 @@ pub const MAX_ELEMENTS: u64 = 1 << 31;
 #[derive(Debug, Error)]
 pub enum MeshError {
     /// Reading the file failed.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", path.display())]
     Io {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The I/O error.
         source: std::io::Error,
     },
     /// The OBJ parser refused the file.
-    #[error("{path}: not a valid OBJ file: {source}")]
+    #[error("{}: not a valid OBJ file: {source}", path.display())]
     Obj {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// What the parser said.
         #[source]
         source: tobj::LoadError,
     },
     /// A PLY header line that is not understood.
-    #[error("{path}: not a valid PLY file: header line {line}: `{text}`")]
+    #[error("{}: not a valid PLY file: header line {line}: `{text}`", path.display())]
     BadHeaderLine {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The line (from 1).
         line: usize,
         /// The line as written (control characters replaced).
         text: String,
     },
     /// A PLY element ends before all its declared values are read.
-    #[error("{path}: not a valid PLY file: {element} {index} is cut short (property `{property}` missing)")]
+    #[error("{}: not a valid PLY file: {element} {index} is cut short (property `{property}` missing)", path.display())]
     MissingValues {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The element (from 0).
@@ -67,10 +68,10 @@ pub enum MeshError {
         property: String,
     },
     /// An ASCII PLY element line carries more numbers than its properties take.
-    #[error("{path}: not a valid PLY file: {element} {index} has {extra} more numbers than its properties take")]
+    #[error("{}: not a valid PLY file: {element} {index} has {extra} more numbers than its properties take", path.display())]
     ExtraValues {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The element (from 0).
@@ -79,10 +80,10 @@ pub enum MeshError {
         extra: usize,
     },
     /// A PLY value that is not a number of its declared type.
-    #[error("{path}: not a valid PLY file: {element} {index}: `{token}` is not a {ty}")]
+    #[error("{}: not a valid PLY file: {element} {index}: `{token}` is not a {ty}", path.display())]
     BadValue {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The element (from 0).
@@ -93,10 +94,10 @@ pub enum MeshError {
         ty: &'static str,
     },
     /// A PLY list whose length is negative or over what the file holds.
-    #[error("{path}: not a valid PLY file: {element} {index}: list length {length}")]
+    #[error("{}: not a valid PLY file: {element} {index}: list length {length}", path.display())]
     BadListLength {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The element (from 0).
@@ -106,92 +107,93 @@ pub enum MeshError {
     },
     /// Data after the last element the header declares: the header lies about a count.
     #[error(
-        "{path}: not a valid PLY file: {bytes} bytes after the {declared} elements the \
-         header declares (a count that is too small?)"
+        "{}: not a valid PLY file: {bytes} bytes after the {declared} elements the \
+         header declares (a count that is too small?)",
+        path.display()
     )]
     TrailingData {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// Bytes left over.
         bytes: u64,
         /// Elements declared, all kinds together.
         declared: u64,
     },
     /// A PLY header without its `end_header` line.
-    #[error("{path}: not a valid PLY file: no end_header line")]
+    #[error("{}: not a valid PLY file: no end_header line", path.display())]
     NoEndHeader {
         /// The file.
-        path: String,
+        path: PathBuf,
     },
     /// A PLY header that is not UTF-8 text.
-    #[error("{path}: not a valid PLY file: header is not text")]
+    #[error("{}: not a valid PLY file: header is not text", path.display())]
     HeaderNotText {
         /// The file.
-        path: String,
+        path: PathBuf,
     },
     /// A PLY element whose count is not a number.
-    #[error("{path}: not a valid PLY file: element {element}: count `{count}`")]
+    #[error("{}: not a valid PLY file: element {element}: count `{count}`", path.display())]
     BadCount {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The count as written.
         count: String,
     },
     /// A PLY file without a `vertex` element.
-    #[error("{path}: not a valid PLY file: no `vertex` element")]
+    #[error("{}: not a valid PLY file: no `vertex` element", path.display())]
     NoVertices {
         /// The file.
-        path: String,
+        path: PathBuf,
     },
     /// A PLY vertex without one of its coordinates.
-    #[error("{path}: not a valid PLY file: vertex {vertex} has no numeric `{axis}`")]
+    #[error("{}: not a valid PLY file: vertex {vertex} has no numeric `{axis}`", path.display())]
     NoCoordinate {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The vertex (from 0).
         vertex: usize,
         /// The missing property: `x`, `y` or `z`.
         axis: &'static str,
     },
     /// A PLY face without its list of vertex indices.
-    #[error("{path}: not a valid PLY file: face {face} has no `vertex_indices` list")]
+    #[error("{}: not a valid PLY file: face {face} has no `vertex_indices` list", path.display())]
     NoIndexList {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The face (from 0).
         face: usize,
     },
     /// A PLY face whose vertex indices are not integers.
-    #[error("{path}: not a valid PLY file: face {face}: vertex indices are not integers")]
+    #[error("{}: not a valid PLY file: face {face}: vertex indices are not integers", path.display())]
     IndicesNotIntegers {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The face (from 0).
         face: usize,
     },
     /// An OFF file that breaks the format: what is wrong, on which line.
-    #[error("{path}: not a valid OFF file: line {line}: {what}")]
+    #[error("{}: not a valid OFF file: line {line}: {what}", path.display())]
     BadOff {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The line (from 1).
         line: usize,
         /// What is wrong there.
         what: String,
     },
     /// The file's name does not say OBJ, PLY or OFF.
-    #[error("{path}: unknown mesh format (expected a name ending in .obj, .ply or .off)")]
+    #[error("{}: unknown mesh format (expected a name ending in .obj, .ply or .off)", path.display())]
     UnknownFormat {
         /// The file.
-        path: String,
+        path: PathBuf,
     },
     /// A face names a vertex that does not exist.
-    #[error("{path}: face {face} uses vertex {index}, but the mesh has {vertices} vertices")]
+    #[error("{}: face {face} uses vertex {index}, but the mesh has {vertices} vertices", path.display())]
     BadIndex {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The face's position in the file (from 0).
         face: usize,
         /// The vertex it names (from 0).
@@ -200,43 +202,44 @@ pub enum MeshError {
         vertices: usize,
     },
     /// A coordinate is NaN or infinite.
-    #[error("{path}: vertex {vertex} has a non-finite coordinate {value}")]
+    #[error("{}: vertex {vertex} has a non-finite coordinate {value}", path.display())]
     NonFinite {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The vertex (from 0).
         vertex: usize,
         /// The coordinate.
         value: f64,
     },
     /// No triangle with three distinct corners.
-    #[error("{path}: the mesh has no triangles")]
+    #[error("{}: the mesh has no triangles", path.display())]
     NoTriangles {
         /// The file.
-        path: String,
+        path: PathBuf,
     },
     /// Every vertex at one point: the mesh has no extent.
-    #[error("{path}: all vertices are at one point")]
+    #[error("{}: all vertices are at one point", path.display())]
     SinglePoint {
         /// The file.
-        path: String,
+        path: PathBuf,
     },
     /// Every triangle has (next to) zero area: the mesh has no surface to convert.
-    #[error("{path}: the mesh has no area: its {triangles} triangles are all degenerate (collinear corners)")]
+    #[error("{}: the mesh has no area: its {triangles} triangles are all degenerate (collinear corners)", path.display())]
     NoArea {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// How many triangles it has.
         triangles: usize,
     },
     /// A vertex too far from the origin for a converted model's frame.
     #[error(
-        "{path}: vertex {vertex} has coordinate {value:e}; a mesh to convert must lie \
-         within +-{max:e} (scale it down first)"
+        "{}: vertex {vertex} has coordinate {value:e}; a mesh to convert must lie \
+         within +-{max:e} (scale it down first)",
+        path.display()
     )]
     OutsideWorld {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The vertex (from 0).
         vertex: usize,
         /// The coordinate.
@@ -246,22 +249,23 @@ pub enum MeshError {
     },
     /// A mesh whose box is too small for a converted model's frame.
     #[error(
-        "{path}: the mesh is {extent:e} across; a mesh to convert must be at least \
-         {min:e} across (scale it up first)"
+        "{}: the mesh is {extent:e} across; a mesh to convert must be at least \
+         {min:e} across (scale it up first)",
+        path.display()
     )]
     TooSmall {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The longest side of its box.
         extent: f64,
         /// The smallest allowed.
         min: f64,
     },
     /// A PLY element declared with more than [`MAX_ELEMENTS`].
-    #[error("{path}: element {element}: {declared} declared, over the limit of {max}")]
+    #[error("{}: element {element}: {declared} declared, over the limit of {max}", path.display())]
     TooManyElements {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The count its header declares.
@@ -271,12 +275,13 @@ pub enum MeshError {
     },
     /// A PLY header declaring more elements than the bytes after it can hold.
     #[error(
-        "{path}: element {element}: {declared} declared, more than the {body} bytes after \
-         the header can hold"
+        "{}: element {element}: {declared} declared, more than the {body} bytes after \
+         the header can hold",
+        path.display()
     )]
     ShortBody {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The element's name.
         element: String,
         /// The count its header declares.
@@ -285,10 +290,10 @@ pub enum MeshError {
         body: u64,
     },
     /// The memory budget does not hold the mesh.
-    #[error("{path}: {source}")]
+    #[error("{}: {source}", path.display())]
     OverBudget {
         /// The file.
-        path: String,
+        path: PathBuf,
         /// The budget check.
         source: caoen_base::budget::OverBudget,
     },
@@ -305,10 +310,10 @@ pub fn read(path: &Path) -> Result<PolygonMesh, MeshError> {
         Some("obj") => read_obj,
         Some("ply") => read_ply,
         Some("off") => read_off,
-        _ => return Err(MeshError::UnknownFormat { path: name }),
+        _ => return Err(MeshError::UnknownFormat { path: name.into() }),
     };
     let bytes = caoen_base::budget::read(path).map_err(|source| MeshError::Io {
-        path: name.clone(),
+        path: name.clone().into(),
         source,
     })?;
     reader(&bytes, &name)

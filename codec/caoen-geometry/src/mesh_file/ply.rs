@@ -3,6 +3,7 @@
 //! writer.
 
 use std::io::{self, Write};
+use std::path::PathBuf;
 
 use super::{budget, finish, MeshError, MAX_ELEMENTS};
 use crate::mesh::Mesh;
@@ -130,7 +131,7 @@ enum PlyFormat {
 
 /// Parses a PLY header; returns the format, the elements and the offset of the body.
 fn ply_header(bytes: &[u8], name: &str) -> Result<(PlyFormat, Vec<PlyElement>, usize), MeshError> {
-    let path = || name.to_string();
+    let path = || PathBuf::from(name);
     let end = bytes
         .windows(10)
         .position(|w| w == b"end_header")
@@ -280,7 +281,7 @@ enum Sink {
 /// header declares: a short element, extra numbers on an ASCII line or data after the
 /// last element are refused.
 pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
-    let path = || name.to_string();
+    let path = || PathBuf::from(name);
     let (format, elements, start) = ply_header(bytes, name)?;
     let body = &bytes[start..];
     check_ply_counts(
