@@ -1,19 +1,12 @@
 //! End-to-end tests of `caoen encode|decode|info` and the demo.
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-cli-codec-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("cli-codec-{name}"))
 }
 
 /// A small photo-like PNG from the corpus.
@@ -28,12 +21,7 @@ fn input_png(dir: &Path) -> PathBuf {
 fn encode_decode_info_round_trip_and_overwrite_rules() {
     let d = tmpdir("roundtrip");
     let png = input_png(&d);
-    let out = caoen(&["encode", s(&png), "-q", "80", "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&["encode", s(&png), "-q", "80", "--quiet"]);
     assert!(out.stderr.is_empty(), "--quiet prints nothing");
     let cae = d.join("photo.cae");
     assert!(cae.exists(), "default output is the input's stem with .cae");
@@ -93,12 +81,7 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
         "sections plus magic and version make the file"
     );
     // compare agrees that the decoded file is close to the original.
-    let cmp = caoen(&["compare", s(&png), s(&cae), "--json"]);
-    assert!(
-        cmp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cmp.stderr)
-    );
+    caoen_ok(&["compare", s(&png), s(&cae), "--json"]);
 }
 
 #[test]
@@ -125,7 +108,7 @@ fn target_size_keypoint_map_and_json() {
     let png = input_png(&d);
     let cae = d.join("t.cae");
     let map = d.join("map.png");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "encode",
         s(&png),
         "-o",
@@ -137,11 +120,6 @@ fn target_size_keypoint_map_and_json() {
         "--json",
         "--quiet",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let bytes = j["bytes"].as_f64().unwrap();
     assert!(
@@ -211,12 +189,7 @@ fn bad_input_and_usage_fail_cleanly() {
 #[test]
 fn demo_runs_on_built_in_data() {
     let d = tmpdir("demo");
-    let out = caoen(&["demo", "-o", s(&d), "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&["demo", "-o", s(&d), "--quiet"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("bpp") && text.contains("PSNR"), "{text}");
     for f in ["scene.cae", "scene-decoded.png", "scene-original.png"] {
@@ -271,7 +244,7 @@ fn png_compression_levels_keep_the_pixels() {
     let mut sizes = Vec::new();
     for level in ["fast", "default", "best"] {
         let out = d.join(format!("{level}.png"));
-        let o = caoen(&[
+        caoen_ok(&[
             "decode",
             s(&cae),
             "-o",
@@ -280,7 +253,6 @@ fn png_compression_levels_keep_the_pixels() {
             level,
             "--quiet",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         sizes.push(std::fs::metadata(&out).unwrap().len());
         assert_eq!(
             rgb8(&out),
@@ -343,8 +315,7 @@ fn supersampling_anti_aliases_downscaled_decodes() {
         let out = d.join(name);
         let mut args = vec!["decode", s(&cae), "-o", s(&out), "--quiet"];
         args.extend(extra);
-        let o = caoen(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        caoen_ok(&args);
         out
     };
     let plain = dec("plain.png", &[]);
@@ -430,12 +401,7 @@ fn oriented_jpeg(dir: &Path) -> PathBuf {
 }
 
 fn encode_json(args: &[&str]) -> serde_json::Value {
-    let out = caoen(&[&["encode", "--json", "--quiet"], args].concat());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&[&["encode", "--json", "--quiet"], args].concat());
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
@@ -480,12 +446,7 @@ fn encode_turns_photos_upright_and_keeps_the_metadata_asked_for() {
     assert!(tr[0] > 150 && tr[2] < 100, "top right {tr:?}");
     assert!(tl[0] < 100 && tl[2] > 150, "top left {tl:?}");
     // compare reads the JPEG upright too, so the two line up.
-    let cmp = caoen(&["compare", s(&jpg), s(&png), "--json"]);
-    assert!(
-        cmp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cmp.stderr)
-    );
+    caoen_ok(&["compare", s(&jpg), s(&png), "--json"]);
     let info = caoen(&["info", s(&cae)]);
     assert!(String::from_utf8_lossy(&info.stdout).contains("metadata:"));
     let info = caoen(&["info", s(&cae), "--json"]);
@@ -551,7 +512,7 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     let png = d.join("scene.png");
     img.to_dynamic_image().save(&png).unwrap();
     let cae = d.join("scene.cae");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "encode",
         s(&png),
         "-o",
@@ -562,11 +523,6 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
         "half",
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(
         (&j["width"], &j["height"]),

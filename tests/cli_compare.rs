@@ -2,7 +2,7 @@
 //! 0 (measured), 1 (bad or mismatched inputs), 2 (usage).
 
 mod common;
-use common::caoen;
+use common::{caoen, s};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -13,14 +13,7 @@ use caoen::raster::Raster;
 use caoen_corpus::{generate, Class};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-compare-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("compare-{name}"))
 }
 
 /// A corpus image written as a file, and its raster.

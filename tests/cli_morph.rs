@@ -2,19 +2,12 @@
 //! bad input is refused.
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-morph-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("morph-{name}"))
 }
 
 #[test]
@@ -26,7 +19,7 @@ fn end_frames_are_the_models_and_animations_play() {
         root.join("examples/morph-b.json"),
     );
     let dir = d.join("frames");
-    let o = caoen(&[
+    let o = caoen_ok(&[
         "morph",
         s(&a),
         s(&b),
@@ -38,7 +31,6 @@ fn end_frames_are_the_models_and_animations_play() {
         "--size",
         "160x120",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     for k in 0..5 {
         assert!(dir.join(format!("frame-{k:03}.png")).exists());
@@ -56,7 +48,7 @@ fn end_frames_are_the_models_and_animations_play() {
         });
         std::fs::write(&scene, text.to_string()).unwrap();
         let out = d.join("single.png");
-        let o = caoen(&[
+        caoen_ok(&[
             "-f",
             "surface",
             "render",
@@ -70,7 +62,6 @@ fn end_frames_are_the_models_and_animations_play() {
             "--detail",
             "5",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert_eq!(
             std::fs::read(&out).unwrap(),
             std::fs::read(dir.join(frame)).unwrap(),
@@ -95,7 +86,7 @@ fn end_frames_are_the_models_and_animations_play() {
     // Animations decode to the frames' count, and their frames move.
     for anim in ["m.gif", "m.png"] {
         let path = d.join(anim);
-        let o = caoen(&[
+        caoen_ok(&[
             "morph",
             s(&a),
             s(&b),
@@ -106,7 +97,6 @@ fn end_frames_are_the_models_and_animations_play() {
             "--size",
             "160x120",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         use image::AnimationDecoder;
         let file = std::io::BufReader::new(std::fs::File::open(&path).unwrap());
         let decoded: Vec<image::Frame> = if anim.ends_with(".gif") {

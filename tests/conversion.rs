@@ -9,17 +9,10 @@ use caoen::conversion::deviation::vertex_deviation;
 use caoen::conversion::{
     convert, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
 };
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-conv-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("conv-{name}"))
 }
 
 fn repo(rel: &str) -> PathBuf {
@@ -123,7 +116,7 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let dir = tmpdir("spot");
     let mesh = repo("tests/data/meshes/spot.obj");
     let model = dir.join("spot.json");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "convert",
         s(&mesh),
         "-o",
@@ -134,11 +127,6 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
         "--target-depth",
         "0.005",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("level 0:"), "progress on stderr: {stderr}");
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -162,7 +150,7 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let again = caoen(&["convert", s(&mesh), "-o", s(&model)]);
     assert_eq!(again.status.code(), Some(1));
     let picture = dir.join("dev.png");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "--quiet",
         "deviation",
         s(&mesh),
@@ -173,11 +161,6 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
         "--picture",
         s(&picture),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     assert!(out.stderr.is_empty());
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let f = |path: &[&str]| path.iter().fold(&d, |v, k| &v[*k]).as_f64().unwrap();
@@ -218,12 +201,7 @@ fn convert_json(mesh: &Path, model: &Path, extra: &[&str]) -> serde_json::Value 
         "64",
     ];
     args.extend_from_slice(extra);
-    let out = caoen(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&args);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
@@ -232,12 +210,7 @@ fn deviation_json(args: &[&str]) -> serde_json::Value {
     let mut all = vec!["--quiet", "deviation"];
     all.extend_from_slice(args);
     all.push("--json");
-    let out = caoen(&all);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&all);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 

@@ -3,7 +3,7 @@
 //! intersections, closed meshes with the right volume, bad models refused, and the CLI.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, caoen_ok, has_povray, s};
 
 use std::path::{Path, PathBuf};
 
@@ -414,14 +414,7 @@ fn bad_models_are_refused_with_the_path() {
 }
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-frep-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("frep-{name}"))
 }
 
 fn blend_model(dir: &Path) -> PathBuf {
@@ -446,7 +439,7 @@ fn cli_render_mesh_and_errors() {
     let model = blend_model(&dir);
     let (ray, mesh, obj) = (dir.join("ray.png"), dir.join("mesh.png"), dir.join("m.obj"));
     for (out, method) in [(&ray, "ray"), (&mesh, "mesh")] {
-        let o = caoen(&[
+        caoen_ok(&[
             "frep",
             "render",
             s(&model),
@@ -457,7 +450,6 @@ fn cli_render_mesh_and_errors() {
             "--size",
             "192x144",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
     let (a, b) = (
         caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
@@ -466,8 +458,7 @@ fn cli_render_mesh_and_errors() {
     let psnr = common::psnr_render(&a, &b);
     println!("ray vs mesh render: {psnr:.1} dB");
     assert!(psnr > 35.0, "{psnr:.1} dB");
-    let o = caoen(&["frep", "mesh", s(&model), "-o", s(&obj), "--cells", "48"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = caoen_ok(&["frep", "mesh", s(&model), "-o", s(&obj), "--cells", "48"]);
     // The box's bore makes the solid a handlebody of genus 1: V - E + F = 0.
     assert!(String::from_utf8_lossy(&o.stderr).contains("Euler characteristic 0"));
     // Bad files: exit 1, one line naming the problem, no panic.
@@ -561,40 +552,7 @@ fn pov_ray_renders_the_exported_model() {
         } else {
             (512, "+A0.1", "2")
         };
-        let size = format!("{side}x{side}");
-        let (pov, ours, theirs) = (
-            dir.join(format!("{stem}.pov")),
-            dir.join(format!("{stem}-ours.png")),
-            dir.join(format!("{stem}-pov.png")),
-        );
-        let o = caoen(&[
-            "frep",
-            "export-pov",
-            s(&model),
-            "-o",
-            s(&pov),
-            "--size",
-            &size,
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let o = caoen(&[
-            "frep",
-            "render",
-            s(&model),
-            "-o",
-            s(&ours),
-            "--size",
-            &size,
-            "--samples",
-            samples,
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let pov_s = common::povray(&pov, &theirs, side, aa);
-        let open = |p: &Path| image::open(p).unwrap().to_rgb8();
-        let (iou, union) = common::iou(
-            &common::silhouette(&open(&ours)),
-            &common::silhouette(&open(&theirs)),
-        );
+        let (iou, union, pov_s) = pov_silhouettes(&dir, &model, side, aa, samples);
         println!(
             "{stem}: silhouette IoU caoen vs POV-Ray {iou:.4} ({union} pixels, {side}x{side}, POV-Ray {pov_s:.1} s)"
         );
@@ -609,45 +567,49 @@ fn pov_ray_renders_the_exported_model() {
 /// `side` x `side` with antialiasing.
 fn pov_silhouette_iou(dir: &Path, model: &Path, side: u32) -> f64 {
     let stem = model.file_stem().unwrap().to_string_lossy().to_string();
-    let size = format!("{side}x{side}");
+    let (iou, union, _) = pov_silhouettes(dir, model, side, "+A0.1", "2");
+    assert!(
+        union > (side * side / 20) as usize,
+        "{stem}: {union} pixels"
+    );
+    iou
+}
+
+/// Renders `model` `side` pixels square in caoen with `samples` rays a pixel and, exported,
+/// in POV-Ray with the antialiasing switch `aa`: the silhouettes' IoU, their union's
+/// pixel count and the seconds POV-Ray took.
+fn pov_silhouettes(
+    dir: &Path,
+    model: &Path,
+    side: u32,
+    aa: &str,
+    samples: &str,
+) -> (f64, usize, f64) {
+    let stem = model.file_stem().unwrap().to_string_lossy().to_string();
     let (pov, ours, theirs) = (
         dir.join(format!("{stem}.pov")),
         dir.join(format!("{stem}-ours.png")),
         dir.join(format!("{stem}-pov.png")),
     );
-    let o = caoen(&[
-        "frep",
-        "export-pov",
-        s(model),
-        "-o",
-        s(&pov),
-        "--size",
-        &size,
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = caoen(&[
+    common::export_pov(model, &pov, side);
+    caoen_ok(&[
         "frep",
         "render",
         s(model),
         "-o",
         s(&ours),
         "--size",
-        &size,
+        &format!("{side}x{side}"),
         "--samples",
-        "2",
+        samples,
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    common::povray(&pov, &theirs, side, "+A0.1");
+    let pov_s = common::povray(&pov, &theirs, side, aa);
     let open = |p: &Path| image::open(p).unwrap().to_rgb8();
     let (iou, union) = common::iou(
         &common::silhouette(&open(&ours)),
         &common::silhouette(&open(&theirs)),
     );
-    assert!(
-        union > (side * side / 20) as usize,
-        "{stem}: {union} pixels"
-    );
-    iou
+    (iou, union, pov_s)
 }
 
 /// The negation, blended difference, twist, taper, bend and noise nodes: POV-Ray's
@@ -701,8 +663,7 @@ fn pov_ray_renders_the_new_nodes() {
 /// The blob surface (`builtin:blob`) written to `dir/blob.json`.
 fn blob_surface(dir: &Path) -> PathBuf {
     let path = dir.join("blob.json");
-    let o = caoen(&["surface", "export", "builtin:blob", "-o", s(&path)]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    caoen_ok(&["surface", "export", "builtin:blob", "-o", s(&path)]);
     path
 }
 
@@ -887,7 +848,7 @@ fn caoen_surface_field_renders_like_the_surface() {
             dir.join(format!("s{k}.png")),
         );
         std::fs::write(&path, scene.to_string()).unwrap();
-        let o = caoen(&[
+        caoen_ok(&[
             "surface",
             "render",
             s(&path),
@@ -900,7 +861,6 @@ fn caoen_surface_field_renders_like_the_surface() {
             "--method",
             method,
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let img = image::open(&out).unwrap().to_rgb8();
         let bg = *img.get_pixel(0, 0);
         masks.push(
@@ -952,7 +912,7 @@ fn sharp_set_operations_mesh_with_sharp_creases() {
     let model = box_minus_ball(&dir);
     let (ray, mesh) = (dir.join("ray.png"), dir.join("mesh.png"));
     for (out, method) in [(&ray, "ray"), (&mesh, "mesh")] {
-        let o = caoen(&[
+        caoen_ok(&[
             "frep",
             "render",
             s(&model),
@@ -963,7 +923,6 @@ fn sharp_set_operations_mesh_with_sharp_creases() {
             "--size",
             "192x144",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
     let (a, b) = (
         caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
@@ -1170,16 +1129,7 @@ fn pov_ray_reads_pictures_as_caoen_does() {
         )
         .unwrap();
         let pov = dir.join(format!("m{n}.pov"));
-        let o = caoen(&[
-            "frep",
-            "export-pov",
-            s(&path),
-            "-o",
-            s(&pov),
-            "--size",
-            "8x8",
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        common::export_pov(&path, &pov, 8);
         let mut text = std::fs::read_to_string(&pov).unwrap();
         let top = text
             .split("function { -")
@@ -1204,7 +1154,7 @@ fn pov_ray_reads_pictures_as_caoen_does() {
             .args([&format!("+I{}", s(&pov)), "+W8", "+H8", "-D", "-F"])
             .output()
             .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         let theirs: Vec<f64> = std::fs::read_to_string(&out)
             .unwrap()
             .lines()
@@ -1222,16 +1172,6 @@ fn pov_ray_reads_pictures_as_caoen_does() {
 }
 
 /// Whether `povray` runs (`.ci/run` installs it); the POV-Ray tests skip without it.
-fn has_povray() -> bool {
-    let probe = std::process::Command::new("povray")
-        .arg("--version")
-        .output();
-    common::tool_present(
-        probe.is_ok_and(|o| o.status.success() || !o.stderr.is_empty()),
-        "POV-Ray",
-    )
-}
-
 /// A smooth grey image (8-bit) of `w x h`, written to `dir/name`.
 fn grey_png(dir: &Path, name: &str, w: u32, h: u32) -> PathBuf {
     let img = image::GrayImage::from_fn(w, h, |i, j| {
@@ -1441,7 +1381,7 @@ fn cli_heightfield_writes_models_and_renders() {
     let img = grey_png(&dir, "relief.png", 48, 32);
     for base in ["plane", "ellipsoid", "cylinder"] {
         let json = dir.join(format!("{base}.json"));
-        let o = caoen(&[
+        caoen_ok(&[
             "heightfield",
             s(&img),
             "--base",
@@ -1451,10 +1391,9 @@ fn cli_heightfield_writes_models_and_renders() {
             "-o",
             s(&json),
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         // The model renders through `caoen frep render` from another directory.
         let png = dir.join(format!("{base}.png"));
-        let o = caoen(&[
+        caoen_ok(&[
             "frep",
             "render",
             s(&json),
@@ -1465,7 +1404,6 @@ fn cli_heightfield_writes_models_and_renders() {
             "--samples",
             "1",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let r = caoen::render::framebuffer::RgbImage::load(&png).unwrap();
         let bg = r.pixels[0];
         let covered = r.pixels.iter().filter(|p| **p != bg).count();
@@ -1578,7 +1516,7 @@ fn cli_relief_and_carve() {
     )
     .unwrap();
     let plain = dir.join("plain.png");
-    let o = caoen(&[
+    caoen_ok(&[
         "frep",
         "render",
         s(&ball),
@@ -1589,7 +1527,6 @@ fn cli_relief_and_carve() {
         "--samples",
         "1",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let covered = |p: &Path| {
         let r = caoen::render::framebuffer::RgbImage::load(p).unwrap();
         let bg = r.pixels[0];

@@ -4,7 +4,7 @@
 //! read back with the OBJ's volume, and empty meshes refused.
 
 mod common;
-use common::{caoen, tool_present};
+use common::{assert_ok, caoen, s, tool_present};
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -145,15 +145,8 @@ fn relief_depth_is_the_same_on_every_face() {
     }
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-print-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::fresh_dir(&format!("print-{name}"))
 }
 
 /// What the outside checkers say about a mesh file: (admesh, trimesh) lines, each None
@@ -222,7 +215,7 @@ print(a.is_watertight, a.is_winding_consistent, b.is_watertight, b.is_winding_co
         .args(["-c", script, s(stl), s(obj)])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let out = String::from_utf8_lossy(&o.stdout).to_string();
     let w: Vec<&str> = out.split_whitespace().collect();
     assert_eq!(&w[..4], ["True"; 4], "{}: trimesh {out}", stl.display());

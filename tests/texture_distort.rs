@@ -2,9 +2,9 @@
 //! Jacobian sign, PNG vs .cae agreement, fold-over warning, CLI errors.
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use caoen::codec::{self, decoder, DecodeOptions, EncodeOptions};
 use caoen::image_io;
@@ -13,14 +13,7 @@ use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 use caoen::texture::warp::{self, Move, Warp};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-distort-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("distort-{name}"))
 }
 
 const W: u32 = 160;
@@ -234,7 +227,7 @@ fn cli_distorts_png_and_cae() {
     let png = dir.join("in.png");
     image_io::save(&pattern(), &png).unwrap();
     let out = dir.join("out.png");
-    let o = caoen(&[
+    caoen_ok(&[
         "distort",
         s(&png),
         "-o",
@@ -245,7 +238,6 @@ fn cli_distorts_png_and_cae() {
         "80,60:80,70",
         "--grid",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(image_io::load(&out).unwrap().width(), W);
     let cae = dir.join("in.cae");
     let o = caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
@@ -257,7 +249,7 @@ fn cli_distorts_png_and_cae() {
     )
     .unwrap();
     let out2 = dir.join("out2.png");
-    let o = caoen(&[
+    caoen_ok(&[
         "distort",
         s(&cae),
         "-o",
@@ -267,7 +259,6 @@ fn cli_distorts_png_and_cae() {
         "--supersample",
         "2",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // Crossing moves: a warning, still an image.
     let out3 = dir.join("out3.png");
     let o = caoen(&[
@@ -408,7 +399,7 @@ fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
     // CLI: a surface in, a surface and a mesh out; bad moves are usage errors.
     let dir = tmpdir("surface");
     let json = dir.join("d.json");
-    let o = caoen(&[
+    caoen_ok(&[
         "distort",
         "builtin:blob",
         "-o",
@@ -416,7 +407,6 @@ fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
         "--move",
         "1.3,0,0:1.7,0.3,-0.1",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(caoen::surface::SurfaceModel::load(&json).is_ok());
     let obj = dir.join("d.obj");
     assert!(caoen(&[
@@ -532,7 +522,7 @@ fn surface_3d_warp_fold_check() {
     // CLI: the warning on stderr for the crossing moves only, a model written in both.
     let dir = tmpdir("fold3");
     let out = dir.join("d.json");
-    let o = caoen(&[
+    let o = caoen_ok(&[
         "distort",
         "builtin:blob",
         "-o",
@@ -542,13 +532,12 @@ fn surface_3d_warp_fold_check() {
         "--move",
         "0,0,1:0,0,1",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
         !String::from_utf8_lossy(&o.stderr).contains("warning"),
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let o = caoen(&[
+    let o = caoen_ok(&[
         "distort",
         "builtin:blob",
         "-o",
@@ -560,7 +549,6 @@ fn surface_3d_warp_fold_check() {
         "--move",
         "0.5,0,0:-0.5,0,0",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("warning: inconsistent moves"), "{err}");
     assert!(caoen::surface::SurfaceModel::load(&out).is_ok());

@@ -2,7 +2,7 @@
 //! domain.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
@@ -12,14 +12,7 @@ use caoen::surface::gallery;
 use caoen::texture::transfer::{transfer, uv_domain};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-transfer-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("transfer-{name}"))
 }
 
 fn checker() -> Texture {
@@ -91,7 +84,7 @@ fn cli_transfer_png_obj_and_errors() {
     let tex = dir.join("checker.png");
     std::fs::write(&tex, checker().image().encode_png().unwrap()).unwrap();
     let png = dir.join("b.png");
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture",
         s(&tex),
@@ -106,10 +99,9 @@ fn cli_transfer_png_obj_and_errors() {
         "--detail",
         "4",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(png.exists());
     let obj = dir.join("b.obj");
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture",
         s(&tex),
@@ -122,7 +114,6 @@ fn cli_transfer_png_obj_and_errors() {
         "--detail",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // What a viewer needs: the OBJ names its MTL and material, the MTL names the PNG,
     // every face corner indexes an existing position, texture coordinate and normal.
     let text = std::fs::read_to_string(&obj).unwrap();
@@ -154,7 +145,7 @@ fn cli_transfer_png_obj_and_errors() {
     assert!(caoen(&["encode", s(&tex), "-o", s(&cae), "--quiet"])
         .status
         .success());
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture",
         s(&cae),
@@ -169,7 +160,6 @@ fn cli_transfer_png_obj_and_errors() {
         "--detail",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let code = |args: &[&str]| {
         let o = caoen(args);
         assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
@@ -276,7 +266,7 @@ fn texture_space_carries_a_solid_texture() {
     assert!(bake_texture_space(&ring, &b, &solid, 8, 8, 1).is_err());
     let dir = tmpdir("space");
     let out = dir.join("s.png");
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture-space",
         "builtin:six-point",
@@ -289,7 +279,6 @@ fn texture_space_carries_a_solid_texture() {
         "--detail",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(
         caoen(&["transfer", "--to", "builtin:blob", "-o", s(&out)])
             .status
@@ -665,7 +654,7 @@ fn cli_the_source_surface_shapes_a_projected_picture() {
     ramp_png(&pic, 128, 64);
     let run = |from: &str, project: &str, out: &str| {
         let out = dir.join(out);
-        let o = caoen(&[
+        caoen_ok(&[
             "transfer",
             "--texture",
             s(&pic),
@@ -682,7 +671,6 @@ fn cli_the_source_surface_shapes_a_projected_picture() {
             "--detail",
             "4",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         std::fs::read(out).unwrap()
     };
     for project in ["planar", "cylindrical", "spherical"] {
@@ -726,7 +714,7 @@ fn cli_projected_picture_round_trip_a_b_a() {
     ramp_png(&pic, 128, 64);
     let ok = |args: &[&str]| {
         let o = caoen(args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
     };
     let common = ["--size", "128x96", "--detail", "4"];
     let (obj, back, direct, reference) = (
@@ -908,7 +896,7 @@ fn obj_with_texture_loads_in_trimesh() {
     let pic = dir.join("ramp.png");
     ramp_png(&pic, 256, 128);
     let obj = dir.join("blob.obj");
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture",
         s(&pic),
@@ -923,7 +911,6 @@ fn obj_with_texture_loads_in_trimesh() {
         "--detail",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let script = r#"
 import sys, trimesh, numpy as np
 m = trimesh.load(sys.argv[1], force='mesh')
@@ -942,7 +929,7 @@ print(len(m.vertices), len(m.faces), img.size[0], img.size[1], keep.sum(), er, e
         .args(["-c", script, s(&obj)])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let out = String::from_utf8_lossy(&o.stdout);
     println!("trimesh: {out}");
     let v: Vec<f64> = out.split_whitespace().map(|t| t.parse().unwrap()).collect();
