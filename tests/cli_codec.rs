@@ -29,14 +29,12 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
     let again = caoen(&["encode", s(&png)]);
     assert_eq!(again.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
-    assert!(caoen(&["encode", s(&png), "-f", "--quiet"])
-        .status
-        .success());
+    caoen_ok(&["encode", s(&png), "-f", "--quiet"]);
     // Validate only, then decode to PNG, then info.
     let v = caoen(&["decode", s(&cae)]);
     assert!(v.status.success() && String::from_utf8_lossy(&v.stderr).contains("valid"));
     let back = d.join("back.png");
-    assert!(caoen(&["decode", s(&cae), "-o", s(&back)]).status.success());
+    caoen_ok(&["decode", s(&cae), "-o", s(&back)]);
     let img = image::open(&back).unwrap();
     assert_eq!((img.width(), img.height()), (96, 64));
     let info = caoen(&["info", s(&cae), "--json"]);
@@ -134,9 +132,7 @@ fn bad_input_and_usage_fail_cleanly() {
     let d = tmpdir("bad");
     let png = input_png(&d);
     let cae = d.join("x.cae");
-    assert!(caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"])
-        .status
-        .success());
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     let mut bytes = std::fs::read(&cae).unwrap();
     bytes.truncate(bytes.len() / 2);
     let cut = d.join("cut.cae");
@@ -238,9 +234,7 @@ fn png_compression_levels_keep_the_pixels() {
         .save(&png)
         .unwrap();
     let cae = d.join("p.cae");
-    assert!(caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"])
-        .status
-        .success());
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     let mut sizes = Vec::new();
     for level in ["fast", "default", "best"] {
         let out = d.join(format!("{level}.png"));
@@ -261,7 +255,7 @@ fn png_compression_levels_keep_the_pixels() {
         );
         // The same bytes again (deterministic at every level).
         let again = d.join(format!("{level}-again.png"));
-        assert!(caoen(&[
+        caoen_ok(&[
             "decode",
             s(&cae),
             "-o",
@@ -270,10 +264,8 @@ fn png_compression_levels_keep_the_pixels() {
             level,
             "--quiet",
             "-j",
-            "1"
-        ])
-        .status
-        .success());
+            "1",
+        ]);
         assert_eq!(
             std::fs::read(&out).unwrap(),
             std::fs::read(&again).unwrap(),
@@ -437,9 +429,7 @@ fn encode_turns_photos_upright_and_keeps_the_metadata_asked_for() {
     }
     // The decoded picture is upright: red top right, blue top left.
     let png = d.join("up.png");
-    assert!(caoen(&["decode", s(&cae), "-o", s(&png), "--strip"])
-        .status
-        .success());
+    caoen_ok(&["decode", s(&cae), "-o", s(&png), "--strip"]);
     let img = rgb8(&png);
     assert_eq!(img.dimensions(), (24, 48));
     let (tr, tl) = (img.get_pixel(18, 6), img.get_pixel(6, 6));
@@ -545,7 +535,7 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     );
     // The decoder's default size and its --scale are the image's.
     let back = d.join("back.png");
-    assert!(caoen(&["decode", s(&cae), "-o", s(&back)]).status.success());
+    caoen_ok(&["decode", s(&cae), "-o", s(&back)]);
     assert_eq!(image::image_dimensions(&back).unwrap(), (130, 90));
     let half = d.join("half.png");
     assert!(

@@ -2,7 +2,7 @@
 //! 0 (measured), 1 (bad or mismatched inputs), 2 (usage).
 
 mod common;
-use common::{caoen, s};
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -65,8 +65,7 @@ fn identical_files_are_infinite_psnr_and_ssim_one() {
         (Some(48), Some(40))
     );
     // Text mode says "inf".
-    let out = caoen(&["compare", s(&a), s(&a)]);
-    assert!(out.status.success());
+    let out = caoen_ok(&["compare", s(&a), s(&a)]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("inf dB"));
 }
 
@@ -96,8 +95,7 @@ fn text_on_stdout_messages_on_stderr_quiet_silences() {
     let d = tmpdir("text");
     let (a, ra) = corpus_file(&d, Class::Scene, 1, 32, 32);
     let (b, _) = distorted(&d, &ra, "b.png");
-    let out = caoen(&["compare", s(&a), s(&b)]);
-    assert!(out.status.success());
+    let out = caoen_ok(&["compare", s(&a), s(&b)]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     for key in ["PSNR", "Y-PSNR", "SSIM", "SSIMULACRA2"] {
         assert!(stdout.contains(key), "{stdout}");

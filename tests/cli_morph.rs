@@ -131,44 +131,32 @@ fn end_frames_are_the_models_and_animations_play() {
 #[test]
 fn bad_morphs_are_refused() {
     let d = tmpdir("bad");
-    let o = caoen(&[
-        "morph",
-        "builtin:blob",
-        "builtin:ring",
-        "-o",
-        s(&d.join("x.gif")),
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("domain"));
-    let o = caoen(&[
-        "morph",
-        "builtin:blob",
-        "builtin:octahedron",
-        "--frames",
-        "1",
-        "-o",
-        s(&d.join("x.gif")),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let o = caoen(&[
-        "morph",
-        "builtin:blob",
-        "builtin:octahedron",
-        "-o",
-        s(&d.join("x.mp4")),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let o = caoen(&[
+    let (gif, mp4) = (d.join("x.gif"), d.join("x.mp4"));
+    let (blob, octahedron) = ("builtin:blob", "builtin:octahedron");
+    // Too large for the memory budget.
+    let large = [
         "--max-memory",
         "1M",
         "morph",
-        "builtin:blob",
-        "builtin:octahedron",
+        blob,
+        octahedron,
         "--size",
         "4000x4000",
-        "-o",
-        s(&d.join("x.gif")),
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
+    ];
+    let cases: [(&[&str], &Path, i32, &str); 4] = [
+        (&["morph", blob, "builtin:ring"], &gif, 1, "domain"),
+        (&["morph", blob, octahedron, "--frames", "1"], &gif, 2, ""),
+        (&["morph", blob, octahedron], &mp4, 2, ""),
+        (&large, &gif, 1, ""),
+    ];
+    for (args, out, code, needle) in cases {
+        let args = [args, &["-o", s(out)]].concat();
+        let o = caoen(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
+        assert!(
+            err.contains(needle) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
 }

@@ -34,17 +34,14 @@ fn eval_prints_the_golden_diagonal_point() {
 fn export_then_info_round_trips_a_model_file() {
     let d = tmpdir("export");
     let f = d.join("ring.json");
-    assert!(caoen(&[
+    caoen_ok(&[
         "surface",
         "export",
         "builtin:ring",
         "-o",
-        f.to_str().unwrap()
-    ])
-    .status
-    .success());
-    let out = caoen(&["surface", "info", f.to_str().unwrap(), "--json"]);
-    assert!(out.status.success());
+        f.to_str().unwrap(),
+    ]);
+    let out = caoen_ok(&["surface", "info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["key_points"], 48);
     assert_eq!(v["input_dim"], 4);

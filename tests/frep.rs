@@ -3,7 +3,7 @@
 //! intersections, closed meshes with the right volume, bad models refused, and the CLI.
 
 mod common;
-use common::{assert_ok, caoen, caoen_ok, has_povray, s};
+use common::{assert_ok, caoen, caoen_ok, has_povray, s, Stream};
 
 use std::path::{Path, PathBuf};
 
@@ -16,17 +16,6 @@ use serde_json::json;
 
 fn node(v: serde_json::Value) -> Node {
     Node::from_json(&v, "model", Path::new(".")).unwrap()
-}
-
-/// A deterministic stream of numbers in [-1, 1) (xorshift), for many-sample checks.
-struct Stream(u64);
-impl Stream {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
 }
 
 #[test]
@@ -171,6 +160,22 @@ fn check_gradient(
     } else {
         Err(format!("analytic {g:?} vs central {fd:?}"))
     })
+}
+
+/// The bound over a box holds the function at points of the box: 300 boxes of `s`,
+/// centred in `0.9 x 0.9 x z` times [-1, 1)^3, each at 20 points; `what` names the case.
+fn check_bounds(n: &Node, s: &mut Stream, z: f64, what: &str) {
+    for _ in 0..300 {
+        let c = [0.9 * s.next(), 0.9 * s.next(), z * s.next()];
+        let r = 0.3 * (s.next() + 1.0);
+        let b = Aabb::new(c.map(|v| v - r), c.map(|v| v + r));
+        let range = n.interval(&b);
+        for _ in 0..20 {
+            let p = [0, 1, 2].map(|k| b.lo[k] + 0.5 * (s.next() + 1.0) * (b.hi[k] - b.lo[k]));
+            let v = n.value(p);
+            assert!(range.contains(v), "{what}: {v} outside {range:?} on {b:?}");
+        }
+    }
 }
 
 #[test]
@@ -417,32 +422,22 @@ fn tmpdir(name: &str) -> PathBuf {
     common::fresh_dir(&format!("frep-{name}"))
 }
 
+/// The blended-union example model, `examples/frep/blend.json`, copied into `dir`.
 fn blend_model(dir: &Path) -> PathBuf {
     let path = dir.join("blend.json");
-    let model = json!({
-        "format": "caoen-frep/1", "name": "blended union",
-        "model": {"blend_union": [
-            {"sphere": {"centre": [-0.5, 0.0, 0.0], "radius": 0.6}},
-            {"difference": [{"box": {"centre": [0.5, 0.0, 0.0], "size": [0.9, 0.9, 0.9]}},
-                            {"cylinder": {"centre": [0.5, 0.0, 0.0], "radius": 0.25, "length": 2.0}}], "a": 1.0}
-        ], "a0": 0.3, "a1": 0.3, "a2": 0.3},
-        "material": {"colour": [0.8, 0.5, 0.3]},
-        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]}
-    });
-    std::fs::write(&path, model.to_string()).unwrap();
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/frep/blend.json");
+    std::fs::copy(example, &path).unwrap();
     path
 }
 
-#[test]
-fn cli_render_mesh_and_errors() {
-    let dir = tmpdir("cli");
-    let model = blend_model(&dir);
-    let (ray, mesh, obj) = (dir.join("ray.png"), dir.join("mesh.png"), dir.join("m.obj"));
+/// PSNR between `caoen frep render` of `model` by ray casting and by its mesh, 192x144.
+fn ray_vs_mesh_psnr(dir: &Path, model: &Path) -> f64 {
+    let (ray, mesh) = (dir.join("ray.png"), dir.join("mesh.png"));
     for (out, method) in [(&ray, "ray"), (&mesh, "mesh")] {
         caoen_ok(&[
             "frep",
             "render",
-            s(&model),
+            s(model),
             "-o",
             s(out),
             "--method",
@@ -451,11 +446,16 @@ fn cli_render_mesh_and_errors() {
             "192x144",
         ]);
     }
-    let (a, b) = (
-        caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
-        caoen::render::framebuffer::RgbImage::load(&mesh).unwrap(),
-    );
-    let psnr = common::psnr_render(&a, &b);
+    let load = |p: &Path| caoen::render::framebuffer::RgbImage::load(p).unwrap();
+    common::psnr_render(&load(&ray), &load(&mesh))
+}
+
+#[test]
+fn cli_render_mesh_and_errors() {
+    let dir = tmpdir("cli");
+    let model = blend_model(&dir);
+    let obj = dir.join("m.obj");
+    let psnr = ray_vs_mesh_psnr(&dir, &model);
     println!("ray vs mesh render: {psnr:.1} dB");
     assert!(psnr > 35.0, "{psnr:.1} dB");
     let o = caoen_ok(&["frep", "mesh", s(&model), "-o", s(&obj), "--cells", "48"]);
@@ -861,30 +861,9 @@ fn caoen_surface_field_renders_like_the_surface() {
             "--method",
             method,
         ]);
-        let img = image::open(&out).unwrap().to_rgb8();
-        let bg = *img.get_pixel(0, 0);
-        masks.push(
-            img.pixels()
-                .map(|q| {
-                    (0..3)
-                        .map(|c| (q[c] as i32 - bg[c] as i32).abs())
-                        .sum::<i32>()
-                        > 24
-                })
-                .collect::<Vec<bool>>(),
-        );
+        masks.push(common::silhouette(&image::open(&out).unwrap().to_rgb8()));
     }
-    let inter = masks[0]
-        .iter()
-        .zip(&masks[1])
-        .filter(|(a, b)| **a && **b)
-        .count();
-    let union = masks[0]
-        .iter()
-        .zip(&masks[1])
-        .filter(|(a, b)| **a || **b)
-        .count();
-    let iou = inter as f64 / union as f64;
+    let (iou, union) = common::iou(&masks[0], &masks[1]);
     println!("surface mesh render vs its inside ray-cast: IoU {iou:.4} ({union} pixels)");
     assert!(union > 160 * 160 / 20 && iou >= 0.99, "IoU {iou:.4}");
 }
@@ -910,25 +889,7 @@ fn box_minus_ball(dir: &Path) -> PathBuf {
 fn sharp_set_operations_mesh_with_sharp_creases() {
     let dir = tmpdir("crease");
     let model = box_minus_ball(&dir);
-    let (ray, mesh) = (dir.join("ray.png"), dir.join("mesh.png"));
-    for (out, method) in [(&ray, "ray"), (&mesh, "mesh")] {
-        caoen_ok(&[
-            "frep",
-            "render",
-            s(&model),
-            "-o",
-            s(out),
-            "--method",
-            method,
-            "--size",
-            "192x144",
-        ]);
-    }
-    let (a, b) = (
-        caoen::render::framebuffer::RgbImage::load(&ray).unwrap(),
-        caoen::render::framebuffer::RgbImage::load(&mesh).unwrap(),
-    );
-    let psnr = common::psnr_render(&a, &b);
+    let psnr = ray_vs_mesh_psnr(&dir, &model);
     println!("box minus ball, ray vs mesh render: {psnr:.1} dB");
     assert!(psnr >= 35.0, "{psnr:.1} dB");
 
@@ -1238,22 +1199,7 @@ fn height_map_reproduces_the_samples_and_its_gradient() {
                 checked += 1;
             }
             assert!(checked > 1000, "{base} {interp}: only {checked} points");
-            // The bound over a box holds the function at points of the box.
-            for _ in 0..300 {
-                let c = [0.9 * s.next(), 0.9 * s.next(), 0.6 * s.next()];
-                let r = 0.3 * (s.next() + 1.0);
-                let b = Aabb::new(c.map(|v| v - r), c.map(|v| v + r));
-                let range = n.interval(&b);
-                for _ in 0..20 {
-                    let p =
-                        [0, 1, 2].map(|k| b.lo[k] + 0.5 * (s.next() + 1.0) * (b.hi[k] - b.lo[k]));
-                    let v = n.value(p);
-                    assert!(
-                        range.contains(v),
-                        "{base} {interp}: {v} outside {range:?} on {b:?}"
-                    );
-                }
-            }
+            check_bounds(&n, &mut s, 0.6, &format!("{base} {interp}"));
         }
     }
 }
@@ -1460,45 +1406,15 @@ fn relief_and_pattern_gradients_and_bounds() {
         let mut checked = 0;
         for _ in 0..3000 {
             let p = [0.9 * s.next(), 0.9 * s.next(), 0.9 * s.next()];
-            let (v, g) = n.value_gradient(p);
-            assert_eq!(v, n.value(p));
-            let h = 1e-7;
-            let fd = [0, 1, 2].map(|k| {
-                let (mut a, mut b) = (p, p);
-                a[k] += h;
-                b[k] -= h;
-                (n.value(a) - n.value(b)) / (2.0 * h)
-            });
-            let crease = (0..3).any(|k| {
-                let (mut a, mut b) = (p, p);
-                a[k] += 4.0 * h;
-                b[k] -= 4.0 * h;
-                let (ga, gb) = (n.value_gradient(a).1, n.value_gradient(b).1);
-                (0..3).any(|j| (ga[j] - gb[j]).abs() > 1e-4 * (1.0 + g[j].abs()))
-            });
-            if crease {
-                continue;
-            }
-            let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
-            for k in 0..3 {
-                assert!(
-                    (g[k] - fd[k]).abs() <= 1e-5 * scale,
-                    "{m} at {p:?}: {g:?} vs {fd:?}"
-                );
+            assert_eq!(n.value_gradient(p).0, n.value(p));
+            match check_gradient(&n, p, 1e-7, 4.0, 1e-4, 1e-5) {
+                None => continue,
+                Some(r) => r.unwrap_or_else(|e| panic!("{m} at {p:?}: {e}")),
             }
             checked += 1;
         }
         assert!(checked > 1000, "{m}: {checked}");
-        for _ in 0..300 {
-            let c = [0.9 * s.next(), 0.9 * s.next(), 0.9 * s.next()];
-            let r = 0.3 * (s.next() + 1.0);
-            let b = Aabb::new(c.map(|v| v - r), c.map(|v| v + r));
-            let range = n.interval(&b);
-            for _ in 0..20 {
-                let p = [0, 1, 2].map(|k| b.lo[k] + 0.5 * (s.next() + 1.0) * (b.hi[k] - b.lo[k]));
-                assert!(range.contains(n.value(p)), "{m}: bound {range:?} on {b:?}");
-            }
-        }
+        check_bounds(&n, &mut s, 0.9, &m.to_string());
     }
 }
 

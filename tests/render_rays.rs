@@ -4,7 +4,7 @@
 //! example against POV-Ray.
 
 mod common;
-use common::{assert_ok, caoen, has_povray, s};
+use common::{assert_ok, caoen, has_povray, s, Stream};
 
 use std::path::{Path, PathBuf};
 
@@ -17,17 +17,6 @@ use serde_json::json;
 
 fn tmpdir(name: &str) -> PathBuf {
     common::kept_dir(&format!("rays-{name}"))
-}
-
-/// A deterministic stream of numbers in [-1, 1) (xorshift).
-struct Stream(u64);
-impl Stream {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {

@@ -10,6 +10,8 @@ use caoen::render::framebuffer::RgbImage;
 use caoen::render::texture::{domain_uv, Texture, Wrap};
 use caoen::surface::gallery;
 use caoen::texture::transfer::{transfer, uv_domain};
+// The 16^3 test volume is the one `caoen examples` writes.
+use caoen_cli::commands::examples::volume_slices;
 
 fn tmpdir(name: &str) -> PathBuf {
     common::fresh_dir(&format!("transfer-{name}"))
@@ -78,42 +80,38 @@ fn different_domains_are_refused() {
     assert!(transfer(&a, &b, &checker(), 64, 32).is_err());
 }
 
+/// Runs `caoen transfer` of the picture `texture` from the surface `from` to `to` into
+/// `out`, with the arguments `more`, and asserts that it succeeded.
+fn transfer_cli(texture: &Path, from: &str, to: &str, out: &Path, more: &[&str]) {
+    let args = [
+        "transfer",
+        "--texture",
+        s(texture),
+        "--from",
+        from,
+        "--to",
+        to,
+    ];
+    caoen_ok(&[&args[..], &["-o", s(out)], more].concat());
+}
+
 #[test]
 fn cli_transfer_png_obj_and_errors() {
     let dir = tmpdir("cli");
     let tex = dir.join("checker.png");
     std::fs::write(&tex, checker().image().encode_png().unwrap()).unwrap();
     let png = dir.join("b.png");
-    caoen_ok(&[
-        "transfer",
-        "--texture",
-        s(&tex),
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&png),
-        "--size",
-        "160x120",
-        "--detail",
-        "4",
-    ]);
+    let (octahedron, blob) = ("builtin:octahedron", "builtin:blob");
+    transfer_cli(
+        &tex,
+        octahedron,
+        blob,
+        &png,
+        &["--size", "160x120", "--detail", "4"],
+    );
     assert!(png.exists());
     let obj = dir.join("b.obj");
-    caoen_ok(&[
-        "transfer",
-        "--texture",
-        s(&tex),
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&obj),
-        "--detail",
-        "3",
-    ]);
+    transfer_cli(&tex, octahedron, blob, &obj, &["--detail", "3"]);
     // What a viewer needs: the OBJ names its MTL and material, the MTL names the PNG,
     // every face corner indexes an existing position, texture coordinate and normal.
     let text = std::fs::read_to_string(&obj).unwrap();
@@ -142,24 +140,9 @@ fn cli_transfer_png_obj_and_errors() {
     }
     // A .cae texture.
     let cae = dir.join("t.cae");
-    assert!(caoen(&["encode", s(&tex), "-o", s(&cae), "--quiet"])
-        .status
-        .success());
-    caoen_ok(&[
-        "transfer",
-        "--texture",
-        s(&cae),
-        "--from",
-        "builtin:six-point",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&dir.join("c.png")),
-        "--size",
-        "64x48",
-        "--detail",
-        "3",
-    ]);
+    caoen_ok(&["encode", s(&tex), "-o", s(&cae), "--quiet"]);
+    let more = ["--size", "64x48", "--detail", "3"];
+    transfer_cli(&cae, "builtin:six-point", blob, &dir.join("c.png"), &more);
     let code = |args: &[&str]| {
         let o = caoen(args);
         assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
@@ -369,33 +352,6 @@ fn procedural_solid_textures_golden_and_properties() {
     assert!(Solid::procedural("wood", 0.5, c).is_err());
     assert!(Solid::procedural("checker", 0.0, c).is_err());
     assert!(Solid::procedural("checker", f64::NAN, c).is_err());
-}
-
-/// A 16^3 test volume: an RGB gradient over the box with darker spherical shells.
-fn volume_slices() -> Vec<RgbImage> {
-    let n = 16;
-    (0..n)
-        .map(|k| {
-            let mut pixels = Vec::new();
-            for j in 0..n {
-                for i in 0..n {
-                    let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
-                    let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
-                    let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
-                        1.0
-                    } else {
-                        0.35
-                    };
-                    pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
-                }
-            }
-            RgbImage {
-                width: n,
-                height: n,
-                pixels,
-            }
-        })
-        .collect()
 }
 
 #[test]
@@ -654,23 +610,8 @@ fn cli_the_source_surface_shapes_a_projected_picture() {
     ramp_png(&pic, 128, 64);
     let run = |from: &str, project: &str, out: &str| {
         let out = dir.join(out);
-        caoen_ok(&[
-            "transfer",
-            "--texture",
-            s(&pic),
-            "--from",
-            from,
-            "--project",
-            project,
-            "--to",
-            "builtin:blob",
-            "-o",
-            s(&out),
-            "--size",
-            "96x72",
-            "--detail",
-            "4",
-        ]);
+        let more = ["--project", project, "--size", "96x72", "--detail", "4"];
+        transfer_cli(&pic, from, "builtin:blob", &out, &more);
         std::fs::read(out).unwrap()
     };
     for project in ["planar", "cylindrical", "spherical"] {
@@ -712,74 +653,21 @@ fn cli_projected_picture_round_trip_a_b_a() {
     let dir = tmpdir("roundtrip");
     let pic = dir.join("ramp.png");
     ramp_png(&pic, 128, 64);
-    let ok = |args: &[&str]| {
-        let o = caoen(args);
-        assert_ok(&o);
-    };
-    let common = ["--size", "128x96", "--detail", "4"];
+    let sized = ["--size", "128x96", "--detail", "4"];
     let (obj, back, direct, reference) = (
         dir.join("b.obj"),
         dir.join("back.png"),
         dir.join("direct.png"),
         dir.join("reference.png"),
     );
-    ok(&[
-        "transfer",
-        "--texture",
-        s(&pic),
-        "--from",
-        "builtin:blob",
-        "--to",
-        "builtin:octahedron",
-        "-o",
-        s(&obj),
-        "--detail",
-        "3",
-    ]);
+    let (blob, octahedron) = ("builtin:blob", "builtin:octahedron");
+    transfer_cli(&pic, blob, octahedron, &obj, &["--detail", "3"]);
     let b_texture = dir.join("b-texture.png");
-    let mut args = vec![
-        "transfer",
-        "--texture",
-        s(&b_texture),
-        "--project",
-        "domain",
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&back),
-    ];
-    args.extend(common);
-    ok(&args);
-    let mut args = vec![
-        "transfer",
-        "--texture",
-        s(&pic),
-        "--from",
-        "builtin:blob",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&direct),
-    ];
-    args.extend(common);
-    ok(&args);
-    let mut args = vec![
-        "transfer",
-        "--texture",
-        s(&pic),
-        "--from",
-        "builtin:blob",
-        "--to",
-        "builtin:blob",
-        "--bake-size",
-        "512x256",
-        "-o",
-        s(&reference),
-    ];
-    args.extend(common);
-    ok(&args);
+    let domain = [&["--project", "domain"][..], &sized].concat();
+    transfer_cli(&b_texture, octahedron, blob, &back, &domain);
+    transfer_cli(&pic, blob, blob, &direct, &sized);
+    let bake = [&["--bake-size", "512x256"][..], &sized].concat();
+    transfer_cli(&pic, blob, blob, &reference, &bake);
     let (back, direct, reference) = (load_rgb(&back), load_rgb(&direct), load_rgb(&reference));
     let (to_direct, to_reference) = (
         common::psnr_render(&direct, &back),

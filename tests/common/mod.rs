@@ -96,6 +96,19 @@ pub fn psnr_rgb8(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
     caoen::metrics::psnr_from_mse(caoen::metrics::mse(&flat(a), &flat(b)), 1.0)
 }
 
+/// A deterministic stream of numbers in [-1, 1) (xorshift), for many-sample checks.
+pub struct Stream(pub u64);
+
+impl Stream {
+    /// The next number.
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
 /// Whether POV-Ray is installed (see [`tool_present`]).
 pub fn has_povray() -> bool {
     let probe = Command::new("povray").arg("--version").output();

@@ -11,6 +11,8 @@ mod frep;
 mod surfaces;
 mod texture;
 
+pub use texture::volume_slices;
+
 use std::path::Path;
 
 use caoen::render::framebuffer::RgbImage;

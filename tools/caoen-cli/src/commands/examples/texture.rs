@@ -241,32 +241,40 @@ fn temp_png() -> CliResult<tempfile::NamedTempFile> {
         .map_err(|e| CliError::io(std::env::temp_dir(), e))
 }
 
-/// `volume/`: 16 slices of 16x16, an RGB gradient across the cube with darker
-/// spherical shells, over [-1.5, 1.5]^3.
+/// The example volume's 16 slices of 16x16 (slice `k` is layer `z = k`): an RGB
+/// gradient across the cube with darker spherical shells.
+pub fn volume_slices() -> Vec<RgbImage> {
+    let n = 16u32;
+    (0..n)
+        .map(|k| {
+            let mut pixels = Vec::new();
+            for j in 0..n {
+                for i in 0..n {
+                    let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
+                    let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
+                    let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
+                        1.0
+                    } else {
+                        0.35
+                    };
+                    pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
+                }
+            }
+            RgbImage {
+                width: n,
+                height: n,
+                pixels,
+            }
+        })
+        .collect()
+}
+
+/// `volume/`: [`volume_slices`] over [-1.5, 1.5]^3.
 fn write_volume(vol: &Path) -> CliResult {
     std::fs::create_dir_all(vol).map_err(|e| CliError::io(vol, e))?;
-    let n = 16u32;
     let mut names = Vec::new();
-    for k in 0..n {
-        let mut pixels = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
-                let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
-                let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
-                    1.0
-                } else {
-                    0.35
-                };
-                pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
-            }
-        }
+    for (k, slice) in volume_slices().iter().enumerate() {
         let name = format!("z{k:02}.png");
-        let slice = RgbImage {
-            width: n,
-            height: n,
-            pixels,
-        };
         replace_file(&vol.join(&name), &slice.encode_png()?)?;
         names.push(name);
     }
