@@ -180,8 +180,8 @@ fn noises(seed: u64) -> [Noise; 6] {
     core::array::from_fn(|k| Noise::new(noise_seed(Class::Scene, seed, k as u64)))
 }
 
-#[allow(clippy::too_many_arguments)]
-fn birds(c: &mut Canvas, rng: &mut Rng, x0: f64, x1: f64, y0: f64, y1: f64, size: f64, col: Col) {
+fn birds(c: &mut Canvas, rng: &mut Rng, xs: (f64, f64), ys: (f64, f64), size: f64, col: Col) {
+    let ((x0, x1), (y0, y1)) = (xs, ys);
     for _ in 0..rng.int(0, 5) {
         let (x, y) = (rng.range(x0, x1), rng.range(y0, y1));
         let s = size * rng.range(0.6, 1.2);
@@ -414,11 +414,7 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         Col::hex_linear(0x3a2418),
     );
     c.fill(
-        &Disc {
-            cx: hx + hs * 0.5,
-            cy: gy - hs * 0.85,
-            r: hs * 0.07,
-        },
+        &Disc::new(hx + hs * 0.5, gy - hs * 0.85, hs * 0.07),
         Col(0.03, 0.03, 0.04),
     );
     // Trees in front of the meadow ridge.
@@ -513,10 +509,8 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     birds(
         c,
         rng,
-        0.0,
-        wf,
-        horizon * 0.1,
-        horizon * 0.6,
+        (0.0, wf),
+        (horizon * 0.1, horizon * 0.6),
         s * 0.01,
         Col(0.02, 0.02, 0.025),
     );
@@ -685,10 +679,8 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     birds(
         c,
         rng,
-        0.0,
-        wf,
-        water * 0.2,
-        water * 0.6,
+        (0.0, wf),
+        (water * 0.2, water * 0.6),
         s * 0.009,
         Col(0.01, 0.008, 0.01),
     );
@@ -828,12 +820,11 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
             1.0,
             |_, y| Col(0.75, 0.7, 0.6) * (0.6 + 0.4 * fract(y * 1.3)),
         );
-        let style = TextStyle {
-            xh: (bh * 0.22).max(1.5),
-            weight: (bh * 0.05).max(0.6),
-            colour: Col(0.85, 0.75, 0.45),
-            slant: 0.0,
-        };
+        let style = TextStyle::upright(
+            (bh * 0.22).max(1.5),
+            (bh * 0.05).max(0.6),
+            Col(0.85, 0.75, 0.45),
+        );
         draw_line(c, rng, &style, x0 + bw * 0.1, x0 + bw * 0.7, yb - bh * 0.35);
         yb -= bh;
     }
@@ -922,24 +913,16 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
             move |_, _| shadow,
         );
         let spot = n3;
-        c.draw(
-            &Disc {
-                cx: fx,
-                cy: fy,
-                r: fr,
-            },
-            1.0,
-            |x, y| {
-                let (lit, n) = sphere_light(x, y, fx, fy, fr, light);
-                let hv = normalize3((light.0, light.1, light.2 + 1.0));
-                let spec = pow((n.0 * hv.0 + n.1 * hv.1 + n.2 * hv.2).max(0.0), 60.0);
-                let bounce = clamp01(n.1) * 0.15;
-                let pores = 1.0 + 0.06 * spot.perlin(x * 0.6, y * 0.6);
-                base * (0.06 + 0.94 * lit) * pores
-                    + Col(0.25, 0.15, 0.08) * bounce
-                    + Col::gray(spec * 0.9)
-            },
-        );
+        c.draw(&Disc::new(fx, fy, fr), 1.0, |x, y| {
+            let (lit, n) = sphere_light(x, y, fx, fy, fr, light);
+            let hv = normalize3((light.0, light.1, light.2 + 1.0));
+            let spec = pow((n.0 * hv.0 + n.1 * hv.1 + n.2 * hv.2).max(0.0), 60.0);
+            let bounce = clamp01(n.1) * 0.15;
+            let pores = 1.0 + 0.06 * spot.perlin(x * 0.6, y * 0.6);
+            base * (0.06 + 0.94 * lit) * pores
+                + Col(0.25, 0.15, 0.08) * bounce
+                + Col::gray(spec * 0.9)
+        });
         c.fill(
             &Stroke::new(
                 vec![
@@ -1212,10 +1195,8 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     birds(
         c,
         rng,
-        wf * 0.3,
-        wf,
-        horizon * 0.15,
-        horizon * 0.7,
+        (wf * 0.3, wf),
+        (horizon * 0.15, horizon * 0.7),
         s * 0.008,
         Col(0.03, 0.03, 0.035),
     );
