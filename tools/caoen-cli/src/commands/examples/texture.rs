@@ -157,78 +157,74 @@ fn transfer(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         },
     )?;
 
+    // `args` rendered into a temporary picture, read back as a tile.
+    let tile = |args: TransferArgs| -> CliResult<RgbImage> {
+        let tmp = temp_png()?;
+        let output = tmp.path().to_path_buf();
+        transfer(global, &TransferArgs { output, ..args })?;
+        Ok(RgbImage::load(tmp.path())?)
+    };
+    let small = || TransferArgs {
+        size: "240x180".into(),
+        samples,
+        detail: 5,
+        ..transfer_args("builtin:blob", PathBuf::new())
+    };
+
     // The distort example's scene projected (spherically) on the octahedron and on the
     // six-point surface, each carried to the blob: the source shapes the result.
     let picture = dir.join("distort/input.png");
-    let mut tiles = Vec::new();
-    for from in ["builtin:octahedron", "builtin:six-point"] {
-        let tmp = temp_png()?;
-        transfer(
-            global,
-            &TransferArgs {
+    let tiles = ["builtin:octahedron", "builtin:six-point"]
+        .into_iter()
+        .map(|from| {
+            tile(TransferArgs {
                 texture: Some(picture.clone()),
                 from: Some(from.into()),
-                size: "240x180".into(),
-                samples,
-                detail: 5,
-                ..transfer_args("builtin:blob", tmp.path().to_path_buf())
-            },
-        )?;
-        tiles.push(RgbImage::load(tmp.path())?);
-    }
+                ..small()
+            })
+        });
+    let tiles = tiles.collect::<CliResult<Vec<_>>>()?;
     save_png(global, &sub, "projected.png", &hstack(&tiles))?;
 
     // The blob's own shape and the six-point surface as texture spaces for a checker.
-    let mut tiles = Vec::new();
-    for space in ["builtin:blob", "builtin:six-point"] {
-        let tmp = temp_png()?;
-        transfer(
-            global,
-            &TransferArgs {
+    let tiles = ["builtin:blob", "builtin:six-point"]
+        .into_iter()
+        .map(|space| {
+            tile(TransferArgs {
                 texture_space: Some(space.into()),
                 project: "domain".into(),
-                size: "240x180".into(),
-                samples,
-                detail: 5,
-                ..transfer_args("builtin:blob", tmp.path().to_path_buf())
-            },
-        )?;
-        tiles.push(RgbImage::load(tmp.path())?);
-    }
+                ..small()
+            })
+        });
+    let tiles = tiles.collect::<CliResult<Vec<_>>>()?;
     save_png(global, &sub, "texture-space.png", &hstack(&tiles))?;
 
     // The solid textures at scale 0.35, and the example volume.
     let vol = sub.join("volume");
     write_volume(&vol)?;
-    let mut tiles = Vec::new();
-    for solid in [
+    let solids = [
         "checker",
         "stripes",
         "rings",
         "marble",
         "volume/volume.json",
-    ] {
-        let tmp = temp_png()?;
+    ];
+    let tiles = solids.into_iter().map(|solid| {
         let solid = if solid.ends_with(".json") {
             sub.join(solid).to_string_lossy().into_owned()
         } else {
             solid.to_string()
         };
-        transfer(
-            global,
-            &TransferArgs {
-                texture_space: Some("builtin:blob".into()),
-                project: "domain".into(),
-                solid,
-                scale: 0.35,
-                size: "256x192".into(),
-                samples,
-                detail: 5,
-                ..transfer_args("builtin:blob", tmp.path().to_path_buf())
-            },
-        )?;
-        tiles.push(RgbImage::load(tmp.path())?);
-    }
+        tile(TransferArgs {
+            texture_space: Some("builtin:blob".into()),
+            project: "domain".into(),
+            solid,
+            scale: 0.35,
+            size: "256x192".into(),
+            ..small()
+        })
+    });
+    let tiles = tiles.collect::<CliResult<Vec<_>>>()?;
     save_png(global, &sub, "solid-textures.png", &hstack(&tiles))
 }
 
