@@ -201,11 +201,9 @@ fn secondary_rays_do_not_depend_on_thread_count() {
         ..RenderOptions::default()
     };
     let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| render(&sc, &opts, &|_, _| {}).unwrap().image.pixels)
+        common::with_threads(threads, || {
+            render(&sc, &opts, &|_, _| {}).unwrap().image.pixels
+        })
     };
     assert_eq!(run(1), run(3));
 }

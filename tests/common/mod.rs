@@ -3,11 +3,11 @@
 // Each test crate includes this module and uses only part of it.
 #![allow(dead_code)]
 
-// The library's tests and these share the property-test settings.
-#[path = "../../codec/caoen/tests/common/proptest_seed.rs"]
-mod proptest_seed;
-#[allow(unused_imports)] // Only the property-test crates call it.
-pub use proptest_seed::proptest_config;
+// The library's tests and these share the property-test settings and thread pools.
+#[path = "../../codec/caoen/tests/common/mod.rs"]
+mod library;
+#[allow(unused_imports)] // Each test crate calls only some.
+pub use library::{proptest_config, with_threads};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -1,23 +1,11 @@
 //! Codec round trips over the corpus and the edge cases, quality monotonicity, the two
 //! decoder paths, determinism across thread counts, and rate targets.
 
+mod common;
+use common::{corpus, raster_of, with_threads};
+
 use caoen::codec::{decode, encode, DecodeOptions, EncodeOptions, RateTarget};
-use caoen::image_io;
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
-
-fn raster_of(spec: &caoen_corpus::Spec) -> Raster {
-    let img = spec.generate();
-    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
-}
-
-fn corpus(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
-    raster_of(&caoen_corpus::Spec {
-        class,
-        width: w,
-        height: h,
-        seed,
-    })
-}
 
 /// PSNR over all channels; float (HDR) images are compared after the tone map
 /// `v / (1 + v)`, since a peak of 1.0 means nothing for them.
@@ -33,13 +21,7 @@ fn psnr(a: &Raster, b: &Raster) -> f64 {
             v as f64
         }
     };
-    let mse = a
-        .samples()
-        .iter()
-        .zip(b.samples())
-        .map(|(x, y)| (tone(*x) - tone(*y)).powi(2))
-        .sum::<f64>()
-        / a.samples().len() as f64;
+    let mse = common::mse_by(a, b, tone);
     10.0 * (1.0 / mse.max(1e-20)).log10()
 }
 
@@ -243,13 +225,7 @@ fn decoding_at_other_sizes_evaluates_the_continuous_network() {
 #[test]
 fn output_is_identical_for_one_and_two_threads() {
     let img = corpus(caoen_corpus::Class::Natural, 96, 80, 1);
-    let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| encode(&img, &q(75.0)).unwrap())
-    };
+    let run = |threads| with_threads(threads, || encode(&img, &q(75.0)).unwrap());
     assert_eq!(run(1), run(2));
 }
 
@@ -268,13 +244,7 @@ fn decoded_samples_are_identical_for_any_thread_count() {
             ..Default::default()
         },
     ] {
-        let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| decode(&bytes, &opts).unwrap())
-        };
+        let run = |threads| with_threads(threads, || decode(&bytes, &opts).unwrap());
         let one = run(1);
         for threads in [2, 3] {
             let bits = |r: &caoen::raster::Raster| -> Vec<u32> {

@@ -2,26 +2,17 @@
 //! the decoder's every path applies them alike, and they lower the error they were
 //! fitted to; damaged restoration sections are errors.
 
+mod common;
+use common::corpus;
+
 use caoen::codec::bitstream::{self, tag, TilePayload, TileStreams};
 use caoen::codec::restoration::{PlaneFilter, Restoration};
 use caoen::codec::{decode, encode, inspect, CodecError, DecodeOptions, EncodeOptions, Resampling};
-use caoen::image_io;
 use caoen::metrics::psnr;
 use caoen::raster::Raster;
 
 fn natural(w: u32, h: u32, seed: u64) -> Raster {
     corpus(caoen_corpus::Class::Natural, w, h, seed)
-}
-
-fn corpus(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
-    let img = caoen_corpus::Spec {
-        class,
-        width: w,
-        height: h,
-        seed,
-    }
-    .generate();
-    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
 }
 
 /// `bytes` rewritten with `f` applied to its header.
