@@ -18,19 +18,13 @@ fn end_frames_are_the_models_and_animations_play() {
         root.join("examples/morph-a.json"),
         root.join("examples/morph-b.json"),
     );
+    // Five frames of A to B, 160x120, into `out`.
+    let morph = |out: &Path, more: &[&str]| {
+        let args = ["morph", s(&a), s(&b), "--frames", "5", "--size", "160x120"];
+        caoen_ok(&[&args[..], &["-o", s(out)], more].concat())
+    };
     let dir = d.join("frames");
-    let o = caoen_ok(&[
-        "morph",
-        s(&a),
-        s(&b),
-        "--frames",
-        "5",
-        "-o",
-        s(&dir),
-        "--json",
-        "--size",
-        "160x120",
-    ]);
+    let o = morph(&dir, &["--json"]);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     for k in 0..5 {
         assert!(dir.join(format!("frame-{k:03}.png")).exists());
@@ -86,17 +80,7 @@ fn end_frames_are_the_models_and_animations_play() {
     // Animations decode to the frames' count, and their frames move.
     for anim in ["m.gif", "m.png"] {
         let path = d.join(anim);
-        caoen_ok(&[
-            "morph",
-            s(&a),
-            s(&b),
-            "--frames",
-            "5",
-            "-o",
-            s(&path),
-            "--size",
-            "160x120",
-        ]);
+        morph(&path, &[]);
         use image::AnimationDecoder;
         let file = std::io::BufReader::new(std::fs::File::open(&path).unwrap());
         let decoded: Vec<image::Frame> = if anim.ends_with(".gif") {

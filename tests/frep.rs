@@ -1459,13 +1459,8 @@ fn cli_relief_and_carve() {
         );
         let mut args = vec![cmd, s(&img), "--on", s(&ball), "-o", s(&json_out)];
         args.extend(&extra);
-        let o = caoen(&args);
-        assert!(
-            o.status.success(),
-            "{cmd}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        let o = caoen(&[
+        caoen_ok(&args);
+        caoen_ok(&[
             "frep",
             "render",
             s(&json_out),
@@ -1476,11 +1471,6 @@ fn cli_relief_and_carve() {
             "--samples",
             "1",
         ]);
-        assert!(
-            o.status.success(),
-            "{cmd}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
         let c = covered(&png_out);
         println!("{cmd}: {c} pixels covered, the plain ball {base}");
         if cmd == "relief" {
@@ -1518,7 +1508,7 @@ fn cli_relief_and_carve() {
     .unwrap();
     for cmd in ["relief", "carve"] {
         let png = dir.join(format!("unnamed-{cmd}.png"));
-        let o = caoen(&[
+        caoen_ok(&[
             cmd,
             s(&img),
             "--on",
@@ -1530,11 +1520,6 @@ fn cli_relief_and_carve() {
             "--samples",
             "1",
         ]);
-        assert!(
-            o.status.success(),
-            "{cmd}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
         assert!(
             caoen::render::framebuffer::RgbImage::load(&png).is_ok(),
             "{cmd}"
