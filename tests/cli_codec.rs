@@ -355,17 +355,7 @@ fn supersampling_anti_aliases_downscaled_decodes() {
 /// A 48x24 JPEG stored on its side (EXIF orientation 6) with a 200-byte ICC profile
 /// and an XMP packet: displayed, it is 24x48 with its red quarter at the top right.
 fn oriented_jpeg(dir: &Path) -> PathBuf {
-    let img = image::RgbImage::from_fn(48, 24, |x, y| {
-        if x < 24 && y < 12 {
-            image::Rgb([220, 30, 30])
-        } else {
-            image::Rgb([30, 30, 220])
-        }
-    });
-    let mut jpeg = Vec::new();
-    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 95)
-        .encode_image(&img)
-        .unwrap();
+    let jpeg = common::quarter_jpeg(48, 24, [220, 30, 30], [30, 30, 220]);
     let segment = |marker: u8, payload: &[u8]| {
         let mut out = vec![0xff, marker];
         out.extend_from_slice(&(payload.len() as u16 + 2).to_be_bytes());

@@ -127,7 +127,7 @@ fn failures_exit_1_with_a_message() {
     let d = tmpdir("fail");
     let (a, _) = corpus_file(&d, Class::Scene, 0, 32, 32);
     let (b, _) = corpus_file(&d, Class::Scene, 0, 32, 31);
-    let bad = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad");
+    let bad = common::repo_path("tests/bad");
     let cae = d.join("garbage.cae");
     std::fs::write(&cae, b"not a caoen file").unwrap();
     let cases: Vec<(Vec<String>, &str)> = vec![

@@ -160,7 +160,7 @@ fn a_closed_stdout_is_not_a_panic() {
 
 #[test]
 fn trailing_data_after_a_surface_or_scene_is_refused() {
-    let bad = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad");
+    let bad = common::repo_path("tests/bad");
     let d = tmpdir("trailing");
     for (args, what) in [
         (vec!["surface", "info"], "surface-trailing-garbage.json"),

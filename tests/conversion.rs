@@ -9,14 +9,10 @@ use caoen::conversion::deviation::vertex_deviation;
 use caoen::conversion::{
     convert, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
 };
-use common::{caoen, caoen_ok, s};
+use common::{caoen, caoen_ok, repo_path, s};
 
 fn tmpdir(name: &str) -> PathBuf {
     common::fresh_dir(&format!("conv-{name}"))
-}
-
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
 #[test]
@@ -114,7 +110,7 @@ fn the_written_model_is_the_fitted_function() {
 #[test]
 fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let dir = tmpdir("spot");
-    let mesh = repo("tests/data/meshes/spot.obj");
+    let mesh = repo_path("tests/data/meshes/spot.obj");
     let model = dir.join("spot.json");
     let out = caoen_ok(&[
         "convert",
@@ -217,7 +213,7 @@ fn deviation_json(args: &[&str]) -> serde_json::Value {
 #[test]
 fn targets_not_met_say_why_and_the_advice_fits_the_cause() {
     let dir = tmpdir("advice");
-    let mesh = repo("tests/data/meshes/spot.obj");
+    let mesh = repo_path("tests/data/meshes/spot.obj");
     let model = dir.join("m.json");
     let run = |extra: &[&str]| convert_json(&mesh, &model, extra);
     // A small budget is spent: the advice is to raise it.
@@ -393,7 +389,7 @@ fn an_open_sheet_is_refused_naming_its_boundary_unless_filled_on_purpose() {
 fn the_shared_open_and_holed_meshes_are_told_apart() {
     // The beetle (a hand-digitised car body, one sheet) is refused naming its
     // boundary; the full Stanford bunny (a scan with holes at the base) is not.
-    let models = repo("../shared/models");
+    let models = repo_path("../shared/models");
     let beetle = models.join("beetle.obj");
     if !beetle.exists() {
         assert!(
@@ -427,7 +423,7 @@ fn a_model_far_from_the_mesh_measures_badly() {
         r#"{"format": "caoen-frep/1", "model": {"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}}"#,
     )
     .unwrap();
-    let mesh = repo("tests/data/meshes/spot.obj");
+    let mesh = repo_path("tests/data/meshes/spot.obj");
     let d = deviation_json(&[s(&mesh), s(&model), "--size", "64"]);
     assert!(d["depth"]["mean"].as_f64().unwrap() > 0.05, "{d}");
     assert!(
@@ -439,7 +435,7 @@ fn a_model_far_from_the_mesh_measures_badly() {
 
 #[test]
 fn triangle_strips_in_a_ply_are_read_as_triangles() {
-    let m = caoen::conversion::read(&repo("tests/data/meshes/tetra-strips.ply")).unwrap();
+    let m = caoen::conversion::read(&repo_path("tests/data/meshes/tetra-strips.ply")).unwrap();
     assert_eq!(m.triangles.len(), 4);
     let t = m.topology();
     assert!(t.is_closed(), "{t:?}");
@@ -473,7 +469,7 @@ fn broken_meshes_fail_with_clear_errors() {
         ("short-vertex.off", "line 4: vertex 1 has 2 numbers"),
     ];
     for (file, words) in expect {
-        let path = repo("tests/bad/mesh").join(file);
+        let path = repo_path("tests/bad/mesh").join(file);
         let out = caoen(&["convert", s(&path), "-o", s(&dir.join("m.json"))]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{file}: {err}");

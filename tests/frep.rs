@@ -425,7 +425,7 @@ fn tmpdir(name: &str) -> PathBuf {
 /// The blended-union example model, `examples/frep/blend.json`, copied into `dir`.
 fn blend_model(dir: &Path) -> PathBuf {
     let path = dir.join("blend.json");
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/frep/blend.json");
+    let example = common::repo_path("examples/frep/blend.json");
     std::fs::copy(example, &path).unwrap();
     path
 }
@@ -532,7 +532,7 @@ fn pov_ray_renders_the_exported_model() {
         .to_string(),
     )
     .unwrap();
-    let examples = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/frep");
+    let examples = common::repo_path("examples/frep");
     let pictures = [
         "lattice",
         "relief",
@@ -1057,7 +1057,7 @@ fn pov_ray_reads_pictures_as_caoen_does() {
         return;
     }
     let dir = tmpdir("pov-values");
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let root = common::repo_path("examples");
     let (grey, colour) = (
         root.join("frep/lattice.png"),
         root.join("distort/input.png"),
@@ -1481,24 +1481,11 @@ fn cli_relief_and_carve() {
             assert!(c < base, "carve {c} vs {base}");
         }
     }
-    let o = caoen(&[
-        "relief",
-        s(&img),
-        "--on",
-        s(&img),
-        "-o",
-        s(&dir.join("x.json")),
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    let o = caoen(&[
-        "carve",
-        s(&img),
-        "--on",
-        s(&ball),
-        "-o",
-        s(&dir.join("x.txt")),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
+    // A picture is no model to carve (1); a text file is no output (2).
+    for (cmd, on, out, code) in [("relief", &img, "x.json", 1), ("carve", &ball, "x.txt", 2)] {
+        let o = caoen(&[cmd, s(&img), "--on", s(on), "-o", s(&dir.join(out))]);
+        assert_eq!(o.status.code(), Some(code), "{cmd}");
+    }
     // A model without its optional name renders straight to a picture too.
     let unnamed = dir.join("unnamed.json");
     std::fs::write(

@@ -4,7 +4,7 @@
 //! read back with the OBJ's volume, and empty meshes refused.
 
 mod common;
-use common::{assert_ok, caoen, s, tool_present};
+use common::{assert_ok, caoen, repo_root, s, tool_present};
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -14,12 +14,8 @@ use caoen::geometry::printable::{bad_edges, min_height, volume};
 use caoen::render::mesh_io::read_stl;
 use serde_json::json;
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 fn node(v: serde_json::Value) -> Node {
-    Node::from_json(&v, "model", &repo()).unwrap()
+    Node::from_json(&v, "model", &repo_root()).unwrap()
 }
 
 /// The relief's height over one face of a box: the largest distance along the face's
@@ -365,7 +361,7 @@ fn print_pictures(dir: &Path, pictures: &[PathBuf], cells: &str, ext: &External)
 fn meshes_are_closed_manifolds_without_zero_area_triangles() {
     let ext = externals();
     let dir = tmpdir("meshes");
-    let examples = repo().join("examples/frep");
+    let examples = repo_root().join("examples/frep");
     let mut models: Vec<PathBuf> = std::fs::read_dir(&examples)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -386,7 +382,7 @@ fn meshes_are_closed_manifolds_without_zero_area_triangles() {
     }
     print_pictures(
         &dir,
-        &[repo().join("examples/distort/input.png")],
+        &[repo_root().join("examples/distort/input.png")],
         "32",
         &ext,
     );
@@ -399,7 +395,7 @@ fn meshes_are_closed_manifolds_without_zero_area_triangles() {
 #[ignore]
 fn every_photo_prints() {
     let ext = externals();
-    let photos = repo().join("../shared/photos");
+    let photos = repo_root().join("../shared/photos");
     // Run by hand beside the shared data: without it the test fails, it does not pass.
     let list = std::fs::read_dir(&photos).unwrap_or_else(|e| {
         panic!(

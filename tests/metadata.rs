@@ -356,18 +356,7 @@ mod regenerate {
     use std::path::Path;
 
     fn tiny_jpeg() -> Vec<u8> {
-        let img = image::RgbImage::from_fn(16, 8, |x, y| {
-            if x < 8 && y < 4 {
-                image::Rgb([255, 0, 0])
-            } else {
-                image::Rgb([0, 0, 255])
-            }
-        });
-        let mut out = Vec::new();
-        image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 95)
-            .encode_image(&img)
-            .unwrap();
-        out
+        super::common::quarter_jpeg(16, 8, [255, 0, 0], [0, 0, 255])
     }
 
     fn tiny_png() -> Vec<u8> {

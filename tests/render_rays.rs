@@ -263,7 +263,7 @@ fn mirror_glass_example_matches_povray() {
         return;
     }
     let dir = tmpdir("mirror-glass");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/frep/mirror-glass.json");
+    let scene = common::repo_path("examples/frep/mirror-glass.json");
     let (iou, grey, ours, theirs) = against_povray(&dir, &scene, "2");
     println!(
         "mirror-glass 512x512: IoU {iou:.4}, mean difference {grey:.2} grey levels, caoen {ours:.2} s, POV-Ray {theirs:.2} s, ratio {:.3}",

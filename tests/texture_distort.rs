@@ -211,23 +211,23 @@ fn png_and_cae_paths_agree() {
     assert!(p > 35.0, "{p}");
 }
 
+/// [`pattern`] written as `dir/in.png`.
+fn pattern_png(dir: &Path) -> PathBuf {
+    let png = dir.join("in.png");
+    image_io::save(&pattern(), &png).unwrap();
+    png
+}
+
 #[test]
 fn cli_distorts_png_and_cae() {
     let dir = tmpdir("cli");
-    let png = dir.join("in.png");
-    image_io::save(&pattern(), &png).unwrap();
+    let png = pattern_png(&dir);
+    let distort = |input: &Path, output: &Path, more: &[&str]| {
+        caoen_ok(&[&["distort", s(input), "-o", s(output)][..], more].concat())
+    };
     let out = dir.join("out.png");
-    caoen_ok(&[
-        "distort",
-        s(&png),
-        "-o",
-        s(&out),
-        "--move",
-        "40.5,30.5:48,36",
-        "--move",
-        "80,60:80,70",
-        "--grid",
-    ]);
+    let moves = ["--move", "40.5,30.5:48,36", "--move", "80,60:80,70"];
+    distort(&png, &out, &[&moves[..], &["--grid"]].concat());
     assert_eq!(image_io::load(&out).unwrap().width(), W);
     let cae = dir.join("in.cae");
     caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
@@ -238,28 +238,11 @@ fn cli_distorts_png_and_cae() {
     )
     .unwrap();
     let out2 = dir.join("out2.png");
-    caoen_ok(&[
-        "distort",
-        s(&cae),
-        "-o",
-        s(&out2),
-        "--moves",
-        s(&json),
-        "--supersample",
-        "2",
-    ]);
+    distort(&cae, &out2, &["--moves", s(&json), "--supersample", "2"]);
     // Crossing moves: a warning, still an image.
     let out3 = dir.join("out3.png");
-    let o = caoen_ok(&[
-        "distort",
-        s(&png),
-        "-o",
-        s(&out3),
-        "--move",
-        "60,60:100,60",
-        "--move",
-        "100,60:60,60",
-    ]);
+    let crossing = ["--move", "60,60:100,60", "--move", "100,60:60,60"];
+    let o = distort(&png, &out3, &crossing);
     assert!(String::from_utf8_lossy(&o.stderr).contains("warning"));
     assert!(out3.exists());
 }
@@ -267,8 +250,7 @@ fn cli_distorts_png_and_cae() {
 #[test]
 fn cli_bad_arguments_and_files() {
     let dir = tmpdir("bad");
-    let png = dir.join("in.png");
-    image_io::save(&pattern(), &png).unwrap();
+    let png = pattern_png(&dir);
     let out = dir.join("o.png");
     // The exit code of `caoen distort INPUT -o OUTPUT MORE...`, which never panics.
     let code = |input: &Path, output: &Path, more: &[&str]| {

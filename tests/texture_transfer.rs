@@ -359,14 +359,8 @@ fn volume_texture_trilinear_and_errors() {
     use caoen::texture::solid::{Volume, VolumeWrap};
     // 2 x 2 x 2 voxels over [0, 2]^3: voxel centres at 0.5 and 1.5.
     let vox: Vec<[f32; 3]> = (0..8).map(|i| [i as f32, 0.0, 1.0]).collect();
-    let v = Volume::new(
-        [2, 2, 2],
-        vox.clone(),
-        [0.0; 3],
-        [2.0; 3],
-        VolumeWrap::Clamp,
-    )
-    .unwrap();
+    let cube = |wrap| Volume::new([2, 2, 2], vox.clone(), [0.0; 3], [2.0; 3], wrap);
+    let v = cube(VolumeWrap::Clamp).unwrap();
     assert_eq!(v.sample([0.5, 0.5, 0.5]), [0.0, 0.0, 1.0]);
     assert_eq!(v.sample([1.5, 0.5, 1.5]), [5.0, 0.0, 1.0]);
     // The centre: the mean of all eight.
@@ -375,14 +369,7 @@ fn volume_texture_trilinear_and_errors() {
     assert_eq!(v.sample([0.75, 0.5, 0.5]), [0.25, 0.0, 1.0]);
     assert_eq!(v.sample([-5.0, 9.0, 0.5]), [2.0, 0.0, 1.0]);
     // Repeat: one box further along every axis is the same point.
-    let r = Volume::new(
-        [2, 2, 2],
-        vox.clone(),
-        [0.0; 3],
-        [2.0; 3],
-        VolumeWrap::Repeat,
-    )
-    .unwrap();
+    let r = cube(VolumeWrap::Repeat).unwrap();
     assert_eq!(r.sample([0.8, 1.3, 0.6]), r.sample([2.8, -0.7, 4.6]));
     // Between the last and the first voxel it wraps: x = 0 is halfway between them.
     assert_eq!(r.sample([0.0, 0.5, 0.5]), [0.5, 0.0, 1.0]);

@@ -7,7 +7,7 @@
 #[path = "../../codec/caoen/tests/common/mod.rs"]
 mod library;
 #[allow(unused_imports)] // Each test crate calls only some.
-pub use library::{proptest_config, with_threads};
+pub use library::{proptest_config, repo_path, repo_root, with_threads};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -75,6 +75,23 @@ pub fn tool_present(ok: bool, what: &str) -> bool {
         eprintln!("skipped: {what} is not installed (.ci/run installs it)");
     }
     ok
+}
+
+/// A `w x h` JPEG (quality 95) in the colour `rest` but for its top-left quarter, in
+/// `quarter`.
+pub fn quarter_jpeg(w: u32, h: u32, quarter: [u8; 3], rest: [u8; 3]) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(w, h, |x, y| {
+        image::Rgb(if x < w / 2 && y < h / 2 {
+            quarter
+        } else {
+            rest
+        })
+    });
+    let mut out = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 95)
+        .encode_image(&img)
+        .unwrap();
+    out
 }
 
 /// RGB PSNR (peak 1) of two renders, through `caoen::metrics`.

@@ -49,14 +49,7 @@ fn a_half_size_file_decodes_at_the_image_size() {
     let psnr = -10.0 * mse.log10();
     assert!(psnr > 22.0, "PSNR {psnr:.2}");
     // Other sizes still decode, by the same continuous network.
-    let small = decode(
-        &bytes,
-        &DecodeOptions {
-            size: Some((81, 49)),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let small = common::decode_at(&bytes, 81, 49);
     assert_eq!((small.width(), small.height()), (81, 49));
 }
 

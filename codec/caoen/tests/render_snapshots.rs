@@ -82,6 +82,11 @@ fn rendered(scene: &Scene, method: Method) -> RgbImage {
     render(scene, &opts(method), &|_, _| {}).unwrap().image
 }
 
+/// Checks the snapshot `name` against the scene file `rel` rendered by `method`.
+fn check_example(name: &str, rel: &str, method: Method) {
+    check(name, &rendered(&example_scene(rel), method));
+}
+
 /// The scene file `rel` (a path from the repository's root).
 fn example_scene(rel: &str) -> Scene {
     Scene::load(&common::repo_path(rel)).unwrap()
@@ -99,20 +104,25 @@ fn snapshot_ring_depth_buffer() {
 
 #[test]
 fn snapshot_csg_ray_traced() {
-    let scene = example_scene("examples/csg.scene.json");
-    check("csg-ray", &rendered(&scene, Method::Ray));
+    check_example("csg-ray", "examples/csg.scene.json", Method::Ray);
 }
 
 #[test]
 fn snapshot_textured_depth_buffer() {
-    let scene = example_scene("examples/textured.scene.json");
-    check("textured-depth", &rendered(&scene, Method::Depth));
+    check_example(
+        "textured-depth",
+        "examples/textured.scene.json",
+        Method::Depth,
+    );
 }
 
 #[test]
 fn snapshot_teapot_mesh() {
-    let scene = example_scene("examples/teapot/teapot.scene.json");
-    check("teapot-mesh", &rendered(&scene, Method::Mesh));
+    check_example(
+        "teapot-mesh",
+        "examples/teapot/teapot.scene.json",
+        Method::Mesh,
+    );
 }
 
 #[test]

@@ -244,14 +244,7 @@ fn a_resized_decode_restores_like_the_coded_size() {
 #[test]
 fn damaged_restoration_sections_are_errors() {
     let img = natural(64, 48, 2);
-    let bytes = encode(
-        &img,
-        &EncodeOptions {
-            quality: 30.0,
-            ..EncodeOptions::default()
-        },
-    )
-    .unwrap();
+    let bytes = encode(&img, &common::at_quality(30.0)).unwrap();
     let sections = inspect(&bytes).unwrap().sections;
     let header = sections[0].offset;
     // A section with the given tag and payload, CRC and all.

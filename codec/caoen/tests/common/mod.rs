@@ -12,10 +12,12 @@ use std::path::{Path, PathBuf};
 /// The repository's root, where `examples/` and the shared test data (`tests/bad/`,
 /// `tests/snapshots/`, `tests/fuzz/`) live.
 pub fn repo_root() -> PathBuf {
+    // The first folder up that holds the workspace's lock file, so that the command
+    // line's tests (at the root) and the library's (two folders below) both find it.
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .ancestors()
-        .nth(2)
-        .expect("the facade crate sits two folders below the workspace root")
+        .find(|p| p.join("Cargo.lock").is_file())
+        .expect("the tests run inside the workspace")
         .to_path_buf()
 }
 
@@ -31,6 +33,23 @@ pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T 
         .build()
         .unwrap()
         .install(f)
+}
+
+/// The default encode at `quality`.
+pub fn at_quality(quality: f32) -> caoen::codec::EncodeOptions {
+    caoen::codec::EncodeOptions {
+        quality,
+        ..Default::default()
+    }
+}
+
+/// `bytes` decoded at `width x height`.
+pub fn decode_at(bytes: &[u8], width: u32, height: u32) -> caoen::raster::Raster {
+    let opts = caoen::codec::DecodeOptions {
+        size: Some((width, height)),
+        ..Default::default()
+    };
+    caoen::codec::decode(bytes, &opts).unwrap()
 }
 
 /// The corpus image `spec` as a raster.
