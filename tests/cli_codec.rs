@@ -1,7 +1,7 @@
 //! End-to-end tests of `caoen encode|decode|info` and the demo.
 
 mod common;
-use common::{caoen, caoen_ok, s};
+use common::{assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
@@ -11,8 +11,13 @@ fn tmpdir(name: &str) -> PathBuf {
 
 /// A small photo-like PNG from the corpus.
 fn input_png(dir: &Path) -> PathBuf {
-    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 96, 64, 2);
-    let p = dir.join("photo.png");
+    scene_png(dir, "photo.png", 96, 64, 2)
+}
+
+/// The corpus scene of `seed`, `w x h`, written as `dir/name`.
+fn scene_png(dir: &Path, name: &str, w: u32, h: u32, seed: u64) -> PathBuf {
+    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, w, h, seed);
+    let p = dir.join(name);
     img.to_dynamic_image().save(&p).unwrap();
     p
 }
@@ -87,16 +92,9 @@ fn output_bytes_do_not_depend_on_threads() {
     let d = tmpdir("threads");
     let png = input_png(&d);
     let (a, b) = (d.join("a.cae"), d.join("b.cae"));
-    assert!(
-        caoen(&["encode", s(&png), "-o", s(&a), "-j", "1", "--quiet"])
-            .status
-            .success()
-    );
-    assert!(
-        caoen(&["encode", s(&png), "-o", s(&b), "-j", "2", "--quiet"])
-            .status
-            .success()
-    );
+    for (out, threads) in [(&a, "1"), (&b, "2")] {
+        caoen_ok(&["encode", s(&png), "-o", s(out), "-j", threads, "--quiet"]);
+    }
     assert_eq!(std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
 }
 
@@ -146,40 +144,19 @@ fn bad_input_and_usage_fail_cleanly() {
     );
     let junk = d.join("junk.png");
     std::fs::write(&junk, b"not a png at all").unwrap();
-    assert_eq!(
-        caoen(&["encode", s(&junk), "-o", s(&cae)]).status.code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["encode", s(&png), "-q", "150"]).status.code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["encode", s(&png), "--frobnicate"]).status.code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["decode", s(&cae), "--supersample", "9"])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["decode", s(&cae), "--max-pixels", "10"])
-            .status
-            .code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["decode", s(&cae), "-o", s(&d.join("x.bmp"))])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["info", s(&d.join("missing.cae"))]).status.code(),
-        Some(1)
-    );
+    let (bmp, missing) = (d.join("x.bmp"), d.join("missing.cae"));
+    let cases: [(&[&str], i32); 7] = [
+        (&["encode", s(&junk), "-o", s(&cae)], 1),
+        (&["encode", s(&png), "-q", "150"], 2),
+        (&["encode", s(&png), "--frobnicate"], 2),
+        (&["decode", s(&cae), "--supersample", "9"], 2),
+        (&["decode", s(&cae), "--max-pixels", "10"], 1),
+        (&["decode", s(&cae), "-o", s(&bmp)], 2),
+        (&["info", s(&missing)], 1),
+    ];
+    for (args, code) in cases {
+        assert_eq!(caoen(args).status.code(), Some(code), "{args:?}");
+    }
 }
 
 #[test]
@@ -228,25 +205,18 @@ fn rgb8(p: &Path) -> image::RgbImage {
 #[test]
 fn png_compression_levels_keep_the_pixels() {
     let d = tmpdir("png-levels");
-    let png = d.join("scene.png");
-    caoen_corpus::generate(caoen_corpus::Class::Scene, 384, 256, 4)
-        .to_dynamic_image()
-        .save(&png)
-        .unwrap();
+    let png = scene_png(&d, "scene.png", 384, 256, 4);
     let cae = d.join("p.cae");
     caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     let mut sizes = Vec::new();
+    // `cae` decoded to `out` at the PNG compression `level`.
+    let decode = |out: &Path, level: &str, more: &[&str]| {
+        let args = ["decode", s(&cae), "-o", s(out), "--png-compression", level];
+        caoen(&[&args[..], more].concat())
+    };
     for level in ["fast", "default", "best"] {
         let out = d.join(format!("{level}.png"));
-        caoen_ok(&[
-            "decode",
-            s(&cae),
-            "-o",
-            s(&out),
-            "--png-compression",
-            level,
-            "--quiet",
-        ]);
+        assert_ok(&decode(&out, level, &["--quiet"]));
         sizes.push(std::fs::metadata(&out).unwrap().len());
         assert_eq!(
             rgb8(&out),
@@ -255,17 +225,7 @@ fn png_compression_levels_keep_the_pixels() {
         );
         // The same bytes again (deterministic at every level).
         let again = d.join(format!("{level}-again.png"));
-        caoen_ok(&[
-            "decode",
-            s(&cae),
-            "-o",
-            s(&again),
-            "--png-compression",
-            level,
-            "--quiet",
-            "-j",
-            "1",
-        ]);
+        assert_ok(&decode(&again, level, &["--quiet", "-j", "1"]));
         assert_eq!(
             std::fs::read(&out).unwrap(),
             std::fs::read(&again).unwrap(),
@@ -277,15 +237,7 @@ fn png_compression_levels_keep_the_pixels() {
         sizes[2] < sizes[0],
         "best compresses more than fast: {sizes:?}"
     );
-    let o = caoen(&[
-        "decode",
-        s(&cae),
-        "-o",
-        s(&d.join("x.png")),
-        "--png-compression",
-        "max",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(decode(&d.join("x.png"), "max", &[]).status.code(), Some(2));
 }
 
 #[test]
@@ -294,15 +246,9 @@ fn supersampling_anti_aliases_downscaled_decodes() {
     // size, 2x2 samples per pixel come closer to the full-size decode box-filtered down
     // than one sample per pixel.
     let d = tmpdir("supersample");
-    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 384, 256, 4);
-    let png = d.join("scene.png");
-    img.to_dynamic_image().save(&png).unwrap();
+    let png = scene_png(&d, "scene.png", 384, 256, 4);
     let cae = d.join("scene.cae");
-    assert!(
-        caoen(&["encode", s(&png), "-o", s(&cae), "-q", "90", "--quiet"])
-            .status
-            .success()
-    );
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "-q", "90", "--quiet"]);
     let dec = |name: &str, extra: &[&str]| {
         let out = d.join(name);
         let mut args = vec!["decode", s(&cae), "-o", s(&out), "--quiet"];
@@ -488,22 +434,15 @@ fn a_wrong_magic_number_stops_the_reading() {
 #[test]
 fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     let d = tmpdir("half");
-    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 130, 90, 4);
-    let png = d.join("scene.png");
-    img.to_dynamic_image().save(&png).unwrap();
+    let png = scene_png(&d, "scene.png", 130, 90, 4);
     let cae = d.join("scene.cae");
-    let out = caoen_ok(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&cae),
-        "-q",
-        "40",
-        "--resampling",
-        "half",
-        "--json",
-    ]);
-    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // The encode's JSON report at quality 40 and `--resampling resampling`.
+    let encode = |out: &Path, resampling: &str| -> serde_json::Value {
+        let args = ["encode", s(&png), "-o", s(out), "-q", "40", "--resampling"];
+        let o = caoen_ok(&[&args[..], &[resampling, "--json"]].concat());
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let j = encode(&cae, "half");
     assert_eq!(
         (&j["width"], &j["height"]),
         (&130.into(), &90.into()),
@@ -528,43 +467,17 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     caoen_ok(&["decode", s(&cae), "-o", s(&back)]);
     assert_eq!(image::image_dimensions(&back).unwrap(), (130, 90));
     let half = d.join("half.png");
-    assert!(
-        caoen(&["decode", s(&cae), "-o", s(&half), "--scale", "0.5"])
-            .status
-            .success()
-    );
+    caoen_ok(&["decode", s(&cae), "-o", s(&half), "--scale", "0.5"]);
     assert_eq!(image::image_dimensions(&half).unwrap(), (65, 45));
     // `image::open` reads it at the image's size too, through the hooks.
     caoen::register_image_hooks();
     let opened = image::open(&cae).unwrap();
     assert_eq!((opened.width(), opened.height()), (130, 90));
     // Off keeps the image's size in the file.
-    let full = caoen(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&d.join("full.cae")),
-        "-q",
-        "40",
-        "--resampling",
-        "off",
-        "--json",
-    ]);
-    let j: serde_json::Value = serde_json::from_slice(&full.stdout).unwrap();
+    let j = encode(&d.join("full.cae"), "off");
     assert_eq!(j["coded_width"], 130, "{j}");
     // Any size in tenths per side: 0.7 of 130x90 is 91x63.
-    let seven = caoen(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&d.join("seven.cae")),
-        "-q",
-        "40",
-        "--resampling",
-        "0.7",
-        "--json",
-    ]);
-    let j: serde_json::Value = serde_json::from_slice(&seven.stdout).unwrap();
+    let j = encode(&d.join("seven.cae"), "0.7");
     assert_eq!(
         (&j["coded_width"], &j["coded_height"]),
         (&91.into(), &63.into()),

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use caoen::conversion::deviation::vertex_deviation;
 use caoen::conversion::{
-    convert, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
+    convert, Conversion, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
 };
 use common::{caoen, caoen_ok, repo_path, s};
 
@@ -40,6 +40,15 @@ fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
     }
 }
 
+/// `mesh` converted with at most `max_functions` functions.
+fn convert_at_most(mesh: &PolygonMesh, max_functions: usize) -> Conversion {
+    let opts = ConvertOptions {
+        max_functions,
+        ..Default::default()
+    };
+    convert(mesh, &opts, &mut |_| {})
+}
+
 #[test]
 fn the_written_model_is_the_fitted_function() {
     // A lumpy closed mesh: an ellipsoid with a dent, so perturbations are needed.
@@ -48,14 +57,7 @@ fn the_written_model_is_the_fitted_function() {
         let bump = (-((p[0] - 0.5).powi(2) + p[1].powi(2) + (p[2] - 0.4).powi(2)) * 8.0).exp();
         *p = p.map(|v| v * (1.0 - 0.3 * bump));
     }
-    let c = convert(
-        &mesh,
-        &ConvertOptions {
-            max_functions: 400,
-            ..Default::default()
-        },
-        &mut |_| {},
-    );
+    let c = convert_at_most(&mesh, 400);
     assert!(c.model.functions() > 1 && c.model.functions() <= 400);
     // The levels lower the mean distance (a level may trade a little of it for the
     // normals' tangent conditions).
@@ -506,14 +508,7 @@ fn a_rotated_box_is_cut_to_its_faces_exactly() {
     let turn = |p: [f64; 3]| [0, 1, 2].map(|j| r[j][0] * p[0] + r[j][1] * p[1] + r[j][2] * p[2]);
     let half = [1.0, 0.6, 0.4];
     let mesh = PolygonMesh::cuboid(half, r);
-    let c = convert(
-        &mesh,
-        &ConvertOptions {
-            max_functions: 60,
-            ..Default::default()
-        },
-        &mut |_| {},
-    );
+    let c = convert_at_most(&mesh, 60);
     assert_eq!(c.model.supports.as_ref().map(|s| s.planes.len()), Some(6));
     let v: serde_json::Value =
         serde_json::from_str(&c.model.to_frep_json("box", mesh.bounds()).to_string()).unwrap();
