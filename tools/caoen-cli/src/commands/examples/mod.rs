@@ -68,6 +68,12 @@ fn scene_example(
     save_png(global, dir, &png, &r.image)
 }
 
+/// A scene file's contents: its `name`, the camera looking from `view_from` at the
+/// origin, and `objects`.
+fn scene_json(name: &str, view_from: [f64; 3], objects: Value) -> Value {
+    json!({"format": "caoen-scene/1", "name": name, "camera": camera_json(view_from), "objects": objects})
+}
+
 fn camera_json(view_from: [f64; 3]) -> Value {
     json!({"projection": "perspective", "fov_deg": 30.0, "view_from": view_from})
 }

@@ -12,7 +12,7 @@ use caoen::surface::morph::morph;
 use caoen::surface::{gallery, Blend, Domain, KeyPoint, Network, SurfaceModel};
 use serde_json::json;
 
-use super::{camera_json, opts, save_model, save_png, scene_example, tile_grid};
+use super::{opts, save_model, save_png, scene_example, scene_json, tile_grid};
 use crate::cli::GlobalArgs;
 use crate::failure::CliResult;
 use crate::output::replace_file;
@@ -112,11 +112,11 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         global,
         (dir, dir),
         "torus-freeform",
-        &json!({
-            "format": "caoen-scene/1", "name": "torus-domain freeform surface",
-            "camera": camera_json([0.9, -1.5, 1.1]),
-            "objects": [{"surface": "torus-freeform.json", "material": {"colour": [0.85, 0.55, 0.3], "specular": 0.3}}]
-        }),
+        &scene_json(
+            "torus-domain freeform surface",
+            [0.9, -1.5, 1.1],
+            json!([{"surface": "torus-freeform.json", "material": {"colour": [0.85, 0.55, 0.3], "specular": 0.3}}]),
+        ),
         &opts(384, 288, n, Method::Depth),
     )?;
     let scene = Scene::load(&dir.join("torus-freeform.scene.json"))?;
@@ -177,26 +177,26 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         global,
         (dir, dir),
         "solid",
-        &json!({
-            "format": "caoen-scene/1", "name": "implicit dodecahedron",
-            "camera": camera_json([1.0, -1.7, 1.0]),
-            "objects": [{"name": "dodecahedron", "solid": {"polyhedron": "dodecahedron", "radius": 1.0, "q": 12.0, "level": 2.0},
-                         "material": {"colour": [0.3, 0.6, 0.4], "specular": 0.4}}]
-        }),
+        &scene_json(
+            "implicit dodecahedron",
+            [1.0, -1.7, 1.0],
+            json!([{"name": "dodecahedron", "solid": {"polyhedron": "dodecahedron", "radius": 1.0, "q": 12.0, "level": 2.0},
+                         "material": {"colour": [0.3, 0.6, 0.4], "specular": 0.4}}]),
+        ),
         &opts(320, 240, n, Method::Ray),
     )?;
     scene_example(
         global,
         (dir, dir),
         "csg",
-        &json!({
-            "format": "caoen-scene/1", "name": "cube minus icosahedron",
-            "camera": camera_json([1.0, -1.5, 1.1]),
-            "objects": [{"name": "carved cube", "csg": {"op": "difference", "operands": [
+        &scene_json(
+            "cube minus icosahedron",
+            [1.0, -1.5, 1.1],
+            json!([{"name": "carved cube", "csg": {"op": "difference", "operands": [
                 {"solid": {"polyhedron": "cube", "radius": 1.0, "q": 16.0}},
                 {"solid": {"polyhedron": "icosahedron", "radius": 1.2, "q": 6.0}}
-            ]}, "material": {"colour": [0.75, 0.42, 0.35], "specular": 0.35}}]
-        }),
+            ]}, "material": {"colour": [0.75, 0.42, 0.35], "specular": 0.35}}]),
+        ),
         &opts(320, 240, n, Method::Ray),
     )?;
     // A rim of the carved cube up close: ray traced (left) and its mesh (right), each a
@@ -261,16 +261,16 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         global,
         (dir, &tea),
         "teapot",
-        &json!({
-            "format": "caoen-scene/1", "name": "teapot-like compound model",
-            "camera": camera_json([0.35, -1.6, 0.75]),
-            "objects": [
+        &scene_json(
+            "teapot-like compound model",
+            [0.35, -1.6, 0.75],
+            json!([
                 {"name": "body", "surface": "body.json", "material": glaze},
                 {"name": "lid", "surface": "lid.json", "transform": {"translate": [0.0, 0.0, 0.62]}, "material": glaze},
                 {"name": "spout", "surface": "spout.json", "transform": {"rotate_deg": [0.0, -40.0, 0.0], "translate": [0.75, 0.0, 0.05]}, "material": glaze},
                 {"name": "handle", "surface": "handle.json", "transform": {"rotate_deg": [90.0, 0.0, 0.0], "translate": [-1.05, 0.0, 0.1]}, "material": glaze}
-            ]
-        }),
+            ]),
+        ),
         &opts(384, 288, n, Method::Mesh),
     )?;
 
@@ -283,11 +283,11 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         global,
         (dir, dir),
         "textured",
-        &json!({
-            "format": "caoen-scene/1", "name": "textured blob",
-            "camera": camera_json([1.0, -1.6, 0.7]),
-            "objects": [{"surface": "textured-blob.json", "material": {"specular": 0.2}}]
-        }),
+        &scene_json(
+            "textured blob",
+            [1.0, -1.6, 0.7],
+            json!([{"surface": "textured-blob.json", "material": {"specular": 0.2}}]),
+        ),
         &opts(320, 240, n, Method::Depth),
     )?;
 
