@@ -320,9 +320,13 @@ fn points_bbox(pts: &[(f64, f64)], margin: f64) -> [f64; 4] {
     ]
 }
 
-/// Whether `(x, y)` lies outside the box `bb` (`[x0, y0, x1, y1]`).
-fn outside(bb: &[f64; 4], x: f64, y: f64) -> bool {
-    x < bb[0] || x > bb[2] || y < bb[1] || y > bb[3]
+/// `coverage()` where `(x, y)` lies in the box `bb` (`[x0, y0, x1, y1]`), 0 outside it.
+fn inside_box(bb: &[f64; 4], x: f64, y: f64, coverage: impl FnOnce() -> f64) -> f64 {
+    if x < bb[0] || x > bb[2] || y < bb[1] || y > bb[3] {
+        0.0
+    } else {
+        coverage()
+    }
 }
 
 /// `w` less its projection onto the segment from 0 to `e`: the offset of the point `w`
@@ -398,10 +402,7 @@ impl Shape for Polygon {
         self.bb
     }
     fn coverage(&self, x: f64, y: f64) -> f64 {
-        if outside(&self.bb, x, y) {
-            return 0.0;
-        }
-        edge_cov(self.sdf(x, y))
+        inside_box(&self.bb, x, y, || edge_cov(self.sdf(x, y)))
     }
 }
 
@@ -455,12 +456,11 @@ impl Shape for Stroke {
         self.bb
     }
     fn coverage(&self, x: f64, y: f64) -> f64 {
-        if outside(&self.bb, x, y) {
-            return 0.0;
-        }
-        let t = self.dist(x, y);
-        let hw = self.half_width;
-        clamp01((t + 0.5).min(hw) - (t - 0.5).max(-hw))
+        inside_box(&self.bb, x, y, || {
+            let t = self.dist(x, y);
+            let hw = self.half_width;
+            clamp01((t + 0.5).min(hw) - (t - 0.5).max(-hw))
+        })
     }
 }
 

@@ -41,6 +41,25 @@ fn soft_poly(p: Polygon, blur: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync>
     }
 }
 
+/// A soft ellipse with level axes, of one colour: a shadow on the ground.
+fn flat_shadow(
+    c: &mut Canvas,
+    centre: (f64, f64),
+    radii: (f64, f64),
+    blur: f64,
+    alpha: f64,
+    col: Col,
+) {
+    let e = Ellipse {
+        cx: centre.0,
+        cy: centre.1,
+        rx: radii.0,
+        ry: radii.1,
+        rot: (1.0, 0.0),
+    };
+    c.draw(&soft_ellipse(e, blur), alpha, move |_, _| col);
+}
+
 fn soft_ellipse(e: Ellipse, blur: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
     let bb = e.bbox();
     SdfShape {
@@ -430,19 +449,13 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let cr = th * rng.range(0.3, 0.42);
         // Ground shadow away from the sun.
         let sd = if light.0 > 0.0 { -1.0 } else { 1.0 };
-        c.draw(
-            &soft_ellipse(
-                Ellipse {
-                    cx: tx + sd * cr * 0.8,
-                    cy: ty + cr * 0.08,
-                    rx: cr * 1.3,
-                    ry: cr * 0.18,
-                    rot: (1.0, 0.0),
-                },
-                cr * 0.15,
-            ),
+        flat_shadow(
+            c,
+            (tx + sd * cr * 0.8, ty + cr * 0.08),
+            (cr * 1.3, cr * 0.18),
+            cr * 0.15,
             0.55,
-            |_, _| Col(0.02, 0.04, 0.01),
+            Col(0.02, 0.04, 0.01),
         );
         c.fill(
             &Polygon::new(vec![
@@ -662,19 +675,13 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         ]),
         Col(0.5, 0.32, 0.22),
     );
-    c.draw(
-        &soft_ellipse(
-            Ellipse {
-                cx: bx,
-                cy: by + bl * 0.3,
-                rx: bl * 0.9,
-                ry: bl * 0.15,
-                rot: (1.0, 0.0),
-            },
-            bl * 0.1,
-        ),
+    flat_shadow(
+        c,
+        (bx, by + bl * 0.3),
+        (bl * 0.9, bl * 0.15),
+        bl * 0.1,
         0.6,
-        |_, _| Col(0.005, 0.005, 0.008),
+        Col(0.005, 0.005, 0.008),
     );
     birds(
         c,
@@ -834,19 +841,13 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let vh = s * rng.range(0.22, 0.32);
     let vb = table_y + (front_y - table_y) * 0.25;
     let glaze = Col::hex_linear(*rng.pick(&[0x2a4a8a, 0xd8d4cc, 0x3a6a5a, 0x9a3a2a]));
-    c.draw(
-        &soft_ellipse(
-            Ellipse {
-                cx: vx + vr * 1.3,
-                cy: vb,
-                rx: vr * 2.2,
-                ry: vr * 0.35,
-                rot: (1.0, 0.0),
-            },
-            vr * 0.3,
-        ),
+    flat_shadow(
+        c,
+        (vx + vr * 1.3, vb),
+        (vr * 2.2, vr * 0.35),
+        vr * 0.3,
         0.8,
-        move |_, _| shadow,
+        shadow,
     );
     let body = Polygon::new(
         (0..=24)
@@ -898,19 +899,13 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let fx = wf * (0.6 + 0.12 * k as f64) + rng.range(-0.03, 0.03) * s;
         let fy = table_y + (front_y - table_y) * rng.range(0.45, 0.8) - fr;
         let base = Col::hex_linear(*rng.pick(&[0xe07010, 0xb01818, 0x6a9a20, 0xd0b020]));
-        c.draw(
-            &soft_ellipse(
-                Ellipse {
-                    cx: fx + fr * 0.5,
-                    cy: fy + fr * 0.9,
-                    rx: fr * 1.4,
-                    ry: fr * 0.3,
-                    rot: (1.0, 0.0),
-                },
-                fr * 0.3,
-            ),
+        flat_shadow(
+            c,
+            (fx + fr * 0.5, fy + fr * 0.9),
+            (fr * 1.4, fr * 0.3),
+            fr * 0.3,
             0.85,
-            move |_, _| shadow,
+            shadow,
         );
         let spot = n3;
         c.draw(&Disc::new(fx, fy, fr), 1.0, |x, y| {
