@@ -195,6 +195,13 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
     c.to_image(ch, fmt.bit_depth(), Encoding::Srgb)
 }
 
+/// The canvas's width and height, and the scene's scale: its height, or a quarter of
+/// its width when that is more (panoramas).
+fn frame(c: &Canvas) -> (f64, f64, f64) {
+    let (wf, hf) = (c.w as f64, c.h as f64);
+    (wf, hf, hf.max(wf * 0.25))
+}
+
 fn noises(seed: u64) -> [Noise; 6] {
     core::array::from_fn(|k| Noise::new(noise_seed(Class::Scene, seed, k as u64)))
 }
@@ -218,8 +225,7 @@ fn birds(c: &mut Canvas, rng: &mut Rng, xs: (f64, f64), ys: (f64, f64), size: f6
 
 fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, n4, n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let horizon = hf * rng.range(0.48, 0.6);
     let sun = (wf * rng.range(0.15, 0.85), horizon * rng.range(0.2, 0.55));
     let sun_r = s * 0.028;
@@ -531,8 +537,7 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
 
 fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, n4, n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let water = hf * rng.range(0.55, 0.65);
     let sun = (
         wf * rng.range(0.25, 0.75),
@@ -695,8 +700,7 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
 
 fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, _n4, _n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let table_y = hf * rng.range(0.55, 0.65);
     let front_y = hf * rng.range(0.86, 0.93);
     let lx = wf * rng.range(-0.2, 0.3);
@@ -934,8 +938,7 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
 
 fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, n4, n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let horizon = hf * rng.range(0.4, 0.5);
     let zen = Col::hex_linear(0x3068b8);
     let hor = Col::hex_linear(0xd0e0ee);
