@@ -1,7 +1,7 @@
 //! End-to-end tests of `caoen surface ...` and `caoen demo`.
 
 mod common;
-use common::{caoen, caoen_ok};
+use common::{caoen, caoen_ok, s};
 
 use std::process::Command;
 
@@ -34,14 +34,8 @@ fn eval_prints_the_golden_diagonal_point() {
 fn export_then_info_round_trips_a_model_file() {
     let d = tmpdir("export");
     let f = d.join("ring.json");
-    caoen_ok(&[
-        "surface",
-        "export",
-        "builtin:ring",
-        "-o",
-        f.to_str().unwrap(),
-    ]);
-    let out = caoen_ok(&["surface", "info", f.to_str().unwrap(), "--json"]);
+    caoen_ok(&["surface", "export", "builtin:ring", "-o", s(&f)]);
+    let out = caoen_ok(&["surface", "info", s(&f), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["key_points"], 48);
     assert_eq!(v["input_dim"], 4);
@@ -56,7 +50,7 @@ fn mesh_writes_a_closed_obj() {
         "mesh",
         "builtin:blob",
         "-o",
-        f.to_str().unwrap(),
+        s(&f),
         "--detail",
         "3",
     ]);
@@ -73,52 +67,24 @@ fn bad_input_fails_cleanly_with_the_right_exit_code() {
     let d = tmpdir("bad");
     let bad = d.join("bad.json");
     std::fs::write(&bad, r#"{"format":"caoen-surface/1","domain":{"kind":"sphere","dim":3},"key_points":[{"source":[1,0,0],"shape":[1],"q":-1}]}"#).unwrap();
-    let out = caoen(&["surface", "info", bad.to_str().unwrap()]);
+    let out = caoen(&["surface", "info", s(&bad)]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("key_points[0].q"), "{err}");
     assert!(!err.contains("panicked"));
     // Missing file, unknown built-in, bad numbers, unknown options, NaN input.
-    assert_eq!(
-        caoen(&["surface", "info", d.join("missing.json").to_str().unwrap()])
-            .status
-            .code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["surface", "info", "builtin:nope"]).status.code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["surface", "eval", "builtin:blob", "--at", "1,x,0"])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["surface", "eval", "builtin:blob", "--at", "NaN,0,1"])
-            .status
-            .code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["surface", "info", "builtin:blob", "--frobnicate"])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&[
-            "surface",
-            "mesh",
-            "builtin:blob",
-            "-o",
-            d.join("x.stl").to_str().unwrap()
-        ])
-        .status
-        .code(),
-        Some(2)
-    );
+    let (missing, stl) = (d.join("missing.json"), d.join("x.stl"));
+    let cases: [(&[&str], i32); 6] = [
+        (&["surface", "info", s(&missing)], 1),
+        (&["surface", "info", "builtin:nope"], 2),
+        (&["surface", "eval", "builtin:blob", "--at", "1,x,0"], 2),
+        (&["surface", "eval", "builtin:blob", "--at", "NaN,0,1"], 1),
+        (&["surface", "info", "builtin:blob", "--frobnicate"], 2),
+        (&["surface", "mesh", "builtin:blob", "-o", s(&stl)], 2),
+    ];
+    for (args, code) in cases {
+        assert_eq!(caoen(args).status.code(), Some(code), "{args:?}");
+    }
 }
 
 #[test]
@@ -172,9 +138,9 @@ fn trailing_data_after_a_surface_or_scene_is_refused() {
         let file = bad.join(what);
         let png = d.join("out.png");
         let mut args = args.clone();
-        args.insert(2, file.to_str().unwrap());
+        args.insert(2, s(&file));
         if args[1] == "render" {
-            args.extend(["-o", png.to_str().unwrap()]);
+            args.extend(["-o", s(&png)]);
         }
         let out = caoen(&args);
         let err = String::from_utf8_lossy(&out.stderr);
