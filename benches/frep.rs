@@ -8,6 +8,8 @@
 //! PATH only caoen is measured. `CAOEN_FREP_BENCH=NAME` limits the run to the models
 //! whose name contains NAME.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -174,7 +176,5 @@ fn bench(c: &mut Criterion) {
 criterion_group!(benches, bench);
 
 fn main() {
-    summary();
-    benches();
-    Criterion::default().configure_from_args().final_summary();
+    common::main(summary, benches);
 }

@@ -14,6 +14,8 @@
 //! key point: 2m (dot product) + 2 (q (s - 1)) + 1 (weight) + 2p + 1 (accumulate),
 //! transcendental calls not counted.
 
+mod common;
+
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -197,7 +199,5 @@ fn summary() {
 criterion_group!(benches, bench);
 
 fn main() {
-    summary();
-    benches();
-    Criterion::default().configure_from_args().final_summary();
+    common::main(summary, benches);
 }

@@ -10,6 +10,8 @@
 //! All loops are single-threaded so the ratios compare work, not scheduling. A summary
 //! with the ratios prints first; criterion's own report follows.
 
+mod common;
+
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -241,7 +243,5 @@ fn bench(c: &mut Criterion) {
 criterion_group!(benches, bench);
 
 fn main() {
-    summary();
-    benches();
-    Criterion::default().configure_from_args().final_summary();
+    common::main(summary, benches);
 }

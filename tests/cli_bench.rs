@@ -6,27 +6,20 @@
 //! `cargo test --features peers --test cli_bench` (CI runs it).
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-bench-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("bench-{name}"))
 }
 
 /// Two small corpus images (a scene and a natural texture) with their manifest.
 fn tiny_corpus(dir: &Path) -> PathBuf {
     let corpus = dir.join("corpus");
-    let out = caoen(&[
+    caoen_ok(&[
         "corpus",
         "--out",
         s(&corpus),
@@ -38,11 +31,6 @@ fn tiny_corpus(dir: &Path) -> PathBuf {
         "1",
         "--quiet",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     corpus
 }
 
@@ -228,8 +216,7 @@ fn check_tiny_run(name: &str, codecs: &str) {
         } else {
             keep.join(m["decoded_file"].as_str().unwrap())
         };
-        let c = caoen(&["compare", s(&corpus.join(image)), s(&test), "--json"]);
-        assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+        let c = caoen_ok(&["compare", s(&corpus.join(image)), s(&test), "--json"]);
         let c: Value = serde_json::from_slice(&c.stdout).unwrap();
         for key in ["psnr", "psnr_y", "ssim", "ssimulacra2"] {
             assert_eq!(m[key], c[key], "{image} {codec} {key}");

@@ -1,25 +1,23 @@
 //! End-to-end tests of `caoen encode|decode|info` and the demo.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-cli-codec-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("cli-codec-{name}"))
 }
 
 /// A small photo-like PNG from the corpus.
 fn input_png(dir: &Path) -> PathBuf {
-    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 96, 64, 2);
-    let p = dir.join("photo.png");
+    scene_png(dir, "photo.png", 96, 64, 2)
+}
+
+/// The corpus scene of `seed`, `w x h`, written as `dir/name`.
+fn scene_png(dir: &Path, name: &str, w: u32, h: u32, seed: u64) -> PathBuf {
+    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, w, h, seed);
+    let p = dir.join(name);
     img.to_dynamic_image().save(&p).unwrap();
     p
 }
@@ -28,12 +26,7 @@ fn input_png(dir: &Path) -> PathBuf {
 fn encode_decode_info_round_trip_and_overwrite_rules() {
     let d = tmpdir("roundtrip");
     let png = input_png(&d);
-    let out = caoen(&["encode", s(&png), "-q", "80", "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&["encode", s(&png), "-q", "80", "--quiet"]);
     assert!(out.stderr.is_empty(), "--quiet prints nothing");
     let cae = d.join("photo.cae");
     assert!(cae.exists(), "default output is the input's stem with .cae");
@@ -41,14 +34,12 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
     let again = caoen(&["encode", s(&png)]);
     assert_eq!(again.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&again.stderr).contains("--force"));
-    assert!(caoen(&["encode", s(&png), "-f", "--quiet"])
-        .status
-        .success());
+    caoen_ok(&["encode", s(&png), "-f", "--quiet"]);
     // Validate only, then decode to PNG, then info.
     let v = caoen(&["decode", s(&cae)]);
     assert!(v.status.success() && String::from_utf8_lossy(&v.stderr).contains("valid"));
     let back = d.join("back.png");
-    assert!(caoen(&["decode", s(&cae), "-o", s(&back)]).status.success());
+    caoen_ok(&["decode", s(&cae), "-o", s(&back)]);
     let img = image::open(&back).unwrap();
     assert_eq!((img.width(), img.height()), (96, 64));
     let info = caoen(&["info", s(&cae), "--json"]);
@@ -93,12 +84,7 @@ fn encode_decode_info_round_trip_and_overwrite_rules() {
         "sections plus magic and version make the file"
     );
     // compare agrees that the decoded file is close to the original.
-    let cmp = caoen(&["compare", s(&png), s(&cae), "--json"]);
-    assert!(
-        cmp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cmp.stderr)
-    );
+    caoen_ok(&["compare", s(&png), s(&cae), "--json"]);
 }
 
 #[test]
@@ -106,16 +92,9 @@ fn output_bytes_do_not_depend_on_threads() {
     let d = tmpdir("threads");
     let png = input_png(&d);
     let (a, b) = (d.join("a.cae"), d.join("b.cae"));
-    assert!(
-        caoen(&["encode", s(&png), "-o", s(&a), "-j", "1", "--quiet"])
-            .status
-            .success()
-    );
-    assert!(
-        caoen(&["encode", s(&png), "-o", s(&b), "-j", "2", "--quiet"])
-            .status
-            .success()
-    );
+    for (out, threads) in [(&a, "1"), (&b, "2")] {
+        caoen_ok(&["encode", s(&png), "-o", s(out), "-j", threads, "--quiet"]);
+    }
     assert_eq!(std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
 }
 
@@ -125,7 +104,7 @@ fn target_size_keypoint_map_and_json() {
     let png = input_png(&d);
     let cae = d.join("t.cae");
     let map = d.join("map.png");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "encode",
         s(&png),
         "-o",
@@ -137,11 +116,6 @@ fn target_size_keypoint_map_and_json() {
         "--json",
         "--quiet",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let bytes = j["bytes"].as_f64().unwrap();
     assert!(
@@ -156,9 +130,7 @@ fn bad_input_and_usage_fail_cleanly() {
     let d = tmpdir("bad");
     let png = input_png(&d);
     let cae = d.join("x.cae");
-    assert!(caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"])
-        .status
-        .success());
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     let mut bytes = std::fs::read(&cae).unwrap();
     bytes.truncate(bytes.len() / 2);
     let cut = d.join("cut.cae");
@@ -172,51 +144,25 @@ fn bad_input_and_usage_fail_cleanly() {
     );
     let junk = d.join("junk.png");
     std::fs::write(&junk, b"not a png at all").unwrap();
-    assert_eq!(
-        caoen(&["encode", s(&junk), "-o", s(&cae)]).status.code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["encode", s(&png), "-q", "150"]).status.code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["encode", s(&png), "--frobnicate"]).status.code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["decode", s(&cae), "--supersample", "9"])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["decode", s(&cae), "--max-pixels", "10"])
-            .status
-            .code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["decode", s(&cae), "-o", s(&d.join("x.bmp"))])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["info", s(&d.join("missing.cae"))]).status.code(),
-        Some(1)
-    );
+    let (bmp, missing) = (d.join("x.bmp"), d.join("missing.cae"));
+    let cases: [(&[&str], i32); 7] = [
+        (&["encode", s(&junk), "-o", s(&cae)], 1),
+        (&["encode", s(&png), "-q", "150"], 2),
+        (&["encode", s(&png), "--frobnicate"], 2),
+        (&["decode", s(&cae), "--supersample", "9"], 2),
+        (&["decode", s(&cae), "--max-pixels", "10"], 1),
+        (&["decode", s(&cae), "-o", s(&bmp)], 2),
+        (&["info", s(&missing)], 1),
+    ];
+    for (args, code) in cases {
+        assert_eq!(caoen(args).status.code(), Some(code), "{args:?}");
+    }
 }
 
 #[test]
 fn demo_runs_on_built_in_data() {
     let d = tmpdir("demo");
-    let out = caoen(&["demo", "-o", s(&d), "--quiet"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&["demo", "-o", s(&d), "--quiet"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("bpp") && text.contains("PSNR"), "{text}");
     for f in ["scene.cae", "scene-decoded.png", "scene-original.png"] {
@@ -259,28 +205,18 @@ fn rgb8(p: &Path) -> image::RgbImage {
 #[test]
 fn png_compression_levels_keep_the_pixels() {
     let d = tmpdir("png-levels");
-    let png = d.join("scene.png");
-    caoen_corpus::generate(caoen_corpus::Class::Scene, 384, 256, 4)
-        .to_dynamic_image()
-        .save(&png)
-        .unwrap();
+    let png = scene_png(&d, "scene.png", 384, 256, 4);
     let cae = d.join("p.cae");
-    assert!(caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"])
-        .status
-        .success());
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     let mut sizes = Vec::new();
+    // `cae` decoded to `out` at the PNG compression `level`.
+    let decode = |out: &Path, level: &str, more: &[&str]| {
+        let args = ["decode", s(&cae), "-o", s(out), "--png-compression", level];
+        caoen(&[&args[..], more].concat())
+    };
     for level in ["fast", "default", "best"] {
         let out = d.join(format!("{level}.png"));
-        let o = caoen(&[
-            "decode",
-            s(&cae),
-            "-o",
-            s(&out),
-            "--png-compression",
-            level,
-            "--quiet",
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&decode(&out, level, &["--quiet"]));
         sizes.push(std::fs::metadata(&out).unwrap().len());
         assert_eq!(
             rgb8(&out),
@@ -289,19 +225,7 @@ fn png_compression_levels_keep_the_pixels() {
         );
         // The same bytes again (deterministic at every level).
         let again = d.join(format!("{level}-again.png"));
-        assert!(caoen(&[
-            "decode",
-            s(&cae),
-            "-o",
-            s(&again),
-            "--png-compression",
-            level,
-            "--quiet",
-            "-j",
-            "1"
-        ])
-        .status
-        .success());
+        assert_ok(&decode(&again, level, &["--quiet", "-j", "1"]));
         assert_eq!(
             std::fs::read(&out).unwrap(),
             std::fs::read(&again).unwrap(),
@@ -313,15 +237,7 @@ fn png_compression_levels_keep_the_pixels() {
         sizes[2] < sizes[0],
         "best compresses more than fast: {sizes:?}"
     );
-    let o = caoen(&[
-        "decode",
-        s(&cae),
-        "-o",
-        s(&d.join("x.png")),
-        "--png-compression",
-        "max",
-    ]);
-    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(decode(&d.join("x.png"), "max", &[]).status.code(), Some(2));
 }
 
 #[test]
@@ -330,21 +246,14 @@ fn supersampling_anti_aliases_downscaled_decodes() {
     // size, 2x2 samples per pixel come closer to the full-size decode box-filtered down
     // than one sample per pixel.
     let d = tmpdir("supersample");
-    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 384, 256, 4);
-    let png = d.join("scene.png");
-    img.to_dynamic_image().save(&png).unwrap();
+    let png = scene_png(&d, "scene.png", 384, 256, 4);
     let cae = d.join("scene.cae");
-    assert!(
-        caoen(&["encode", s(&png), "-o", s(&cae), "-q", "90", "--quiet"])
-            .status
-            .success()
-    );
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "-q", "90", "--quiet"]);
     let dec = |name: &str, extra: &[&str]| {
         let out = d.join(name);
         let mut args = vec!["decode", s(&cae), "-o", s(&out), "--quiet"];
         args.extend(extra);
-        let o = caoen(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        caoen_ok(&args);
         out
     };
     let plain = dec("plain.png", &[]);
@@ -392,17 +301,7 @@ fn supersampling_anti_aliases_downscaled_decodes() {
 /// A 48x24 JPEG stored on its side (EXIF orientation 6) with a 200-byte ICC profile
 /// and an XMP packet: displayed, it is 24x48 with its red quarter at the top right.
 fn oriented_jpeg(dir: &Path) -> PathBuf {
-    let img = image::RgbImage::from_fn(48, 24, |x, y| {
-        if x < 24 && y < 12 {
-            image::Rgb([220, 30, 30])
-        } else {
-            image::Rgb([30, 30, 220])
-        }
-    });
-    let mut jpeg = Vec::new();
-    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 95)
-        .encode_image(&img)
-        .unwrap();
+    let jpeg = common::quarter_jpeg(48, 24, [220, 30, 30], [30, 30, 220]);
     let segment = |marker: u8, payload: &[u8]| {
         let mut out = vec![0xff, marker];
         out.extend_from_slice(&(payload.len() as u16 + 2).to_be_bytes());
@@ -430,12 +329,7 @@ fn oriented_jpeg(dir: &Path) -> PathBuf {
 }
 
 fn encode_json(args: &[&str]) -> serde_json::Value {
-    let out = caoen(&[&["encode", "--json", "--quiet"], args].concat());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&[&["encode", "--json", "--quiet"], args].concat());
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
@@ -471,21 +365,14 @@ fn encode_turns_photos_upright_and_keeps_the_metadata_asked_for() {
     }
     // The decoded picture is upright: red top right, blue top left.
     let png = d.join("up.png");
-    assert!(caoen(&["decode", s(&cae), "-o", s(&png), "--strip"])
-        .status
-        .success());
+    caoen_ok(&["decode", s(&cae), "-o", s(&png), "--strip"]);
     let img = rgb8(&png);
     assert_eq!(img.dimensions(), (24, 48));
     let (tr, tl) = (img.get_pixel(18, 6), img.get_pixel(6, 6));
     assert!(tr[0] > 150 && tr[2] < 100, "top right {tr:?}");
     assert!(tl[0] < 100 && tl[2] > 150, "top left {tl:?}");
     // compare reads the JPEG upright too, so the two line up.
-    let cmp = caoen(&["compare", s(&jpg), s(&png), "--json"]);
-    assert!(
-        cmp.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cmp.stderr)
-    );
+    caoen_ok(&["compare", s(&jpg), s(&png), "--json"]);
     let info = caoen(&["info", s(&cae)]);
     assert!(String::from_utf8_lossy(&info.stdout).contains("metadata:"));
     let info = caoen(&["info", s(&cae), "--json"]);
@@ -547,27 +434,15 @@ fn a_wrong_magic_number_stops_the_reading() {
 #[test]
 fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     let d = tmpdir("half");
-    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 130, 90, 4);
-    let png = d.join("scene.png");
-    img.to_dynamic_image().save(&png).unwrap();
+    let png = scene_png(&d, "scene.png", 130, 90, 4);
     let cae = d.join("scene.cae");
-    let out = caoen(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&cae),
-        "-q",
-        "40",
-        "--resampling",
-        "half",
-        "--json",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // The encode's JSON report at quality 40 and `--resampling resampling`.
+    let encode = |out: &Path, resampling: &str| -> serde_json::Value {
+        let args = ["encode", s(&png), "-o", s(out), "-q", "40", "--resampling"];
+        let o = caoen_ok(&[&args[..], &[resampling, "--json"]].concat());
+        serde_json::from_slice(&o.stdout).unwrap()
+    };
+    let j = encode(&cae, "half");
     assert_eq!(
         (&j["width"], &j["height"]),
         (&130.into(), &90.into()),
@@ -589,46 +464,20 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
     );
     // The decoder's default size and its --scale are the image's.
     let back = d.join("back.png");
-    assert!(caoen(&["decode", s(&cae), "-o", s(&back)]).status.success());
+    caoen_ok(&["decode", s(&cae), "-o", s(&back)]);
     assert_eq!(image::image_dimensions(&back).unwrap(), (130, 90));
     let half = d.join("half.png");
-    assert!(
-        caoen(&["decode", s(&cae), "-o", s(&half), "--scale", "0.5"])
-            .status
-            .success()
-    );
+    caoen_ok(&["decode", s(&cae), "-o", s(&half), "--scale", "0.5"]);
     assert_eq!(image::image_dimensions(&half).unwrap(), (65, 45));
     // `image::open` reads it at the image's size too, through the hooks.
     caoen::register_image_hooks();
     let opened = image::open(&cae).unwrap();
     assert_eq!((opened.width(), opened.height()), (130, 90));
     // Off keeps the image's size in the file.
-    let full = caoen(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&d.join("full.cae")),
-        "-q",
-        "40",
-        "--resampling",
-        "off",
-        "--json",
-    ]);
-    let j: serde_json::Value = serde_json::from_slice(&full.stdout).unwrap();
+    let j = encode(&d.join("full.cae"), "off");
     assert_eq!(j["coded_width"], 130, "{j}");
     // Any size in tenths per side: 0.7 of 130x90 is 91x63.
-    let seven = caoen(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&d.join("seven.cae")),
-        "-q",
-        "40",
-        "--resampling",
-        "0.7",
-        "--json",
-    ]);
-    let j: serde_json::Value = serde_json::from_slice(&seven.stdout).unwrap();
+    let j = encode(&d.join("seven.cae"), "0.7");
     assert_eq!(
         (&j["coded_width"], &j["coded_height"]),
         (&91.into(), &63.into()),

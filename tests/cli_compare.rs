@@ -2,7 +2,7 @@
 //! 0 (measured), 1 (bad or mismatched inputs), 2 (usage).
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -13,14 +13,7 @@ use caoen::raster::Raster;
 use caoen_corpus::{generate, Class};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-compare-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("compare-{name}"))
 }
 
 /// A corpus image written as a file, and its raster.
@@ -72,8 +65,7 @@ fn identical_files_are_infinite_psnr_and_ssim_one() {
         (Some(48), Some(40))
     );
     // Text mode says "inf".
-    let out = caoen(&["compare", s(&a), s(&a)]);
-    assert!(out.status.success());
+    let out = caoen_ok(&["compare", s(&a), s(&a)]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("inf dB"));
 }
 
@@ -103,8 +95,7 @@ fn text_on_stdout_messages_on_stderr_quiet_silences() {
     let d = tmpdir("text");
     let (a, ra) = corpus_file(&d, Class::Scene, 1, 32, 32);
     let (b, _) = distorted(&d, &ra, "b.png");
-    let out = caoen(&["compare", s(&a), s(&b)]);
-    assert!(out.status.success());
+    let out = caoen_ok(&["compare", s(&a), s(&b)]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     for key in ["PSNR", "Y-PSNR", "SSIM", "SSIMULACRA2"] {
         assert!(stdout.contains(key), "{stdout}");
@@ -136,7 +127,7 @@ fn failures_exit_1_with_a_message() {
     let d = tmpdir("fail");
     let (a, _) = corpus_file(&d, Class::Scene, 0, 32, 32);
     let (b, _) = corpus_file(&d, Class::Scene, 0, 32, 31);
-    let bad = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad");
+    let bad = common::repo_path("tests/bad");
     let cae = d.join("garbage.cae");
     std::fs::write(&cae, b"not a caoen file").unwrap();
     let cases: Vec<(Vec<String>, &str)> = vec![

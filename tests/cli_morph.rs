@@ -2,19 +2,12 @@
 //! bad input is refused.
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-morph-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("morph-{name}"))
 }
 
 #[test]
@@ -25,20 +18,13 @@ fn end_frames_are_the_models_and_animations_play() {
         root.join("examples/morph-a.json"),
         root.join("examples/morph-b.json"),
     );
+    // Five frames of A to B, 160x120, into `out`.
+    let morph = |out: &Path, more: &[&str]| {
+        let args = ["morph", s(&a), s(&b), "--frames", "5", "--size", "160x120"];
+        caoen_ok(&[&args[..], &["-o", s(out)], more].concat())
+    };
     let dir = d.join("frames");
-    let o = caoen(&[
-        "morph",
-        s(&a),
-        s(&b),
-        "--frames",
-        "5",
-        "-o",
-        s(&dir),
-        "--json",
-        "--size",
-        "160x120",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = morph(&dir, &["--json"]);
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     for k in 0..5 {
         assert!(dir.join(format!("frame-{k:03}.png")).exists());
@@ -56,7 +42,7 @@ fn end_frames_are_the_models_and_animations_play() {
         });
         std::fs::write(&scene, text.to_string()).unwrap();
         let out = d.join("single.png");
-        let o = caoen(&[
+        caoen_ok(&[
             "-f",
             "surface",
             "render",
@@ -70,7 +56,6 @@ fn end_frames_are_the_models_and_animations_play() {
             "--detail",
             "5",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert_eq!(
             std::fs::read(&out).unwrap(),
             std::fs::read(dir.join(frame)).unwrap(),
@@ -95,18 +80,7 @@ fn end_frames_are_the_models_and_animations_play() {
     // Animations decode to the frames' count, and their frames move.
     for anim in ["m.gif", "m.png"] {
         let path = d.join(anim);
-        let o = caoen(&[
-            "morph",
-            s(&a),
-            s(&b),
-            "--frames",
-            "5",
-            "-o",
-            s(&path),
-            "--size",
-            "160x120",
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        morph(&path, &[]);
         use image::AnimationDecoder;
         let file = std::io::BufReader::new(std::fs::File::open(&path).unwrap());
         let decoded: Vec<image::Frame> = if anim.ends_with(".gif") {
@@ -141,44 +115,32 @@ fn end_frames_are_the_models_and_animations_play() {
 #[test]
 fn bad_morphs_are_refused() {
     let d = tmpdir("bad");
-    let o = caoen(&[
-        "morph",
-        "builtin:blob",
-        "builtin:ring",
-        "-o",
-        s(&d.join("x.gif")),
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("domain"));
-    let o = caoen(&[
-        "morph",
-        "builtin:blob",
-        "builtin:octahedron",
-        "--frames",
-        "1",
-        "-o",
-        s(&d.join("x.gif")),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let o = caoen(&[
-        "morph",
-        "builtin:blob",
-        "builtin:octahedron",
-        "-o",
-        s(&d.join("x.mp4")),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    let o = caoen(&[
+    let (gif, mp4) = (d.join("x.gif"), d.join("x.mp4"));
+    let (blob, octahedron) = ("builtin:blob", "builtin:octahedron");
+    // Too large for the memory budget.
+    let large = [
         "--max-memory",
         "1M",
         "morph",
-        "builtin:blob",
-        "builtin:octahedron",
+        blob,
+        octahedron,
         "--size",
         "4000x4000",
-        "-o",
-        s(&d.join("x.gif")),
-    ]);
-    assert_eq!(o.status.code(), Some(1));
-    assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
+    ];
+    let cases: [(&[&str], &Path, i32, &str); 4] = [
+        (&["morph", blob, "builtin:ring"], &gif, 1, "domain"),
+        (&["morph", blob, octahedron, "--frames", "1"], &gif, 2, ""),
+        (&["morph", blob, octahedron], &mp4, 2, ""),
+        (&large, &gif, 1, ""),
+    ];
+    for (args, out, code, needle) in cases {
+        let args = [args, &["-o", s(out)]].concat();
+        let o = caoen(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
+        assert!(
+            err.contains(needle) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
 }

@@ -3,24 +3,13 @@
 //! links followed, no temporary file left behind, and stdout write errors reported.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, caoen_ok, s, stderr};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-cli-output-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
+    common::fresh_dir(&format!("cli-output-{name}"))
 }
 
 /// Exit code 1 and a single `error:` line, no panic.
@@ -34,17 +23,13 @@ fn assert_fails(out: &Output, needle: &str) {
     assert!(err.contains(needle), "{err}");
 }
 
-fn ok(out: &Output) {
-    assert!(out.status.success(), "{}", stderr(out));
-}
-
 /// A small PNG and its `.cae`.
 fn inputs(d: &Path) -> (PathBuf, PathBuf) {
     let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 48, 32, 1);
     let png = d.join("in.png");
     img.to_dynamic_image().save(&png).unwrap();
     let cae = d.join("in.cae");
-    ok(&caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"]));
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     (png, cae)
 }
 
@@ -96,24 +81,24 @@ fn an_existing_output_is_replaced_only_with_force() {
         args.push("--quiet");
         let target = PathBuf::from(args[args.iter().position(|a| *a == "-o").unwrap() + 1]);
         if !target.exists() {
-            ok(&caoen(&args));
+            caoen_ok(&args);
         }
         let before = std::fs::read(&target).unwrap();
         let again = caoen(&args);
         assert_fails(&again, "exists; pass -f/--force to overwrite it");
         assert_eq!(std::fs::read(&target).unwrap(), before, "{args:?}");
         args.push("-f");
-        ok(&caoen(&args));
+        caoen_ok(&args);
         args.pop();
         args.push("--force");
-        ok(&caoen(&args));
+        caoen_ok(&args);
     }
     // A default-named output follows the same rule, and says how to name another.
     let default = d.join("in.cae");
     assert!(default.exists());
     let out = caoen(&["encode", s(&png), "--quiet"]);
     assert_fails(&out, "or -o to name the output");
-    ok(&caoen(&["encode", s(&png), "--quiet", "-f"]));
+    caoen_ok(&["encode", s(&png), "--quiet", "-f"]);
     assert_no_temporaries(&d);
 }
 
@@ -126,7 +111,7 @@ fn a_replaced_file_keeps_its_permissions() {
     let out = d.join("out.png");
     std::fs::write(&out, b"old").unwrap();
     std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o640)).unwrap();
-    ok(&caoen(&["decode", s(&cae), "-o", s(&out), "-f", "--quiet"]));
+    caoen_ok(&["decode", s(&cae), "-o", s(&out), "-f", "--quiet"]);
     let meta = std::fs::metadata(&out).unwrap();
     assert_eq!(meta.permissions().mode() & 0o777, 0o640);
     assert!(std::fs::read(&out).unwrap().starts_with(b"\x89PNG"));
@@ -139,13 +124,7 @@ fn an_input_is_never_overwritten_even_with_force() {
     let png_bytes = std::fs::read(&png).unwrap();
     let cae_bytes = std::fs::read(&cae).unwrap();
     let model = d.join("ring.json");
-    ok(&caoen(&[
-        "surface",
-        "export",
-        "builtin:ring",
-        "-o",
-        s(&model),
-    ]));
+    caoen_ok(&["surface", "export", "builtin:ring", "-o", s(&model)]);
     // A caoen file under an image name, so that decoding it onto itself is no usage
     // error (the output's extension picks the format).
     let cae_png = d.join("cae.png");
@@ -229,9 +208,9 @@ fn devices_and_fifos_are_written_in_place() {
     let (png, cae) = inputs(&d);
     // A device: written without --force, and still a device afterwards.
     let dev = discarding_device();
-    ok(&caoen(&["decode", s(&cae), "-o", dev, "--quiet"]));
-    ok(&caoen(&["encode", s(&png), "-o", dev, "--quiet"]));
-    ok(&caoen(&[
+    caoen_ok(&["decode", s(&cae), "-o", dev, "--quiet"]);
+    caoen_ok(&["encode", s(&png), "-o", dev, "--quiet"]);
+    caoen_ok(&[
         "surface",
         "render",
         "builtin:ring",
@@ -240,11 +219,11 @@ fn devices_and_fifos_are_written_in_place() {
         "--size",
         "16x12",
         "--quiet",
-    ]));
+    ]);
     assert!(std::fs::metadata(dev).unwrap().file_type().is_char_device());
     // /dev/stdout is standard output, here a pipe, in the natural format.
     let out = caoen(&["decode", s(&cae), "-o", "/dev/stdout", "--quiet"]);
-    ok(&out);
+    assert_ok(&out);
     assert!(out.stdout.starts_with(b"\x89PNG"), "a PNG on stdout");
     // A FIFO, read by a thread: it gets the whole PNG and stays a FIFO.
     let fifo = d.join("pipe");
@@ -263,7 +242,7 @@ fn devices_and_fifos_are_written_in_place() {
             bytes
         })
     };
-    ok(&caoen(&["decode", s(&cae), "-o", s(&fifo), "--quiet"]));
+    caoen_ok(&["decode", s(&cae), "-o", s(&fifo), "--quiet"]);
     let got = reader.join().unwrap();
     let want = caoen(&["decode", s(&cae), "-o", "-", "--quiet"]).stdout;
     assert_eq!(got, want);
@@ -290,14 +269,7 @@ fn a_symbolic_link_output_writes_the_file_it_points_at() {
         &caoen(&["decode", s(&cae), "-o", s(&link), "--quiet"]),
         "exists",
     );
-    ok(&caoen(&[
-        "decode",
-        s(&cae),
-        "-o",
-        s(&link),
-        "-f",
-        "--quiet",
-    ]));
+    caoen_ok(&["decode", s(&cae), "-o", s(&link), "-f", "--quiet"]);
     assert!(std::fs::symlink_metadata(&link)
         .unwrap()
         .file_type()

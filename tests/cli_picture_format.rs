@@ -3,18 +3,13 @@
 //! `x.jpg` is a JPEG file, not PNG bytes under a JPEG name.
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
+// Both tests write here at once, so it is not cleared.
 fn tmpdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-picture-format-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::kept_dir("picture-format")
 }
 
 /// The format the file's bytes are in, by signature.
@@ -38,7 +33,7 @@ fn render_commands_write_the_format_the_extension_names() {
         ("c.png", image::ImageFormat::Png),
     ] {
         let out = dir.join(format!("surface-{name}"));
-        let o = caoen(&[
+        caoen_ok(&[
             "surface",
             "render",
             "builtin:blob",
@@ -49,13 +44,12 @@ fn render_commands_write_the_format_the_extension_names() {
             "--samples",
             "1",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert_eq!(sniff(&out), want, "{name}");
         let img = image::open(&out).unwrap();
         assert_eq!((img.width(), img.height()), (64, 48));
 
         let out = dir.join(format!("frep-{name}"));
-        let o = caoen(&[
+        caoen_ok(&[
             "frep",
             "render",
             s(&model),
@@ -66,7 +60,6 @@ fn render_commands_write_the_format_the_extension_names() {
             "--samples",
             "1",
         ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         assert_eq!(sniff(&out), want, "{name}");
     }
     // A JPEG of a render is close to its PNG (quality 92): mean error a few levels.

@@ -1,21 +1,18 @@
 //! End-to-end tests of `caoen surface ...` and `caoen demo`.
 
 mod common;
-use common::caoen;
+use common::{caoen, caoen_ok, s};
 
 use std::process::Command;
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::fresh_dir(&format!("test-{name}"))
 }
 
 #[test]
 fn eval_prints_the_golden_diagonal_point() {
     let s = 1.0 / 3f64.sqrt();
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "surface",
         "eval",
         "builtin:six-point",
@@ -23,11 +20,6 @@ fn eval_prints_the_golden_diagonal_point() {
         &format!("{s},{s},{s}"),
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // Exponential, q = 3: y = (e^{3(s-1)} - e^{3(-s-1)}) (1, 1, 1).
     let want = (3.0 * (s - 1.0)).exp() - (3.0 * (-s - 1.0)).exp();
@@ -42,17 +34,8 @@ fn eval_prints_the_golden_diagonal_point() {
 fn export_then_info_round_trips_a_model_file() {
     let d = tmpdir("export");
     let f = d.join("ring.json");
-    assert!(caoen(&[
-        "surface",
-        "export",
-        "builtin:ring",
-        "-o",
-        f.to_str().unwrap()
-    ])
-    .status
-    .success());
-    let out = caoen(&["surface", "info", f.to_str().unwrap(), "--json"]);
-    assert!(out.status.success());
+    caoen_ok(&["surface", "export", "builtin:ring", "-o", s(&f)]);
+    let out = caoen_ok(&["surface", "info", s(&f), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["key_points"], 48);
     assert_eq!(v["input_dim"], 4);
@@ -62,20 +45,15 @@ fn export_then_info_round_trips_a_model_file() {
 fn mesh_writes_a_closed_obj() {
     let d = tmpdir("mesh");
     let f = d.join("blob.obj");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "surface",
         "mesh",
         "builtin:blob",
         "-o",
-        f.to_str().unwrap(),
+        s(&f),
         "--detail",
         "3",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let text = std::fs::read_to_string(&f).unwrap();
     let verts = text.lines().filter(|l| l.starts_with("v ")).count();
     let faces = text.lines().filter(|l| l.starts_with("f ")).count();
@@ -89,52 +67,24 @@ fn bad_input_fails_cleanly_with_the_right_exit_code() {
     let d = tmpdir("bad");
     let bad = d.join("bad.json");
     std::fs::write(&bad, r#"{"format":"caoen-surface/1","domain":{"kind":"sphere","dim":3},"key_points":[{"source":[1,0,0],"shape":[1],"q":-1}]}"#).unwrap();
-    let out = caoen(&["surface", "info", bad.to_str().unwrap()]);
+    let out = caoen(&["surface", "info", s(&bad)]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("key_points[0].q"), "{err}");
     assert!(!err.contains("panicked"));
     // Missing file, unknown built-in, bad numbers, unknown options, NaN input.
-    assert_eq!(
-        caoen(&["surface", "info", d.join("missing.json").to_str().unwrap()])
-            .status
-            .code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["surface", "info", "builtin:nope"]).status.code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["surface", "eval", "builtin:blob", "--at", "1,x,0"])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&["surface", "eval", "builtin:blob", "--at", "NaN,0,1"])
-            .status
-            .code(),
-        Some(1)
-    );
-    assert_eq!(
-        caoen(&["surface", "info", "builtin:blob", "--frobnicate"])
-            .status
-            .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&[
-            "surface",
-            "mesh",
-            "builtin:blob",
-            "-o",
-            d.join("x.stl").to_str().unwrap()
-        ])
-        .status
-        .code(),
-        Some(2)
-    );
+    let (missing, stl) = (d.join("missing.json"), d.join("x.stl"));
+    let cases: [(&[&str], i32); 6] = [
+        (&["surface", "info", s(&missing)], 1),
+        (&["surface", "info", "builtin:nope"], 2),
+        (&["surface", "eval", "builtin:blob", "--at", "1,x,0"], 2),
+        (&["surface", "eval", "builtin:blob", "--at", "NaN,0,1"], 1),
+        (&["surface", "info", "builtin:blob", "--frobnicate"], 2),
+        (&["surface", "mesh", "builtin:blob", "-o", s(&stl)], 2),
+    ];
+    for (args, code) in cases {
+        assert_eq!(caoen(args).status.code(), Some(code), "{args:?}");
+    }
 }
 
 #[test]
@@ -176,7 +126,7 @@ fn a_closed_stdout_is_not_a_panic() {
 
 #[test]
 fn trailing_data_after_a_surface_or_scene_is_refused() {
-    let bad = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/bad");
+    let bad = common::repo_path("tests/bad");
     let d = tmpdir("trailing");
     for (args, what) in [
         (vec!["surface", "info"], "surface-trailing-garbage.json"),
@@ -188,9 +138,9 @@ fn trailing_data_after_a_surface_or_scene_is_refused() {
         let file = bad.join(what);
         let png = d.join("out.png");
         let mut args = args.clone();
-        args.insert(2, file.to_str().unwrap());
+        args.insert(2, s(&file));
         if args[1] == "render" {
-            args.extend(["-o", png.to_str().unwrap()]);
+            args.extend(["-o", s(&png)]);
         }
         let out = caoen(&args);
         let err = String::from_utf8_lossy(&out.stderr);

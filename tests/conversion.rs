@@ -7,23 +7,12 @@ use std::path::{Path, PathBuf};
 
 use caoen::conversion::deviation::vertex_deviation;
 use caoen::conversion::{
-    convert, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
+    convert, Conversion, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
 };
-use common::caoen;
+use common::{caoen, caoen_ok, repo_path, s};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-conv-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+    common::fresh_dir(&format!("conv-{name}"))
 }
 
 #[test]
@@ -51,6 +40,15 @@ fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
     }
 }
 
+/// `mesh` converted with at most `max_functions` functions.
+fn convert_at_most(mesh: &PolygonMesh, max_functions: usize) -> Conversion {
+    let opts = ConvertOptions {
+        max_functions,
+        ..Default::default()
+    };
+    convert(mesh, &opts, &mut |_| {})
+}
+
 #[test]
 fn the_written_model_is_the_fitted_function() {
     // A lumpy closed mesh: an ellipsoid with a dent, so perturbations are needed.
@@ -59,14 +57,7 @@ fn the_written_model_is_the_fitted_function() {
         let bump = (-((p[0] - 0.5).powi(2) + p[1].powi(2) + (p[2] - 0.4).powi(2)) * 8.0).exp();
         *p = p.map(|v| v * (1.0 - 0.3 * bump));
     }
-    let c = convert(
-        &mesh,
-        &ConvertOptions {
-            max_functions: 400,
-            ..Default::default()
-        },
-        &mut |_| {},
-    );
+    let c = convert_at_most(&mesh, 400);
     assert!(c.model.functions() > 1 && c.model.functions() <= 400);
     // The levels lower the mean distance (a level may trade a little of it for the
     // normals' tangent conditions).
@@ -121,9 +112,9 @@ fn the_written_model_is_the_fitted_function() {
 #[test]
 fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let dir = tmpdir("spot");
-    let mesh = repo("tests/data/meshes/spot.obj");
+    let mesh = repo_path("tests/data/meshes/spot.obj");
     let model = dir.join("spot.json");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "convert",
         s(&mesh),
         "-o",
@@ -134,11 +125,6 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
         "--target-depth",
         "0.005",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("level 0:"), "progress on stderr: {stderr}");
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -162,7 +148,7 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let again = caoen(&["convert", s(&mesh), "-o", s(&model)]);
     assert_eq!(again.status.code(), Some(1));
     let picture = dir.join("dev.png");
-    let out = caoen(&[
+    let out = caoen_ok(&[
         "--quiet",
         "deviation",
         s(&mesh),
@@ -173,11 +159,6 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
         "--picture",
         s(&picture),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     assert!(out.stderr.is_empty());
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let f = |path: &[&str]| path.iter().fold(&d, |v, k| &v[*k]).as_f64().unwrap();
@@ -218,12 +199,7 @@ fn convert_json(mesh: &Path, model: &Path, extra: &[&str]) -> serde_json::Value 
         "64",
     ];
     args.extend_from_slice(extra);
-    let out = caoen(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&args);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
@@ -232,19 +208,14 @@ fn deviation_json(args: &[&str]) -> serde_json::Value {
     let mut all = vec!["--quiet", "deviation"];
     all.extend_from_slice(args);
     all.push("--json");
-    let out = caoen(&all);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = caoen_ok(&all);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
 #[test]
 fn targets_not_met_say_why_and_the_advice_fits_the_cause() {
     let dir = tmpdir("advice");
-    let mesh = repo("tests/data/meshes/spot.obj");
+    let mesh = repo_path("tests/data/meshes/spot.obj");
     let model = dir.join("m.json");
     let run = |extra: &[&str]| convert_json(&mesh, &model, extra);
     // A small budget is spent: the advice is to raise it.
@@ -420,7 +391,7 @@ fn an_open_sheet_is_refused_naming_its_boundary_unless_filled_on_purpose() {
 fn the_shared_open_and_holed_meshes_are_told_apart() {
     // The beetle (a hand-digitised car body, one sheet) is refused naming its
     // boundary; the full Stanford bunny (a scan with holes at the base) is not.
-    let models = repo("../shared/models");
+    let models = repo_path("../shared/models");
     let beetle = models.join("beetle.obj");
     if !beetle.exists() {
         assert!(
@@ -454,7 +425,7 @@ fn a_model_far_from_the_mesh_measures_badly() {
         r#"{"format": "caoen-frep/1", "model": {"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}}"#,
     )
     .unwrap();
-    let mesh = repo("tests/data/meshes/spot.obj");
+    let mesh = repo_path("tests/data/meshes/spot.obj");
     let d = deviation_json(&[s(&mesh), s(&model), "--size", "64"]);
     assert!(d["depth"]["mean"].as_f64().unwrap() > 0.05, "{d}");
     assert!(
@@ -466,7 +437,7 @@ fn a_model_far_from_the_mesh_measures_badly() {
 
 #[test]
 fn triangle_strips_in_a_ply_are_read_as_triangles() {
-    let m = caoen::conversion::read(&repo("tests/data/meshes/tetra-strips.ply")).unwrap();
+    let m = caoen::conversion::read(&repo_path("tests/data/meshes/tetra-strips.ply")).unwrap();
     assert_eq!(m.triangles.len(), 4);
     let t = m.topology();
     assert!(t.is_closed(), "{t:?}");
@@ -500,7 +471,7 @@ fn broken_meshes_fail_with_clear_errors() {
         ("short-vertex.off", "line 4: vertex 1 has 2 numbers"),
     ];
     for (file, words) in expect {
-        let path = repo("tests/bad/mesh").join(file);
+        let path = repo_path("tests/bad/mesh").join(file);
         let out = caoen(&["convert", s(&path), "-o", s(&dir.join("m.json"))]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{file}: {err}");
@@ -537,14 +508,7 @@ fn a_rotated_box_is_cut_to_its_faces_exactly() {
     let turn = |p: [f64; 3]| [0, 1, 2].map(|j| r[j][0] * p[0] + r[j][1] * p[1] + r[j][2] * p[2]);
     let half = [1.0, 0.6, 0.4];
     let mesh = PolygonMesh::cuboid(half, r);
-    let c = convert(
-        &mesh,
-        &ConvertOptions {
-            max_functions: 60,
-            ..Default::default()
-        },
-        &mut |_| {},
-    );
+    let c = convert_at_most(&mesh, 60);
     assert_eq!(c.model.supports.as_ref().map(|s| s.planes.len()), Some(6));
     let v: serde_json::Value =
         serde_json::from_str(&c.model.to_frep_json("box", mesh.bounds()).to_string()).unwrap();

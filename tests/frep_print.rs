@@ -4,7 +4,7 @@
 //! read back with the OBJ's volume, and empty meshes refused.
 
 mod common;
-use common::{caoen, tool_present};
+use common::{assert_ok, caoen, repo_root, s, tool_present};
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -14,12 +14,8 @@ use caoen::geometry::printable::{bad_edges, min_height, volume};
 use caoen::render::mesh_io::read_stl;
 use serde_json::json;
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 fn node(v: serde_json::Value) -> Node {
-    Node::from_json(&v, "model", &repo()).unwrap()
+    Node::from_json(&v, "model", &repo_root()).unwrap()
 }
 
 /// The relief's height over one face of a box: the largest distance along the face's
@@ -145,15 +141,8 @@ fn relief_depth_is_the_same_on_every_face() {
     }
 }
 
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-print-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::fresh_dir(&format!("print-{name}"))
 }
 
 /// What the outside checkers say about a mesh file: (admesh, trimesh) lines, each None
@@ -222,7 +211,7 @@ print(a.is_watertight, a.is_winding_consistent, b.is_watertight, b.is_winding_co
         .args(["-c", script, s(stl), s(obj)])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let out = String::from_utf8_lossy(&o.stdout).to_string();
     let w: Vec<&str> = out.split_whitespace().collect();
     assert_eq!(&w[..4], ["True"; 4], "{}: trimesh {out}", stl.display());
@@ -372,7 +361,7 @@ fn print_pictures(dir: &Path, pictures: &[PathBuf], cells: &str, ext: &External)
 fn meshes_are_closed_manifolds_without_zero_area_triangles() {
     let ext = externals();
     let dir = tmpdir("meshes");
-    let examples = repo().join("examples/frep");
+    let examples = repo_root().join("examples/frep");
     let mut models: Vec<PathBuf> = std::fs::read_dir(&examples)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -393,7 +382,7 @@ fn meshes_are_closed_manifolds_without_zero_area_triangles() {
     }
     print_pictures(
         &dir,
-        &[repo().join("examples/distort/input.png")],
+        &[repo_root().join("examples/distort/input.png")],
         "32",
         &ext,
     );
@@ -406,7 +395,7 @@ fn meshes_are_closed_manifolds_without_zero_area_triangles() {
 #[ignore]
 fn every_photo_prints() {
     let ext = externals();
-    let photos = repo().join("../shared/photos");
+    let photos = repo_root().join("../shared/photos");
     // Run by hand beside the shared data: without it the test fails, it does not pass.
     let list = std::fs::read_dir(&photos).unwrap_or_else(|e| {
         panic!(

@@ -2,6 +2,8 @@
 //! path, builds and runs as a downstream user's program: it encodes and decodes a PNG
 //! through the root re-exports and opens the `.cae` with `image::open`.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -63,11 +65,7 @@ fn library_user_encodes_decodes_and_opens_with_the_image_crate() {
         .env("CARGO_TARGET_DIR", base.join("target"))
         .output()
         .expect("run cargo");
-    assert!(
-        out.status.success(),
-        "library-user failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_ok(&out);
 
     // The `.cae` decodes here to what the program saved and what `image::open` read.
     let cae = std::fs::read(work.join("photo.cae")).unwrap();

@@ -6,6 +6,8 @@
 //! estimates and peaks. The largest mesh of `../shared/models` (beside the clone) is
 //! one of the inputs: without it the test fails, it does not pass.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -138,15 +140,7 @@ fn estimates_are_upper_bounds_of_the_peak() {
     .expect("picture");
     let o = |n: &str| dir.join(n).display().to_string();
     let setup = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_caoen"))
-            .args(args)
-            .output()
-            .expect("run caoen");
-        assert!(
-            out.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        common::caoen_ok(args);
     };
     setup(&[
         "-f",

@@ -1,6 +1,9 @@
 //! Meshes: topology (Euler characteristic, closedness), no degenerate triangles, and
 //! OBJ/PLY files re-read by strict readers written against the format specifications.
 
+mod common;
+use common::{caoen_ok, s};
+
 use std::collections::HashMap;
 
 use caoen::render::mesh::{tessellate, Mesh, NormalMode};
@@ -430,27 +433,18 @@ fn ply_files_reread_strictly_with_the_same_mesh() {
 
 #[test]
 fn cli_mesh_writes_obj_with_material_and_texture() {
-    let dir = std::env::temp_dir().join(format!("caoen-render-mesh-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::kept_dir("render-mesh");
     let obj = dir.join("tex.obj");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args([
-            "--quiet",
-            "surface",
-            "mesh",
-            "examples/textured-blob.json",
-            "--detail",
-            "3",
-            "-o",
-        ])
-        .arg(&obj)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    caoen_ok(&[
+        "--quiet",
+        "surface",
+        "mesh",
+        "examples/textured-blob.json",
+        "--detail",
+        "3",
+        "-o",
+        s(&obj),
+    ]);
     let text = std::fs::read_to_string(&obj).unwrap();
     let parsed = read_obj(&text).unwrap();
     assert_eq!(parsed.v.len(), 10 * 4usize.pow(3) + 2);

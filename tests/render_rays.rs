@@ -4,7 +4,7 @@
 //! example against POV-Ray.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, has_povray, s, Stream};
 
 use std::path::{Path, PathBuf};
 
@@ -16,24 +16,7 @@ use caoen::surface::tracer::RayMethod;
 use serde_json::json;
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-rays-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
-
-/// A deterministic stream of numbers in [-1, 1) (xorshift).
-struct Stream(u64);
-impl Stream {
-    fn next(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
-    }
+    common::kept_dir(&format!("rays-{name}"))
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {
@@ -218,26 +201,14 @@ fn secondary_rays_do_not_depend_on_thread_count() {
         ..RenderOptions::default()
     };
     let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| render(&sc, &opts, &|_, _| {}).unwrap().image.pixels)
+        common::with_threads(threads, || {
+            render(&sc, &opts, &|_, _| {}).unwrap().image.pixels
+        })
     };
     assert_eq!(run(1), run(3));
 }
 
 /// Whether `povray` runs (`.ci/run` installs it); the POV-Ray tests skip without it.
-fn has_povray() -> bool {
-    let probe = std::process::Command::new("povray")
-        .arg("--version")
-        .output();
-    common::tool_present(
-        probe.is_ok_and(|o| o.status.success() || !o.stderr.is_empty()),
-        "POV-Ray",
-    )
-}
-
 /// Renders `scene` at 512x512 in caoen and, exported, in POV-Ray; returns the
 /// silhouette IoU, the mean absolute difference in grey levels (8-bit, over the three
 /// channels) inside both silhouettes, and both render times in seconds.
@@ -248,16 +219,7 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
         dir.join(format!("{stem}-caoen.png")),
         dir.join(format!("{stem}-povray.png")),
     );
-    let o = caoen(&[
-        "frep",
-        "export-pov",
-        s(scene),
-        "-o",
-        s(&pov),
-        "--size",
-        "512x512",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    common::export_pov(scene, &pov, 512);
     let started = std::time::Instant::now();
     let o = caoen(&[
         "frep",
@@ -271,7 +233,7 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
         samples,
     ]);
     let ours_s = started.elapsed().as_secs_f64();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let theirs_s = common::povray(&pov, &theirs, 512, "+A0.1");
     let (a, b) = (
         image::open(&ours).unwrap().to_rgb8(),
@@ -301,7 +263,7 @@ fn mirror_glass_example_matches_povray() {
         return;
     }
     let dir = tmpdir("mirror-glass");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/frep/mirror-glass.json");
+    let scene = common::repo_path("examples/frep/mirror-glass.json");
     let (iou, grey, ours, theirs) = against_povray(&dir, &scene, "2");
     println!(
         "mirror-glass 512x512: IoU {iou:.4}, mean difference {grey:.2} grey levels, caoen {ours:.2} s, POV-Ray {theirs:.2} s, ratio {:.3}",

@@ -1,7 +1,9 @@
 //! Scene files (errors name the field) and the render command end to end.
 
+mod common;
+use common::{caoen, caoen_ok};
+
 use std::path::Path;
-use std::process::Command;
 
 use caoen::render::{RenderError, Scene};
 
@@ -96,17 +98,9 @@ fn every_example_scene_loads() {
     assert!(s.objects.len() >= 3);
 }
 
-fn caoen(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 #[test]
 fn cli_renders_every_method_and_writes_depth_maps() {
-    let dir = std::env::temp_dir().join(format!("caoen-render-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::kept_dir("render-cli");
     let p = |n: &str| dir.join(n).to_string_lossy().into_owned();
     for (i, (input, method)) in [
         ("builtin:blob", "mesh"),
@@ -120,7 +114,7 @@ fn cli_renders_every_method_and_writes_depth_maps() {
         // One name per case: an existing output is not replaced without --force.
         let out = p(&format!("{i}-{method}.png"));
         let depth = p(&format!("{i}-{method}-depth.png"));
-        let o = caoen(&[
+        let o = caoen_ok(&[
             "--quiet",
             "surface",
             "render",
@@ -136,11 +130,6 @@ fn cli_renders_every_method_and_writes_depth_maps() {
             "--depth-out",
             &depth,
         ]);
-        assert!(
-            o.status.success(),
-            "{input} {method}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
         assert!(o.stderr.is_empty(), "-q must silence stderr");
         let img = image::open(&out).unwrap();
         assert_eq!((img.width(), img.height()), (80, 60));
@@ -153,7 +142,7 @@ fn cli_renders_every_method_and_writes_depth_maps() {
         assert!(d.pixels().any(|v| v[0] == 0) && d.pixels().any(|v| v[0] == 65535));
     }
     let exr = p("d.exr");
-    let o = caoen(&[
+    caoen_ok(&[
         "--quiet",
         "surface",
         "render",
@@ -165,7 +154,6 @@ fn cli_renders_every_method_and_writes_depth_maps() {
         "--depth-out",
         &exr,
     ]);
-    assert!(o.status.success());
     assert_eq!(
         &std::fs::read(&exr).unwrap()[..4],
         &[0x76, 0x2f, 0x31, 0x01],
@@ -175,7 +163,7 @@ fn cli_renders_every_method_and_writes_depth_maps() {
     let a = p("j1.png");
     let b = p("j2.png");
     for (j, f) in [("1", &a), ("2", &b)] {
-        assert!(caoen(&[
+        caoen_ok(&[
             "--quiet",
             "-j",
             j,
@@ -187,10 +175,8 @@ fn cli_renders_every_method_and_writes_depth_maps() {
             "--method",
             "depth",
             "--size",
-            "64x48"
-        ])
-        .status
-        .success());
+            "64x48",
+        ]);
     }
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     std::fs::remove_dir_all(&dir).ok();
@@ -200,37 +186,14 @@ fn cli_renders_every_method_and_writes_depth_maps() {
 fn cli_render_rejects_bad_usage_with_exit_code_2() {
     let out = std::env::temp_dir().join("caoen-never-written.png");
     let o = out.to_string_lossy();
-    for args in [
-        vec![
-            "surface",
-            "render",
-            "builtin:blob",
-            "-o",
-            &o,
-            "--size",
-            "12",
-        ],
-        vec!["surface", "render", "builtin:blob", "-o", "x.bmp"],
-        vec![
-            "surface",
-            "render",
-            "builtin:blob",
-            "-o",
-            &o,
-            "--depth-out",
-            "d.tiff",
-        ],
-        vec![
-            "surface",
-            "render",
-            "builtin:blob",
-            "-o",
-            &o,
-            "--samples",
-            "0",
-        ],
-        vec!["surface", "render", "builtin:nope", "-o", &o],
+    for (input, output, extra) in [
+        ("builtin:blob", &*o, &["--size", "12"][..]),
+        ("builtin:blob", "x.bmp", &[]),
+        ("builtin:blob", &*o, &["--depth-out", "d.tiff"]),
+        ("builtin:blob", &*o, &["--samples", "0"]),
+        ("builtin:nope", &*o, &[]),
     ] {
+        let args = [&["surface", "render", input, "-o", output][..], extra].concat();
         let r = caoen(&args);
         assert_eq!(
             r.status.code(),

@@ -5,6 +5,7 @@
 //! the reader refuses. `CAOEN_PROPTEST_CASES` sets the cases per writer (default 1000).
 
 mod common;
+use common::repo_path;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -42,10 +43,6 @@ fn file(stem: &str, ext: &str) -> PathBuf {
         "{stem}-{}.{ext}",
         N.fetch_add(1, Ordering::Relaxed)
     ))
-}
-
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
 /// Runs a `caoen` command line in process (quiet, replacing outputs).
@@ -260,7 +257,7 @@ proptest! {
 fn texture() -> &'static caoen::render::texture::Texture {
     static T: OnceLock<caoen::render::texture::Texture> = OnceLock::new();
     T.get_or_init(|| {
-        caoen::render::texture::Texture::load(&repo("tests/bad/hostile/small.png"))
+        caoen::render::texture::Texture::load(&repo_path("tests/bad/hostile/small.png"))
             .expect("small.png")
     })
 }
@@ -282,7 +279,7 @@ proptest! {
         let out = file(if carve { "carve" } else { "relief" }, "json");
         let mut args = vec![
             if carve { "carve" } else { "relief" }.to_string(),
-            s(&repo("tests/bad/hostile/small.png")),
+            s(&repo_path("tests/bad/hostile/small.png")),
             "--on".into(),
             s(&base),
             "-o".into(),
@@ -312,7 +309,7 @@ proptest! {
         let out = file("heightfield", "json");
         let mut args = vec![
             "heightfield".to_string(),
-            s(&repo("tests/bad/hostile/small.png")),
+            s(&repo_path("tests/bad/hostile/small.png")),
             "-o".into(),
             s(&out),
             "--base".into(),

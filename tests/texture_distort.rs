@@ -2,7 +2,7 @@
 //! Jacobian sign, PNG vs .cae agreement, fold-over warning, CLI errors.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
@@ -11,16 +11,10 @@ use caoen::image_io;
 use caoen::metrics;
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 use caoen::texture::warp::{self, Move, Warp};
+use caoen::texture::warp3d::{Move3, Warp3};
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-distort-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("distort-{name}"))
 }
 
 const W: u32 = 160;
@@ -28,24 +22,25 @@ const H: u32 = 120;
 
 /// A consistent set of moves: four points pushed in different directions.
 fn moves() -> Vec<Move> {
-    vec![
-        Move {
-            from: [40.5, 30.5],
-            to: [48.25, 36.0],
-        },
-        Move {
-            from: [120.5, 30.5],
-            to: [113.0, 26.5],
-        },
-        Move {
-            from: [80.5, 60.5],
-            to: [80.5, 70.0],
-        },
-        Move {
-            from: [50.5, 95.5],
-            to: [44.0, 92.75],
-        },
+    [
+        ([40.5, 30.5], [48.25, 36.0]),
+        ([120.5, 30.5], [113.0, 26.5]),
+        ([80.5, 60.5], [80.5, 70.0]),
+        ([50.5, 95.5], [44.0, 92.75]),
     ]
+    .map(|(from, to)| Move { from, to })
+    .to_vec()
+}
+
+/// [`moves`] with every point kept where it is.
+fn identity_moves() -> Vec<Move> {
+    moves()
+        .iter()
+        .map(|m| Move {
+            from: m.from,
+            to: m.from,
+        })
+        .collect()
 }
 
 /// A smooth colourful image with some structure.
@@ -132,13 +127,7 @@ fn dots_at_control_points_move_to_their_targets() {
 #[test]
 fn identity_moves_reproduce_the_input() {
     let img = pattern();
-    let id: Vec<Move> = moves()
-        .iter()
-        .map(|m| Move {
-            from: m.from,
-            to: m.from,
-        })
-        .collect();
+    let id = identity_moves();
     let warp = Warp::new(W, H, &id).unwrap();
     let out = warp::warp_raster(&img, &warp, 3).unwrap();
     let psnr = metrics::psnr(&img, &out).unwrap();
@@ -213,13 +202,7 @@ fn png_and_cae_paths_agree() {
     assert!(agree > unwarped + 10.0, "{agree} against {unwarped}");
     // With identity moves the .cae path is a box-sampled evaluation of the file: close
     // to the decoder's identity path (pixel centres).
-    let id: Vec<Move> = moves()
-        .iter()
-        .map(|m| Move {
-            from: m.from,
-            to: m.from,
-        })
-        .collect();
+    let id = identity_moves();
     let idw = Warp::new(W, H, &id).unwrap();
     let a = warp::warp_decoded(&d, &idw, 2).unwrap();
     let b = codec::decode(&bytes, &DecodeOptions::default()).unwrap();
@@ -228,28 +211,26 @@ fn png_and_cae_paths_agree() {
     assert!(p > 35.0, "{p}");
 }
 
+/// [`pattern`] written as `dir/in.png`.
+fn pattern_png(dir: &Path) -> PathBuf {
+    let png = dir.join("in.png");
+    image_io::save(&pattern(), &png).unwrap();
+    png
+}
+
 #[test]
 fn cli_distorts_png_and_cae() {
     let dir = tmpdir("cli");
-    let png = dir.join("in.png");
-    image_io::save(&pattern(), &png).unwrap();
+    let png = pattern_png(&dir);
+    let distort = |input: &Path, output: &Path, more: &[&str]| {
+        caoen_ok(&[&["distort", s(input), "-o", s(output)][..], more].concat())
+    };
     let out = dir.join("out.png");
-    let o = caoen(&[
-        "distort",
-        s(&png),
-        "-o",
-        s(&out),
-        "--move",
-        "40.5,30.5:48,36",
-        "--move",
-        "80,60:80,70",
-        "--grid",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let moves = ["--move", "40.5,30.5:48,36", "--move", "80,60:80,70"];
+    distort(&png, &out, &[&moves[..], &["--grid"]].concat());
     assert_eq!(image_io::load(&out).unwrap().width(), W);
     let cae = dir.join("in.cae");
-    let o = caoen(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
-    assert!(o.status.success());
+    caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
     let json = dir.join("moves.json");
     std::fs::write(
         &json,
@@ -257,30 +238,11 @@ fn cli_distorts_png_and_cae() {
     )
     .unwrap();
     let out2 = dir.join("out2.png");
-    let o = caoen(&[
-        "distort",
-        s(&cae),
-        "-o",
-        s(&out2),
-        "--moves",
-        s(&json),
-        "--supersample",
-        "2",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    distort(&cae, &out2, &["--moves", s(&json), "--supersample", "2"]);
     // Crossing moves: a warning, still an image.
     let out3 = dir.join("out3.png");
-    let o = caoen(&[
-        "distort",
-        s(&png),
-        "-o",
-        s(&out3),
-        "--move",
-        "60,60:100,60",
-        "--move",
-        "100,60:60,60",
-    ]);
-    assert!(o.status.success());
+    let crossing = ["--move", "60,60:100,60", "--move", "100,60:60,60"];
+    let o = distort(&png, &out3, &crossing);
     assert!(String::from_utf8_lossy(&o.stderr).contains("warning"));
     assert!(out3.exists());
 }
@@ -288,114 +250,64 @@ fn cli_distorts_png_and_cae() {
 #[test]
 fn cli_bad_arguments_and_files() {
     let dir = tmpdir("bad");
-    let png = dir.join("in.png");
-    image_io::save(&pattern(), &png).unwrap();
+    let png = pattern_png(&dir);
     let out = dir.join("o.png");
-    let code = |args: &[&str]| {
-        let o = caoen(args);
+    // The exit code of `caoen distort INPUT -o OUTPUT MORE...`, which never panics.
+    let code = |input: &Path, output: &Path, more: &[&str]| {
+        let o = caoen(&[&["distort", s(input), "-o", s(output)][..], more].concat());
         let err = String::from_utf8_lossy(&o.stderr).to_string();
         assert!(!err.contains("panicked"), "{err}");
         o.status.code()
     };
-    // Usage errors: exit 2.
-    assert_eq!(code(&["distort", s(&png), "-o", s(&out)]), Some(2));
-    assert_eq!(
-        code(&["distort", s(&png), "-o", s(&out), "--move", "1,2"]),
-        Some(2)
-    );
-    assert_eq!(
-        code(&["distort", s(&png), "-o", s(&out), "--move", "a,b:c,d"]),
-        Some(2)
-    );
-    assert_eq!(
-        code(&["distort", s(&png), "-o", s(&out), "--move", "nan,1:2,3"]),
-        Some(2)
-    );
-    assert_eq!(
-        code(&[
-            "distort",
-            s(&png),
-            "-o",
-            s(&dir.join("o.txt")),
-            "--move",
-            "1,2:3,4"
-        ]),
-        Some(2)
-    );
-    assert_eq!(
-        code(&[
-            "distort",
-            s(&png),
-            "-o",
-            s(&out),
-            "--move",
-            "1,2:3,4",
-            "--supersample",
-            "0"
-        ]),
-        Some(2)
-    );
-    // Bad files: exit 1.
-    assert_eq!(
-        code(&[
-            "distort",
-            s(&dir.join("missing.png")),
-            "-o",
-            s(&out),
-            "--move",
-            "1,2:3,4"
-        ]),
-        Some(1)
-    );
     let junk = dir.join("junk.cae");
     std::fs::write(&junk, b"not a caoen file").unwrap();
-    assert_eq!(
-        code(&["distort", s(&junk), "-o", s(&out), "--move", "1,2:3,4"]),
-        Some(1)
-    );
     let junkpng = dir.join("junk.png");
     std::fs::write(&junkpng, b"\x89PNG garbage").unwrap();
-    assert_eq!(
-        code(&["distort", s(&junkpng), "-o", s(&out), "--move", "1,2:3,4"]),
-        Some(1)
-    );
     let bad_json = dir.join("bad.json");
     std::fs::write(&bad_json, b"{\"from\": 1}").unwrap();
-    assert_eq!(
-        code(&["distort", s(&png), "-o", s(&out), "--moves", s(&bad_json)]),
-        Some(1)
+    let (txt, missing, none) = (
+        dir.join("o.txt"),
+        dir.join("missing.png"),
+        dir.join("none.json"),
     );
-    assert_eq!(
-        code(&[
-            "distort",
-            s(&png),
-            "-o",
-            s(&out),
-            "--moves",
-            s(&dir.join("none.json"))
-        ]),
-        Some(1)
-    );
+    let cases: [(&Path, &Path, &[&str], i32); 11] = [
+        // Usage errors: exit 2.
+        (&png, &out, &[], 2),
+        (&png, &out, &["--move", "1,2"], 2),
+        (&png, &out, &["--move", "a,b:c,d"], 2),
+        (&png, &out, &["--move", "nan,1:2,3"], 2),
+        (&png, &txt, &["--move", "1,2:3,4"], 2),
+        (&png, &out, &["--move", "1,2:3,4", "--supersample", "0"], 2),
+        // Bad files: exit 1.
+        (&missing, &out, &["--move", "1,2:3,4"], 1),
+        (&junk, &out, &["--move", "1,2:3,4"], 1),
+        (&junkpng, &out, &["--move", "1,2:3,4"], 1),
+        (&png, &out, &["--moves", s(&bad_json)], 1),
+        (&png, &out, &["--moves", s(&none)], 1),
+    ];
+    for (input, output, more, want) in cases {
+        let c = code(input, output, more);
+        assert_eq!(c, Some(want), "{} -o {} {more:?}", s(input), s(output));
+    }
     // Huge move coordinates: defined, no panic.
-    let c = code(&["distort", s(&png), "-o", s(&out), "--move", "1e300,1:2,3"]);
+    let c = code(&png, &out, &["--move", "1e300,1:2,3"]);
     assert!(c == Some(0) || c == Some(1), "{c:?}");
+}
+
+/// The blob's +x tip (its first key point, of shape (1.3, 0, 0)) pulled out and a pole
+/// held.
+fn tip_pulled() -> [Move3; 2] {
+    [
+        ([1.3, 0.0, 0.0], [1.7, 0.3, -0.1]),
+        ([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]),
+    ]
+    .map(|(from, to)| Move3 { from, to })
 }
 
 #[test]
 fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
-    use caoen::texture::warp3d::{Move3, Warp3};
     let model = caoen::surface::gallery::by_name("blob").unwrap().unwrap();
-    // The blob's first key point has shape (1.3, 0, 0): move it.
-    let moves = [
-        Move3 {
-            from: [1.3, 0.0, 0.0],
-            to: [1.7, 0.3, -0.1],
-        },
-        Move3 {
-            from: [0.0, 0.0, 1.0],
-            to: [0.0, 0.0, 1.0],
-        },
-    ];
+    let moves = tip_pulled();
     let warp = Warp3::new([-1.5; 3], [1.5; 3], &moves).unwrap();
     for m in &moves {
         let p = warp.map(m.from);
@@ -407,84 +319,28 @@ fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
     assert!((sh[0] - 1.7).abs() < 1e-9 && (sh[1] - 0.3).abs() < 1e-9 && (sh[2] + 0.1).abs() < 1e-9);
     // CLI: a surface in, a surface and a mesh out; bad moves are usage errors.
     let dir = tmpdir("surface");
-    let json = dir.join("d.json");
-    let o = caoen(&[
-        "distort",
-        "builtin:blob",
-        "-o",
-        s(&json),
-        "--move",
-        "1.3,0,0:1.7,0.3,-0.1",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (json, obj) = (dir.join("d.json"), dir.join("d.obj"));
+    let distort = |input: &str, output: &Path, mv: &str| {
+        caoen(&["distort", input, "-o", s(output), "--move", mv])
+    };
+    assert_ok(&distort("builtin:blob", &json, "1.3,0,0:1.7,0.3,-0.1"));
     assert!(caoen::surface::SurfaceModel::load(&json).is_ok());
-    let obj = dir.join("d.obj");
-    assert!(caoen(&[
-        "distort",
-        "builtin:blob",
-        "-o",
-        s(&obj),
-        "--move",
-        "1.3,0,0:1.7,0.3,-0.1"
-    ])
-    .status
-    .success());
-    assert_eq!(
-        caoen(&[
-            "distort",
-            "builtin:blob",
-            "-o",
-            s(&json),
-            "--move",
-            "1,2:3,4"
-        ])
-        .status
-        .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&[
-            "distort",
-            "builtin:blob",
-            "-o",
-            s(&dir.join("x.png")),
-            "--move",
-            "1,0,0:1,1,0"
-        ])
-        .status
-        .code(),
-        Some(2)
-    );
-    assert_eq!(
-        caoen(&[
-            "distort",
-            s(&dir.join("none.json")),
-            "-o",
-            s(&json),
-            "--move",
-            "1,0,0:1,1,0"
-        ])
-        .status
-        .code(),
-        Some(1)
-    );
+    assert_ok(&distort("builtin:blob", &obj, "1.3,0,0:1.7,0.3,-0.1"));
+    let none = dir.join("none.json");
+    for (input, output, mv, want) in [
+        ("builtin:blob", &json, "1,2:3,4", 2),
+        ("builtin:blob", &dir.join("x.png"), "1,0,0:1,1,0", 2),
+        (s(&none), &json, "1,0,0:1,1,0", 1),
+    ] {
+        let code = distort(input, output, mv).status.code();
+        assert_eq!(code, Some(want), "{input} -o {} {mv}", s(output));
+    }
 }
 
 #[test]
 fn surface_3d_warp_fold_check() {
-    use caoen::texture::warp3d::{Move3, Warp3};
-    // Consistent: the blob's +x tip pulled out and a pole held: no fold anywhere on the
-    // 24^3 grid over the box.
-    let consistent = [
-        Move3 {
-            from: [1.3, 0.0, 0.0],
-            to: [1.7, 0.3, -0.1],
-        },
-        Move3 {
-            from: [0.0, 0.0, 1.0],
-            to: [0.0, 0.0, 1.0],
-        },
-    ];
+    // Consistent: no fold anywhere on the 24^3 grid over the box.
+    let consistent = tip_pulled();
     let warp = Warp3::new([-1.5; 3], [1.5; 3], &consistent).unwrap();
     let r = warp.check_folds(24);
     println!(
@@ -513,15 +369,10 @@ fn surface_3d_warp_fold_check() {
     }
     // Crossing: two points swap places through each other: space folds over.
     let crossing = [
-        Move3 {
-            from: [-0.5, 0.0, 0.0],
-            to: [0.5, 0.0, 0.0],
-        },
-        Move3 {
-            from: [0.5, 0.0, 0.0],
-            to: [-0.5, 0.0, 0.0],
-        },
-    ];
+        ([-0.5, 0.0, 0.0], [0.5, 0.0, 0.0]),
+        ([0.5, 0.0, 0.0], [-0.5, 0.0, 0.0]),
+    ]
+    .map(|(from, to)| Move3 { from, to });
     let warp = Warp3::new([-1.5; 3], [1.5; 3], &crossing).unwrap();
     let r = warp.check_folds(24);
     println!(
@@ -532,7 +383,7 @@ fn surface_3d_warp_fold_check() {
     // CLI: the warning on stderr for the crossing moves only, a model written in both.
     let dir = tmpdir("fold3");
     let out = dir.join("d.json");
-    let o = caoen(&[
+    let o = caoen_ok(&[
         "distort",
         "builtin:blob",
         "-o",
@@ -542,13 +393,12 @@ fn surface_3d_warp_fold_check() {
         "--move",
         "0,0,1:0,0,1",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
         !String::from_utf8_lossy(&o.stderr).contains("warning"),
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let o = caoen(&[
+    let o = caoen_ok(&[
         "distort",
         "builtin:blob",
         "-o",
@@ -560,7 +410,6 @@ fn surface_3d_warp_fold_check() {
         "--move",
         "0.5,0,0:-0.5,0,0",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("warning: inconsistent moves"), "{err}");
     assert!(caoen::surface::SurfaceModel::load(&out).is_ok());

@@ -5,8 +5,9 @@
 //! `CI=true` its absence fails the test, elsewhere it is skipped with a message.
 
 mod common;
+use common::{assert_ok, s};
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
@@ -40,17 +41,6 @@ fn moves() -> Vec<([f64; 2], [f64; 2])> {
         ([80.5, 152.5], [70.0, 148.25]),
         ([200.5, 150.5], [206.0, 141.0]),
     ]
-}
-
-fn tmpdir() -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-im-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn dots(sigma: f64) -> Raster {
@@ -158,7 +148,7 @@ fn against_imagemagick_shepards() {
         return;
     }
     let im = im.unwrap();
-    let dir = tmpdir();
+    let dir = common::fresh_dir("im");
     let coords_png = dir.join("coords.png");
     image_io::save(&coords(), &coords_png).unwrap();
     let spec: Vec<String> = moves()
@@ -183,7 +173,7 @@ fn against_imagemagick_shepards() {
             ])
             .output()
             .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         t.elapsed().as_secs_f64()
     };
     let run_ours = |input: &Path, out: &Path| {
@@ -205,7 +195,7 @@ fn against_imagemagick_shepards() {
             .args(&args)
             .output()
             .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_ok(&o);
         t.elapsed().as_secs_f64()
     };
     let mut rows = Vec::new();

@@ -2,7 +2,7 @@
 //! domain.
 
 mod common;
-use common::caoen;
+use common::{assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
@@ -10,16 +10,11 @@ use caoen::render::framebuffer::RgbImage;
 use caoen::render::texture::{domain_uv, Texture, Wrap};
 use caoen::surface::gallery;
 use caoen::texture::transfer::{transfer, uv_domain};
+// The 16^3 test volume is the one `caoen examples` writes.
+use caoen_cli::commands::examples::volume_slices;
 
 fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("caoen-transfer-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    common::fresh_dir(&format!("transfer-{name}"))
 }
 
 fn checker() -> Texture {
@@ -85,44 +80,38 @@ fn different_domains_are_refused() {
     assert!(transfer(&a, &b, &checker(), 64, 32).is_err());
 }
 
+/// Runs `caoen transfer` of the picture `texture` from the surface `from` to `to` into
+/// `out`, with the arguments `more`, and asserts that it succeeded.
+fn transfer_cli(texture: &Path, from: &str, to: &str, out: &Path, more: &[&str]) {
+    let args = [
+        "transfer",
+        "--texture",
+        s(texture),
+        "--from",
+        from,
+        "--to",
+        to,
+    ];
+    caoen_ok(&[&args[..], &["-o", s(out)], more].concat());
+}
+
 #[test]
 fn cli_transfer_png_obj_and_errors() {
     let dir = tmpdir("cli");
     let tex = dir.join("checker.png");
     std::fs::write(&tex, checker().image().encode_png().unwrap()).unwrap();
     let png = dir.join("b.png");
-    let o = caoen(&[
-        "transfer",
-        "--texture",
-        s(&tex),
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&png),
-        "--size",
-        "160x120",
-        "--detail",
-        "4",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (octahedron, blob) = ("builtin:octahedron", "builtin:blob");
+    transfer_cli(
+        &tex,
+        octahedron,
+        blob,
+        &png,
+        &["--size", "160x120", "--detail", "4"],
+    );
     assert!(png.exists());
     let obj = dir.join("b.obj");
-    let o = caoen(&[
-        "transfer",
-        "--texture",
-        s(&tex),
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&obj),
-        "--detail",
-        "3",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    transfer_cli(&tex, octahedron, blob, &obj, &["--detail", "3"]);
     // What a viewer needs: the OBJ names its MTL and material, the MTL names the PNG,
     // every face corner indexes an existing position, texture coordinate and normal.
     let text = std::fs::read_to_string(&obj).unwrap();
@@ -151,25 +140,9 @@ fn cli_transfer_png_obj_and_errors() {
     }
     // A .cae texture.
     let cae = dir.join("t.cae");
-    assert!(caoen(&["encode", s(&tex), "-o", s(&cae), "--quiet"])
-        .status
-        .success());
-    let o = caoen(&[
-        "transfer",
-        "--texture",
-        s(&cae),
-        "--from",
-        "builtin:six-point",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&dir.join("c.png")),
-        "--size",
-        "64x48",
-        "--detail",
-        "3",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    caoen_ok(&["encode", s(&tex), "-o", s(&cae), "--quiet"]);
+    let more = ["--size", "64x48", "--detail", "3"];
+    transfer_cli(&cae, "builtin:six-point", blob, &dir.join("c.png"), &more);
     let code = |args: &[&str]| {
         let o = caoen(args);
         assert!(!String::from_utf8_lossy(&o.stderr).contains("panicked"));
@@ -276,7 +249,7 @@ fn texture_space_carries_a_solid_texture() {
     assert!(bake_texture_space(&ring, &b, &solid, 8, 8, 1).is_err());
     let dir = tmpdir("space");
     let out = dir.join("s.png");
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture-space",
         "builtin:six-point",
@@ -289,7 +262,6 @@ fn texture_space_carries_a_solid_texture() {
         "--detail",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(
         caoen(&["transfer", "--to", "builtin:blob", "-o", s(&out)])
             .status
@@ -382,46 +354,13 @@ fn procedural_solid_textures_golden_and_properties() {
     assert!(Solid::procedural("checker", f64::NAN, c).is_err());
 }
 
-/// A 16^3 test volume: an RGB gradient over the box with darker spherical shells.
-fn volume_slices() -> Vec<RgbImage> {
-    let n = 16;
-    (0..n)
-        .map(|k| {
-            let mut pixels = Vec::new();
-            for j in 0..n {
-                for i in 0..n {
-                    let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
-                    let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
-                    let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
-                        1.0
-                    } else {
-                        0.35
-                    };
-                    pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
-                }
-            }
-            RgbImage {
-                width: n,
-                height: n,
-                pixels,
-            }
-        })
-        .collect()
-}
-
 #[test]
 fn volume_texture_trilinear_and_errors() {
     use caoen::texture::solid::{Volume, VolumeWrap};
     // 2 x 2 x 2 voxels over [0, 2]^3: voxel centres at 0.5 and 1.5.
     let vox: Vec<[f32; 3]> = (0..8).map(|i| [i as f32, 0.0, 1.0]).collect();
-    let v = Volume::new(
-        [2, 2, 2],
-        vox.clone(),
-        [0.0; 3],
-        [2.0; 3],
-        VolumeWrap::Clamp,
-    )
-    .unwrap();
+    let cube = |wrap| Volume::new([2, 2, 2], vox.clone(), [0.0; 3], [2.0; 3], wrap);
+    let v = cube(VolumeWrap::Clamp).unwrap();
     assert_eq!(v.sample([0.5, 0.5, 0.5]), [0.0, 0.0, 1.0]);
     assert_eq!(v.sample([1.5, 0.5, 1.5]), [5.0, 0.0, 1.0]);
     // The centre: the mean of all eight.
@@ -430,14 +369,7 @@ fn volume_texture_trilinear_and_errors() {
     assert_eq!(v.sample([0.75, 0.5, 0.5]), [0.25, 0.0, 1.0]);
     assert_eq!(v.sample([-5.0, 9.0, 0.5]), [2.0, 0.0, 1.0]);
     // Repeat: one box further along every axis is the same point.
-    let r = Volume::new(
-        [2, 2, 2],
-        vox.clone(),
-        [0.0; 3],
-        [2.0; 3],
-        VolumeWrap::Repeat,
-    )
-    .unwrap();
+    let r = cube(VolumeWrap::Repeat).unwrap();
     assert_eq!(r.sample([0.8, 1.3, 0.6]), r.sample([2.8, -0.7, 4.6]));
     // Between the last and the first voxel it wraps: x = 0 is halfway between them.
     assert_eq!(r.sample([0.0, 0.5, 0.5]), [0.5, 0.0, 1.0]);
@@ -665,24 +597,8 @@ fn cli_the_source_surface_shapes_a_projected_picture() {
     ramp_png(&pic, 128, 64);
     let run = |from: &str, project: &str, out: &str| {
         let out = dir.join(out);
-        let o = caoen(&[
-            "transfer",
-            "--texture",
-            s(&pic),
-            "--from",
-            from,
-            "--project",
-            project,
-            "--to",
-            "builtin:blob",
-            "-o",
-            s(&out),
-            "--size",
-            "96x72",
-            "--detail",
-            "4",
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let more = ["--project", project, "--size", "96x72", "--detail", "4"];
+        transfer_cli(&pic, from, "builtin:blob", &out, &more);
         std::fs::read(out).unwrap()
     };
     for project in ["planar", "cylindrical", "spherical"] {
@@ -724,74 +640,21 @@ fn cli_projected_picture_round_trip_a_b_a() {
     let dir = tmpdir("roundtrip");
     let pic = dir.join("ramp.png");
     ramp_png(&pic, 128, 64);
-    let ok = |args: &[&str]| {
-        let o = caoen(args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    };
-    let common = ["--size", "128x96", "--detail", "4"];
+    let sized = ["--size", "128x96", "--detail", "4"];
     let (obj, back, direct, reference) = (
         dir.join("b.obj"),
         dir.join("back.png"),
         dir.join("direct.png"),
         dir.join("reference.png"),
     );
-    ok(&[
-        "transfer",
-        "--texture",
-        s(&pic),
-        "--from",
-        "builtin:blob",
-        "--to",
-        "builtin:octahedron",
-        "-o",
-        s(&obj),
-        "--detail",
-        "3",
-    ]);
+    let (blob, octahedron) = ("builtin:blob", "builtin:octahedron");
+    transfer_cli(&pic, blob, octahedron, &obj, &["--detail", "3"]);
     let b_texture = dir.join("b-texture.png");
-    let mut args = vec![
-        "transfer",
-        "--texture",
-        s(&b_texture),
-        "--project",
-        "domain",
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&back),
-    ];
-    args.extend(common);
-    ok(&args);
-    let mut args = vec![
-        "transfer",
-        "--texture",
-        s(&pic),
-        "--from",
-        "builtin:blob",
-        "--to",
-        "builtin:blob",
-        "-o",
-        s(&direct),
-    ];
-    args.extend(common);
-    ok(&args);
-    let mut args = vec![
-        "transfer",
-        "--texture",
-        s(&pic),
-        "--from",
-        "builtin:blob",
-        "--to",
-        "builtin:blob",
-        "--bake-size",
-        "512x256",
-        "-o",
-        s(&reference),
-    ];
-    args.extend(common);
-    ok(&args);
+    let domain = [&["--project", "domain"][..], &sized].concat();
+    transfer_cli(&b_texture, octahedron, blob, &back, &domain);
+    transfer_cli(&pic, blob, blob, &direct, &sized);
+    let bake = [&["--bake-size", "512x256"][..], &sized].concat();
+    transfer_cli(&pic, blob, blob, &reference, &bake);
     let (back, direct, reference) = (load_rgb(&back), load_rgb(&direct), load_rgb(&reference));
     let (to_direct, to_reference) = (
         common::psnr_render(&direct, &back),
@@ -908,7 +771,7 @@ fn obj_with_texture_loads_in_trimesh() {
     let pic = dir.join("ramp.png");
     ramp_png(&pic, 256, 128);
     let obj = dir.join("blob.obj");
-    let o = caoen(&[
+    caoen_ok(&[
         "transfer",
         "--texture",
         s(&pic),
@@ -923,7 +786,6 @@ fn obj_with_texture_loads_in_trimesh() {
         "--detail",
         "3",
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let script = r#"
 import sys, trimesh, numpy as np
 m = trimesh.load(sys.argv[1], force='mesh')
@@ -942,7 +804,7 @@ print(len(m.vertices), len(m.faces), img.size[0], img.size[1], keep.sum(), er, e
         .args(["-c", script, s(&obj)])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&o);
     let out = String::from_utf8_lossy(&o.stdout);
     println!("trimesh: {out}");
     let v: Vec<f64> = out.split_whitespace().map(|t| t.parse().unwrap()).collect();

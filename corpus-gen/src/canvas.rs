@@ -240,6 +240,13 @@ pub struct Disc {
     pub r: f64,
 }
 
+impl Disc {
+    /// The disc of radius `r` centred at `(cx, cy)`.
+    pub fn new(cx: f64, cy: f64, r: f64) -> Disc {
+        Disc { cx, cy, r }
+    }
+}
+
 impl Shape for Disc {
     fn bbox(&self) -> [f64; 4] {
         [
@@ -296,6 +303,44 @@ impl Shape for Ellipse {
     }
 }
 
+/// The bounding box `[x0, y0, x1, y1]` of `pts`, grown by `margin` on every side.
+fn points_bbox(pts: &[(f64, f64)], margin: f64) -> [f64; 4] {
+    let mut bb = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
+    for &(x, y) in pts {
+        bb[0] = bb[0].min(x);
+        bb[1] = bb[1].min(y);
+        bb[2] = bb[2].max(x);
+        bb[3] = bb[3].max(y);
+    }
+    [
+        bb[0] - margin,
+        bb[1] - margin,
+        bb[2] + margin,
+        bb[3] + margin,
+    ]
+}
+
+/// `coverage()` where `(x, y)` lies in the box `bb` (`[x0, y0, x1, y1]`), 0 outside it.
+fn inside_box(bb: &[f64; 4], x: f64, y: f64, coverage: impl FnOnce() -> f64) -> f64 {
+    if x < bb[0] || x > bb[2] || y < bb[1] || y > bb[3] {
+        0.0
+    } else {
+        coverage()
+    }
+}
+
+/// `w` less its projection onto the segment from 0 to `e`: the offset of the point `w`
+/// from the segment's nearest point.
+fn off_segment(wx: f64, wy: f64, ex: f64, ey: f64) -> (f64, f64) {
+    let ee = ex * ex + ey * ey;
+    let t = if ee > 0.0 {
+        ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (wx - ex * t, wy - ey * t)
+}
+
 /// A simple or self-intersecting polygon (even-odd rule), any vertex count >= 3.
 #[derive(Clone, Debug)]
 pub struct Polygon {
@@ -305,17 +350,8 @@ pub struct Polygon {
 
 impl Polygon {
     pub fn new(pts: Vec<(f64, f64)>) -> Polygon {
-        let mut bb = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
-        for &(x, y) in &pts {
-            bb[0] = bb[0].min(x);
-            bb[1] = bb[1].min(y);
-            bb[2] = bb[2].max(x);
-            bb[3] = bb[3].max(y);
-        }
-        Polygon {
-            pts,
-            bb: [bb[0] - 1.0, bb[1] - 1.0, bb[2] + 1.0, bb[3] + 1.0],
-        }
+        let bb = points_bbox(&pts, 1.0);
+        Polygon { pts, bb }
     }
 
     /// Axis-aligned rectangle.
@@ -347,14 +383,7 @@ impl Polygon {
             let ey = v[j].1 - v[i].1;
             let wx = x - v[i].0;
             let wy = y - v[i].1;
-            let ee = ex * ex + ey * ey;
-            let t = if ee > 0.0 {
-                ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let bx = wx - ex * t;
-            let by = wy - ey * t;
+            let (bx, by) = off_segment(wx, wy, ex, ey);
             d = d.min(bx * bx + by * by);
             let c1 = y >= v[i].1;
             let c2 = y < v[j].1;
@@ -373,10 +402,7 @@ impl Shape for Polygon {
         self.bb
     }
     fn coverage(&self, x: f64, y: f64) -> f64 {
-        if x < self.bb[0] || x > self.bb[2] || y < self.bb[1] || y > self.bb[3] {
-            return 0.0;
-        }
-        edge_cov(self.sdf(x, y))
+        inside_box(&self.bb, x, y, || edge_cov(self.sdf(x, y)))
     }
 }
 
@@ -392,18 +418,11 @@ pub struct Stroke {
 impl Stroke {
     pub fn new(pts: Vec<(f64, f64)>, width: f64) -> Stroke {
         let hw = width * 0.5;
-        let mut bb = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
-        for &(x, y) in &pts {
-            bb[0] = bb[0].min(x);
-            bb[1] = bb[1].min(y);
-            bb[2] = bb[2].max(x);
-            bb[3] = bb[3].max(y);
-        }
-        let m = hw + 1.0;
+        let bb = points_bbox(&pts, hw + 1.0);
         Stroke {
             pts,
             half_width: hw,
-            bb: [bb[0] - m, bb[1] - m, bb[2] + m, bb[3] + m],
+            bb,
         }
     }
 
@@ -425,16 +444,7 @@ impl Stroke {
             let (bx, by) = p[k];
             let ex = bx - ax;
             let ey = by - ay;
-            let wx = x - ax;
-            let wy = y - ay;
-            let ee = ex * ex + ey * ey;
-            let t = if ee > 0.0 {
-                ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let dx = wx - ex * t;
-            let dy = wy - ey * t;
+            let (dx, dy) = off_segment(x - ax, y - ay, ex, ey);
             best = best.min(dx * dx + dy * dy);
         }
         sqrt(best)
@@ -446,12 +456,11 @@ impl Shape for Stroke {
         self.bb
     }
     fn coverage(&self, x: f64, y: f64) -> f64 {
-        if x < self.bb[0] || x > self.bb[2] || y < self.bb[1] || y > self.bb[3] {
-            return 0.0;
-        }
-        let t = self.dist(x, y);
-        let hw = self.half_width;
-        clamp01((t + 0.5).min(hw) - (t - 0.5).max(-hw))
+        inside_box(&self.bb, x, y, || {
+            let t = self.dist(x, y);
+            let hw = self.half_width;
+            clamp01((t + 0.5).min(hw) - (t - 0.5).max(-hw))
+        })
     }
 }
 

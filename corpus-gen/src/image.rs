@@ -201,39 +201,26 @@ impl CorpusImage {
     /// The image as an `image::DynamicImage` (gray, gray-alpha, RGB or RGBA; 8-bit,
     /// 16-bit, or 32-bit float RGB/RGBA).
     pub fn to_dynamic_image(&self) -> DynamicImage {
+        fn buffer<P: image::Pixel>(
+            w: u32,
+            h: u32,
+            v: &[P::Subpixel],
+        ) -> ImageBuffer<P, Vec<P::Subpixel>> {
+            ImageBuffer::from_raw(w, h, v.to_vec())
+                .expect("buffer length checked in CorpusImage::new")
+        }
         let (w, h) = (self.width, self.height);
-        const MSG: &str = "buffer length checked in CorpusImage::new";
         match (&self.data, self.channels) {
-            (PixelData::U8(v), 1) => {
-                DynamicImage::ImageLuma8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U8(v), 2) => {
-                DynamicImage::ImageLumaA8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U8(v), 3) => {
-                DynamicImage::ImageRgb8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U8(v), _) => {
-                DynamicImage::ImageRgba8(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U16(v), 1) => {
-                DynamicImage::ImageLuma16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U16(v), 2) => {
-                DynamicImage::ImageLumaA16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U16(v), 3) => {
-                DynamicImage::ImageRgb16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::U16(v), _) => {
-                DynamicImage::ImageRgba16(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::F32(v), 3) => {
-                DynamicImage::ImageRgb32F(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
-            (PixelData::F32(v), _) => {
-                DynamicImage::ImageRgba32F(ImageBuffer::from_raw(w, h, v.clone()).expect(MSG))
-            }
+            (PixelData::U8(v), 1) => DynamicImage::ImageLuma8(buffer(w, h, v)),
+            (PixelData::U8(v), 2) => DynamicImage::ImageLumaA8(buffer(w, h, v)),
+            (PixelData::U8(v), 3) => DynamicImage::ImageRgb8(buffer(w, h, v)),
+            (PixelData::U8(v), _) => DynamicImage::ImageRgba8(buffer(w, h, v)),
+            (PixelData::U16(v), 1) => DynamicImage::ImageLuma16(buffer(w, h, v)),
+            (PixelData::U16(v), 2) => DynamicImage::ImageLumaA16(buffer(w, h, v)),
+            (PixelData::U16(v), 3) => DynamicImage::ImageRgb16(buffer(w, h, v)),
+            (PixelData::U16(v), _) => DynamicImage::ImageRgba16(buffer(w, h, v)),
+            (PixelData::F32(v), 3) => DynamicImage::ImageRgb32F(buffer(w, h, v)),
+            (PixelData::F32(v), _) => DynamicImage::ImageRgba32F(buffer(w, h, v)),
         }
     }
 
@@ -327,41 +314,33 @@ impl CorpusImage {
     }
 
     fn save_exr(&self, path: &Path, v: &[f32]) -> Result<(), CorpusError> {
+        use exr::image::write::layers::WritableLayers;
         use exr::prelude::*;
+        /// Writes the image as ZIP-compressed scanlines on this thread.
+        fn write<'i, L: WritableLayers<'i>>(
+            image: &'i Image<L>,
+            path: &Path,
+        ) -> exr::error::UnitResult {
+            image.write().non_parallel().to_file(path)
+        }
         let w = self.width as usize;
-        let ch = self.channels as usize;
-        let err = |source| CorpusError::Exr {
-            path: path.to_path_buf(),
-            source,
-        };
-        if ch == 3 {
+        let (size, encoding) = ((w, self.height as usize), Encoding::SMALL_LOSSLESS);
+        let written = if self.channels == 3 {
             let pixels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
                 let i = (y * w + x) * 3;
                 (v[i], v[i + 1], v[i + 2])
             });
-            Image::from_encoded_channels(
-                (w, self.height as usize),
-                Encoding::SMALL_LOSSLESS,
-                pixels,
-            )
-            .write()
-            .non_parallel()
-            .to_file(path)
-            .map_err(err)
+            write(&Image::from_encoded_channels(size, encoding, pixels), path)
         } else {
             let pixels = SpecificChannels::rgba(|Vec2(x, y): Vec2<usize>| {
                 let i = (y * w + x) * 4;
                 (v[i], v[i + 1], v[i + 2], v[i + 3])
             });
-            Image::from_encoded_channels(
-                (w, self.height as usize),
-                Encoding::SMALL_LOSSLESS,
-                pixels,
-            )
-            .write()
-            .non_parallel()
-            .to_file(path)
-            .map_err(err)
-        }
+            write(&Image::from_encoded_channels(size, encoding, pixels), path)
+        };
+        written.map_err(|source| CorpusError::Exr {
+            path: path.to_path_buf(),
+            source,
+        })
     }
 }

@@ -15,7 +15,7 @@
 //! }
 //! ```
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::CorpusError;
 use crate::image::{CorpusImage, SampleFormat};
@@ -94,11 +94,8 @@ impl Manifest {
     /// Read `dir/manifest.json`. `Ok(None)` if there is none, or if it is not
     /// a manifest written by this generator.
     pub fn read_from_dir(dir: &Path) -> Result<Option<Manifest>, CorpusError> {
-        let path = dir.join(MANIFEST_NAME);
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(CorpusError::io(path, e)),
+        let Some((_, text)) = read_manifest_text(dir)? else {
+            return Ok(None);
         };
         match serde_json::from_str::<Manifest>(&text) {
             Ok(m) if m.generator == GENERATOR => Ok(Some(m)),
@@ -110,11 +107,8 @@ impl Manifest {
     /// or it is another program's; an error if it does not parse, or if an entry names
     /// a file outside `dir` (an absolute path, or one with `..` or a root).
     pub fn read_for_reading(dir: &Path) -> Result<Option<Manifest>, CorpusError> {
-        let path = dir.join(MANIFEST_NAME);
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(CorpusError::io(path, e)),
+        let Some((path, text)) = read_manifest_text(dir)? else {
+            return Ok(None);
         };
         let value: serde_json::Value =
             serde_json::from_str(&text).map_err(|source| CorpusError::Manifest {
@@ -166,5 +160,15 @@ impl Manifest {
     /// Does the manifest list this file (image or contact sheet)?
     pub fn owns(&self, file: &str) -> bool {
         self.images.iter().any(|e| e.file == file) || self.contact_sheet.as_deref() == Some(file)
+    }
+}
+
+/// `dir/manifest.json`'s path and text; `None` if there is none.
+fn read_manifest_text(dir: &Path) -> Result<Option<(PathBuf, String)>, CorpusError> {
+    let path = dir.join(MANIFEST_NAME);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => Ok(Some((path, text))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(CorpusError::io(path, e)),
     }
 }

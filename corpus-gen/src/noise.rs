@@ -41,6 +41,14 @@ pub struct Noise {
     seed: u64,
 }
 
+/// The next octave's coordinates: turned by about 37 degrees, scaled by `lacunarity`
+/// and shifted by `shift`, so the octaves' lattices do not line up.
+fn next_octave(x: f64, y: f64, lacunarity: f64, shift: [f64; 2]) -> (f64, f64) {
+    let nx = 0.8 * x - 0.6 * y;
+    let ny = 0.6 * x + 0.8 * y;
+    (nx * lacunarity + shift[0], ny * lacunarity + shift[1])
+}
+
 impl Noise {
     pub fn new(seed: u64) -> Self {
         Noise {
@@ -86,18 +94,18 @@ impl Noise {
         let mut sum = 0.0;
         let mut norm = 0.0;
         for o in 0..octaves {
-            let s = self
-                .seed
-                .wrapping_add((o as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-            sum += amp * Self::perlin_seeded(s, x, y);
+            sum += amp * Self::perlin_seeded(self.octave_seed(1, o), x, y);
             norm += amp;
             amp *= gain;
-            let nx = 0.8 * x - 0.6 * y;
-            let ny = 0.6 * x + 0.8 * y;
-            x = nx * lacunarity + 17.13;
-            y = ny * lacunarity - 3.71;
+            (x, y) = next_octave(x, y, lacunarity, [17.13, -3.71]);
         }
         sum / norm
+    }
+
+    /// The seed of octave `o` of a sum whose octave seeds start at `first`.
+    fn octave_seed(&self, first: u64, o: u32) -> u64 {
+        self.seed
+            .wrapping_add((o as u64 + first).wrapping_mul(0x9E37_79B9_7F4A_7C15))
     }
 
     /// Standard fBm (lacunarity 2, gain 0.5).
@@ -114,20 +122,14 @@ impl Noise {
         let mut norm = 0.0;
         let mut weight = 1.0;
         for o in 0..octaves {
-            let s = self
-                .seed
-                .wrapping_add((o as u64 + 101).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-            let mut n = 1.0 - Self::perlin_seeded(s, x, y).abs();
+            let mut n = 1.0 - Self::perlin_seeded(self.octave_seed(101, o), x, y).abs();
             n *= n;
             n *= weight;
             weight = (n * 2.0).clamp(0.0, 1.0);
             sum += n * amp;
             norm += amp;
             amp *= 0.5;
-            let nx = 0.8 * x - 0.6 * y;
-            let ny = 0.6 * x + 0.8 * y;
-            x = nx * 2.0 + 5.3;
-            y = ny * 2.0 + 9.1;
+            (x, y) = next_octave(x, y, 2.0, [5.3, 9.1]);
         }
         (sum / norm).clamp(0.0, 1.0)
     }
@@ -139,16 +141,10 @@ impl Noise {
         let mut sum = 0.0;
         let mut norm = 0.0;
         for o in 0..octaves {
-            let s = self
-                .seed
-                .wrapping_add((o as u64 + 201).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-            sum += amp * Self::perlin_seeded(s, x, y).abs();
+            sum += amp * Self::perlin_seeded(self.octave_seed(201, o), x, y).abs();
             norm += amp;
             amp *= 0.5;
-            let nx = 0.8 * x - 0.6 * y;
-            let ny = 0.6 * x + 0.8 * y;
-            x = nx * 2.0 + 1.7;
-            y = ny * 2.0 + 4.2;
+            (x, y) = next_octave(x, y, 2.0, [1.7, 4.2]);
         }
         sum / norm
     }

@@ -3,13 +3,58 @@
 // Each test crate includes this module and uses only part of it.
 #![allow(dead_code)]
 
-// The library's tests and these share the property-test settings.
-#[path = "../../codec/caoen/tests/common/proptest_seed.rs"]
-mod proptest_seed;
-#[allow(unused_imports)] // Only the property-test crates call it.
-pub use proptest_seed::proptest_config;
+// The library's tests and these share the property-test settings and thread pools.
+#[path = "../../codec/caoen/tests/common/mod.rs"]
+mod library;
+#[allow(unused_imports)] // Each test crate calls only some.
+pub use library::{proptest_config, repo_path, repo_root, with_threads};
 
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+/// An empty directory for one test, `caoen-{name}-{pid}` under the system's temporary
+/// directory: the process id keeps concurrent runs apart, and whatever an earlier run of
+/// the same test left there is removed first.
+pub fn fresh_dir(name: &str) -> PathBuf {
+    let d = temp_path(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `caoen-{name}-{pid}` under the system's temporary directory, created if missing but
+/// not cleared, for tests that run in parallel in the same directory.
+pub fn kept_dir(name: &str) -> PathBuf {
+    let d = temp_path(name);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn temp_path(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("caoen-{name}-{}", std::process::id()))
+}
+
+/// A path as a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// A run's stderr as text.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Asserts that a run succeeded, showing its stderr if it did not.
+pub fn assert_ok(out: &Output) {
+    assert!(out.status.success(), "{}", stderr(out));
+}
+
+/// Runs `caoen` with `args` and asserts that it succeeded; its output.
+pub fn caoen_ok(args: &[&str]) -> Output {
+    let out = caoen(args);
+    assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    out
+}
 
 /// Runs the `caoen` binary built for these tests with `args`.
 pub fn caoen(args: &[&str]) -> Output {
@@ -32,6 +77,23 @@ pub fn tool_present(ok: bool, what: &str) -> bool {
     ok
 }
 
+/// A `w x h` JPEG (quality 95) in the colour `rest` but for its top-left quarter, in
+/// `quarter`.
+pub fn quarter_jpeg(w: u32, h: u32, quarter: [u8; 3], rest: [u8; 3]) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(w, h, |x, y| {
+        image::Rgb(if x < w / 2 && y < h / 2 {
+            quarter
+        } else {
+            rest
+        })
+    });
+    let mut out = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut out, 95)
+        .encode_image(&img)
+        .unwrap();
+    out
+}
+
 /// RGB PSNR (peak 1) of two renders, through `caoen::metrics`.
 pub fn psnr_render(
     a: &caoen::render::framebuffer::RgbImage,
@@ -49,6 +111,42 @@ pub fn psnr_rgb8(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
         i.as_raw().iter().map(|&v| f32::from(v) / 255.0).collect()
     };
     caoen::metrics::psnr_from_mse(caoen::metrics::mse(&flat(a), &flat(b)), 1.0)
+}
+
+/// A deterministic stream of numbers in [-1, 1) (xorshift), for many-sample checks.
+pub struct Stream(pub u64);
+
+impl Stream {
+    /// The next number.
+    pub fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+}
+
+/// Whether POV-Ray is installed (see [`tool_present`]).
+pub fn has_povray() -> bool {
+    let probe = Command::new("povray").arg("--version").output();
+    tool_present(
+        probe.is_ok_and(|o| o.status.success() || !o.stderr.is_empty()),
+        "POV-Ray",
+    )
+}
+
+/// Exports the model or scene `model` to the POV-Ray scene `pov` with `caoen frep
+/// export-pov`, `side` pixels square.
+pub fn export_pov(model: &Path, pov: &Path, side: u32) {
+    caoen_ok(&[
+        "frep",
+        "export-pov",
+        s(model),
+        "-o",
+        s(pov),
+        "--size",
+        &format!("{side}x{side}"),
+    ]);
 }
 
 /// Renders the POV-Ray scene `pov` to the PNG `out`, `side` pixels square, with the

@@ -113,62 +113,25 @@ pub fn from_dynamic(image: DynamicImage) -> Result<Raster, ImageIoError> {
 }
 
 pub(super) fn from_dynamic_at(image: DynamicImage, path: &Path) -> Result<Raster, ImageIoError> {
+    use ChannelLayout::{Grey, GreyAlpha, Rgb, Rgba};
+    use SampleFormat::{F32, U16, U8};
     // Division, not multiplication by the reciprocal: `k / 255` is the correctly
     // rounded value, the one every other part of the project computes.
-    const U8: f32 = 255.0;
-    const U16: f32 = 65535.0;
+    let bytes = |b: &[u8], channels| planar(b, channels, |v| f32::from(v) / 255.0);
+    let words = |b: &[u16], channels| planar(b, channels, |v| f32::from(v) / 65535.0);
+    let floats = |b: &[f32], channels| planar(b, channels, |v| v);
     let (w, h) = (image.width(), image.height());
     let (layout, format, samples) = match image {
-        DynamicImage::ImageLuma8(b) => (
-            ChannelLayout::Grey,
-            SampleFormat::U8,
-            planar(b.as_raw(), 1, |v| f32::from(v) / U8),
-        ),
-        DynamicImage::ImageLumaA8(b) => (
-            ChannelLayout::GreyAlpha,
-            SampleFormat::U8,
-            planar(b.as_raw(), 2, |v| f32::from(v) / U8),
-        ),
-        DynamicImage::ImageRgb8(b) => (
-            ChannelLayout::Rgb,
-            SampleFormat::U8,
-            planar(b.as_raw(), 3, |v| f32::from(v) / U8),
-        ),
-        DynamicImage::ImageRgba8(b) => (
-            ChannelLayout::Rgba,
-            SampleFormat::U8,
-            planar(b.as_raw(), 4, |v| f32::from(v) / U8),
-        ),
-        DynamicImage::ImageLuma16(b) => (
-            ChannelLayout::Grey,
-            SampleFormat::U16,
-            planar(b.as_raw(), 1, |v| f32::from(v) / U16),
-        ),
-        DynamicImage::ImageLumaA16(b) => (
-            ChannelLayout::GreyAlpha,
-            SampleFormat::U16,
-            planar(b.as_raw(), 2, |v| f32::from(v) / U16),
-        ),
-        DynamicImage::ImageRgb16(b) => (
-            ChannelLayout::Rgb,
-            SampleFormat::U16,
-            planar(b.as_raw(), 3, |v| f32::from(v) / U16),
-        ),
-        DynamicImage::ImageRgba16(b) => (
-            ChannelLayout::Rgba,
-            SampleFormat::U16,
-            planar(b.as_raw(), 4, |v| f32::from(v) / U16),
-        ),
-        DynamicImage::ImageRgb32F(b) => (
-            ChannelLayout::Rgb,
-            SampleFormat::F32,
-            planar(b.as_raw(), 3, |v| v),
-        ),
-        DynamicImage::ImageRgba32F(b) => (
-            ChannelLayout::Rgba,
-            SampleFormat::F32,
-            planar(b.as_raw(), 4, |v| v),
-        ),
+        DynamicImage::ImageLuma8(b) => (Grey, U8, bytes(&b, 1)),
+        DynamicImage::ImageLumaA8(b) => (GreyAlpha, U8, bytes(&b, 2)),
+        DynamicImage::ImageRgb8(b) => (Rgb, U8, bytes(&b, 3)),
+        DynamicImage::ImageRgba8(b) => (Rgba, U8, bytes(&b, 4)),
+        DynamicImage::ImageLuma16(b) => (Grey, U16, words(&b, 1)),
+        DynamicImage::ImageLumaA16(b) => (GreyAlpha, U16, words(&b, 2)),
+        DynamicImage::ImageRgb16(b) => (Rgb, U16, words(&b, 3)),
+        DynamicImage::ImageRgba16(b) => (Rgba, U16, words(&b, 4)),
+        DynamicImage::ImageRgb32F(b) => (Rgb, F32, floats(&b, 3)),
+        DynamicImage::ImageRgba32F(b) => (Rgba, F32, floats(&b, 4)),
         other => {
             return Err(ImageIoError::Unsupported {
                 path: path.to_path_buf(),
@@ -233,20 +196,19 @@ pub fn to_dynamic8(raster: &Raster) -> DynamicImage {
     let data = interleave(raster, |v| quantise(v, 255.0) as u8);
     let (w, h) = (raster.width(), raster.height());
     // The buffer length matches the dimensions by construction, so `from_raw` succeeds.
-    let bad = "interleaved buffer matches the raster's dimensions";
+    fn buffer<P: image::Pixel<Subpixel = u8>>(
+        w: u32,
+        h: u32,
+        data: Vec<u8>,
+    ) -> image::ImageBuffer<P, Vec<u8>> {
+        image::ImageBuffer::from_raw(w, h, data)
+            .expect("interleaved buffer matches the raster's dimensions")
+    }
     match raster.layout() {
-        ChannelLayout::Grey => {
-            DynamicImage::ImageLuma8(image::ImageBuffer::from_raw(w, h, data).expect(bad))
-        }
-        ChannelLayout::GreyAlpha => {
-            DynamicImage::ImageLumaA8(image::ImageBuffer::from_raw(w, h, data).expect(bad))
-        }
-        ChannelLayout::Rgb => {
-            DynamicImage::ImageRgb8(image::ImageBuffer::from_raw(w, h, data).expect(bad))
-        }
-        ChannelLayout::Rgba => {
-            DynamicImage::ImageRgba8(image::ImageBuffer::from_raw(w, h, data).expect(bad))
-        }
+        ChannelLayout::Grey => DynamicImage::ImageLuma8(buffer(w, h, data)),
+        ChannelLayout::GreyAlpha => DynamicImage::ImageLumaA8(buffer(w, h, data)),
+        ChannelLayout::Rgb => DynamicImage::ImageRgb8(buffer(w, h, data)),
+        ChannelLayout::Rgba => DynamicImage::ImageRgba8(buffer(w, h, data)),
     }
 }
 

@@ -27,8 +27,8 @@ pub use transcode::{
     decode_file, decode_to_image, DecodeToImage, DecodedImage, FormatChoice, TranscodeError,
 };
 pub use write::{
-    encode, encode_memory, encode_png_interleaved, encode_png_interleaved_with, encode_with,
-    encode_with_metadata, save, save_as, PngCompression,
+    encode, encode_memory, encode_png16, encode_png8, encode_png_interleaved,
+    encode_png_interleaved_with, encode_with, encode_with_metadata, save, save_as, PngCompression,
 };
 
 use std::path::Path;

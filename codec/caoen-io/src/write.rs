@@ -164,16 +164,39 @@ pub fn encode_png_interleaved(
     level: PngCompression,
 ) -> Result<Vec<u8>, ImageIoError> {
     use caoen_decoder::decoder::Samples;
-    let sixteen = matches!(image.samples, Samples::U16(_));
-    let color = png_colour(image.layout, sixteen);
-    let mem = Path::new("<memory>");
+    let (w, h, layout) = (image.width, image.height, image.layout);
     match &image.samples {
-        Samples::U8(b) => write_png(b, image.width, image.height, color, mem, level),
-        Samples::U16(s) => {
-            let bytes: Vec<u8> = s.iter().flat_map(|v| v.to_ne_bytes()).collect();
-            write_png(&bytes, image.width, image.height, color, mem, level)
-        }
+        Samples::U8(b) => encode_png8(b, w, h, layout, level),
+        Samples::U16(s) => encode_png16(s, w, h, layout, level),
     }
+}
+
+/// Encodes 8-bit interleaved samples of `layout`, `width x height` pixels, as a PNG
+/// file in memory.
+pub fn encode_png8(
+    samples: &[u8],
+    width: u32,
+    height: u32,
+    layout: ChannelLayout,
+    level: PngCompression,
+) -> Result<Vec<u8>, ImageIoError> {
+    let color = png_colour(layout, false);
+    write_png(samples, width, height, color, Path::new("<memory>"), level)
+}
+
+/// Encodes 16-bit interleaved samples of `layout`, `width x height` pixels, as a PNG
+/// file in memory.
+pub fn encode_png16(
+    samples: &[u16],
+    width: u32,
+    height: u32,
+    layout: ChannelLayout,
+    level: PngCompression,
+) -> Result<Vec<u8>, ImageIoError> {
+    // The encoder takes 16-bit samples in native byte order.
+    let bytes: Vec<u8> = samples.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    let color = png_colour(layout, true);
+    write_png(&bytes, width, height, color, Path::new("<memory>"), level)
 }
 
 /// [`encode_png_interleaved`] carrying metadata (iCCP, eXIf and iTXt XMP chunks).

@@ -119,6 +119,23 @@ pub struct Comparison {
     pub psnr_alpha: Option<f64>,
 }
 
+/// `planes` of two rasters' luma planes (on the pair's [`Scale`]), once the rasters are
+/// checked comparable.
+fn on_luma_planes(
+    reference: &Raster,
+    test: &Raster,
+    planes: fn(&[f32], &[f32], u32, u32) -> f64,
+) -> Result<f64, MetricError> {
+    check_pair(reference, test)?;
+    let scale = Scale::for_pair(reference, test);
+    Ok(planes(
+        &luma_plane(reference, scale),
+        &luma_plane(test, scale),
+        reference.width(),
+        reference.height(),
+    ))
+}
+
 /// Checks that two rasters can be compared.
 fn check_pair(a: &Raster, b: &Raster) -> Result<(), MetricError> {
     if (a.width(), a.height()) != (b.width(), b.height()) {

@@ -10,7 +10,7 @@
 //! exponents. Negative mean terms (anticorrelated images) count as 0.
 
 use super::ssim::ssim_and_contrast_structure;
-use super::{check_pair, luma_plane, MetricError, Scale};
+use super::{on_luma_planes, MetricError};
 use caoen_base::raster::Raster;
 
 /// The exponents of the five scales, finest first (Wang et al. 2003, table 1).
@@ -18,14 +18,7 @@ pub const MS_SSIM_WEIGHTS: [f64; 5] = [0.0448, 0.2856, 0.3001, 0.2363, 0.1333];
 
 /// MS-SSIM of two rasters' luma planes (the plane of [`super::ssim`]), at most 1.
 pub fn ms_ssim(reference: &Raster, test: &Raster) -> Result<f64, MetricError> {
-    check_pair(reference, test)?;
-    let scale = Scale::for_pair(reference, test);
-    Ok(ms_ssim_planes(
-        &luma_plane(reference, scale),
-        &luma_plane(test, scale),
-        reference.width(),
-        reference.height(),
-    ))
+    on_luma_planes(reference, test, ms_ssim_planes)
 }
 
 /// MS-SSIM of two planes of `width x height` samples on a [0, 1] scale.

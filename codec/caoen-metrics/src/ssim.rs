@@ -11,7 +11,7 @@
 //! window that fits, with the same sigma, renormalised: a 1x1 image compares its
 //! single pixels.
 
-use super::{check_pair, luma_plane, MetricError, Scale};
+use super::{on_luma_planes, MetricError};
 use caoen_base::raster::Raster;
 
 /// Window side in pixels.
@@ -25,14 +25,7 @@ pub const SSIM_C2: f64 = 0.03 * 0.03;
 
 /// SSIM of two rasters' luma planes (see the module docs of [`crate`]).
 pub fn ssim(reference: &Raster, test: &Raster) -> Result<f64, MetricError> {
-    check_pair(reference, test)?;
-    let scale = Scale::for_pair(reference, test);
-    Ok(ssim_planes(
-        &luma_plane(reference, scale),
-        &luma_plane(test, scale),
-        reference.width(),
-        reference.height(),
-    ))
+    on_luma_planes(reference, test, ssim_planes)
 }
 
 /// Normalised 1-D Gaussian weights of odd length `len`.
@@ -56,6 +49,27 @@ fn window_len(n: usize) -> usize {
     } else {
         len
     }
+}
+
+/// A `width x height` plane, row-major, of the sums over `kernel`'s weights `w_k` of
+/// `w_k * at(x, y, k)`.
+fn convolve(
+    width: usize,
+    height: usize,
+    kernel: &[f64],
+    at: impl Fn(usize, usize, usize) -> f64,
+) -> Vec<f64> {
+    let mut out = vec![0.0; width * height];
+    for y in 0..height {
+        for x in 0..width {
+            out[y * width + x] = kernel
+                .iter()
+                .enumerate()
+                .map(|(k, wk)| wk * at(x, y, k))
+                .sum();
+        }
+    }
+    out
 }
 
 /// Mean SSIM of two planes of `width x height` samples on a [0, 1] scale.
@@ -89,27 +103,8 @@ pub(super) fn ssim_and_contrast_structure(a: &[f32], b: &[f32], w: usize, h: usi
     let moments: Vec<Vec<f64>> = products
         .iter()
         .map(|f| {
-            let mut rows = vec![0.0; ow * h];
-            for y in 0..h {
-                for x in 0..ow {
-                    rows[y * ow + x] = kx
-                        .iter()
-                        .enumerate()
-                        .map(|(k, wk)| wk * f(y * w + x + k))
-                        .sum();
-                }
-            }
-            let mut out = vec![0.0; ow * oh];
-            for y in 0..oh {
-                for x in 0..ow {
-                    out[y * ow + x] = ky
-                        .iter()
-                        .enumerate()
-                        .map(|(k, wk)| wk * rows[(y + k) * ow + x])
-                        .sum();
-                }
-            }
-            out
+            let rows = convolve(ow, h, &kx, |x, y, k| f(y * w + x + k));
+            convolve(ow, oh, &ky, |x, y, k| rows[(y + k) * ow + x])
         })
         .collect();
     let (mx, my, xx, yy, xy) = (

@@ -3,12 +3,25 @@
 
 use std::io::Cursor;
 
+use caoen_base::raster::ChannelLayout;
+use caoen_io::PngCompression;
 use palette::{LinSrgb, Srgb};
 
 use super::error::{RenderError, Result};
 
 /// JPEG quality of written pictures (high: renders have smooth gradients).
 const JPEG_QUALITY: u8 = 92;
+
+/// PNG compression of written pictures and depth maps: the `image` crate's default,
+/// which the committed example pictures were written with.
+const PNG_LEVEL: PngCompression = PngCompression::Fast;
+
+fn png_error(e: caoen_io::ImageIoError) -> RenderError {
+    RenderError::Encode {
+        format: "PNG",
+        source: Box::new(e),
+    }
+}
 
 /// The file formats a picture is written in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -210,15 +223,15 @@ impl RgbImage {
 
     /// The image as an 8-bit sRGB PNG file.
     pub fn encode_png(&self) -> Result<Vec<u8>> {
-        let buf = image::RgbImage::from_raw(self.width, self.height, self.to_srgb8())
-            .expect("to_srgb8 gives three samples per pixel");
-        let mut bytes = Cursor::new(Vec::new());
-        buf.write_to(&mut bytes, image::ImageFormat::Png)
-            .map_err(|e| RenderError::Encode {
-                format: "PNG",
-                source: Box::new(e),
-            })?;
-        Ok(bytes.into_inner())
+        let samples = self.to_srgb8();
+        caoen_io::encode_png8(
+            &samples,
+            self.width,
+            self.height,
+            ChannelLayout::Rgb,
+            PNG_LEVEL,
+        )
+        .map_err(png_error)
     }
 
     /// Loads an image file into linear light through the checked loader (size limits
@@ -350,16 +363,15 @@ impl DepthMap {
 
     /// The depth map as a 16-bit greyscale PNG (see [`DepthMap::to_u16`]).
     pub fn encode_png16(&self) -> Result<Vec<u8>> {
-        let buf: image::ImageBuffer<image::Luma<u16>, Vec<u16>> =
-            image::ImageBuffer::from_raw(self.width, self.height, self.to_u16())
-                .expect("to_u16 gives one sample per pixel");
-        let mut bytes = Cursor::new(Vec::new());
-        buf.write_to(&mut bytes, image::ImageFormat::Png)
-            .map_err(|e| RenderError::Encode {
-                format: "PNG",
-                source: Box::new(e),
-            })?;
-        Ok(bytes.into_inner())
+        let samples = self.to_u16();
+        caoen_io::encode_png16(
+            &samples,
+            self.width,
+            self.height,
+            ChannelLayout::Grey,
+            PNG_LEVEL,
+        )
+        .map_err(png_error)
     }
 
     /// The raw depths as a single-channel (`Z`, 32-bit float) OpenEXR file; background

@@ -1,4 +1,7 @@
 //! Development measurements (ignored by default): rate, PSNR, timings.
+
+mod common;
+
 use caoen::codec::{decode, encode_with_progress, DecodeOptions, EncodeOptions};
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
 
@@ -13,15 +16,27 @@ fn corpus_raster(class: &str, seed: u64) -> Raster {
 }
 
 fn psnr(a: &Raster, b: &Raster) -> f64 {
-    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as f64;
-    let mse = a
-        .samples()
-        .iter()
-        .zip(b.samples())
-        .map(|(x, y)| (q(*x) - q(*y)).powi(2))
-        .sum::<f64>()
-        / a.samples().len() as f64;
+    let mse = common::mse_by(a, b, |v| (v.clamp(0.0, 1.0) * 255.0).round() as f64);
     10.0 * (255.0f64 * 255.0 / mse).log10()
+}
+
+/// `QS`, comma-separated qualities, or `default`.
+fn qualities(default: &str) -> Vec<f32> {
+    std::env::var("QS")
+        .unwrap_or(default.into())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect()
+}
+
+/// The RD scripts' inputs: `FILES` (comma-separated), `QS` and `EFFORT`.
+fn rd_inputs() -> (String, Vec<f32>, u8) {
+    let files = std::env::var("FILES").unwrap();
+    let effort = std::env::var("EFFORT")
+        .unwrap_or("5".into())
+        .parse()
+        .unwrap();
+    (files, qualities("20,35,50,60,70,80,90"), effort)
 }
 
 #[test]
@@ -29,11 +44,7 @@ fn psnr(a: &Raster, b: &Raster) -> f64 {
 fn rate_distortion_sweep() {
     let class = std::env::var("CLASS").unwrap_or("scene".into());
     let img = corpus_raster(&class, 1);
-    let qs: Vec<f32> = std::env::var("QS")
-        .unwrap_or("30,50,70,85".into())
-        .split(',')
-        .map(|s| s.parse().unwrap())
-        .collect();
+    let qs = qualities("30,50,70,85");
     for q in qs {
         let t = std::time::Instant::now();
         let (bytes, stats) = encode_with_progress(
@@ -50,22 +61,14 @@ fn rate_distortion_sweep() {
         let dec = decode(&bytes, &DecodeOptions::default()).unwrap();
         let td = t.elapsed();
         let bpp = bytes.len() as f64 * 8.0 / (768.0 * 512.0);
-        let fwd = decode(
-            &bytes,
-            &DecodeOptions {
-                supersample: Some(1),
+        let forward = |supersample| {
+            let opts = DecodeOptions {
+                supersample: Some(supersample),
                 ..Default::default()
-            },
-        )
-        .unwrap();
-        let fwd2 = decode(
-            &bytes,
-            &DecodeOptions {
-                supersample: Some(2),
-                ..Default::default()
-            },
-        )
-        .unwrap();
+            };
+            decode(&bytes, &opts).unwrap()
+        };
+        let (fwd, fwd2) = (forward(1), forward(2));
         println!(
             "Q={q}: {} B, {bpp:.3} bpp, PSNR {:.2} dB, kp {}+{}, enc {te:?} dec {td:?}; fwd S1 vs id {:.1} dB, S2 {:.1} dB",
             bytes.len(), psnr(&img, &dec), stats.luma_keypoints, stats.chroma_keypoints, psnr(&dec, &fwd), psnr(&dec, &fwd2)
@@ -77,16 +80,7 @@ fn rate_distortion_sweep() {
 #[test]
 #[ignore]
 fn rd_points_for_files() {
-    let files = std::env::var("FILES").unwrap();
-    let qs: Vec<f32> = std::env::var("QS")
-        .unwrap_or("20,35,50,60,70,80,90".into())
-        .split(',')
-        .map(|s| s.parse().unwrap())
-        .collect();
-    let effort: u8 = std::env::var("EFFORT")
-        .unwrap_or("5".into())
-        .parse()
-        .unwrap();
+    let (files, qs, effort) = rd_inputs();
     for f in files.split(',') {
         let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
         for &q in &qs {
@@ -120,16 +114,7 @@ fn rd_points_for_files() {
 fn rd_settings_for_files() {
     use caoen::codec::{bitstream, encoder, rate_control};
     let env = |k: &str| std::env::var(k).ok().map(|v| v.parse::<f64>().unwrap());
-    let files = std::env::var("FILES").unwrap();
-    let qs: Vec<f32> = std::env::var("QS")
-        .unwrap_or("20,35,50,60,70,80,90".into())
-        .split(',')
-        .map(|s| s.parse().unwrap())
-        .collect();
-    let effort: u8 = std::env::var("EFFORT")
-        .unwrap_or("5".into())
-        .parse()
-        .unwrap();
+    let (files, qs, effort) = rd_inputs();
     for f in files.split(',') {
         let img = caoen::image_io::load(std::path::Path::new(f)).unwrap();
         for &q in &qs {

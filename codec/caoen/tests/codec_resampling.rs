@@ -1,27 +1,18 @@
 //! Coding at a smaller size: the header's display size, decoding at the image's size,
 //! the encoder's choice by rate and distortion, and the bounds a decoder enforces.
 
+mod common;
+use common::corpus;
+
 use caoen::codec::bitstream;
 use caoen::codec::{
     decode, encode, encode_with_progress, DecodeOptions, EncodeOptions, Resampling, Scale,
     RESAMPLE_BELOW, RESAMPLE_SCALES,
 };
-use caoen::image_io;
 use caoen::raster::Raster;
 
 fn scene(w: u32, h: u32, seed: u64) -> Raster {
-    of_class(caoen_corpus::Class::Scene, w, h, seed)
-}
-
-fn of_class(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
-    let img = caoen_corpus::Spec {
-        class,
-        width: w,
-        height: h,
-        seed,
-    }
-    .generate();
-    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
+    corpus(caoen_corpus::Class::Scene, w, h, seed)
 }
 
 fn opts(quality: f32, resampling: Resampling) -> EncodeOptions {
@@ -58,14 +49,7 @@ fn a_half_size_file_decodes_at_the_image_size() {
     let psnr = -10.0 * mse.log10();
     assert!(psnr > 22.0, "PSNR {psnr:.2}");
     // Other sizes still decode, by the same continuous network.
-    let small = decode(
-        &bytes,
-        &DecodeOptions {
-            size: Some((81, 49)),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let small = common::decode_at(&bytes, 81, 49);
     assert_eq!((small.width(), small.height()), (81, 49));
 }
 
@@ -164,7 +148,7 @@ fn auto_codes_at_full_size_from_its_quality_bound_at_low_effort_and_on_small_ima
     }
     // Efforts 1 and 2 keep the image's size, even where effort 5 halves it
     // (`half_size_pays_at_low_rates_on_flat_regions`).
-    let flat = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let flat = corpus(caoen_corpus::Class::FlatEdges, 256, 192, 7);
     let fast = |resampling| EncodeOptions {
         effort: 2,
         ..opts(5.0, resampling)
@@ -184,7 +168,7 @@ fn auto_codes_at_full_size_from_its_quality_bound_at_low_effort_and_on_small_ima
 fn half_size_pays_at_low_rates_on_flat_regions() {
     // Flat regions lose little over a 2x upscale, and at low quality half size
     // saves much of the rate: the encoder takes it.
-    let img = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let img = corpus(caoen_corpus::Class::FlatEdges, 256, 192, 7);
     let (bytes, stats) =
         encode_with_progress(&img, &opts(5.0, Resampling::Auto), |_, _| {}).unwrap();
     let full = encode(&img, &opts(5.0, Resampling::Off)).unwrap();
@@ -262,7 +246,7 @@ fn rate_targets_land_where_the_size_changes() {
     // The rate jumps where the choice of size changes with the quality; the search
     // runs at each size on its own and lands on the target either way.
     use caoen::codec::RateTarget;
-    let img = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let img = corpus(caoen_corpus::Class::FlatEdges, 256, 192, 7);
     let mut sizes = Vec::new();
     // Targets the image can reach: its smallest file, at half size and quality 0, is
     // 532 bytes (0.087 bpp).
@@ -326,7 +310,7 @@ fn sizes_between_are_chosen_where_they_pay_and_only_from_effort_5() {
 #[test]
 fn a_rate_target_keeps_the_size_asked_for() {
     use caoen::codec::RateTarget;
-    let img = of_class(caoen_corpus::Class::FlatEdges, 256, 192, 7);
+    let img = corpus(caoen_corpus::Class::FlatEdges, 256, 192, 7);
     for (resampling, size) in [
         (Resampling::Off, (256, 192)),
         (Resampling::At(Scale::new(7).unwrap()), (180, 135)),

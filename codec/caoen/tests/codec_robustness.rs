@@ -2,6 +2,8 @@
 //! error or a bounded image, never a panic, hang or huge allocation; wrong magic,
 //! future versions and absurd headers give clear messages.
 
+mod common;
+
 use caoen::codec::bitstream::{self, VERSION};
 use caoen::codec::{decode, encode, CodecError, DecodeOptions, EncodeOptions};
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
@@ -13,14 +15,7 @@ fn small_file() -> Vec<u8> {
         .map(|i| ((i * 37) % 101) as f32 / 100.0)
         .collect();
     let img = Raster::new(w, h, ChannelLayout::Rgba, SampleFormat::U8, samples).unwrap();
-    encode(
-        &img,
-        &EncodeOptions {
-            quality: 60.0,
-            ..Default::default()
-        },
-    )
-    .unwrap()
+    encode(&img, &common::at_quality(60.0)).unwrap()
 }
 
 #[test]

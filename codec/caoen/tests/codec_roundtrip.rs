@@ -1,23 +1,11 @@
 //! Codec round trips over the corpus and the edge cases, quality monotonicity, the two
 //! decoder paths, determinism across thread counts, and rate targets.
 
+mod common;
+use common::{at_quality, corpus, decode_at, raster_of, with_threads};
+
 use caoen::codec::{decode, encode, DecodeOptions, EncodeOptions, RateTarget};
-use caoen::image_io;
 use caoen::raster::{ChannelLayout, Raster, SampleFormat};
-
-fn raster_of(spec: &caoen_corpus::Spec) -> Raster {
-    let img = spec.generate();
-    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
-}
-
-fn corpus(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
-    raster_of(&caoen_corpus::Spec {
-        class,
-        width: w,
-        height: h,
-        seed,
-    })
-}
 
 /// PSNR over all channels; float (HDR) images are compared after the tone map
 /// `v / (1 + v)`, since a peak of 1.0 means nothing for them.
@@ -33,28 +21,16 @@ fn psnr(a: &Raster, b: &Raster) -> f64 {
             v as f64
         }
     };
-    let mse = a
-        .samples()
-        .iter()
-        .zip(b.samples())
-        .map(|(x, y)| (tone(*x) - tone(*y)).powi(2))
-        .sum::<f64>()
-        / a.samples().len() as f64;
+    let mse = common::mse_by(a, b, tone);
     10.0 * (1.0 / mse.max(1e-20)).log10()
-}
-
-fn q(quality: f32) -> EncodeOptions {
-    EncodeOptions {
-        quality,
-        ..Default::default()
-    }
 }
 
 #[test]
 fn every_corpus_class_and_edge_case_round_trips() {
     for spec in caoen_corpus::test_subset() {
         let img = raster_of(&spec);
-        let bytes = encode(&img, &q(80.0)).unwrap_or_else(|e| panic!("{}: {e}", spec.file_name()));
+        let bytes =
+            encode(&img, &at_quality(80.0)).unwrap_or_else(|e| panic!("{}: {e}", spec.file_name()));
         let out = decode(&bytes, &DecodeOptions::default()).unwrap();
         assert_eq!(
             (out.width(), out.height(), out.layout(), out.format()),
@@ -78,7 +54,7 @@ fn psnr_rises_with_quality_on_photo_like_images() {
         let mut last = 0.0;
         let mut last_size = 0;
         for quality in [10.0, 30.0, 50.0, 70.0, 90.0] {
-            let bytes = encode(&img, &q(quality)).unwrap();
+            let bytes = encode(&img, &at_quality(quality)).unwrap();
             let p = psnr(&img, &decode(&bytes, &DecodeOptions::default()).unwrap());
             assert!(
                 p > last,
@@ -112,7 +88,11 @@ fn formats_and_layouts_round_trip() {
     ] {
         let samples: Vec<f32> = (0..layout.channels()).flat_map(ramp).collect();
         let img = Raster::new(w, h, layout, format, samples).unwrap();
-        let out = decode(&encode(&img, &q(95.0)).unwrap(), &DecodeOptions::default()).unwrap();
+        let out = decode(
+            &encode(&img, &at_quality(95.0)).unwrap(),
+            &DecodeOptions::default(),
+        )
+        .unwrap();
         assert_eq!((out.layout(), out.format()), (layout, format));
         // Alpha is coded, not dropped: its plane comes back close to the original.
         if layout.has_alpha() {
@@ -148,7 +128,11 @@ fn hdr_float_images_stay_float_with_their_range() {
         })
         .collect();
     let img = Raster::new(w, h, ChannelLayout::Rgb, SampleFormat::F32, samples).unwrap();
-    let out = decode(&encode(&img, &q(90.0)).unwrap(), &DecodeOptions::default()).unwrap();
+    let out = decode(
+        &encode(&img, &at_quality(90.0)).unwrap(),
+        &DecodeOptions::default(),
+    )
+    .unwrap();
     assert_eq!(out.format(), SampleFormat::F32);
     let max = out.samples().iter().copied().fold(0.0f32, f32::max);
     assert!(max > 50.0, "the bright sun survives unclamped: max {max}");
@@ -160,7 +144,7 @@ fn hdr_float_images_stay_float_with_their_range() {
 #[test]
 fn identity_and_forward_mapping_paths_agree() {
     let img = corpus(caoen_corpus::Class::Scene, 192, 128, 2);
-    let bytes = encode(&img, &q(70.0)).unwrap();
+    let bytes = encode(&img, &at_quality(70.0)).unwrap();
     let id = decode(&bytes, &DecodeOptions::default()).unwrap();
     for s in 1..=4 {
         let fwd = decode(
@@ -181,15 +165,8 @@ fn identity_and_forward_mapping_paths_agree() {
 #[test]
 fn decoding_at_other_sizes_evaluates_the_continuous_network() {
     let img = corpus(caoen_corpus::Class::Smooth, 64, 48, 0);
-    let bytes = encode(&img, &q(80.0)).unwrap();
-    let up = decode(
-        &bytes,
-        &DecodeOptions {
-            size: Some((128, 96)),
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let bytes = encode(&img, &at_quality(80.0)).unwrap();
+    let up = decode_at(&bytes, 128, 96);
     let down = decode(
         &bytes,
         &DecodeOptions {
@@ -243,20 +220,14 @@ fn decoding_at_other_sizes_evaluates_the_continuous_network() {
 #[test]
 fn output_is_identical_for_one_and_two_threads() {
     let img = corpus(caoen_corpus::Class::Natural, 96, 80, 1);
-    let run = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| encode(&img, &q(75.0)).unwrap())
-    };
+    let run = |threads| with_threads(threads, || encode(&img, &at_quality(75.0)).unwrap());
     assert_eq!(run(1), run(2));
 }
 
 #[test]
 fn decoded_samples_are_identical_for_any_thread_count() {
     let img = corpus(caoen_corpus::Class::Scene, 150, 97, 2);
-    let bytes = encode(&img, &q(80.0)).unwrap();
+    let bytes = encode(&img, &at_quality(80.0)).unwrap();
     for opts in [
         DecodeOptions::default(),
         DecodeOptions {
@@ -268,13 +239,7 @@ fn decoded_samples_are_identical_for_any_thread_count() {
             ..Default::default()
         },
     ] {
-        let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| decode(&bytes, &opts).unwrap())
-        };
+        let run = |threads| with_threads(threads, || decode(&bytes, &opts).unwrap());
         let one = run(1);
         for threads in [2, 3] {
             let bits = |r: &caoen::raster::Raster| -> Vec<u32> {

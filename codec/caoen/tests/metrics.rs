@@ -3,7 +3,9 @@
 //! definition, the HDR log scale.
 
 use caoen::metrics::{self, MetricError, Scale};
-use caoen::raster::{ChannelLayout, Raster, SampleFormat};
+use caoen::raster::ChannelLayout::{self, Grey, Rgb, Rgba};
+use caoen::raster::Raster;
+use caoen::raster::SampleFormat::{self, F32, U16, U8};
 use caoen_corpus::{generate, Class};
 
 fn flat(w: u32, h: u32, layout: ChannelLayout, format: SampleFormat, v: &[f32]) -> Raster {
@@ -50,20 +52,8 @@ fn identical_images_are_perfect() {
 #[test]
 fn known_mse_gives_exact_psnr() {
     // Every sample off by 1/8 (exact in binary): MSE = 1/64, PSNR = 10 log10 64.
-    let a = flat(
-        5,
-        3,
-        ChannelLayout::Rgb,
-        SampleFormat::U8,
-        &[0.5, 0.25, 0.0],
-    );
-    let b = flat(
-        5,
-        3,
-        ChannelLayout::Rgb,
-        SampleFormat::U8,
-        &[0.625, 0.375, 0.125],
-    );
+    let a = flat(5, 3, Rgb, U8, &[0.5, 0.25, 0.0]);
+    let b = flat(5, 3, Rgb, U8, &[0.625, 0.375, 0.125]);
     let c = metrics::compare(&a, &b).unwrap();
     assert_eq!(c.mse, 1.0 / 64.0);
     assert!((c.psnr - 10.0 * 64f64.log10()).abs() < 1e-12);
@@ -75,13 +65,7 @@ fn known_mse_gives_exact_psnr() {
     );
 
     // Only red off by 1/4: RGB MSE = (1/16) / 3; luma error 0.299 / 4 (BT.601).
-    let b = flat(
-        5,
-        3,
-        ChannelLayout::Rgb,
-        SampleFormat::U8,
-        &[0.75, 0.25, 0.0],
-    );
+    let b = flat(5, 3, Rgb, U8, &[0.75, 0.25, 0.0]);
     let c = metrics::compare(&a, &b).unwrap();
     assert!((c.mse - 1.0 / 48.0).abs() < 1e-15);
     assert!((c.psnr - 10.0 * 48f64.log10()).abs() < 1e-12);
@@ -89,15 +73,8 @@ fn known_mse_gives_exact_psnr() {
     assert!((c.mse_y - dy * dy).abs() < 1e-9, "{}", c.mse_y);
 
     // Half of a grey image's pixels off by 1/2: MSE = 1/8.
-    let a = Raster::new(2, 2, ChannelLayout::Grey, SampleFormat::U16, vec![0.0; 4]).unwrap();
-    let b = Raster::new(
-        2,
-        2,
-        ChannelLayout::Grey,
-        SampleFormat::U8,
-        vec![0.5, 0.0, 0.0, 0.5],
-    )
-    .unwrap();
+    let a = Raster::new(2, 2, Grey, U16, vec![0.0; 4]).unwrap();
+    let b = Raster::new(2, 2, Grey, U8, vec![0.5, 0.0, 0.0, 0.5]).unwrap();
     assert!((metrics::psnr(&a, &b).unwrap() - 10.0 * 8f64.log10()).abs() < 1e-12);
     assert_eq!(
         metrics::psnr_y(&a, &b).unwrap(),
@@ -107,20 +84,8 @@ fn known_mse_gives_exact_psnr() {
 
 #[test]
 fn alpha_is_measured_separately() {
-    let a = flat(
-        4,
-        4,
-        ChannelLayout::Rgba,
-        SampleFormat::U8,
-        &[0.5, 0.5, 0.5, 1.0],
-    );
-    let b = flat(
-        4,
-        4,
-        ChannelLayout::Rgba,
-        SampleFormat::U8,
-        &[0.5, 0.5, 0.5, 0.75],
-    );
+    let a = flat(4, 4, Rgba, U8, &[0.5, 0.5, 0.5, 1.0]);
+    let b = flat(4, 4, Rgba, U8, &[0.5, 0.5, 0.5, 0.75]);
     let c = metrics::compare(&a, &b).unwrap();
     assert_eq!(c.psnr, f64::INFINITY);
     assert!((c.psnr_alpha.unwrap() - 10.0 * 16f64.log10()).abs() < 1e-12);
@@ -130,8 +95,8 @@ fn alpha_is_measured_separately() {
 fn ssim_of_flat_images_is_the_luminance_term() {
     // No variance, no covariance: SSIM = (2ab + C1) / (a^2 + b^2 + C1) everywhere.
     for (w, h) in [(16, 16), (3, 20), (1, 1)] {
-        let a = flat(w, h, ChannelLayout::Grey, SampleFormat::U8, &[0.5]);
-        let b = flat(w, h, ChannelLayout::Grey, SampleFormat::U8, &[0.625]);
+        let a = flat(w, h, Grey, U8, &[0.5]);
+        let b = flat(w, h, Grey, U8, &[0.625]);
         let want = (2.0 * 0.5 * 0.625 + metrics::SSIM_C1) / (0.25 + 0.390_625 + metrics::SSIM_C1);
         let got = metrics::ssim(&a, &b).unwrap();
         assert!((got - want).abs() < 1e-12, "{w}x{h}: {got} vs {want}");
@@ -252,20 +217,8 @@ fn ssim_falls_with_noise() {
 #[test]
 fn hdr_uses_the_log_scale() {
     // One stop (a factor of 2) everywhere is ~1/32 on the log scale: ~30.1 dB.
-    let a = flat(
-        8,
-        8,
-        ChannelLayout::Rgb,
-        SampleFormat::F32,
-        &[1.0, 10.0, 1000.0],
-    );
-    let b = flat(
-        8,
-        8,
-        ChannelLayout::Rgb,
-        SampleFormat::F32,
-        &[2.0, 20.0, 2000.0],
-    );
+    let a = flat(8, 8, Rgb, F32, &[1.0, 10.0, 1000.0]);
+    let b = flat(8, 8, Rgb, F32, &[2.0, 20.0, 2000.0]);
     let c = metrics::compare(&a, &b).unwrap();
     assert_eq!(c.scale, Scale::LogHdr);
     assert!((c.psnr - 10.0 * 1024f64.log10()).abs() < 1e-3, "{}", c.psnr);
@@ -274,58 +227,34 @@ fn hdr_uses_the_log_scale() {
     assert_eq!(metrics::log_encode(1e9), 1.0);
     assert!((metrics::log_encode(1.0) - 14.0 / 32.0).abs() < 1e-4);
     // A 10% error is less than a stop's.
-    let d = flat(
-        8,
-        8,
-        ChannelLayout::Rgb,
-        SampleFormat::F32,
-        &[1.0, 10.0, 1000.0],
-    );
-    let e = flat(
-        8,
-        8,
-        ChannelLayout::Rgb,
-        SampleFormat::F32,
-        &[1.1, 11.0, 1100.0],
-    );
+    let d = flat(8, 8, Rgb, F32, &[1.0, 10.0, 1000.0]);
+    let e = flat(8, 8, Rgb, F32, &[1.1, 11.0, 1100.0]);
     let c2 = metrics::compare(&d, &e).unwrap();
     assert!(c2.psnr > c.psnr);
 }
 
 #[test]
 fn mismatches_are_errors() {
-    let a = flat(4, 4, ChannelLayout::Rgb, SampleFormat::U8, &[0.0, 0.0, 0.0]);
-    let b = flat(4, 5, ChannelLayout::Rgb, SampleFormat::U8, &[0.0, 0.0, 0.0]);
+    let a = flat(4, 4, Rgb, U8, &[0.0, 0.0, 0.0]);
+    let b = flat(4, 5, Rgb, U8, &[0.0, 0.0, 0.0]);
     assert!(matches!(
         metrics::compare(&a, &b),
         Err(MetricError::Size { b_height: 5, .. })
     ));
-    let g = flat(4, 4, ChannelLayout::Grey, SampleFormat::U8, &[0.0]);
+    let g = flat(4, 4, Grey, U8, &[0.0]);
     assert_eq!(
         metrics::compare(&a, &g),
         Err(MetricError::Channels { a: 3, b: 1 })
     );
     // Alpha does not count as a colour channel: RGB vs RGBA compares.
-    let ra = flat(
-        4,
-        4,
-        ChannelLayout::Rgba,
-        SampleFormat::U8,
-        &[0.0, 0.0, 0.0, 1.0],
-    );
+    let ra = flat(4, 4, Rgba, U8, &[0.0, 0.0, 0.0, 1.0]);
     assert_eq!(metrics::psnr(&a, &ra).unwrap(), f64::INFINITY);
 }
 
 #[test]
 fn tiny_images_work() {
-    let a = flat(1, 1, ChannelLayout::Rgb, SampleFormat::U8, &[0.5, 0.5, 0.5]);
-    let b = flat(
-        1,
-        1,
-        ChannelLayout::Rgb,
-        SampleFormat::U8,
-        &[0.25, 0.5, 0.5],
-    );
+    let a = flat(1, 1, Rgb, U8, &[0.5, 0.5, 0.5]);
+    let b = flat(1, 1, Rgb, U8, &[0.25, 0.5, 0.5]);
     let c = metrics::compare(&a, &b).unwrap();
     assert!(c.psnr.is_finite() && c.ssim < 1.0);
     assert!(c.ssimulacra2.is_none());

@@ -238,13 +238,7 @@ fn renders_do_not_depend_on_the_thread_count() {
             method: m,
             ..RenderOptions::default()
         };
-        let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| render(s, &o, &|_, _| {}).unwrap())
-        };
+        let run = |threads| common::with_threads(threads, || render(s, &o, &|_, _| {}).unwrap());
         let (a, b) = (run(1), run(3));
         assert_eq!(a.image, b.image, "{m:?}");
         assert_eq!(a.depth, b.depth, "{m:?}");

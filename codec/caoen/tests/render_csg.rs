@@ -100,47 +100,25 @@ fn csg_of_two_overlapping_cubes_hits_the_expected_crossings() {
     let along_x = ray([-5.0, 0.0, 0.0], [1.0, 0.0, 0.0]);
     let from = |v: f64| 5.0 + v;
     for m in [RayMethod::Paper, RayMethod::Fast] {
-        let u = spans(
-            &solids,
-            &CsgNode::Union(vec![s0.clone(), s1.clone()]),
-            &along_x,
-            m,
-        )
-        .unwrap();
+        let cast = |node: CsgNode, r: &Ray| spans(&solids, &node, r, m);
+        let (ab, ba) = (vec![s0.clone(), s1.clone()], vec![s1.clone(), s0.clone()]);
+        let u = cast(CsgNode::Union(ab.clone()), &along_x).unwrap();
         assert!(
             close(u.0, from(-x)) && u.1 == 0 && close(u.3, from(a + x)) && u.4 == 1,
             "union {u:?}"
         );
-        let i = spans(
-            &solids,
-            &CsgNode::Intersection(vec![s0.clone(), s1.clone()]),
-            &along_x,
-            m,
-        )
-        .unwrap();
+        let i = cast(CsgNode::Intersection(ab.clone()), &along_x).unwrap();
         assert!(
             close(i.0, from(a - x)) && i.1 == 1 && close(i.3, from(x)) && i.4 == 0,
             "intersection {i:?}"
         );
-        let d = spans(
-            &solids,
-            &CsgNode::Difference(vec![s0.clone(), s1.clone()]),
-            &along_x,
-            m,
-        )
-        .unwrap();
+        let d = cast(CsgNode::Difference(ab.clone()), &along_x).unwrap();
         // The exit is on the subtracted cube, whose normal faces into the result.
         assert!(
             close(d.0, from(-x)) && !d.2 && close(d.3, from(a - x)) && d.4 == 1 && d.5,
             "A-B {d:?}"
         );
-        let e = spans(
-            &solids,
-            &CsgNode::Difference(vec![s1.clone(), s0.clone()]),
-            &along_x,
-            m,
-        )
-        .unwrap();
+        let e = cast(CsgNode::Difference(ba), &along_x).unwrap();
         assert!(
             close(e.0, from(x)) && e.1 == 0 && e.2 && close(e.3, from(a + x)) && e.4 == 1,
             "B-A {e:?}"
@@ -153,8 +131,8 @@ fn csg_of_two_overlapping_cubes_hits_the_expected_crossings() {
         let y0 = closed_form(rest);
         let along_y = ray([a / 2.0, -4.0, 0.0], [0.0, 1.0, 0.0]);
         for node in [
-            CsgNode::Union(vec![s0.clone(), s1.clone()]),
-            CsgNode::Intersection(vec![s0.clone(), s1.clone()]),
+            CsgNode::Union(ab.clone()),
+            CsgNode::Intersection(ab.clone()),
         ] {
             let s = spans(&solids, &node, &along_y, m).unwrap();
             assert!(
@@ -162,13 +140,7 @@ fn csg_of_two_overlapping_cubes_hits_the_expected_crossings() {
                 "{node:?}: {s:?} vs {y0}"
             );
         }
-        assert!(spans(
-            &solids,
-            &CsgNode::Difference(vec![s0.clone(), s1.clone()]),
-            &along_y,
-            m
-        )
-        .is_none());
+        assert!(cast(CsgNode::Difference(ab), &along_y).is_none());
     }
 }
 
@@ -228,17 +200,8 @@ impl Rng {
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
     fn unit(&mut self) -> [f64; 3] {
-        loop {
-            let v = [
-                2.0 * self.next() - 1.0,
-                2.0 * self.next() - 1.0,
-                2.0 * self.next() - 1.0,
-            ];
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            if n > 0.1 && n <= 1.0 {
-                return v.map(|c| c / n);
-            }
-        }
+        let v = common::random_unit(3, || self.next());
+        [v[0], v[1], v[2]]
     }
 }
 

@@ -77,56 +77,51 @@ fn model_scene(name: &str) -> Scene {
     Scene::from_model(gallery::by_name(name).unwrap().unwrap(), None).unwrap()
 }
 
+/// `scene` rendered by `method` (see [`opts`]).
+fn rendered(scene: &Scene, method: Method) -> RgbImage {
+    render(scene, &opts(method), &|_, _| {}).unwrap().image
+}
+
+/// Checks the snapshot `name` against the scene file `rel` rendered by `method`.
+fn check_example(name: &str, rel: &str, method: Method) {
+    check(name, &rendered(&example_scene(rel), method));
+}
+
+/// The scene file `rel` (a path from the repository's root).
+fn example_scene(rel: &str) -> Scene {
+    Scene::load(&common::repo_path(rel)).unwrap()
+}
+
 #[test]
 fn snapshot_blob_mesh() {
-    check(
-        "blob-mesh",
-        &render(&model_scene("blob"), &opts(Method::Mesh), &|_, _| {})
-            .unwrap()
-            .image,
-    );
+    check("blob-mesh", &rendered(&model_scene("blob"), Method::Mesh));
 }
 
 #[test]
 fn snapshot_ring_depth_buffer() {
-    check(
-        "ring-depth",
-        &render(&model_scene("ring"), &opts(Method::Depth), &|_, _| {})
-            .unwrap()
-            .image,
-    );
+    check("ring-depth", &rendered(&model_scene("ring"), Method::Depth));
 }
 
 #[test]
 fn snapshot_csg_ray_traced() {
-    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
-    check(
-        "csg-ray",
-        &render(&scene, &opts(Method::Ray), &|_, _| {})
-            .unwrap()
-            .image,
-    );
+    check_example("csg-ray", "examples/csg.scene.json", Method::Ray);
 }
 
 #[test]
 fn snapshot_textured_depth_buffer() {
-    let scene = Scene::load(&common::repo_path("examples/textured.scene.json")).unwrap();
-    check(
+    check_example(
         "textured-depth",
-        &render(&scene, &opts(Method::Depth), &|_, _| {})
-            .unwrap()
-            .image,
+        "examples/textured.scene.json",
+        Method::Depth,
     );
 }
 
 #[test]
 fn snapshot_teapot_mesh() {
-    let scene = Scene::load(&common::repo_path("examples/teapot/teapot.scene.json")).unwrap();
-    check(
+    check_example(
         "teapot-mesh",
-        &render(&scene, &opts(Method::Mesh), &|_, _| {})
-            .unwrap()
-            .image,
+        "examples/teapot/teapot.scene.json",
+        Method::Mesh,
     );
 }
 
@@ -135,17 +130,13 @@ fn the_psnr_check_rejects_a_different_render() {
     // The check can fail: the blob's snapshot is far from a render of another model,
     // and from the same model with its texture dropped.
     let blob = image::open(snapshot_path("blob-mesh")).unwrap().to_rgb8();
-    let ring = render(&model_scene("ring"), &opts(Method::Mesh), &|_, _| {})
-        .unwrap()
-        .image;
+    let ring = rendered(&model_scene("ring"), Method::Mesh);
     assert!(psnr(blob.as_raw(), &ring.to_srgb8()) < MIN_PSNR_DB);
     let textured = image::open(snapshot_path("textured-depth"))
         .unwrap()
         .to_rgb8();
-    let mut plain = Scene::load(&common::repo_path("examples/textured.scene.json")).unwrap();
+    let mut plain = example_scene("examples/textured.scene.json");
     plain.objects[0].material.texture = None;
-    let plain = render(&plain, &opts(Method::Depth), &|_, _| {})
-        .unwrap()
-        .image;
+    let plain = rendered(&plain, Method::Depth);
     assert!(psnr(textured.as_raw(), &plain.to_srgb8()) < MIN_PSNR_DB);
 }

@@ -2,26 +2,17 @@
 //! the decoder's every path applies them alike, and they lower the error they were
 //! fitted to; damaged restoration sections are errors.
 
+mod common;
+use common::corpus;
+
 use caoen::codec::bitstream::{self, tag, TilePayload, TileStreams};
 use caoen::codec::restoration::{PlaneFilter, Restoration};
 use caoen::codec::{decode, encode, inspect, CodecError, DecodeOptions, EncodeOptions, Resampling};
-use caoen::image_io;
 use caoen::metrics::psnr;
 use caoen::raster::Raster;
 
 fn natural(w: u32, h: u32, seed: u64) -> Raster {
     corpus(caoen_corpus::Class::Natural, w, h, seed)
-}
-
-fn corpus(class: caoen_corpus::Class, w: u32, h: u32, seed: u64) -> Raster {
-    let img = caoen_corpus::Spec {
-        class,
-        width: w,
-        height: h,
-        seed,
-    }
-    .generate();
-    image_io::from_dynamic(img.to_dynamic_image()).expect("corpus image converts")
 }
 
 /// `bytes` rewritten with `f` applied to its header.
@@ -253,14 +244,7 @@ fn a_resized_decode_restores_like_the_coded_size() {
 #[test]
 fn damaged_restoration_sections_are_errors() {
     let img = natural(64, 48, 2);
-    let bytes = encode(
-        &img,
-        &EncodeOptions {
-            quality: 30.0,
-            ..EncodeOptions::default()
-        },
-    )
-    .unwrap();
+    let bytes = encode(&img, &common::at_quality(30.0)).unwrap();
     let sections = inspect(&bytes).unwrap().sections;
     let header = sections[0].offset;
     // A section with the given tag and payload, CRC and all.

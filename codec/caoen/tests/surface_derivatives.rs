@@ -153,23 +153,9 @@ fn identity_sphere_normals_point_outward_including_the_poles() {
 /// `count` key points spread evenly (Fibonacci sphere) with shapes on the blob surface.
 fn blob_resampled(count: usize) -> Network {
     let blob = caoen::surface::gallery::blob().unwrap();
-    let golden = 2.399_963_229_728_653;
     let spacing = (4.0 * std::f64::consts::PI / count as f64).sqrt();
-    let kps: Vec<KeyPoint> = (0..count)
-        .map(|k| {
-            let z = 1.0 - 2.0 * (k as f64 + 0.5) / count as f64;
-            let r = (1.0 - z * z).sqrt();
-            let w = vec![
-                r * (k as f64 * golden).cos(),
-                r * (k as f64 * golden).sin(),
-                z,
-            ];
-            let t = blob.network.eval(&w).unwrap();
-            // Kernel width ~ key point spacing: sigma^2 = 1/q.
-            KeyPoint::new(w, t, Blend::Exponential, 1.0 / (0.7 * spacing).powi(2))
-        })
-        .collect();
-    Network::new(3, 3, &kps, true).unwrap()
+    // Kernel width ~ key point spacing: sigma^2 = 1/q.
+    common::resampled(&blob, count, 1.0 / (0.7 * spacing).powi(2))
 }
 
 #[test]

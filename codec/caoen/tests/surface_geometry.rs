@@ -1,35 +1,14 @@
 //! Projections, the implicit form for convex solids, domains, morphing, model files.
 
+mod common;
+use common::SplitMix as Rng;
+
 use caoen::surface::gallery::{blob, ring, six_point};
 use caoen::surface::morph::{morph, pad_to};
 use caoen::surface::projection::{axis_generators, perspective_error, PerspectiveCamera};
 use caoen::surface::{
     Blend, ConvexSolid, Domain, KeyPoint, Network, Plane, SurfaceError, SurfaceModel,
 };
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn unit3(&mut self) -> [f64; 3] {
-        loop {
-            let v = [
-                2.0 * self.next() - 1.0,
-                2.0 * self.next() - 1.0,
-                2.0 * self.next() - 1.0,
-            ];
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            if n > 0.1 && n <= 1.0 {
-                return [v[0] / n, v[1] / n, v[2] / n];
-            }
-        }
-    }
-}
 
 #[test]
 fn axis_generators_equal_the_projected_surface_point() {
@@ -52,25 +31,6 @@ fn axis_generators_equal_the_projected_surface_point() {
     }
 }
 
-/// A dense model: many key points on the blob, shapes = the blob's own surface points.
-fn dense_resample(model: &SurfaceModel, count: usize, q: f64) -> Network {
-    let golden = 2.399_963_229_728_653;
-    let kps: Vec<KeyPoint> = (0..count)
-        .map(|k| {
-            let z = 1.0 - 2.0 * (k as f64 + 0.5) / count as f64;
-            let r = (1.0 - z * z).sqrt();
-            let w = vec![
-                r * (k as f64 * golden).cos(),
-                r * (k as f64 * golden).sin(),
-                z,
-            ];
-            let t = model.network.eval(&w).unwrap();
-            KeyPoint::new(w, t, Blend::Exponential, q)
-        })
-        .collect();
-    Network::new(3, 3, &kps, true).unwrap()
-}
-
 #[test]
 fn perspective_approximation_error_is_small_for_dense_models() {
     let model = blob().unwrap();
@@ -78,7 +38,7 @@ fn perspective_approximation_error_is_small_for_dense_models() {
         .unwrap();
     let grid = model.domain.grid(60, 31).unwrap();
     let sparse = perspective_error(&model.network, &cam, &grid.points).unwrap();
-    let dense_net = dense_resample(&model, 2000, 400.0);
+    let dense_net = common::resampled(&model, 2000, 400.0);
     let dense = perspective_error(&dense_net, &cam, &grid.points).unwrap();
     eprintln!(
         "perspective approximation error (max, rms), focal 1: sparse {sparse:?}, dense {dense:?}"

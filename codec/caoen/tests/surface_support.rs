@@ -2,30 +2,10 @@
 //! equals brute force, and batch evaluation is independent of the thread count.
 
 mod common;
+use common::{with_threads, SplitMix as Rng};
 
 use caoen::surface::{Blend, Domain, KeyPoint, Network};
 use proptest::prelude::*;
-
-/// Deterministic pseudo-random numbers (SplitMix64) for large fixed test models.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn unit(&mut self, m: usize) -> Vec<f64> {
-        loop {
-            let v: Vec<f64> = (0..m).map(|_| 2.0 * self.next() - 1.0).collect();
-            let n = v.iter().map(|a| a * a).sum::<f64>().sqrt();
-            if n > 0.1 && n <= 1.0 {
-                return v.into_iter().map(|a| a / n).collect();
-            }
-        }
-    }
-}
 
 fn random_model(
     rng: &mut Rng,
@@ -119,13 +99,7 @@ fn batch_output_is_identical_for_one_and_two_threads() {
         let mut rng = Rng(11);
         let net = random_model(&mut rng, 3, p, 5000, 300.0, 3000.0, false);
         let grid = Domain::SPHERE.grid(300, 200).unwrap();
-        let run = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| net.eval_batch(&grid.points).unwrap())
-        };
+        let run = |threads| with_threads(threads, || net.eval_batch(&grid.points).unwrap());
         let (a, b) = (run(1), run(2));
         assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
     }

@@ -43,11 +43,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let (a, b) = (rng.range(0.0, 0.4), rng.range(0.6, 1.0));
             c.shade(|x, y| Col::gray(a + (b - a) * clamp01((x + y) / (wf + hf))));
             c.fill(
-                &Disc {
-                    cx: wf * rng.range(0.2, 0.8),
-                    cy: hf * rng.range(0.2, 0.8),
-                    r: s * 0.2,
-                },
+                &Disc::new(wf * rng.range(0.2, 0.8), hf * rng.range(0.2, 0.8), s * 0.2),
                 Col::gray(0.05),
             );
             c.fill(

@@ -177,18 +177,8 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let ink = Col::gray(0.1);
             let margin = (s * 0.07).floor();
             let xh = (s / 75.0).max(2.5);
-            let body = TextStyle {
-                xh,
-                weight: (xh * 0.16).max(0.7),
-                colour: ink,
-                slant: 0.0,
-            };
-            let title = TextStyle {
-                xh: xh * 2.2,
-                weight: xh * 0.5,
-                colour: ink,
-                slant: 0.0,
-            };
+            let body = TextStyle::upright(xh, (xh * 0.16).max(0.7), ink);
+            let title = TextStyle::upright(xh * 2.2, xh * 0.5, ink);
             let mut y = margin + title.xh * 1.6;
             draw_line(&mut c, &mut rng, &title, margin, wf * 0.75, y);
             y += title.xh * 1.5;
@@ -261,12 +251,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             let accent2 = pal[2];
             let text_col = Col::gray(0.13);
             let xh = (s / 90.0).max(2.0);
-            let style = TextStyle {
-                xh,
-                weight: (xh * 0.18).max(0.7),
-                colour: text_col,
-                slant: 0.0,
-            };
+            let style = TextStyle::upright(xh, (xh * 0.18).max(0.7), text_col);
             let white = TextStyle {
                 colour: Col::gray(1.0),
                 ..style
@@ -381,14 +366,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     let t = rng.range(0.1, 0.9);
                     let kxx = sx0 + (sx1 - sx0) * t;
                     c.fill(&Stroke::line((sx0, sy), (kxx, sy), xh * 0.4), accent);
-                    c.fill(
-                        &Disc {
-                            cx: kxx,
-                            cy: sy,
-                            r: xh * 0.9,
-                        },
-                        accent,
-                    );
+                    c.fill(&Disc::new(kxx, sy, xh * 0.9), accent);
                 }
                 y = y1 + xh * 3.0;
             }

@@ -41,14 +41,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 let cov = clamp01(y - ridge + 0.5);
                 sky.mix(lit.mix(Col(1.6, 1.9, 2.4), 0.5 * haze), cov)
             });
-            c.fill(
-                &Disc {
-                    cx: sx,
-                    cy: sy,
-                    r: sr,
-                },
-                Col(22000.0, 20000.0, 17000.0),
-            );
+            c.fill(&Disc::new(sx, sy, sr), Col(22000.0, 20000.0, 17000.0));
             // A cliff face in shade with a dark cave mouth.
             let cx = wf * rng.range(0.05, 0.3);
             let cliff = Polygon::new(vec![
@@ -143,11 +136,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                 Col(0.02, 0.015, 0.01),
             );
             c.fill(
-                &Disc {
-                    cx: lx,
-                    cy: ly + s * 0.01,
-                    r: (s * 0.025).max(2.5),
-                },
+                &Disc::new(lx, ly + s * 0.01, (s * 0.025).max(2.5)),
                 Col(3500.0, 3000.0, 2000.0),
             );
             // A dark cabinet in the corner (deep shadow).
@@ -216,11 +205,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
             // Moon.
             let (mx, my) = (wf * rng.range(0.6, 0.9), horizon * rng.range(0.15, 0.35));
             c.fill(
-                &Disc {
-                    cx: mx,
-                    cy: my,
-                    r: (s * 0.035).max(2.5),
-                },
+                &Disc::new(mx, my, (s * 0.035).max(2.5)),
                 Col(80.0, 80.0, 75.0),
             );
             // Buildings with lit windows.
@@ -269,11 +254,7 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
                     Col(0.002, 0.002, 0.002),
                 );
                 c.fill(
-                    &Disc {
-                        cx: lx,
-                        cy: ly,
-                        r: (s * 0.012).max(2.0),
-                    },
+                    &Disc::new(lx, ly, (s * 0.012).max(2.0)),
                     Col(2500.0, 1900.0, 900.0),
                 );
             }

@@ -41,6 +41,25 @@ fn soft_poly(p: Polygon, blur: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync>
     }
 }
 
+/// A soft ellipse with level axes, of one colour: a shadow on the ground.
+fn flat_shadow(
+    c: &mut Canvas,
+    centre: (f64, f64),
+    radii: (f64, f64),
+    blur: f64,
+    alpha: f64,
+    col: Col,
+) {
+    let e = Ellipse {
+        cx: centre.0,
+        cy: centre.1,
+        rx: radii.0,
+        ry: radii.1,
+        rot: (1.0, 0.0),
+    };
+    c.draw(&soft_ellipse(e, blur), alpha, move |_, _| col);
+}
+
 fn soft_ellipse(e: Ellipse, blur: f64) -> SdfShape<impl Fn(f64, f64) -> f64 + Sync> {
     let bb = e.bbox();
     SdfShape {
@@ -176,12 +195,19 @@ pub(super) fn render(w: usize, h: usize, seed: u64) -> CorpusImage {
     c.to_image(ch, fmt.bit_depth(), Encoding::Srgb)
 }
 
+/// The canvas's width and height, and the scene's scale: its height, or a quarter of
+/// its width when that is more (panoramas).
+fn frame(c: &Canvas) -> (f64, f64, f64) {
+    let (wf, hf) = (c.w as f64, c.h as f64);
+    (wf, hf, hf.max(wf * 0.25))
+}
+
 fn noises(seed: u64) -> [Noise; 6] {
     core::array::from_fn(|k| Noise::new(noise_seed(Class::Scene, seed, k as u64)))
 }
 
-#[allow(clippy::too_many_arguments)]
-fn birds(c: &mut Canvas, rng: &mut Rng, x0: f64, x1: f64, y0: f64, y1: f64, size: f64, col: Col) {
+fn birds(c: &mut Canvas, rng: &mut Rng, xs: (f64, f64), ys: (f64, f64), size: f64, col: Col) {
+    let ((x0, x1), (y0, y1)) = (xs, ys);
     for _ in 0..rng.int(0, 5) {
         let (x, y) = (rng.range(x0, x1), rng.range(y0, y1));
         let s = size * rng.range(0.6, 1.2);
@@ -199,8 +225,7 @@ fn birds(c: &mut Canvas, rng: &mut Rng, x0: f64, x1: f64, y0: f64, y1: f64, size
 
 fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, n4, n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let horizon = hf * rng.range(0.48, 0.6);
     let sun = (wf * rng.range(0.15, 0.85), horizon * rng.range(0.2, 0.55));
     let sun_r = s * 0.028;
@@ -414,11 +439,7 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         Col::hex_linear(0x3a2418),
     );
     c.fill(
-        &Disc {
-            cx: hx + hs * 0.5,
-            cy: gy - hs * 0.85,
-            r: hs * 0.07,
-        },
+        &Disc::new(hx + hs * 0.5, gy - hs * 0.85, hs * 0.07),
         Col(0.03, 0.03, 0.04),
     );
     // Trees in front of the meadow ridge.
@@ -434,19 +455,13 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let cr = th * rng.range(0.3, 0.42);
         // Ground shadow away from the sun.
         let sd = if light.0 > 0.0 { -1.0 } else { 1.0 };
-        c.draw(
-            &soft_ellipse(
-                Ellipse {
-                    cx: tx + sd * cr * 0.8,
-                    cy: ty + cr * 0.08,
-                    rx: cr * 1.3,
-                    ry: cr * 0.18,
-                    rot: (1.0, 0.0),
-                },
-                cr * 0.15,
-            ),
+        flat_shadow(
+            c,
+            (tx + sd * cr * 0.8, ty + cr * 0.08),
+            (cr * 1.3, cr * 0.18),
+            cr * 0.15,
             0.55,
-            |_, _| Col(0.02, 0.04, 0.01),
+            Col(0.02, 0.04, 0.01),
         );
         c.fill(
             &Polygon::new(vec![
@@ -513,10 +528,8 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     birds(
         c,
         rng,
-        0.0,
-        wf,
-        horizon * 0.1,
-        horizon * 0.6,
+        (0.0, wf),
+        (horizon * 0.1, horizon * 0.6),
         s * 0.01,
         Col(0.02, 0.02, 0.025),
     );
@@ -524,8 +537,7 @@ fn countryside(c: &mut Canvas, rng: &mut Rng, seed: u64) {
 
 fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, n4, n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let water = hf * rng.range(0.55, 0.65);
     let sun = (
         wf * rng.range(0.25, 0.75),
@@ -668,27 +680,19 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         ]),
         Col(0.5, 0.32, 0.22),
     );
-    c.draw(
-        &soft_ellipse(
-            Ellipse {
-                cx: bx,
-                cy: by + bl * 0.3,
-                rx: bl * 0.9,
-                ry: bl * 0.15,
-                rot: (1.0, 0.0),
-            },
-            bl * 0.1,
-        ),
+    flat_shadow(
+        c,
+        (bx, by + bl * 0.3),
+        (bl * 0.9, bl * 0.15),
+        bl * 0.1,
         0.6,
-        |_, _| Col(0.005, 0.005, 0.008),
+        Col(0.005, 0.005, 0.008),
     );
     birds(
         c,
         rng,
-        0.0,
-        wf,
-        water * 0.2,
-        water * 0.6,
+        (0.0, wf),
+        (water * 0.2, water * 0.6),
         s * 0.009,
         Col(0.01, 0.008, 0.01),
     );
@@ -696,8 +700,7 @@ fn lake(c: &mut Canvas, rng: &mut Rng, seed: u64) {
 
 fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, _n4, _n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let table_y = hf * rng.range(0.55, 0.65);
     let front_y = hf * rng.range(0.86, 0.93);
     let lx = wf * rng.range(-0.2, 0.3);
@@ -828,12 +831,11 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
             1.0,
             |_, y| Col(0.75, 0.7, 0.6) * (0.6 + 0.4 * fract(y * 1.3)),
         );
-        let style = TextStyle {
-            xh: (bh * 0.22).max(1.5),
-            weight: (bh * 0.05).max(0.6),
-            colour: Col(0.85, 0.75, 0.45),
-            slant: 0.0,
-        };
+        let style = TextStyle::upright(
+            (bh * 0.22).max(1.5),
+            (bh * 0.05).max(0.6),
+            Col(0.85, 0.75, 0.45),
+        );
         draw_line(c, rng, &style, x0 + bw * 0.1, x0 + bw * 0.7, yb - bh * 0.35);
         yb -= bh;
     }
@@ -843,19 +845,13 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let vh = s * rng.range(0.22, 0.32);
     let vb = table_y + (front_y - table_y) * 0.25;
     let glaze = Col::hex_linear(*rng.pick(&[0x2a4a8a, 0xd8d4cc, 0x3a6a5a, 0x9a3a2a]));
-    c.draw(
-        &soft_ellipse(
-            Ellipse {
-                cx: vx + vr * 1.3,
-                cy: vb,
-                rx: vr * 2.2,
-                ry: vr * 0.35,
-                rot: (1.0, 0.0),
-            },
-            vr * 0.3,
-        ),
+    flat_shadow(
+        c,
+        (vx + vr * 1.3, vb),
+        (vr * 2.2, vr * 0.35),
+        vr * 0.3,
         0.8,
-        move |_, _| shadow,
+        shadow,
     );
     let body = Polygon::new(
         (0..=24)
@@ -907,39 +903,25 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
         let fx = wf * (0.6 + 0.12 * k as f64) + rng.range(-0.03, 0.03) * s;
         let fy = table_y + (front_y - table_y) * rng.range(0.45, 0.8) - fr;
         let base = Col::hex_linear(*rng.pick(&[0xe07010, 0xb01818, 0x6a9a20, 0xd0b020]));
-        c.draw(
-            &soft_ellipse(
-                Ellipse {
-                    cx: fx + fr * 0.5,
-                    cy: fy + fr * 0.9,
-                    rx: fr * 1.4,
-                    ry: fr * 0.3,
-                    rot: (1.0, 0.0),
-                },
-                fr * 0.3,
-            ),
+        flat_shadow(
+            c,
+            (fx + fr * 0.5, fy + fr * 0.9),
+            (fr * 1.4, fr * 0.3),
+            fr * 0.3,
             0.85,
-            move |_, _| shadow,
+            shadow,
         );
         let spot = n3;
-        c.draw(
-            &Disc {
-                cx: fx,
-                cy: fy,
-                r: fr,
-            },
-            1.0,
-            |x, y| {
-                let (lit, n) = sphere_light(x, y, fx, fy, fr, light);
-                let hv = normalize3((light.0, light.1, light.2 + 1.0));
-                let spec = pow((n.0 * hv.0 + n.1 * hv.1 + n.2 * hv.2).max(0.0), 60.0);
-                let bounce = clamp01(n.1) * 0.15;
-                let pores = 1.0 + 0.06 * spot.perlin(x * 0.6, y * 0.6);
-                base * (0.06 + 0.94 * lit) * pores
-                    + Col(0.25, 0.15, 0.08) * bounce
-                    + Col::gray(spec * 0.9)
-            },
-        );
+        c.draw(&Disc::new(fx, fy, fr), 1.0, |x, y| {
+            let (lit, n) = sphere_light(x, y, fx, fy, fr, light);
+            let hv = normalize3((light.0, light.1, light.2 + 1.0));
+            let spec = pow((n.0 * hv.0 + n.1 * hv.1 + n.2 * hv.2).max(0.0), 60.0);
+            let bounce = clamp01(n.1) * 0.15;
+            let pores = 1.0 + 0.06 * spot.perlin(x * 0.6, y * 0.6);
+            base * (0.06 + 0.94 * lit) * pores
+                + Col(0.25, 0.15, 0.08) * bounce
+                + Col::gray(spec * 0.9)
+        });
         c.fill(
             &Stroke::new(
                 vec![
@@ -956,8 +938,7 @@ fn still_life(c: &mut Canvas, rng: &mut Rng, seed: u64) {
 
 fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     let [n0, n1, n2, n3, n4, n5] = noises(seed);
-    let (wf, hf) = (c.w as f64, c.h as f64);
-    let s = hf.max(wf * 0.25);
+    let (wf, hf, s) = frame(c);
     let horizon = hf * rng.range(0.4, 0.5);
     let zen = Col::hex_linear(0x3068b8);
     let hor = Col::hex_linear(0xd0e0ee);
@@ -1212,10 +1193,8 @@ fn coast(c: &mut Canvas, rng: &mut Rng, seed: u64) {
     birds(
         c,
         rng,
-        wf * 0.3,
-        wf,
-        horizon * 0.15,
-        horizon * 0.7,
+        (wf * 0.3, wf),
+        (horizon * 0.15, horizon * 0.7),
         s * 0.008,
         Col(0.03, 0.03, 0.035),
     );

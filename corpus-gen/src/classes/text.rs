@@ -157,6 +157,18 @@ pub struct TextStyle {
     pub slant: f64,
 }
 
+impl TextStyle {
+    /// Upright text (no slant).
+    pub fn upright(xh: f64, weight: f64, colour: Col) -> TextStyle {
+        TextStyle {
+            xh,
+            weight,
+            colour,
+            slant: 0.0,
+        }
+    }
+}
+
 /// Draw one line of random words from `x0` to at most `x1`, baseline `y`.
 /// Returns the x where the text ended.
 pub fn draw_line(

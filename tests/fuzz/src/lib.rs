@@ -907,22 +907,18 @@ pub fn frep(data: &[u8]) -> Outcome {
         if !value.is_finite() {
             continue;
         }
-        let tol = slack(&[value, whole.lo, whole.hi]);
-        assert!(
-            whole.lo - tol <= value && value <= whole.hi + tol,
-            "value {value} at {p:?} outside the box's interval [{}, {}]",
-            whole.lo,
-            whole.hi
-        );
+        // Within the interval of a box around `p`, to rounding.
+        let within = |lo: f64, hi: f64, what: &str| {
+            let tol = slack(&[value, lo, hi]);
+            assert!(
+                lo - tol <= value && value <= hi + tol,
+                "value {value} at {p:?} outside {what} interval [{lo}, {hi}]"
+            );
+        };
+        within(whole.lo, whole.hi, "the box's");
         let h = 1e-3 * bounds.longest();
         let small = node.interval(&Aabb::new(p.map(|x| x - h), p.map(|x| x + h)));
-        let tol = slack(&[value, small.lo, small.hi]);
-        assert!(
-            small.lo - tol <= value && value <= small.hi + tol,
-            "value {value} at {p:?} outside a small box's interval [{}, {}]",
-            small.lo,
-            small.hi
-        );
+        within(small.lo, small.hi, "a small box's");
         let _ = gradient;
     }
     match polygonise::solid_mesh(&node, &bounds, FREP_CELLS) {

@@ -239,6 +239,13 @@ fn is_stdout_alias(path: &Path) -> bool {
             .any(|a| path == Path::new(a))
 }
 
+/// `path`'s extension in lower case (none if it is missing or not UTF-8).
+pub fn extension_lowercase(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
 /// Whether `path` is standard output or an existing stream (character device or FIFO,
 /// through links): written in place, and in a command's natural format whatever its
 /// name.

@@ -136,6 +136,29 @@ fn inflate(item: Item, z: &[u8]) -> Result<Vec<u8>, MetadataError> {
     })
 }
 
+/// The `len` bytes of the `format` file `b`'s chunk `kind` (its header at `pos`) from
+/// `start` on; an error if the file ends first.
+fn chunk_data<'a>(
+    format: &'static str,
+    b: &'a [u8],
+    kind: &[u8],
+    pos: usize,
+    start: usize,
+    len: u64,
+) -> Result<&'a [u8], MetadataError> {
+    let remain = b.len() - start;
+    if len > remain as u64 {
+        return Err(corrupt(
+            format,
+            format!(
+                "chunk {} at offset {pos} declares {len} bytes, {remain} remain",
+                String::from_utf8_lossy(kind)
+            ),
+        ));
+    }
+    Ok(&b[start..start + len as usize])
+}
+
 fn read_png(b: &[u8]) -> Result<Metadata, MetadataError> {
     let mut meta = Metadata::default();
     let mut pos = PNG_SIGNATURE.len();
@@ -146,17 +169,7 @@ fn read_png(b: &[u8]) -> Result<Metadata, MetadataError> {
         if &kind == b"eXIf" {
             check_size(Item::Exif, len)?;
         }
-        let remain = b.len() - start;
-        if len > remain as u64 {
-            return Err(corrupt(
-                "PNG",
-                format!(
-                    "chunk {} at offset {pos} declares {len} bytes, {remain} remain",
-                    String::from_utf8_lossy(&kind)
-                ),
-            ));
-        }
-        let data = &b[start..start + len as usize];
+        let data = chunk_data("PNG", b, &kind, pos, start, len)?;
         match &kind {
             b"IEND" => break,
             b"iCCP" if meta.icc.is_none() => meta.icc = Some(png_iccp(data)?),
@@ -228,17 +241,7 @@ fn read_webp(b: &[u8]) -> Result<Metadata, MetadataError> {
             check_size(item, len)?;
         }
         let start = pos + 8;
-        let remain = b.len() - start;
-        if len > remain as u64 {
-            return Err(corrupt(
-                "WebP",
-                format!(
-                    "chunk {} at offset {pos} declares {len} bytes, {remain} remain",
-                    String::from_utf8_lossy(kind)
-                ),
-            ));
-        }
-        let data = &b[start..start + len as usize];
+        let data = chunk_data("WebP", b, kind, pos, start, len)?;
         match item {
             Some(Item::Icc) if meta.icc.is_none() => meta.icc = Some(data.to_vec()),
             Some(Item::Exif) if meta.exif.is_none() => {

@@ -28,6 +28,15 @@ pub struct RdPoint {
     pub quality: f64,
 }
 
+/// The points of paired `rates` and `qualities`.
+pub fn rd_points(rates: &[f64], qualities: &[f64]) -> Vec<RdPoint> {
+    rates
+        .iter()
+        .zip(qualities)
+        .map(|(&rate, &quality)| RdPoint { rate, quality })
+        .collect()
+}
+
 /// Why a Bjontegaard delta is undefined.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BdError {
@@ -298,14 +307,6 @@ pub fn quality_at_rate(points: &[RdPoint], rate: f64) -> Option<f64> {
 mod tests {
     use super::*;
 
-    fn curve(rates: &[f64], q: &[f64]) -> Vec<RdPoint> {
-        rates
-            .iter()
-            .zip(q)
-            .map(|(&rate, &quality)| RdPoint { rate, quality })
-            .collect()
-    }
-
     #[test]
     fn pchip_reproduces_lines_and_their_integrals() {
         let x = [0.0, 1.0, 3.0, 4.5];
@@ -336,18 +337,18 @@ mod tests {
 
     #[test]
     fn frontier_drops_dominated_points() {
-        let c = monotone_curve(&curve(
+        let c = monotone_curve(&rd_points(
             &[1.0, 2.0, 2.0, 3.0, 0.5],
             &[30.0, 29.0, 33.0, 32.0, 25.0],
         ));
-        assert_eq!(c, curve(&[0.5, 1.0, 2.0], &[25.0, 30.0, 33.0]));
+        assert_eq!(c, rd_points(&[0.5, 1.0, 2.0], &[25.0, 30.0, 33.0]));
     }
 
     #[test]
     fn errors() {
-        let a = curve(&[1.0, 2.0], &[30.0, 35.0]);
+        let a = rd_points(&[1.0, 2.0], &[30.0, 35.0]);
         assert_eq!(bd_rate(&a, &a[..1]), Err(BdError::TooFewPoints));
-        let b = curve(&[1.0, 2.0], &[40.0, 45.0]);
+        let b = rd_points(&[1.0, 2.0], &[40.0, 45.0]);
         assert_eq!(bd_rate(&a, &b), Err(BdError::NoOverlap));
         assert_eq!(quality_at_rate(&a, 3.0), None);
         assert!((quality_at_rate(&a, 2.0).unwrap() - 35.0).abs() < 1e-9);
@@ -359,9 +360,9 @@ mod tests {
 
     #[test]
     fn constant_rate_ratio_gives_it_in_every_window() {
-        let reference = curve(&RATES, &PSNR);
+        let reference = rd_points(&RATES, &PSNR);
         let scaled: Vec<f64> = RATES.iter().map(|r| r * 1.2).collect();
-        let test = curve(&scaled, &PSNR);
+        let test = rd_points(&scaled, &PSNR);
         for (lo, hi) in WINDOWS {
             let got = bd_rate_window(&reference, &test, lo, hi).unwrap();
             assert!((got - 20.0).abs() < 1e-9, "[{lo}, {hi}]: {got}");
@@ -374,8 +375,8 @@ mod tests {
         // 2 -> 30 dB, 4 -> 40 dB. The ln-rate gap is ln 2 (40 - q) / 10. Window [1, 2]
         // is [30, 35] dB on the reference, mean gap 0.75 ln 2; window [2, 4] is
         // [35, 40] dB, mean gap 0.25 ln 2. (On the test curve, [1, 2] would be empty.)
-        let reference = curve(&[1.0, 4.0], &[30.0, 40.0]);
-        let test = curve(&[2.0, 4.0], &[30.0, 40.0]);
+        let reference = rd_points(&[1.0, 4.0], &[30.0, 40.0]);
+        let test = rd_points(&[2.0, 4.0], &[30.0, 40.0]);
         let low = bd_rate_window(&reference, &test, 1.0, 2.0).unwrap();
         assert!(
             (low - (2f64.powf(0.75) - 1.0) * 100.0).abs() < 1e-10,
@@ -393,11 +394,11 @@ mod tests {
 
     #[test]
     fn a_window_over_the_whole_range_is_the_whole_range_bd_rate() {
-        let reference = curve(
+        let reference = rd_points(
             &[0.12, 0.3, 0.55, 1.4, 2.0],
             &[24.0, 28.5, 31.0, 35.5, 36.2],
         );
-        let test = curve(&[0.1, 0.2, 0.6, 1.0, 1.8], &[25.0, 27.9, 32.4, 34.0, 36.9]);
+        let test = rd_points(&[0.1, 0.2, 0.6, 1.0, 1.8], &[25.0, 27.9, 32.4, 34.0, 36.9]);
         let whole = bd_rate(&reference, &test).unwrap();
         let window = bd_rate_window(&reference, &test, 0.01, 100.0).unwrap();
         assert!((window - whole).abs() < 1e-12, "{window} vs {whole}");
@@ -408,8 +409,8 @@ mod tests {
 
     #[test]
     fn windows_without_a_figure() {
-        let reference = curve(&[1.0, 4.0], &[30.0, 40.0]);
-        let test = curve(&[2.0, 4.0], &[30.0, 40.0]);
+        let reference = rd_points(&[1.0, 4.0], &[30.0, 40.0]);
+        let test = rd_points(&[2.0, 4.0], &[30.0, 40.0]);
         // Beside both curves' rates: both ends clamp to the same end.
         for (lo, hi) in [(0.05, 0.3), (5.0, 10.0)] {
             assert_eq!(
@@ -425,7 +426,7 @@ mod tests {
         assert!(bd_rate_window(&reference, &test, 1.0, 1.02).is_ok());
         // Inside the reference's rates but outside the PSNR overlap: the test reaches
         // only 32 dB, the window [2, 4] starts at 35.
-        let low_test = curve(&[1.0, 2.0], &[20.0, 32.0]);
+        let low_test = rd_points(&[1.0, 2.0], &[20.0, 32.0]);
         assert_eq!(
             bd_rate_window(&reference, &low_test, 2.0, 4.0),
             Err(BdError::NarrowWindow)

@@ -20,9 +20,9 @@ use super::codecs::{eight_bit_only, interleaved_u8, raster_from_u8, Codec, Setti
 /// The peer called `name` (one of [`super::codecs::PEER_NAMES`]).
 pub fn by_name(name: &str) -> Option<Box<dyn Codec>> {
     Some(match name {
-        "jpeg" => Box::new(MozJpeg { fastest: true }),
-        "mozjpeg" => Box::new(MozJpeg { fastest: false }),
-        "jpeg-image" => Box::new(ImageJpeg),
+        "jpeg" => Box::new(Jpeg(JpegLibrary::Turbo)),
+        "mozjpeg" => Box::new(Jpeg(JpegLibrary::Moz)),
+        "jpeg-image" => Box::new(Jpeg(JpegLibrary::Image)),
         "webp" => Box::new(WebP),
         _ => return None,
     })
@@ -62,102 +62,45 @@ fn guarded<T>(what: &str, f: impl FnOnce() -> std::io::Result<T>) -> Result<T, S
 
 const JPEG_QUALITIES: [f32; 8] = [5.0, 10.0, 20.0, 30.0, 45.0, 60.0, 75.0, 90.0];
 
-/// JPEG through the mozjpeg library.
-struct MozJpeg {
-    /// libjpeg-turbo-compatible settings instead of mozjpeg's.
-    fastest: bool,
+/// The library that writes and reads a JPEG peer's files.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum JpegLibrary {
+    /// mozjpeg with libjpeg-turbo-compatible settings (its "fastest" profile).
+    Turbo,
+    /// mozjpeg with its own defaults.
+    Moz,
+    /// The `image` crate.
+    Image,
 }
 
-impl Codec for MozJpeg {
+/// JPEG through one of the libraries.
+struct Jpeg(JpegLibrary);
+
+impl Codec for Jpeg {
     fn name(&self) -> &'static str {
-        if self.fastest {
-            "jpeg"
-        } else {
-            "mozjpeg"
+        match self.0 {
+            JpegLibrary::Turbo => "jpeg",
+            JpegLibrary::Moz => "mozjpeg",
+            JpegLibrary::Image => "jpeg-image",
         }
     }
 
     fn description(&self) -> String {
-        if self.fastest {
-            "libjpeg-turbo settings (mozjpeg library, JCP_FASTEST profile): baseline, 4:2:0, \
-             optimised Huffman; decoded by the same library"
-                .into()
-        } else {
-            "mozjpeg defaults: trellis quantisation, progressive, optimised scans, 4:2:0; \
-             decoded by the same library"
-                .into()
-        }
-    }
-
-    fn extension(&self) -> &'static str {
-        "jpg"
-    }
-
-    fn supports(&self, image: &Raster) -> Result<(), String> {
-        no_alpha(image)
-    }
-
-    fn default_qualities(&self) -> Vec<f32> {
-        JPEG_QUALITIES.to_vec()
-    }
-
-    fn encode(&self, image: &Raster, setting: Setting) -> Result<Vec<u8>, String> {
-        let q = quality_of(setting)?.max(1.0);
-        let grey = image.layout().colour_channels() == 1;
-        let data = interleaved_u8(image, false);
-        let (w, h) = (image.width() as usize, image.height() as usize);
-        let fastest = self.fastest;
-        guarded("mozjpeg encode", move || {
-            let space = if grey {
-                mozjpeg::ColorSpace::JCS_GRAYSCALE
-            } else {
-                mozjpeg::ColorSpace::JCS_RGB
-            };
-            let mut c = mozjpeg::Compress::new(space);
-            if fastest {
-                c.set_fastest_defaults();
+        match self.0 {
+            JpegLibrary::Turbo => {
+                "libjpeg-turbo settings (mozjpeg library, JCP_FASTEST profile): baseline, \
+                 4:2:0, optimised Huffman; decoded by the same library"
             }
-            c.set_size(w, h);
-            c.set_quality(q);
-            c.set_optimize_coding(true);
-            let mut started = c.start_compress(Vec::new())?;
-            started.write_scanlines(&data)?;
-            started.finish()
-        })
-    }
-
-    fn decode(&self, bytes: &[u8], reference: &Raster) -> Result<Raster, String> {
-        let grey = reference.layout().colour_channels() == 1;
-        let (data, w, h) = guarded("mozjpeg decode", || {
-            let d = mozjpeg::Decompress::new_mem(bytes)?;
-            let mut started = if grey { d.grayscale()? } else { d.rgb()? };
-            let (w, h) = (started.width(), started.height());
-            let data = started.read_scanlines::<u8>()?;
-            started.finish()?;
-            Ok((data, w, h))
-        })?;
-        raster_from_u8(
-            &data,
-            if grey { 1 } else { 3 },
-            w as u32,
-            h as u32,
-            reference,
-        )
-    }
-}
-
-/// The `image` crate's JPEG encoder and decoder.
-struct ImageJpeg;
-
-impl Codec for ImageJpeg {
-    fn name(&self) -> &'static str {
-        "jpeg-image"
-    }
-
-    fn description(&self) -> String {
-        "image crate 0.25 JPEG encoder (baseline, 4:2:0, standard Huffman tables); decoded \
-         by the image crate (zune-jpeg)"
-            .into()
+            JpegLibrary::Moz => {
+                "mozjpeg defaults: trellis quantisation, progressive, optimised scans, 4:2:0; \
+                 decoded by the same library"
+            }
+            JpegLibrary::Image => {
+                "image crate 0.25 JPEG encoder (baseline, 4:2:0, standard Huffman tables); \
+                 decoded by the image crate (zune-jpeg)"
+            }
+        }
+        .into()
     }
 
     fn extension(&self) -> &'static str {
@@ -173,32 +116,93 @@ impl Codec for ImageJpeg {
     }
 
     fn encode(&self, image: &Raster, setting: Setting) -> Result<Vec<u8>, String> {
-        use image::codecs::jpeg::JpegEncoder;
-        use image::ImageEncoder;
-        let q = quality_of(setting)?.round().clamp(1.0, 100.0) as u8;
-        let grey = image.layout().colour_channels() == 1;
-        let data = interleaved_u8(image, false);
-        let color = if grey {
-            image::ExtendedColorType::L8
-        } else {
-            image::ExtendedColorType::Rgb8
-        };
-        let mut out = Vec::new();
-        JpegEncoder::new_with_quality(&mut out, q)
-            .write_image(&data, image.width(), image.height(), color)
-            .map_err(|e| e.to_string())?;
-        Ok(out)
+        match self.0 {
+            JpegLibrary::Image => encode_image_jpeg(image, setting),
+            library => encode_mozjpeg(image, setting, library == JpegLibrary::Turbo),
+        }
     }
 
     fn decode(&self, bytes: &[u8], reference: &Raster) -> Result<Raster, String> {
-        let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Jpeg)
-            .map_err(|e| e.to_string())?;
-        let (w, h) = (img.width(), img.height());
-        if reference.layout().colour_channels() == 1 {
-            raster_from_u8(img.to_luma8().as_raw(), 1, w, h, reference)
-        } else {
-            raster_from_u8(img.to_rgb8().as_raw(), 3, w, h, reference)
+        match self.0 {
+            JpegLibrary::Image => decode_image_jpeg(bytes, reference),
+            _ => decode_mozjpeg(bytes, reference),
         }
+    }
+}
+
+/// Encodes with mozjpeg, with libjpeg-turbo-compatible settings if `fastest`.
+fn encode_mozjpeg(image: &Raster, setting: Setting, fastest: bool) -> Result<Vec<u8>, String> {
+    let q = quality_of(setting)?.max(1.0);
+    let grey = image.layout().colour_channels() == 1;
+    let data = interleaved_u8(image, false);
+    let (w, h) = (image.width() as usize, image.height() as usize);
+    guarded("mozjpeg encode", move || {
+        let space = if grey {
+            mozjpeg::ColorSpace::JCS_GRAYSCALE
+        } else {
+            mozjpeg::ColorSpace::JCS_RGB
+        };
+        let mut c = mozjpeg::Compress::new(space);
+        if fastest {
+            c.set_fastest_defaults();
+        }
+        c.set_size(w, h);
+        c.set_quality(q);
+        c.set_optimize_coding(true);
+        let mut started = c.start_compress(Vec::new())?;
+        started.write_scanlines(&data)?;
+        started.finish()
+    })
+}
+
+/// Decodes with mozjpeg, grey if `reference` is.
+fn decode_mozjpeg(bytes: &[u8], reference: &Raster) -> Result<Raster, String> {
+    let grey = reference.layout().colour_channels() == 1;
+    let (data, w, h) = guarded("mozjpeg decode", || {
+        let d = mozjpeg::Decompress::new_mem(bytes)?;
+        let mut started = if grey { d.grayscale()? } else { d.rgb()? };
+        let (w, h) = (started.width(), started.height());
+        let data = started.read_scanlines::<u8>()?;
+        started.finish()?;
+        Ok((data, w, h))
+    })?;
+    raster_from_u8(
+        &data,
+        if grey { 1 } else { 3 },
+        w as u32,
+        h as u32,
+        reference,
+    )
+}
+
+/// Encodes with the `image` crate's JPEG encoder.
+fn encode_image_jpeg(image: &Raster, setting: Setting) -> Result<Vec<u8>, String> {
+    use image::codecs::jpeg::JpegEncoder;
+    use image::ImageEncoder;
+    let q = quality_of(setting)?.round().clamp(1.0, 100.0) as u8;
+    let grey = image.layout().colour_channels() == 1;
+    let data = interleaved_u8(image, false);
+    let color = if grey {
+        image::ExtendedColorType::L8
+    } else {
+        image::ExtendedColorType::Rgb8
+    };
+    let mut out = Vec::new();
+    JpegEncoder::new_with_quality(&mut out, q)
+        .write_image(&data, image.width(), image.height(), color)
+        .map_err(|e| e.to_string())?;
+    Ok(out)
+}
+
+/// Decodes with the `image` crate, grey if `reference` is.
+fn decode_image_jpeg(bytes: &[u8], reference: &Raster) -> Result<Raster, String> {
+    let img = image::load_from_memory_with_format(bytes, image::ImageFormat::Jpeg)
+        .map_err(|e| e.to_string())?;
+    let (w, h) = (img.width(), img.height());
+    if reference.layout().colour_channels() == 1 {
+        raster_from_u8(img.to_luma8().as_raw(), 1, w, h, reference)
+    } else {
+        raster_from_u8(img.to_rgb8().as_raw(), 3, w, h, reference)
     }
 }
 

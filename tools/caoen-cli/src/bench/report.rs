@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use super::harness::{Failure, Measurement, Skip};
-use super::summary::{ClassSummary, ImageSummary, ALL_CLASSES};
+use super::summary::{ClassSummary, ImageSummary, WindowBdMean, ALL_CLASSES};
 
 /// Value of the report's `format` field.
 pub const FORMAT: &str = "caoen-bench/1";
@@ -216,26 +216,40 @@ impl Report {
     /// The class's BD-rates by rate window, one row per codec other than the
     /// reference (nothing when there is none).
     fn window_table(&self, md: &mut String, rows: &[&ClassSummary]) {
-        let rows: Vec<&&ClassSummary> = rows
-            .iter()
-            .filter(|r| r.codec != self.reference && !r.bd_rate_windows.is_empty())
-            .collect();
-        let Some(first) = rows.first() else {
+        let keep = |r: &ClassSummary| !r.bd_rate_windows.is_empty();
+        let Some(rows) = self.reference_table(md, rows, keep, "by rate window", &["codec"]) else {
             return;
         };
-        let heads = window_heads(first);
-        let _ = writeln!(md, "BD-rate vs {} by rate window:\n", self.reference);
-        let _ = writeln!(md, "| codec | {} |", heads.join(" | "));
-        let _ = writeln!(md, "|---|{}", "---|".repeat(heads.len()));
         for r in rows {
-            let cells: Vec<String> = r
-                .bd_rate_windows
-                .iter()
-                .map(|w| bd_cell(w.bd_rate, w.images))
-                .collect();
+            let cells = window_cells(&r.bd_rate_windows);
             let _ = writeln!(md, "| {} | {} |", r.codec, cells.join(" | "));
         }
         md.push('\n');
+    }
+
+    /// The rows of a table of BD-rates against the reference: those of the codecs
+    /// other than the reference that `keep` takes. Writes the table's title (`what`)
+    /// and head, the columns `leading` and then the rate windows'; nothing, and no
+    /// rows, when `keep` takes none.
+    fn reference_table<'a>(
+        &self,
+        md: &mut String,
+        rows: &[&'a ClassSummary],
+        keep: impl Fn(&ClassSummary) -> bool,
+        what: &str,
+        leading: &[&str],
+    ) -> Option<Vec<&'a ClassSummary>> {
+        let rows: Vec<&ClassSummary> = rows
+            .iter()
+            .copied()
+            .filter(|r| r.codec != self.reference && keep(r))
+            .collect();
+        let heads = window_heads(rows.first()?);
+        let _ = writeln!(md, "BD-rate vs {} {what}:\n", self.reference);
+        let _ = writeln!(md, "| {} | {} |", leading.join(" | "), heads.join(" | "));
+        let columns = leading.len() + heads.len();
+        let _ = writeln!(md, "|{}", "---|".repeat(columns));
+        Some(rows)
     }
 }
 
@@ -243,23 +257,13 @@ impl Report {
     /// The class's BD-rates by each metric, overall and by rate window, one row per
     /// codec other than the reference and metric (nothing when there is none).
     fn metric_table(&self, md: &mut String, rows: &[&ClassSummary]) {
-        let rows: Vec<&&ClassSummary> = rows
-            .iter()
-            .filter(|r| r.codec != self.reference && !r.perceptual.is_empty())
-            .collect();
-        let Some(first) = rows.first() else {
+        let keep = |r: &ClassSummary| !r.perceptual.is_empty();
+        let leading = ["codec", "metric", "overall"];
+        let Some(rows) = self.reference_table(md, rows, keep, "by metric", &leading) else {
             return;
         };
-        let heads = window_heads(first);
-        let _ = writeln!(md, "BD-rate vs {} by metric:\n", self.reference);
-        let _ = writeln!(md, "| codec | metric | overall | {} |", heads.join(" | "));
-        let _ = writeln!(md, "|---|---|---|{}", "---|".repeat(heads.len()));
         for r in rows {
-            let psnr: Vec<String> = r
-                .bd_rate_windows
-                .iter()
-                .map(|w| bd_cell(w.bd_rate, w.images))
-                .collect();
+            let psnr = window_cells(&r.bd_rate_windows);
             let _ = writeln!(
                 md,
                 "| {} | RGB PSNR | {} | {} |",
@@ -268,11 +272,7 @@ impl Report {
                 psnr.join(" | ")
             );
             for p in &r.perceptual {
-                let windows: Vec<String> = p
-                    .windows
-                    .iter()
-                    .map(|w| bd_cell(w.bd_rate, w.images))
-                    .collect();
+                let windows = window_cells(&p.windows);
                 let _ = writeln!(
                     md,
                     "| {} | {} | {} | {} |",
@@ -292,6 +292,14 @@ fn window_heads(row: &ClassSummary) -> Vec<String> {
     row.bd_rate_windows
         .iter()
         .map(|w| format!("{}–{} bpp", w.lo, w.hi))
+        .collect()
+}
+
+/// The BD-rate cells of the rate windows.
+fn window_cells(windows: &[WindowBdMean]) -> Vec<String> {
+    windows
+        .iter()
+        .map(|w| bd_cell(w.bd_rate, w.images))
         .collect()
 }
 

@@ -16,7 +16,7 @@ use crate::cli::{
 use crate::commands::note;
 use crate::commands::render::{parse_size, picture_format, render_with_progress};
 use crate::failure::{CliError, CliResult};
-use crate::output::Outputs;
+use crate::output::{extension_lowercase, Outputs};
 
 /// The format tag of an F-rep model file.
 pub const FREP_FORMAT: &str = "caoen-frep/1";
@@ -190,10 +190,7 @@ fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
 
 /// Whether `path` names a mesh file (.stl, .obj, .ply).
 fn is_mesh_path(path: &Path) -> bool {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(path);
     matches!(ext.as_deref(), Some("stl" | "obj" | "ply"))
 }
 
@@ -208,10 +205,7 @@ fn write_solid_mesh(
     cells: u32,
     output: &Path,
 ) -> CliResult {
-    let ext = output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(output);
     if !is_mesh_path(output) {
         return Err(CliError::Usage(format!(
             "{}: mesh output must end in .stl, .obj or .ply",
@@ -360,11 +354,7 @@ pub fn heightfield_model(a: &HeightfieldArgs, image: &str, aspect: f64) -> serde
 
 /// `caoen heightfield`.
 pub fn heightfield(global: &GlobalArgs, a: &HeightfieldArgs) -> CliResult {
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(&a.output);
     if ext.as_deref() != Some("json") {
         model_or_picture(&a.output)?;
     }
@@ -419,10 +409,7 @@ fn write_model(
     samples: u32,
     base: &Path,
 ) -> CliResult {
-    let ext = output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(output);
     // Refused before any work when the extension is neither a model nor a picture.
     let format = if ext.as_deref() == Some("json") {
         None
@@ -483,11 +470,7 @@ pub enum PictureUse {
 /// `caoen relief` and `caoen carve`: a new model file wrapping the model of `--on`.
 pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliResult {
     use serde_json::json;
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(&a.output);
     if ext.as_deref() != Some("json") && !is_mesh_path(&a.output) {
         model_or_picture(&a.output)?;
     }

@@ -16,7 +16,7 @@ use crate::cli::{GlobalArgs, MorphArgs};
 use crate::commands::note;
 use crate::commands::render::{parse_size, progress_bar};
 use crate::failure::{CliError, CliResult};
-use crate::output::{print, Outputs};
+use crate::output::{extension_lowercase, print, Outputs};
 
 /// What the output path asks for.
 enum Output {
@@ -27,11 +27,7 @@ enum Output {
 
 /// `caoen morph`.
 pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(&a.output);
     let kind = match ext.as_deref() {
         Some("gif") => Output::Gif,
         Some("png") => Output::Apng,

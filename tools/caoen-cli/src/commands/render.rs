@@ -18,7 +18,7 @@ use crate::cli::{
 use crate::commands::note;
 use crate::commands::surface::load_model;
 use crate::failure::{CliError, CliResult};
-use crate::output::{is_same_file, Outputs};
+use crate::output::{extension_lowercase, is_same_file, Outputs};
 
 impl From<RenderError> for CliError {
     fn from(e: RenderError) -> Self {
@@ -101,10 +101,7 @@ pub fn render_with_progress(
 
 /// Writes a depth map: 16-bit PNG, or OpenEXR (raw depths) for `.exr`.
 pub fn write_depth(outputs: &Outputs, r: &Rendered, path: &Path) -> CliResult {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(path);
     let bytes = match ext.as_deref() {
         Some("png") => r.depth.encode_png16()?,
         Some("exr") => r.depth.encode_exr()?,
@@ -169,10 +166,7 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     let opts = options(a)?;
     let format = picture_format(&a.output)?;
     if let Some(d) = &a.depth_out {
-        let e = d
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
+        let e = extension_lowercase(d);
         if !matches!(e.as_deref(), Some("png" | "exr")) {
             return Err(CliError::Usage(format!(
                 "{}: depth output must end in .png (16-bit) or .exr",

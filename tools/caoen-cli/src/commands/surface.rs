@@ -11,7 +11,7 @@ use serde_json::json;
 use crate::cli::{GlobalArgs, NormalsArg, SurfaceCommand, SurfaceEvalArgs, SurfaceMeshArgs};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
-use crate::output::{print, Outputs, Target};
+use crate::output::{extension_lowercase, print, Outputs, Target};
 
 /// Loads a model from a file or `builtin:NAME`.
 pub fn load_model(spec: &str) -> CliResult<SurfaceModel> {
@@ -229,10 +229,7 @@ pub fn write_mesh_textured(
     normals: NormalMode,
     texture: Option<&Path>,
 ) -> CliResult<String> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(path);
     if !matches!(ext.as_deref(), Some("obj" | "ply")) {
         return Err(CliError::Usage(format!(
             "{}: mesh output must end in .obj or .ply",

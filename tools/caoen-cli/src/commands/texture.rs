@@ -14,7 +14,7 @@ use crate::cli::{DistortArgs, GlobalArgs};
 use crate::commands::compare::is_cae;
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
-use crate::output::{Outputs, Target};
+use crate::output::{extension_lowercase, Outputs, Target};
 
 /// Parses `x,y:x2,y2`.
 pub fn parse_move(s: &str) -> CliResult<Move> {
@@ -89,11 +89,7 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
             "give at least one --move x,y,z:x2,y2,z2".into(),
         ));
     }
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(&a.output);
     if !matches!(ext.as_deref(), Some("json" | "obj" | "ply")) {
         return Err(CliError::Usage(format!(
             "{}: a distorted surface is written as .json (model) or .obj/.ply (mesh)",
@@ -262,10 +258,7 @@ fn failed(e: impl std::fmt::Display) -> CliError {
 fn load_texture(path: &Path) -> CliResult<caoen::render::texture::Texture> {
     use caoen::render::framebuffer::RgbImage;
     use caoen::render::texture::Texture;
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(path);
     if matches!(ext.as_deref(), Some("cae" | "exr")) {
         let r = crate::commands::compare::load_any(path)?;
         Texture::new(RgbImage::from_raster(&r).map_err(failed)?).map_err(failed)
@@ -332,11 +325,7 @@ pub fn default_bake(width: u32, height: u32, output: (u32, u32)) -> (u32, u32) {
 
 /// `caoen transfer`.
 pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult {
-    let ext = a
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = extension_lowercase(&a.output);
     let picture = if ext.as_deref() == Some("obj") {
         None
     } else {

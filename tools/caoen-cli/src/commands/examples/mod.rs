@@ -11,6 +11,8 @@ mod frep;
 mod surfaces;
 mod texture;
 
+pub use texture::volume_slices;
+
 use std::path::Path;
 
 use caoen::render::framebuffer::RgbImage;
@@ -50,17 +52,26 @@ fn opts(width: u32, height: u32, samples: u32, method: Method) -> RenderOptions 
     }
 }
 
-/// Renders the scene file `scene` to `dir/png`.
-fn render_scene_file(
+/// Writes `scene` as the scene file `scene_dir/NAME.scene.json`, and renders that file
+/// to `dir/NAME.png`.
+fn scene_example(
     global: &GlobalArgs,
-    dir: &Path,
-    scene: &Path,
-    png: &str,
+    (dir, scene_dir): (&Path, &Path),
+    name: &str,
+    scene: &Value,
     o: &RenderOptions,
 ) -> CliResult {
-    let scene = Scene::load(scene)?;
-    let r = render_with_progress(global, &scene, o, png)?;
-    save_png(global, dir, png, &r.image)
+    let file = scene_dir.join(format!("{name}.scene.json"));
+    save_json(scene_dir, &format!("{name}.scene.json"), scene)?;
+    let png = format!("{name}.png");
+    let r = render_with_progress(global, &Scene::load(&file)?, o, &png)?;
+    save_png(global, dir, &png, &r.image)
+}
+
+/// A scene file's contents: its `name`, the camera looking from `view_from` at the
+/// origin, and `objects`.
+fn scene_json(name: &str, view_from: [f64; 3], objects: Value) -> Value {
+    json!({"format": "caoen-scene/1", "name": name, "camera": camera_json(view_from), "objects": objects})
 }
 
 fn camera_json(view_from: [f64; 3]) -> Value {

@@ -12,7 +12,7 @@ use caoen::surface::morph::morph;
 use caoen::surface::{gallery, Blend, Domain, KeyPoint, Network, SurfaceModel};
 use serde_json::json;
 
-use super::{camera_json, opts, render_scene_file, save_json, save_model, save_png, tile_grid};
+use super::{opts, save_model, save_png, scene_example, scene_json, tile_grid};
 use crate::cli::GlobalArgs;
 use crate::failure::CliResult;
 use crate::output::replace_file;
@@ -108,20 +108,15 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         [r * t.cos(), r * t.sin(), minor * f.sin()]
     })?;
     save_model(dir, "torus-freeform.json", &torus)?;
-    save_json(
-        dir,
-        "torus-freeform.scene.json",
-        &json!({
-            "format": "caoen-scene/1", "name": "torus-domain freeform surface",
-            "camera": camera_json([0.9, -1.5, 1.1]),
-            "objects": [{"surface": "torus-freeform.json", "material": {"colour": [0.85, 0.55, 0.3], "specular": 0.3}}]
-        }),
-    )?;
-    render_scene_file(
+    scene_example(
         global,
-        dir,
-        &dir.join("torus-freeform.scene.json"),
-        "torus-freeform.png",
+        (dir, dir),
+        "torus-freeform",
+        &scene_json(
+            "torus-domain freeform surface",
+            [0.9, -1.5, 1.1],
+            json!([{"surface": "torus-freeform.json", "material": {"colour": [0.85, 0.55, 0.3], "specular": 0.3}}]),
+        ),
         &opts(384, 288, n, Method::Depth),
     )?;
     let scene = Scene::load(&dir.join("torus-freeform.scene.json"))?;
@@ -178,40 +173,30 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     )?;
 
     // 4. Convex implicit solids from polyhedra, ray traced: one alone, and a CSG of two.
-    save_json(
-        dir,
-        "solid.scene.json",
-        &json!({
-            "format": "caoen-scene/1", "name": "implicit dodecahedron",
-            "camera": camera_json([1.0, -1.7, 1.0]),
-            "objects": [{"name": "dodecahedron", "solid": {"polyhedron": "dodecahedron", "radius": 1.0, "q": 12.0, "level": 2.0},
-                         "material": {"colour": [0.3, 0.6, 0.4], "specular": 0.4}}]
-        }),
-    )?;
-    render_scene_file(
+    scene_example(
         global,
-        dir,
-        &dir.join("solid.scene.json"),
-        "solid.png",
+        (dir, dir),
+        "solid",
+        &scene_json(
+            "implicit dodecahedron",
+            [1.0, -1.7, 1.0],
+            json!([{"name": "dodecahedron", "solid": {"polyhedron": "dodecahedron", "radius": 1.0, "q": 12.0, "level": 2.0},
+                         "material": {"colour": [0.3, 0.6, 0.4], "specular": 0.4}}]),
+        ),
         &opts(320, 240, n, Method::Ray),
     )?;
-    save_json(
-        dir,
-        "csg.scene.json",
-        &json!({
-            "format": "caoen-scene/1", "name": "cube minus icosahedron",
-            "camera": camera_json([1.0, -1.5, 1.1]),
-            "objects": [{"name": "carved cube", "csg": {"op": "difference", "operands": [
+    scene_example(
+        global,
+        (dir, dir),
+        "csg",
+        &scene_json(
+            "cube minus icosahedron",
+            [1.0, -1.5, 1.1],
+            json!([{"name": "carved cube", "csg": {"op": "difference", "operands": [
                 {"solid": {"polyhedron": "cube", "radius": 1.0, "q": 16.0}},
                 {"solid": {"polyhedron": "icosahedron", "radius": 1.2, "q": 6.0}}
-            ]}, "material": {"colour": [0.75, 0.42, 0.35], "specular": 0.35}}]
-        }),
-    )?;
-    render_scene_file(
-        global,
-        dir,
-        &dir.join("csg.scene.json"),
-        "csg.png",
+            ]}, "material": {"colour": [0.75, 0.42, 0.35], "specular": 0.35}}]),
+        ),
         &opts(320, 240, n, Method::Ray),
     )?;
     // A rim of the carved cube up close: ray traced (left) and its mesh (right), each a
@@ -272,25 +257,20 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         save_model(&tea, name, m)?;
     }
     let glaze = json!({"colour": [0.82, 0.84, 0.9], "specular": 0.6, "shininess": 60.0});
-    save_json(
-        &tea,
-        "teapot.scene.json",
-        &json!({
-            "format": "caoen-scene/1", "name": "teapot-like compound model",
-            "camera": camera_json([0.35, -1.6, 0.75]),
-            "objects": [
+    scene_example(
+        global,
+        (dir, &tea),
+        "teapot",
+        &scene_json(
+            "teapot-like compound model",
+            [0.35, -1.6, 0.75],
+            json!([
                 {"name": "body", "surface": "body.json", "material": glaze},
                 {"name": "lid", "surface": "lid.json", "transform": {"translate": [0.0, 0.0, 0.62]}, "material": glaze},
                 {"name": "spout", "surface": "spout.json", "transform": {"rotate_deg": [0.0, -40.0, 0.0], "translate": [0.75, 0.0, 0.05]}, "material": glaze},
                 {"name": "handle", "surface": "handle.json", "transform": {"rotate_deg": [90.0, 0.0, 0.0], "translate": [-1.05, 0.0, 0.1]}, "material": glaze}
-            ]
-        }),
-    )?;
-    render_scene_file(
-        global,
-        dir,
-        &tea.join("teapot.scene.json"),
-        "teapot.png",
+            ]),
+        ),
         &opts(384, 288, n, Method::Mesh),
     )?;
 
@@ -299,20 +279,15 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     replace_file(&dir.join("checker.png"), &tex.image().encode_png()?)?;
     let textured = gallery::blob()?.with_texture("checker.png");
     save_model(dir, "textured-blob.json", &textured)?;
-    save_json(
-        dir,
-        "textured.scene.json",
-        &json!({
-            "format": "caoen-scene/1", "name": "textured blob",
-            "camera": camera_json([1.0, -1.6, 0.7]),
-            "objects": [{"surface": "textured-blob.json", "material": {"specular": 0.2}}]
-        }),
-    )?;
-    render_scene_file(
+    scene_example(
         global,
-        dir,
-        &dir.join("textured.scene.json"),
-        "textured.png",
+        (dir, dir),
+        "textured",
+        &scene_json(
+            "textured blob",
+            [1.0, -1.6, 0.7],
+            json!([{"surface": "textured-blob.json", "material": {"specular": 0.2}}]),
+        ),
         &opts(320, 240, n, Method::Depth),
     )?;
 

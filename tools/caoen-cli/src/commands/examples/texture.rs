@@ -157,78 +157,74 @@ fn transfer(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         },
     )?;
 
+    // `args` rendered into a temporary picture, read back as a tile.
+    let tile = |args: TransferArgs| -> CliResult<RgbImage> {
+        let tmp = temp_png()?;
+        let output = tmp.path().to_path_buf();
+        transfer(global, &TransferArgs { output, ..args })?;
+        Ok(RgbImage::load(tmp.path())?)
+    };
+    let small = || TransferArgs {
+        size: "240x180".into(),
+        samples,
+        detail: 5,
+        ..transfer_args("builtin:blob", PathBuf::new())
+    };
+
     // The distort example's scene projected (spherically) on the octahedron and on the
     // six-point surface, each carried to the blob: the source shapes the result.
     let picture = dir.join("distort/input.png");
-    let mut tiles = Vec::new();
-    for from in ["builtin:octahedron", "builtin:six-point"] {
-        let tmp = temp_png()?;
-        transfer(
-            global,
-            &TransferArgs {
+    let tiles = ["builtin:octahedron", "builtin:six-point"]
+        .into_iter()
+        .map(|from| {
+            tile(TransferArgs {
                 texture: Some(picture.clone()),
                 from: Some(from.into()),
-                size: "240x180".into(),
-                samples,
-                detail: 5,
-                ..transfer_args("builtin:blob", tmp.path().to_path_buf())
-            },
-        )?;
-        tiles.push(RgbImage::load(tmp.path())?);
-    }
+                ..small()
+            })
+        });
+    let tiles = tiles.collect::<CliResult<Vec<_>>>()?;
     save_png(global, &sub, "projected.png", &hstack(&tiles))?;
 
     // The blob's own shape and the six-point surface as texture spaces for a checker.
-    let mut tiles = Vec::new();
-    for space in ["builtin:blob", "builtin:six-point"] {
-        let tmp = temp_png()?;
-        transfer(
-            global,
-            &TransferArgs {
+    let tiles = ["builtin:blob", "builtin:six-point"]
+        .into_iter()
+        .map(|space| {
+            tile(TransferArgs {
                 texture_space: Some(space.into()),
                 project: "domain".into(),
-                size: "240x180".into(),
-                samples,
-                detail: 5,
-                ..transfer_args("builtin:blob", tmp.path().to_path_buf())
-            },
-        )?;
-        tiles.push(RgbImage::load(tmp.path())?);
-    }
+                ..small()
+            })
+        });
+    let tiles = tiles.collect::<CliResult<Vec<_>>>()?;
     save_png(global, &sub, "texture-space.png", &hstack(&tiles))?;
 
     // The solid textures at scale 0.35, and the example volume.
     let vol = sub.join("volume");
     write_volume(&vol)?;
-    let mut tiles = Vec::new();
-    for solid in [
+    let solids = [
         "checker",
         "stripes",
         "rings",
         "marble",
         "volume/volume.json",
-    ] {
-        let tmp = temp_png()?;
+    ];
+    let tiles = solids.into_iter().map(|solid| {
         let solid = if solid.ends_with(".json") {
             sub.join(solid).to_string_lossy().into_owned()
         } else {
             solid.to_string()
         };
-        transfer(
-            global,
-            &TransferArgs {
-                texture_space: Some("builtin:blob".into()),
-                project: "domain".into(),
-                solid,
-                scale: 0.35,
-                size: "256x192".into(),
-                samples,
-                detail: 5,
-                ..transfer_args("builtin:blob", tmp.path().to_path_buf())
-            },
-        )?;
-        tiles.push(RgbImage::load(tmp.path())?);
-    }
+        tile(TransferArgs {
+            texture_space: Some("builtin:blob".into()),
+            project: "domain".into(),
+            solid,
+            scale: 0.35,
+            size: "256x192".into(),
+            ..small()
+        })
+    });
+    let tiles = tiles.collect::<CliResult<Vec<_>>>()?;
     save_png(global, &sub, "solid-textures.png", &hstack(&tiles))
 }
 
@@ -241,32 +237,40 @@ fn temp_png() -> CliResult<tempfile::NamedTempFile> {
         .map_err(|e| CliError::io(std::env::temp_dir(), e))
 }
 
-/// `volume/`: 16 slices of 16x16, an RGB gradient across the cube with darker
-/// spherical shells, over [-1.5, 1.5]^3.
+/// The example volume's 16 slices of 16x16 (slice `k` is layer `z = k`): an RGB
+/// gradient across the cube with darker spherical shells.
+pub fn volume_slices() -> Vec<RgbImage> {
+    let n = 16u32;
+    (0..n)
+        .map(|k| {
+            let mut pixels = Vec::new();
+            for j in 0..n {
+                for i in 0..n {
+                    let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
+                    let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
+                    let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
+                        1.0
+                    } else {
+                        0.35
+                    };
+                    pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
+                }
+            }
+            RgbImage {
+                width: n,
+                height: n,
+                pixels,
+            }
+        })
+        .collect()
+}
+
+/// `volume/`: [`volume_slices`] over [-1.5, 1.5]^3.
 fn write_volume(vol: &Path) -> CliResult {
     std::fs::create_dir_all(vol).map_err(|e| CliError::io(vol, e))?;
-    let n = 16u32;
     let mut names = Vec::new();
-    for k in 0..n {
-        let mut pixels = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                let u = [i, j, k].map(|v| (v as f32 + 0.5) / n as f32);
-                let r = u.iter().map(|v| (v - 0.5) * (v - 0.5)).sum::<f32>().sqrt();
-                let shell = if ((r * 8.0) as u32).is_multiple_of(2) {
-                    1.0
-                } else {
-                    0.35
-                };
-                pixels.push(u.map(|v| (0.1 + 0.8 * v) * shell));
-            }
-        }
+    for (k, slice) in volume_slices().iter().enumerate() {
         let name = format!("z{k:02}.png");
-        let slice = RgbImage {
-            width: n,
-            height: n,
-            pixels,
-        };
         replace_file(&vol.join(&name), &slice.encode_png()?)?;
         names.push(name);
     }
