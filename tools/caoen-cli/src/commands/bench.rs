@@ -60,8 +60,19 @@ fn check_markers(path: &std::path::Path, old: &str) -> CliResult {
     )))
 }
 
-/// Runs `caoen bench`.
-pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
+/// What `caoen bench`'s arguments ask for, checked before any work.
+struct Plan {
+    codecs: Vec<Box<dyn Codec>>,
+    names: Vec<String>,
+    reference: String,
+    rates: Rates,
+    source: Source,
+    classes: Vec<String>,
+    existing_markdown: String,
+}
+
+/// Checks the arguments and turns them into a [`Plan`].
+fn plan(global: &GlobalArgs, args: &BenchArgs) -> CliResult<Plan> {
     let names = args.codecs.clone().unwrap_or_else(default_codecs);
     let mut codecs: Vec<Box<dyn Codec>> = Vec::new();
     for name in &names {
@@ -147,6 +158,28 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     if let Some(dir) = &args.keep {
         std::fs::create_dir_all(dir).map_err(|e| CliError::io(dir, e))?;
     }
+    Ok(Plan {
+        codecs,
+        names,
+        reference,
+        rates,
+        source,
+        classes,
+        existing_markdown,
+    })
+}
+
+/// Runs `caoen bench`.
+pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
+    let Plan {
+        codecs,
+        names,
+        reference,
+        rates,
+        source,
+        classes,
+        existing_markdown,
+    } = plan(global, args)?;
 
     let started = Instant::now();
     note(global, format!("loading images: {}", source.describe()));
@@ -212,9 +245,63 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     let outcome = harness::run(&images, &config, &bar);
     bar.finish_and_clear();
 
+    let report = build_report(args, &source, reference, &config, &images, outcome);
+    let markdown = report.to_markdown();
+    print(&markdown)?;
+    if let Some(path) = &args.report {
+        outputs.write_path(path, report.to_json().as_bytes())?;
+        note(global, format!("wrote {}", path.display()));
+    }
+    if let Some(path) = &args.markdown {
+        outputs.write_path(
+            path,
+            splice_markdown(&existing_markdown, &markdown).as_bytes(),
+        )?;
+        note(global, format!("wrote {}", path.display()));
+    }
+    if let Some(base) = &args.plot {
+        for p in plot::write_plots(&outputs, base, &report.measurements, &names)
+            .map_err(CliError::Failed)?
+        {
+            note(global, format!("wrote {}", p.display()));
+        }
+    }
+    note(
+        global,
+        format!(
+            "{} points measured, {} skipped pairs, {} failed, in {:.1} s",
+            report.measurements.len(),
+            report.skipped.len(),
+            report.failures.len(),
+            started.elapsed().as_secs_f64()
+        ),
+    );
+    if let Some(first) = report.failures.first() {
+        return Err(CliError::Failed(format!(
+            "{} points failed (listed in the report and the tables); the first: {} on {} at {}: {}",
+            report.failures.len(),
+            first.codec,
+            first.image,
+            first.target,
+            first.error
+        )));
+    }
+    Ok(())
+}
+
+/// The report of a run: its settings, the images, the measurements and their summaries.
+fn build_report(
+    args: &BenchArgs,
+    source: &Source,
+    reference: String,
+    config: &Config,
+    images: &[corpus::BenchImage],
+    outcome: harness::Outcome,
+) -> Report {
+    let names: Vec<String> = config.codecs.iter().map(|c| c.name().to_string()).collect();
     let per_image = summary::per_image(&outcome.measurements, &names, &reference);
     let classes = summary::per_class(&outcome.measurements, &per_image, &names);
-    let report = Report {
+    Report {
         format: FORMAT.into(),
         version: env!("CARGO_PKG_VERSION").into(),
         corpus: source.describe(),
@@ -257,47 +344,5 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
         failures: outcome.failures,
         per_image,
         classes,
-    };
-
-    let markdown = report.to_markdown();
-    print(&markdown)?;
-    if let Some(path) = &args.report {
-        outputs.write_path(path, report.to_json().as_bytes())?;
-        note(global, format!("wrote {}", path.display()));
     }
-    if let Some(path) = &args.markdown {
-        outputs.write_path(
-            path,
-            splice_markdown(&existing_markdown, &markdown).as_bytes(),
-        )?;
-        note(global, format!("wrote {}", path.display()));
-    }
-    if let Some(base) = &args.plot {
-        for p in plot::write_plots(&outputs, base, &report.measurements, &names)
-            .map_err(CliError::Failed)?
-        {
-            note(global, format!("wrote {}", p.display()));
-        }
-    }
-    note(
-        global,
-        format!(
-            "{} points measured, {} skipped pairs, {} failed, in {:.1} s",
-            report.measurements.len(),
-            report.skipped.len(),
-            report.failures.len(),
-            started.elapsed().as_secs_f64()
-        ),
-    );
-    if let Some(first) = report.failures.first() {
-        return Err(CliError::Failed(format!(
-            "{} points failed (listed in the report and the tables); the first: {} on {} at {}: {}",
-            report.failures.len(),
-            first.codec,
-            first.image,
-            first.target,
-            first.error
-        )));
-    }
-    Ok(())
 }

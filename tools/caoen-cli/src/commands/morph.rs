@@ -56,31 +56,8 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
             a.a, a.b, model_a.domain, model_b.domain
         )));
     }
-    let mut outputs = Outputs::new(global.force);
-    for input in [&a.a, &a.b] {
-        if !input.starts_with("builtin:") {
-            outputs = outputs.input(Path::new(input));
-        }
-    }
     let frame_names: Vec<String> = (0..a.frames).map(|k| format!("frame-{k:03}.png")).collect();
-    match kind {
-        Output::Folder => {
-            if a.output.exists() && !a.output.is_dir() {
-                return Err(CliError::Failed(format!(
-                    "{}: exists and is not a folder",
-                    a.output.display()
-                )));
-            }
-            for f in frame_names
-                .iter()
-                .map(String::as_str)
-                .chain(["contact.png"])
-            {
-                outputs.check_path(&a.output.join(f))?;
-            }
-        }
-        _ => outputs.check_path(&a.output)?,
-    }
+    let outputs = check_outputs(global, a, &kind, &frame_names)?;
 
     // One camera for every frame, framed on both models together.
     let mut both = Scene::from_model(model_a.clone(), None)?;
@@ -132,18 +109,7 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
         Output::Folder => {}
     }
     for k in 0..n {
-        // The ends are the models themselves (padding is exact in theory, but a
-        // different key-point count may change summation order in the last bit).
-        let model = if k == 0 {
-            model_a.clone()
-        } else if k == n - 1 {
-            model_b.clone()
-        } else {
-            let u = f64::from(k) / f64::from(n - 1);
-            let net = morph(&model_a.network, &model_b.network, u)?;
-            SurfaceModel::new(format!("morph u={u:.4}"), model_a.domain, net)?
-        };
-        let image = render_frame(model)?.image;
+        let image = render_frame(frame_model(&model_a, &model_b, k, n)?)?.image;
         let png_bytes = image.encode_png()?;
         let rgb = image::load_from_memory(&png_bytes)
             .map_err(failed)?
@@ -190,16 +156,7 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
         Output::Gif => outputs.write_path(&a.output, &gif_bytes)?,
     }
     if a.json {
-        let (fov, height_ortho) = match cam.projection {
-            caoen::render::Projection::Perspective { fov_y_deg } => (Some(fov_y_deg), None),
-            caoen::render::Projection::Orthographic { height } => (None, Some(height)),
-        };
-        let v = serde_json::json!({
-            "frames": n, "width": width, "height": height, "output": a.output.display().to_string(),
-            "camera": {"eye": cam.eye, "target": target, "up": cam.up,
-                       "fov_deg": fov, "orthographic_height": height_ortho}
-        });
-        print(&(serde_json::to_string_pretty(&v).expect("json") + "\n"))?;
+        print(&(serde_json::to_string_pretty(&morph_json(a, &cam, target)).expect("json") + "\n"))?;
     }
     note(
         global,
@@ -211,6 +168,74 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
         ),
     );
     Ok(())
+}
+
+/// The outputs a morph writes, checked before any work: a folder's frames and contact
+/// sheet, or one animation.
+fn check_outputs(
+    global: &GlobalArgs,
+    a: &MorphArgs,
+    kind: &Output,
+    frame_names: &[String],
+) -> CliResult<Outputs> {
+    let mut outputs = Outputs::new(global.force);
+    for input in [&a.a, &a.b] {
+        if !input.starts_with("builtin:") {
+            outputs = outputs.input(Path::new(input));
+        }
+    }
+    match kind {
+        Output::Folder => {
+            if a.output.exists() && !a.output.is_dir() {
+                return Err(CliError::Failed(format!(
+                    "{}: exists and is not a folder",
+                    a.output.display()
+                )));
+            }
+            for f in frame_names
+                .iter()
+                .map(String::as_str)
+                .chain(["contact.png"])
+            {
+                outputs.check_path(&a.output.join(f))?;
+            }
+        }
+        _ => outputs.check_path(&a.output)?,
+    }
+    Ok(outputs)
+}
+
+/// Frame `k` of `n`: the ends are the models themselves (padding is exact in theory,
+/// but a different key-point count may change summation order in the last bit).
+fn frame_model(
+    model_a: &SurfaceModel,
+    model_b: &SurfaceModel,
+    k: u32,
+    n: u32,
+) -> CliResult<SurfaceModel> {
+    Ok(if k == 0 {
+        model_a.clone()
+    } else if k == n - 1 {
+        model_b.clone()
+    } else {
+        let u = f64::from(k) / f64::from(n - 1);
+        let net = morph(&model_a.network, &model_b.network, u)?;
+        SurfaceModel::new(format!("morph u={u:.4}"), model_a.domain, net)?
+    })
+}
+
+/// `caoen morph --json`: the frames and the one camera they share.
+fn morph_json(a: &MorphArgs, cam: &caoen::render::Camera, target: [f64; 3]) -> serde_json::Value {
+    let (fov, height_ortho) = match cam.projection {
+        caoen::render::Projection::Perspective { fov_y_deg } => (Some(fov_y_deg), None),
+        caoen::render::Projection::Orthographic { height } => (None, Some(height)),
+    };
+    serde_json::json!({
+        "frames": a.frames, "width": cam.width, "height": cam.height,
+        "output": a.output.display().to_string(),
+        "camera": {"eye": cam.eye, "target": target, "up": cam.up,
+                   "fov_deg": fov, "orthographic_height": height_ortho}
+    })
 }
 
 fn failed(e: impl std::fmt::Display) -> CliError {
