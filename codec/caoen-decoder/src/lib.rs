@@ -12,28 +12,19 @@
 #![warn(missing_docs)]
 
 pub mod bitstream;
-/// Opponent colour bases and the HDR curve.
 pub mod colour;
 pub mod decoder;
 pub mod deringing;
-/// The transform-coded detail layer over the network's colours.
 pub mod detail;
-/// Adaptive binary and multi-symbol models on the ANS coder; the bit counter.
 pub mod entropy;
 mod error;
-/// Pixels embedded on the sphere; sharpness for a footprint.
 pub mod geometry;
-/// Key-point sets and their evaluation on a grid.
 pub mod keyset;
 mod par;
-/// The adaptive quadtree.
 pub mod quadtree;
-/// The restoration filters applied to the decoded planes.
 pub mod restoration;
-/// Split flags and value residuals as coded symbols.
 pub mod syntax;
 pub mod tiling;
-/// LEB128 lengths and counts.
 pub mod varint;
 
 pub use caoen_base::budget::Limits;

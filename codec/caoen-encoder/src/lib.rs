@@ -6,24 +6,17 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-/// Edge and per-scale detail maps that start the tree.
 pub mod analysis;
 pub mod deringing_fit;
 #[cfg(test)]
 mod detail_tests;
-/// Quantisation and assembly of a file.
 pub mod encoder;
-/// Ridge least squares by block conjugate gradients.
 pub mod fit;
 pub mod keypoint_map;
-/// Choosing the tree and fitting the colours.
 pub mod model;
-/// The detail layer's quantisation: each block's coefficients chosen by rate and distortion.
 pub mod quantise;
-/// Quality and effort mapping; the rate-target search.
 pub mod rate_control;
 pub mod resample;
-/// The restoration filters' least-squares fit against the source.
 pub mod restoration_fit;
 pub mod source;
 

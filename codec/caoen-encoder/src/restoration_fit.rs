@@ -247,7 +247,7 @@ fn fit_taps(stats: &Stats, scale: f64, bit_cost: f64) -> Option<(Vec<i32>, f64)>
         .then_some((taps, best))
 }
 
-/// The plane's taps, if any pay: [`fit_taps`], kept when the best taps gain more than
+/// The plane's taps, if any pay: `fit_taps`, kept when the best taps gain more than
 /// their bits and the plane's bit in the section's mask cost.
 pub fn fit(stats: &Stats, scale: f64, bit_cost: f64) -> Option<Vec<i32>> {
     fit_taps(stats, scale, bit_cost)

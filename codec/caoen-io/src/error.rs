@@ -119,7 +119,7 @@ pub enum ImageIoError {
 pub const IN_MEMORY: &str = "<memory>";
 
 impl ImageIoError {
-    /// The error with `path` in place of [`IN_MEMORY`]: an image made in memory for a
+    /// The error with `path` in place of `<memory>`: an image made in memory for a
     /// file is named after that file.
     pub fn named(mut self, path: &Path) -> Self {
         let slot = match &mut self {

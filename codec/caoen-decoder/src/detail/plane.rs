@@ -15,7 +15,7 @@ pub struct DetailPlane {
     pub cols: usize,
     /// Block rows.
     pub rows: usize,
-    /// Per block: its index in `spans`, or [`ZERO`].
+    /// Per block: its index in `spans`, or `ZERO` (none coded).
     pub index: Vec<u32>,
     /// Per coded block: where its levels start in `levels`, and its extent `(v1, u1)`:
     /// the rows and columns up to the last nonzero ones.

@@ -10,10 +10,10 @@
 //!   filter (0 for none, else the filter's index plus one) in `width(n)` bits, the bits
 //!   needed to write `n`, then the `n` filters' taps.
 //!
-//! Taps are in [`shape`](super::shape)'s order, as signed Exp-Golomb codes of order
+//! Taps are in `shape`'s order, as signed Exp-Golomb codes of order
 //! [`ORDER`]. The colour map is its rows in plane order, each row's coefficients and
 //! then its offset, as signed Exp-Golomb codes of order
-//! [`MAP_ORDER`](super::colour_map::MAP_ORDER).
+//! [`super::colour_map::MAP_ORDER`].
 
 use super::colour_map::{ColourMap, MAP_ORDER, MAX_COEFFICIENT};
 use super::{shape, PlaneFilter, Restoration, CLASSES, MAX_FILTERS, MAX_TAP};
