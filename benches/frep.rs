@@ -82,7 +82,12 @@ fn scene(path: &Path) -> Scene {
     if !v["camera"].is_null() {
         s["camera"] = v["camera"].clone();
     }
-    Scene::from_json(&s.to_string(), path.parent().unwrap()).unwrap()
+    Scene::from_json(
+        &s.to_string(),
+        path.parent().unwrap(),
+        &caoen::Limits::default(),
+    )
+    .unwrap()
 }
 
 fn opts(side: u32) -> RenderOptions {

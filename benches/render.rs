@@ -157,7 +157,7 @@ fn summary() {
     let tris = 20.0 * 4f64.powi(5);
     let base = time(3, || icosphere(5));
     let tess = time(3, || {
-        serial(|| tessellate(&blob, 5, NormalMode::Exact).unwrap())
+        serial(|| tessellate(&blob, 5, NormalMode::Exact, &caoen::Limits::default()).unwrap())
     });
     println!("tessellation, blob, 20480 triangles, exact normals:");
     println!(
@@ -214,7 +214,9 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(20 * 4u64.pow(5)));
     g.bench_function("bare_icosphere_baseline", |b| b.iter(|| icosphere(5)));
     g.bench_function("tessellate_blob_exact", |b| {
-        b.iter(|| serial(|| tessellate(&blob, 5, NormalMode::Exact).unwrap()))
+        b.iter(|| {
+            serial(|| tessellate(&blob, 5, NormalMode::Exact, &caoen::Limits::default()).unwrap())
+        })
     });
     g.finish();
 

@@ -28,8 +28,13 @@ fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
         // What convert writes, the model reader reads: the base alone, no empty `perturb`.
         let text = c.model.to_frep_json("quadric", mesh.bounds()).to_string();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-        let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new("."))
-            .unwrap_or_else(|e| panic!("{radii:?}: {e}"));
+        let node = caoen::frep::Node::from_json(
+            &v["model"],
+            "model",
+            Path::new("."),
+            &caoen::Limits::default(),
+        )
+        .unwrap_or_else(|e| panic!("{radii:?}: {e}"));
         for p in &mesh.positions {
             assert!(
                 node.value(*p).abs() < 1e-6,
@@ -72,8 +77,16 @@ fn the_written_model_is_the_fitted_function() {
     assert!(c.model.supports.is_some());
     let fitted = ImplicitModel::new(c.model.frame, c.model.base, c.model.bumps.clone());
     let inner = &v["model"]["transform"]["intersection"][0];
-    let perturb = caoen::frep::Node::from_json(inner, "model", Path::new(".")).unwrap();
-    let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new(".")).unwrap();
+    let perturb =
+        caoen::frep::Node::from_json(inner, "model", Path::new("."), &caoen::Limits::default())
+            .unwrap();
+    let node = caoen::frep::Node::from_json(
+        &v["model"],
+        "model",
+        Path::new("."),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let whole = InUnitCube {
         field: &node,
         frame: mesh.unit_frame(),
@@ -402,7 +415,9 @@ fn the_shared_open_and_holed_meshes_are_told_apart() {
         eprintln!("skipped: {} is missing", beetle.display());
         return;
     }
-    let read = |name: &str| caoen::conversion::read(&models.join(name)).unwrap();
+    let read = |name: &str| {
+        caoen::conversion::read(&models.join(name), &caoen::Limits::default()).unwrap()
+    };
     let o = read("beetle.obj").openness();
     assert!(o.is_sheet() && o.boundary_edges == 296, "{o:?}");
     let out = caoen(&["convert", s(&beetle), "-o", "never.json"]);
@@ -437,7 +452,11 @@ fn a_model_far_from_the_mesh_measures_badly() {
 
 #[test]
 fn triangle_strips_in_a_ply_are_read_as_triangles() {
-    let m = caoen::conversion::read(&repo_path("tests/data/meshes/tetra-strips.ply")).unwrap();
+    let m = caoen::conversion::read(
+        &repo_path("tests/data/meshes/tetra-strips.ply"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     assert_eq!(m.triangles.len(), 4);
     let t = m.topology();
     assert!(t.is_closed(), "{t:?}");
@@ -512,7 +531,13 @@ fn a_rotated_box_is_cut_to_its_faces_exactly() {
     assert_eq!(c.model.supports.as_ref().map(|s| s.planes.len()), Some(6));
     let v: serde_json::Value =
         serde_json::from_str(&c.model.to_frep_json("box", mesh.bounds()).to_string()).unwrap();
-    let node = caoen::frep::Node::from_json(&v["model"], "model", Path::new(".")).unwrap();
+    let node = caoen::frep::Node::from_json(
+        &v["model"],
+        "model",
+        Path::new("."),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     // Across every face, a hair outside is outside (and its middle, a little inside, is
     // inside: the cut keeps the solid).
     for k in 0..3 {

@@ -15,7 +15,7 @@ use proptest::prelude::*;
 use serde_json::json;
 
 fn node(v: serde_json::Value) -> Node {
-    Node::from_json(&v, "model", Path::new(".")).unwrap()
+    Node::from_json(&v, "model", Path::new("."), &caoen::Limits::default()).unwrap()
 }
 
 #[test]
@@ -402,7 +402,7 @@ fn bad_models_are_refused_with_the_path() {
         ),
     ];
     for (v, want) in cases {
-        let e = Node::from_json(&v, "model", Path::new("."))
+        let e = Node::from_json(&v, "model", Path::new("."), &caoen::Limits::default())
             .unwrap_err()
             .to_string();
         assert!(e.contains(want), "{v}: `{e}` should mention `{want}`");
@@ -412,7 +412,7 @@ fn bad_models_are_refused_with_the_path() {
     for _ in 0..70 {
         v = json!({"offset": v, "by": 0.0});
     }
-    let e = Node::from_json(&v, "model", Path::new("."))
+    let e = Node::from_json(&v, "model", Path::new("."), &caoen::Limits::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("nested deeper"), "{e}");
@@ -446,7 +446,9 @@ fn ray_vs_mesh_psnr(dir: &Path, model: &Path) -> f64 {
             "192x144",
         ]);
     }
-    let load = |p: &Path| caoen::render::framebuffer::RgbImage::load(p).unwrap();
+    let load = |p: &Path| {
+        caoen::render::framebuffer::RgbImage::load(p, &caoen::Limits::default()).unwrap()
+    };
     common::psnr_render(&load(&ray), &load(&mesh))
 }
 
@@ -678,10 +680,19 @@ fn caoen_surface_inside_is_a_signed_distance() {
     let dir = tmpdir("surface-field");
     blob_surface(&dir);
     let v = json!({"caoen_surface": {"file": "blob.json", "detail": 3}});
-    let n = Node::from_json(&v, "model", &dir).unwrap();
-    let model = caoen::surface::model_file::SurfaceModel::load(&dir.join("blob.json")).unwrap();
-    let mesh =
-        caoen::render::mesh::tessellate(&model, 3, caoen::render::mesh::NormalMode::Exact).unwrap();
+    let n = Node::from_json(&v, "model", &dir, &caoen::Limits::default()).unwrap();
+    let model = caoen::surface::model_file::SurfaceModel::load(
+        &dir.join("blob.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
+    let mesh = caoen::render::mesh::tessellate(
+        &model,
+        3,
+        caoen::render::mesh::NormalMode::Exact,
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let tri: Vec<[[f64; 3]; 3]> = mesh
         .triangles
         .iter()
@@ -824,7 +835,9 @@ fn caoen_surface_inside_is_a_signed_distance() {
             "unknown field `level`",
         ),
     ] {
-        let e = Node::from_json(&v, "model", &dir).unwrap_err().to_string();
+        let e = Node::from_json(&v, "model", &dir, &caoen::Limits::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(want), "{v}: `{e}` should mention `{want}`");
     }
 }
@@ -1150,7 +1163,13 @@ fn height_map(dir: &Path, base: serde_json::Value, interp: &str, threshold: Opti
     if let Some(t) = threshold {
         hm["threshold"] = json!(t);
     }
-    Node::from_json(&json!({"height_map": hm}), "model", dir).unwrap()
+    Node::from_json(
+        &json!({"height_map": hm}),
+        "model",
+        dir,
+        &caoen::Limits::default(),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -1350,7 +1369,8 @@ fn cli_heightfield_writes_models_and_renders() {
             "--samples",
             "1",
         ]);
-        let r = caoen::render::framebuffer::RgbImage::load(&png).unwrap();
+        let r =
+            caoen::render::framebuffer::RgbImage::load(&png, &caoen::Limits::default()).unwrap();
         let bg = r.pixels[0];
         let covered = r.pixels.iter().filter(|p| **p != bg).count();
         assert!(covered > 500, "{base}: {covered} pixels of the solid");
@@ -1402,7 +1422,7 @@ fn relief_and_pattern_gradients_and_bounds() {
     ];
     let mut s = Stream(5);
     for m in models {
-        let n = Node::from_json(&m, "model", &dir).unwrap();
+        let n = Node::from_json(&m, "model", &dir, &caoen::Limits::default()).unwrap();
         let mut checked = 0;
         for _ in 0..3000 {
             let p = [0.9 * s.next(), 0.9 * s.next(), 0.9 * s.next()];
@@ -1444,7 +1464,7 @@ fn cli_relief_and_carve() {
         "1",
     ]);
     let covered = |p: &Path| {
-        let r = caoen::render::framebuffer::RgbImage::load(p).unwrap();
+        let r = caoen::render::framebuffer::RgbImage::load(p, &caoen::Limits::default()).unwrap();
         let bg = r.pixels[0];
         r.pixels.iter().filter(|q| **q != bg).count()
     };
@@ -1508,7 +1528,7 @@ fn cli_relief_and_carve() {
             "1",
         ]);
         assert!(
-            caoen::render::framebuffer::RgbImage::load(&png).is_ok(),
+            caoen::render::framebuffer::RgbImage::load(&png, &caoen::Limits::default()).is_ok(),
             "{cmd}"
         );
     }

@@ -15,7 +15,7 @@ use caoen::render::mesh_io::read_stl;
 use serde_json::json;
 
 fn node(v: serde_json::Value) -> Node {
-    Node::from_json(&v, "model", &repo_root()).unwrap()
+    Node::from_json(&v, "model", &repo_root(), &caoen::Limits::default()).unwrap()
 }
 
 /// The relief's height over one face of a box: the largest distance along the face's

@@ -18,16 +18,28 @@ fn sphere_models() -> Vec<SurfaceModel> {
         six_point(Blend::Exponential, 6.0, true).unwrap(),
         six_point(Blend::Power, 3.0, false).unwrap(),
         blob().unwrap(),
-        SurfaceModel::load("examples/teapot/body.json".as_ref()).unwrap(),
-        SurfaceModel::load("examples/morph-b.json".as_ref()).unwrap(),
+        SurfaceModel::load(
+            "examples/teapot/body.json".as_ref(),
+            &caoen::Limits::default(),
+        )
+        .unwrap(),
+        SurfaceModel::load("examples/morph-b.json".as_ref(), &caoen::Limits::default()).unwrap(),
     ]
 }
 
 fn torus_models() -> Vec<SurfaceModel> {
     vec![
         ring().unwrap(),
-        SurfaceModel::load("examples/torus-freeform.json".as_ref()).unwrap(),
-        SurfaceModel::load("examples/teapot/handle.json".as_ref()).unwrap(),
+        SurfaceModel::load(
+            "examples/torus-freeform.json".as_ref(),
+            &caoen::Limits::default(),
+        )
+        .unwrap(),
+        SurfaceModel::load(
+            "examples/teapot/handle.json".as_ref(),
+            &caoen::Limits::default(),
+        )
+        .unwrap(),
     ]
 }
 
@@ -59,13 +71,20 @@ fn assert_no_degenerate(mesh: &Mesh, what: &str) {
 fn sphere_models_have_euler_characteristic_2_and_torus_models_0() {
     for detail in [2, 4] {
         for m in sphere_models() {
-            let mesh = tessellate(&m, detail, NormalMode::Exact).unwrap();
+            let mesh =
+                tessellate(&m, detail, NormalMode::Exact, &caoen::Limits::default()).unwrap();
             assert_eq!(mesh.euler_characteristic(), 2, "{} detail {detail}", m.name);
             assert!(mesh.is_closed_and_consistent(), "{}", m.name);
             assert_no_degenerate(&mesh, &m.name);
         }
         for m in torus_models() {
-            let mesh = tessellate(&m, detail, NormalMode::Interpolated).unwrap();
+            let mesh = tessellate(
+                &m,
+                detail,
+                NormalMode::Interpolated,
+                &caoen::Limits::default(),
+            )
+            .unwrap();
             assert_eq!(mesh.euler_characteristic(), 0, "{} detail {detail}", m.name);
             assert!(mesh.is_closed_and_consistent(), "{}", m.name);
             assert_no_degenerate(&mesh, &m.name);
@@ -75,12 +94,24 @@ fn sphere_models_have_euler_characteristic_2_and_torus_models_0() {
 
 #[test]
 fn the_checks_catch_broken_meshes() {
-    let mut mesh = tessellate(&blob().unwrap(), 2, NormalMode::Exact).unwrap();
+    let mut mesh = tessellate(
+        &blob().unwrap(),
+        2,
+        NormalMode::Exact,
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     mesh.triangles.pop();
     assert_ne!(mesh.euler_characteristic(), 2);
     assert!(!mesh.is_closed_and_consistent());
     let r = std::panic::catch_unwind(|| {
-        let mut m = tessellate(&blob().unwrap(), 1, NormalMode::Exact).unwrap();
+        let mut m = tessellate(
+            &blob().unwrap(),
+            1,
+            NormalMode::Exact,
+            &caoen::Limits::default(),
+        )
+        .unwrap();
         m.triangles[0][1] = m.triangles[0][0];
         assert_no_degenerate(&m, "broken");
     });
@@ -347,7 +378,7 @@ fn read_ply(bytes: &[u8]) -> Result<Vec<PlyElement>, String> {
 #[test]
 fn obj_files_reread_strictly_with_the_same_mesh() {
     for m in [blob().unwrap(), ring().unwrap()] {
-        let mesh = tessellate(&m, 3, NormalMode::Exact).unwrap();
+        let mesh = tessellate(&m, 3, NormalMode::Exact, &caoen::Limits::default()).unwrap();
         let mut bytes = Vec::new();
         write_obj(&mesh, &mut bytes, Some(("x.mtl", "mat"))).unwrap();
         let obj = read_obj(std::str::from_utf8(&bytes).unwrap()).unwrap();
@@ -392,7 +423,7 @@ fn the_obj_reader_rejects_malformed_files() {
 #[test]
 fn ply_files_reread_strictly_with_the_same_mesh() {
     for m in [blob().unwrap(), ring().unwrap()] {
-        let mesh = tessellate(&m, 3, NormalMode::Interpolated).unwrap();
+        let mesh = tessellate(&m, 3, NormalMode::Interpolated, &caoen::Limits::default()).unwrap();
         let mut bytes = Vec::new();
         write_ply(&mesh, &mut bytes).unwrap();
         let els = read_ply(&bytes).unwrap();
@@ -422,7 +453,13 @@ fn ply_files_reread_strictly_with_the_same_mesh() {
         }
     }
     // Strictness: truncation and trailing bytes are errors.
-    let mesh = tessellate(&blob().unwrap(), 1, NormalMode::Exact).unwrap();
+    let mesh = tessellate(
+        &blob().unwrap(),
+        1,
+        NormalMode::Exact,
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let mut bytes = Vec::new();
     write_ply(&mesh, &mut bytes).unwrap();
     assert!(read_ply(&bytes[..bytes.len() - 1]).is_err());

@@ -96,7 +96,7 @@ fn exact_normal_directions_match_finite_differences() {
 }
 
 fn scene(v: serde_json::Value) -> Scene {
-    Scene::from_json(&v.to_string(), Path::new(".")).unwrap()
+    Scene::from_json(&v.to_string(), Path::new("."), &caoen::Limits::default()).unwrap()
 }
 
 /// A shadow ray through a transmitting ball crosses two surfaces, each passing
@@ -109,7 +109,14 @@ fn shadow_rays_pass_transmit_per_surface() {
             "objects": [{"frep": {"sphere": {"centre": [0, 0, 1], "radius": 0.5}},
                          "material": {"transmit": transmit, "ior": 1.5}}]
         }));
-        let rays = RayScene::new(&sc, vec![None], RayMethod::Fast, 1.5).unwrap();
+        let rays = RayScene::new(
+            &sc,
+            vec![None],
+            RayMethod::Fast,
+            1.5,
+            &caoen::Limits::default(),
+        )
+        .unwrap();
         let below = rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
         assert!((below - want).abs() < 1e-6, "{transmit}: {below}");
         assert_eq!(rays.light_through([2.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 1.0);
@@ -126,7 +133,14 @@ fn mirror_and_glass_golden_values() {
         "objects": [{"frep": {"box": {"centre": [0, 0, -1], "size": [4, 4, 2]}},
                      "material": {"colour": [0, 0, 0], "reflect": 1.0, "specular": 0}}]
     }));
-    let rays = RayScene::new(&mirror, vec![None], RayMethod::Fast, 3.0).unwrap();
+    let rays = RayScene::new(
+        &mirror,
+        vec![None],
+        RayMethod::Fast,
+        3.0,
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let c = rays.trace([0.0, 0.0, 1.0], unit([0.3, 0.1, -1.0]), 1, 1.0, None);
     assert_eq!(c, mirror.background);
     let f = fresnel(1.0, 1.5);
@@ -136,7 +150,14 @@ fn mirror_and_glass_golden_values() {
         "objects": [{"frep": {"box": {"centre": [0, 0, 0], "size": [4, 4, 0.5]}},
                      "material": {"colour": [0, 0, 0], "reflect": 1.0, "transmit": 0.9, "ior": 1.5, "specular": 0}}]
     }));
-    let rays = RayScene::new(&glass, vec![None], RayMethod::Fast, 3.0).unwrap();
+    let rays = RayScene::new(
+        &glass,
+        vec![None],
+        RayMethod::Fast,
+        3.0,
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     // Straight down: the reflected rays go back up to the white background too,
     // so the radiance is the sum of every path's weight (to the depth limit).
     let c = rays.trace([0.0, 0.0, 2.0], [0.0, 0.0, -1.0], 1, 1.0, None);
@@ -174,7 +195,7 @@ fn bad_material_fields_name_the_field() {
         for (k, x) in top.as_object().unwrap() {
             v[k] = x.clone();
         }
-        let e = Scene::from_json(&v.to_string(), Path::new("."))
+        let e = Scene::from_json(&v.to_string(), Path::new("."), &caoen::Limits::default())
             .unwrap_err()
             .to_string();
         assert!(e.contains(field), "{field}: {e}");

@@ -8,7 +8,7 @@ use std::path::Path;
 use caoen::render::{RenderError, Scene};
 
 fn scene_err(json: &str) -> String {
-    match Scene::from_json(json, Path::new("examples")) {
+    match Scene::from_json(json, Path::new("examples"), &caoen::Limits::default()) {
         Ok(_) => panic!("accepted {json}"),
         Err(e) => e.to_string(),
     }
@@ -84,7 +84,7 @@ fn bad_scene_files_name_the_field() {
     assert!(scene_err(r#"{"format": "caoen-scene/1", "lights": [{"direction": [0, 0, 0]}], "objects": [{"surface": "builtin:blob"}]}"#)
         .contains("lights[0].direction"));
     assert!(matches!(
-        Scene::from_json("{", Path::new(".")),
+        Scene::from_json("{", Path::new("."), &caoen::Limits::default()),
         Err(RenderError::Field(_))
     ));
 }
@@ -92,9 +92,17 @@ fn bad_scene_files_name_the_field() {
 #[test]
 fn every_example_scene_loads() {
     for f in ["solid", "csg", "textured", "torus-freeform"] {
-        Scene::load(format!("examples/{f}.scene.json").as_ref()).unwrap();
+        Scene::load(
+            format!("examples/{f}.scene.json").as_ref(),
+            &caoen::Limits::default(),
+        )
+        .unwrap();
     }
-    let s = Scene::load("examples/teapot/teapot.scene.json".as_ref()).unwrap();
+    let s = Scene::load(
+        "examples/teapot/teapot.scene.json".as_ref(),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     assert!(s.objects.len() >= 3);
 }
 

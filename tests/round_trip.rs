@@ -55,7 +55,7 @@ fn caoen(args: &[String]) -> Result<(), caoen_cli::failure::CliError> {
 
 /// Reads an F-rep model file back the way `caoen frep render` does.
 fn reads_back_as_model(path: &Path) {
-    if let Err(e) = caoen_cli::commands::frep::load(path) {
+    if let Err(e) = caoen_cli::commands::frep::load(path, &caoen::Limits::default()) {
         let text = std::fs::read_to_string(path).unwrap_or_default();
         panic!(
             "{}: written but not read back: {e}\n{}",
@@ -257,8 +257,11 @@ proptest! {
 fn texture() -> &'static caoen::render::texture::Texture {
     static T: OnceLock<caoen::render::texture::Texture> = OnceLock::new();
     T.get_or_init(|| {
-        caoen::render::texture::Texture::load(&repo_path("tests/bad/hostile/small.png"))
-            .expect("small.png")
+        caoen::render::texture::Texture::load(
+            &repo_path("tests/bad/hostile/small.png"),
+            &caoen::Limits::default(),
+        )
+        .expect("small.png")
     })
 }
 
@@ -340,7 +343,7 @@ proptest! {
             format!("--cells={cells}"),
         ];
         if caoen(&args).is_ok() {
-            if let Err(e) = caoen::conversion::read(&out) {
+            if let Err(e) = caoen::conversion::read(&out, &caoen::Limits::default()) {
                 panic!("{}: written but not read back: {e}", out.display());
             }
         }

@@ -324,7 +324,7 @@ fn surface_3d_warp_moves_control_points_and_key_point_shapes() {
         caoen(&["distort", input, "-o", s(output), "--move", mv])
     };
     assert_ok(&distort("builtin:blob", &json, "1.3,0,0:1.7,0.3,-0.1"));
-    assert!(caoen::surface::SurfaceModel::load(&json).is_ok());
+    assert!(caoen::surface::SurfaceModel::load(&json, &caoen::Limits::default()).is_ok());
     assert_ok(&distort("builtin:blob", &obj, "1.3,0,0:1.7,0.3,-0.1"));
     let none = dir.join("none.json");
     for (input, output, mv, want) in [
@@ -412,5 +412,5 @@ fn surface_3d_warp_fold_check() {
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("warning: inconsistent moves"), "{err}");
-    assert!(caoen::surface::SurfaceModel::load(&out).is_ok());
+    assert!(caoen::surface::SurfaceModel::load(&out, &caoen::Limits::default()).is_ok());
 }

@@ -18,7 +18,16 @@ fn tmpdir(name: &str) -> PathBuf {
 }
 
 fn checker() -> Texture {
-    Texture::checker(256, 128, 16, 8, [0.9, 0.85, 0.7], [0.05, 0.1, 0.3]).unwrap()
+    Texture::checker(
+        256,
+        128,
+        16,
+        8,
+        [0.9, 0.85, 0.7],
+        [0.05, 0.1, 0.3],
+        &caoen::Limits::default(),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -41,13 +50,27 @@ fn checkerboard_round_trip_a_b_a() {
     let b = gallery::by_name("blob").unwrap().unwrap();
     let tex = checker();
     let on_b = transfer(&a, &b, &tex, 256, 128).unwrap();
-    let back = transfer(&b, &a, &Texture::new(on_b).unwrap(), 256, 128).unwrap();
+    let back = transfer(
+        &b,
+        &a,
+        &Texture::new(on_b, &caoen::Limits::default()).unwrap(),
+        256,
+        128,
+    )
+    .unwrap();
     let p = common::psnr_render(tex.image(), &back);
     println!("A -> B -> A checkerboard (same texture size): PSNR {p} dB");
     assert!(p > 35.0, "{p}");
     // Through a finer texture grid on B: resampled twice.
     let on_b = transfer(&a, &b, &tex, 512, 256).unwrap();
-    let back = transfer(&b, &a, &Texture::new(on_b).unwrap(), 256, 128).unwrap();
+    let back = transfer(
+        &b,
+        &a,
+        &Texture::new(on_b, &caoen::Limits::default()).unwrap(),
+        256,
+        128,
+    )
+    .unwrap();
     let p2 = common::psnr_render(tex.image(), &back);
     println!("A -> B (512x256) -> A checkerboard: PSNR {p2:.2} dB");
     assert!(p2 > 20.0, "{p2}");
@@ -60,7 +83,11 @@ fn colours_stay_at_the_key_points_images() {
     let a = gallery::by_name("six-point").unwrap().unwrap();
     let b = gallery::by_name("blob").unwrap().unwrap();
     let tex = checker();
-    let on_b = Texture::new(transfer(&a, &b, &tex, 256, 128).unwrap()).unwrap();
+    let on_b = Texture::new(
+        transfer(&a, &b, &tex, 256, 128).unwrap(),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let mut worst: f32 = 0.0;
     for kp in b.network.key_points() {
         let uv = domain_uv(&b.domain, &kp.source).unwrap();
@@ -206,15 +233,23 @@ fn textured_morph_keeps_the_texture_attached() {
     use caoen::render::mesh::{tessellate, NormalMode};
     use caoen::surface::{morph::morph, SurfaceModel};
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let a = SurfaceModel::load(&root.join("examples/morph-a.json")).unwrap();
-    let b = SurfaceModel::load(&root.join("examples/morph-b.json")).unwrap();
+    let a = SurfaceModel::load(
+        &root.join("examples/morph-a.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
+    let b = SurfaceModel::load(
+        &root.join("examples/morph-b.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     for k in 0..5 {
         let u = k as f64 / 4.0;
         let net = morph(&a.network, &b.network, u).unwrap();
         let model = SurfaceModel::new(format!("morph-{k}"), a.domain, net)
             .unwrap()
             .with_texture("../checker.png");
-        let mesh = tessellate(&model, 3, NormalMode::Exact).unwrap();
+        let mesh = tessellate(&model, 3, NormalMode::Exact, &caoen::Limits::default()).unwrap();
         for (t, uvs) in mesh.triangles.iter().zip(&mesh.corner_uvs) {
             for c in 0..3 {
                 let x = &mesh.domain_points[t[c] as usize];
@@ -544,7 +579,11 @@ fn texture_control_example_steers_the_texture() {
     // lands on the +x tip than on the plain blob.
     use caoen::surface::SurfaceModel;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let model = SurfaceModel::load(&root.join("examples/texture-control.json")).unwrap();
+    let model = SurfaceModel::load(
+        &root.join("examples/texture-control.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     assert!(model.texture.is_some());
     let kps = model.network.key_points();
     let tip: Vec<_> = kps.iter().filter(|k| k.shape == [1.3, 0.0, 0.0]).collect();
@@ -584,7 +623,7 @@ fn ramp_png(path: &Path, w: u32, h: u32) {
 }
 
 fn load_rgb(path: &Path) -> RgbImage {
-    RgbImage::load(path).unwrap()
+    RgbImage::load(path, &caoen::Limits::default()).unwrap()
 }
 
 #[test]
@@ -679,7 +718,12 @@ fn baked_checker_has_no_stair_steps() {
         let dir = tmpdir("stairs");
         std::fs::write(dir.join("t.png"), tex.encode_png().unwrap()).unwrap();
         let model = blob.clone().with_texture("t.png");
-        let scene = Scene::from_model(model, Some(&dir.join("blob.json"))).unwrap();
+        let scene = Scene::from_model(
+            model,
+            Some(&dir.join("blob.json")),
+            &caoen::Limits::default(),
+        )
+        .unwrap();
         let opts = RenderOptions {
             width: 128,
             height: 128,
@@ -738,11 +782,14 @@ fn texture_pyramid_averages_and_selects_levels() {
     let f = tex.sample_filtered(inside, 2.0, Wrap::Sphere);
     assert!((0..3).all(|k| (c[k] - f[k]).abs() < 1e-6));
     // Odd sizes keep every texel's area: a 3x1 image's level 1 has 2 texels.
-    let odd = Texture::new(RgbImage {
-        width: 3,
-        height: 1,
-        pixels: vec![[0.0; 3], [1.0; 3], [0.5; 3]],
-    })
+    let odd = Texture::new(
+        RgbImage {
+            width: 3,
+            height: 1,
+            pixels: vec![[0.0; 3], [1.0; 3], [0.5; 3]],
+        },
+        &caoen::Limits::default(),
+    )
     .unwrap();
     assert_eq!(odd.levels(), 3);
     let l1 = odd.sample_filtered([0.25, 0.5], 2.0, Wrap::Clamp);

@@ -5,14 +5,11 @@
 //! — an image header, a caoen header, the requested output size — and checked here
 //! before anything is allocated, so a small hostile file cannot demand gigabytes.
 //!
-//! The budget is process-wide (the `caoen` command line sets it once from
-//! `--max-memory`): the checks sit deep inside loaders that scenes, textures and volume
-//! slices reach through many layers, and one number for the whole process is what a
-//! user can reason about.
-//!
-//! What a command keeps while it works (the samples of every height map a model loads,
-//! each texture) is held as a [`Reservation`]; every [`check`] counts the memory held
-//! so, so one command's loads together stay within one budget.
+//! The limit is one [`Limits`] per job, handed to every call of the job (the `caoen`
+//! command line makes one per command from `--max-memory`). What a job keeps while it
+//! works (the samples of every height map a model loads, each texture) is held as a
+//! [`Reservation`]; every later check of the same job counts it, so one job's loads
+//! together stay within one limit.
 
 use std::io::Read;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -22,14 +19,6 @@ use thiserror::Error;
 
 /// The default budget, 2 GiB: what a laptop survives alongside everything else.
 pub const DEFAULT_BUDGET: u64 = 2 << 30;
-
-static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BUDGET);
-
-/// Bytes held by live [`Reservation`]s.
-static HELD: AtomicU64 = AtomicU64::new(0);
-
-/// The largest need (with what was held) any [`check`] has passed or refused.
-static LARGEST: AtomicU64 = AtomicU64::new(0);
 
 /// The words of every [`OverBudget`] message before the budget: a program that sets
 /// the budget from its own option can find them to say how to raise it.
@@ -47,53 +36,11 @@ pub struct OverBudget {
     pub budget: u64,
 }
 
-/// Sets the process-wide budget in bytes.
-pub fn set(bytes: u64) {
-    BUDGET.store(bytes, Ordering::Relaxed);
-}
-
-/// The process-wide budget in bytes.
-pub fn get() -> u64 {
-    BUDGET.load(Ordering::Relaxed)
-}
-
-/// Checks an estimated need, on top of the memory held by live reservations, against
-/// the budget; `what` is only formatted on failure.
-pub fn check(what: impl FnOnce() -> String, need: u64) -> Result<(), OverBudget> {
-    let budget = get();
-    let held = held();
-    LARGEST.fetch_max(need.saturating_add(held), Ordering::Relaxed);
-    if need.saturating_add(held) <= budget {
-        Ok(())
-    } else {
-        Err(OverBudget {
-            what: if held == 0 {
-                what()
-            } else {
-                format!("{} (with {} already loaded)", what(), human(held))
-            },
-            need: need.saturating_add(held),
-            budget,
-        })
-    }
-}
-
-/// The largest estimate checked so far in this process, with what was held at the time:
-/// the command's estimate of its peak, which the measured peak is compared with.
-pub fn largest_checked() -> u64 {
-    LARGEST.load(Ordering::Relaxed)
-}
-
-/// Bytes held by live reservations: what the loads so far keep.
-pub fn held() -> u64 {
-    HELD.load(Ordering::Relaxed)
-}
-
 /// Memory a loaded asset keeps, counted by every check of its job until it is dropped.
 #[derive(Debug, Default)]
 pub struct Reservation {
     bytes: u64,
-    /// The job's ledger; `None` for the process-wide count.
+    /// The job's ledger (none for an empty reservation).
     ledger: Option<Arc<Ledger>>,
 }
 
@@ -106,10 +53,9 @@ impl Reservation {
 
 impl Drop for Reservation {
     fn drop(&mut self) {
-        match &self.ledger {
-            Some(l) => l.held.fetch_sub(self.bytes, Ordering::Relaxed),
-            None => HELD.fetch_sub(self.bytes, Ordering::Relaxed),
-        };
+        if let Some(l) = &self.ledger {
+            l.held.fetch_sub(self.bytes, Ordering::Relaxed);
+        }
     }
 }
 
@@ -120,29 +66,12 @@ impl PartialEq for Reservation {
     }
 }
 
-/// Checks `need` like [`check`] and, when it fits, holds it until the reservation is
-/// dropped.
-pub fn reserve(what: impl FnOnce() -> String, need: u64) -> Result<Reservation, OverBudget> {
-    check(what, need)?;
-    HELD.fetch_add(need, Ordering::Relaxed);
-    Ok(Reservation {
-        bytes: need,
-        ledger: None,
-    })
-}
-
 /// `a * b * c` bytes, saturating: an estimate that overflows is over any budget.
 pub fn bytes(a: u64, b: u64, c: u64) -> u64 {
     a.saturating_mul(b).saturating_mul(c)
 }
 
-/// Reads a whole file (or all of `reader`), refusing one larger than the budget before
-/// reading it: a file's bytes are held in memory, so they count like any allocation.
-pub fn read_all(reader: impl std::io::Read, len_hint: Option<u64>) -> std::io::Result<Vec<u8>> {
-    read_within(reader, len_hint, get())
-}
-
-/// [`read_all`] within `budget` bytes.
+/// Reads all of `reader` within `budget` bytes.
 fn read_within(
     mut reader: impl std::io::Read,
     len_hint: Option<u64>,
@@ -170,23 +99,6 @@ fn read_within(
         ));
     }
     Ok(buf)
-}
-
-/// [`read_all`] of the file at `path`.
-pub fn read(path: &std::path::Path) -> std::io::Result<Vec<u8>> {
-    let file = std::fs::File::open(path)?;
-    let len = file
-        .metadata()
-        .ok()
-        .filter(|m| m.is_file())
-        .map(|m| m.len());
-    read_all(file, len)
-}
-
-/// [`read`] as UTF-8 text.
-pub fn read_to_string(path: &std::path::Path) -> std::io::Result<String> {
-    String::from_utf8(read(path)?)
-        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// A size that did not parse: the text given and what is wrong with it.
@@ -297,19 +209,6 @@ mod tests {
             parse_size("2X").unwrap_err().to_string(),
             "`2X`: unknown unit `X` (use K, M, G or T)"
         );
-    }
-
-    #[test]
-    fn reservations_count_in_every_check_until_dropped() {
-        // Relative to what other tests hold: the counter is process-wide.
-        let before = held();
-        let r = reserve(|| "a map".into(), 1000).unwrap();
-        assert_eq!(r.bytes(), 1000);
-        assert!(held() >= before + 1000);
-        let e = check(|| "more".into(), get() - 999).unwrap_err();
-        assert!(e.what.starts_with("more (with "), "{}", e.what);
-        drop(r);
-        assert!(reserve(|| "too much".into(), u64::MAX).is_err());
     }
 
     #[test]

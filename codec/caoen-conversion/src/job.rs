@@ -228,7 +228,7 @@ pub fn convert_file(
     events: &mut dyn FnMut(Event<'_>),
 ) -> Result<ConvertReport, ConvertError> {
     events(Event::Working("reading"));
-    let mesh = mesh_file::read(path)?;
+    let mesh = mesh_file::read(path, &job.limits)?;
     mesh_file::check_convertible(&mesh, &path.display().to_string())?;
     events(Event::Note(&format!(
         "{}: {}",
@@ -337,7 +337,8 @@ pub fn convert_mesh(
                 .to_frep_json_of(unit_model, &title, mesh.bounds());
             // A cutter the model file refuses (a patch its checks find degenerate)
             // leaves the closed model rather than failing the fit.
-            match caoen_frep::Node::from_json(&json["model"], "model", Path::new(".")) {
+            match caoen_frep::Node::from_json(&json["model"], "model", Path::new("."), &job.limits)
+            {
                 Ok(node) => {
                     let field = InUnitCube {
                         field: &node,

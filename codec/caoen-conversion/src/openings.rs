@@ -388,7 +388,13 @@ mod tests {
             &o,
             SHELL_THICKNESS,
         );
-        let node = Node::from_json(&model, "model", std::path::Path::new(".")).unwrap();
+        let node = Node::from_json(
+            &model,
+            "model",
+            std::path::Path::new("."),
+            &caoen_base::budget::Limits::default(),
+        )
+        .unwrap();
         assert_eq!(node.count(), 3 + o[0].nodes());
         // Through the cap: no wall (outside everywhere along the axis up to the far
         // side's wall); beside the hole: the wall is there.

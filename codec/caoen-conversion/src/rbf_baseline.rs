@@ -42,12 +42,13 @@ impl RbfBaseline {
 
 /// Fits the baseline on every `k`-th vertex of `mesh` (unit cube, outward `normals`),
 /// `k` chosen so that there are at most `max_centres` centres; `step` is the offset.
-/// The dense system takes `8 n^2` bytes, checked against the memory budget.
+/// The dense system takes `8 n^2` bytes, checked against `limits`.
 pub fn fit(
     mesh: &PolygonMesh,
     normals: &[[f64; 3]],
     max_centres: usize,
     step: f64,
+    limits: &caoen_base::budget::Limits,
 ) -> Result<RbfBaseline, RbfError> {
     let per = max_centres.max(3) / 3;
     let stride = mesh.positions.len().div_ceil(per).max(1);
@@ -69,7 +70,7 @@ pub fn fit(
     }
     let m = centres.len();
     let size = m + 4;
-    caoen_base::budget::check(
+    limits.check(
         || format!("the RBF system of {m} centres"),
         (size * size * 8 * 2) as u64,
     )?;
@@ -127,7 +128,14 @@ mod tests {
     fn the_baseline_interpolates_its_conditions_and_recovers_a_sphere() {
         let mesh = PolygonMesh::ellipsoid([0.4; 3], 2);
         let normals = mesh.outward_normals();
-        let rbf = fit(&mesh, &normals, 600, 0.01).unwrap();
+        let rbf = fit(
+            &mesh,
+            &normals,
+            600,
+            0.01,
+            &caoen_base::budget::Limits::default(),
+        )
+        .unwrap();
         for (i, p) in mesh.positions.iter().enumerate() {
             assert!(rbf.value(*p).abs() < 1e-8, "{i}");
         }

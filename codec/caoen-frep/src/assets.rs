@@ -17,6 +17,7 @@ pub(super) fn height_map(
     h: &FileHeightMap,
     here: &str,
     base_dir: &std::path::Path,
+    limits: &caoen_base::budget::Limits,
 ) -> Result<HeightMap, FieldError> {
     let w = WORLD_LIMIT;
     let base = match h.base {
@@ -38,7 +39,15 @@ pub(super) fn height_map(
         None => f64::NEG_INFINITY,
     };
     let file = base_dir.join(&h.image);
-    load_map(&file, here, height, base, rect, threshold, h.interp)
+    load_map(
+        &file,
+        here,
+        height,
+        (base, rect),
+        threshold,
+        h.interp,
+        limits,
+    )
 }
 
 /// Samples of the height maps and pictures loaded and still alive, by file and scale:
@@ -52,10 +61,10 @@ fn load_map(
     file: &std::path::Path,
     here: &str,
     scale: f64,
-    base: Base,
-    rect: [f64; 4],
+    (base, rect): (Base, [f64; 4]),
     threshold: f64,
     interp: Interp,
+    limits: &caoen_base::budget::Limits,
 ) -> Result<HeightMap, FieldError> {
     let key = std::fs::canonicalize(file).unwrap_or_else(|_| file.to_path_buf());
     let lock = || {
@@ -76,8 +85,8 @@ fn load_map(
     let map = match shared {
         Some(m) => m.map_err(|e| bad(here, e.to_string()))?,
         None => {
-            let (iw, ih, values) = grey_levels(file, &format!("{here}.image"), scale)?;
-            let m = HeightMap::new(base, rect, iw, ih, values, threshold, interp)
+            let (iw, ih, values) = grey_levels(file, &format!("{here}.image"), scale, limits)?;
+            let m = HeightMap::new(base, rect, (iw, ih), values, threshold, interp, limits)
                 .map_err(|e| bad(here, e.to_string()))?;
             lock().push((key, scale.to_bits(), m.samples_handle()));
             m
@@ -97,6 +106,7 @@ pub(super) fn surface_field(
     s: &FileSurface,
     here: &str,
     base_dir: &std::path::Path,
+    limits: &caoen_base::budget::Limits,
 ) -> Result<Node, FieldError> {
     use caoen_surface::tessellate::{tessellate, NormalMode};
     let name = &s.file;
@@ -113,7 +123,7 @@ pub(super) fn surface_field(
         );
     }
     let fail = |at: &str, e: String| bad(at, e);
-    let model = caoen_surface::model_file::SurfaceModel::load(&base_dir.join(name))
+    let model = caoen_surface::model_file::SurfaceModel::load(&base_dir.join(name), limits)
         .map_err(|e| fail(&format!("{here}.file"), e.to_string()))?;
     if model.network.output_dim() != 3 {
         return err(
@@ -124,12 +134,13 @@ pub(super) fn surface_field(
             ),
         );
     }
-    let mesh = tessellate(&model, detail as u32, NormalMode::Exact)
+    let mesh = tessellate(&model, detail as u32, NormalMode::Exact, limits)
         .map_err(|e| fail(here, e.to_string()))?;
     // The mesh lives while its field is built: the field's checks count it.
-    let _mesh_held = caoen_base::budget::reserve(|| format!("{name}: its mesh"), mesh.heap_bytes())
+    let _mesh_held = limits
+        .reserve(|| format!("{name}: its mesh"), mesh.heap_bytes())
         .map_err(|e| fail(here, e.to_string()))?;
-    let field = MeshField::new(&mesh).map_err(|e| fail(here, format!("{name}: {e}")))?;
+    let field = MeshField::new(&mesh, limits).map_err(|e| fail(here, format!("{name}: {e}")))?;
     Ok(Node::Surface(std::sync::Arc::new(field)))
 }
 
@@ -152,6 +163,7 @@ pub(super) fn picture(
     p: &Picture<'_>,
     here: &str,
     base_dir: &std::path::Path,
+    limits: &caoen_base::budget::Limits,
     bounds: Option<&Aabb>,
 ) -> Result<HeightMap, FieldError> {
     use std::f64::consts::{FRAC_PI_2, PI};
@@ -169,7 +181,15 @@ pub(super) fn picture(
         (None, None, _) => return err(here, "needs `rect` (the picture's place)"),
     };
     let file = base_dir.join(p.image);
-    load_map(&file, here, 1.0, base, rect, f64::NEG_INFINITY, p.interp)
+    load_map(
+        &file,
+        here,
+        1.0,
+        (base, rect),
+        f64::NEG_INFINITY,
+        p.interp,
+        limits,
+    )
 }
 
 /// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.
@@ -177,21 +197,24 @@ fn grey_levels(
     path: &std::path::Path,
     at: &str,
     scale: f64,
+    limits: &caoen_base::budget::Limits,
 ) -> Result<(usize, usize, Vec<f64>), FieldError> {
-    let raster = caoen_io::load(path).map_err(|e| bad(at, e.to_string()))?;
+    let raster = caoen_io::load_with_limits(path, &caoen_io::LoadLimits::within(limits))
+        .map_err(|e| bad(at, e.to_string()))?;
     let (iw, ih) = (raster.width() as usize, raster.height() as usize);
     // Alpha is not a colour: a grey image with alpha is its grey channel.
     let channels = raster.layout().colour_channels();
     // The samples and their pyramid, while the decoded image still lives.
-    caoen_base::budget::check(
-        || format!("{}: a {iw}x{ih} height map", path.display()),
-        caoen_base::budget::bytes(
-            iw as u64,
-            ih as u64,
-            SAMPLE_BYTES + 4 * raster.layout().channels() as u64,
-        ),
-    )
-    .map_err(|e| bad(at, e.to_string()))?;
+    limits
+        .check(
+            || format!("{}: a {iw}x{ih} height map", path.display()),
+            caoen_base::budget::bytes(
+                iw as u64,
+                ih as u64,
+                SAMPLE_BYTES + 4 * raster.layout().channels() as u64,
+            ),
+        )
+        .map_err(|e| bad(at, e.to_string()))?;
     let values = (0..iw * ih)
         .map(|i| {
             scale

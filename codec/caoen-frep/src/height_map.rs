@@ -216,11 +216,11 @@ impl HeightMap {
     pub fn new(
         base: Base,
         rect: [f64; 4],
-        width: usize,
-        height: usize,
+        (width, height): (usize, usize),
         values: Vec<f64>,
         threshold: f64,
         interp: Interp,
+        limits: &caoen_base::budget::Limits,
     ) -> Result<Self, HeightMapError> {
         if width < 2 || height < 2 || values.len() != width * height {
             return Err(HeightMapError::Samples {
@@ -236,11 +236,12 @@ impl HeightMap {
         {
             return Err(HeightMapError::NotFinite);
         }
-        let held = caoen_base::budget::reserve(
-            || format!("a {width}x{height} height map"),
-            caoen_base::budget::bytes(width as u64, height as u64, SAMPLE_BYTES),
-        )
-        .map_err(|source| HeightMapError::OverBudget { source })?;
+        let held = limits
+            .reserve(
+                || format!("a {width}x{height} height map"),
+                caoen_base::budget::bytes(width as u64, height as u64, SAMPLE_BYTES),
+            )
+            .map_err(|source| HeightMapError::OverBudget { source })?;
         Ok(HeightMap {
             base,
             rect,

@@ -134,16 +134,16 @@ const BUILD_TRIANGLE_BYTES: u64 = 160;
 impl MeshField {
     /// The field of `mesh`, which must be closed with every edge used once each way
     /// (outward-facing triangles, anticlockwise seen from outside).
-    pub fn new(mesh: &Mesh) -> Result<Self, MeshFieldError> {
+    pub fn new(mesh: &Mesh, limits: &caoen_base::budget::Limits) -> Result<Self, MeshFieldError> {
         let n = mesh.triangles.len();
         if n == 0 || n > MAX_TRIANGLES {
             return Err(MeshFieldError::TriangleCount(n));
         }
-        let held = caoen_base::budget::reserve(
+        let held = limits.reserve(
             || format!("the field of a {n}-triangle mesh"),
             HELD_VERTEX_BYTES * mesh.positions.len() as u64 + HELD_TRIANGLE_BYTES * n as u64,
         )?;
-        caoen_base::budget::check(
+        limits.check(
             || format!("building the field of a {n}-triangle mesh"),
             BUILD_TRIANGLE_BYTES * n as u64,
         )?;

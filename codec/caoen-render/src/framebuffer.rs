@@ -236,20 +236,25 @@ impl RgbImage {
 
     /// Loads an image file into linear light through the checked loader (size limits
     /// and the memory budget before any pixel is decoded).
-    pub fn load(path: &std::path::Path) -> Result<RgbImage> {
-        Self::from_raster(&caoen_io::load(path)?)
+    pub fn load(path: &std::path::Path, limits: &caoen_base::budget::Limits) -> Result<RgbImage> {
+        let loaded = caoen_io::load_with_limits(path, &caoen_io::LoadLimits::within(limits))?;
+        Self::from_raster(&loaded, limits)
     }
 
     /// Decodes an image file's bytes into linear light, through the checked loader.
-    pub fn decode(bytes: &[u8]) -> Result<RgbImage> {
-        Self::from_raster(&caoen_io::load_from_memory(bytes, &Default::default())?)
+    pub fn decode(bytes: &[u8], limits: &caoen_base::budget::Limits) -> Result<RgbImage> {
+        let loaded = caoen_io::load_from_memory(bytes, &caoen_io::LoadLimits::within(limits))?;
+        Self::from_raster(&loaded, limits)
     }
 
     /// A raster's colours in linear light, taken at 8 bits: grey on all three
-    /// channels, alpha dropped.
-    pub fn from_raster(raster: &caoen_base::raster::Raster) -> Result<RgbImage> {
+    /// channels, alpha dropped; within `limits`.
+    pub fn from_raster(
+        raster: &caoen_base::raster::Raster,
+        limits: &caoen_base::budget::Limits,
+    ) -> Result<RgbImage> {
         let n = raster.pixel_count();
-        caoen_base::budget::check(
+        limits.check(
             || format!("a {}x{} texture", raster.width(), raster.height()),
             caoen_base::budget::bytes(n as u64, 12, 1),
         )?;

@@ -104,11 +104,14 @@ impl<'a> RayScene<'a> {
         meshes: Vec<Option<Mesh>>,
         ray_method: RayMethod,
         scene_radius: f64,
+        limits: &caoen_base::budget::Limits,
     ) -> crate::error::Result<Self> {
         let mut targets = Vec::with_capacity(scene.objects.len());
         let mut held = Vec::new();
         let mut reserve = |what: &str, bytes: u64| {
-            caoen_base::budget::reserve(|| what.to_string(), bytes).map(|r| held.push(r))
+            limits
+                .reserve(|| what.to_string(), bytes)
+                .map(|r| held.push(r))
         };
         for (obj, mesh) in scene.objects.iter().zip(meshes) {
             targets.push(match (mesh, &obj.shape) {
@@ -134,6 +137,7 @@ impl<'a> RayScene<'a> {
                         model,
                         detail.unwrap_or(5).min(6),
                         caoen_surface::tessellate::NormalMode::Exact,
+                        limits,
                     )?;
                     super::renderer::place_mesh(&mut mesh, place);
                     reserve(

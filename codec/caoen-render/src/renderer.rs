@@ -44,7 +44,7 @@ pub enum Method {
 }
 
 /// Render parameters.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
     /// Output width in pixels.
     pub width: u32,
@@ -68,6 +68,8 @@ pub struct RenderOptions {
     /// the exact camera: axis generators for an orthographic camera (exact), shape
     /// vectors projected to the screen for a perspective one (an approximation).
     pub network_camera: bool,
+    /// The memory the render may take (with what its job already holds).
+    pub limits: caoen_base::budget::Limits,
 }
 
 impl Default for RenderOptions {
@@ -83,6 +85,7 @@ impl Default for RenderOptions {
             ray_method: RayMethod::Fast,
             polygonise_cells: 128,
             network_camera: false,
+            limits: caoen_base::budget::Limits::default(),
         }
     }
 }
@@ -189,7 +192,7 @@ pub fn render(
     // `_held` counts the meshes until the secondary rays are done with them.
     let (buf, stats, meshes, _held) = draw(scene, &camera, opts, &prog)?;
     let radius = scene.bounds()?.1;
-    let rays = RayScene::new(scene, meshes, opts.ray_method, radius)?;
+    let rays = RayScene::new(scene, meshes, opts.ray_method, radius, &opts.limits)?;
     let image = shade_buffer(scene, &camera, &buf, &rays).downsample(n);
     prog.next();
     Ok(Rendered {
@@ -208,7 +211,7 @@ pub fn render_gbuffer(
 ) -> Result<(GBuffer, RenderStats)> {
     check(&RenderOptions {
         samples: 1,
-        ..*opts
+        ..opts.clone()
     })?;
     let prog = Progress {
         total: 1,
@@ -233,7 +236,7 @@ fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -
     // Per sample: the hit buffer, a surface's depth-buffer image, the shaded colour and
     // the depth map.
     let per_sample = std::mem::size_of::<Option<super::framebuffer::Hit>>() as u64 + 48 + 12 + 8;
-    caoen_base::budget::check(
+    opts.limits.check(
         || format!("rendering {}x{} samples", camera.width, camera.height),
         caoen_base::budget::bytes(camera.width.into(), camera.height.into(), per_sample),
     )?;
@@ -256,7 +259,12 @@ fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -
                 },
                 Method::Mesh,
             ) => {
-                let mut mesh = tessellate(model, detail.unwrap_or(opts.mesh_detail), opts.normals)?;
+                let mut mesh = tessellate(
+                    model,
+                    detail.unwrap_or(opts.mesh_detail),
+                    opts.normals,
+                    &opts.limits,
+                )?;
                 place_mesh(&mut mesh, place);
                 if opts.network_camera {
                     let [max, sum, count] = network_projection(&mut mesh, model, place, camera)?;
@@ -317,10 +325,10 @@ fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -
             }
         }
         if let Some(m) = &drawn {
-            held.push(caoen_base::budget::reserve(
-                || format!("object {oi}'s mesh"),
-                m.heap_bytes(),
-            )?);
+            held.push(
+                opts.limits
+                    .reserve(|| format!("object {oi}'s mesh"), m.heap_bytes())?,
+            );
         }
         meshes.push(drawn);
         prog.next();

@@ -113,11 +113,19 @@ pub const MAX_MAX_DEPTH: u32 = 64;
 
 impl Scene {
     /// A scene of one surface with the default camera, lights and material; the model's
-    /// texture (resolved against `model_file`'s directory) is loaded if it has one.
-    pub fn from_model(model: SurfaceModel, model_file: Option<&Path>) -> Result<Scene> {
+    /// texture (resolved against `model_file`'s directory) is loaded within `limits` if
+    /// it has one.
+    pub fn from_model(
+        model: SurfaceModel,
+        model_file: Option<&Path>,
+        limits: &caoen_base::budget::Limits,
+    ) -> Result<Scene> {
         let mut material = Material::default();
         if let Some(path) = model.texture_path(model_file) {
-            material.texture = Some((Arc::new(Texture::load(&path)?), texture_wrap(&model)?));
+            material.texture = Some((
+                Arc::new(Texture::load(&path, limits)?),
+                texture_wrap(&model)?,
+            ));
             material.colour = [1.0; 3];
         }
         Ok(Scene {
@@ -152,10 +160,13 @@ impl Scene {
         for o in &self.objects {
             match &o.shape {
                 Shape::Surface { model, place, .. } => {
+                    // A detail-2 mesh (320 triangles) is a few kilobytes: framing the
+                    // camera needs no limit of its own.
                     let mesh = caoen_surface::tessellate::tessellate(
                         model,
                         2,
                         caoen_surface::tessellate::NormalMode::Exact,
+                        &caoen_base::budget::Limits::default(),
                     )?;
                     mesh.positions.iter().for_each(|p| add(place.point(*p)));
                 }
@@ -190,10 +201,13 @@ impl Scene {
         for o in &self.objects {
             match &o.shape {
                 Shape::Surface { model, place, .. } => {
+                    // A detail-2 mesh (320 triangles) is a few kilobytes: framing the
+                    // camera needs no limit of its own.
                     let mesh = caoen_surface::tessellate::tessellate(
                         model,
                         2,
                         caoen_surface::tessellate::NormalMode::Exact,
+                        &caoen_base::budget::Limits::default(),
                     )?;
                     for p in &mesh.positions {
                         r = r.max(dist(place.point(*p)));

@@ -2,6 +2,7 @@
 //! fields, unknown fields rejected, errors naming the offending field such as
 //! `objects[2].solid.q`). The format is specified in `docs/rendering.md`.
 
+use caoen_base::budget::Limits;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -43,12 +44,14 @@ impl Scene {
             .is_some_and(|f| f.starts_with("caoen-scene/"))
     }
 
-    /// Loads a scene file; files it names are resolved against its directory.
-    pub fn load(path: &Path) -> Result<Scene> {
-        let text =
-            caoen_base::budget::read_to_string(path).map_err(|e| RenderError::io(path, e))?;
+    /// Loads a scene file within `limits` (the surfaces, models and textures it names
+    /// too); files it names are resolved against its directory.
+    pub fn load(path: &Path, limits: &Limits) -> Result<Scene> {
+        let text = limits
+            .read_to_string(path)
+            .map_err(|e| RenderError::io(path, e))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        Scene::from_json(&text, &base)
+        Scene::from_json(&text, &base, limits)
             .map_err(|e| match e {
                 RenderError::Field(f) => RenderError::Field(f.in_file(path)),
                 other => other,
@@ -57,12 +60,12 @@ impl Scene {
     }
 
     /// Parses a scene (exactly one JSON value, nothing after it); relative file names
-    /// are resolved against `base_dir`.
-    pub fn from_json(text: &str, base_dir: &Path) -> Result<Scene> {
-        Self::parse_json(text, base_dir).map_err(RenderError::printable)
+    /// are resolved against `base_dir`, and what they hold loaded within `limits`.
+    pub fn from_json(text: &str, base_dir: &Path, limits: &Limits) -> Result<Scene> {
+        Self::parse_json(text, base_dir, limits).map_err(RenderError::printable)
     }
 
-    fn parse_json(text: &str, base_dir: &Path) -> Result<Scene> {
+    fn parse_json(text: &str, base_dir: &Path, limits: &Limits) -> Result<Scene> {
         let de = &mut serde_json::Deserializer::from_str(text);
         let file: FileScene = serde_path_to_error::deserialize(&mut *de)
             .map_err(|e| RenderError::Field(FieldError::from_path_error("", &e)))?;
@@ -102,7 +105,7 @@ impl Scene {
             .objects
             .into_iter()
             .enumerate()
-            .map(|(i, o)| o.resolve(&format!("objects[{i}]"), base_dir))
+            .map(|(i, o)| o.resolve(&format!("objects[{i}]"), base_dir, limits))
             .collect::<Result<_>>()?;
         let max_depth = match file.max_depth {
             None => DEFAULT_MAX_DEPTH,
@@ -434,7 +437,11 @@ struct FileBounds {
 
 /// Loads a surface model by file name (relative to `base`) or `builtin:NAME`; returns
 /// the model and the file it came from.
-pub fn load_surface(spec: &str, base: &Path) -> Result<(SurfaceModel, Option<PathBuf>)> {
+pub fn load_surface(
+    spec: &str,
+    base: &Path,
+    limits: &Limits,
+) -> Result<(SurfaceModel, Option<PathBuf>)> {
     if let Some(name) = spec.strip_prefix("builtin:") {
         let model = gallery::by_name(name).ok_or_else(|| {
             RenderError::Field(FieldError::new(
@@ -446,11 +453,11 @@ pub fn load_surface(spec: &str, base: &Path) -> Result<(SurfaceModel, Option<Pat
         return Ok((model, None));
     }
     let path = base.join(spec);
-    Ok((SurfaceModel::load(&path)?, Some(path)))
+    Ok((SurfaceModel::load(&path, limits)?, Some(path)))
 }
 
 impl FileObject {
-    fn resolve(self, path: &str, base: &Path) -> Result<SceneObject> {
+    fn resolve(self, path: &str, base: &Path, limits: &Limits) -> Result<SceneObject> {
         let name = self.name.clone().unwrap_or_else(|| path.to_string());
         let mut material = Material::default();
         let fm = &self.material;
@@ -515,7 +522,7 @@ impl FileObject {
                     "an F-rep object is placed by a `transform` node inside `frep`",
                 ));
             }
-            let node = caoen_frep::Node::from_json(v, &format!("{path}.frep"), base)?;
+            let node = caoen_frep::Node::from_json(v, &format!("{path}.frep"), base, limits)?;
             let bounds = match &self.bounds {
                 Some(b) => {
                     let lo = check_vec(&format!("{path}.bounds.min"), b.min)?;
@@ -534,7 +541,7 @@ impl FileObject {
                 bounds,
             }
         } else if let Some(spec) = &self.surface {
-            let (model, file) = load_surface(spec, base).map_err(|e| match e {
+            let (model, file) = load_surface(spec, base, limits).map_err(|e| match e {
                 RenderError::Field(f) => RenderError::Field(f.under(&format!("{path}.surface"))),
                 other => bad(format!("{path}.surface"), other.to_string()),
             })?;
@@ -544,7 +551,7 @@ impl FileObject {
             };
             if let Some(t) = texture {
                 let wrap = texture_wrap(&model).map_err(field(&format!("{mp}.texture")))?;
-                let tex = Texture::load(&t).map_err(field(&format!("{mp}.texture")))?;
+                let tex = Texture::load(&t, limits).map_err(field(&format!("{mp}.texture")))?;
                 material.texture = Some((Arc::new(tex), wrap));
                 if fm.colour.is_none() {
                     material.colour = [1.0; 3];

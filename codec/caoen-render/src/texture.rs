@@ -2,6 +2,7 @@
 //! equirectangular `(theta / 2pi, phi / pi)` on the sphere and `(t / 2pi, f / 2pi)` on
 //! the torus, so the map carries it onto the surface with no extra work.
 
+use caoen_base::budget::Limits;
 use std::path::Path;
 
 use super::error::{RenderError, Result};
@@ -138,15 +139,19 @@ fn bilinear(img: &RgbImage, uv: [f64; 2], wrap: Wrap) -> [f32; 3] {
 
 impl Texture {
     /// Wraps a linear-light image and builds its mip pyramid (a third more memory).
-    pub fn new(image: RgbImage) -> Result<Self> {
-        Texture::with_reservation(image, None)
+    pub fn new(image: RgbImage, limits: &Limits) -> Result<Self> {
+        Texture::with_reservation(image, None, limits)
     }
 
     /// The budget held by a `width x height` texture: 12 bytes a texel, a third more for
     /// the pyramid, counted while it lives, so a scene's textures and everything else
     /// one command loads share one budget.
-    fn reserve(width: u64, height: u64) -> Result<caoen_base::budget::Reservation> {
-        Ok(caoen_base::budget::reserve(
+    fn reserve(
+        width: u64,
+        height: u64,
+        limits: &Limits,
+    ) -> Result<caoen_base::budget::Reservation> {
+        Ok(limits.reserve(
             || format!("a {width}x{height} texture"),
             caoen_base::budget::bytes(width, height, 16),
         )?)
@@ -156,13 +161,14 @@ impl Texture {
     fn with_reservation(
         image: RgbImage,
         held: Option<caoen_base::budget::Reservation>,
+        limits: &Limits,
     ) -> Result<Self> {
         if image.width == 0 || image.height == 0 {
             return Err(RenderError::parameter("texture", "image is empty"));
         }
         let held = match held {
             Some(h) => h,
-            None => Texture::reserve(u64::from(image.width), u64::from(image.height))?,
+            None => Texture::reserve(u64::from(image.width), u64::from(image.height), limits)?,
         };
         let mut levels = vec![image];
         loop {
@@ -179,17 +185,17 @@ impl Texture {
         })
     }
 
-    /// Loads an image file (any format the checked loader reads).
-    pub fn load(path: &Path) -> Result<Self> {
+    /// Loads an image file (any format the checked loader reads) within `limits`.
+    pub fn load(path: &Path, limits: &Limits) -> Result<Self> {
         // Reserved from the header's size before decoding, so the decoder's own buffers
         // are checked against what the texture leaves of the budget, not beside it.
         let held = image::ImageReader::open(path)
             .ok()
             .and_then(|r| r.with_guessed_format().ok())
             .and_then(|r| r.into_dimensions().ok())
-            .map(|(w, h)| Texture::reserve(u64::from(w), u64::from(h)))
+            .map(|(w, h)| Texture::reserve(u64::from(w), u64::from(h), limits))
             .transpose()?;
-        Texture::with_reservation(RgbImage::load(path)?, held)
+        Texture::with_reservation(RgbImage::load(path, limits)?, held, limits)
     }
 
     /// The texture image.
@@ -246,6 +252,7 @@ impl Texture {
         cells_v: u32,
         a: [f32; 3],
         b: [f32; 3],
+        limits: &Limits,
     ) -> Result<Self> {
         if width == 0 || height == 0 || cells_u == 0 || cells_v == 0 {
             return Err(RenderError::parameter("checker texture", "empty size"));
@@ -266,10 +273,13 @@ impl Texture {
                 pixels.push(p);
             }
         }
-        Texture::new(RgbImage {
-            width,
-            height,
-            pixels,
-        })
+        Texture::new(
+            RgbImage {
+                width,
+                height,
+                pixels,
+            },
+            limits,
+        )
     }
 }

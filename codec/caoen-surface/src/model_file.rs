@@ -295,10 +295,11 @@ impl SurfaceModel {
         })
     }
 
-    /// Loads a model from a file.
-    pub fn load(path: &Path) -> Result<Self> {
-        let text =
-            caoen_base::budget::read_to_string(path).map_err(|e| SurfaceError::io(path, e))?;
+    /// Loads a model from a file, read within `limits`.
+    pub fn load(path: &Path, limits: &caoen_base::budget::Limits) -> Result<Self> {
+        let text = limits
+            .read_to_string(path)
+            .map_err(|e| SurfaceError::io(path, e))?;
         Self::from_json(&text).map_err(|e| match e {
             SurfaceError::Field(f) => SurfaceError::Field(f.in_file(path).printable()),
             other => other,

@@ -88,11 +88,13 @@ pub fn tessellation_bytes(domain: &Domain, detail: u32) -> u64 {
 }
 
 /// Tessellates `model`'s domain at `detail` (icosphere subdivisions for the sphere,
-/// `8 * 2^detail` by `4 * 2^detail` cells for the torus) and maps it onto the surface.
+/// `8 * 2^detail` by `4 * 2^detail` cells for the torus) and maps it onto the surface,
+/// within `limits`.
 pub fn tessellate(
     model: &SurfaceModel,
     detail: u32,
     normals: NormalMode,
+    limits: &caoen_base::budget::Limits,
 ) -> Result<Mesh, SurfaceError> {
     if detail > 9 {
         return Err(SurfaceError::Parameter {
@@ -101,7 +103,7 @@ pub fn tessellate(
             reason: "must be at most 9 (5 million triangles)",
         });
     }
-    caoen_base::budget::check(
+    limits.check(
         || format!("a surface mesh at detail {detail}"),
         tessellation_bytes(&model.domain, detail),
     )?;

@@ -126,7 +126,13 @@ pub fn surface_box(
     model: &caoen_surface::SurfaceModel,
 ) -> Result<([f64; 3], [f64; 3]), TextureError> {
     use caoen_surface::tessellate::{tessellate, NormalMode};
-    let mesh = tessellate(model, 4, NormalMode::Exact)?;
+    // A level-4 mesh (5,120 triangles) is a few hundred kilobytes: no limit of its own.
+    let mesh = tessellate(
+        model,
+        4,
+        NormalMode::Exact,
+        &caoen_base::budget::Limits::default(),
+    )?;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in &mesh.positions {
         for k in 0..3 {
@@ -168,11 +174,14 @@ mod tests {
                 })
             })
             .collect();
-        Texture::new(RgbImage {
-            width: w,
-            height: h,
-            pixels,
-        })
+        Texture::new(
+            RgbImage {
+                width: w,
+                height: h,
+                pixels,
+            },
+            &caoen_base::budget::Limits::default(),
+        )
         .unwrap()
     }
 

@@ -288,7 +288,7 @@ impl Volume {
     /// `{"slices": ["z0.png", ...], "min": [x, y, z], "max": [x, y, z], "wrap": "clamp"}`,
     /// slice paths relative to the spec's folder; `min`, `max` default to `-1`, `1`,
     /// `wrap` to `clamp`.
-    pub fn load(spec: &Path) -> Result<Self, TextureError> {
+    pub fn load(spec: &Path, limits: &caoen_base::budget::Limits) -> Result<Self, TextureError> {
         #[derive(serde::Deserialize)]
         #[serde(deny_unknown_fields)]
         struct Spec {
@@ -313,10 +313,12 @@ impl Volume {
             path: spec.to_path_buf(),
             source: Box::new(e),
         };
-        let text = caoen_base::budget::read_to_string(spec).map_err(|source| TextureError::Io {
-            path: spec.to_path_buf(),
-            source,
-        })?;
+        let text = limits
+            .read_to_string(spec)
+            .map_err(|source| TextureError::Io {
+                path: spec.to_path_buf(),
+                source,
+            })?;
         let s: Spec = serde_json::from_str(&text)
             .map_err(|source| at(TextureError::VolumeJson { source }))?;
         if s.slices.is_empty() {
@@ -327,14 +329,14 @@ impl Volume {
         let mut voxels = 0usize;
         for (k, name) in s.slices.iter().enumerate() {
             let path = dir.join(name);
-            let bytes = caoen_base::budget::read(&path).map_err(|source| {
+            let bytes = limits.read(&path).map_err(|source| {
                 at(TextureError::SliceRead {
                     slice: k,
                     path: path.clone(),
                     source,
                 })
             })?;
-            let img = RgbImage::decode(&bytes).map_err(|source| {
+            let img = RgbImage::decode(&bytes, limits).map_err(|source| {
                 at(TextureError::SliceDecode {
                     slice: k,
                     path: path.clone(),

@@ -12,7 +12,12 @@ fn scene(camera: serde_json::Value) -> Scene {
     let text = serde_json::json!({
         "format": "caoen-scene/1", "camera": camera, "objects": [{"surface": "builtin:blob"}]
     });
-    Scene::from_json(&text.to_string(), std::path::Path::new(".")).unwrap()
+    Scene::from_json(
+        &text.to_string(),
+        std::path::Path::new("."),
+        &caoen::Limits::default(),
+    )
+    .unwrap()
 }
 
 fn shot(scene: &Scene, network: bool) -> caoen::render::Rendered {

@@ -94,7 +94,7 @@ fn compare_depths(scene: &Scene, camera: &Camera, what: &str, min_agree: f64) {
 fn depth_buffer_and_mesh_depth_maps_agree() {
     for model in [blob().unwrap(), ring().unwrap()] {
         let name = model.name.clone();
-        let scene = Scene::from_model(model, None).unwrap();
+        let scene = Scene::from_model(model, None, &caoen::Limits::default()).unwrap();
         for projection in [
             Projection::Perspective { fov_y_deg: 30.0 },
             Projection::Orthographic { height: 0.0 },
@@ -109,7 +109,11 @@ fn depth_buffer_and_mesh_depth_maps_agree() {
     // passes in front of another inside a pixel, the depth buffer keeps the nearer
     // object's sample while the centre ray of the rasteriser sees the farther one, so
     // the many inner silhouettes of a compound scene cost about one percent here.
-    let scene = Scene::load(&common::repo_path("examples/teapot/teapot.scene.json")).unwrap();
+    let scene = Scene::load(
+        &common::repo_path("examples/teapot/teapot.scene.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     compare_depths(&scene, &scene.camera(W, H).unwrap(), "teapot", 0.98);
 }
 
@@ -117,7 +121,7 @@ fn depth_buffer_and_mesh_depth_maps_agree() {
 fn the_depth_buffer_leaves_no_hole_inside_the_silhouette() {
     // Close up, so the starting triangulation is far coarser than a pixel and most
     // samples come from subdivision.
-    let scene = Scene::from_model(blob().unwrap(), None).unwrap();
+    let scene = Scene::from_model(blob().unwrap(), None, &caoen::Limits::default()).unwrap();
     let cam = Camera::look_at(
         [0.0, -2.6, 0.8],
         [0.0, 0.0, 0.1],
@@ -214,7 +218,11 @@ fn ray_traced_silhouettes_match_the_polygonised_solids() {
         );
     }
     // The CSG example: a cube minus an icosahedron.
-    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
+    let scene = Scene::load(
+        &common::repo_path("examples/csg.scene.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let Shape::Solid { solids, csg } = &scene.objects[0].shape else {
         panic!("a solid")
     };
@@ -223,8 +231,16 @@ fn ray_traced_silhouettes_match_the_polygonised_solids() {
 
 #[test]
 fn renders_do_not_depend_on_the_thread_count() {
-    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
-    let tex = Scene::load(&common::repo_path("examples/textured.scene.json")).unwrap();
+    let scene = Scene::load(
+        &common::repo_path("examples/csg.scene.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
+    let tex = Scene::load(
+        &common::repo_path("examples/textured.scene.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     for (s, m) in [
         (&scene, Method::Ray),
         (&scene, Method::Mesh),

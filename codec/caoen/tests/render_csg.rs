@@ -307,7 +307,11 @@ fn csg_example_mesh_agrees_with_the_ray_tracer() {
     // and more (8-bit sRGB PSNR, as `caoen compare` measures).
     use caoen::render::renderer::{render, Method, RenderOptions};
     use caoen::render::Scene;
-    let scene = Scene::load(&common::repo_path("examples/csg.scene.json")).unwrap();
+    let scene = Scene::load(
+        &common::repo_path("examples/csg.scene.json"),
+        &caoen::Limits::default(),
+    )
+    .unwrap();
     let shot = |method| {
         let opts = RenderOptions {
             width: 512,

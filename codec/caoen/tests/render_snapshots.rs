@@ -74,7 +74,12 @@ fn opts(method: Method) -> RenderOptions {
 }
 
 fn model_scene(name: &str) -> Scene {
-    Scene::from_model(gallery::by_name(name).unwrap().unwrap(), None).unwrap()
+    Scene::from_model(
+        gallery::by_name(name).unwrap().unwrap(),
+        None,
+        &caoen::Limits::default(),
+    )
+    .unwrap()
 }
 
 /// `scene` rendered by `method` (see [`opts`]).
@@ -89,7 +94,7 @@ fn check_example(name: &str, rel: &str, method: Method) {
 
 /// The scene file `rel` (a path from the repository's root).
 fn example_scene(rel: &str) -> Scene {
-    Scene::load(&common::repo_path(rel)).unwrap()
+    Scene::load(&common::repo_path(rel), &caoen::Limits::default()).unwrap()
 }
 
 #[test]

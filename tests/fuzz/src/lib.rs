@@ -745,7 +745,7 @@ pub fn surface(data: &[u8]) -> Outcome {
         "a written model reads back as another model"
     );
     // Domains without a mesh (the 3-ball, S^3) say so in an error.
-    if let Err(e) = tessellate(&model, 1, NormalMode::Exact) {
+    if let Err(e) = tessellate(&model, 1, NormalMode::Exact, &caoen::Limits::default()) {
         message(e);
     }
     Ok(())
@@ -794,7 +794,8 @@ pub fn scene(data: &[u8]) -> Outcome {
     if names_absolute_path(text) {
         return Err("names an absolute path".into());
     }
-    let scene = Scene::from_json(text, Path::new(NO_DIR)).map_err(message)?;
+    let scene =
+        Scene::from_json(text, Path::new(NO_DIR), &caoen::Limits::default()).map_err(message)?;
     assert_one_document(text, "scene");
     for (method, ray) in [
         (Method::Mesh, RayMethod::Fast),
@@ -879,7 +880,13 @@ pub fn frep(data: &[u8]) -> Outcome {
     if v["format"] != FREP_FORMAT {
         return Err("not an F-rep model file".into());
     }
-    let node = Node::from_json(&v["model"], "model", Path::new(NO_DIR)).map_err(message)?;
+    let node = Node::from_json(
+        &v["model"],
+        "model",
+        Path::new(NO_DIR),
+        &caoen::Limits::default(),
+    )
+    .map_err(message)?;
     assert!(
         node.count() <= MAX_NODES,
         "accepted a model of {} nodes",
@@ -1002,7 +1009,7 @@ fn assert_read_mesh(mesh: &PolygonMesh) {
     };
     let mut bytes = Vec::new();
     caoen::render::mesh_io::write_obj(&written, &mut bytes, None).expect("writing to memory");
-    let again = mesh_file::read_obj(&bytes, "written.obj")
+    let again = mesh_file::read_obj(&bytes, "written.obj", &caoen::Limits::default())
         .unwrap_or_else(|e| panic!("a mesh written as OBJ does not read back: {e}"));
     // The OBJ reader numbers vertices in the order the faces use them: the triangles'
     // corners, not the indices, must come back.
@@ -1026,7 +1033,7 @@ fn assert_read_mesh(mesh: &PolygonMesh) {
 /// Reads an OBJ file through caoen's mesh reader (`conversion::mesh_file::read_obj`);
 /// an accepted mesh passes [`assert_read_mesh`].
 pub fn obj(data: &[u8]) -> Outcome {
-    let mesh = mesh_file::read_obj(data, "fuzz.obj").map_err(message)?;
+    let mesh = mesh_file::read_obj(data, "fuzz.obj", &caoen::Limits::default()).map_err(message)?;
     assert_read_mesh(&mesh);
     Ok(())
 }
@@ -1034,7 +1041,7 @@ pub fn obj(data: &[u8]) -> Outcome {
 /// Reads a PLY file, ASCII or binary, through caoen's strict reader
 /// (`conversion::mesh_file::read_ply`); an accepted mesh passes [`assert_read_mesh`].
 pub fn ply(data: &[u8]) -> Outcome {
-    let mesh = mesh_file::read_ply(data, "fuzz.ply").map_err(message)?;
+    let mesh = mesh_file::read_ply(data, "fuzz.ply", &caoen::Limits::default()).map_err(message)?;
     assert_read_mesh(&mesh);
     Ok(())
 }

@@ -43,6 +43,10 @@ pub struct GlobalArgs {
     /// command; devices and FIFOs (/dev/null, pipes) are written in place without it.
     #[arg(short = 'f', long, global = true)]
     pub force: bool,
+    /// The command's memory limit, made from `--max-memory`: every library call of the
+    /// command gets it, so what one load keeps counts in every later check.
+    #[arg(skip)]
+    pub limits: caoen::Limits,
 }
 
 /// Top-level commands.

@@ -41,13 +41,6 @@ fn main() -> ExitCode {
     tune_allocator();
     let cli = caoen_cli::cli::Cli::parse();
     let result = caoen_cli::commands::run(cli);
-    // For measuring the estimates against the peak (tests/memory_peak.rs).
-    if std::env::var_os("CAOEN_REPORT_BUDGET").is_some() {
-        eprintln!(
-            "budget: largest estimate {} bytes",
-            caoen::budget::largest_checked()
-        );
-    }
     // Output still buffered in stdout must reach it, or the command failed.
     let result = result.and_then(|()| {
         std::io::stdout()

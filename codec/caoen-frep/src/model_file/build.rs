@@ -75,16 +75,21 @@ impl FileNode {
 
     /// The node at `path`, its numbers checked and its files (relative to `base_dir`)
     /// loaded.
-    pub(super) fn build(&self, path: &str, base_dir: &Path) -> Result<Node, FieldError> {
+    pub(super) fn build(
+        &self,
+        path: &str,
+        base_dir: &Path,
+        limits: &caoen_base::budget::Limits,
+    ) -> Result<Node, FieldError> {
         let here = format!("{path}.{}", self.kind.name());
         let w = WORLD_LIMIT;
         let length = |x: Num, at: &str| number(x, &format!("{here}.{at}"), MIN_LENGTH, w);
         let centre = |c: Numbers<3>| numbers(c, &format!("{here}.centre"), -w, w);
         let prim = match &self.kind {
             FileKind::HeightMap(h) => {
-                return assets::height_map(h, &here, base_dir).map(Node::HeightMap)
+                return assets::height_map(h, &here, base_dir, limits).map(Node::HeightMap)
             }
-            FileKind::CaoenSurface(s) => return assets::surface_field(s, &here, base_dir),
+            FileKind::CaoenSurface(s) => return assets::surface_field(s, &here, base_dir, limits),
             FileKind::CaoEnSolid(s) => Primitive::CaoEn(CaoEnSolid::new(&s.resolve(&here)?)),
             FileKind::Sphere(s) => Primitive::Sphere {
                 centre: centre(s.centre)?,
@@ -144,19 +149,19 @@ impl FileNode {
                     rect: p.rect.map(Into::into),
                     interp: p.interp,
                 };
-                let map = assets::picture(&picture, &here, base_dir, None)?;
+                let map = assets::picture(&picture, &here, base_dir, limits, None)?;
                 return Ok(Node::Pattern { map, level });
             }
             FileKind::SetOp(op, operands) => {
                 return Ok(Node::SetOp {
                     op: *op,
                     a: self.a(path)?,
-                    operands: build_all(operands, &here, base_dir)?,
+                    operands: build_all(operands, &here, base_dir, limits)?,
                 })
             }
             FileKind::Blend(op, operands) => {
                 let a = self.a(path)?;
-                let [x, y]: [Node; 2] = build_all(operands, &here, base_dir)?
+                let [x, y]: [Node; 2] = build_all(operands, &here, base_dir, limits)?
                     .try_into()
                     .expect("two operands, checked with the limits");
                 let p = &self.params;
@@ -179,7 +184,7 @@ impl FileNode {
                     operands: Box::new([x, y]),
                 });
             }
-            FileKind::Unary(u, operand) => return self.unary(*u, operand, path, base_dir),
+            FileKind::Unary(u, operand) => return self.unary(*u, operand, path, base_dir, limits),
         };
         Ok(Node::Primitive(prim))
     }
@@ -199,12 +204,13 @@ impl FileNode {
         operand: &FileNode,
         path: &str,
         base_dir: &Path,
+        limits: &caoen_base::budget::Limits,
     ) -> Result<Node, FieldError> {
         let w = WORLD_LIMIT;
         let here = format!("{path}.{}", self.kind.name());
         let p = &self.params;
         let at = |key: &str| format!("{path}.{key}");
-        let operand = || operand.build(&here, base_dir).map(Box::new);
+        let operand = || operand.build(&here, base_dir, limits).map(Box::new);
         Ok(match u {
             Unary::Perturb => {
                 let power = match p.power {
@@ -233,7 +239,7 @@ impl FileNode {
                     rect: p.rect.map(Into::into),
                     interp: p.interp.unwrap_or_default(),
                 };
-                let map = assets::picture(&picture, path, base_dir, Some(&b))?;
+                let map = assets::picture(&picture, path, base_dir, limits, Some(&b))?;
                 let ramp = [b.lo[2], b.hi[2]];
                 if map.parts().0 == Base::Plane {
                     // The push fades in over the base's height: steeper than the height
@@ -381,11 +387,16 @@ impl FileNode {
 }
 
 /// The operands of the node at `here`, built in order.
-fn build_all(operands: &[FileNode], here: &str, base_dir: &Path) -> Result<Vec<Node>, FieldError> {
+fn build_all(
+    operands: &[FileNode],
+    here: &str,
+    base_dir: &Path,
+    limits: &caoen_base::budget::Limits,
+) -> Result<Vec<Node>, FieldError> {
     operands
         .iter()
         .enumerate()
-        .map(|(i, n)| n.build(&format!("{here}[{i}]"), base_dir))
+        .map(|(i, n)| n.build(&format!("{here}[{i}]"), base_dir, limits))
         .collect()
 }
 

@@ -33,12 +33,13 @@ impl Node {
         v: &Value,
         path: &str,
         base_dir: &std::path::Path,
+        limits: &caoen_base::budget::Limits,
     ) -> Result<Node, FieldError> {
         let read = || {
             let file: form::FileNode = serde_path_to_error::deserialize(v)
                 .map_err(|e| FieldError::from_path_error(path, &e))?;
             file.check_limits(path, &mut 0)?;
-            file.build(path, base_dir)
+            file.build(path, base_dir, limits)
         };
         // Field names and values from the file reach the messages: one printable line.
         read().map_err(FieldError::printable)

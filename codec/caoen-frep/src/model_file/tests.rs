@@ -6,9 +6,14 @@ use serde_json::{json, Value};
 use crate::node::{Node, MAX_DEPTH, MAX_NODES};
 
 fn error(v: Value) -> String {
-    Node::from_json(&v, "model", std::path::Path::new("."))
-        .unwrap_err()
-        .to_string()
+    Node::from_json(
+        &v,
+        "model",
+        std::path::Path::new("."),
+        &caoen_base::budget::Limits::default(),
+    )
+    .unwrap_err()
+    .to_string()
 }
 
 #[test]

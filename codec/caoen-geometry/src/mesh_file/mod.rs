@@ -10,6 +10,8 @@ mod ply;
 mod stl;
 
 use std::path::Path;
+
+use caoen_base::budget::Limits;
 use std::path::PathBuf;
 
 use thiserror::Error;
@@ -299,34 +301,34 @@ pub enum MeshError {
     },
 }
 
-/// Reads an OBJ, PLY or OFF file (chosen by the extension), within the memory budget.
-pub fn read(path: &Path) -> Result<PolygonMesh, MeshError> {
+/// Reads an OBJ, PLY or OFF file (chosen by the extension), within `limits`.
+pub fn read(path: &Path, limits: &Limits) -> Result<PolygonMesh, MeshError> {
     let name = path.display().to_string();
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let reader: fn(&[u8], &str) -> Result<PolygonMesh, MeshError> = match ext.as_deref() {
+    let reader: fn(&[u8], &str, &Limits) -> Result<PolygonMesh, MeshError> = match ext.as_deref() {
         Some("obj") => read_obj,
         Some("ply") => read_ply,
         Some("off") => read_off,
         _ => return Err(MeshError::UnknownFormat { path: name.into() }),
     };
-    let bytes = caoen_base::budget::read(path).map_err(|source| MeshError::Io {
+    let bytes = limits.read(path).map_err(|source| MeshError::Io {
         path: name.clone().into(),
         source,
     })?;
-    reader(&bytes, &name)
+    reader(&bytes, &name, limits)
 }
 
-/// Checks `need` bytes for the mesh read from `name` against the memory budget.
-pub(super) fn budget(name: &str, need: u64) -> Result<(), MeshError> {
-    caoen_base::budget::check(|| "reading the mesh".to_string(), need).map_err(|source| {
-        MeshError::OverBudget {
+/// Checks `need` bytes for the mesh read from `name` against `limits`.
+pub(super) fn budget(name: &str, need: u64, limits: &Limits) -> Result<(), MeshError> {
+    limits
+        .check(|| "reading the mesh".to_string(), need)
+        .map_err(|source| MeshError::OverBudget {
             path: name.into(),
             source,
-        }
-    })
+        })
 }
 
 /// Rejects non-finite coordinates and empty or degenerate meshes; drops triangles

@@ -3,15 +3,17 @@
 
 use std::io::{self, Write};
 
+use caoen_base::budget::Limits;
+
 use super::{budget, finish, MeshError};
 use crate::mesh::Mesh;
 use crate::polygon_mesh::PolygonMesh;
 
 /// Parses OBJ text; polygons become triangle fans, every object joins one mesh.
-pub fn read_obj(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
+pub fn read_obj(bytes: &[u8], name: &str, limits: &Limits) -> Result<PolygonMesh, MeshError> {
     // tobj keeps positions, indices and its own bookkeeping: a few times the text; and
     // the text once more, cut to position indices.
-    budget(name, bytes.len() as u64 * 7)?;
+    budget(name, bytes.len() as u64 * 7, limits)?;
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,

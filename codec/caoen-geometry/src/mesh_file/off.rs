@@ -1,5 +1,7 @@
 //! OFF: read strictly, line by line (the counts checked before anything is allocated).
 
+use caoen_base::budget::Limits;
+
 use super::{budget, finish, MeshError, MAX_ELEMENTS};
 use crate::polygon_mesh::PolygonMesh;
 
@@ -10,7 +12,7 @@ use crate::polygon_mesh::PolygonMesh;
 /// follow and against the budget before anything is allocated; a line with too few or
 /// too many numbers, a face naming a missing vertex and anything after the last face
 /// are refused.
-pub fn read_off(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
+pub fn read_off(bytes: &[u8], name: &str, limits: &Limits) -> Result<PolygonMesh, MeshError> {
     let bad = |line: usize, what: String| MeshError::BadOff {
         path: name.into(),
         line,
@@ -92,7 +94,7 @@ pub fn read_off(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
             });
         }
     }
-    budget(name, vertices * 24 + body * 12)?;
+    budget(name, vertices * 24 + body * 12, limits)?;
     let mut mesh = PolygonMesh {
         positions: Vec::with_capacity(vertices as usize),
         triangles: Vec::with_capacity(faces as usize),

@@ -5,6 +5,8 @@
 use std::io::{self, Write};
 use std::path::PathBuf;
 
+use caoen_base::budget::Limits;
+
 use super::{budget, finish, MeshError, MAX_ELEMENTS};
 use crate::mesh::Mesh;
 use crate::polygon_mesh::PolygonMesh;
@@ -241,6 +243,7 @@ fn check_ply_counts(
     ascii: bool,
     body: u64,
     name: &str,
+    limits: &Limits,
 ) -> Result<(), MeshError> {
     let mut need = 0u64;
     for el in elements {
@@ -263,7 +266,7 @@ fn check_ply_counts(
     // The mesh made from the body: a vertex is 24 bytes from at least 3 body bytes, a
     // triangle 12 bytes from at least one (a one-byte index in a strip), so at most 12
     // bytes a body byte, plus the tables of the elements kept.
-    budget(name, body.saturating_mul(12))
+    budget(name, body.saturating_mul(12), limits)
 }
 
 /// Where a PLY element's values go.
@@ -280,7 +283,7 @@ enum Sink {
 /// elements and properties are read and ignored. The file must hold exactly what its
 /// header declares: a short element, extra numbers on an ASCII line or data after the
 /// last element are refused.
-pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
+pub fn read_ply(bytes: &[u8], name: &str, limits: &Limits) -> Result<PolygonMesh, MeshError> {
     let path = || PathBuf::from(name);
     let (format, elements, start) = ply_header(bytes, name)?;
     let body = &bytes[start..];
@@ -289,6 +292,7 @@ pub fn read_ply(bytes: &[u8], name: &str) -> Result<PolygonMesh, MeshError> {
         format == PlyFormat::Ascii,
         body.len() as u64,
         name,
+        limits,
     )?;
     let mut mesh = PolygonMesh::default();
     // Faces are checked against the vertex count once every element is read (a file

@@ -1,23 +1,33 @@
 //! The mesh readers: OBJ quads, OFF polygons and PLY bodies, ASCII and binary, and
 //! the files each must refuse.
 
+use caoen_base::budget::Limits;
+
 use super::*;
 
 #[test]
 fn obj_quads_become_two_triangles_and_bad_input_is_refused() {
     let quad = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
-    let m = read_obj(quad, "q.obj").unwrap();
+    let m = read_obj(quad, "q.obj", &Limits::default()).unwrap();
     assert_eq!(m.triangles.len(), 2);
     assert!(matches!(
-        read_obj(b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 9\n", "b.obj"),
+        read_obj(
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 9\n",
+            "b.obj",
+            &Limits::default()
+        ),
         Err(MeshError::Obj { .. } | MeshError::BadIndex { .. })
     ));
     assert!(matches!(
-        read_obj(b"v 0 0 nan\nv 1 0 0\nv 1 1 0\nf 1 2 3\n", "n.obj"),
+        read_obj(
+            b"v 0 0 nan\nv 1 0 0\nv 1 1 0\nf 1 2 3\n",
+            "n.obj",
+            &Limits::default()
+        ),
         Err(MeshError::NonFinite { vertex: 0, .. })
     ));
     assert!(matches!(
-        read_obj(b"v 0 0 0\n", "e.obj"),
+        read_obj(b"v 0 0 0\n", "e.obj", &Limits::default()),
         Err(MeshError::NoTriangles { .. })
     ));
 }
@@ -25,9 +35,14 @@ fn obj_quads_become_two_triangles_and_bad_input_is_refused() {
 #[test]
 fn off_polygons_become_fans_and_bad_lines_are_refused() {
     let quad = b"OFF # a square\n4 1 4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n\n4 0 1 2 3 255 0 0\n";
-    let m = read_off(quad, "q.off").unwrap();
+    let m = read_off(quad, "q.off", &Limits::default()).unwrap();
     assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
-    let same_line = read_off(b"OFF 3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", "s.off").unwrap();
+    let same_line = read_off(
+        b"OFF 3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        "s.off",
+        &Limits::default(),
+    )
+    .unwrap();
     assert_eq!(same_line.triangles.len(), 1);
     for (text, words) in [
         (
@@ -55,7 +70,9 @@ fn off_polygons_become_fans_and_bad_lines_are_refused() {
         (b"OFF\n3 1\n", "2 numbers"),
         (b"OFF\n9999999999 1 0\n", "over the limit"),
     ] {
-        let e = read_off(text, "b.off").unwrap_err().to_string();
+        let e = read_off(text, "b.off", &Limits::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(words), "{e}");
     }
 }
@@ -63,7 +80,7 @@ fn off_polygons_become_fans_and_bad_lines_are_refused() {
 #[test]
 fn ply_ascii_and_binary_read_the_same_mesh() {
     let ascii = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float confidence\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1\n1 0 0 1\n0 1 0 1\n3 0 1 2\n";
-    let a = read_ply(ascii, "a.ply").unwrap();
+    let a = read_ply(ascii, "a.ply", &Limits::default()).unwrap();
     let mut bin = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
     for p in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
         for v in p {
@@ -74,7 +91,7 @@ fn ply_ascii_and_binary_read_the_same_mesh() {
     for i in [0i32, 1, 2] {
         bin.extend_from_slice(&i.to_le_bytes());
     }
-    let b = read_ply(&bin, "b.ply").unwrap();
+    let b = read_ply(&bin, "b.ply", &Limits::default()).unwrap();
     assert_eq!(a, b);
     assert_eq!(a.triangles, vec![[0, 1, 2]]);
 }
@@ -84,7 +101,7 @@ fn ply_bodies_hold_exactly_what_the_header_declares() {
     let head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
     let extra = format!("{head}0 0 0 9\n1 0 0\n0 1 0\n3 0 1 2\n");
     assert!(matches!(
-        read_ply(extra.as_bytes(), "e.ply"),
+        read_ply(extra.as_bytes(), "e.ply", &Limits::default()),
         Err(MeshError::ExtraValues {
             index: 0,
             extra: 1,
@@ -93,17 +110,17 @@ fn ply_bodies_hold_exactly_what_the_header_declares() {
     ));
     let more = format!("{head}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n");
     assert!(matches!(
-        read_ply(more.as_bytes(), "m.ply"),
+        read_ply(more.as_bytes(), "m.ply", &Limits::default()),
         Err(MeshError::TrailingData { declared: 4, .. })
     ));
     let short = format!("{head}0 0 0\n1 0\n0 1 0\n3 0 1 2\n");
     assert!(matches!(
-        read_ply(short.as_bytes(), "s.ply"),
+        read_ply(short.as_bytes(), "s.ply", &Limits::default()),
         Err(MeshError::MissingValues { index: 1, .. })
     ));
     let word = format!("{head}0 0 0\n1 0 x\n0 1 0\n3 0 1 2\n");
     assert!(matches!(
-        read_ply(word.as_bytes(), "w.ply"),
+        read_ply(word.as_bytes(), "w.ply", &Limits::default()),
         Err(MeshError::BadValue { index: 1, .. })
     ));
 }
@@ -121,7 +138,7 @@ fn binary_triangle_strips_restart_at_minus_one_and_keep_the_winding() {
     for i in strip {
         bin.extend_from_slice(&i.to_be_bytes());
     }
-    let m = read_ply(&bin, "t.ply").unwrap();
+    let m = read_ply(&bin, "t.ply", &Limits::default()).unwrap();
     assert_eq!(
         m.triangles,
         vec![[1, 0, 2], [2, 0, 3], [3, 0, 1], [1, 2, 3]]
@@ -130,7 +147,7 @@ fn binary_triangle_strips_restart_at_minus_one_and_keep_the_winding() {
     // One byte too many is a header that lies.
     bin.push(0);
     assert!(matches!(
-        read_ply(&bin, "t.ply"),
+        read_ply(&bin, "t.ply", &Limits::default()),
         Err(MeshError::TrailingData { bytes: 1, .. })
     ));
 }
@@ -139,7 +156,7 @@ fn binary_triangle_strips_restart_at_minus_one_and_keep_the_winding() {
 fn a_ply_header_cannot_declare_more_than_the_file_holds() {
     let huge = b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n\0\0\0\0";
     assert!(matches!(
-        read_ply(huge, "h.ply"),
+        read_ply(huge, "h.ply", &Limits::default()),
         Err(MeshError::TooManyElements {
             declared: 4_000_000_000,
             ..
@@ -147,7 +164,7 @@ fn a_ply_header_cannot_declare_more_than_the_file_holds() {
     ));
     let bad = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n";
     assert!(matches!(
-        read_ply(bad, "i.ply"),
+        read_ply(bad, "i.ply", &Limits::default()),
         Err(MeshError::BadIndex { index: 7, .. })
     ));
 }

@@ -20,10 +20,9 @@ use crate::output::{print, Outputs, Target};
 
 /// Reads a `.cae` input (`-`: standard input) within the memory budget
 /// ([`transcode::read_cae`]).
-fn read_input(path: &Path) -> CliResult<Vec<u8>> {
-    let limits = crate::commands::limits();
+fn read_input(path: &Path, limits: &Limits) -> CliResult<Vec<u8>> {
     if path.as_os_str() == "-" {
-        return transcode::read_cae(std::io::stdin().lock(), None, &limits)
+        return transcode::read_cae(std::io::stdin().lock(), None, limits)
             .map_err(|e| CliError::io("<stdin>", e));
     }
     let file = std::fs::File::open(path).map_err(|e| CliError::io(path, e))?;
@@ -33,21 +32,21 @@ fn read_input(path: &Path) -> CliResult<Vec<u8>> {
         .ok()
         .filter(|m| m.is_file())
         .map(|m| m.len());
-    transcode::read_cae(file, len, &limits).map_err(|e| CliError::io(path, e))
+    transcode::read_cae(file, len, limits).map_err(|e| CliError::io(path, e))
 }
 
 /// Loads an image file into a raster, upright by its EXIF orientation, with a clear
 /// error naming the file.
-pub fn load_image(path: &Path) -> CliResult<Raster> {
-    load_image_with_metadata(path).map(|(raster, _)| raster)
+pub fn load_image(path: &Path, limits: &Limits) -> CliResult<Raster> {
+    load_image_with_metadata(path, limits).map(|(raster, _)| raster)
 }
 
 /// [`load_image`] with the file's metadata (its EXIF saying orientation 1).
-pub fn load_image_with_metadata(path: &Path) -> CliResult<(Raster, Metadata)> {
+pub fn load_image_with_metadata(path: &Path, limits: &Limits) -> CliResult<(Raster, Metadata)> {
     // Image errors name their file already.
     Ok(image_io::load_with_metadata(
         path,
-        &image_io::LoadLimits::within(&crate::commands::limits()),
+        &image_io::LoadLimits::within(limits),
     )?)
 }
 
@@ -118,7 +117,7 @@ fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBa
 pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     let limits = image_io::LoadLimits {
         max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
-        ..image_io::LoadLimits::within(&crate::commands::limits())
+        ..image_io::LoadLimits::within(&global.limits)
     };
     let (img, metadata) = image_io::load_for_encoding(&a.input, &limits)?;
     let held = img.held_bytes();
@@ -140,7 +139,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         keypoints: a.keypoints,
         metadata: kept.clone(),
         // One budget for the command: what the input already holds is spent.
-        limits: Limits::new(caoen::budget::get().saturating_sub(held)),
+        limits: Limits::new(global.limits.max_memory.saturating_sub(held)),
         resampling: a.resampling,
     };
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
@@ -166,7 +165,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         caoen::codec::CodecError::Memory(mut over) => {
             over.what += " (the decoded input included)";
             over.need = over.need.saturating_add(held);
-            over.budget = caoen::budget::get();
+            over.budget = global.limits.max_memory;
             codec_err(&a.input, caoen::codec::CodecError::Memory(over))
         }
         e => codec_err(&a.input, e),
@@ -252,7 +251,7 @@ fn parse_size(s: &str) -> CliResult<(u32, u32)> {
 
 /// Decodes (or, without `-o`, validates) a `.cae` file.
 pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
-    let bytes = read_input(&a.input)?;
+    let bytes = read_input(&a.input, &global.limits)?;
     let size = match (&a.size, a.scale) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage("give --size or --scale, not both".into()))
@@ -269,7 +268,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         size,
         supersample: a.supersample,
         max_pixels: a.max_pixels,
-        limits: crate::commands::limits(),
+        limits: global.limits.clone(),
     };
     let target = a
         .output
@@ -331,8 +330,8 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
 }
 
 /// Describes a `.cae` file: header, sections, key points.
-pub fn info(a: &InfoArgs) -> CliResult {
-    let bytes = read_input(&a.input)?;
+pub fn info(global: &GlobalArgs, a: &InfoArgs) -> CliResult {
+    let bytes = read_input(&a.input, &global.limits)?;
     let parsed = caoen::codec::inspect(&bytes).map_err(|e| codec_err(&a.input, e))?;
     let about = About::of(&parsed, bytes.len());
     if a.json {

@@ -23,14 +23,14 @@ pub fn is_cae(path: &Path) -> bool {
 }
 
 /// Reads an image file, or decodes a caoen file, into a raster.
-pub fn load_any(path: &Path) -> CliResult<Raster> {
+pub fn load_any(path: &Path, limits: &caoen::Limits) -> CliResult<Raster> {
     if is_cae(path) {
-        let bytes = caoen::budget::read(path).map_err(|e| CliError::io(path, e))?;
+        let bytes = limits.read(path).map_err(|e| CliError::io(path, e))?;
         codec::decode(&bytes, &DecodeOptions::default())
             .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
     } else {
         // Upright by the EXIF orientation, as `caoen encode` reads it.
-        crate::commands::codec::load_image(path)
+        crate::commands::codec::load_image(path, limits)
     }
 }
 
@@ -86,8 +86,8 @@ fn db(v: f64) -> String {
 
 /// Runs `caoen compare`.
 pub fn run(global: &GlobalArgs, args: &CompareArgs) -> CliResult {
-    let a = load_any(&args.reference)?;
-    let b = load_any(&args.test)?;
+    let a = load_any(&args.reference, &global.limits)?;
+    let b = load_any(&args.test, &global.limits)?;
     note(
         global,
         format!(

@@ -14,8 +14,8 @@ use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::Outputs;
 
-fn read_mesh(path: &Path) -> CliResult<PolygonMesh> {
-    conversion::read(path).map_err(CliError::library)
+fn read_mesh(path: &Path, limits: &caoen::Limits) -> CliResult<PolygonMesh> {
+    conversion::read(path, limits).map_err(CliError::library)
 }
 
 /// Prints the current phase on stderr whenever nothing else was printed for 4 s.
@@ -87,7 +87,7 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
             HolesArg::Close => Holes::Close,
         },
         descent_sweeps: a.descent as usize,
-        limits: crate::commands::limits(),
+        limits: global.limits.clone(),
     };
     let report = job::convert_file(&a.mesh, &job, &mut |e| match e {
         Event::Working(what) => heartbeat.phase(what, false),
@@ -256,7 +256,7 @@ fn measure_png(
 ) -> CliResult<(Measured, Option<Vec<u8>>)> {
     let n = conversion::measure::grid_side(opts.size);
     note(global, format!("sampling the field on a {n}^3 grid"));
-    let (m, picture) = measure(field, unit, opts, &crate::commands::limits())?;
+    let (m, picture) = measure(field, unit, opts, &global.limits.clone())?;
     let png = picture
         .map(|p| caoen::image_io::encode(&p, caoen::image_io::OutputFormat::Png8))
         .transpose()?;
@@ -271,7 +271,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
     if let Some(p) = &a.picture {
         outputs.check_path(p)?;
     }
-    let mesh = read_mesh(&a.mesh)?;
+    let mesh = read_mesh(&a.mesh, &global.limits)?;
     let frame = mesh.unit_frame();
     let unit = mesh.transformed(&frame);
     let start = Instant::now();
@@ -282,7 +282,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
     };
     let (what, numbers, (m, picture)) = match (&a.model, a.rbf) {
         (Some(path), _) => {
-            let scene = crate::commands::frep::load(path)?;
+            let scene = crate::commands::frep::load(path, &global.limits)?;
             let fields: Vec<_> = scene
                 .objects
                 .iter()
@@ -311,8 +311,9 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
         (None, Some(n)) => {
             note(global, format!("fitting the RBF baseline with {n} centres"));
             let normals = unit.outward_normals();
-            let rbf = conversion::rbf_baseline::fit(&unit, &normals, n as usize, 0.01)
-                .map_err(CliError::library)?;
+            let rbf =
+                conversion::rbf_baseline::fit(&unit, &normals, n as usize, 0.01, &global.limits)
+                    .map_err(CliError::library)?;
             (
                 format!("RBF baseline, {} centres", rbf.centres.len()),
                 rbf.numbers(),

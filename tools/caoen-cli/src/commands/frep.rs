@@ -75,12 +75,14 @@ impl<'de> Deserialize<'de> for FrepFormat {
 }
 
 /// Loads an F-rep model file (wrapped into a one-object scene) or a scene file.
-pub fn load(path: &Path) -> CliResult<Scene> {
-    let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+pub fn load(path: &Path, limits: &caoen::Limits) -> CliResult<Scene> {
+    let text = limits
+        .read_to_string(path)
+        .map_err(|e| CliError::io(path, e))?;
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let failed = |m: String| CliError::Failed(format!("{}: {m}", path.display()));
     if Scene::is_scene_json(&text) {
-        return Scene::from_json(&text, &base).map_err(|e| failed(e.to_string()));
+        return Scene::from_json(&text, &base, limits).map_err(|e| failed(e.to_string()));
     }
     let v: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| failed(format!("not JSON: {e}")))?;
@@ -113,21 +115,22 @@ pub fn load(path: &Path) -> CliResult<Scene> {
             scene[k] = x;
         }
     }
-    Scene::from_json(&scene.to_string(), &base).map_err(|e| failed(e.to_string()))
+    Scene::from_json(&scene.to_string(), &base, limits).map_err(|e| failed(e.to_string()))
 }
 
 /// Checks polygonising on `cells`^3 cells against the memory budget, before the model
 /// is loaded: `frep mesh` and the mesh render path allocate the same grid.
-fn check_cells(cells: u32) -> CliResult {
+fn check_cells(cells: u32, limits: &caoen::Limits) -> CliResult {
     let cells = u64::from(cells);
     // The grid (its values and the polygoniser's bookkeeping per corner) dominates;
     // vertices and triangles follow the area. 16 bytes a corner bound the peak measured
     // (874 MiB for 400 cells, where 8 bytes a corner estimated 496 MiB).
-    caoen::budget::check(
-        || format!("polygonising on {cells}^3 cells"),
-        (cells + 2).pow(3).saturating_mul(16),
-    )
-    .map_err(|e| CliError::Failed(e.to_string()))
+    limits
+        .check(
+            || format!("polygonising on {cells}^3 cells"),
+            (cells + 2).pow(3).saturating_mul(16),
+        )
+        .map_err(|e| CliError::Failed(e.to_string()))
 }
 
 fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
@@ -135,9 +138,9 @@ fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
     let mut outputs = Outputs::new(global.force).input(&a.model);
     outputs.check_path(&a.output)?;
     if matches!(a.method, FrepMethodArg::Mesh) {
-        check_cells(a.cells)?;
+        check_cells(a.cells, &global.limits)?;
     }
-    let scene = load(&a.model)?;
+    let scene = load(&a.model, &global.limits)?;
     let (width, height) = parse_size(&a.size)?;
     let opts = RenderOptions {
         width,
@@ -168,7 +171,7 @@ fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
 fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
     let mut outputs = Outputs::new(global.force).input(&a.model);
     outputs.check_path(&a.output)?;
-    let scene = load(&a.model)?;
+    let scene = load(&a.model, &global.limits)?;
     let fields: Vec<_> = scene
         .objects
         .iter()
@@ -184,7 +187,7 @@ fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
             fields.len()
         )));
     };
-    check_cells(a.cells)?;
+    check_cells(a.cells, &global.limits)?;
     write_solid_mesh(global, &outputs, node, bounds, a.cells, &a.output)
 }
 
@@ -214,11 +217,13 @@ fn write_solid_mesh(
     }
     let c = u64::from(cells);
     // Grid values (8 bytes per corner) dominate; vertices and triangles follow the area.
-    caoen::budget::check(
-        || format!("polygonising on {c}^3 cells"),
-        (c + 2).pow(3).saturating_mul(8),
-    )
-    .map_err(|e| CliError::Failed(e.to_string()))?;
+    global
+        .limits
+        .check(
+            || format!("polygonising on {c}^3 cells"),
+            (c + 2).pow(3).saturating_mul(8),
+        )
+        .map_err(|e| CliError::Failed(e.to_string()))?;
     let (m, rep) = caoen::frep::polygonise::solid_mesh(node, bounds, cells as usize)
         .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
     let mut bytes = Vec::new();
@@ -278,7 +283,7 @@ fn write_solid_mesh(
 fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     let mut outputs = Outputs::new(global.force).input(&a.model);
     outputs.check_path(&a.output)?;
-    let scene = load(&a.model)?;
+    let scene = load(&a.model, &global.limits)?;
     let (width, height) = parse_size(&a.size)?;
     let camera = scene.camera(width, height)?;
     let bar = crate::commands::render::progress_bar(global, "measuring max_gradient");
@@ -430,7 +435,7 @@ fn write_model(
     if !model["camera"].is_null() {
         scene["camera"] = model["camera"].clone();
     }
-    let scene = Scene::from_json(&scene.to_string(), base)
+    let scene = Scene::from_json(&scene.to_string(), base, &global.limits)
         .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
     // The model is loaded as render would load it before a JSON file is written, so
     // every file written here reads back (nesting, node count and asset limits).
@@ -488,7 +493,10 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
     }
     let mut outputs = Outputs::new(global.force).input(&a.image).input(&a.on);
     outputs.check_path(&a.output)?;
-    let text = caoen::budget::read_to_string(&a.on).map_err(|e| CliError::io(&a.on, e))?;
+    let text = global
+        .limits
+        .read_to_string(&a.on)
+        .map_err(|e| CliError::io(&a.on, e))?;
     let on: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| CliError::Failed(format!("{}: not JSON: {e}", a.on.display())))?;
     if on["format"] != FREP_FORMAT {
@@ -500,7 +508,7 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
     // The base model as a scene object first: its errors are reported as such, and
     // its bounds are needed for the shell.
     let base_dir = a.on.parent().map(Path::to_path_buf).unwrap_or_default();
-    let scene = load(&a.on)?;
+    let scene = load(&a.on, &global.limits)?;
     let Some(Shape::Field { node, bounds }) = scene.objects.first().map(|o| &o.shape) else {
         return Err(CliError::Failed(format!(
             "{}: no F-rep model",
@@ -556,13 +564,13 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
     if is_mesh_path(&a.output) {
         let text = model.to_string();
         let v: serde_json::Value = serde_json::from_str(&text).expect("json values round-trip");
-        let node = caoen::frep::Node::from_json(&v["model"], "model", &base_dir)
+        let node = caoen::frep::Node::from_json(&v["model"], "model", &base_dir, &global.limits)
             .map_err(|e| CliError::Failed(format!("{}: {e}", a.output.display())))?;
         let bounds = match node.bounds() {
             Some(b) => b,
             None => *bounds,
         };
-        check_cells(a.cells)?;
+        check_cells(a.cells, &global.limits)?;
         return write_solid_mesh(global, &outputs, &node, &bounds, a.cells, &a.output);
     }
     // The base model's assets are loaded again with the new model: not twice at once.

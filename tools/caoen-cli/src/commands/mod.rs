@@ -27,20 +27,29 @@ use crate::failure::{CliError, CliResult};
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> CliResult {
-    let global = cli.global.clone();
-    caoen::budget::set(global.max_memory);
+    let mut global = cli.global.clone();
+    global.limits = caoen::Limits::new(global.max_memory);
+    let limits = global.limits.clone();
     let job = move || match cli.command {
         None => demo::run(&global, &crate::cli::DemoArgs::default()),
         Some(cmd) => run_command(&global, cmd),
     };
-    match cli.global.threads {
+    let result = match cli.global.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n as usize)
             .build()
-            .map_err(|e| CliError::Failed(format!("thread pool: {e}")))?
+            .map_err(CliError::library)?
             .install(job),
         None => job(),
+    };
+    // For measuring the estimates against the peak (tests/memory_peak.rs).
+    if std::env::var_os("CAOEN_REPORT_BUDGET").is_some() {
+        eprintln!(
+            "budget: largest estimate {} bytes",
+            limits.largest_checked()
+        );
     }
+    result
 }
 
 fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
@@ -49,7 +58,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Demo(args) => demo::run(&global, &args),
         Command::Encode(args) => codec::encode(&global, &args),
         Command::Decode(args) => codec::decode(&global, &args),
-        Command::Info(args) => codec::info(&args),
+        Command::Info(args) => codec::info(&global, &args),
         Command::Surface(cmd) => surface::run(&global, cmd),
         Command::Corpus(args) => {
             let args = caoen_corpus::cli::CorpusArgs {
@@ -82,11 +91,6 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
 }
 
 /// Prints an informational line on stderr unless quiet.
-/// The memory limits of the command's library calls: the budget `--max-memory` set.
-pub(crate) fn limits() -> caoen::Limits {
-    caoen::Limits::new(caoen::budget::get())
-}
-
 pub(crate) fn note(global: &crate::cli::GlobalArgs, msg: impl std::fmt::Display) {
     if !global.quiet {
         eprintln!("{msg}");

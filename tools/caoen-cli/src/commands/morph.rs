@@ -43,13 +43,15 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
     // One frame at a time plus the contact sheet's quarter-size tiles.
     let per_frame = u64::from(width) * u64::from(height) * u64::from(a.samples).pow(2) * 80;
     let sheet = u64::from(width / 2) * u64::from(height / 2) * u64::from(a.frames) * 12;
-    caoen::budget::check(
-        || format!("{} frames of {width}x{height}", a.frames),
-        per_frame.saturating_add(sheet),
-    )
-    .map_err(|e| CliError::Failed(e.to_string()))?;
-    let model_a = crate::commands::surface::load_model(&a.a)?;
-    let model_b = crate::commands::surface::load_model(&a.b)?;
+    global
+        .limits
+        .check(
+            || format!("{} frames of {width}x{height}", a.frames),
+            per_frame.saturating_add(sheet),
+        )
+        .map_err(|e| CliError::Failed(e.to_string()))?;
+    let model_a = crate::commands::surface::load_model(&a.a, &global.limits)?;
+    let model_b = crate::commands::surface::load_model(&a.b, &global.limits)?;
     if model_a.domain != model_b.domain {
         return Err(CliError::Failed(format!(
             "{} and {} do not share a domain ({:?} vs {:?}): a morph pairs domain points",
@@ -60,8 +62,8 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
     let outputs = check_outputs(global, a, &kind, &frame_names)?;
 
     // One camera for every frame, framed on both models together.
-    let mut both = Scene::from_model(model_a.clone(), None)?;
-    let b_scene = Scene::from_model(model_b.clone(), None)?;
+    let mut both = Scene::from_model(model_a.clone(), None, &global.limits)?;
+    let b_scene = Scene::from_model(model_b.clone(), None, &global.limits)?;
     both.objects.extend(b_scene.objects);
     let cam = both.camera(width, height)?;
     let target = [0, 1, 2].map(|k| cam.eye[k] + cam.forward[k]);
@@ -73,7 +75,7 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
         ..RenderOptions::default()
     };
     let render_frame = |model: SurfaceModel| -> CliResult<Rendered> {
-        let mut scene = Scene::from_model(model, None)?;
+        let mut scene = Scene::from_model(model, None, &global.limits)?;
         scene.camera.eye = Some(cam.eye);
         scene.camera.target = Some(target);
         scene.camera.up = cam.up;

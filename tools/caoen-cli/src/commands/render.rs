@@ -35,11 +35,13 @@ pub fn parse_size(s: &str) -> CliResult<(u32, u32)> {
 }
 
 /// Loads a scene file, or wraps a model file / `builtin:NAME` into a one-object scene.
-pub fn load_scene(spec: &str, texture: Option<&Path>) -> CliResult<Scene> {
+pub fn load_scene(spec: &str, texture: Option<&Path>, limits: &caoen::Limits) -> CliResult<Scene> {
     let is_file = !spec.starts_with("builtin:");
     if is_file {
         let path = Path::new(spec);
-        let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+        let text = limits
+            .read_to_string(path)
+            .map_err(|e| CliError::io(path, e))?;
         if Scene::is_scene_json(&text) {
             if texture.is_some() {
                 return Err(CliError::Usage(
@@ -47,12 +49,12 @@ pub fn load_scene(spec: &str, texture: Option<&Path>) -> CliResult<Scene> {
                         .into(),
                 ));
             }
-            return Ok(Scene::load(path)?);
+            return Ok(Scene::load(path, limits)?);
         }
     }
-    let model = load_model(spec)?;
+    let model = load_model(spec, limits)?;
     let file = is_file.then(|| Path::new(spec));
-    let mut scene = Scene::from_model(model, file)?;
+    let mut scene = Scene::from_model(model, file, limits)?;
     if let Some(t) = texture {
         let Some(caoen::render::scene::SceneObject {
             shape: caoen::render::scene::Shape::Surface { model, .. },
@@ -62,7 +64,7 @@ pub fn load_scene(spec: &str, texture: Option<&Path>) -> CliResult<Scene> {
         else {
             unreachable!("from_model makes one surface object");
         };
-        material.texture = Some((Arc::new(Texture::load(t)?), texture_wrap(model)?));
+        material.texture = Some((Arc::new(Texture::load(t, limits)?), texture_wrap(model)?));
         material.colour = [1.0; 3];
     }
     Ok(scene)
@@ -181,7 +183,7 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     if let Some(d) = &a.depth_out {
         outputs.check_path(d)?;
     }
-    let mut scene = load_scene(&a.model, a.texture.as_deref())?;
+    let mut scene = load_scene(&a.model, a.texture.as_deref(), &global.limits)?;
     if let Some(p) = a.projection {
         scene.camera.projection = match p {
             ProjectionArg::Perspective => Projection::Perspective { fov_y_deg: 30.0 },
@@ -260,14 +262,15 @@ pub fn write_obj_material(
     outputs: &Outputs,
     obj: &Path,
     texture: &Path,
+    limits: &caoen::Limits,
 ) -> CliResult<(String, String)> {
     let png = texture_sibling(obj);
     if !texture_is_sibling(texture, &png) {
-        let bytes = caoen::budget::read(texture).map_err(|e| CliError::io(texture, e))?;
+        let bytes = limits.read(texture).map_err(|e| CliError::io(texture, e))?;
         let png_bytes = if bytes.starts_with(PNG_MAGIC) {
             bytes
         } else {
-            Texture::load(texture)?.image().encode_png()?
+            Texture::load(texture, limits)?.image().encode_png()?
         };
         outputs.write_path(&png, &png_bytes)?;
     }

@@ -14,7 +14,7 @@ use crate::failure::{CliError, CliResult};
 use crate::output::{extension_lowercase, print, Outputs, Target};
 
 /// Loads a model from a file or `builtin:NAME`.
-pub fn load_model(spec: &str) -> CliResult<SurfaceModel> {
+pub fn load_model(spec: &str, limits: &caoen::Limits) -> CliResult<SurfaceModel> {
     if let Some(name) = spec.strip_prefix("builtin:") {
         return gallery::by_name(name)
             .ok_or_else(|| {
@@ -25,21 +25,21 @@ pub fn load_model(spec: &str) -> CliResult<SurfaceModel> {
             })?
             .map_err(Into::into);
     }
-    Ok(SurfaceModel::load(Path::new(spec))?)
+    Ok(SurfaceModel::load(Path::new(spec), limits)?)
 }
 
 /// Runs a surface subcommand.
 pub fn run(global: &GlobalArgs, cmd: SurfaceCommand) -> CliResult {
     match cmd {
-        SurfaceCommand::Info(a) => info(&load_model(&a.model)?, a.json),
-        SurfaceCommand::Eval(a) => eval(&a),
+        SurfaceCommand::Info(a) => info(&load_model(&a.model, &global.limits)?, a.json),
+        SurfaceCommand::Eval(a) => eval(&a, &global.limits),
         SurfaceCommand::Mesh(a) => mesh(global, &a),
         SurfaceCommand::Render(a) => crate::commands::render::run(global, &a),
         SurfaceCommand::Export(a) => {
             let target = Target::from_arg(Some(&a.output), PathBuf::new);
             let mut outputs = Outputs::new(global.force).input(&a.model);
             outputs.check(&target)?;
-            let model = load_model(&a.model)?;
+            let model = load_model(&a.model, &global.limits)?;
             outputs.write(&target, (model.to_json() + "\n").as_bytes())
         }
     }
@@ -118,8 +118,8 @@ fn parse_size(s: &str) -> CliResult<(usize, usize)> {
     Ok((a as usize, b as usize))
 }
 
-fn eval(a: &SurfaceEvalArgs) -> CliResult {
-    let model = load_model(&a.model)?;
+fn eval(a: &SurfaceEvalArgs, limits: &caoen::Limits) -> CliResult {
+    let model = load_model(&a.model, limits)?;
     let mut points: Vec<Vec<f64>> = Vec::new();
     for s in &a.at {
         points.push(parse_list(s)?);
@@ -215,8 +215,9 @@ pub fn write_mesh(
     path: &Path,
     detail: u32,
     normals: NormalMode,
+    limits: &caoen::Limits,
 ) -> CliResult<String> {
-    write_mesh_textured(outputs, model, path, detail, normals, None)
+    write_mesh_textured(outputs, model, path, detail, normals, None, limits)
 }
 
 /// Like [`write_mesh`]; with a `texture` file an OBJ also gets `<stem>.mtl` and the
@@ -228,6 +229,7 @@ pub fn write_mesh_textured(
     detail: u32,
     normals: NormalMode,
     texture: Option<&Path>,
+    limits: &caoen::Limits,
 ) -> CliResult<String> {
     let ext = extension_lowercase(path);
     if !matches!(ext.as_deref(), Some("obj" | "ply")) {
@@ -236,12 +238,13 @@ pub fn write_mesh_textured(
             path.display()
         )));
     }
-    let mesh = tessellate(model, detail, normals)?;
+    let mesh = tessellate(model, detail, normals, limits)?;
     let mut bytes = Vec::new();
     let mut extra = String::new();
     match (ext.as_deref(), texture) {
         (Some("obj"), Some(tex)) => {
-            let (mtl, png) = crate::commands::render::write_obj_material(outputs, path, tex)?;
+            let (mtl, png) =
+                crate::commands::render::write_obj_material(outputs, path, tex, limits)?;
             extra = format!(" (+ {mtl}, {png})");
             write_obj(&mesh, &mut bytes, Some((&mtl, "caoen_surface")))
         }
@@ -260,7 +263,7 @@ pub fn write_mesh_textured(
 }
 
 fn mesh(global: &GlobalArgs, a: &SurfaceMeshArgs) -> CliResult {
-    let model = load_model(&a.model)?;
+    let model = load_model(&a.model, &global.limits)?;
     let normals = match a.normals {
         NormalsArg::Exact => NormalMode::Exact,
         NormalsArg::Interpolated => NormalMode::Interpolated,
@@ -283,6 +286,7 @@ fn mesh(global: &GlobalArgs, a: &SurfaceMeshArgs) -> CliResult {
         a.detail,
         normals,
         texture.as_deref(),
+        &global.limits,
     )?;
     note(global, format!("wrote {summary}"));
     Ok(())

@@ -37,8 +37,10 @@ pub fn parse_move(s: &str) -> CliResult<Move> {
 }
 
 /// Reads a moves JSON file.
-pub fn read_moves(path: &Path) -> CliResult<Vec<Move>> {
-    let text = caoen::budget::read_to_string(path).map_err(|e| CliError::io(path, e))?;
+pub fn read_moves(path: &Path, limits: &caoen::Limits) -> CliResult<Vec<Move>> {
+    let text = limits
+        .read_to_string(path)
+        .map_err(|e| CliError::io(path, e))?;
     warp::parse_moves(&text).map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
 }
 
@@ -100,8 +102,13 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
     for f in crate::commands::surface::mesh_files(&a.output, None) {
         outputs.check_path(&f)?;
     }
-    let model = crate::commands::surface::load_model(&spec)?;
-    let mesh = caoen::render::mesh::tessellate(&model, 3, caoen::render::mesh::NormalMode::Exact)?;
+    let model = crate::commands::surface::load_model(&spec, &global.limits)?;
+    let mesh = caoen::render::mesh::tessellate(
+        &model,
+        3,
+        caoen::render::mesh::NormalMode::Exact,
+        &global.limits,
+    )?;
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for p in &mesh.positions {
         for k in 0..3 {
@@ -130,6 +137,7 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
             &a.output,
             6,
             caoen::render::mesh::NormalMode::Exact,
+            &global.limits,
         )?;
     }
     note(
@@ -154,7 +162,7 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         return distort_surface(global, a);
     }
     let moves = match &a.moves_file {
-        Some(p) => read_moves(p)?,
+        Some(p) => read_moves(p, &global.limits)?,
         None => a
             .moves
             .iter()
@@ -186,7 +194,10 @@ pub fn distort(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         Pixels(caoen::Raster),
     }
     let source = if is_cae(&a.input) {
-        let bytes = caoen::budget::read(&a.input).map_err(|e| CliError::io(&a.input, e))?;
+        let bytes = global
+            .limits
+            .read(&a.input)
+            .map_err(|e| CliError::io(&a.input, e))?;
         let failed =
             |e: caoen::codec::CodecError| CliError::Failed(format!("{}: {e}", a.input.display()));
         let d = decoder::read(&bytes, caoen::codec::DEFAULT_MAX_PIXELS).map_err(failed)?;
@@ -255,22 +266,25 @@ fn failed(e: impl std::fmt::Display) -> CliError {
 }
 
 /// Loads a texture: an image file, or a caoen file decoded first.
-fn load_texture(path: &Path) -> CliResult<caoen::render::texture::Texture> {
+fn load_texture(path: &Path, limits: &caoen::Limits) -> CliResult<caoen::render::texture::Texture> {
     use caoen::render::framebuffer::RgbImage;
     use caoen::render::texture::Texture;
     let ext = extension_lowercase(path);
     if matches!(ext.as_deref(), Some("cae" | "exr")) {
-        let r = crate::commands::compare::load_any(path)?;
-        Texture::new(RgbImage::from_raster(&r).map_err(failed)?).map_err(failed)
+        let r = crate::commands::compare::load_any(path, limits)?;
+        Texture::new(RgbImage::from_raster(&r, limits).map_err(failed)?, limits).map_err(failed)
     } else {
-        Ok(Texture::load(path)?)
+        Ok(Texture::load(path, limits)?)
     }
 }
 
 /// The solid texture of `--solid`, `--scale`, `--colours`: a procedural kind, or a
 /// volume spec file (anything ending in .json). Bad parameters are usage errors (exit
 /// 2), an unreadable or inconsistent volume is a failure (exit 1).
-fn solid_texture(a: &crate::cli::TransferArgs) -> CliResult<caoen::texture::solid::Solid> {
+fn solid_texture(
+    a: &crate::cli::TransferArgs,
+    limits: &caoen::Limits,
+) -> CliResult<caoen::texture::solid::Solid> {
     use caoen::texture::solid::{self, Solid, Volume};
     let spec = Path::new(&a.solid);
     if spec
@@ -282,7 +296,7 @@ fn solid_texture(a: &crate::cli::TransferArgs) -> CliResult<caoen::texture::soli
                 "--colours applies to procedural solid textures, not to a volume".into(),
             ));
         }
-        return Ok(Solid::Volume(Volume::load(spec).map_err(tex_err)?));
+        return Ok(Solid::Volume(Volume::load(spec, limits).map_err(tex_err)?));
     }
     let colours = match &a.colours {
         Some(c) => solid::parse_colours(c).map_err(|e| CliError::Usage(e.to_string()))?,
@@ -293,12 +307,13 @@ fn solid_texture(a: &crate::cli::TransferArgs) -> CliResult<caoen::texture::soli
 
 /// The baked texture against the memory budget: per texel, the linear-light image, its
 /// PNG and the same texture loaded back for rendering with its mip pyramid.
-fn check_bake(width: u32, height: u32) -> CliResult {
-    caoen::budget::check(
-        || format!("baking a {width}x{height} texture"),
-        caoen::budget::bytes(u64::from(width), u64::from(height), 12 + 3 + 16),
-    )
-    .map_err(|e| CliError::Failed(e.to_string()))
+fn check_bake(width: u32, height: u32, limits: &caoen::Limits) -> CliResult {
+    limits
+        .check(
+            || format!("baking a {width}x{height} texture"),
+            caoen::budget::bytes(u64::from(width), u64::from(height), 12 + 3 + 16),
+        )
+        .map_err(|e| CliError::Failed(e.to_string()))
 }
 
 /// The longest side of a default bake grid.
@@ -359,7 +374,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
                     .is_some_and(|e| e.eq_ignore_ascii_case("json")))
             .then_some(solid_spec),
         );
-    let to = crate::commands::surface::load_model(&a.to)?;
+    let to = crate::commands::surface::load_model(&a.to, &global.limits)?;
     let texture = (ext.as_deref() == Some("obj")).then(|| tmp.path());
     for f in crate::commands::surface::mesh_files(&a.output, texture) {
         outputs.check_path(&f)?;
@@ -373,9 +388,9 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
     let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
         (Some(space), _, _) => {
             let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
-            check_bake(tw, th)?;
-            let solid = solid_texture(a)?;
-            let net = crate::commands::surface::load_model(space)?;
+            check_bake(tw, th, &global.limits)?;
+            let solid = solid_texture(a, &global.limits)?;
+            let net = crate::commands::surface::load_model(space, &global.limits)?;
             let sample = |p: [f64; 3]| solid.sample(p);
             (
                 caoen::texture::transfer::bake_texture_space_with(
@@ -392,13 +407,13 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             )
         }
         (None, Some(texture), Some(from_spec)) => {
-            let from = crate::commands::surface::load_model(from_spec)?;
-            let tex = load_texture(texture)?;
+            let from = crate::commands::surface::load_model(from_spec, &global.limits)?;
+            let tex = load_texture(texture, &global.limits)?;
             let (tw, th) = match &a.bake_size {
                 Some(s) => crate::commands::render::parse_size(s)?,
                 None => default_bake(tex.image().width, tex.image().height, size),
             };
-            check_bake(tw, th)?;
+            check_bake(tw, th, &global.limits)?;
             let moved = match ProjectionKind::parse(&a.project) {
                 None => caoen::texture::transfer::transfer(&from, &to, &tex, tw, th),
                 Some(kind) => {
@@ -442,9 +457,11 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
                 a.detail,
                 caoen::render::mesh::NormalMode::Exact,
                 Some(tmp.path()),
+                &global.limits,
             )?
         } else {
-            let scene = crate::commands::render::load_scene(&a.to, Some(tmp.path()))?;
+            let scene =
+                crate::commands::render::load_scene(&a.to, Some(tmp.path()), &global.limits)?;
             let opts = caoen::render::renderer::RenderOptions {
                 width: size.0,
                 height: size.1,

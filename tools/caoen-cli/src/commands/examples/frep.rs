@@ -29,7 +29,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
             "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]}
         }),
     )?;
-    let scene = crate::commands::frep::load(&sub.join("blend.json"))?;
+    let scene = crate::commands::frep::load(&sub.join("blend.json"), &global.limits)?;
     let ray = render(&scene, &opts(320, 240, n, Method::Ray), &|_, _| {})?;
     let mesh = render(&scene, &opts(320, 240, n, Method::Mesh), &|_, _| {})?;
     let mut pair = caoen::render::framebuffer::RgbImage::filled(640, 240, scene.background);
@@ -61,7 +61,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         };
         let model = crate::commands::frep::heightfield_model(&args, "../distort/input.png", 1.5);
         save_json(&sub, &format!("heightfield-{name}.json"), &model)?;
-        let scene = crate::commands::frep::load(&args.output)?;
+        let scene = crate::commands::frep::load(&args.output, &global.limits)?;
         tiles.push(render(&scene, &opts(320, 240, n, Method::Ray), &|_, _| {})?.image);
     }
     let mut row = caoen::render::framebuffer::RgbImage::filled(960, 240, [1.0; 3]);
@@ -106,13 +106,13 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     )?;
     let mut pair = caoen::render::framebuffer::RgbImage::filled(640, 240, [1.0; 3]);
     for (k, name) in ["lattice.json", "relief.json"].into_iter().enumerate() {
-        let scene = crate::commands::frep::load(&sub.join(name))?;
+        let scene = crate::commands::frep::load(&sub.join(name), &global.limits)?;
         let r = render(&scene, &opts(320, 240, n, Method::Ray), &|_, _| {})?;
         pair.blit(&r.image, 320 * k as u32, 0);
     }
     save_png(global, &sub, "carving.png", &pair)?;
     write_mirror_glass(global, &sub, n)?;
-    lithophane(&sub)
+    lithophane(&sub, &global.limits)
 }
 
 /// The secondary-ray example: a mirror ball, a glass Cao En solid (a dodecahedron,
@@ -120,7 +120,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
 /// its render and its POV-Ray export.
 fn write_mirror_glass(global: &GlobalArgs, sub: &Path, n: u32) -> CliResult {
     save_json(sub, "mirror-glass.json", &mirror_glass_scene())?;
-    let scene = crate::commands::frep::load(&sub.join("mirror-glass.json"))?;
+    let scene = crate::commands::frep::load(&sub.join("mirror-glass.json"), &global.limits)?;
     let r = render(&scene, &opts(400, 300, n, Method::Ray), &|_, _| {})?;
     save_png(global, sub, "mirror-glass.png", &r.image)?;
     let camera = scene.camera(512, 512)?;
@@ -162,7 +162,7 @@ pub fn mirror_glass_scene() -> serde_json::Value {
 /// (0.1 for black, 0.04 for white), written as a binary STL to print. What `caoen
 /// relief ../distort/input.png --on plate.json --projection planar --depth -0.06 -o
 /// lithophane.stl --cells 64` writes, the plate being the box of `lithophane.json`.
-fn lithophane(sub: &Path) -> CliResult {
+fn lithophane(sub: &Path, limits: &caoen::Limits) -> CliResult {
     let model = serde_json::json!({
         "format": "caoen-frep/1", "name": "lithophane",
         "model": {"relief": {"box": {"centre": [0.0, 0.0, 0.05], "size": [1.5, 1.0, 0.1]}},
@@ -172,7 +172,7 @@ fn lithophane(sub: &Path) -> CliResult {
         "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [0.3, -1.2, 1.6]}
     });
     save_json(sub, "lithophane.json", &model)?;
-    let scene = crate::commands::frep::load(&sub.join("lithophane.json"))?;
+    let scene = crate::commands::frep::load(&sub.join("lithophane.json"), limits)?;
     let Some(caoen::render::scene::Shape::Field { node, bounds }) =
         scene.objects.first().map(|o| &o.shape)
     else {

@@ -64,7 +64,7 @@ fn scene_example(
     let file = scene_dir.join(format!("{name}.scene.json"));
     save_json(scene_dir, &format!("{name}.scene.json"), scene)?;
     let png = format!("{name}.png");
-    let r = render_with_progress(global, &Scene::load(&file)?, o, &png)?;
+    let r = render_with_progress(global, &Scene::load(&file, &global.limits)?, o, &png)?;
     save_png(global, dir, &png, &r.image)
 }
 
@@ -86,11 +86,12 @@ fn tile_grid(
     tile: u32,
     samples: u32,
     height: f64,
+    limits: &caoen::Limits,
 ) -> CliResult<RgbImage> {
     let rows = (models.len() as u32).div_ceil(cols);
     let mut out: Option<RgbImage> = None;
     for (i, m) in models.iter().enumerate() {
-        let mut scene = Scene::from_model(m.clone(), None)?;
+        let mut scene = Scene::from_model(m.clone(), None, limits)?;
         scene.camera.eye = Some([3.0, -3.9, 2.4]);
         scene.camera.target = Some([0.0; 3]);
         scene.camera.projection = caoen::render::Projection::Orthographic { height };

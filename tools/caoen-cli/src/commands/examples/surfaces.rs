@@ -96,7 +96,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         global,
         dir,
         "six-point-family.png",
-        &tile_grid(&family, 6, 80, n, 2.6)?,
+        &tile_grid(&family, 6, 80, n, 2.6, &global.limits)?,
     )?;
 
     // 2. A freeform surface on the torus domain: a ring that twists its cross-section
@@ -119,7 +119,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         ),
         &opts(384, 288, n, Method::Depth),
     )?;
-    let scene = Scene::load(&dir.join("torus-freeform.scene.json"))?;
+    let scene = Scene::load(&dir.join("torus-freeform.scene.json"), &global.limits)?;
     let r = render(&scene, &opts(384, 288, 1, Method::Depth), &|_, _| {})?;
     replace_file(
         &dir.join("torus-freeform-depth.png"),
@@ -150,7 +150,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         global,
         dir,
         "morph.png",
-        &tile_grid(&frames, 5, 96, n, 3.0)?,
+        &tile_grid(&frames, 5, 96, n, 3.0, &global.limits)?,
     )?;
     // The same morph as an animation, by `caoen morph morph-a.json morph-b.json -o
     // morph.gif --frames 12`.
@@ -201,7 +201,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     )?;
     // A rim of the carved cube up close: ray traced (left) and its mesh (right), each a
     // 128x128 crop of a 512x384 render shown at twice the size.
-    let scene = Scene::load(&dir.join("csg.scene.json"))?;
+    let scene = Scene::load(&dir.join("csg.scene.json"), &global.limits)?;
     let mut crops = caoen::render::framebuffer::RgbImage::filled(512, 256, scene.background);
     for (k, method) in [Method::Ray, Method::Mesh].into_iter().enumerate() {
         let r = render(&scene, &opts(512, 384, n, method), &|_, _| {})?;
@@ -275,7 +275,15 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     )?;
 
     // 6. A textured surface: a checker texture on the sphere domain of the blob.
-    let tex = Texture::checker(256, 128, 16, 8, [0.9, 0.85, 0.7], [0.08, 0.25, 0.5])?;
+    let tex = Texture::checker(
+        256,
+        128,
+        16,
+        8,
+        [0.9, 0.85, 0.7],
+        [0.08, 0.25, 0.5],
+        &global.limits,
+    )?;
     replace_file(&dir.join("checker.png"), &tex.image().encode_png()?)?;
     let textured = gallery::blob()?.with_texture("checker.png");
     save_model(dir, "textured-blob.json", &textured)?;

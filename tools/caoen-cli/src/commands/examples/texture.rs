@@ -105,8 +105,14 @@ fn distort(global: &GlobalArgs, sub: &Path) -> CliResult {
         },
     )?;
     let blob = gallery::blob()?;
-    let moved = SurfaceModel::load(&sub.join("blob-distorted.json"))?;
-    let pair = side_by_side(&[(&blob, None), (&moved, None)], 240, 180, 3)?;
+    let moved = SurfaceModel::load(&sub.join("blob-distorted.json"), &global.limits)?;
+    let pair = side_by_side(
+        &[(&blob, None), (&moved, None)],
+        240,
+        180,
+        3,
+        &global.limits,
+    )?;
     save_png(global, sub, "blob-distorted.png", &pair)
 }
 
@@ -162,7 +168,7 @@ fn transfer(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         let tmp = temp_png()?;
         let output = tmp.path().to_path_buf();
         transfer(global, &TransferArgs { output, ..args })?;
-        Ok(RgbImage::load(tmp.path())?)
+        Ok(RgbImage::load(tmp.path(), &global.limits)?)
     };
     let small = || TransferArgs {
         size: "240x180".into(),
@@ -307,15 +313,21 @@ fn texture_control(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     save_model(dir, "texture-control.json", &model)?;
     let plain = blob.with_texture("checker.png");
     let file = dir.join("texture-control.json");
-    let pair = side_by_side(&[(&plain, Some(&file)), (&model, Some(&file))], 320, 240, n)?;
+    let pair = side_by_side(
+        &[(&plain, Some(&file)), (&model, Some(&file))],
+        320,
+        240,
+        n,
+        &global.limits,
+    )?;
     save_png(global, dir, "texture-control.png", &pair)
 }
 
 /// `morph-textured/`: five frames of the morph `morph-a.json -> morph-b.json` with the
 /// checker texture as textured surface files, and the frames side by side.
 fn textured_morph(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
-    let a = SurfaceModel::load(&dir.join("morph-a.json"))?;
-    let b = SurfaceModel::load(&dir.join("morph-b.json"))?;
+    let a = SurfaceModel::load(&dir.join("morph-a.json"), &global.limits)?;
+    let b = SurfaceModel::load(&dir.join("morph-b.json"), &global.limits)?;
     let sub = dir.join("morph-textured");
     std::fs::create_dir_all(&sub).map_err(|e| CliError::io(&sub, e))?;
     let mut frames = Vec::new();
@@ -328,7 +340,7 @@ fn textured_morph(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     }
     let file = sub.join("frame-0.json");
     let models: Vec<_> = frames.iter().map(|m| (m, Some(file.as_path()))).collect();
-    let strip = side_by_side(&models, 200, 160, n)?;
+    let strip = side_by_side(&models, 200, 160, n, &global.limits)?;
     save_png(global, &sub, "frames.png", &strip)
 }
 
@@ -339,10 +351,11 @@ fn side_by_side(
     width: u32,
     height: u32,
     samples: u32,
+    limits: &caoen::Limits,
 ) -> CliResult<RgbImage> {
     let mut tiles = Vec::new();
     for (model, file) in models {
-        let mut scene = Scene::from_model((*model).clone(), *file)?;
+        let mut scene = Scene::from_model((*model).clone(), *file, limits)?;
         scene.camera.view_from = [1.0, -1.6, 0.7];
         let r = render(
             &scene,
