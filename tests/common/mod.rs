@@ -3,7 +3,8 @@
 // Each test crate includes this module and uses only part of it.
 #![allow(dead_code)]
 
-// The library's tests and these share the property-test settings and thread pools.
+// One home for what the library's tests and these both need: property-test settings,
+// the repository's paths, thread pools.
 #[path = "../../codec/caoen/tests/common/mod.rs"]
 mod library;
 #[allow(unused_imports)] // Each test crate calls only some.
