@@ -215,6 +215,13 @@ pub enum SolidMeshError {
 /// polygonisation (a spike thinner than a cell), not parts of the model.
 pub const SPECK_FRACTION: f64 = 1e-3;
 
+/// Peak memory of polygonising on `cells`^3 cells: the grid (its values and the
+/// polygoniser's bookkeeping per corner) dominates, vertices and triangles follow the
+/// area. 16 bytes a corner bound the peak measured (874 MiB for 400 cells).
+pub fn polygonise_memory(cells: u32) -> u64 {
+    (u64::from(cells) + 2).pow(3).saturating_mul(16)
+}
+
 /// A mesh to print: as [`mesh`] on a grid whose outer layer is outside (closed even
 /// where the solid reaches `bounds`, which then cuts it), vertices clamped into
 /// `bounds`, zero-area triangles collapsed away and specks dropped; an error if the

@@ -234,6 +234,11 @@ impl RgbImage {
         .map_err(png_error)
     }
 
+    /// Bytes of a `width x height` image: three linear-light floats a pixel.
+    pub fn memory(width: u32, height: u32) -> u64 {
+        caoen_base::budget::bytes(u64::from(width), u64::from(height), 12)
+    }
+
     /// Loads an image file into linear light through the checked loader (size limits
     /// and the memory budget before any pixel is decoded).
     pub fn load(path: &std::path::Path, limits: &caoen_base::budget::Limits) -> Result<RgbImage> {

@@ -173,6 +173,16 @@ fn check(opts: &RenderOptions) -> Result<()> {
     Ok(())
 }
 
+/// Peak memory of one render of `width x height` pixels at `samples x samples`
+/// subpixels: the hit buffer, the shaded samples and the depth map, 80 bytes a subpixel.
+pub fn render_memory(width: u32, height: u32, samples: u32) -> u64 {
+    caoen_base::budget::bytes(
+        u64::from(width) * u64::from(height),
+        u64::from(samples).pow(2),
+        80,
+    )
+}
+
 /// Renders `scene`; `progress` receives `(done, total)` work units.
 pub fn render(
     scene: &Scene,

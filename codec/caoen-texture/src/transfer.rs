@@ -108,6 +108,12 @@ pub fn solid_checker(p: [f64; 3], cell: f64) -> [f32; 3] {
     .sample(p)
 }
 
+/// Peak memory of baking a `width x height` texture and using it: per texel the
+/// linear-light image, its PNG and the texture loaded back with its mip pyramid.
+pub fn bake_memory(width: u32, height: u32) -> u64 {
+    caoen_base::budget::bytes(u64::from(width), u64::from(height), 12 + 3 + 16)
+}
+
 /// The second method of the paper: `space` maps the shared domain into a 3-D texture
 /// space; the solid texture `solid` sampled at `space(x)` is baked onto `to`'s texture
 /// grid (`width x height` texels), so it is carried onto the shape wherever `to` puts

@@ -121,14 +121,10 @@ pub fn load(path: &Path, limits: &caoen::Limits) -> CliResult<Scene> {
 /// Checks polygonising on `cells`^3 cells against the memory budget, before the model
 /// is loaded: `frep mesh` and the mesh render path allocate the same grid.
 fn check_cells(cells: u32, limits: &caoen::Limits) -> CliResult {
-    let cells = u64::from(cells);
-    // The grid (its values and the polygoniser's bookkeeping per corner) dominates;
-    // vertices and triangles follow the area. 16 bytes a corner bound the peak measured
-    // (874 MiB for 400 cells, where 8 bytes a corner estimated 496 MiB).
     limits
         .check(
             || format!("polygonising on {cells}^3 cells"),
-            (cells + 2).pow(3).saturating_mul(16),
+            caoen::frep::polygonise::polygonise_memory(cells),
         )
         .map_err(|e| CliError::Failed(e.to_string()))
 }
@@ -215,15 +211,7 @@ fn write_solid_mesh(
             output.display()
         )));
     }
-    let c = u64::from(cells);
-    // Grid values (8 bytes per corner) dominate; vertices and triangles follow the area.
-    global
-        .limits
-        .check(
-            || format!("polygonising on {c}^3 cells"),
-            (c + 2).pow(3).saturating_mul(8),
-        )
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+    check_cells(cells, &global.limits)?;
     let (m, rep) = caoen::frep::polygonise::solid_mesh(node, bounds, cells as usize)
         .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
     let mut bytes = Vec::new();

@@ -41,15 +41,12 @@ pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
     };
     let (width, height) = parse_size(&a.size)?;
     // One frame at a time plus the contact sheet's quarter-size tiles.
-    let per_frame = u64::from(width) * u64::from(height) * u64::from(a.samples).pow(2) * 80;
-    let sheet = u64::from(width / 2) * u64::from(height / 2) * u64::from(a.frames) * 12;
-    global
-        .limits
-        .check(
-            || format!("{} frames of {width}x{height}", a.frames),
-            per_frame.saturating_add(sheet),
-        )
-        .map_err(|e| CliError::Failed(e.to_string()))?;
+    let sheet =
+        caoen::render::RgbImage::memory(width / 2, height / 2).saturating_mul(u64::from(a.frames));
+    global.limits.check(
+        || format!("{} frames of {width}x{height}", a.frames),
+        caoen::render::renderer::render_memory(width, height, a.samples).saturating_add(sheet),
+    )?;
     let model_a = crate::commands::surface::load_model(&a.a, &global.limits)?;
     let model_b = crate::commands::surface::load_model(&a.b, &global.limits)?;
     if model_a.domain != model_b.domain {

@@ -305,13 +305,12 @@ fn solid_texture(
     Solid::procedural(&a.solid, a.scale, colours).map_err(|e| CliError::Usage(e.to_string()))
 }
 
-/// The baked texture against the memory budget: per texel, the linear-light image, its
-/// PNG and the same texture loaded back for rendering with its mip pyramid.
+/// The baked texture against the memory budget.
 fn check_bake(width: u32, height: u32, limits: &caoen::Limits) -> CliResult {
     limits
         .check(
             || format!("baking a {width}x{height} texture"),
-            caoen::budget::bytes(u64::from(width), u64::from(height), 12 + 3 + 16),
+            caoen::texture::transfer::bake_memory(width, height),
         )
         .map_err(|e| CliError::Failed(e.to_string()))
 }
