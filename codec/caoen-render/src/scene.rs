@@ -160,14 +160,7 @@ impl Scene {
         for o in &self.objects {
             match &o.shape {
                 Shape::Surface { model, place, .. } => {
-                    // A detail-2 mesh (320 triangles) is a few kilobytes: framing the
-                    // camera needs no limit of its own.
-                    let mesh = caoen_surface::tessellate::tessellate(
-                        model,
-                        2,
-                        caoen_surface::tessellate::NormalMode::Exact,
-                        &caoen_base::budget::Limits::default(),
-                    )?;
+                    let mesh = framing_mesh(model)?;
                     mesh.positions.iter().for_each(|p| add(place.point(*p)));
                 }
                 Shape::Solid { solids, csg } => {
@@ -201,14 +194,7 @@ impl Scene {
         for o in &self.objects {
             match &o.shape {
                 Shape::Surface { model, place, .. } => {
-                    // A detail-2 mesh (320 triangles) is a few kilobytes: framing the
-                    // camera needs no limit of its own.
-                    let mesh = caoen_surface::tessellate::tessellate(
-                        model,
-                        2,
-                        caoen_surface::tessellate::NormalMode::Exact,
-                        &caoen_base::budget::Limits::default(),
-                    )?;
+                    let mesh = framing_mesh(model)?;
                     for p in &mesh.positions {
                         r = r.max(dist(place.point(*p)));
                     }
@@ -303,4 +289,15 @@ pub fn texture_wrap(model: &SurfaceModel) -> Result<Wrap> {
             ),
         )
     })
+}
+
+/// A coarse mesh of `model` for framing the camera and bounding the scene: at detail 2
+/// (320 triangles) it is a few kilobytes, so it needs no limit of its own.
+fn framing_mesh(model: &SurfaceModel) -> Result<caoen_geometry::mesh::Mesh> {
+    Ok(caoen_surface::tessellate::tessellate(
+        model,
+        2,
+        caoen_surface::tessellate::NormalMode::Exact,
+        &caoen_base::budget::Limits::default(),
+    )?)
 }
