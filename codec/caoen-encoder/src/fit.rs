@@ -276,24 +276,33 @@ mod tests {
     use caoen_decoder::keyset::{KernelParams, KeySet};
     use caoen_decoder::quadtree::TreeShape;
 
+    /// The key points of the quadtree of `(block, min)` log2 sizes split where `split`
+    /// says, with kernels of width `sigma`.
+    fn key_set(
+        (width, height): (u32, u32),
+        (block_log2, min_log2): (u8, u8),
+        sigma_factor: f64,
+        split: impl Fn(&caoen_decoder::Cell) -> bool,
+    ) -> KeySet {
+        let shape = TreeShape {
+            width,
+            height,
+            block_log2,
+            min_log2,
+        };
+        let params = KernelParams {
+            sigma_factor,
+            weight_exponent: 1.0,
+        };
+        KeySet::new(Frame::new(width, height), &shape.walk(split), params)
+    }
+
     #[test]
     fn scattered_transpose_products_equal_the_transpose_bit_for_bit() {
         let (w, h) = (37u32, 29u32);
-        let shape = TreeShape {
-            width: w,
-            height: h,
-            block_log2: 4,
-            min_log2: 1,
-        };
-        let cells = shape.walk(|c| !(c.x0 / 2 + c.y0 / 3 + c.log2 as u32).is_multiple_of(3));
-        let ks = KeySet::new(
-            Frame::new(w, h),
-            &cells,
-            KernelParams {
-                sigma_factor: 0.5,
-                weight_exponent: 1.0,
-            },
-        );
+        let ks = key_set((w, h), (4, 1), 0.5, |c| {
+            !(c.x0 / 2 + c.y0 / 3 + c.log2 as u32).is_multiple_of(3)
+        });
         let a = ks.pixel_weights();
         let (n, pixels) = (ks.len(), (w * h) as usize);
         let at = a.transpose(n);
@@ -337,21 +346,7 @@ mod tests {
     #[test]
     fn fit_reproduces_an_image_the_model_can_represent() {
         let (w, h) = (40u32, 24u32);
-        let shape = TreeShape {
-            width: w,
-            height: h,
-            block_log2: 3,
-            min_log2: 2,
-        };
-        let cells = shape.walk(|c| c.log2 > 2);
-        let ks = KeySet::new(
-            Frame::new(w, h),
-            &cells,
-            KernelParams {
-                sigma_factor: 0.45,
-                weight_exponent: 1.0,
-            },
-        );
+        let ks = key_set((w, h), (3, 2), 0.45, |c| c.log2 > 2);
         let truth: Vec<f64> = (0..ks.len())
             .map(|i| ((i * 7919) % 13) as f64 / 13.0)
             .collect();

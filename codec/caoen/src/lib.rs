@@ -35,7 +35,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub use caoen_base::{budget, metadata, raster};
+pub use caoen_base::{budget, metadata, raster, rng};
 pub use caoen_conversion as conversion;
 pub use caoen_frep as frep;
 pub use caoen_geometry as geometry;

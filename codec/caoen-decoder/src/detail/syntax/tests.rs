@@ -63,15 +63,12 @@ fn overlay_pricing_equals_pricing_a_copy_and_leaves_the_contexts_alone() {
     let mut ctx = DetailContexts::default();
     let mut overlay = OverlayCostSink::default();
     let mut sink = AnsSink::new();
-    let mut seed = 12345u64;
+    let mut rng = caoen_base::rng::Lcg::new(12345);
     for i in 0..400 {
         let mut q = [0i32; COEFFS];
         // Sparse, mostly small levels with occasional escapes, as the quantiser makes.
         for (k, v) in q.iter_mut().enumerate() {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let r = (seed >> 33) as u32;
+            let r = rng.next_u31();
             if r.is_multiple_of(2 + k as u32 / 4) {
                 let m = if r.is_multiple_of(97) {
                     (r >> 8) % 5000
@@ -98,13 +95,8 @@ fn the_block_pricer_equals_pricing_a_copy_within_limits_or_not() {
     let mut ctx = DetailContexts::default();
     let mut pricer = BlockPricer::default();
     let mut sink = AnsSink::new();
-    let mut seed = 777u64;
-    let mut next = move || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 33) as u32
-    };
+    let mut rng = caoen_base::rng::Lcg::new(777);
+    let mut next = move || rng.next_u31();
     for i in 0..300 {
         let mut q = [0i32; COEFFS];
         for (k, v) in q.iter_mut().enumerate() {
