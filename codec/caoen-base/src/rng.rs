@@ -46,20 +46,22 @@ impl Lcg {
 mod tests {
     use super::*;
 
+    /// Knuth's MMIX multiplier and increment.
+    const MMIX: (u64, u64) = (6364136223846793005, 1442695040888963407);
+
     #[test]
     fn the_sequence_is_knuths_mmix_generator() {
-        // x1 = a * 1 + c with a = 6364136223846793005, c = 1442695040888963407.
-        let mut g = Lcg::new(1);
-        assert_eq!(g.next_u64(), 7806831264735756412);
-        let mut g = Lcg::new(0);
-        assert_eq!(g.next_u64(), 1442695040888963407);
-        assert_eq!(
-            g.next_u31(),
-            ((1442695040888963407u64
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407))
-                >> 33) as u32
-        );
+        let (a, c) = MMIX;
+        for seed in [0u64, 1, 12345, u64::MAX] {
+            let mut g = Lcg::new(seed);
+            let x1 = seed.wrapping_mul(a).wrapping_add(c);
+            assert_eq!(g.next_u64(), x1);
+            assert_eq!(
+                g.next_u31(),
+                (x1.wrapping_mul(a).wrapping_add(c) >> 33) as u32
+            );
+        }
+        assert_eq!(Lcg::new(1).next_u64(), 7806831264735756412);
     }
 
     #[test]

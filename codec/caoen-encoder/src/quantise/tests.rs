@@ -6,6 +6,11 @@ use caoen_base::rng::Lcg;
 use caoen_decoder::detail::syntax::GroupContext;
 use caoen_decoder::entropy::OverlayCostSink;
 
+/// Moves the contexts past a block coded with `levels`, as the encoder does.
+fn advance(ctx: &mut DetailContexts, at: syntax::BlockContext, levels: &[i32; COEFFS]) {
+    syntax::write_block(ctx, at, levels, &mut caoen_decoder::entropy::AnsSink::new());
+}
+
 /// Coefficients falling off with frequency, as a photograph's residual does.
 fn residual_block(rng: &mut Lcg, scale: f64) -> [f64; COEFFS] {
     std::array::from_fn(|i| {
@@ -76,12 +81,7 @@ fn the_level_search_only_takes_cheaper_blocks_one_step_from_rounding() {
             );
         }
         moved += usize::from(levels != start);
-        syntax::write_block(
-            &mut ctx,
-            at,
-            &levels,
-            &mut caoen_decoder::entropy::AnsSink::new(),
-        );
+        advance(&mut ctx, at, &levels);
     }
     assert!(
         moved > 30,
@@ -198,12 +198,7 @@ fn choices_equal_the_reference_search() {
                 }
                 let rounded: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
                 changed += usize::from(expected != rounded);
-                syntax::write_block(
-                    &mut ctx,
-                    at,
-                    &expected,
-                    &mut caoen_decoder::entropy::AnsSink::new(),
-                );
+                advance(&mut ctx, at, &expected);
             }
         }
         assert!(changed > 100, "the search has choices to make ({changed})");
