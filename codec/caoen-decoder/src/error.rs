@@ -257,6 +257,25 @@ pub enum CodecError {
 }
 
 impl CodecError {
+    /// `found` of `unit` in `what` where the header declares `declared`; `Ok` when
+    /// they agree.
+    pub fn check_count(
+        what: &'static str,
+        unit: &'static str,
+        found: u64,
+        declared: u64,
+    ) -> Result<(), Self> {
+        if found == declared {
+            return Ok(());
+        }
+        Err(CodecError::CountMismatch {
+            what,
+            unit,
+            found,
+            declared,
+        })
+    }
+
     /// An out-of-range coded number.
     pub fn range(what: &'static str, value: impl Into<f64>, lo: f64, hi: f64) -> Self {
         CodecError::OutOfRange {
