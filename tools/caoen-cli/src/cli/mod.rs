@@ -598,6 +598,10 @@ pub struct DecodeArgs {
     /// Decode scaled by this factor.
     #[arg(long, value_name = "F")]
     pub scale: Option<f64>,
+    /// Decode only the rectangle [x0, x1) x [y0, y1) of the image (its own pixel
+    /// coordinates, fractions allowed), at --size or --scale times its own size.
+    #[arg(long, value_name = "x0,y0,x1,y1", allow_hyphen_values = true)]
+    pub region: Option<String>,
     /// Refuse files or outputs with more pixels than this.
     #[arg(long, default_value_t = caoen::codec::DEFAULT_MAX_PIXELS)]
     pub max_pixels: u64,
