@@ -30,15 +30,25 @@ fn cases(cae: &Path, dir: &Path, tag: &str, (w, h): (u32, u32), tolerance: u8) -
         let raw = dir.join(format!("{tag}-size{i}.rgba"));
         std::fs::write(&raw, rgba).unwrap();
         let js_args = size.map_or(json!([]), |(a, b)| json!([a, b]));
-        out.push(json!({"name": format!("{tag} decode {size:?}"), "cae": s(cae),
+        out.push(
+            json!({"name": format!("{tag} decode {size:?}"), "cae": s(cae),
             "call": "decode", "args": js_args, "expect": s(&raw), "width": ow, "height": oh,
-            "tolerance": tolerance, "info": null, "error": null}));
+            "tolerance": tolerance, "info": null, "error": null}),
+        );
     }
     let (fw, fh) = (f64::from(w), f64::from(h));
     let regions = [
         ([0.0, 0.0, fw, fh], (w, h)),
         ([fw / 4.0, fh / 4.0, fw / 2.0, fh / 2.0], (w / 2, h / 2)),
-        ([fw * 0.3 + 0.5, fh * 0.2 + 0.25, fw * 0.3 + 20.5, fh * 0.2 + 15.25], (320, 240)),
+        (
+            [
+                fw * 0.3 + 0.5,
+                fh * 0.2 + 0.25,
+                fw * 0.3 + 20.5,
+                fh * 0.2 + 15.25,
+            ],
+            (320, 240),
+        ),
     ];
     for (i, (r, (ow, oh))) in regions.into_iter().enumerate() {
         let png = dir.join(format!("{tag}-region{i}.png"));
@@ -48,9 +58,11 @@ fn cases(cae: &Path, dir: &Path, tag: &str, (w, h): (u32, u32), tolerance: u8) -
         assert_eq!((cw, ch), (ow, oh));
         let raw = dir.join(format!("{tag}-region{i}.rgba"));
         std::fs::write(&raw, rgba).unwrap();
-        out.push(json!({"name": format!("{tag} decodeRegion {region} at {size}"), "cae": s(cae),
+        out.push(
+            json!({"name": format!("{tag} decodeRegion {region} at {size}"), "cae": s(cae),
             "call": "decodeRegion", "args": [r[0], r[1], r[2], r[3], ow, oh], "expect": s(&raw),
-            "width": ow, "height": oh, "tolerance": tolerance, "info": null, "error": null}));
+            "width": ow, "height": oh, "tolerance": tolerance, "info": null, "error": null}),
+        );
     }
     out
 }
@@ -101,10 +113,12 @@ fn the_wasm_decoder_in_node_equals_the_command_line() {
         }
     }
     // info, and errors: a damaged file, a truncated one, bad sizes and regions.
-    all.push(json!({"name": "info", "cae": s(&scene), "call": "info", "args": [],
+    all.push(
+        json!({"name": "info", "cae": s(&scene), "call": "info", "args": [],
         "expect": null, "width": 0, "height": 0, "tolerance": 0, "error": null,
         "info": {"width": 96, "height": 64, "channels": 3, "bits": 8,
-                 "bytes": std::fs::metadata(&scene).unwrap().len()}}));
+                 "bytes": std::fs::metadata(&scene).unwrap().len()}}),
+    );
     let bytes = std::fs::read(&scene).unwrap();
     let damaged = dir.join("damaged.cae");
     let mut d = bytes.clone();
@@ -121,32 +135,103 @@ fn the_wasm_decoder_in_node_equals_the_command_line() {
         assert!(!out.status.success());
         let err = common::stderr(&out);
         // "caoen: FILE: MESSAGE": the message is the library's.
-        let msg = err.lines().next().unwrap().rsplit(": invalid").next().unwrap().to_string();
+        let msg = err
+            .lines()
+            .next()
+            .unwrap()
+            .rsplit(": invalid")
+            .next()
+            .unwrap()
+            .to_string();
         format!("invalid{msg}")
     };
     let error = |name: &str, f: &Path, call: &str, args: Value, says: String| {
         json!({"name": name, "cae": s(f), "call": call, "args": args, "expect": null,
             "width": 0, "height": 0, "tolerance": 0, "info": null, "error": says})
     };
-    all.push(error("damaged", &damaged, "decode", json!([]), cli_error(&damaged)));
-    all.push(error("truncated", &cut, "decode", json!([]), cli_error(&cut)));
-    all.push(error("truncated info", &cut, "info", json!([]), "invalid caoen file".into()));
-    all.push(error("not caoen", &junk, "decode", json!([]), "not a caoen file".into()));
-    all.push(error("zero width", &scene, "decode", json!([0, 10]), "width".into()));
-    all.push(error("fraction", &scene, "decode", json!([10.5, 10]), "width".into()));
-    all.push(error("one side", &scene, "decode", json!([10]), "both".into()));
-    all.push(error("region out", &scene, "decodeRegion", json!([0, 0, 97, 10, 10, 10]),
-        "within the image".into()));
-    all.push(error("region NaN", &scene, "decodeRegion", json!([0, 0, "NaN", 10, 10, 10]),
-        "finite".into()));
-    all.push(error("too many pixels", &scene, "decode", json!([16384, 16384]),
-        "limit exceeded".into()));
+    all.push(error(
+        "damaged",
+        &damaged,
+        "decode",
+        json!([]),
+        cli_error(&damaged),
+    ));
+    all.push(error(
+        "truncated",
+        &cut,
+        "decode",
+        json!([]),
+        cli_error(&cut),
+    ));
+    all.push(error(
+        "truncated info",
+        &cut,
+        "info",
+        json!([]),
+        "invalid caoen file".into(),
+    ));
+    all.push(error(
+        "not caoen",
+        &junk,
+        "decode",
+        json!([]),
+        "not a caoen file".into(),
+    ));
+    all.push(error(
+        "zero width",
+        &scene,
+        "decode",
+        json!([0, 10]),
+        "width".into(),
+    ));
+    all.push(error(
+        "fraction",
+        &scene,
+        "decode",
+        json!([10.5, 10]),
+        "width".into(),
+    ));
+    all.push(error(
+        "one side",
+        &scene,
+        "decode",
+        json!([10]),
+        "both".into(),
+    ));
+    all.push(error(
+        "region out",
+        &scene,
+        "decodeRegion",
+        json!([0, 0, 97, 10, 10, 10]),
+        "within the image".into(),
+    ));
+    all.push(error(
+        "region NaN",
+        &scene,
+        "decodeRegion",
+        json!([0, 0, "NaN", 10, 10, 10]),
+        "finite".into(),
+    ));
+    all.push(error(
+        "too many pixels",
+        &scene,
+        "decode",
+        json!([16384, 16384]),
+        "limit exceeded".into(),
+    ));
     let spec = dir.join("cases.json");
     std::fs::write(&spec, json!({"pkg": s(&pkg), "cases": all}).to_string()).unwrap();
     let script = common::repo_path("tools/web/test/node.mjs");
-    let out = Command::new("node").arg(&script).arg(&spec).output().unwrap();
+    let out = Command::new("node")
+        .arg(&script)
+        .arg(&spec)
+        .output()
+        .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    let results: Vec<Value> = stdout.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let results: Vec<Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
     let failed: Vec<&Value> = results.iter().filter(|r| r["ok"] != true).collect();
     let ms: f64 = results.iter().filter_map(|r| r["ms"].as_f64()).sum();
     eprintln!("{} cases in {ms:.0} ms of decoding in Node", results.len());

@@ -33,13 +33,15 @@ pub fn info(bytes: &[u8]) -> Result<JsValue, JsError> {
     set(&out, "bytes", (bytes.len() as f64).into())?;
     let meta = parsed.metadata();
     let m = Object::new();
-    let blob = |b: &Option<Vec<u8>>| b.as_deref().map_or(JsValue::NULL, |b| Uint8Array::from(b).into());
+    let blob = |b: &Option<Vec<u8>>| {
+        b.as_deref()
+            .map_or(JsValue::NULL, |b| Uint8Array::from(b).into())
+    };
     set(&m, "icc", blob(&meta.icc))?;
     set(&m, "exif", blob(&meta.exif))?;
-    let xmp = meta
-        .xmp
-        .as_deref()
-        .map_or(JsValue::NULL, |x| String::from_utf8_lossy(x).into_owned().into());
+    let xmp = meta.xmp.as_deref().map_or(JsValue::NULL, |x| {
+        String::from_utf8_lossy(x).into_owned().into()
+    });
     set(&m, "xmp", xmp)?;
     set(&out, "metadata", m.into())?;
     Ok(out.into())
@@ -52,7 +54,11 @@ pub fn decode(bytes: &[u8], width: Option<f64>, height: Option<f64>) -> Result<J
     let size = match (width, height) {
         (None, None) => None,
         (Some(w), Some(h)) => Some((side("width", w)?, side("height", h)?)),
-        _ => return Err(JsError::new("decode: give both width and height, or neither")),
+        _ => {
+            return Err(JsError::new(
+                "decode: give both width and height, or neither",
+            ))
+        }
     };
     run(bytes, size, None)
 }

@@ -37,7 +37,10 @@ mod tests {
 
     #[test]
     fn every_layout_becomes_rgba() {
-        assert_eq!(expand(&[7, 9], ChannelLayout::Grey), [7, 7, 7, 255, 9, 9, 9, 255]);
+        assert_eq!(
+            expand(&[7, 9], ChannelLayout::Grey),
+            [7, 7, 7, 255, 9, 9, 9, 255]
+        );
         assert_eq!(expand(&[7, 9], ChannelLayout::GreyAlpha), [7, 7, 7, 9]);
         assert_eq!(expand(&[1, 2, 3], ChannelLayout::Rgb), [1, 2, 3, 255]);
         assert_eq!(expand(&[1, 2, 3, 4], ChannelLayout::Rgba), [1, 2, 3, 4]);
