@@ -222,7 +222,12 @@ function finish(generation, p, full) {
 
 // The whole image decoded at its size in the worker, in milliseconds.
 window.caoenBench = async () => (await call({ type: "bench" })).ms;
-window.caoenZoomTo = (zoom) => zoomAt(zoom / view.zoom, canvas.clientWidth / 2, canvas.clientHeight / 2);
+// Shows image point (cx, cy) at the centre at `zoom` CSS pixels per image pixel.
+window.caoenLook = (cx, cy, zoom) => {
+  if (!info) return;
+  view = { cx, cy, zoom: Math.min(MAX_ZOOM, Math.max(Math.min(fitZoom(), 1), zoom)) };
+  redraw();
+};
 
 $("file").addEventListener("change", async (e) => {
   const f = e.target.files[0];
