@@ -236,6 +236,24 @@ pub enum CodecError {
         /// The valid range.
         reason: &'static str,
     },
+    /// A region to decode is not a rectangle inside the image.
+    #[error("invalid region {x0},{y0},{x1},{y1} of a {width}x{height} image: {reason}")]
+    Region {
+        /// Left edge.
+        x0: f64,
+        /// Top edge.
+        y0: f64,
+        /// Right edge.
+        x1: f64,
+        /// Bottom edge.
+        y1: f64,
+        /// The image's width.
+        width: u32,
+        /// The image's height.
+        height: u32,
+        /// What is wrong.
+        reason: &'static str,
+    },
     /// The input image cannot be encoded (empty, non-finite samples).
     #[error("invalid image: {0}")]
     Image(#[from] caoen_base::raster::RasterError),

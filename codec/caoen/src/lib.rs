@@ -56,7 +56,7 @@ pub mod codec {
 pub use codec::bitstream::{Header, Parsed};
 pub use codec::{
     decode, encode, encode_with_progress, inspect, CodecError as Error, DecodeOptions,
-    EncodeOptions, EncodeStats, Limits, PixelSource, RateTarget, Resampling, Scale,
+    EncodeOptions, EncodeStats, Limits, PixelSource, RateTarget, Region, Resampling, Scale,
 };
 pub use image_io::{load, register_image_hooks, save, CaeDecoder, ImageIoError};
 pub use metadata::Metadata;

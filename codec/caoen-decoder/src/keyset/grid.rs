@@ -411,6 +411,11 @@ impl<'c> GridEval<'c> {
         self
     }
 
+    /// The grid this evaluator evaluates on.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
     /// Number of bands: the grid's rows in groups of [`GridEval::BAND`].
     pub fn bands(&self) -> usize {
         self.grid.ny.div_ceil(BAND)
