@@ -710,3 +710,14 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
     fails_cleanly(&["decode", "/dev/zero", "-o", &o("z.png")], 1, "magic");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_whole_number_written_as_a_float_is_read_as_one() {
+    let dir = scratch("whole-float");
+    let out = dir.join("s.png").display().to_string();
+    let model = bad("third-M7-noise-seed-7.0.json");
+    succeeds(&["frep", "render", &model, "-o", &out, "--size", "32x24"]);
+    let png = image::open(&out).expect("the render reads back");
+    assert_eq!((png.width(), png.height()), (32, 24));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -102,3 +102,24 @@ fn limits_hold_before_anything_is_built() {
         )
     );
 }
+
+#[test]
+fn whole_numbers_written_as_floats_are_whole_numbers() {
+    let read = |seed: Value| {
+        let v = json!({"noise": {"sphere": {"radius": 1}}, "amplitude": 0.1, "scale": 0.2, "seed": seed});
+        Node::from_json(
+            &v,
+            "model",
+            std::path::Path::new("."),
+            &caoen_base::budget::Limits::default(),
+        )
+    };
+    // `7.0` and `7` are the same model; a fraction or a value out of range is not one.
+    assert_eq!(read(json!(7.0)).unwrap(), read(json!(7)).unwrap());
+    assert!(read(json!(7.5)).is_err());
+    let e = read(json!(1e20)).unwrap_err().to_string();
+    assert!(
+        e.ends_with("expected a whole number in [0, 1000000]"),
+        "{e}"
+    );
+}

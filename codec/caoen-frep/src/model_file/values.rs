@@ -106,6 +106,15 @@ impl<'de> Deserialize<'de> for Int {
             fn visit_i64<E: de::Error>(self, x: i64) -> Result<Int, E> {
                 Ok(Int(x.into()))
             }
+            // JSON writers print whole numbers as `7.0` too; the range check that
+            // follows bounds them, so only the fraction is refused here.
+            fn visit_f64<E: de::Error>(self, x: f64) -> Result<Int, E> {
+                if x.is_finite() && x.fract() == 0.0 && x.abs() < 1e30 {
+                    Ok(Int(x as i128))
+                } else {
+                    Err(E::invalid_type(de::Unexpected::Float(x), &self))
+                }
+            }
         }
         d.deserialize_i64(V)
     }
