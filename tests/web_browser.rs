@@ -13,9 +13,9 @@ mod web_common;
 use common::s;
 use serde_json::{json, Value};
 use std::io::BufRead;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use web_common::{cli_rgba, need, runs};
+use web_common::cli_rgba;
 
 /// A `caoen view` server, stopped when dropped.
 struct Server(Child, String);
@@ -47,30 +47,12 @@ impl Drop for Server {
     }
 }
 
-fn chromium() -> PathBuf {
-    std::env::var_os("CAOEN_CHROMIUM")
-        .map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from)
-}
-
 #[test]
 fn the_viewer_draws_the_native_decode_of_what_it_shows() {
-    let Some(()) = need(runs("node", "--version"), "node is not installed") else {
-        return;
-    };
-    let browser = chromium();
-    let Some(()) = need(
-        browser.is_file(),
-        &format!(
-            "{} is missing (apt-get install chromium)",
-            browser.display()
-        ),
-    ) else {
-        return;
-    };
-    let modules = common::repo_path("tools/web/test/node_modules/playwright-core");
-    let Some(()) = need(
-        modules.is_dir(),
-        "playwright-core is not installed (npm ci in tools/web/test)",
+    let (Some(()), Some(browser), Some(())) = (
+        web_common::node(),
+        web_common::chromium(),
+        web_common::playwright(),
     ) else {
         return;
     };

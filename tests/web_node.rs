@@ -12,7 +12,7 @@ use common::s;
 use serde_json::{json, Value};
 use std::path::Path;
 use std::process::Command;
-use web_common::{cli_rgba, need, runs};
+use web_common::cli_rgba;
 
 /// Photographs of `../shared/photos` the test codes (all of them with
 /// `CAOEN_WEB_PHOTOS=all`).
@@ -69,7 +69,7 @@ fn cases(cae: &Path, dir: &Path, tag: &str, (w, h): (u32, u32), tolerance: u8) -
 
 #[test]
 fn the_wasm_decoder_in_node_equals_the_command_line() {
-    let Some(()) = need(runs("node", "--version"), "node is not installed") else {
+    let Some(()) = web_common::node() else {
         return;
     };
     let Some(pkg) = web_common::build_pkg() else {

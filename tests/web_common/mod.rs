@@ -33,6 +33,32 @@ pub fn runs(program: &str, arg: &str) -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
+/// `Some(())` if Node runs (skipped, or failed under `CI=true`, if not).
+pub fn node() -> Option<()> {
+    need(runs("node", "--version"), "node is not installed")
+}
+
+/// The Chromium to drive (`$CAOEN_CHROMIUM`, else Debian's), if present (skipped, or
+/// failed under `CI=true`, if not).
+pub fn chromium() -> Option<PathBuf> {
+    let path = std::env::var_os("CAOEN_CHROMIUM")
+        .map_or_else(|| PathBuf::from("/usr/bin/chromium"), PathBuf::from);
+    need(
+        path.is_file(),
+        &format!("{} is missing (apt-get install chromium)", path.display()),
+    )?;
+    Some(path)
+}
+
+/// `Some(())` if `npm ci` has installed playwright-core in `tools/web/test` (skipped,
+/// or failed under `CI=true`, if not).
+pub fn playwright() -> Option<()> {
+    need(
+        common::repo_path("tools/web/test/node_modules/playwright-core").is_dir(),
+        "playwright-core is not installed (npm ci in tools/web/test)",
+    )
+}
+
 /// The built package folder (`tools/web/pkg/`), after `tools/web/build.sh`, or `None`
 /// (skipped) when its tools are missing.
 pub fn build_pkg() -> Option<PathBuf> {
