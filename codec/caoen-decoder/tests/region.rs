@@ -47,19 +47,18 @@ fn filtered(bytes: &[u8], colour_channels: usize) -> Vec<u8> {
         colour: None,
         last: Some(PlaneFilter::single((0..12).map(|k| 25 - 6 * k).collect())),
     });
-    let strong = |primary: u8| Strengths {
+    // Strong deringing of luma and chroma, so that every plane's filter shows.
+    let [luma, chroma] = [200u8, 90].map(|primary| Strengths {
         primary,
         secondary: primary / 3,
         cutoff: 60,
-    };
-    header.deringing = Some(Deringing {
-        luma: strong(200),
-        chroma: if colour_channels == 3 {
-            strong(90)
-        } else {
-            Strengths::OFF
-        },
     });
+    let chroma = if colour_channels == 3 {
+        chroma
+    } else {
+        Strengths::OFF
+    };
+    header.deringing = Some(Deringing { luma, chroma });
     let tiles: Vec<TileStreams> = parsed.tiles.iter().map(TilePayload::to_streams).collect();
     bitstream::write(&header, &parsed.metadata(), &tiles)
 }
@@ -95,6 +94,15 @@ fn region_opts(r: (f64, f64, f64, f64), size: Option<(u32, u32)>) -> DecodeOptio
 }
 
 /// Rows `y..y + h`, columns `x..x + w` of every plane of `img`.
+/// The whole image decoded at `size`.
+fn decode_at(bytes: &[u8], size: (u32, u32)) -> Raster {
+    let opts = DecodeOptions {
+        size: Some(size),
+        ..DecodeOptions::default()
+    };
+    decode(bytes, &opts).unwrap()
+}
+
 fn crop(img: &Raster, (x, y, w, h): (usize, usize, usize, usize)) -> Vec<f32> {
     let iw = img.width() as usize;
     (0..img.layout().channels())
@@ -130,14 +138,7 @@ fn the_whole_image_as_a_region_is_the_plain_decode() {
 fn a_region_at_k_times_is_the_crop_of_the_whole_decode_at_k_times() {
     for (name, bytes, (w, h)) in files() {
         for k in [1u32, 2, 3, 4] {
-            let full = decode(
-                &bytes,
-                &DecodeOptions {
-                    size: Some((k * w, k * h)),
-                    ..DecodeOptions::default()
-                },
-            )
-            .unwrap();
+            let full = decode_at(&bytes, (k * w, k * h));
             // Inside, against the top-left corner, against the bottom-right corner.
             for (x0, y0, rw, rh) in [(13, 9, 31, 22), (0, 0, 17, 11), (w - 24, h - 20, 24, 20)] {
                 let r = (x0 as f64, y0 as f64, (x0 + rw) as f64, (y0 + rh) as f64);
@@ -185,14 +186,7 @@ fn a_region_between_pixel_edges_is_the_same_picture() {
     // other centres: close to the whole decode at the nearest centres, not equal.
     let (name, bytes, (w, h)) = files().swap_remove(1);
     let k = 4;
-    let full = decode(
-        &bytes,
-        &DecodeOptions {
-            size: Some((k * w, k * h)),
-            ..DecodeOptions::default()
-        },
-    )
-    .unwrap();
+    let full = decode_at(&bytes, (k * w, k * h));
     let region = decode(
         &bytes,
         &region_opts((10.1, 5.1, 30.1, 25.1), Some((80, 80))),
