@@ -12,6 +12,7 @@ mod convert;
 mod error;
 mod exr;
 mod hooks;
+mod pixels;
 mod read;
 pub mod transcode;
 mod write;
@@ -19,6 +20,7 @@ mod write;
 pub use convert::{from_dynamic, load_for_encoding, to_dynamic8, EncodeSource};
 pub use error::ImageIoError;
 pub use hooks::{register_image_hooks, CaeDecoder};
+pub use pixels::{decode_to_pixels, load_pixels, PixelData, Pixels};
 pub use read::{
     load, load_from_memory, load_from_memory_with_metadata, load_with_limits, load_with_metadata,
     read_metadata,
