@@ -134,6 +134,16 @@ impl LoadLimits {
     }
 }
 
+/// Whether `caoen encode` reads a file by its name: the extension of a format the
+/// `image` crate was built to read, or OpenEXR (`.cae` files are not inputs).
+pub fn is_image_name(path: &Path) -> bool {
+    let Some(ext) = path.extension().and_then(|e| e.to_str()) else {
+        return false;
+    };
+    let ext = ext.to_ascii_lowercase();
+    ext == "exr" || image::ImageFormat::from_extension(&ext).is_some_and(|f| f.reading_enabled())
+}
+
 /// An output file format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum OutputFormat {

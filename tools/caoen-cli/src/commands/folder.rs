@@ -51,15 +51,6 @@ struct Written {
     seconds: f64,
 }
 
-/// Whether `caoen encode` reads a file with this name: the formats the image crate
-/// was built to read, and OpenEXR.
-fn is_image(path: &Path) -> bool {
-    extension_lowercase(path).is_some_and(|ext| {
-        ext == "exr"
-            || image::ImageFormat::from_extension(&ext).is_some_and(|f| f.reading_enabled())
-    })
-}
-
 /// Whether a file is a `.cae` file by its name.
 fn is_cae(path: &Path) -> bool {
     extension_lowercase(path).is_some_and(|ext| ext == "cae")
@@ -182,7 +173,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
         .options(0)
         .map_err(|e| crate::failure::codec(&a.input, e))?;
     let out = output_folder(a.output.as_deref(), "encode")?;
-    let jobs = walk(&a.input, &out, is_image)?;
+    let jobs = walk(&a.input, &out, image_io::is_image_name)?;
     let outputs_of: Vec<PathBuf> = jobs
         .iter()
         .map(|j| out.join(&j.rel).with_extension("cae"))
