@@ -69,7 +69,10 @@ class CaoenImageFile(ImageFile.ImageFile):
             a = caoen.decode(data)
             if self.mode in ("L", "LA", "RGB", "RGBA") and a.dtype != np.uint8:
                 a = _to_8bit(a)
-            self.im = Image.fromarray(np.ascontiguousarray(a), self.mode).im
+            img = Image.fromarray(np.ascontiguousarray(a))
+            if img.mode != self.mode:
+                img = img.convert(self.mode)
+            self.im = img.im
             self._caoen_data = None
         return super().load()
 
