@@ -116,6 +116,8 @@ fn the_python_package_builds_installs_and_passes_its_tests() {
             .args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
             .arg(root.join("tools/python/tests"))
             .current_dir(root.join("tools/python/tests"))
+            // No __pycache__ folders in the source tree.
+            .env("PYTHONDONTWRITEBYTECODE", "1")
             .env("CAOEN_CLI", env!("CARGO_BIN_EXE_caoen")),
         "pytest tools/python/tests",
     );

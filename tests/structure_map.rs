@@ -19,7 +19,13 @@ const DATA: [&str; 7] = [
 
 /// Not part of the repository: build output, version control and what the README's
 /// first command (`cargo run --release`) writes (git-ignored).
-const SKIP: [&str; 4] = [".git", "target", "tests/fuzz/target", "caoen-demo"];
+const SKIP: [&str; 5] = [
+    ".git",
+    "target",
+    "tests/fuzz/target",
+    "tools/python/target",
+    "caoen-demo",
+];
 
 fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
     for e in std::fs::read_dir(dir).unwrap() {

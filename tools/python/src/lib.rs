@@ -43,7 +43,9 @@ fn detached<T: Send>(
                 .map(String::as_str)
                 .or_else(|| panic.downcast_ref::<&str>().copied())
                 .unwrap_or("unknown");
-            Err(format!("internal error in caoen (please report it): {what}"))
+            Err(format!(
+                "internal error in caoen (please report it): {what}"
+            ))
         })
     })
     .map_err(error)
@@ -55,7 +57,10 @@ fn pixels_of(array: &Bound<'_, PyAny>) -> PyResult<Pixels> {
     let untyped = array.cast::<PyUntypedArray>().map_err(|_| {
         error(format!(
             "expected a NumPy array, got {}",
-            array.get_type().name().map_or("?".into(), |n| n.to_string())
+            array
+                .get_type()
+                .name()
+                .map_or("?".into(), |n| n.to_string())
         ))
     })?;
     let shape = untyped.shape().to_vec();
@@ -196,7 +201,13 @@ fn encode_file<'py>(
             )))
         }
     };
-    let mut request = request(quality, effort, target_size, target_bpp, Metadata::default())?;
+    let mut request = request(
+        quality,
+        effort,
+        target_size,
+        target_bpp,
+        Metadata::default(),
+    )?;
     let bytes = detached(py, move || {
         let limits = LoadLimits {
             max_pixels: DEFAULT_MAX_PIXELS,
@@ -224,8 +235,8 @@ fn decode<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let size = match size {
         None => None,
-        Some((w, h)) if (1..=i64::from(MAX_SIDE)).contains(&w)
-            && (1..=i64::from(MAX_SIDE)).contains(&h) =>
+        Some((w, h))
+            if (1..=i64::from(MAX_SIDE)).contains(&w) && (1..=i64::from(MAX_SIDE)).contains(&h) =>
         {
             Some((w as u32, h as u32))
         }
@@ -306,7 +317,10 @@ fn info<'py>(py: Python<'py>, data: &[u8]) -> PyResult<Bound<'py, PyDict>> {
     d.set_item("chroma_keypoints", h.chroma_count)?;
     d.set_item("tiles", h.tiling().count())?;
     d.set_item("bytes", data.len())?;
-    d.set_item("bpp", data.len() as f64 * 8.0 / (f64::from(w) * f64::from(ht)))?;
+    d.set_item(
+        "bpp",
+        data.len() as f64 * 8.0 / (f64::from(w) * f64::from(ht)),
+    )?;
     d.set_item("version", bitstream::VERSION)?;
     d.update(metadata_dict(py, &parsed.metadata())?.as_mapping())?;
     Ok(d)
