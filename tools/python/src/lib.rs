@@ -302,7 +302,7 @@ fn dtype_name(format: SampleFormat) -> &'static str {
 /// size, key points, tiles, bits per pixel, and its ICC profile, EXIF and XMP.
 #[pyfunction]
 fn info<'py>(py: Python<'py>, data: &[u8]) -> PyResult<Bound<'py, PyDict>> {
-    let parsed = caoen_decoder::inspect(&data).map_err(error)?;
+    let parsed = caoen_decoder::inspect(data).map_err(error)?;
     let h = &parsed.header;
     let (w, ht) = h.display_size();
     let d = PyDict::new(py);
