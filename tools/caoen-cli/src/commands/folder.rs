@@ -319,8 +319,8 @@ fn run(
                 pb.suspend(|| eprintln!("error: {}", caoen::surface::error::printable(why)));
             }
             let n = finished.fetch_add(1, Ordering::Relaxed) + 1;
-            pb.set_message(format!("{n}/{} files", jobs.len()));
             pb.inc(job.bytes);
+            pb.set_message(format!("{n}/{} files", jobs.len()));
             outcome
         })
         .collect();
