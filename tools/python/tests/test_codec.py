@@ -143,3 +143,22 @@ def test_threads_code_at_once_with_the_gil_released():
     for t in threads:
         t.join()
     assert got == [want] * 4
+
+
+def test_file_names_follow_the_command_line():
+    for name in ["a/b.PNG", "x.exr", "y.jpeg", "z.webp", "t.tif"]:
+        assert caoen.is_image_name(name), name
+    for name in ["notes.txt", "z.cae", "noext"]:
+        assert not caoen.is_image_name(name), name
+    assert caoen.output_name("sub/b.jpg") == Path("sub/b.cae")
+
+
+def test_load_gives_pixels_and_metadata(tmp_path: Path):
+    from PIL import Image, ImageCms
+
+    srgb = ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+    path = tmp_path / "m.png"
+    Image.fromarray(picture()).save(path, icc_profile=srgb)
+    pixels, meta = caoen.load(path)
+    assert pixels.dtype == np.uint8 and pixels.shape == (64, 96, 3)
+    assert meta == {"icc": srgb, "exif": None, "xmp": None}

@@ -6,13 +6,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PIL import Image
+from PIL import Image, ImageCms
 
 import caoen
 import caoen.pillow  # noqa: F401 - registers the plugin
 from conftest import picture
 
-ICC = b"\x00\x00\x02\x0cfake icc profile bytes" * 8
+ICC = ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
 
 
 def exif_bytes() -> bytes:
