@@ -18,8 +18,9 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
 
+// Named as the package exports it: tracebacks say `caoen.CaoenError`.
 pyo3::create_exception!(
-    _caoen,
+    caoen,
     CaoenError,
     PyValueError,
     "An image or file caoen cannot code, or options it refuses; the message is caoen's."
