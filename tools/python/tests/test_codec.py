@@ -53,6 +53,7 @@ def test_decode_at_any_size():
     data = caoen.encode(picture(), quality=80)
     assert caoen.decode(data, size=(48, 32)).shape == (32, 48, 3)
     assert caoen.decode(data, size=(200, 100)).shape == (100, 200, 3)
+    assert caoen.decode(data, size=[20, 10]).shape == (10, 20, 3)
 
 
 def test_rate_targets():
@@ -105,6 +106,7 @@ def test_read_loads_image_files(png: Path):
         (lambda: caoen.encode(np.full((8, 8), np.nan, np.float32)), "finite"),
         (lambda: caoen.encode([[1, 2], [3, 4]]), "NumPy array"),
         (lambda: caoen.decode(caoen.encode(picture()), size=(0, 10)), "size"),
+        (lambda: caoen.decode(caoen.encode(picture()), size="big"), "width, height"),
     ],
 )
 def test_errors_raise_caoen_error_with_caoens_message(call, message):

@@ -54,6 +54,16 @@ def _opt_bytes(item: Any, name: str) -> Optional[bytes]:
     raise CaoenError(f"{name} must be bytes, got {type(item).__name__}")
 
 
+def _size(size: Any) -> Optional[Tuple[int, int]]:
+    if size is None:
+        return None
+    try:
+        w, h = size
+        return int(w), int(h)
+    except (TypeError, ValueError):
+        raise CaoenError(f"size must be (width, height), got {size!r}") from None
+
+
 def encode(
     array: Any,
     quality: float = 75,
@@ -82,7 +92,7 @@ def decode(data: Any, size: Optional[Tuple[int, int]] = None) -> Any:
 
     ``size`` is ``(width, height)``; the network is continuous, so any size works.
     """
-    return _caoen.decode(_bytes(data), size=size)
+    return _caoen.decode(_bytes(data), size=_size(size))
 
 
 def info(data: Any) -> dict:
