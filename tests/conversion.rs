@@ -28,13 +28,7 @@ fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
         // What convert writes, the model reader reads: the base alone, no empty `perturb`.
         let text = c.model.to_frep_json("quadric", mesh.bounds()).to_string();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();
-        let node = caoen::frep::Node::from_json(
-            &v["model"],
-            "model",
-            Path::new("."),
-            &caoen::Limits::default(),
-        )
-        .unwrap_or_else(|e| panic!("{radii:?}: {e}"));
+        let node = frep_node(&v["model"]).unwrap_or_else(|e| panic!("{radii:?}: {e}"));
         for p in &mesh.positions {
             assert!(
                 node.value(*p).abs() < 1e-6,
@@ -46,6 +40,11 @@ fn a_sphere_and_an_ellipsoid_are_the_base_quadric_alone() {
 }
 
 /// `mesh` converted with at most `max_functions` functions.
+/// The F-rep node of a written model's JSON, read as `caoen frep` reads it.
+fn frep_node(v: &serde_json::Value) -> Result<caoen::frep::Node, caoen::json::FieldError> {
+    caoen::frep::Node::from_json(v, "model", Path::new("."), &caoen::Limits::default())
+}
+
 fn convert_at_most(mesh: &PolygonMesh, max_functions: usize) -> Conversion {
     let opts = ConvertOptions {
         max_functions,
@@ -77,16 +76,8 @@ fn the_written_model_is_the_fitted_function() {
     assert!(c.model.supports.is_some());
     let fitted = ImplicitModel::new(c.model.frame, c.model.base, c.model.bumps.clone());
     let inner = &v["model"]["transform"]["intersection"][0];
-    let perturb =
-        caoen::frep::Node::from_json(inner, "model", Path::new("."), &caoen::Limits::default())
-            .unwrap();
-    let node = caoen::frep::Node::from_json(
-        &v["model"],
-        "model",
-        Path::new("."),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let perturb = frep_node(inner).unwrap();
+    let node = frep_node(&v["model"]).unwrap();
     let whole = InUnitCube {
         field: &node,
         frame: mesh.unit_frame(),
@@ -531,13 +522,7 @@ fn a_rotated_box_is_cut_to_its_faces_exactly() {
     assert_eq!(c.model.supports.as_ref().map(|s| s.planes.len()), Some(6));
     let v: serde_json::Value =
         serde_json::from_str(&c.model.to_frep_json("box", mesh.bounds()).to_string()).unwrap();
-    let node = caoen::frep::Node::from_json(
-        &v["model"],
-        "model",
-        Path::new("."),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let node = frep_node(&v["model"]).unwrap();
     // Across every face, a hair outside is outside (and its middle, a little inside, is
     // inside: the cut keeps the solid).
     for k in 0..3 {

@@ -17,14 +17,17 @@ const DATA: [&str; 7] = [
     "tools/caoen-cli/assets/",
 ];
 
-/// Not part of the repository: build output, version control and what the README's
-/// first command (`cargo run --release`) writes (git-ignored).
-const SKIP: [&str; 5] = [
+/// Not part of the repository: build output, version control, what the README's
+/// first command (`cargo run --release`) writes, the built WebAssembly package and the
+/// web tests' npm modules (all git-ignored).
+const SKIP: [&str; 7] = [
     ".git",
     "target",
     "tests/fuzz/target",
     "tools/python/target",
     "caoen-demo",
+    "tools/web/pkg",
+    "tools/web/test/node_modules",
 ];
 
 fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {

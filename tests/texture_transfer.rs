@@ -49,29 +49,18 @@ fn checkerboard_round_trip_a_b_a() {
     let a = gallery::by_name("octahedron").unwrap().unwrap();
     let b = gallery::by_name("blob").unwrap().unwrap();
     let tex = checker();
-    let on_b = transfer(&a, &b, &tex, 256, 128).unwrap();
-    let back = transfer(
-        &b,
-        &a,
-        &Texture::new(on_b, &caoen::Limits::default()).unwrap(),
-        256,
-        128,
-    )
-    .unwrap();
-    let p = common::psnr_render(tex.image(), &back);
+    // A to B on a `w x h` texture grid, and back to A's 256x128.
+    let round_trip = |(w, h): (u32, u32)| {
+        let on_b = transfer(&a, &b, &tex, w, h).unwrap();
+        let on_b = Texture::new(on_b, &caoen::Limits::default()).unwrap();
+        let back = transfer(&b, &a, &on_b, 256, 128).unwrap();
+        common::psnr_render(tex.image(), &back)
+    };
+    let p = round_trip((256, 128));
     println!("A -> B -> A checkerboard (same texture size): PSNR {p} dB");
     assert!(p > 35.0, "{p}");
     // Through a finer texture grid on B: resampled twice.
-    let on_b = transfer(&a, &b, &tex, 512, 256).unwrap();
-    let back = transfer(
-        &b,
-        &a,
-        &Texture::new(on_b, &caoen::Limits::default()).unwrap(),
-        256,
-        128,
-    )
-    .unwrap();
-    let p2 = common::psnr_render(tex.image(), &back);
+    let p2 = round_trip((512, 256));
     println!("A -> B (512x256) -> A checkerboard: PSNR {p2:.2} dB");
     assert!(p2 > 20.0, "{p2}");
 }

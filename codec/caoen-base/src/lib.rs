@@ -10,6 +10,7 @@ pub mod blend;
 pub mod budget;
 pub mod metadata;
 pub mod raster;
+pub mod rng;
 
 pub use blend::Blend;
 pub use budget::{Limits, OverBudget};

@@ -236,6 +236,24 @@ pub enum CodecError {
         /// The valid range.
         reason: &'static str,
     },
+    /// A region to decode is not a rectangle inside the image.
+    #[error("invalid region {x0},{y0},{x1},{y1} of a {width}x{height} image: {reason}")]
+    Region {
+        /// Left edge.
+        x0: f64,
+        /// Top edge.
+        y0: f64,
+        /// Right edge.
+        x1: f64,
+        /// Bottom edge.
+        y1: f64,
+        /// The image's width.
+        width: u32,
+        /// The image's height.
+        height: u32,
+        /// What is wrong.
+        reason: &'static str,
+    },
     /// The input image cannot be encoded (empty, non-finite samples).
     #[error("invalid image: {0}")]
     Image(#[from] caoen_base::raster::RasterError),
@@ -257,6 +275,25 @@ pub enum CodecError {
 }
 
 impl CodecError {
+    /// `found` of `unit` in `what` where the header declares `declared`; `Ok` when
+    /// they agree.
+    pub fn check_count(
+        what: &'static str,
+        unit: &'static str,
+        found: u64,
+        declared: u64,
+    ) -> Result<(), Self> {
+        if found == declared {
+            return Ok(());
+        }
+        Err(CodecError::CountMismatch {
+            what,
+            unit,
+            found,
+            declared,
+        })
+    }
+
     /// An out-of-range coded number.
     pub fn range(what: &'static str, value: impl Into<f64>, lo: f64, hi: f64) -> Self {
         CodecError::OutOfRange {

@@ -47,6 +47,28 @@ pub struct DecodeOptions {
     pub max_pixels: u64,
     /// Memory limit of the call.
     pub limits: Limits,
+    /// Decode only this rectangle of the image, drawn at `size` (by default its own
+    /// size, rounded); `None` decodes the whole image.
+    pub region: Option<Region>,
+}
+
+/// A rectangle `[x0, x1) x [y0, y1)` in the image's own pixel coordinates (the size
+/// [`decode`] outputs by default), fractions allowed.
+///
+/// A region decoded at `k` times its size equals the same rectangle of the whole image
+/// decoded at `k` times the image's size, where the rectangle's edges fall on that
+/// decode's pixel edges (elsewhere it is the same continuous image sampled at other
+/// centres).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Region {
+    /// Left edge.
+    pub x0: f64,
+    /// Top edge.
+    pub y0: f64,
+    /// Right edge (exclusive).
+    pub x1: f64,
+    /// Bottom edge (exclusive).
+    pub y1: f64,
 }
 
 /// Default decode limit on pixels (2^28, 16384 x 16384: the memory budget is the limit
@@ -62,6 +84,7 @@ impl Default for DecodeOptions {
             supersample: None,
             max_pixels: DEFAULT_MAX_PIXELS,
             limits: Limits::default(),
+            region: None,
         }
     }
 }

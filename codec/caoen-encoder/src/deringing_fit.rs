@@ -312,15 +312,7 @@ mod tests {
     const STEPS: [f32; 2] = [0.25, 0.125];
 
     fn noise(n: usize, seed: u64) -> Vec<f32> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
-            })
-            .collect()
+        caoen_base::rng::Lcg::new(seed).noise(n)
     }
 
     /// A plane that varies only across lines of direction 5 (stripes along it).

@@ -51,6 +51,28 @@ fn quantisers(step: f64) -> Vec<Quantiser> {
     ]
 }
 
+/// The summed squared difference of the residual planes `r` and an evaluated layer.
+fn squared_error(r: &[Vec<f64>], layer: &[Vec<f32>]) -> f64 {
+    r.iter()
+        .zip(layer)
+        .map(|(a, b)| {
+            a.iter()
+                .zip(b)
+                .map(|(&a, &b)| (a - b as f64).powi(2))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// `detail`'s payload is `payload` and reads back as `detail`.
+fn assert_reads_back(detail: &Detail, payload: &[u8], classes: &[u8], (w, h): (u32, u32)) {
+    assert_eq!(detail.to_payload(classes), payload);
+    let back = Detail::read(payload, w, h, detail.steps.clone(), classes, None)
+        .unwrap()
+        .0;
+    assert_eq!(&back, detail);
+}
+
 #[test]
 fn the_searched_payload_is_the_plain_coding_of_its_levels_and_reads_back() {
     let (r, (w, h)) = residuals();
@@ -58,13 +80,13 @@ fn the_searched_payload_is_the_plain_coding_of_its_levels_and_reads_back() {
     let classes: Vec<u8> = (0..cols * rows).map(|i| (i % 3) as u8).collect();
     let (detail, payload) = code_layer(&r, (w, h), &quantisers(0.02), &classes, None, None, None);
     assert!(detail.planes.iter().all(|p| p.coded_blocks() > 0));
-    assert_eq!(detail.to_payload(&classes), payload);
-    let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
-    assert_eq!(back, detail);
+    assert_reads_back(&detail, &payload, &classes, (w, h));
     // The classes are contexts: read with others, the payload is another layer.
     let others = vec![0u8; cols * rows];
     assert_ne!(
-        Detail::read(&payload, w, h, detail.steps.clone(), &others, None).ok(),
+        Detail::read(&payload, w, h, detail.steps.clone(), &others, None)
+            .ok()
+            .map(|(d, _)| d),
         Some(detail)
     );
 }
@@ -123,9 +145,7 @@ fn smooth_groups_merge_and_their_payload_reads_back() {
             "a checkerboard group is coded apart"
         );
     }
-    assert_eq!(detail.to_payload(&classes), payload);
-    let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
-    assert_eq!(back, detail);
+    assert_reads_back(&detail, &payload, &classes, (w, h));
 }
 
 #[test]
@@ -143,9 +163,7 @@ fn chroma_groups_merge_under_the_smallest_cells_and_luma_groups_do_not() {
             "4x4 groups need 32-pixel cells"
         );
     }
-    assert_eq!(detail.to_payload(&classes), payload);
-    let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
-    assert_eq!(back, detail);
+    assert_reads_back(&detail, &payload, &classes, (w, h));
 }
 
 #[test]
@@ -164,24 +182,15 @@ fn a_tilt_codes_fewer_high_frequencies_and_its_layer_reads_back() {
     );
     // The weights live in the header: the payload is the plain coding of the levels.
     assert_eq!(tilted.to_payload(&classes), payload);
-    let mut back = Detail::read(&payload, w, h, tilted.steps.clone(), &classes, None).unwrap();
+    let mut back = Detail::read(&payload, w, h, tilted.steps.clone(), &classes, None)
+        .unwrap()
+        .0;
     back.weights = tilt;
     assert_eq!(back, tilted);
     // The DC keeps its step: the coarser high frequencies cost error.
     let frame = Frame::new(w, h);
     let grid = Grid::pixel_centres(&frame, w, h);
-    let error = |d: &Detail| {
-        let layer = DetailEval::new(d, &grid).eval();
-        r.iter()
-            .zip(&layer)
-            .map(|(a, b)| {
-                a.iter()
-                    .zip(b)
-                    .map(|(&a, &b)| (a - b as f64).powi(2))
-                    .sum::<f64>()
-            })
-            .sum::<f64>()
-    };
+    let error = |d: &Detail| squared_error(&r, &DetailEval::new(d, &grid).eval());
     assert!(error(&tilted) > error(&flat));
     assert_grid_equals_scalar(
         &tilted,
@@ -200,13 +209,13 @@ fn smooth_4x4_groups_under_large_cells_merge_and_read_back() {
         assert_eq!(p.merged_groups(), 1);
         assert!(p.block(0, 0).is_some() && (1..4).all(|x| p.block(x, 0).is_none()));
     }
-    assert_eq!(detail.to_payload(&classes), payload);
-    let back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
-    assert_eq!(back, detail);
+    assert_reads_back(&detail, &payload, &classes, (w, h));
     // Read as 16-pixel cells, the bins mean other things: another layer or an error.
     let small = vec![1u8; classes.len()];
     assert_ne!(
-        Detail::read(&payload, w, h, detail.steps.clone(), &small, None).ok(),
+        Detail::read(&payload, w, h, detail.steps.clone(), &small, None)
+            .ok()
+            .map(|(d, _)| d),
         Some(detail)
     );
 }
@@ -283,17 +292,7 @@ fn a_finer_step_leaves_less_error_and_costs_more() {
             None,
             None,
         );
-        let layer = DetailEval::new(&detail, &grid).eval();
-        let e: f64 = r
-            .iter()
-            .zip(&layer)
-            .map(|(a, b)| {
-                a.iter()
-                    .zip(b)
-                    .map(|(&a, &b)| (a - b as f64).powi(2))
-                    .sum::<f64>()
-            })
-            .sum();
+        let e = squared_error(&r, &DetailEval::new(&detail, &grid).eval());
         (e / (3 * w * h) as f64, payload.len())
     };
     let (coarse, coarse_bytes) = error(0.05);
@@ -492,7 +491,9 @@ fn chroma_that_follows_luma_takes_luma_factors_and_its_payload_reads_back() {
         assert_eq!(detail.planes[0].factors, Vec::<i8>::new());
         assert_eq!(detail.to_payload(&classes), payload);
         // The reader leaves the header's fields (the weights) to its caller.
-        let mut back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None).unwrap();
+        let mut back = Detail::read(&payload, w, h, detail.steps.clone(), &classes, None)
+            .unwrap()
+            .0;
         back.weights = weights;
         assert_eq!(back, detail);
         // The decoded chroma is the chroma coded, within a step, at every pixel centre.

@@ -83,11 +83,6 @@ impl<'a> LeastSquares<'a> {
         }
     }
 
-    /// Locally averaged colours `(A^T b) / n` per channel: the prior and the warm start.
-    pub fn prior(&self, targets: &[&[f64]]) -> Vec<Vec<f64>> {
-        self.project(targets).prior
-    }
-
     /// `A^T b` of `targets` and the prior made from it, for [`LeastSquares::solve_projected`].
     pub fn project(&self, targets: &[&[f64]]) -> Projection {
         let k = targets.len();
@@ -110,7 +105,9 @@ impl<'a> LeastSquares<'a> {
         Projection { prior, atb, k }
     }
 
-    /// [`LeastSquares::solve`] toward and from the projection's prior.
+    /// Solves for the projected targets (one vector per channel), pulled toward the
+    /// projection's prior by `ridge` and starting from it, for at most `iterations` CG
+    /// steps or until the relative residual is below `tolerance`.
     pub fn solve_projected(
         &self,
         p: &Projection,
@@ -118,42 +115,8 @@ impl<'a> LeastSquares<'a> {
         iterations: usize,
         tolerance: f64,
     ) -> Vec<Vec<f64>> {
-        self.solve_rhs(
-            &p.atb, p.k, &p.prior, &p.prior, ridge, iterations, tolerance,
-        )
-    }
-
-    /// Solves for `targets` (pixel planes), starting from `start` (one vector per
-    /// channel), for at most `iterations` CG steps or until the relative residual is
-    /// below `tolerance`.
-    pub fn solve(
-        &self,
-        targets: &[&[f64]],
-        prior: &[Vec<f64>],
-        start: &[Vec<f64>],
-        ridge: f64,
-        iterations: usize,
-        tolerance: f64,
-    ) -> Vec<Vec<f64>> {
-        let k = targets.len();
-        let b = interleave(targets);
-        let mut atb = vec![0.0; self.n * k];
-        self.apply_t(&b, k, &mut atb);
-        self.solve_rhs(&atb, k, prior, start, ridge, iterations, tolerance)
-    }
-
-    /// [`LeastSquares::solve`] given `A^T b` for `k` interleaved channels.
-    #[allow(clippy::too_many_arguments)]
-    fn solve_rhs(
-        &self,
-        atb: &[f64],
-        k: usize,
-        prior: &[Vec<f64>],
-        start: &[Vec<f64>],
-        ridge: f64,
-        iterations: usize,
-        tolerance: f64,
-    ) -> Vec<Vec<f64>> {
+        let (atb, k, prior) = (&p.atb, p.k, &p.prior);
+        let start = prior;
         let n = self.n;
         let pixels = self.a.row_start.len() - 1;
         // rhs = A^T b + ridge * n .* prior
@@ -276,24 +239,33 @@ mod tests {
     use caoen_decoder::keyset::{KernelParams, KeySet};
     use caoen_decoder::quadtree::TreeShape;
 
+    /// The key points of the quadtree of `(block, min)` log2 sizes split where `split`
+    /// says, with kernels of width `sigma`.
+    fn key_set(
+        (width, height): (u32, u32),
+        (block_log2, min_log2): (u8, u8),
+        sigma_factor: f64,
+        split: impl Fn(&caoen_decoder::Cell) -> bool,
+    ) -> KeySet {
+        let shape = TreeShape {
+            width,
+            height,
+            block_log2,
+            min_log2,
+        };
+        let params = KernelParams {
+            sigma_factor,
+            weight_exponent: 1.0,
+        };
+        KeySet::new(Frame::new(width, height), &shape.walk(split), params)
+    }
+
     #[test]
     fn scattered_transpose_products_equal_the_transpose_bit_for_bit() {
         let (w, h) = (37u32, 29u32);
-        let shape = TreeShape {
-            width: w,
-            height: h,
-            block_log2: 4,
-            min_log2: 1,
-        };
-        let cells = shape.walk(|c| !(c.x0 / 2 + c.y0 / 3 + c.log2 as u32).is_multiple_of(3));
-        let ks = KeySet::new(
-            Frame::new(w, h),
-            &cells,
-            KernelParams {
-                sigma_factor: 0.5,
-                weight_exponent: 1.0,
-            },
-        );
+        let ks = key_set((w, h), (4, 1), 0.5, |c| {
+            !(c.x0 / 2 + c.y0 / 3 + c.log2 as u32).is_multiple_of(3)
+        });
         let a = ks.pixel_weights();
         let (n, pixels) = (ks.len(), (w * h) as usize);
         let at = a.transpose(n);
@@ -337,21 +309,7 @@ mod tests {
     #[test]
     fn fit_reproduces_an_image_the_model_can_represent() {
         let (w, h) = (40u32, 24u32);
-        let shape = TreeShape {
-            width: w,
-            height: h,
-            block_log2: 3,
-            min_log2: 2,
-        };
-        let cells = shape.walk(|c| c.log2 > 2);
-        let ks = KeySet::new(
-            Frame::new(w, h),
-            &cells,
-            KernelParams {
-                sigma_factor: 0.45,
-                weight_exponent: 1.0,
-            },
-        );
+        let ks = key_set((w, h), (3, 2), 0.45, |c| c.log2 > 2);
         let truth: Vec<f64> = (0..ks.len())
             .map(|i| ((i * 7919) % 13) as f64 / 13.0)
             .collect();
@@ -360,8 +318,9 @@ mod tests {
             .remove(0);
         let a = ks.pixel_weights();
         let ls = LeastSquares::new(&a, ks.len());
-        let prior = ls.prior(&[&img]);
-        let got = ls.solve(&[&img], &prior, &prior, 0.0, 500, 1e-13).remove(0);
+        let got = ls
+            .solve_projected(&ls.project(&[&img]), 0.0, 500, 1e-13)
+            .remove(0);
         let err = got
             .iter()
             .zip(&truth)

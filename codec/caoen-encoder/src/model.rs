@@ -276,6 +276,9 @@ pub fn build_in(
         Some(_) => s.rounds.max(12),
         None => s.rounds,
     };
+    // The rounds fit coarsely and measure each leaf's error; the last fits finely.
+    let fit_cells =
+        |cells: &[Cell], solve, measure| fit(frame, &shape, s, planes, cells, solve, measure);
     for round in 0..rounds {
         progress(round, rounds + 1);
         let cells = shape.walk(|c| split.contains(c));
@@ -284,15 +287,7 @@ pub fn build_in(
                 break;
             }
         }
-        let fitted = fit(
-            frame,
-            &shape,
-            s,
-            planes,
-            &cells,
-            (s.cg_iterations.0, ROUND_TOLERANCE),
-            true,
-        );
+        let fitted = fit_cells(&cells, (s.cg_iterations.0, ROUND_TOLERANCE), true);
         let mut order: Vec<usize> = (0..cells.len())
             .filter(|&i| cells[i].log2 > s.min_log2 && fitted.leaf_error[i] > 0.0)
             .collect();
@@ -375,15 +370,7 @@ pub fn build_in(
             chroma_colours,
         };
     }
-    let fitted = fit(
-        frame,
-        &shape,
-        s,
-        planes,
-        &cells,
-        (s.cg_iterations.1, FINAL_TOLERANCE),
-        false,
-    );
+    let fitted = fit_cells(&cells, (s.cg_iterations.1, FINAL_TOLERANCE), false);
     Model {
         shape,
         kernel: s.kernel,

@@ -407,17 +407,19 @@ pub fn fit_plane(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use caoen_base::rng::Lcg;
     use caoen_decoder::restoration::{classify_rows, Restoration};
 
-    fn noise(n: usize, seed: &mut u64) -> Vec<f64> {
-        (0..n)
-            .map(|_| {
-                *seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                (*seed >> 40) as f64 / (1u64 << 24) as f64 - 0.5
-            })
-            .collect()
+    fn noise(n: usize, rng: &mut Lcg) -> Vec<f64> {
+        rng.noise(n).into_iter().map(f64::from).collect()
+    }
+
+    /// Plane `c`'s class sums over the whole of `decoded` against `source`.
+    fn stats_of(c: usize, decoded: &[f32], source: &[f64], (w, h): (usize, usize)) -> ClassStats {
+        let mut stats = ClassStats::new(c);
+        let classes = classify_rows(decoded, (w, h), (1.0, 1.0), 0..h);
+        stats.accumulate(c, decoded, &classes, source, (w, h), 0..h);
+        stats
     }
 
     /// A smooth picture with noise added: the filter that smooths it back must lower
@@ -425,7 +427,7 @@ mod tests {
     #[test]
     fn the_fitted_filter_lowers_the_error_by_its_predicted_gain() {
         let (w, h) = (64, 48);
-        let mut seed = 3;
+        let mut seed = Lcg::new(3);
         let source: Vec<f64> = (0..w * h)
             .map(|i| ((i % w) as f64 * 0.2).sin() * 0.3 + ((i / w) as f64 * 0.15).cos() * 0.2)
             .collect();
@@ -435,15 +437,7 @@ mod tests {
             .map(|(s, n)| (s + 0.05 * n) as f32)
             .collect();
         for c in [0, 1] {
-            let mut classes = ClassStats::new(c);
-            classes.accumulate(
-                c,
-                &decoded,
-                &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h),
-                &source,
-                (w, h),
-                0..h,
-            );
+            let classes = stats_of(c, &decoded, &source, (w, h));
             let stats = classes.total();
             let taps = fit(&stats, 1.0, 1e-6).expect("smoothing noise pays");
             let err = |p: &[f32]| {
@@ -485,20 +479,12 @@ mod tests {
 
     #[test]
     fn the_sums_are_those_of_the_definition_on_planes_of_every_shape() {
-        let mut seed = 17;
+        let mut seed = Lcg::new(17);
         for &(w, h) in &[(1, 1), (1, 6), (2, 5), (5, 2), (6, 7), (9, 4), (23, 11)] {
             let decoded: Vec<f32> = noise(w * h, &mut seed).iter().map(|&v| v as f32).collect();
             let source = noise(w * h, &mut seed);
             for c in [0, 1] {
-                let mut classes = ClassStats::new(c);
-                classes.accumulate(
-                    c,
-                    &decoded,
-                    &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h),
-                    &source,
-                    (w, h),
-                    0..h,
-                );
+                let classes = stats_of(c, &decoded, &source, (w, h));
                 let get = |x: isize, y: isize| {
                     decoded[y.clamp(0, h as isize - 1) as usize * w
                         + x.clamp(0, w as isize - 1) as usize] as f64
@@ -555,32 +541,16 @@ mod tests {
         let (w, h) = (16, 16);
         let source: Vec<f64> = (0..w * h).map(|i| (i % 7) as f64 * 0.1).collect();
         let decoded: Vec<f32> = source.iter().map(|&v| v as f32).collect();
-        let mut stats = ClassStats::new(0);
-        stats.accumulate(
-            0,
-            &decoded,
-            &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h),
-            &source,
-            (w, h),
-            0..h,
-        );
+        let stats = stats_of(0, &decoded, &source, (w, h));
         assert_eq!(fit(&stats.total(), 1.0, 1e-9), None);
         assert_eq!(fit_plane(&stats, [&stats, &stats], 1.0, 1e-9), None);
-        let mut seed = 5;
+        let mut seed = Lcg::new(5);
         let noisy: Vec<f32> = source
             .iter()
             .zip(noise(w * h, &mut seed))
             .map(|(s, n)| (s + 0.01 * n) as f32)
             .collect();
-        let mut stats = ClassStats::new(0);
-        stats.accumulate(
-            0,
-            &noisy,
-            &classify_rows(&noisy, (w, h), (1.0, 1.0), 0..h),
-            &source,
-            (w, h),
-            0..h,
-        );
+        let stats = stats_of(0, &noisy, &source, (w, h));
         assert_eq!(fit(&stats.total(), 1.0, 1e3), None);
         assert_eq!(fit_plane(&stats, [&stats, &stats], 1.0, 1e3), None);
     }
@@ -591,7 +561,7 @@ mod tests {
     #[test]
     fn classes_that_want_different_filters_get_them() {
         let (w, h) = (96, 64);
-        let mut seed = 9;
+        let mut seed = Lcg::new(9);
         let n = noise(w * h, &mut seed);
         let mut source = vec![0.0; w * h];
         let mut decoded = vec![0.0f32; w * h];
@@ -613,15 +583,7 @@ mod tests {
                 decoded[y * w + x] = (0.25 * at(x - 1) + 0.5 * at(x) + 0.25 * at(x + 1)) as f32;
             }
         }
-        let mut stats = ClassStats::new(0);
-        stats.accumulate(
-            0,
-            &decoded,
-            &classify_rows(&decoded, (w, h), (1.0, 1.0), 0..h),
-            &source,
-            (w, h),
-            0..h,
-        );
+        let stats = stats_of(0, &decoded, &source, (w, h));
         let (f, worth) = fit_plane(&stats, [&stats, &stats], 1.0, 1e-7).expect("filters pay");
         assert!(f.classes.is_some() && f.filters.len() >= 2, "{f:?}");
         let single = fit(&stats.total(), 1.0, 1e-7).expect("one filter pays too");

@@ -26,14 +26,7 @@ pub fn polyhedron_normals(name: &str) -> Option<Vec<[f64; 3]>> {
     let cyclic = |v: [f64; 3]| [v, [v[2], v[0], v[1]], [v[1], v[2], v[0]]];
     match name {
         "tetrahedron" => n.extend([[1., 1., 1.], [1., -1., -1.], [-1., 1., -1.], [-1., -1., 1.]]),
-        "cube" => n.extend([
-            [1., 0., 0.],
-            [-1., 0., 0.],
-            [0., 1., 0.],
-            [0., -1., 0.],
-            [0., 0., 1.],
-            [0., 0., -1.],
-        ]),
+        "cube" => n.extend(caoen_surface::gallery::axis_points()),
         "octahedron" => {
             for a in signs {
                 for b in signs {

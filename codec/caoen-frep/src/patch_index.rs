@@ -184,13 +184,8 @@ mod tests {
     #[test]
     fn answers_hold_every_term_whose_box_holds_the_point_or_meets_the_box() {
         // Boxes of many sizes on a pseudo-random walk, and one unbounded term.
-        let mut s = 12345u64;
-        let mut rnd = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = caoen_base::rng::Lcg::new(12345);
+        let mut rnd = || rng.unit();
         let mut boxes = Vec::new();
         for i in 0..400 {
             if i == 17 {

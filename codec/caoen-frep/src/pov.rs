@@ -224,9 +224,7 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
         Node::Blend {
             op,
             a,
-            a0,
-            a1,
-            a2,
+            shape,
             operands,
         } => {
             let f1 = declare(&operands[0], out, next);
@@ -239,9 +237,9 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             format!(
                 "{r_function}({f1}(x, y, z), {minus}{f2}(x, y, z), {}, {}, {}, {})",
                 num(*a),
-                num(*a0),
-                num(*a1),
-                num(*a2)
+                num(shape.a0),
+                num(shape.a1),
+                num(shape.a2)
             )
         }
         Node::Offset { by, operand } => {

@@ -118,8 +118,20 @@ pub fn interval(op: SetOp, i1: Interval, i2: Interval, a: f64) -> Interval {
     Interval::new(lo, hi)
 }
 
+/// The shape of a blend's added term `a0 / (1 + (f1 / a1)^2 + (f2 / a2)^2)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlendShape {
+    /// Height of the blend (positive adds material).
+    pub a0: f64,
+    /// Fall-off along the first operand's function.
+    pub a1: f64,
+    /// Fall-off along the second operand's function.
+    pub a2: f64,
+}
+
 /// The blending term `a0 / (1 + (f1 / a1)^2 + (f2 / a2)^2)` and its partials.
-pub fn blend_partials(f1: f64, f2: f64, a0: f64, a1: f64, a2: f64) -> (f64, f64, f64) {
+pub fn blend_partials(f1: f64, f2: f64, s: BlendShape) -> (f64, f64, f64) {
+    let BlendShape { a0, a1, a2 } = s;
     let (u, v) = (f1 / a1, f2 / a2);
     let d = 1.0 + u * u + v * v;
     let b = a0 / d;
@@ -128,7 +140,8 @@ pub fn blend_partials(f1: f64, f2: f64, a0: f64, a1: f64, a2: f64) -> (f64, f64,
 }
 
 /// The range of the blending term over `i1 x i2`.
-pub fn blend_interval(i1: Interval, i2: Interval, a0: f64, a1: f64, a2: f64) -> Interval {
+pub fn blend_interval(i1: Interval, i2: Interval, s: BlendShape) -> Interval {
+    let BlendShape { a0, a1, a2 } = s;
     let q = i1.scale(1.0 / a1).sqr() + i2.scale(1.0 / a2).sqr();
     let d = Interval::new(1.0 + q.lo, 1.0 + q.hi);
     d.recip().scale(a0)

@@ -82,6 +82,11 @@ pub fn icosphere(level: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
 }
 
 impl Mesh {
+    /// The bounding box `(lo, hi)` of the positions.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        super::vector::bounds(&self.positions)
+    }
+
     /// The bytes the mesh's vectors hold (a domain point counted with its vector's
     /// header and the allocator's overhead), for reservations against the budget.
     pub fn heap_bytes(&self) -> u64 {

@@ -180,15 +180,7 @@ impl PolygonMesh {
 
     /// The bounding box `(lo, hi)` of the positions.
     pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for p in &self.positions {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
+        crate::vector::bounds(&self.positions)
     }
 
     /// The frame that centres the bounding box and scales its longest side to 1.

@@ -194,15 +194,10 @@ mod tests {
                 < 0.35
         });
         let tree = WindingTree::new(&mesh);
-        let mut seed = 7u64;
+        let mut rng = caoen_base::rng::Lcg::new(7);
         let mut worst: f64 = 0.0;
         for _ in 0..400 {
-            let q: [f64; 3] = std::array::from_fn(|_| {
-                seed = seed
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 1.4
-            });
+            let q: [f64; 3] = std::array::from_fn(|_| (rng.unit() - 0.5) * 1.4);
             worst = worst.max((tree.winding_number(q) - mesh.winding_number(q)).abs());
         }
         assert!(worst < 0.015, "largest difference {worst}");

@@ -67,6 +67,7 @@ impl CaeDecoder {
         self.options = DecodeOptions {
             size: None,
             supersample: None,
+            region: None,
             ..options
         };
         self

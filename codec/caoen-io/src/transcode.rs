@@ -119,7 +119,7 @@ pub fn read_cae(
 
 /// The output size a decode with `opts` makes of a file with `header`.
 pub(crate) fn output_size(header: &Header, opts: &DecodeOptions) -> (u32, u32) {
-    opts.size.unwrap_or(header.display_size())
+    decoder::requested_size(header, opts)
 }
 
 /// The sample depth the identity path can decode to directly for `format`, if any.
@@ -197,8 +197,15 @@ pub(crate) fn sized(opts: &DecodeToImage, header: &Header) -> Result<DecodeOptio
                     reason: "a positive number",
                 });
             }
-            let (w, h) = header.display_size();
-            let side = |s: u32| ((f64::from(s) * f).round() as u32).max(1);
+            // A region's own size scaled, else the image's.
+            let (w, h) = match opts.decode.region {
+                Some(r) => (r.x1 - r.x0, r.y1 - r.y0),
+                None => {
+                    let (w, h) = header.display_size();
+                    (f64::from(w), f64::from(h))
+                }
+            };
+            let side = |s: f64| ((s * f).round().min(f64::from(u32::MAX)) as u32).max(1);
             Ok(DecodeOptions {
                 size: Some((side(w), side(h))),
                 ..opts.decode.clone()

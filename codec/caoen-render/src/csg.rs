@@ -276,7 +276,7 @@ impl caoen_geometry::crease::Leaves for CsgLeaves<'_> {
 /// moved onto their solids and onto the rims where two solids meet, with each face's
 /// normals from its own solid (sharp rims, `render::crease`).
 pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) -> Mesh {
-    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
+    let tracers = tracers(solids);
     let levels: Vec<f64> = solids.iter().map(|s| s.level()).collect();
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     for i in csg.solids() {
@@ -306,22 +306,14 @@ pub fn polygonise_solids(solids: &[ConvexSolid], csg: &CsgNode, cells: usize) ->
     caoen_geometry::crease::sharpen(mesh, &leaves, cell)
 }
 
-/// Ray traces a CSG expression of convex solids through every pixel of `camera`;
-/// returns the hits and the number of rays.
-pub fn trace_solids(
-    solids: &[ConvexSolid],
-    csg: &CsgNode,
-    camera: &Camera,
-    method: RayMethod,
-    object: u32,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> (Vec<Option<Hit>>, usize) {
-    let tracers: Vec<ImplicitTracer> = solids.iter().map(ImplicitTracer::new).collect();
-    trace_tracers(&tracers, csg, camera, method, object, progress)
+/// Each solid in its implicit form, as [`trace_solids`] traces them.
+pub fn tracers(solids: &[ConvexSolid]) -> Vec<ImplicitTracer> {
+    solids.iter().map(ImplicitTracer::new).collect()
 }
 
-/// [`trace_solids`] for solids already in their implicit form.
-pub fn trace_tracers(
+/// Ray traces a CSG expression of convex solids (in their implicit form, [`tracers`])
+/// through every pixel of `camera`; returns the hits and the number of rays.
+pub fn trace_solids(
     tracers: &[ImplicitTracer],
     csg: &CsgNode,
     camera: &Camera,

@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use rayon::prelude::*;
 
 use super::camera::Camera;
-pub use super::csg::{csg_field, first_span, polygonise_solids, trace_solids};
+pub use super::csg::{csg_field, first_span, polygonise_solids, trace_solids, tracers};
 use super::depth_buffer::{depth_buffer, DepthBufferOptions};
 use super::error::{RenderError, Result};
 use super::framebuffer::{DepthMap, GBuffer, Hit, RgbImage};
@@ -322,10 +322,14 @@ fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -
                 }
             }
             (Shape::Solid { solids, csg }, _) => {
-                let (hits, rays) =
-                    trace_solids(solids, csg, camera, opts.ray_method, id, &|d, t| {
-                        prog.within(d, t)
-                    });
+                let (hits, rays) = trace_solids(
+                    &tracers(solids),
+                    csg,
+                    camera,
+                    opts.ray_method,
+                    id,
+                    &|d, t| prog.within(d, t),
+                );
                 stats.rays += rays;
                 for (i, h) in hits.into_iter().enumerate() {
                     if let Some(h) = h {
@@ -561,7 +565,7 @@ pub fn trace_field(
 ) -> (Vec<Option<Hit>>, usize) {
     if let Some(tracer) = super::rays::convex_solid(node) {
         let solid = [tracer.clone()];
-        return super::csg::trace_tracers(
+        return super::csg::trace_solids(
             &solid,
             &super::csg::CsgNode::Solid(0),
             camera,

@@ -133,13 +133,7 @@ pub fn surface_box(
         NormalMode::Exact,
         &caoen_base::budget::Limits::default(),
     )?;
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in &mesh.positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (mut lo, mut hi) = mesh.bounds();
     let largest = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
     if !(largest.is_finite() && largest > 0.0) {
         return Err(TextureError::NoExtent {

@@ -35,7 +35,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub use caoen_base::{budget, metadata, raster};
+pub use caoen_base::{budget, metadata, raster, rng};
 pub use caoen_conversion as conversion;
 pub use caoen_frep as frep;
 pub use caoen_geometry as geometry;
@@ -56,7 +56,7 @@ pub mod codec {
 pub use codec::bitstream::{Header, Parsed};
 pub use codec::{
     decode, encode, encode_with_progress, inspect, CodecError as Error, DecodeOptions,
-    EncodeOptions, EncodeStats, Limits, PixelSource, RateTarget, Resampling, Scale,
+    EncodeOptions, EncodeStats, Limits, PixelSource, RateTarget, Region, Resampling, Scale,
 };
 pub use image_io::{load, register_image_hooks, save, CaeDecoder, ImageIoError};
 pub use metadata::Metadata;

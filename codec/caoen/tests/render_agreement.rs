@@ -12,7 +12,7 @@ use caoen::render::mesh::NormalMode;
 use caoen::render::raster::rasterise;
 use caoen::render::raytrace::RayMethod;
 use caoen::render::renderer::{
-    polygonise_solids, render, render_gbuffer, trace_solids, Method, RenderOptions,
+    polygonise_solids, render, render_gbuffer, trace_solids, tracers, Method, RenderOptions,
 };
 use caoen::render::scene::{polyhedron_solid, Scene, Shape};
 use caoen::surface::gallery::{blob, ring};
@@ -161,7 +161,14 @@ fn the_depth_buffer_leaves_no_hole_inside_the_silhouette() {
 }
 
 fn silhouettes_match(solids: &[ConvexSolid], csg: &CsgNode, camera: &Camera, what: &str) {
-    let (traced, _) = trace_solids(solids, csg, camera, RayMethod::Paper, 0, &|_, _| {});
+    let (traced, _) = trace_solids(
+        &tracers(solids),
+        csg,
+        camera,
+        RayMethod::Paper,
+        0,
+        &|_, _| {},
+    );
     let ray = GBuffer {
         width: camera.width,
         height: camera.height,

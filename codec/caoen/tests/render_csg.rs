@@ -190,14 +190,10 @@ fn csg_takes_any_number_of_solids() {
     assert!(close(s.0, 5.0 + a - x) && close(s.3, 5.0 + a + x), "{s:?}");
 }
 
-struct Rng(u64);
+struct Rng(caoen::rng::Lcg);
 impl Rng {
     fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        self.0.unit()
     }
     fn unit(&mut self) -> [f64; 3] {
         let v = common::random_unit(3, || self.next());
@@ -253,7 +249,7 @@ fn the_fast_search_finds_the_papers_crossings() {
         )
         .unwrap(),
     ];
-    let mut rng = Rng(7);
+    let mut rng = Rng(caoen::rng::Lcg::new(7));
     for s in &solids {
         let t = ImplicitTracer::new(s);
         let r = t.bounding_radius();

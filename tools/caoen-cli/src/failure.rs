@@ -72,7 +72,9 @@ impl From<caoen::image_io::TranscodeError> for CliError {
 /// A codec error on `path`: a refused parameter is the user's to fix (exit code 2).
 pub fn codec(path: &Path, e: caoen::codec::CodecError) -> CliError {
     match e {
-        caoen::codec::CodecError::Parameter { .. } => CliError::Usage(e.to_string()),
+        caoen::codec::CodecError::Parameter { .. } | caoen::codec::CodecError::Region { .. } => {
+            CliError::Usage(e.to_string())
+        }
         source => CliError::Codec {
             path: path.to_path_buf(),
             source,

@@ -584,19 +584,9 @@ pub fn parse(bytes: &[u8], max_pixels: u64) -> Result<Parsed<'_>, CodecError> {
     let (luma, chroma) = tiles.iter().fold((0u64, 0u64), |(l, c), t| {
         (l + t.luma_count as u64, c + t.chroma_count as u64)
     });
-    if (luma, chroma) != (header.luma_count as u64, header.chroma_count as u64) {
-        let (what, found, declared) = if luma != header.luma_count as u64 {
-            ("the tiles", luma, header.luma_count)
-        } else {
-            ("the tiles' chroma", chroma, header.chroma_count)
-        };
-        return Err(CodecError::CountMismatch {
-            what,
-            unit: "key points",
-            found,
-            declared: declared as u64,
-        });
-    }
+    CodecError::check_count("the tiles", "key points", luma, header.luma_count.into())?;
+    let declared = header.chroma_count.into();
+    CodecError::check_count("the tiles' chroma", "key points", chroma, declared)?;
     Ok(Parsed {
         header,
         sections,

@@ -20,6 +20,7 @@
 mod forward;
 mod parse;
 mod reconstruct;
+mod region;
 
 pub use forward::{fill_holes, render_forward};
 pub use parse::detail_models;
@@ -27,6 +28,7 @@ pub use parse::{read, read_parsed};
 pub use reconstruct::{
     render_identity, render_identity_raster, render_identity_raster_on, to_raster, unrestored_bands,
 };
+pub use region::MAX_ZOOM;
 
 use super::bitstream::{self, Header, Parsed};
 use super::detail::Detail;
@@ -86,6 +88,19 @@ fn output_size(
     Ok((ow, oh))
 }
 
+/// The output size a decode of a file with `header` makes with `opts`: the size asked
+/// for, else the region's own size rounded, else the image's size (before any check).
+pub fn requested_size(header: &Header, opts: &DecodeOptions) -> (u32, u32) {
+    match (opts.size, opts.region) {
+        (Some(s), _) => s,
+        (None, Some(r)) => {
+            let own = |lo: f64, hi: f64| (hi - lo).round().clamp(1.0, f64::from(MAX_SIDE)) as u32;
+            (own(r.x0, r.x1), own(r.y0, r.y1))
+        }
+        (None, None) => header.display_size(),
+    }
+}
+
 /// Bytes per key point while decoding: its cell, values, splat window entry and, on
 /// the forward path, its kernel and bucket entries.
 const KEY_POINT_BYTES: u64 = 256;
@@ -127,6 +142,13 @@ pub fn decode(bytes: &[u8], opts: &DecodeOptions) -> Result<Raster, CodecError> 
 pub fn decode_parsed(parsed: &Parsed<'_>, opts: &DecodeOptions) -> Result<Raster, CodecError> {
     let s = match opts.supersample {
         None => return decode_identity(parsed, opts),
+        Some(s) if opts.region.is_some() => {
+            return Err(CodecError::Parameter {
+                name: "supersample",
+                value: s.to_string(),
+                reason: "a region is decoded at pixel centres, without supersampling",
+            });
+        }
         Some(s) if (1..=4).contains(&s) => s,
         Some(s) => {
             return Err(CodecError::Parameter {
@@ -150,13 +172,20 @@ pub fn decode_parsed(parsed: &Parsed<'_>, opts: &DecodeOptions) -> Result<Raster
 /// [`decode`] by the identity fast path: equal to `render_identity_raster(&read(..)?, ..)`,
 /// with the output allocated while the tree decodes.
 fn decode_identity(parsed: &Parsed<'_>, opts: &DecodeOptions) -> Result<Raster, CodecError> {
-    identity_with(
+    let (raster, plan) = identity_with(
         parsed,
         opts,
         4,
         |h, (ow, oh)| vec![0.0f32; ow as usize * oh as usize * h.layout.channels()],
         band_pass,
-    )
+    )?;
+    if plan.whole() {
+        return Ok(raster);
+    }
+    let samples = plan.crop(raster.samples(), raster.layout().channels(), true);
+    let (ow, oh) = plan.out;
+    Raster::from_finite(ow, oh, raster.layout(), raster.format(), samples)
+        .map_err(CodecError::DecodedRaster)
 }
 
 /// Decodes by the identity fast path straight to interleaved 8- or 16-bit samples (as
@@ -184,7 +213,7 @@ pub fn decode_interleaved_parsed(
         Depth::Eight => 1,
         Depth::Sixteen => 2,
     };
-    identity_with(
+    let (image, plan) = identity_with(
         parsed,
         &opts,
         sample_bytes,
@@ -215,7 +244,21 @@ pub fn decode_interleaved_parsed(
                 samples,
             })
         },
-    )
+    )?;
+    if plan.whole() {
+        return Ok(image);
+    }
+    let ch = image.layout.channels();
+    let samples = match &image.samples {
+        Samples::U8(s) => Samples::U8(plan.crop(s, ch, false)),
+        Samples::U16(s) => Samples::U16(plan.crop(s, ch, false)),
+    };
+    Ok(Interleaved {
+        width: plan.out.0,
+        height: plan.out.1,
+        samples,
+        ..image
+    })
 }
 
 /// Bits per sample of [`decode_interleaved`]'s output.

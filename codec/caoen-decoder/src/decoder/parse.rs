@@ -82,14 +82,12 @@ fn read_tree(header: &Header, t: &TilePayload) -> Result<(TreeShape, Vec<Cell>),
     };
     let mut src = AnsSource::new(t.tree, shape.max_flags())?;
     let cells = syntax::read_tree(&shape, t.luma_count as usize, &mut src)?;
-    if cells.len() != t.luma_count as usize {
-        return Err(CodecError::CountMismatch {
-            what: "a tile's tree",
-            unit: "leaves",
-            found: cells.len() as u64,
-            declared: t.luma_count.into(),
-        });
-    }
+    CodecError::check_count(
+        "a tile's tree",
+        "leaves",
+        cells.len() as u64,
+        t.luma_count.into(),
+    )?;
     if !src.finished_cleanly() {
         return Err(CodecError::PayloadLeftover {
             stream: "tree payload",
@@ -116,14 +114,8 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                         return Ok((Vec::new(), Vec::new()));
                     }
                     let cc = chroma_cells(&shape, &cells, header.chroma_pruned);
-                    if cc.len() != t.chroma_count as usize {
-                        return Err(CodecError::CountMismatch {
-                            what: "a tile's chroma tree",
-                            unit: "leaves",
-                            found: cc.len() as u64,
-                            declared: t.chroma_count.into(),
-                        });
-                    }
+                    let (found, declared) = (cc.len() as u64, t.chroma_count.into());
+                    CodecError::check_count("a tile's chroma tree", "leaves", found, declared)?;
                     let values = read_section(t.chroma, &cc, size, 2, header.level_steps())?;
                     Ok((cc, values))
                 },
@@ -133,7 +125,7 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                             let classes = block_classes(&cells, r.width, r.height);
                             let field = header.adaptive.and_then(|a| a.field());
                             Detail::read(t.detail, r.width, r.height, steps, &classes, field)
-                                .map(Some)
+                                .map(|(d, _)| Some(d))
                         }
                         _ => Ok(None),
                     }
@@ -166,7 +158,7 @@ pub fn detail_models(
         let (_, cells) = read_tree(header, t)?;
         let classes = block_classes(&cells, t.rect.width, t.rect.height);
         let field = header.adaptive.and_then(|a| a.field());
-        let (_, contexts) = Detail::read_with_contexts(
+        let (_, contexts) = Detail::read(
             t.detail,
             t.rect.width,
             t.rect.height,

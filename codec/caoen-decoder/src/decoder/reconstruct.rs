@@ -3,8 +3,8 @@
 
 use crate::par::*;
 
-use super::output_size;
 use super::parse::read_parsed;
+use super::region::Plan;
 use super::Decoded;
 use crate::bitstream::{self, Header};
 use crate::colour::{self, CodingPlanes};
@@ -117,7 +117,8 @@ pub(super) fn non_finite() -> CodecError {
 }
 
 /// The identity path with its output made by `alloc` (while the tree decodes) and filled
-/// by `finish` from the two evaluators.
+/// by `finish` from the two evaluators, over the plan's window (the output, unless a
+/// region's filters need margins: the caller crops by the plan).
 pub(super) fn identity_with<O: Send, R>(
     parsed: &bitstream::Parsed<'_>,
     opts: &DecodeOptions,
@@ -131,12 +132,12 @@ pub(super) fn identity_with<O: Send, R>(
         (u32, u32),
         O,
     ) -> Result<R, CodecError>,
-) -> Result<R, CodecError> {
+) -> Result<(R, Plan), CodecError> {
     let header = &parsed.header;
-    let (ow, oh) = output_size(header, opts, sample_bytes)?;
+    let plan = Plan::new(header, opts, sample_bytes)?;
+    let (grid, window) = (plan.grid, plan.window);
     let frame = Frame::new(header.width, header.height);
-    let grid = Grid::pixel_centres(&frame, ow, oh);
-    let (decoded, samples) = crate::par::join(|| read_parsed(parsed), || alloc(header, (ow, oh)));
+    let (decoded, samples) = crate::par::join(|| read_parsed(parsed), || alloc(header, window));
     let mut d = decoded?;
     let layer = d.detail.take();
     let to_f32 = |planes: Vec<Vec<f64>>| -> Vec<Vec<f32>> {
@@ -163,14 +164,15 @@ pub(super) fn identity_with<O: Send, R>(
             )
         },
     );
-    finish(
+    let out = finish(
         header,
         &luma,
         chroma.as_ref(),
         detail.as_ref(),
-        (ow, oh),
+        window,
         samples,
-    )
+    )?;
+    Ok((out, plan))
 }
 
 /// Evaluates both key sets band by band into `samples` (`ow x oh` pixels of the
@@ -291,10 +293,12 @@ fn restored_planes(
     if !h.post_filtered() {
         return None;
     }
+    // The grid's spacing: the output's over the whole image, or a region's.
+    let g = luma.grid();
     Some(Restored {
         planes: banded_coding(h, (luma, chroma, detail), (ow, oh)),
         size: (ow as usize, oh as usize),
-        spacing: spacing(h, ow, oh),
+        spacing: (g.dx, g.dy),
     })
 }
 

@@ -298,16 +298,11 @@ mod tests {
 
     #[test]
     fn fields_read_back_as_written() {
-        let mut seed = 7u64;
+        let mut rng = caoen_base::rng::Lcg::new(7);
         for (w, h, log2) in [(768, 512, 4), (100, 37, 3), (129, 300, 5), (8, 8, 7)] {
             let (cols, rows) = ActivityField::regions(w, h, log2);
             let exponents = (0..cols * rows)
-                .map(|_| {
-                    seed = seed
-                        .wrapping_mul(6364136223846793005)
-                        .wrapping_add(1442695040888963407);
-                    ((seed >> 33) % 9) as i8 - LIMIT
-                })
+                .map(|_| (rng.next_u31() % 9) as i8 - LIMIT)
                 .collect();
             let field = ActivityField {
                 log2,

@@ -280,20 +280,9 @@ impl Detail {
     /// Reads the section of a `width x height` image with these steps (one per colour
     /// channel), its blocks of cell-size classes `classes` ([`adaptive::block_classes`])
     /// and, if the file has one, an activity field of regions of side `2^field_log2`: the
-    /// luma stream's byte count (LEB128), the luma stream, the chroma stream.
+    /// luma stream's byte count (LEB128), the luma stream, the chroma stream. Returns
+    /// the layer and the luma and the chroma stream's contexts as each ends.
     pub fn read(
-        payload: &[u8],
-        width: u32,
-        height: u32,
-        steps: Vec<f64>,
-        classes: &[u8],
-        field_log2: Option<u8>,
-    ) -> Result<Self, CodecError> {
-        Self::read_with_contexts(payload, width, height, steps, classes, field_log2).map(|(d, _)| d)
-    }
-
-    /// [`Detail::read`], with the luma and the chroma stream's contexts as each ends.
-    pub fn read_with_contexts(
         payload: &[u8],
         width: u32,
         height: u32,

@@ -28,18 +28,7 @@ mod tests {
     use super::model::*;
     use super::*;
 
-    /// A seeded linear congruential sequence (no test depends on a random crate).
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn next(&mut self) -> u32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 33) as u32
-        }
-    }
+    use caoen_base::rng::Lcg;
 
     /// A CDF table with the floor: every symbol equally likely.
     fn uniform<const W: usize>() -> Cdf<W> {
@@ -100,31 +89,31 @@ mod tests {
     /// A skewed mixed stream: bins on 4 contexts, 9-ary tokens on 3, 25-ary classes, raw
     /// bits of every width.
     fn stream(n: usize, seed: u64) -> Vec<Sym> {
-        let mut r = Lcg(seed);
+        let mut r = Lcg::new(seed);
         (0..n)
             .map(|i| match i % 5 {
                 0 => {
-                    let c = (r.next() % 4) as usize;
-                    Sym::Bin(c, r.next() % 97 < 10 + 20 * c as u32)
+                    let c = (r.next_u31() % 4) as usize;
+                    Sym::Bin(c, r.next_u31() % 97 < 10 + 20 * c as u32)
                 }
                 1 => {
-                    let c = (r.next() % 3) as usize;
+                    let c = (r.next_u31() % 3) as usize;
                     // Geometric-ish, heavier for higher contexts.
                     let mut s = 0;
-                    while s < 8 && r.next() % 10 < 3 + 2 * c as u32 {
+                    while s < 8 && r.next_u31() % 10 < 3 + 2 * c as u32 {
                         s += 1;
                     }
                     Sym::Token(c, s)
                 }
-                2 => Sym::Class((r.next() % 25).min(r.next() % 25) as usize),
+                2 => Sym::Class((r.next_u31() % 25).min(r.next_u31() % 25) as usize),
                 3 => {
-                    let c = (r.next() % 3) as usize;
-                    let t = (r.next() % 9).min(r.next() % 9) as usize;
-                    Sym::Signed(c, t, t > 0 && r.next().is_multiple_of(2))
+                    let c = (r.next_u31() % 3) as usize;
+                    let t = (r.next_u31() % 9).min(r.next_u31() % 9) as usize;
+                    Sym::Signed(c, t, t > 0 && r.next_u31().is_multiple_of(2))
                 }
                 _ => {
-                    let bits = 1 + r.next() % MAX_RAW_BITS;
-                    Sym::Raw(r.next() & ((1 << bits) - 1), bits)
+                    let bits = 1 + r.next_u31() % MAX_RAW_BITS;
+                    Sym::Raw(r.next_u31() & ((1 << bits) - 1), bits)
                 }
             })
             .collect()
@@ -204,7 +193,7 @@ mod tests {
     fn adaptive_cdfs_keep_their_total_and_floor_under_any_updates() {
         fn hammer<const W: usize>(seed: u64) {
             let n = 4 * W + 1;
-            let mut r = Lcg(seed);
+            let mut r = Lcg::new(seed);
             let mut m = uniform::<W>();
             // Long runs of one symbol (the worst case for the others' floors), then
             // alternations between the extremes, then noise.
@@ -223,12 +212,12 @@ mod tests {
                 assert_valid(&m);
             }
             for _ in 0..20000 {
-                let s = r.next() as usize % n;
+                let s = r.next_u31() as usize % n;
                 let want = update_by_definition(&m, s);
                 m.update(s);
                 assert_valid(&m);
                 assert_eq!((0..n - 1).map(|i| m.entry(i)).collect::<Vec<_>>(), want);
-                let q = r.next() % CDF_ONE as u32;
+                let q = r.next_u31() % CDF_ONE as u32;
                 let (t, left, right) = m.locate(q);
                 assert_eq!(t, locate_by_scan(&m, q));
                 assert_eq!((left, right - left), m.interval(t));

@@ -411,6 +411,11 @@ impl<'c> GridEval<'c> {
         self
     }
 
+    /// The grid this evaluator evaluates on.
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
     /// Number of bands: the grid's rows in groups of [`GridEval::BAND`].
     pub fn bands(&self) -> usize {
         self.grid.ny.div_ceil(BAND)
@@ -738,13 +743,8 @@ mod tests {
 
     #[test]
     fn integer_pixel_span_is_the_set_of_centres_within_reach() {
-        let mut seed = 12345u64;
-        let mut next = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) as f64 / (1u64 << 31) as f64
-        };
+        let mut rng = caoen_base::rng::Lcg::new(12345);
+        let mut next = || rng.next_u31() as f64 / (1u64 << 31) as f64;
         for _ in 0..20000 {
             let n = 1 + (next() * 40.0) as usize;
             let m = (next() * 2.0 * n as f64) as i64;

@@ -3,6 +3,7 @@
 
 use super::classes::classify_sampled;
 use super::*;
+use caoen_base::rng::Lcg;
 
 /// The definition, pixel by pixel.
 fn reference(plane: &[f32], (w, h): (usize, usize), c: usize, taps: &[i32]) -> Vec<f32> {
@@ -27,38 +28,62 @@ fn reference(plane: &[f32], (w, h): (usize, usize), c: usize, taps: &[i32]) -> V
     out
 }
 
-fn noise(n: usize, seed: &mut u64) -> Vec<f32> {
-    (0..n)
-        .map(|_| {
-            *seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (*seed >> 40) as f32 / (1u64 << 24) as f32
-        })
-        .collect()
+fn noise(n: usize, rng: &mut Lcg) -> Vec<f32> {
+    (0..n).map(|_| rng.unit_f32()).collect()
+}
+
+/// Rows `rows` of `plane` through the luma filter `f`, classified on the plane itself.
+fn luma_rows(
+    plane: &[f32],
+    size: (usize, usize),
+    spacing: (f64, f64),
+    f: &PlaneFilter,
+    rows: std::ops::Range<usize>,
+    out: &mut [f32],
+) {
+    filter_rows(
+        plane,
+        (plane, None),
+        size,
+        spacing,
+        &LUMA_SHAPE,
+        f,
+        rows,
+        out,
+    )
+}
+
+/// `n` samples of noise seeded with `seed`, sample `i` scaled by `scale(i)`: areas of
+/// different contrast, so that the pixels fall in different classes.
+fn scaled_noise(seed: u64, n: usize, scale: impl Fn(usize) -> f32) -> Vec<f32> {
+    let mut rng = Lcg::new(seed);
+    (0..n).map(|i| rng.unit_f32() * scale(i)).collect()
 }
 
 #[test]
 fn the_native_filter_is_the_definition_at_every_pixel_and_size() {
-    let mut seed = 7;
+    let mut seed = Lcg::new(7);
     for &(w, h) in &[(1, 1), (2, 5), (5, 2), (6, 7), (7, 6), (13, 9), (40, 3)] {
         let plane = noise(w * h, &mut seed);
         for c in [0, 1] {
             let taps: Vec<i32> = (0..shape(c).len())
                 .map(|k| (k as i32 * 37 % 61) - 30)
                 .collect();
-            let mut out = vec![0.0; w * h];
             let f = PlaneFilter::single(taps.clone());
-            filter_rows(
-                &plane,
-                (&plane, None),
-                (w, h),
-                (1.0, 1.0),
-                shape(c),
-                &f,
-                0..h,
-                &mut out,
-            );
+            let run = |rows: std::ops::Range<usize>, out: &mut [f32]| {
+                filter_rows(
+                    &plane,
+                    (&plane, None),
+                    (w, h),
+                    (1.0, 1.0),
+                    shape(c),
+                    &f,
+                    rows,
+                    out,
+                )
+            };
+            let mut out = vec![0.0; w * h];
+            run(0..h, &mut out);
             assert_eq!(
                 out,
                 reference(&plane, (w, h), c, &taps),
@@ -67,16 +92,7 @@ fn the_native_filter_is_the_definition_at_every_pixel_and_size() {
             // A band of rows is the same rows of the whole.
             if h > 2 {
                 let mut band = vec![0.0; w];
-                filter_rows(
-                    &plane,
-                    (&plane, None),
-                    (w, h),
-                    (1.0, 1.0),
-                    shape(c),
-                    &f,
-                    1..2,
-                    &mut band,
-                );
+                run(1..2, &mut band);
                 assert_eq!(band, out[w..2 * w]);
             }
         }
@@ -85,7 +101,7 @@ fn the_native_filter_is_the_definition_at_every_pixel_and_size() {
 
 #[test]
 fn scaled_sampling_at_unit_spacing_equals_the_native_filter() {
-    let mut seed = 11;
+    let mut seed = Lcg::new(11);
     let (w, h) = (17, 11);
     let plane = noise(w * h, &mut seed);
     let taps: Vec<i32> = (0..12).map(|k| 20 - 3 * k).collect();
@@ -116,13 +132,8 @@ fn scaled_sampling_at_unit_spacing_equals_the_native_filter() {
 
 #[test]
 fn whole_pixel_offsets_read_directly_equal_the_interpolated_samples() {
-    let mut seed = 29;
     let (w, h) = (37, 45);
-    let plane: Vec<f32> = noise(w * h, &mut seed)
-        .iter()
-        .enumerate()
-        .map(|(i, v)| v * [0.002, 0.02, 0.1, 0.5][(i / w / 3) % 4])
-        .collect();
+    let plane = scaled_noise(29, w * h, |i| [0.002, 0.02, 0.1, 0.5][(i / w / 3) % 4]);
     let classified = PlaneFilter {
         filters: vec![
             (0..12).map(|k| 40 - 7 * k).collect(),
@@ -147,16 +158,7 @@ fn whole_pixel_offsets_read_directly_equal_the_interpolated_samples() {
         let classes = classify_sampled(&plane, (w, h), spacing, 0..h, None);
         for f in [&classified, &single] {
             let mut direct = vec![0.0; w * h];
-            filter_rows(
-                &plane,
-                (&plane, None),
-                (w, h),
-                spacing,
-                &LUMA_SHAPE,
-                f,
-                0..h,
-                &mut direct,
-            );
+            luma_rows(&plane, (w, h), spacing, f, 0..h, &mut direct);
             let wts: Vec<Vec<f32>> = f.filters.iter().map(|t| weights(t)).collect();
             let pick = |i: usize| match &f.classes {
                 None => Some(wts[0].as_slice()),
@@ -357,7 +359,7 @@ fn reference_classes(plane: &[f32], (w, h): (usize, usize)) -> Vec<u8> {
 
 #[test]
 fn pixel_classes_are_their_definition_in_any_band() {
-    let mut seed = 23;
+    let mut seed = Lcg::new(23);
     for &(w, h) in &[(1, 1), (3, 2), (9, 7), (31, 40)] {
         // Noise at several amplitudes: every activity level.
         let plane: Vec<f32> = noise(w * h, &mut seed)
@@ -401,13 +403,8 @@ fn stripes_take_their_direction_and_flat_planes_the_first_class() {
 
 #[test]
 fn the_classified_filter_is_each_pixels_class_filter_in_any_band() {
-    let mut seed = 31;
     let (w, h) = (37, 45);
-    let plane: Vec<f32> = noise(w * h, &mut seed)
-        .iter()
-        .enumerate()
-        .map(|(i, v)| v * [0.002, 0.02, 0.2][(i / 7) % 3])
-        .collect();
+    let plane = scaled_noise(31, w * h, |i| [0.002, 0.02, 0.2][(i / 7) % 3]);
     let filters: Vec<Vec<i32>> = (0..3)
         .map(|f| (0..12).map(|k| (k * 13 + f * 29) % 41 - 20).collect())
         .collect();
@@ -417,16 +414,7 @@ fn the_classified_filter_is_each_pixels_class_filter_in_any_band() {
         classes: Some(map),
     };
     let mut out = vec![0.0; w * h];
-    filter_rows(
-        &plane,
-        (&plane, None),
-        (w, h),
-        (1.0, 1.0),
-        &LUMA_SHAPE,
-        &pf,
-        0..h,
-        &mut out,
-    );
+    luma_rows(&plane, (w, h), (1.0, 1.0), &pf, 0..h, &mut out);
     let classes = reference_classes(&plane, (w, h));
     let each: Vec<Vec<f32>> = filters
         .iter()
@@ -446,29 +434,11 @@ fn the_classified_filter_is_each_pixels_class_filter_in_any_band() {
     // Bands of any height give the same rows, at the coded size and scaled.
     for spacing in [(1.0, 1.0), (0.5, 0.75), (2.0, 1.5)] {
         let mut whole = vec![0.0; w * h];
-        filter_rows(
-            &plane,
-            (&plane, None),
-            (w, h),
-            spacing,
-            &LUMA_SHAPE,
-            &pf,
-            0..h,
-            &mut whole,
-        );
+        luma_rows(&plane, (w, h), spacing, &pf, 0..h, &mut whole);
         for start in (0..h).step_by(11) {
             let end = (start + 11).min(h);
             let mut band = vec![0.0; (end - start) * w];
-            filter_rows(
-                &plane,
-                (&plane, None),
-                (w, h),
-                spacing,
-                &LUMA_SHAPE,
-                &pf,
-                start..end,
-                &mut band,
-            );
+            luma_rows(&plane, (w, h), spacing, &pf, start..end, &mut band);
             assert_eq!(band, whole[start * w..end * w], "{spacing:?} from {start}");
         }
     }

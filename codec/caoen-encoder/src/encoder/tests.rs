@@ -18,13 +18,8 @@ use caoen_decoder::quadtree::random_tree;
 fn the_activity_field_follows_the_local_variance_through_the_file() {
     use caoen_base::raster::{ChannelLayout, SampleFormat};
     let (w, h) = (128u32, 64u32);
-    let mut seed = 12345u64;
-    let mut noise = || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 40) as f32 / (1u64 << 24) as f32
-    };
+    let mut rng = caoen_base::rng::Lcg::new(12345);
+    let mut noise = || rng.unit_f32();
     let plane: Vec<f32> = (0..w * h)
         .map(|i| {
             let x = i % w;

@@ -231,10 +231,10 @@ fn choose(
             }
         }
     }
-    let mut trimmed = best.1;
+    let searched = best.1;
     // A candidate ending elsewhere shares no prefix with the last: priced in full,
     // kept if cheaper.
-    let mut offer = |levels: [i32; COEFFS]| {
+    let offer = |levels: [i32; COEFFS]| {
         let d = distortion(&x, &levels);
         if let Some(r) = rates.rate_within(&levels, COEFFS, limit(best.0, d)) {
             let j = cost(d, r);
@@ -244,6 +244,19 @@ fn choose(
             }
         }
     };
+    tail_trims(searched, offer);
+    Chosen {
+        levels: best.1,
+        distortion: best_dr.0,
+        rate: best_dr.1,
+    }
+}
+
+/// Offers `levels` with its last nonzero levels (in zigzag order) dropped one more at a
+/// time, up to [`TRIMS`] of them, then the empty block: an end of block moved earlier
+/// often saves more rate than the dropped levels cost.
+fn tail_trims(levels: [i32; COEFFS], mut offer: impl FnMut([i32; COEFFS])) {
+    let mut trimmed = levels;
     let mut tries = 0;
     for k in (0..COEFFS).rev() {
         let z = ZIGZAG[k] as usize;
@@ -259,11 +272,6 @@ fn choose(
     }
     // The loop stops at the empty block only when there were few enough.
     offer([0; COEFFS]);
-    Chosen {
-        levels: best.1,
-        distortion: best_dr.0,
-        rate: best_dr.1,
-    }
 }
 
 /// A block's chosen levels with their squared error (in steps) and their rate (1/256

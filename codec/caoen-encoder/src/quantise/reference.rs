@@ -48,27 +48,11 @@ pub fn choose(
     if q.per_coefficient {
         best = search_levels(&x, q.lambda, best, &mut price);
     }
-    let mut trimmed = best.1;
-    let mut tries = 0;
-    for k in (0..COEFFS).rev() {
-        let z = ZIGZAG[k] as usize;
-        if trimmed[z] == 0 {
-            continue;
-        }
-        if tries == TRIMS {
-            break;
-        }
-        tries += 1;
-        trimmed[z] = 0;
+    tail_trims(best.1, |trimmed| {
         let j = price(&trimmed);
         if j < best.0 {
             best = (j, trimmed);
         }
-    }
-    let empty = [0; COEFFS];
-    let j = price(&empty);
-    if j < best.0 {
-        best = (j, empty);
-    }
+    });
     best.1
 }

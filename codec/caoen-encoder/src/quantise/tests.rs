@@ -2,16 +2,19 @@
 //! option's answers against its full search.
 
 use super::*;
+use caoen_base::rng::Lcg;
 use caoen_decoder::detail::syntax::GroupContext;
 use caoen_decoder::entropy::OverlayCostSink;
 
+/// Moves the contexts past a block coded with `levels`, as the encoder does.
+fn advance(ctx: &mut DetailContexts, at: syntax::BlockContext, levels: &[i32; COEFFS]) {
+    syntax::write_block(ctx, at, levels, &mut caoen_decoder::entropy::AnsSink::new());
+}
+
 /// Coefficients falling off with frequency, as a photograph's residual does.
-fn residual_block(seed: &mut u64, scale: f64) -> [f64; COEFFS] {
+fn residual_block(rng: &mut Lcg, scale: f64) -> [f64; COEFFS] {
     std::array::from_fn(|i| {
-        *seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let u = (*seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        let u = rng.unit() - 0.5;
         u * scale / (1.0 + (i / N + i % N) as f64)
     })
 }
@@ -54,7 +57,7 @@ fn the_level_search_only_takes_cheaper_blocks_one_step_from_rounding() {
         signs: [4, 2, 0, 8, 1, 5, 0, 3, 7, 6],
         levels: [0, 1, 2, 0, 1, 2, 2, 1, 0, 0],
     };
-    let mut seed = 99u64;
+    let mut seed = Lcg::new(99);
     let mut moved = 0;
     for _ in 0..300 {
         let c = residual_block(&mut seed, 12.0);
@@ -78,12 +81,7 @@ fn the_level_search_only_takes_cheaper_blocks_one_step_from_rounding() {
             );
         }
         moved += usize::from(levels != start);
-        syntax::write_block(
-            &mut ctx,
-            at,
-            &levels,
-            &mut caoen_decoder::entropy::AnsSink::new(),
-        );
+        advance(&mut ctx, at, &levels);
     }
     assert!(
         moved > 30,
@@ -95,7 +93,7 @@ fn the_level_search_only_takes_cheaper_blocks_one_step_from_rounding() {
 /// answers as a full search compared with each would.
 #[test]
 fn a_merged_option_answers_as_its_full_search_would() {
-    let mut seed = 31u64;
+    let mut seed = Lcg::new(31);
     let ctx = DetailContexts::default();
     let mut pricer = BlockPricer::default();
     let (mut searched, mut skipped) = (0, 0);
@@ -154,7 +152,7 @@ fn a_merged_option_answers_as_its_full_search_would() {
 
 #[test]
 fn choices_equal_the_reference_search() {
-    let mut seed = 2024u64;
+    let mut seed = Lcg::new(2024);
     for per_coefficient in [true, false] {
         let mut changed = 0;
         for (kind, step, lambda, scale) in [
@@ -200,12 +198,7 @@ fn choices_equal_the_reference_search() {
                 }
                 let rounded: [i32; COEFFS] = std::array::from_fn(|k| level(c[k], q));
                 changed += usize::from(expected != rounded);
-                syntax::write_block(
-                    &mut ctx,
-                    at,
-                    &expected,
-                    &mut caoen_decoder::entropy::AnsSink::new(),
-                );
+                advance(&mut ctx, at, &expected);
             }
         }
         assert!(changed > 100, "the search has choices to make ({changed})");

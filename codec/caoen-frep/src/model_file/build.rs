@@ -15,6 +15,7 @@ use crate::height_map::Base;
 use crate::node::{bump_quadric, Node, Patch, Support, MAX_NODES, MIN_LENGTH, WORLD_LIMIT};
 use crate::polygon_patch::PolygonSupport;
 use crate::primitive::{CaoEnSolid, Primitive};
+use crate::rfunction::BlendShape;
 use caoen_geometry::transform::Affine;
 use caoen_surface::json::FieldError;
 
@@ -168,19 +169,21 @@ impl FileNode {
                 return Ok(Node::Blend {
                     op: *op,
                     a,
-                    a0: number(need(&p.a0, path, "a0")?, &format!("{path}.a0"), -w, w)?,
-                    a1: number(
-                        need(&p.a1, path, "a1")?,
-                        &format!("{path}.a1"),
-                        MIN_LENGTH,
-                        w,
-                    )?,
-                    a2: number(
-                        need(&p.a2, path, "a2")?,
-                        &format!("{path}.a2"),
-                        MIN_LENGTH,
-                        w,
-                    )?,
+                    shape: BlendShape {
+                        a0: number(need(&p.a0, path, "a0")?, &format!("{path}.a0"), -w, w)?,
+                        a1: number(
+                            need(&p.a1, path, "a1")?,
+                            &format!("{path}.a1"),
+                            MIN_LENGTH,
+                            w,
+                        )?,
+                        a2: number(
+                            need(&p.a2, path, "a2")?,
+                            &format!("{path}.a2"),
+                            MIN_LENGTH,
+                            w,
+                        )?,
+                    },
                     operands: Box::new([x, y]),
                 });
             }

@@ -10,7 +10,7 @@ use super::mesh_field::MeshField;
 use super::patch_index::PatchIndex;
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
-use super::rfunction::{self, SetOp};
+use super::rfunction::{self, BlendShape, SetOp};
 use caoen_geometry::transform::Affine;
 
 mod relief;
@@ -51,12 +51,8 @@ pub enum Node {
         op: SetOp,
         /// The R-function parameter.
         a: f64,
-        /// Height of the blend (positive adds material).
-        a0: f64,
-        /// Fall-off along the first operand's function.
-        a1: f64,
-        /// Fall-off along the second operand's function.
-        a2: f64,
+        /// The added term's height and fall-offs.
+        shape: BlendShape,
         /// The two operands.
         operands: Box<[Node; 2]>,
     },
@@ -296,14 +292,11 @@ impl Node {
             Node::Blend {
                 op,
                 a,
-                a0,
-                a1,
-                a2,
+                shape,
                 operands,
             } => {
                 let (f1, f2) = (operands[0].value(p), operands[1].value(p));
-                rfunction::apply(*op, f1, f2, *a)
-                    + rfunction::blend_partials(f1, f2, *a0, *a1, *a2).0
+                rfunction::apply(*op, f1, f2, *a) + rfunction::blend_partials(f1, f2, *shape).0
             }
             Node::Perturb {
                 base,
@@ -361,15 +354,13 @@ impl Node {
             Node::Blend {
                 op,
                 a,
-                a0,
-                a1,
-                a2,
+                shape,
                 operands,
             } => {
                 let (f1, g1) = operands[0].value_gradient(p);
                 let (f2, g2) = operands[1].value_gradient(p);
                 let (r, d1, d2) = rfunction::partials(*op, f1, f2, *a);
-                let (b, e1, e2) = rfunction::blend_partials(f1, f2, *a0, *a1, *a2);
+                let (b, e1, e2) = rfunction::blend_partials(f1, f2, *shape);
                 (
                     r + b,
                     [0, 1, 2].map(|k| (d1 + e1) * g1[k] + (d2 + e2) * g2[k]),
@@ -463,14 +454,11 @@ impl Node {
             Node::Blend {
                 op,
                 a,
-                a0,
-                a1,
-                a2,
+                shape,
                 operands,
             } => {
                 let (i1, i2) = (operands[0].interval(b), operands[1].interval(b));
-                rfunction::interval(*op, i1, i2, *a)
-                    + rfunction::blend_interval(i1, i2, *a0, *a1, *a2)
+                rfunction::interval(*op, i1, i2, *a) + rfunction::blend_interval(i1, i2, *shape)
             }
             Node::Perturb {
                 base,
@@ -524,8 +512,7 @@ impl Node {
             },
             Node::Blend {
                 op,
-                a1,
-                a2,
+                shape,
                 operands,
                 ..
             } => {
@@ -541,9 +528,9 @@ impl Node {
                 // The blend adds material only where both functions are within a few
                 // fall-off ranges of zero; a margin of a quarter of the box (at least
                 // the ranges) holds it for the usual scales.
-                Some(
-                    joined.padded((0.25 * joined.longest()).max(a1.max(*a2).min(joined.longest()))),
-                )
+                Some(joined.padded(
+                    (0.25 * joined.longest()).max(shape.a1.max(shape.a2).min(joined.longest())),
+                ))
             }
             Node::Perturb { base, terms, .. } => {
                 let mut b = base.bounds()?;

@@ -64,6 +64,8 @@ pub enum Command {
     Decode(DecodeArgs),
     /// Describe a caoen file: header, sections, key points.
     Info(InfoArgs),
+    /// Serve the zooming web viewer (tools/web/) and a caoen file on localhost.
+    View(ViewArgs),
     /// Generate the procedural test corpus (same as the caoen-corpus binary).
     Corpus(caoen_corpus::cli::CorpusArgs),
     /// Cao En surface models: inspect, evaluate, mesh.
@@ -614,6 +616,10 @@ pub struct DecodeArgs {
     /// Decode scaled by this factor.
     #[arg(long, value_name = "F")]
     pub scale: Option<f64>,
+    /// Decode only the rectangle [x0, x1) x [y0, y1) of the image (its own pixel
+    /// coordinates, fractions allowed), at --size or --scale times its own size.
+    #[arg(long, value_name = "x0,y0,x1,y1", allow_hyphen_values = true)]
+    pub region: Option<String>,
     /// Refuse files or outputs with more pixels than this.
     #[arg(long, default_value_t = caoen::codec::DEFAULT_MAX_PIXELS)]
     pub max_pixels: u64,
@@ -628,6 +634,20 @@ pub struct DecodeArgs {
     /// Write no metadata (the same as --metadata none).
     #[arg(long, conflicts_with = "metadata")]
     pub strip: bool,
+}
+
+/// `caoen view`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// The caoen file to show.
+    pub input: PathBuf,
+    /// Port on 127.0.0.1 (0: any free one); the URL is printed.
+    #[arg(long, default_value_t = 0)]
+    pub port: u16,
+    /// The viewer's folder, with its built pkg/ (default: $CAOEN_WEB_DIR, else the
+    /// source tree's tools/web/).
+    #[arg(long, value_name = "DIR")]
+    pub web: Option<PathBuf>,
 }
 
 /// `caoen info`.

@@ -286,6 +286,21 @@ fn parse_size(s: &str) -> CliResult<(u32, u32)> {
     crate::cli::parse_wxh(s, caoen::codec::MAX_SIDE).map_err(CliError::Usage)
 }
 
+/// `x0,y0,x1,y1` as a region (the decoder checks it against the image).
+fn parse_region(s: &str) -> CliResult<caoen::Region> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| CliError::Usage(format!("--region {s}: {e} (expected x0,y0,x1,y1)")))?;
+    let [x0, y0, x1, y1] = v[..] else {
+        return Err(CliError::Usage(format!(
+            "--region {s}: expected four numbers x0,y0,x1,y1"
+        )));
+    };
+    Ok(caoen::Region { x0, y0, x1, y1 })
+}
+
 /// `caoen decode`'s options for an output of `format`.
 pub fn decode_request(
     global: &GlobalArgs,
@@ -309,6 +324,7 @@ pub fn decode_request(
         supersample: a.supersample,
         max_pixels: a.max_pixels,
         limits: global.limits.clone(),
+        region: a.region.as_deref().map(parse_region).transpose()?,
     };
     Ok(DecodeToImage {
         decode,

@@ -22,6 +22,7 @@ pub mod morph;
 pub mod render;
 pub mod surface;
 pub mod texture;
+pub mod view;
 
 use crate::cli::{Cli, Command};
 use crate::failure::{CliError, CliResult};
@@ -60,6 +61,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Encode(args) => codec::encode(&global, &args),
         Command::Decode(args) => codec::decode(&global, &args),
         Command::Info(args) => codec::info(&global, &args),
+        Command::View(args) => view::run(&global, &args),
         Command::Surface(cmd) => surface::run(&global, cmd),
         Command::Corpus(args) => {
             let args = caoen_corpus::cli::CorpusArgs {

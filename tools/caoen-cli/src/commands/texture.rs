@@ -109,13 +109,7 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         caoen::render::mesh::NormalMode::Exact,
         &global.limits,
     )?;
-    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-    for p in &mesh.positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = mesh.bounds();
     let warp = caoen::texture::warp3d::Warp3::new(lo, hi, &moves).map_err(tex_err)?;
     // 32^3 samples over the model's box, like the 2-D check's 128 per side: a fold
     // narrower than a cell (1/31 of the box) can slip through, a crossing cannot.

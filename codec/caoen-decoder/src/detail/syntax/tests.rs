@@ -58,29 +58,32 @@ fn contexts_start_from_the_anchors_mixed_by_the_step() {
         .all(|(_, seen)| *seen == TRAINED_SEEN as u32));
 }
 
+/// Sparse, mostly small levels as the quantiser makes, with an escape-sized one at
+/// about one position in `escape_every`.
+fn sparse_levels(rng: &mut caoen_base::rng::Lcg, escape_every: u32) -> [i32; COEFFS] {
+    let mut q = [0i32; COEFFS];
+    for (k, v) in q.iter_mut().enumerate() {
+        let r = rng.next_u31();
+        if r.is_multiple_of(2 + k as u32 / 4) {
+            let m = if r.is_multiple_of(escape_every) {
+                (r >> 8) % 5000
+            } else {
+                (r >> 8) % 4
+            };
+            *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
+        }
+    }
+    q
+}
+
 #[test]
 fn overlay_pricing_equals_pricing_a_copy_and_leaves_the_contexts_alone() {
     let mut ctx = DetailContexts::default();
     let mut overlay = OverlayCostSink::default();
     let mut sink = AnsSink::new();
-    let mut seed = 12345u64;
+    let mut rng = caoen_base::rng::Lcg::new(12345);
     for i in 0..400 {
-        let mut q = [0i32; COEFFS];
-        // Sparse, mostly small levels with occasional escapes, as the quantiser makes.
-        for (k, v) in q.iter_mut().enumerate() {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            let r = (seed >> 33) as u32;
-            if r.is_multiple_of(2 + k as u32 / 4) {
-                let m = if r.is_multiple_of(97) {
-                    (r >> 8) % 5000
-                } else {
-                    (r >> 8) % 4
-                };
-                *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
-            }
-        }
+        let q = sparse_levels(&mut rng, 97);
         let at = BlockContext::varied(i);
         let mut copy = CostSink::default();
         write_block(&mut ctx.clone(), at, &q, &mut copy);
@@ -98,26 +101,9 @@ fn the_block_pricer_equals_pricing_a_copy_within_limits_or_not() {
     let mut ctx = DetailContexts::default();
     let mut pricer = BlockPricer::default();
     let mut sink = AnsSink::new();
-    let mut seed = 777u64;
-    let mut next = move || {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (seed >> 33) as u32
-    };
+    let mut rng = caoen_base::rng::Lcg::new(777);
     for i in 0..300 {
-        let mut q = [0i32; COEFFS];
-        for (k, v) in q.iter_mut().enumerate() {
-            let r = next();
-            if r.is_multiple_of(2 + k as u32 / 4) {
-                let m = if r.is_multiple_of(53) {
-                    (r >> 8) % 5000
-                } else {
-                    (r >> 8) % 4
-                };
-                *v = if r & 1 == 1 { -(m as i32) } else { m as i32 };
-            }
-        }
+        let q = sparse_levels(&mut rng, 53);
         let at = BlockContext::varied(i);
         // Candidates as the quantiser makes them (one level moved at a time, from
         // the highest position down, with good and bad hints), trims and the empty
@@ -126,14 +112,14 @@ fn the_block_pricer_equals_pricing_a_copy_within_limits_or_not() {
         let mut cur = q;
         for k in (0..COEFFS).rev() {
             let z = ZIGZAG[k] as usize;
-            let r = next();
+            let r = rng.next_u31();
             if r.is_multiple_of(3) {
                 continue;
             }
             let mut trial = cur;
             trial[z] += [-1, 1, 20, -300][r as usize / 3 % 4];
             let keep = if r.is_multiple_of(7) {
-                next() as usize % (COEFFS + 1)
+                rng.next_u31() as usize % (COEFFS + 1)
             } else {
                 k + 1
             };
@@ -164,7 +150,7 @@ fn the_block_pricer_equals_pricing_a_copy_within_limits_or_not() {
         for (j, ((c, keep), e)) in candidates.iter().zip(&expected).enumerate() {
             // A priced limit answers at its edge, and a call stopped part way
             // leaves nothing behind that changes the next price.
-            match next() % 3 {
+            match rng.next_u31() % 3 {
                 0 => assert_eq!(
                     rates.rate_within(c, *keep, e - 1),
                     None,
