@@ -9,7 +9,7 @@ use std::path::Path;
 use caoen_base::budget::{Limits, DEFAULT_BUDGET};
 use caoen_base::metadata::{Metadata, MetadataPolicy};
 use caoen_base::raster::{ChannelLayout, SampleFormat};
-use caoen_decoder::{bitstream, DecodeOptions, DEFAULT_MAX_PIXELS, MAX_SIDE};
+use caoen_decoder::{bitstream, DecodeOptions, Region, DEFAULT_MAX_PIXELS, MAX_SIDE};
 use caoen_encoder::{EncodeRequest, PixelSource};
 use caoen_io::transcode::DecodeToImage;
 use caoen_io::{LoadLimits, PixelData, Pixels};
@@ -226,13 +226,15 @@ fn encode_file<'py>(
 }
 
 /// Decodes `.cae` bytes to a NumPy array of the file's sample type, at the image's
-/// size or at `size = (width, height)`.
+/// size or at `size = (width, height)`; `region = (x0, y0, x1, y1)` decodes that
+/// rectangle of the image (its own pixel coordinates) at its own size or at `size`.
 #[pyfunction]
-#[pyo3(signature = (data, size=None))]
+#[pyo3(signature = (data, size=None, region=None))]
 fn decode<'py>(
     py: Python<'py>,
     data: &[u8],
     size: Option<(i64, i64)>,
+    region: Option<(f64, f64, f64, f64)>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let size = match size {
         None => None,
@@ -251,6 +253,7 @@ fn decode<'py>(
         decode: DecodeOptions {
             size,
             limits: Limits::new(DEFAULT_BUDGET),
+            region: region.map(|(x0, y0, x1, y1)| Region { x0, y0, x1, y1 }),
             ..DecodeOptions::default()
         },
         ..DecodeToImage::default()

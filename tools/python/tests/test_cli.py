@@ -56,6 +56,30 @@ def test_sixteen_bit_and_float_files_match_the_cli(cli, tmp_path: Path, dtype, e
     again = tmp_path / "again.cae"
     run(cli, ["encode", str(image), "-q", "80", "-o", str(again)])
     assert caoen.encode(pixels, quality=80) == again.read_bytes()
+    part = tmp_path / f"part.{ext}"
+    run(cli, ["decode", str(cae), "--region", "8,4,40.5,36", "-o", str(part)])
+    region = caoen.decode(cae.read_bytes(), region=(8, 4, 40.5, 36))
+    assert region.dtype == dtype and np.array_equal(region, caoen.read(part))
+
+
+def test_region_gives_the_clis_pixels_and_a_crop_of_the_whole(cli, png: Path, tmp_path: Path):
+    cae = tmp_path / "a.cae"
+    caoen.encode_file(png, cae, quality=70)
+    data = cae.read_bytes()
+    part = caoen.decode(data, region=(16, 8, 48, 40))
+    assert part.shape == (32, 32, 3)
+    assert np.array_equal(part, caoen.decode(data)[8:40, 16:48])
+    out = tmp_path / "r.png"
+    run(cli, ["decode", str(cae), "--region", "16,8,48,40", "-o", str(out)])
+    assert np.array_equal(part, caoen.read(out))
+    zoom = caoen.decode(data, region=(10.5, 4.25, 30.5, 20.25), size=(80, 64))
+    out = tmp_path / "z.png"
+    run(cli, ["decode", str(cae), "--region", "10.5,4.25,30.5,20.25", "--size", "80x64", "-o", str(out)])
+    assert zoom.shape == (64, 80, 3) and np.array_equal(zoom, caoen.read(out))
+    with pytest.raises(caoen.CaoenError, match="invalid region"):
+        caoen.decode(data, region=(0, 0, 500, 10))
+    with pytest.raises(caoen.CaoenError, match="x0, y0, x1, y1"):
+        caoen.decode(data, region=(1, 2))
 
 
 def test_the_benchmark_photos(cli, tmp_path: Path):
@@ -74,3 +98,6 @@ def test_the_benchmark_photos(cli, tmp_path: Path):
             png = tmp_path / f"{photo.stem}-{q}.png"
             run(cli, ["decode", str(out), "-o", str(png)])
             assert np.array_equal(caoen.read(out), caoen.read(png)), photo
+            run(cli, ["-f", "decode", str(out), "--region", "100,50,356.5,306", "-o", str(png)])
+            region = caoen.decode(out.read_bytes(), region=(100, 50, 356.5, 306))
+            assert np.array_equal(region, caoen.read(png)), photo

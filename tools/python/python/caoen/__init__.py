@@ -87,12 +87,28 @@ def encode(
     )
 
 
-def decode(data: Any, size: Optional[Tuple[int, int]] = None) -> Any:
+def _region(region: Any) -> Optional[Tuple[float, float, float, float]]:
+    if region is None:
+        return None
+    try:
+        x0, y0, x1, y1 = region
+        return float(x0), float(y0), float(x1), float(y1)
+    except (TypeError, ValueError):
+        raise CaoenError(f"region must be (x0, y0, x1, y1), got {region!r}") from None
+
+
+def decode(
+    data: Any,
+    size: Optional[Tuple[int, int]] = None,
+    region: Optional[Tuple[float, float, float, float]] = None,
+) -> Any:
     """Decode .cae bytes to a NumPy array of the file's sample type.
 
     ``size`` is ``(width, height)``; the network is continuous, so any size works.
+    ``region`` is ``(x0, y0, x1, y1)`` in the image's own pixels (fractions allowed):
+    that rectangle alone, at its own size or at ``size``.
     """
-    return _caoen.decode(_bytes(data), size=_size(size))
+    return _caoen.decode(_bytes(data), size=_size(size), region=_region(region))
 
 
 def info(data: Any) -> dict:

@@ -29,8 +29,13 @@ def encode(
 ) -> bytes:
     """Encode a NumPy image (HxW, HxWx3, HxWx4; uint8, uint16 or float32) as .cae bytes."""
 
-def decode(data: BytesLike, size: Optional[Tuple[int, int]] = None) -> npt.NDArray[Any]:
-    """Decode .cae bytes to a NumPy array of the file's sample type; size is (width, height)."""
+def decode(
+    data: BytesLike,
+    size: Optional[Tuple[int, int]] = None,
+    region: Optional[Tuple[float, float, float, float]] = None,
+) -> npt.NDArray[Any]:
+    """Decode .cae bytes to a NumPy array of the file's sample type; size is (width, height),
+    region (x0, y0, x1, y1) in the image's own pixels."""
 
 def info(data: BytesLike) -> Dict[str, Any]:
     """Describe .cae bytes without decoding them (size, dtype, key points, metadata)."""
