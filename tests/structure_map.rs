@@ -20,10 +20,11 @@ const DATA: [&str; 7] = [
 /// Not part of the repository: build output, version control, what the README's
 /// first command (`cargo run --release`) writes, the built WebAssembly package and the
 /// web tests' npm modules (all git-ignored).
-const SKIP: [&str; 6] = [
+const SKIP: [&str; 7] = [
     ".git",
     "target",
     "tests/fuzz/target",
+    "tools/python/target",
     "caoen-demo",
     "tools/web/pkg",
     "tools/web/test/node_modules",

@@ -16,11 +16,13 @@ pub mod keypoint_map;
 pub mod model;
 pub mod quantise;
 pub mod rate_control;
+pub mod request;
 pub mod resample;
 pub mod restoration_fit;
 pub mod source;
 
 pub use caoen_base::budget::Limits;
+pub use request::EncodeRequest;
 pub use resample::Scale;
 pub use source::PixelSource;
 

@@ -12,6 +12,7 @@ mod convert;
 mod error;
 mod exr;
 mod hooks;
+mod pixels;
 mod read;
 pub mod transcode;
 mod write;
@@ -19,6 +20,7 @@ mod write;
 pub use convert::{from_dynamic, load_for_encoding, to_dynamic8, EncodeSource};
 pub use error::ImageIoError;
 pub use hooks::{register_image_hooks, CaeDecoder};
+pub use pixels::{decode_to_pixels, load_pixels, PixelData, Pixels};
 pub use read::{
     load, load_from_memory, load_from_memory_with_metadata, load_with_limits, load_with_metadata,
     read_metadata,
@@ -130,6 +132,16 @@ impl LoadLimits {
         limits.max_alloc = Some(alloc.min(self.memory.max_memory));
         limits
     }
+}
+
+/// Whether `caoen encode` reads a file by its name: the extension of a format the
+/// `image` crate was built to read, or OpenEXR (`.cae` files are not inputs).
+pub fn is_image_name(path: &Path) -> bool {
+    let Some(ext) = path.extension().and_then(|e| e.to_str()) else {
+        return false;
+    };
+    let ext = ext.to_ascii_lowercase();
+    ext == "exr" || image::ImageFormat::from_extension(&ext).is_some_and(|f| f.reading_enabled())
 }
 
 /// An output file format.

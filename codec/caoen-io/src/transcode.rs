@@ -118,12 +118,16 @@ pub fn read_cae(
 }
 
 /// The output size a decode with `opts` makes of a file with `header`.
-fn output_size(header: &Header, opts: &DecodeOptions) -> (u32, u32) {
+pub(crate) fn output_size(header: &Header, opts: &DecodeOptions) -> (u32, u32) {
     decoder::requested_size(header, opts)
 }
 
 /// The sample depth the identity path can decode to directly for `format`, if any.
-fn direct_depth(header: &Header, opts: &DecodeOptions, format: OutputFormat) -> Option<Depth> {
+pub(crate) fn direct_depth(
+    header: &Header,
+    opts: &DecodeOptions,
+    format: OutputFormat,
+) -> Option<Depth> {
     // Supersampling at the coded size is the identity (the decoder skips it).
     let identity =
         opts.supersample.is_none() || opts.size.is_none_or(|s| s == header.display_size());
@@ -175,7 +179,7 @@ pub fn decode_to_image(
 }
 
 /// The [`TranscodeError`] of a decoder error on the file `name`.
-fn codec_error(name: &Path) -> impl Fn(CodecError) -> TranscodeError + '_ {
+pub(crate) fn codec_error(name: &Path) -> impl Fn(CodecError) -> TranscodeError + '_ {
     move |source| TranscodeError::Codec {
         path: name.to_path_buf(),
         source,
@@ -183,7 +187,7 @@ fn codec_error(name: &Path) -> impl Fn(CodecError) -> TranscodeError + '_ {
 }
 
 /// The decode options with `scale` resolved to a size from the file's `header`.
-fn sized(opts: &DecodeToImage, header: &Header) -> Result<DecodeOptions, CodecError> {
+pub(crate) fn sized(opts: &DecodeToImage, header: &Header) -> Result<DecodeOptions, CodecError> {
     match (opts.decode.size, opts.scale) {
         (None, Some(f)) => {
             if !(f.is_finite() && f > 0.0) {

@@ -476,12 +476,18 @@ pub struct DistortArgs {
 /// `caoen encode`.
 #[derive(Debug, Args)]
 pub struct EncodeArgs {
-    /// Input image (PNG, JPEG, OpenEXR, anything the image crate reads).
+    /// Input image (PNG, JPEG, OpenEXR, anything the image crate reads), or a folder:
+    /// every image in its tree, in parallel, into the folder -o names.
     pub input: PathBuf,
     /// Output file (`-` for stdout). Default: the input's name with `.cae`. An
-    /// existing file is not replaced without -f/--force.
+    /// existing file is not replaced without -f/--force. For a folder input: the
+    /// output folder (required), where each file keeps its place in the tree.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// For a folder input: skip each image whose output is already a whole, valid
+    /// `.cae` file.
+    #[arg(long)]
+    pub resume: bool,
     /// Quality 0..100.
     #[arg(short = 'q', long, default_value_t = 75.0, value_parser = parse_quality)]
     pub quality: f32,
@@ -513,7 +519,7 @@ pub struct EncodeArgs {
     /// pay by rate and distortion), off, half, or a size per side in tenths (0.1-1.0)
     #[arg(long, value_name = "auto|off|half|FRACTION", default_value = "auto", value_parser = resampling)]
     pub resampling: caoen::Resampling,
-    /// Print statistics as JSON on stdout.
+    /// Print statistics as JSON on stdout (for a folder: each file and the totals).
     #[arg(long)]
     pub json: bool,
 }
@@ -583,11 +589,21 @@ fn parse_quality(s: &str) -> Result<f32, String> {
 /// `caoen decode`.
 #[derive(Debug, Args)]
 pub struct DecodeArgs {
-    /// The caoen file (`-` for stdin).
+    /// The caoen file (`-` for stdin), or a folder: every `.cae` file in its tree, in
+    /// parallel, into the folder -o names.
     pub input: PathBuf,
-    /// Output image: .png (8- or 16-bit as coded) or .exr (float); `-` for PNG on stdout.
+    /// Output image: .png (8- or 16-bit as coded) or .exr (float); `-` for PNG on
+    /// stdout. For a folder input: the output folder (required), where each file keeps
+    /// its place in the tree as `.png` or, for float files, `.exr`.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// For a folder input: skip each file whose output is already a whole image file
+    /// that reads back.
+    #[arg(long)]
+    pub resume: bool,
+    /// Print what was done as JSON on stdout (for a folder: each file and the totals).
+    #[arg(long)]
+    pub json: bool,
     /// S x S samples per output pixel for a resized decode (--size, --scale): they
     /// anti-alias a downscale (at --scale 0.25, S = 2 is 3.7 dB closer to a
     /// box-filtered full-size decode than one sample per pixel). At the coded size it

@@ -5,9 +5,7 @@ use std::time::Instant;
 
 use caoen::codec::bitstream::{self, tag};
 use caoen::codec::deringing::Strengths;
-use caoen::codec::{
-    decoder, keypoint_map, DecodeOptions, EncodeOptions, Limits, PixelSource, RateTarget,
-};
+use caoen::codec::{decoder, keypoint_map, DecodeOptions, EncodeRequest, Limits, PixelSource};
 use caoen::image_io::{self, transcode, DecodeToImage, FormatChoice};
 use caoen::metadata::Metadata;
 use caoen::raster::Raster;
@@ -20,7 +18,7 @@ use crate::output::{print, Outputs, Target};
 
 /// Reads a `.cae` input (`-`: standard input) within the memory budget
 /// ([`transcode::read_cae`]).
-fn read_input(path: &Path, limits: &Limits) -> CliResult<Vec<u8>> {
+pub fn read_input(path: &Path, limits: &Limits) -> CliResult<Vec<u8>> {
     if path.as_os_str() == "-" {
         return transcode::read_cae(std::io::stdin().lock(), None, limits)
             .map_err(|e| CliError::io("<stdin>", e));
@@ -113,35 +111,84 @@ fn progress_bar(global: &GlobalArgs, what: &str) -> Option<indicatif::ProgressBa
     Some(pb)
 }
 
-/// Encodes an image, writing `.cae`.
-pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
-    let limits = image_io::LoadLimits {
-        max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
-        ..image_io::LoadLimits::within(&global.limits)
-    };
-    let (img, metadata) = image_io::load_for_encoding(&a.input, &limits)?;
-    let held = img.held_bytes();
-    let kept = metadata.filtered(a.metadata.policy(a.strip));
-    let target = match (a.target_bpp, a.target_size) {
-        (Some(_), Some(_)) => {
-            return Err(CliError::Usage(
-                "give --target-bpp or --target-size, not both".into(),
-            ))
-        }
-        (Some(b), None) => Some(RateTarget::BitsPerPixel(b)),
-        (None, Some(n)) => Some(RateTarget::Bytes(n)),
-        (None, None) => None,
-    };
-    let opts = EncodeOptions {
+/// The library's encode request of `caoen encode`'s options, with the metadata kept.
+pub fn encode_request(global: &GlobalArgs, a: &EncodeArgs, metadata: Metadata) -> EncodeRequest {
+    EncodeRequest {
         quality: a.quality,
         effort: a.effort,
-        target,
+        target_bpp: a.target_bpp,
+        target_size: a.target_size,
         keypoints: a.keypoints,
-        metadata: kept.clone(),
-        // One budget for the command: what the input already holds is spent.
-        limits: Limits::new(global.limits.max_memory.saturating_sub(held)),
+        metadata,
         resampling: a.resampling,
+        budget: global.max_memory,
+    }
+}
+
+/// An image loaded for `caoen encode`, with the metadata it keeps and the encoder's
+/// options.
+pub struct Loaded {
+    /// The pixels, compact where the file's are integers.
+    pub img: image_io::EncodeSource,
+    /// The metadata kept in the file.
+    pub kept: Metadata,
+    /// The encoder's options, within what the budget leaves beside the pixels.
+    pub opts: caoen::codec::EncodeOptions,
+}
+
+/// Loads `input` as `caoen encode` does, within `limits` (the command's budget).
+pub fn load_for_encode(
+    global: &GlobalArgs,
+    a: &EncodeArgs,
+    input: &Path,
+    limits: &Limits,
+) -> CliResult<Loaded> {
+    let load = image_io::LoadLimits {
+        max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
+        ..image_io::LoadLimits::within(limits)
     };
+    let (img, metadata) = image_io::load_for_encoding(input, &load)?;
+    let kept = metadata.filtered(a.metadata.policy(a.strip));
+    // One budget for the command: what the input already holds is spent.
+    let opts = encode_request(global, a, kept.clone())
+        .options(img.held_bytes())
+        .map_err(|e| codec_err(input, e))?;
+    Ok(Loaded { img, kept, opts })
+}
+
+/// Encodes a loaded image, reporting progress as `(done, total)` steps.
+pub fn encode_loaded(
+    global: &GlobalArgs,
+    loaded: &Loaded,
+    input: &Path,
+    progress: impl FnMut(usize, usize) + Send,
+) -> CliResult<(Vec<u8>, caoen::codec::EncodeStats)> {
+    let held = loaded.img.held_bytes();
+    caoen::codec::encode_with_progress(&loaded.img, &loaded.opts, progress).map_err(|e| match e {
+        // The budget is the command's: count the decoded input back in.
+        caoen::codec::CodecError::Memory(mut over) => {
+            over.what += " (the decoded input included)";
+            over.need = over.need.saturating_add(held);
+            over.budget = global.max_memory;
+            codec_err(input, caoen::codec::CodecError::Memory(over))
+        }
+        e => codec_err(input, e),
+    })
+}
+
+/// Encodes an image, writing `.cae`; a folder, each image in it
+/// ([`super::folder::encode`]).
+pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
+    if a.input.is_dir() {
+        return super::folder::encode(global, a);
+    }
+    if a.resume {
+        return Err(CliError::Usage(
+            "--resume is for folders: the input is a file".into(),
+        ));
+    }
+    let loaded = load_for_encode(global, a, &a.input, &global.limits)?;
+    let img = &loaded.img;
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
     let mut outputs = Outputs::new(global.force).input(&a.input);
     outputs.check(&out)?;
@@ -154,21 +201,11 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     };
     let pb = progress_bar(global, "encoding");
     let start = Instant::now();
-    let (bytes, stats) = caoen::codec::encode_with_progress(&img, &opts, |done, total| {
+    let (bytes, stats) = encode_loaded(global, &loaded, &a.input, |done, total| {
         if let Some(pb) = &pb {
             pb.set_length(total as u64);
             pb.set_position(done as u64);
         }
-    })
-    .map_err(|e| match e {
-        // The budget is the command's: count the decoded input back in.
-        caoen::codec::CodecError::Memory(mut over) => {
-            over.what += " (the decoded input included)";
-            over.need = over.need.saturating_add(held);
-            over.budget = global.limits.max_memory;
-            codec_err(&a.input, caoen::codec::CodecError::Memory(over))
-        }
-        e => codec_err(&a.input, e),
     })?;
     let secs = start.elapsed().as_secs_f64();
     if let Some(pb) = pb {
@@ -179,7 +216,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     let bpp = bytes.len() as f64 * 8.0 / (width as f64 * height as f64);
     if let (Some(map), Some(format)) = (&a.keypoint_map, map_format) {
         let decoded = decoder::read(&bytes, u64::MAX).map_err(|e| codec_err(&a.input, e))?;
-        let raster = img.into_raster()?;
+        let raster = loaded.img.into_raster()?;
         // The key points are the coded image's: draw them over it.
         let h = &decoded.header;
         let raster = if (h.width, h.height) == (raster.width(), raster.height()) {
@@ -197,7 +234,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
             "width": width, "height": height, "coded_width": stats.coded_size.0,
             "coded_height": stats.coded_size.1, "tiles": stats.tiles, "luma_keypoints": stats.luma_keypoints,
             "chroma_keypoints": stats.chroma_keypoints, "seconds": secs,
-            "metadata": metadata_json(&kept)});
+            "metadata": metadata_json(&loaded.kept)});
         print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
     }
     let coded = if stats.coded_size == (width, height) {
@@ -264,9 +301,12 @@ fn parse_region(s: &str) -> CliResult<caoen::Region> {
     Ok(caoen::Region { x0, y0, x1, y1 })
 }
 
-/// Decodes (or, without `-o`, validates) a `.cae` file.
-pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
-    let bytes = read_input(&a.input, &global.limits)?;
+/// `caoen decode`'s options for an output of `format`.
+pub fn decode_request(
+    global: &GlobalArgs,
+    a: &DecodeArgs,
+    format: FormatChoice,
+) -> CliResult<DecodeToImage> {
     let size = match (&a.size, a.scale) {
         (Some(_), Some(_)) => {
             return Err(CliError::Usage("give --size or --scale, not both".into()))
@@ -286,6 +326,29 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         limits: global.limits.clone(),
         region: a.region.as_deref().map(parse_region).transpose()?,
     };
+    Ok(DecodeToImage {
+        decode,
+        scale: a.scale,
+        format,
+        png: image_io::PngCompression::parse(&a.png_compression).expect("clap checked it"),
+        metadata: a.metadata.policy(a.strip),
+    })
+}
+
+/// Decodes (or, without `-o`, validates) a `.cae` file; a folder, each `.cae` file in
+/// it ([`super::folder::decode`]).
+pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
+    if a.input.is_dir() {
+        return super::folder::decode(global, a);
+    }
+    if a.resume {
+        return Err(CliError::Usage(
+            "--resume is for folders: the input is a file".into(),
+        ));
+    }
+    // Options first: a usage error is reported before the file is read.
+    decode_request(global, a, FormatChoice::Natural)?;
+    let bytes = read_input(&a.input, &global.limits)?;
     let target = a
         .output
         .as_deref()
@@ -309,13 +372,7 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     if let Some(t) = &target {
         outputs.check(t)?;
     }
-    let opts = DecodeToImage {
-        decode,
-        scale: a.scale,
-        format,
-        png: image_io::PngCompression::parse(&a.png_compression).expect("clap checked it"),
-        metadata: a.metadata.policy(a.strip),
-    };
+    let opts = decode_request(global, a, format)?;
     let start = Instant::now();
     let Some(target) = target else {
         let (w, h) = transcode::validate(&bytes, &a.input, &opts)?;
@@ -342,6 +399,12 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             image.height
         ),
     );
+    if a.json {
+        let v = json!({"input": a.input, "output": target.display(), "width": image.width,
+            "height": image.height, "bytes_in": bytes.len(), "bytes_out": image.bytes.len(),
+            "seconds": secs});
+        print(serde_json::to_string_pretty(&v).expect("json") + "\n")?;
+    }
     Ok(())
 }
 

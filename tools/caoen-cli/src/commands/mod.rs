@@ -16,6 +16,7 @@ pub mod compare;
 pub mod convert;
 pub mod demo;
 pub mod examples;
+pub mod folder;
 pub mod frep;
 pub mod morph;
 pub mod render;

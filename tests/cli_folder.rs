@@ -1,0 +1,234 @@
+//! End-to-end tests of folder mode: `caoen encode DIR -o OUT` and `caoen decode DIR -o
+//! OUT` keep the tree's layout, give each file the single-file command's bytes, skip
+//! complete outputs with `--resume`, and go on past a failed file to exit 1 naming it.
+
+mod common;
+use common::{caoen, caoen_ok, s, stderr};
+
+use std::path::{Path, PathBuf};
+
+/// The corpus scene of `seed`, `w x h`, written as `dir/name` (folders created).
+fn scene(dir: &Path, name: &str, w: u32, h: u32, seed: u64) -> PathBuf {
+    let img = caoen_corpus::generate(caoen_corpus::Class::Scene, w, h, seed);
+    let p = dir.join(name);
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    img.to_dynamic_image().save(&p).unwrap();
+    p
+}
+
+/// A tree of three images (PNG and JPEG, one in a sub-folder) and a text file.
+fn tree(d: &Path) -> PathBuf {
+    let src = d.join("in");
+    scene(&src, "a.png", 64, 48, 1);
+    scene(&src, "sub/b.jpg", 48, 40, 2);
+    scene(&src, "sub/deeper/c.png", 40, 40, 3);
+    std::fs::write(src.join("notes.txt"), "not an image").unwrap();
+    src
+}
+
+/// Every file under `root`, by its path below it.
+fn files(root: &Path) -> Vec<(String, Vec<u8>)> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, Vec<u8>)>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+                out.push((rel, std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(root, root, &mut out);
+    out.sort();
+    out
+}
+
+fn json(out: &std::process::Output) -> serde_json::Value {
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", stderr(out)))
+}
+
+#[test]
+fn a_folder_encodes_to_the_single_file_bytes_in_the_same_layout() {
+    let d = common::fresh_dir("cli-folder-encode");
+    let src = tree(&d);
+    let out = d.join("out");
+    let run = caoen_ok(&["encode", s(&src), "-o", s(&out), "-q", "60", "--json"]);
+    let names: Vec<String> = files(&out).into_iter().map(|(n, _)| n).collect();
+    assert_eq!(names, ["a.cae", "sub/b.cae", "sub/deeper/c.cae"]);
+    for (rel, bytes) in files(&out) {
+        let input = ["png", "jpg"]
+            .iter()
+            .map(|e| src.join(&rel).with_extension(e))
+            .find(|p| p.exists())
+            .unwrap();
+        let single = d.join("single.cae");
+        caoen_ok(&["-f", "encode", s(&input), "-q", "60", "-o", s(&single)]);
+        assert_eq!(bytes, std::fs::read(&single).unwrap(), "{rel}");
+    }
+    let j = json(&run);
+    assert_eq!(j["totals"]["files"], 3);
+    assert_eq!(j["totals"]["encoded"], 3);
+    assert_eq!(j["totals"]["failed"], 0);
+    let first = &j["files"][0];
+    assert_eq!(first["status"], "encoded");
+    let bytes_out = first["bytes_out"].as_u64().unwrap();
+    assert_eq!(
+        bytes_out,
+        std::fs::metadata(out.join("a.cae")).unwrap().len()
+    );
+    let bpp = first["bpp"].as_f64().unwrap();
+    assert!(
+        (bpp - bytes_out as f64 * 8.0 / (64.0 * 48.0)).abs() < 1e-9,
+        "{first}"
+    );
+    assert!(first["seconds"].as_f64().unwrap() >= 0.0);
+}
+
+#[test]
+fn resume_skips_complete_outputs_and_existing_ones_need_force() {
+    let d = common::fresh_dir("cli-folder-resume");
+    let src = tree(&d);
+    let out = d.join("out");
+    caoen_ok(&["--quiet", "encode", s(&src), "-o", s(&out), "-q", "50"]);
+    let before = files(&out);
+    let stamp = |p: &Path| std::fs::metadata(p).unwrap().modified().unwrap();
+    let t = stamp(&out.join("a.cae"));
+    // A second run with --resume does nothing.
+    let again = caoen_ok(&[
+        "encode",
+        s(&src),
+        "-o",
+        s(&out),
+        "-q",
+        "50",
+        "--resume",
+        "--json",
+    ]);
+    assert_eq!(json(&again)["totals"]["skipped"], 3);
+    assert_eq!(stamp(&out.join("a.cae")), t);
+    // An output cut short is not complete: --resume does not skip it, and it is not
+    // replaced without -f.
+    let cut = &before[0].1[..before[0].1.len() / 2];
+    std::fs::write(out.join("a.cae"), cut).unwrap();
+    let refused = caoen(&["encode", s(&src), "-o", s(&out), "-q", "50", "--resume"]);
+    assert_eq!(refused.status.code(), Some(1));
+    assert!(stderr(&refused).contains("--force"), "{}", stderr(&refused));
+    assert_eq!(std::fs::read(out.join("a.cae")).unwrap(), cut);
+    caoen_ok(&[
+        "-f",
+        "encode",
+        s(&src),
+        "-o",
+        s(&out),
+        "-q",
+        "50",
+        "--resume",
+    ]);
+    assert_eq!(files(&out), before);
+    // Without --resume or -f every existing output is refused.
+    let all = caoen(&["encode", s(&src), "-o", s(&out), "-q", "50"]);
+    assert_eq!(all.status.code(), Some(1));
+    assert!(
+        stderr(&all).contains("3 of 3 files failed"),
+        "{}",
+        stderr(&all)
+    );
+}
+
+#[test]
+fn a_damaged_file_is_named_and_the_rest_are_encoded() {
+    let d = common::fresh_dir("cli-folder-damaged");
+    let src = tree(&d);
+    std::fs::write(src.join("sub/broken.png"), b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    let out = d.join("out");
+    let run = caoen(&["encode", s(&src), "-o", s(&out), "--json"]);
+    assert_eq!(run.status.code(), Some(1), "{}", stderr(&run));
+    let err = stderr(&run);
+    assert!(err.contains("broken.png"), "{err}");
+    assert!(err.contains("1 of 4 files failed"), "{err}");
+    let names: Vec<String> = files(&out).into_iter().map(|(n, _)| n).collect();
+    assert_eq!(
+        names,
+        ["a.cae", "sub/b.cae", "sub/deeper/c.cae"],
+        "no half-written or temporary file"
+    );
+    let j = json(&run);
+    assert_eq!(j["totals"]["failed"], 1);
+    let failed: Vec<_> = j["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["status"] == "failed")
+        .collect();
+    assert!(failed[0]["input"].as_str().unwrap().ends_with("broken.png"));
+    assert!(failed[0]["error"].as_str().unwrap().contains("broken.png"));
+}
+
+#[test]
+fn a_folder_decodes_to_the_single_file_images() {
+    let d = common::fresh_dir("cli-folder-decode");
+    let src = tree(&d);
+    let cae = d.join("cae");
+    caoen_ok(&["--quiet", "encode", s(&src), "-o", s(&cae), "-q", "70"]);
+    let png = d.join("png");
+    caoen_ok(&["--quiet", "decode", s(&cae), "-o", s(&png)]);
+    let decoded = files(&png);
+    let names: Vec<&str> = decoded.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["a.png", "sub/b.png", "sub/deeper/c.png"]);
+    for (rel, bytes) in &decoded {
+        let single = d.join("single.png");
+        let input = cae.join(rel).with_extension("cae");
+        caoen_ok(&["-f", "decode", s(&input), "-o", s(&single)]);
+        assert_eq!(*bytes, std::fs::read(&single).unwrap(), "{rel}");
+    }
+    let again = caoen_ok(&["decode", s(&cae), "-o", s(&png), "--resume", "--json"]);
+    assert_eq!(json(&again)["totals"]["skipped"], 3);
+}
+
+#[test]
+fn folder_usage_errors() {
+    let d = common::fresh_dir("cli-folder-usage");
+    let src = tree(&d);
+    let no_output = caoen(&["encode", s(&src)]);
+    assert_eq!(no_output.status.code(), Some(2));
+    assert!(stderr(&no_output).contains("-o OUT_DIR"));
+    let file = src.join("a.png");
+    let onto_file = caoen(&["encode", s(&src), "-o", s(&file)]);
+    assert_eq!(onto_file.status.code(), Some(2));
+    let resume_file = caoen(&["encode", s(&file), "--resume"]);
+    assert_eq!(resume_file.status.code(), Some(2));
+    // Two inputs with one output: the first in name order has it, the other fails.
+    scene(&src, "a.jpg", 32, 32, 4);
+    let out = d.join("out");
+    let twice = caoen(&["encode", s(&src), "-o", s(&out)]);
+    assert_eq!(twice.status.code(), Some(1));
+    assert!(
+        stderr(&twice).contains("same output as"),
+        "{}",
+        stderr(&twice)
+    );
+}
+
+#[test]
+fn the_output_folder_inside_the_input_is_not_an_input() {
+    let d = common::fresh_dir("cli-folder-inside");
+    let src = tree(&d);
+    let out = src.join("encoded");
+    caoen_ok(&["--quiet", "encode", s(&src), "-o", s(&out), "-q", "40"]);
+    let png = src.join("encoded/decoded");
+    caoen_ok(&["--quiet", "decode", s(&out), "-o", s(&png)]);
+    // A second encode would take the decoded PNGs as inputs unless it skipped `encoded/`.
+    let again = caoen_ok(&[
+        "encode",
+        s(&src),
+        "-o",
+        s(&out),
+        "-q",
+        "40",
+        "--resume",
+        "--json",
+    ]);
+    assert_eq!(json(&again)["totals"]["files"], 3);
+}
