@@ -49,6 +49,13 @@ fn json(out: &std::process::Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", stderr(out)))
 }
 
+/// `out` ended with exit code `code` and `needle` in its standard error.
+fn assert_fails_with(out: &std::process::Output, code: i32, needle: &str) {
+    assert_eq!(out.status.code(), Some(code));
+    let err = stderr(out);
+    assert!(err.contains(needle), "{err}");
+}
+
 #[test]
 fn a_folder_encodes_to_the_single_file_bytes_in_the_same_layout() {
     let d = common::fresh_dir("cli-folder-encode");
@@ -129,12 +136,7 @@ fn resume_skips_complete_outputs_and_existing_ones_need_force() {
     assert_eq!(files(&out), before);
     // Without --resume or -f every existing output is refused.
     let all = caoen(&["encode", s(&src), "-o", s(&out), "-q", "50"]);
-    assert_eq!(all.status.code(), Some(1));
-    assert!(
-        stderr(&all).contains("3 of 3 files failed"),
-        "{}",
-        stderr(&all)
-    );
+    assert_fails_with(&all, 1, "3 of 3 files failed");
 }
 
 #[test]
@@ -203,12 +205,7 @@ fn folder_usage_errors() {
     scene(&src, "a.jpg", 32, 32, 4);
     let out = d.join("out");
     let twice = caoen(&["encode", s(&src), "-o", s(&out)]);
-    assert_eq!(twice.status.code(), Some(1));
-    assert!(
-        stderr(&twice).contains("same output as"),
-        "{}",
-        stderr(&twice)
-    );
+    assert_fails_with(&twice, 1, "same output as");
 }
 
 #[test]

@@ -9,14 +9,10 @@ use caoen_base::metadata::Metadata;
 use caoen_base::raster::{quantise, ChannelLayout, Raster, SampleFormat};
 use caoen_decoder::bitstream;
 use caoen_decoder::decoder::{self, Samples};
-use caoen_decoder::CodecError;
 use image::{DynamicImage, ImageBuffer};
 
 use crate::convert::{interleave, raster_or_error};
-use crate::transcode::{
-    codec_error, decode_to_image_memory, direct_depth, output_size, sized, DecodeToImage,
-    TranscodeError,
-};
+use crate::transcode::{codec_error, direct_depth, planned, DecodeToImage, TranscodeError};
 use crate::{load_for_encoding, EncodeSource, ImageIoError, LoadLimits, OutputFormat};
 
 /// Interleaved samples of one of the three sample types.
@@ -178,14 +174,7 @@ pub fn decode_to_pixels(
     let parsed = bitstream::parse(cae, opts.decode.max_pixels).map_err(&codec)?;
     let header = &parsed.header;
     let format = OutputFormat::natural(header.format);
-    let decode = sized(opts, header).map_err(&codec)?;
-    let metadata = parsed.metadata().filtered(opts.metadata);
-    let need = decode_to_image_memory(header, &decode, Some(format), metadata.bytes());
-    let (ow, oh) = output_size(header, &decode);
-    decode
-        .limits
-        .check(|| format!("decoding to {ow}x{oh}"), need)
-        .map_err(|e| codec(CodecError::Memory(e)))?;
+    let (decode, metadata) = planned(&parsed, opts, format).map_err(&codec)?;
     let pixels = match direct_depth(header, &decode, format) {
         Some(depth) => {
             let img =

@@ -186,6 +186,25 @@ pub(crate) fn codec_error(name: &Path) -> impl Fn(CodecError) -> TranscodeError 
     }
 }
 
+/// The decode options of `parsed` written as `format`, with the metadata the policy
+/// keeps, once the memory the whole job needs is known to fit.
+pub(crate) fn planned(
+    parsed: &bitstream::Parsed<'_>,
+    opts: &DecodeToImage,
+    format: OutputFormat,
+) -> Result<(DecodeOptions, Metadata), CodecError> {
+    let header = &parsed.header;
+    let decode = sized(opts, header)?;
+    let metadata = parsed.metadata().filtered(opts.metadata);
+    let need = decode_to_image_memory(header, &decode, Some(format), metadata.bytes());
+    let (ow, oh) = output_size(header, &decode);
+    decode
+        .limits
+        .check(|| format!("decoding to {ow}x{oh}"), need)
+        .map_err(CodecError::Memory)?;
+    Ok((decode, metadata))
+}
+
 /// The decode options with `scale` resolved to a size from the file's `header`.
 pub(crate) fn sized(opts: &DecodeToImage, header: &Header) -> Result<DecodeOptions, CodecError> {
     match (opts.decode.size, opts.scale) {
@@ -229,14 +248,7 @@ fn transcode(
         FormatChoice::ForPath(path) => OutputFormat::for_path(path, header.format)
             .ok_or_else(|| ImageIoError::UnknownOutputFormat { path: path.clone() })?,
     };
-    let decode = sized(opts, header).map_err(&codec)?;
-    let metadata = parsed.metadata().filtered(opts.metadata);
-    let need = decode_to_image_memory(header, &decode, Some(format), metadata.bytes());
-    let (ow, oh) = output_size(header, &decode);
-    decode
-        .limits
-        .check(|| format!("decoding to {ow}x{oh}"), need)
-        .map_err(|e| codec(CodecError::Memory(e)))?;
+    let (decode, metadata) = planned(parsed, opts, format).map_err(&codec)?;
     let (bytes, (width, height)) = match direct_depth(header, &decode, format) {
         Some(depth) => {
             let img = decoder::decode_interleaved_parsed(parsed, &decode, depth).map_err(&codec)?;
