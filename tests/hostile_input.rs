@@ -721,3 +721,54 @@ fn a_whole_number_written_as_a_float_is_read_as_one() {
     assert_eq!((png.width(), png.height()), (32, 24));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn metadata_an_image_file_cannot_carry_is_left_out_with_a_warning() {
+    use caoen::metadata::read_container;
+    let dir = scratch("unfit-metadata");
+    let at = |name: &str| dir.join(name).display().to_string();
+    // (input, the warning, whether the item is the profile)
+    for (input, warning, icc) in [
+        (
+            "third-D5-exif-junk.cae",
+            "EXIF left out: EXIF does not start",
+            false,
+        ),
+        (
+            "third-D6-cmyk-jpeg-cmyk-icc.jpg",
+            "colour space is `CMYK`",
+            true,
+        ),
+        (
+            "third-M2-grey-jpeg-rgb-icc.jpg",
+            "`RGB`, the pixels' is `GRAY`",
+            true,
+        ),
+        (
+            "third-M3-xmp-invalid-utf8.jpg",
+            "XMP packet left out: not UTF-8",
+            false,
+        ),
+    ] {
+        let cae = if input.ends_with(".cae") {
+            bad(input)
+        } else {
+            succeeds(&["encode", &bad(input), "-o", &at("in.cae"), "-f"]);
+            at("in.cae")
+        };
+        let stderr = succeeds(&["decode", &cae, "-o", &at("out.png"), "-f"]);
+        assert!(stderr.contains(warning), "{input}: {stderr}");
+        // What caoen writes, caoen reads: the PNG encodes again, and holds no such item.
+        succeeds(&["encode", &at("out.png"), "-o", &at("again.cae"), "-f"]);
+        let meta = read_container(&std::fs::read(at("out.png")).unwrap()).unwrap();
+        let item = if icc {
+            &meta.icc
+        } else if input.contains("D5") {
+            &meta.exif
+        } else {
+            &meta.xmp
+        };
+        assert_eq!(*item, None, "{input}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

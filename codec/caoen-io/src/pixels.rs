@@ -174,7 +174,7 @@ pub fn decode_to_pixels(
     let parsed = bitstream::parse(cae, opts.decode.max_pixels).map_err(&codec)?;
     let header = &parsed.header;
     let format = OutputFormat::natural(header.format);
-    let (decode, metadata) = planned(&parsed, opts, format).map_err(&codec)?;
+    let (decode, metadata, _) = planned(&parsed, opts, format).map_err(&codec)?;
     let pixels = match direct_depth(header, &decode, format) {
         Some(depth) => {
             let img =

@@ -8,7 +8,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use caoen_base::budget::{self, Limits};
-use caoen_base::metadata::{Metadata, MetadataPolicy};
+use caoen_base::metadata::{Dropped, Metadata, MetadataPolicy};
 use caoen_decoder::bitstream::{self, Header};
 use caoen_decoder::decoder::{self, Depth};
 use caoen_decoder::{CodecError, DecodeOptions};
@@ -89,6 +89,10 @@ pub struct DecodedImage {
     pub height: u32,
     /// The metadata it carries.
     pub metadata: Metadata,
+    /// The items of the file's metadata left out because the image file could not
+    /// carry them (a profile of another colour space, an unreadable EXIF block, XMP
+    /// that is not UTF-8).
+    pub dropped: Vec<Dropped>,
 }
 
 /// Reads a `.cae` file from `reader` (`len`: its size where known) within `limits`.
@@ -187,22 +191,26 @@ pub(crate) fn codec_error(name: &Path) -> impl Fn(CodecError) -> TranscodeError 
 }
 
 /// The decode options of `parsed` written as `format`, with the metadata the policy
-/// keeps, once the memory the whole job needs is known to fit.
+/// keeps and the image file can carry (and the items left out), once the memory the
+/// whole job needs is known to fit.
 pub(crate) fn planned(
     parsed: &bitstream::Parsed<'_>,
     opts: &DecodeToImage,
     format: OutputFormat,
-) -> Result<(DecodeOptions, Metadata), CodecError> {
+) -> Result<(DecodeOptions, Metadata, Vec<Dropped>), CodecError> {
     let header = &parsed.header;
     let decode = sized(opts, header)?;
-    let metadata = parsed.metadata().filtered(opts.metadata);
+    let (metadata, dropped) = parsed
+        .metadata()
+        .filtered(opts.metadata)
+        .fitted(header.layout.colour_channels());
     let need = decode_to_image_memory(header, &decode, Some(format), metadata.bytes());
     let (ow, oh) = output_size(header, &decode);
     decode
         .limits
         .check(|| format!("decoding to {ow}x{oh}"), need)
         .map_err(CodecError::Memory)?;
-    Ok((decode, metadata))
+    Ok((decode, metadata, dropped))
 }
 
 /// The decode options with `scale` resolved to a size from the file's `header`.
@@ -248,7 +256,7 @@ fn transcode(
         FormatChoice::ForPath(path) => OutputFormat::for_path(path, header.format)
             .ok_or_else(|| ImageIoError::UnknownOutputFormat { path: path.clone() })?,
     };
-    let (decode, metadata) = planned(parsed, opts, format).map_err(&codec)?;
+    let (decode, metadata, dropped) = planned(parsed, opts, format).map_err(&codec)?;
     let (bytes, (width, height)) = match direct_depth(header, &decode, format) {
         Some(depth) => {
             let img = decoder::decode_interleaved_parsed(parsed, &decode, depth).map_err(&codec)?;
@@ -273,6 +281,7 @@ fn transcode(
         width,
         height,
         metadata,
+        dropped,
     })
 }
 

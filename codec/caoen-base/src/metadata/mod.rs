@@ -8,10 +8,12 @@
 
 mod container;
 mod exif;
+mod fit;
 mod png;
 
 pub use container::read_container;
 pub use exif::{ifd_chain, orientation, reset_orientation, with_orientation_one};
+pub use fit::{icc_colour_space, Dropped};
 pub use png::{insert_png_chunks, png_chunks};
 
 use thiserror::Error;

@@ -389,6 +389,9 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
     let image = image_io::decode_to_image(&bytes, &a.input, &opts)?;
     let secs = start.elapsed().as_secs_f64();
     outputs.write(&target, &image.bytes)?;
+    for d in &image.dropped {
+        eprintln!("warning: {}: {d}", a.input.display());
+    }
     note(
         global,
         format!(

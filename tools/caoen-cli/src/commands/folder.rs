@@ -263,6 +263,9 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
             opts.decode.limits = limits;
             let image = image_io::decode_to_image(&cae, &job.input, &opts)?;
             write(&outputs, &path, &image.bytes)?;
+            for d in &image.dropped {
+                eprintln!("warning: {}: {d}", job.input.display());
+            }
             let (w, h) = header.display_size();
             Ok(Outcome::Done(Written {
                 output: path,
