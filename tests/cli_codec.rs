@@ -311,8 +311,11 @@ fn oriented_jpeg(dir: &Path) -> PathBuf {
     // IFD0 holding the orientation, 6.
     let mut exif = b"Exif\0\0II*\0\x08\0\0\0\x01\0".to_vec();
     exif.extend_from_slice(&[0x12, 0x01, 3, 0, 1, 0, 0, 0, 6, 0, 0, 0, 0, 0, 0, 0]);
+    // An RGB profile's header (size, colour space, signature); the rest filler.
     let mut icc = vec![7u8; 200];
     icc[..4].copy_from_slice(&200u32.to_be_bytes());
+    icc[16..20].copy_from_slice(b"RGB ");
+    icc[36..40].copy_from_slice(b"acsp");
     let icc = [b"ICC_PROFILE\0\x01\x01".as_slice(), &icc].concat();
     let xmp = b"http://ns.adobe.com/xap/1.0/\0<x:xmpmeta xmlns:x=\"adobe:ns:meta/\"/>";
     let bytes = [

@@ -7,7 +7,7 @@ use image::DynamicImage;
 
 use super::read::read_oriented;
 use super::{ImageIoError, LoadLimits};
-use caoen_base::metadata::Metadata;
+use caoen_base::metadata::{Dropped, Metadata};
 use caoen_base::raster::{quantise, ChannelLayout, Raster, RasterError, SampleFormat};
 use caoen_decoder::tiling::TileRect;
 use caoen_encoder::PixelSource;
@@ -39,6 +39,15 @@ pub fn load_for_encoding(
     path: &Path,
     limits: &LoadLimits,
 ) -> Result<(EncodeSource, Metadata), ImageIoError> {
+    read_oriented(path, limits, true).map(|(image, meta, _)| (image, meta))
+}
+
+/// [`load_for_encoding`] with the metadata items left out of what it returns (damaged,
+/// or not fitting the pixels), for the caller to report.
+pub fn load_for_encoding_reporting(
+    path: &Path,
+    limits: &LoadLimits,
+) -> Result<(EncodeSource, Metadata, Vec<Dropped>), ImageIoError> {
     read_oriented(path, limits, true)
 }
 

@@ -17,7 +17,9 @@ mod read;
 pub mod transcode;
 mod write;
 
-pub use convert::{from_dynamic, load_for_encoding, to_dynamic8, EncodeSource};
+pub use convert::{
+    from_dynamic, load_for_encoding, load_for_encoding_reporting, to_dynamic8, EncodeSource,
+};
 pub use error::ImageIoError;
 pub use hooks::{register_image_hooks, CaeDecoder};
 pub use pixels::{decode_to_pixels, load_pixels, PixelData, Pixels};

@@ -10,7 +10,7 @@ use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
 use super::convert::{from_dynamic_at, is_compact, EncodeSource};
 use super::error::{guarded, image_error};
 use super::{exr, ImageIoError, LoadLimits, EXR_MAGIC};
-use caoen_base::metadata::Metadata;
+use caoen_base::metadata::{Dropped, Item, Metadata};
 use caoen_base::raster::Raster;
 
 /// Reads an image file with the default limits, its pixels as stored (no EXIF
@@ -57,16 +57,17 @@ pub fn load_with_metadata(
     path: &Path,
     limits: &LoadLimits,
 ) -> Result<(Raster, Metadata), ImageIoError> {
-    let (image, meta) = read_oriented(path, limits, false)?;
+    let (image, meta, _) = read_oriented(path, limits, false)?;
     Ok((image.into_raster()?, meta))
 }
 
-/// Reads a whole file and decodes it upright with its metadata ([`oriented`]).
+/// Reads a whole file and decodes it upright with its metadata ([`oriented`]) and the
+/// damaged or unfitting items left out of it.
 pub(super) fn read_oriented(
     path: &Path,
     limits: &LoadLimits,
     compact: bool,
-) -> Result<(EncodeSource, Metadata), ImageIoError> {
+) -> Result<(EncodeSource, Metadata, Vec<Dropped>), ImageIoError> {
     let bytes = limits
         .memory
         .read(path)
@@ -88,30 +89,47 @@ pub fn load_from_memory_with_metadata(
     bytes: &[u8],
     limits: &LoadLimits,
 ) -> Result<(Raster, Metadata), ImageIoError> {
-    let (image, meta) = oriented(bytes, Path::new("<memory>"), None, limits, false)?;
+    let (image, meta, _) = oriented(bytes, Path::new("<memory>"), None, limits, false)?;
     Ok((image.into_raster()?, meta))
 }
 
 /// Decodes an image held in memory upright, with its metadata (EXIF orientation reset
-/// to 1); `compact` as in [`load_for_encoding`].
+/// to 1); `compact` as in [`load_for_encoding`]. A damaged metadata item, or one that
+/// does not fit the pixels (a CMYK profile once the pixels are RGB), is left out and
+/// returned beside: the pixels are what the caller came for.
 fn oriented(
     bytes: &[u8],
     path: &Path,
     by_ext: Option<ImageFormat>,
     limits: &LoadLimits,
     compact: bool,
-) -> Result<(EncodeSource, Metadata), ImageIoError> {
-    let mut meta = read_metadata_at(bytes, path)?;
-    let mut orientation = 1;
-    if let Some(exif) = meta.exif.as_mut() {
-        orientation = caoen_base::metadata::orientation(exif)
-            .map_err(|source| ImageIoError::Metadata {
+) -> Result<(EncodeSource, Metadata, Vec<Dropped>), ImageIoError> {
+    let (mut meta, mut dropped) = if bytes.starts_with(&EXR_MAGIC) {
+        (exr::read_metadata(bytes, path)?, Vec::new())
+    } else {
+        caoen_base::metadata::read_container_lenient(bytes).map_err(|source| {
+            ImageIoError::Metadata {
                 path: path.to_path_buf(),
                 source,
-            })?
-            .unwrap_or(1);
-        // `orientation` read the slot, so the reset cannot fail.
-        let _ = caoen_base::metadata::reset_orientation(exif);
+            }
+        })?
+    };
+    let mut orientation = 1;
+    if let Some(exif) = meta.exif.as_mut() {
+        match caoen_base::metadata::orientation(exif) {
+            Ok(o) => {
+                orientation = o.unwrap_or(1);
+                // `orientation` read the slot, so the reset cannot fail.
+                let _ = caoen_base::metadata::reset_orientation(exif);
+            }
+            Err(e) => {
+                meta.exif = None;
+                dropped.push(Dropped {
+                    item: Item::Exif,
+                    reason: e.to_string(),
+                });
+            }
+        }
     }
     let head = &bytes[..bytes.len().min(4)];
     let image = decode_image(
@@ -123,7 +141,13 @@ fn oriented(
         compact,
         orientation,
     )?;
-    Ok((image, meta))
+    let colour = match &image {
+        EncodeSource::Compact(i) => i.color().has_color(),
+        EncodeSource::Raster(r) => r.layout().colour_channels() == 3,
+    };
+    let (meta, unfit) = meta.fitted(if colour { 3 } else { 1 });
+    dropped.extend(unfit);
+    Ok((image, meta, dropped))
 }
 
 /// Decodes an image held in memory (format from its magic bytes).

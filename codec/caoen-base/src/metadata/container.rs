@@ -2,7 +2,7 @@
 //! WebP (ICCP, EXIF, XMP chunks) files, every declared size checked before copying.
 
 use super::{
-    check_size, corrupt, strip_exif_prefix, Item, Metadata, MetadataError, MAX_ITEM_BYTES,
+    check_size, corrupt, strip_exif_prefix, Dropped, Item, Metadata, MetadataError, MAX_ITEM_BYTES,
 };
 
 /// The metadata of an image file, from its bytes: JPEG (APP2 ICC chunks, APP1 EXIF and
@@ -10,12 +10,56 @@ use super::{
 /// give none. Every declared size is checked against the file and against
 /// [`MAX_ITEM_BYTES`] before the item is copied.
 pub fn read_container(bytes: &[u8]) -> Result<Metadata, MetadataError> {
+    read_skipping(bytes, &[])
+}
+
+/// [`read_container`] as files are found in the wild: a damaged item (a profile with a
+/// chunk missing, a bad zlib stream, an item over the limit) is left out and named, and
+/// the other items are still read. A damaged container (a segment or chunk running
+/// past the file) is still an error: the pixels are behind it.
+pub fn read_container_lenient(bytes: &[u8]) -> Result<(Metadata, Vec<Dropped>), MetadataError> {
+    let mut skip = Vec::new();
+    let mut dropped = Vec::new();
+    loop {
+        match read_skipping(bytes, &skip) {
+            Ok(meta) => return Ok((meta, dropped)),
+            Err(e) => {
+                // Each round leaves one more kind of item out, so this ends.
+                let item = item_of(&e).filter(|i| !skip.contains(i)).ok_or(e.clone())?;
+                skip.push(item);
+                let reason = match &e {
+                    MetadataError::Corrupt { reason, .. } => reason.clone(),
+                    e => e.to_string(),
+                };
+                dropped.push(Dropped { item, reason });
+            }
+        }
+    }
+}
+
+/// The item an error is about, or `None` for the container around the items.
+fn item_of(e: &MetadataError) -> Option<Item> {
+    match e {
+        MetadataError::TooLarge { item, .. } | MetadataError::InflatesTooLarge { item, .. } => {
+            Some(*item)
+        }
+        MetadataError::Corrupt { item, .. } => match *item {
+            "ICC profile" => Some(Item::Icc),
+            "EXIF" => Some(Item::Exif),
+            "XMP packet" => Some(Item::Xmp),
+            _ => None,
+        },
+        _ => Some(Item::Exif),
+    }
+}
+
+fn read_skipping(bytes: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
     if bytes.starts_with(&[0xff, 0xd8]) {
-        read_jpeg(bytes)
+        read_jpeg(bytes, skip)
     } else if bytes.starts_with(PNG_SIGNATURE) {
-        read_png(bytes)
+        read_png(bytes, skip)
     } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
-        read_webp(bytes)
+        read_webp(bytes, skip)
     } else {
         Ok(Metadata::default())
     }
@@ -23,7 +67,7 @@ pub fn read_container(bytes: &[u8]) -> Result<Metadata, MetadataError> {
 
 pub const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
 
-fn read_jpeg(b: &[u8]) -> Result<Metadata, MetadataError> {
+fn read_jpeg(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
     const EXIF: &[u8] = b"Exif\0\0";
     const XMP: &[u8] = b"http://ns.adobe.com/xap/1.0/\0";
     const ICC: &[u8] = b"ICC_PROFILE\0";
@@ -67,8 +111,12 @@ fn read_jpeg(b: &[u8]) -> Result<Metadata, MetadataError> {
         let payload = &b[pos + 2..pos + len];
         pos += len;
         match marker {
+            0xe1 if skip.contains(&Item::Exif) && payload.starts_with(EXIF) => {}
+            0xe1 if skip.contains(&Item::Xmp) && payload.starts_with(XMP) => {}
+            0xe2 if skip.contains(&Item::Icc) => {}
             0xe1 if meta.exif.is_none() && payload.starts_with(EXIF) => {
-                meta.exif = Some(payload[EXIF.len()..].to_vec());
+                // Some writers repeat the prefix inside the segment.
+                meta.exif = Some(strip_exif_prefix(&payload[EXIF.len()..]).to_vec());
             }
             0xe1 if meta.xmp.is_none() && payload.starts_with(XMP) => {
                 meta.xmp = Some(payload[XMP.len()..].to_vec());
@@ -159,19 +207,27 @@ fn chunk_data<'a>(
     Ok(&b[start..start + len as usize])
 }
 
-fn read_png(b: &[u8]) -> Result<Metadata, MetadataError> {
+fn read_png(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
     let mut meta = Metadata::default();
     let mut pos = PNG_SIGNATURE.len();
     while let Some(head) = b.get(pos..pos + 8) {
         let len = u64::from(u32::from_be_bytes([head[0], head[1], head[2], head[3]]));
         let kind: [u8; 4] = [head[4], head[5], head[6], head[7]];
         let start = pos + 8;
-        if &kind == b"eXIf" {
+        if &kind == b"eXIf" && !skip.contains(&Item::Exif) {
             check_size(Item::Exif, len)?;
         }
         let data = chunk_data("PNG", b, &kind, pos, start, len)?;
+        let skipped = match &kind {
+            b"iCCP" => Some(Item::Icc),
+            b"eXIf" => Some(Item::Exif),
+            b"iTXt" => Some(Item::Xmp),
+            _ => None,
+        }
+        .is_some_and(|i| skip.contains(&i));
         match &kind {
             b"IEND" => break,
+            _ if skipped => {}
             b"iCCP" if meta.icc.is_none() => meta.icc = Some(png_iccp(data)?),
             b"eXIf" if meta.exif.is_none() => meta.exif = Some(strip_exif_prefix(data).to_vec()),
             b"iTXt" if meta.xmp.is_none() => meta.xmp = png_xmp(data)?,
@@ -225,7 +281,7 @@ fn png_xmp(data: &[u8]) -> Result<Option<Vec<u8>>, MetadataError> {
     }
 }
 
-fn read_webp(b: &[u8]) -> Result<Metadata, MetadataError> {
+fn read_webp(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
     let mut meta = Metadata::default();
     let mut pos = 12;
     while let Some(head) = b.get(pos..pos + 8) {
@@ -237,6 +293,7 @@ fn read_webp(b: &[u8]) -> Result<Metadata, MetadataError> {
             b"XMP " => Some(Item::Xmp),
             _ => None,
         };
+        let item = item.filter(|i| !skip.contains(i));
         if let Some(item) = item {
             check_size(item, len)?;
         }

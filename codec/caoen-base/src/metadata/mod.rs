@@ -11,7 +11,7 @@ mod exif;
 mod fit;
 mod png;
 
-pub use container::read_container;
+pub use container::{read_container, read_container_lenient};
 pub use exif::{ifd_chain, orientation, reset_orientation, with_orientation_one};
 pub use fit::{icc_colour_space, Dropped};
 pub use png::{insert_png_chunks, png_chunks};
@@ -100,6 +100,15 @@ pub enum MetadataPolicy {
 }
 
 impl MetadataPolicy {
+    /// Whether the policy keeps items of this kind.
+    pub fn keeps(self, item: Item) -> bool {
+        match self {
+            MetadataPolicy::None => false,
+            MetadataPolicy::Icc => item == Item::Icc,
+            MetadataPolicy::All => true,
+        }
+    }
+
     /// Parses `none`, `icc` or `all`.
     pub fn parse(s: &str) -> Option<Self> {
         match s {

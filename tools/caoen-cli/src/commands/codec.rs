@@ -147,8 +147,13 @@ pub fn load_for_encode(
         max_pixels: caoen::codec::DEFAULT_MAX_PIXELS,
         ..image_io::LoadLimits::within(limits)
     };
-    let (img, metadata) = image_io::load_for_encoding(input, &load)?;
-    let kept = metadata.filtered(a.metadata.policy(a.strip));
+    let (img, metadata, dropped) = image_io::load_for_encoding_reporting(input, &load)?;
+    let policy = a.metadata.policy(a.strip);
+    // Only an item that would have been kept is worth a word.
+    for d in dropped.iter().filter(|d| policy.keeps(d.item)) {
+        eprintln!("warning: {}: {d}", input.display());
+    }
+    let kept = metadata.filtered(policy);
     // One budget for the command: what the input already holds is spent.
     let opts = encode_request(global, a, kept.clone())
         .options(img.held_bytes())

@@ -1,0 +1,144 @@
+//! Metadata as cameras and editors damage it (`tests/bad/hostile/third-*`): a damaged
+//! item never stops the work, an item an output cannot carry is left out of it, and
+//! each is named in a warning when it would have been kept.
+
+mod common;
+
+use std::path::Path;
+
+use caoen::metadata::read_container;
+use common::{caoen_ok, fresh_dir, s, stderr};
+
+fn bad(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/bad/hostile")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+#[test]
+fn damaged_metadata_never_stops_an_encode() {
+    let dir = fresh_dir("hostile-damaged-metadata");
+    let out = dir.join("x.cae");
+    // (input, the warning when the item would have been kept, the item's policy)
+    for (input, warning, icc) in [
+        (
+            "third-D1-exif-not-tiff.jpg",
+            "EXIF left out: EXIF does not start",
+            false,
+        ),
+        (
+            "third-D1c-icc-chunk-missing.jpg",
+            "ICC profile left out: JPEG chunks",
+            true,
+        ),
+        (
+            "third-D1d-iccp-bad-zlib.png",
+            "ICC profile left out: damaged zlib",
+            true,
+        ),
+        (
+            "third-D1e-png-exif-not-tiff.png",
+            "EXIF left out: EXIF does not start",
+            false,
+        ),
+    ] {
+        let input = bad(input);
+        for (policy, keeps) in [
+            (&[][..], true),
+            (&["--strip"][..], false),
+            (&["--metadata", "icc"][..], icc),
+            (&["--metadata", "none"][..], false),
+        ] {
+            let mut args = vec!["encode", &input, "-o", s(&out), "-f"];
+            args.extend_from_slice(policy);
+            let err = stderr(&caoen_ok(&args));
+            assert_eq!(err.contains(warning), keeps, "{input} {policy:?}: {err}");
+            assert_eq!(err.contains("warning:"), keeps, "{input} {policy:?}: {err}");
+        }
+    }
+    // A doubled `Exif\0\0` prefix (a known writer bug) is repaired: the EXIF is kept.
+    let err = stderr(&caoen_ok(&[
+        "encode",
+        &bad("third-D1b-exif-double-prefix.jpg"),
+        "-o",
+        s(&out),
+        "-f",
+    ]));
+    assert!(!err.contains("warning:"), "{err}");
+    let info = caoen_ok(&["info", s(&out), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert!(
+        v.to_string().contains("EXIF") || v.to_string().contains("exif"),
+        "{v}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn metadata_an_image_file_cannot_carry_is_left_out_with_a_warning() {
+    let dir = fresh_dir("hostile-unfit-metadata");
+    let at = |name: &str| dir.join(name).display().to_string();
+    // (input, the warning, which item)
+    for (input, warning, item) in [
+        (
+            "third-D5-exif-junk.cae",
+            "EXIF left out: EXIF does not start",
+            "exif",
+        ),
+        (
+            "third-D6-cmyk-jpeg-cmyk-icc.jpg",
+            "colour space is `CMYK`",
+            "icc",
+        ),
+        (
+            "third-M2-grey-jpeg-rgb-icc.jpg",
+            "`RGB`, the pixels' is `GRAY`",
+            "icc",
+        ),
+        (
+            "third-M3-xmp-invalid-utf8.jpg",
+            "XMP packet left out: not UTF-8",
+            "xmp",
+        ),
+    ] {
+        let cae = if input.ends_with(".cae") {
+            bad(input)
+        } else {
+            // Kept in the `.cae` (caoen's own container holds any bytes) or left out
+            // on the way in; either way not in the picture written from it.
+            caoen_ok(&["encode", &bad(input), "-o", &at("in.cae"), "-f"]);
+            at("in.cae")
+        };
+        let decoded = caoen_ok(&["decode", &cae, "-o", &at("out.png"), "-f"]);
+        let encoded = stderr(&decoded);
+        let png = std::fs::read(at("out.png")).unwrap();
+        let meta = read_container(&png).unwrap();
+        let present = match item {
+            "icc" => meta.icc.is_some(),
+            "exif" => meta.exif.is_some(),
+            _ => meta.xmp.is_some(),
+        };
+        assert!(!present, "{input}: {meta:?}");
+        // Named on the way in or on the way out.
+        let encode_err = if input.ends_with(".cae") {
+            String::new()
+        } else {
+            stderr(&caoen_ok(&[
+                "encode",
+                &bad(input),
+                "-o",
+                &at("in.cae"),
+                "-f",
+            ]))
+        };
+        assert!(
+            encoded.contains(warning) || encode_err.contains(warning),
+            "{input}: {encode_err}{encoded}"
+        );
+        // What caoen writes, caoen reads.
+        caoen_ok(&["encode", &at("out.png"), "-o", &at("again.cae"), "-f"]);
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
