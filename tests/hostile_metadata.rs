@@ -142,3 +142,28 @@ fn metadata_an_image_file_cannot_carry_is_left_out_with_a_warning() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn pixels_turned_upright_say_so_in_exif_and_xmp() {
+    let dir = fresh_dir("hostile-xmp-orientation");
+    let cae = dir.join("m1.cae");
+    let png = dir.join("m1.png");
+    let input = bad("third-M1-exif-and-xmp-orientation-6.jpg");
+    let before = read_container(&std::fs::read(&input).unwrap()).unwrap();
+    let xmp = String::from_utf8(before.xmp.unwrap()).unwrap();
+    assert!(xmp.contains(r#"tiff:Orientation="6""#), "{xmp}");
+    caoen_ok(&["encode", &input, "-o", s(&cae)]);
+    caoen_ok(&["decode", s(&cae), "-o", s(&png)]);
+    let after = read_container(&std::fs::read(&png).unwrap()).unwrap();
+    assert_eq!(
+        caoen::metadata::orientation(after.exif.as_deref().unwrap()),
+        Ok(Some(1))
+    );
+    let xmp = String::from_utf8(after.xmp.unwrap()).unwrap();
+    assert!(xmp.contains(r#"tiff:Orientation="1""#), "{xmp}");
+    assert!(
+        xmp.contains("<dc:title>hostile4</dc:title>"),
+        "the rest is kept: {xmp}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

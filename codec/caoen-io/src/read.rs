@@ -131,6 +131,16 @@ fn oriented(
             }
         }
     }
+    // The pixels are turned upright below: an XMP orientation must then say so too.
+    if orientation != 1 {
+        if let Some(upright) = meta
+            .xmp
+            .as_deref()
+            .and_then(caoen_base::metadata::xmp_with_orientation_one)
+        {
+            meta.xmp = Some(upright);
+        }
+    }
     let head = &bytes[..bytes.len().min(4)];
     let image = decode_image(
         Cursor::new(bytes),

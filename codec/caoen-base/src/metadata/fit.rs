@@ -40,6 +40,36 @@ pub fn icc_colour_space(icc: &[u8]) -> Result<[u8; 4], String> {
     Ok([icc[16], icc[17], icc[18], icc[19]])
 }
 
+/// An XMP packet whose `tiff:Orientation` (attribute `tiff:Orientation="6"` or element
+/// `<tiff:Orientation>6</tiff:Orientation>`) says 1: the pixels were turned upright, and
+/// a reader that trusts XMP over EXIF must not turn them again. `None` when there is
+/// nothing to change (or the packet is not UTF-8).
+pub fn xmp_with_orientation_one(xmp: &[u8]) -> Option<Vec<u8>> {
+    let text = std::str::from_utf8(xmp).ok()?;
+    let (a, double) = orientation_values_one(text, "tiff:Orientation=\"", '"')?;
+    let (b, single) = orientation_values_one(&a, "tiff:Orientation='", '\'')?;
+    let (c, element) = orientation_values_one(&b, "<tiff:Orientation>", '<')?;
+    (double || single || element).then(|| c.into_bytes())
+}
+
+/// `text` with every value between `open` and `close` set to 1, and whether any was
+/// another; `None` if a value is not closed.
+fn orientation_values_one(text: &str, open: &str, close: char) -> Option<(String, bool)> {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    let mut changed = false;
+    while let Some(at) = rest.find(open) {
+        let start = at + open.len();
+        let len = rest[start..].find(close)?;
+        out.push_str(&rest[..start]);
+        changed |= rest[start..start + len].trim() != "1";
+        out.push('1');
+        rest = &rest[start + len..];
+    }
+    out.push_str(rest);
+    Some((out, changed))
+}
+
 impl Metadata {
     /// The items an image with `colour_channels` colour channels (1 grey, 3 colour)
     /// can carry, and those left out: an ICC profile of another colour space (a CMYK
@@ -157,5 +187,27 @@ mod tests {
             xmp: Some("<x:xmpmeta/> é".as_bytes().to_vec()),
         };
         assert_eq!(ok.fitted(1), (ok.clone(), vec![]));
+    }
+
+    #[test]
+    fn the_xmp_orientation_is_set_upright_in_each_form() {
+        let attr = br#"<rdf:Description tiff:Orientation="6" dc:x="6"/>"#;
+        assert_eq!(
+            xmp_with_orientation_one(attr).unwrap(),
+            br#"<rdf:Description tiff:Orientation="1" dc:x="6"/>"#
+        );
+        let single = b"<d tiff:Orientation='8'/>";
+        assert_eq!(
+            xmp_with_orientation_one(single).unwrap(),
+            b"<d tiff:Orientation='1'/>"
+        );
+        let element = b"<tiff:Orientation> 3 </tiff:Orientation>";
+        assert_eq!(
+            xmp_with_orientation_one(element).unwrap(),
+            b"<tiff:Orientation>1</tiff:Orientation>"
+        );
+        assert_eq!(xmp_with_orientation_one(br#"tiff:Orientation="1""#), None);
+        assert_eq!(xmp_with_orientation_one(b"<x/>"), None);
+        assert_eq!(xmp_with_orientation_one(br#"tiff:Orientation="6"#), None);
     }
 }

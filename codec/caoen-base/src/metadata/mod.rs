@@ -13,7 +13,7 @@ mod png;
 
 pub use container::{read_container, read_container_lenient};
 pub use exif::{ifd_chain, orientation, reset_orientation, with_orientation_one};
-pub use fit::{icc_colour_space, Dropped};
+pub use fit::{icc_colour_space, xmp_with_orientation_one, Dropped};
 pub use png::{insert_png_chunks, png_chunks};
 
 use thiserror::Error;
