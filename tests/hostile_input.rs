@@ -2,21 +2,17 @@
 //! (one `error:` line, the expected exit code, no panic) or a bounded success, inside a
 //! 2 GiB address space where `prlimit` exists, and without hanging.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use common::hostile as bad;
+
 /// Far above the 10 s any of these takes alone: a guard against hangs, not a timing.
 const HANG_GUARD: Duration = Duration::from_secs(120);
 const ADDRESS_SPACE: &str = "--as=2147483648";
-
-fn bad(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/bad/hostile")
-        .join(name)
-        .display()
-        .to_string()
-}
 
 fn scratch(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("caoen-hostile-{}-{test}", std::process::id()));

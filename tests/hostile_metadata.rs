@@ -4,18 +4,8 @@
 
 mod common;
 
-use std::path::Path;
-
 use caoen::metadata::read_container;
-use common::{caoen_ok, fresh_dir, s, stderr};
-
-fn bad(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/bad/hostile")
-        .join(name)
-        .display()
-        .to_string()
-}
+use common::{caoen_ok, fresh_dir, hostile as bad, s, stderr};
 
 #[test]
 fn damaged_metadata_never_stops_an_encode() {

@@ -195,3 +195,12 @@ pub fn iou(a: &[bool], b: &[bool]) -> (f64, usize) {
     let union = a.iter().zip(b).filter(|(x, y)| **x || **y).count();
     (inter as f64 / union.max(1) as f64, union)
 }
+
+/// A file of `tests/bad/hostile/` (inputs that once broke caoen), as a command argument.
+pub fn hostile(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/bad/hostile")
+        .join(name)
+        .display()
+        .to_string()
+}
