@@ -40,6 +40,28 @@ fn peak(args: &[&str]) -> Option<(u64, i32, String)> {
     Some((kb * 1024, out.status.code().unwrap_or(-1), err))
 }
 
+/// A `w x h` photograph-like picture: smooth colour fields with, when `dense`, fine
+/// grain in every pixel (each detail block of a q100 encode then codes most of its
+/// coefficients).
+fn photo_like(w: u32, h: u32, dense: bool) -> image::RgbImage {
+    image::RgbImage::from_fn(w, h, |x, y| {
+        let (fx, fy) = (x as f64, y as f64);
+        let grain = if dense {
+            let k = (x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663))
+                .wrapping_mul(2_654_435_761);
+            (k >> 24) as f64 / 255.0 * 24.0 - 12.0
+        } else {
+            0.0
+        };
+        let c = |v: f64| (v + grain).clamp(0.0, 255.0) as u8;
+        image::Rgb([
+            c(128.0 + 80.0 * (fx / 97.0).sin() * (fy / 53.0).cos()),
+            c(128.0 + 60.0 * ((fx + fy) / 151.0).sin()),
+            c(100.0 + 50.0 * (fx / 37.0 + fy / 71.0).cos()),
+        ])
+    })
+}
+
 /// A UV sphere of about `n` triangles as OBJ text.
 fn sphere_obj(path: &Path, rings: usize) {
     use std::fmt::Write as _;
@@ -142,6 +164,34 @@ fn estimates_are_upper_bounds_of_the_peak() {
     let setup = |args: &[&str]| {
         common::caoen_ok(args);
     };
+    // Decodes of dense files (every detail block coded, as fine texture at q100 makes
+    // them) and flat ones (no detail layer to speak of), at 1, 12 and 48 MP.
+    let mut decodes = Vec::new();
+    for (mp, (w, h)) in [(1, (1200, 900)), (12, (4000, 3000)), (48, (8000, 6000))] {
+        for dense in [true, false] {
+            let name = format!("{}-{mp}mp", if dense { "dense" } else { "flat" });
+            let png = dir.join(format!("{name}.png"));
+            photo_like(w, h, dense).save(&png).expect("picture");
+            let cae = o(&format!("{name}.cae"));
+            let quality = if dense { "100" } else { "60" };
+            let png = png.display().to_string();
+            setup(&[
+                "-f",
+                "encode",
+                &png,
+                "-q",
+                quality,
+                "-e",
+                "1",
+                "--max-memory",
+                "4G",
+                "-o",
+                &cae,
+            ]);
+            std::fs::remove_file(&png).ok();
+            decodes.push((name, cae));
+        }
+    }
     setup(&[
         "-f",
         "surface",
@@ -276,6 +326,15 @@ fn estimates_are_upper_bounds_of_the_peak() {
             ]),
         ),
     ];
+    let cases: Vec<(String, Vec<String>)> = cases
+        .into_iter()
+        .chain(decodes.iter().map(|(name, cae)| {
+            (
+                format!("decode {name} (PNG)"),
+                v(&["decode", cae, "-o", &o(&format!("{name}.png"))]),
+            )
+        }))
+        .collect();
     let mut failures = Vec::new();
     let mut table = vec![
         "| command | estimate | peak RSS | estimate / peak | at 95% of the peak |".to_string(),

@@ -450,3 +450,49 @@ fn the_luma_basis_moves_error_out_of_luma() {
         "luma PSNR over RGB PSNR: {luma:.2} dB luma basis, {grey:.2} grey"
     );
 }
+
+#[test]
+fn the_detail_layer_is_counted_in_the_decode_budget() {
+    // Fine grain coded at q100: nearly every detail block holds most of its 64 levels,
+    // about 24 bytes per pixel of levels and coefficients beyond the header's estimate.
+    let (w, h) = (640u32, 480u32);
+    let img = image::RgbImage::from_fn(w, h, |x, y| {
+        let k =
+            (x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663)).wrapping_mul(2_654_435_761);
+        let g = (k >> 24) as u8 / 4;
+        image::Rgb([100 + g, 90 + g, 80 + g])
+    });
+    let raster = image_io::from_dynamic(image::DynamicImage::ImageRgb8(img)).unwrap();
+    let opts = EncodeOptions {
+        quality: 100.0,
+        ..EncodeOptions::default()
+    };
+    let bytes = encode(&raster, &opts).unwrap();
+    let header = inspect(&bytes).unwrap().header;
+    let base = caoen::codec::decoder::decode_memory(&header, (w, h), None, 4);
+    let whole = DecodeOptions::default();
+    let reference = decode(&bytes, &whole).unwrap();
+    let largest = whole.limits.largest_checked();
+    assert!(
+        largest >= base + 8 * u64::from(w * h),
+        "the layer's levels and coefficients counted: {largest} against {base}"
+    );
+    // A budget the header's estimate fits but the layer does not: refused, naming it.
+    let tight = DecodeOptions {
+        limits: Limits::new(base + u64::from(w * h)),
+        ..DecodeOptions::default()
+    };
+    match decode(&bytes, &tight) {
+        Err(CodecError::Memory(e)) => {
+            assert!(e.what.contains("with its detail layer"), "{}", e.what);
+            assert!(e.need > e.budget, "{e}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Exactly the largest need checked: decodes, the same samples.
+    let exact = DecodeOptions {
+        limits: Limits::new(largest),
+        ..DecodeOptions::default()
+    };
+    assert_eq!(decode(&bytes, &exact).unwrap(), reference);
+}

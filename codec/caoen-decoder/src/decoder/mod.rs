@@ -24,13 +24,14 @@ mod region;
 
 pub use forward::{fill_holes, render_forward};
 pub use parse::detail_models;
-pub use parse::{read, read_parsed};
+pub use parse::{read, read_parsed, read_parsed_within};
 pub use reconstruct::{
     render_identity, render_identity_raster, render_identity_raster_on, to_raster, unrestored_bands,
 };
 pub use region::MAX_ZOOM;
 
 use super::bitstream::{self, Header, Parsed};
+use super::detail::budget::LayerBudget;
 use super::detail::Detail;
 use super::quadtree::Cell;
 use super::{CodecError, DecodeOptions, MAX_SIDE};
@@ -55,11 +56,13 @@ pub struct Decoded {
     pub detail: Option<Detail>,
 }
 
+/// The output size of a decode and its estimated memory (all but the detail layer's
+/// levels and coefficients, which [`LayerBudget`] bounds as they are made), checked.
 fn output_size(
     header: &Header,
     opts: &DecodeOptions,
     sample_bytes: u64,
-) -> Result<(u32, u32), CodecError> {
+) -> Result<((u32, u32), u64), CodecError> {
     let (ow, oh) = opts.size.unwrap_or(header.display_size());
     if ow == 0 || oh == 0 || ow > MAX_SIDE || oh > MAX_SIDE {
         return Err(CodecError::Parameter {
@@ -81,11 +84,30 @@ fn output_size(
             limit: opts.max_pixels,
         });
     }
-    opts.limits.check(
-        || format!("decoding {}x{} to {ow}x{oh}", header.width, header.height),
-        decode_memory(header, (ow, oh), opts.supersample, sample_bytes),
-    )?;
-    Ok((ow, oh))
+    let need = decode_memory(header, (ow, oh), opts.supersample, sample_bytes);
+    opts.limits.check(|| decoding(header, (ow, oh)), need)?;
+    Ok(((ow, oh), need))
+}
+
+/// What a decode of `header`'s file to `ow x oh` is called in a message.
+fn decoding(header: &Header, (ow, oh): (u32, u32)) -> String {
+    format!("decoding {}x{} to {ow}x{oh}", header.width, header.height)
+}
+
+/// The detail layer's share of a decode whose other needs, `base` bytes, were checked
+/// against `opts`' limits as `what`.
+fn layer_budget(opts: &DecodeOptions, base: u64, what: String) -> LayerBudget {
+    let budget = opts.limits.max_memory.saturating_sub(opts.limits.held());
+    LayerBudget::new(base, budget, what)
+}
+
+/// Records a finished decode's whole need (`base` and the layer's peak) as the largest
+/// its limits checked, so that callers comparing a measured peak with the estimate see
+/// the layer counted; it fitted, or the layer would have been refused.
+fn record_peak(opts: &DecodeOptions, base: u64, layer: &LayerBudget, what: &str) {
+    let _ = opts
+        .limits
+        .check(|| what.to_string(), base.saturating_add(layer.peak()));
 }
 
 /// The output size a decode of a file with `header` makes with `opts`: the size asked
@@ -108,8 +130,10 @@ const KEY_POINT_BYTES: u64 = 256;
 /// Estimated peak memory of decoding a file with `header` to `ow x oh` pixels, in
 /// bytes: the key points, the output of `sample_bytes` per sample (4 for a raster, 1
 /// or 2 for [`decode_interleaved`]), the whole coding planes (4 bytes per sample) when
-/// the file restores and, for forward mapping with `S x S` samples, the sample lattice
-/// and the accumulation planes.
+/// the file restores, the detail layer's per-block bookkeeping and, for forward mapping
+/// with `S x S` samples, the sample lattice and the accumulation planes. The detail
+/// layer's levels and coefficients are not in it: a decode takes them from what the
+/// budget leaves as it makes them ([`LayerBudget`]).
 pub fn decode_memory(
     header: &Header,
     (ow, oh): (u32, u32),
@@ -128,7 +152,18 @@ pub fn decode_memory(
             4 * channels + 4 * (channels + u64::from(restored)) * s * s + 8 * channels + 8
         }
     };
+    // The detail layer's bookkeeping per block; its levels and coefficients are taken
+    // from what is left as they are made (`LayerBudget`).
+    let (cols, rows) = crate::detail::blocks(header.width, header.height);
+    let planes = if header.detail_steps.is_some() {
+        header.layout.colour_channels() as u64
+    } else {
+        0
+    };
+    let blocks =
+        caoen_base::budget::bytes(cols as u64 * rows as u64, planes, Detail::BYTES_PER_BLOCK);
     keys.saturating_add(caoen_base::budget::bytes(ow.into(), oh.into(), per_pixel))
+        .saturating_add(blocks)
         .saturating_add(16 << 20)
 }
 
@@ -158,8 +193,11 @@ pub fn decode_parsed(parsed: &Parsed<'_>, opts: &DecodeOptions) -> Result<Raster
             });
         }
     };
-    let d = read_parsed(parsed)?;
-    let (ow, oh) = output_size(&d.header, opts, 4)?;
+    let ((ow, oh), base) = output_size(&parsed.header, opts, 4)?;
+    let what = decoding(&parsed.header, (ow, oh));
+    let layer = layer_budget(opts, base, what.clone());
+    let d = read_parsed_within(parsed, &layer)?;
+    record_peak(opts, base, &layer, &what);
     if (ow, oh) == (d.header.width, d.header.height) {
         // Forward mapping of an unedited file at its own size reproduces the identity
         // path exactly (each output centre is a lattice sample); skip the extra work.

@@ -6,6 +6,7 @@ use crate::par::*;
 use super::Decoded;
 use crate::bitstream::{self, Header, Parsed, TilePayload};
 use crate::detail::adaptive::{block_classes, BlockSteps};
+use crate::detail::budget::LayerBudget;
 use crate::detail::dct::N as DCT_N;
 use crate::detail::field::ActivityField;
 use crate::detail::{blocks as detail_blocks, Detail, DetailPlane};
@@ -97,7 +98,11 @@ fn read_tree(header: &Header, t: &TilePayload) -> Result<(TreeShape, Vec<Cell>),
 }
 
 /// Entropy-decodes one tile: tree, values (luma and chroma side by side) and detail.
-fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError> {
+fn read_tile(
+    header: &Header,
+    t: &TilePayload,
+    budget: &LayerBudget,
+) -> Result<TileDecoded, CodecError> {
     let r = t.rect;
     let (shape, cells) = read_tree(header, t)?;
     let size = (r.width, r.height);
@@ -124,7 +129,8 @@ fn read_tile(header: &Header, t: &TilePayload) -> Result<TileDecoded, CodecError
                         Some(steps) if !t.detail.is_empty() => {
                             let classes = block_classes(&cells, r.width, r.height);
                             let field = header.adaptive.and_then(|a| a.field());
-                            Detail::read(t.detail, r.width, r.height, steps, &classes, field)
+                            let (w, h) = (r.width, r.height);
+                            Detail::read_within(t.detail, w, h, steps, &classes, field, budget)
                                 .map(|(d, _)| Some(d))
                         }
                         _ => Ok(None),
@@ -174,11 +180,17 @@ pub fn detail_models(
 /// Entropy-decodes every tile (in parallel) and joins them into the image's key points
 /// in its coding order and its detail layer.
 pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
+    read_parsed_within(parsed, &LayerBudget::unlimited())
+}
+
+/// [`read_parsed`] with the detail layer's levels taken from `budget` as they are read
+/// and gathered.
+pub fn read_parsed_within(parsed: &Parsed, budget: &LayerBudget) -> Result<Decoded, CodecError> {
     let header = parsed.header.clone();
     let tiles = parsed
         .tiles
         .par_iter()
-        .map(|t| read_tile(&header, t))
+        .map(|t| read_tile(&header, t, budget))
         .collect::<Result<Vec<_>, _>>()?;
     let (luma_steps, chroma_steps) = steps(&header);
     let mut luma_cells = Vec::with_capacity(header.luma_count as usize);
@@ -205,37 +217,40 @@ pub fn read_parsed(parsed: &Parsed) -> Result<Decoded, CodecError> {
     let (luma_cells, luma_values) = into_image_order(&luma_cells, &luma_values, header.block_log2);
     let (chroma_cells, chroma_values) =
         into_image_order(&chroma_cells, &chroma_values, header.block_log2);
-    let detail = header.detail_plane_steps().map(|steps| {
-        let (cols, rows) = detail_blocks(header.width, header.height);
-        let planes = (0..steps.len())
-            .map(|c| {
-                DetailPlane::from_tiles(
-                    cols,
-                    rows,
-                    details.iter_mut().map(|(r, planes, _)| {
-                        let at = (r.x0 as usize / DCT_N, r.y0 as usize / DCT_N);
-                        (at, planes.get_mut(c).and_then(Option::take))
-                    }),
-                )
-            })
-            .collect();
-        Detail {
-            planes,
-            steps,
-            deblock: header.deblock,
-            lapping: header.lapping,
-            block_steps: header.adaptive.map(|steps| BlockSteps {
+    let detail = header
+        .detail_plane_steps()
+        .map(|steps| -> Result<Detail, CodecError> {
+            let (cols, rows) = detail_blocks(header.width, header.height);
+            let planes = (0..steps.len())
+                .map(|c| {
+                    let tiles = details
+                        .iter_mut()
+                        .map(|(r, planes, _)| {
+                            let at = (r.x0 as usize / DCT_N, r.y0 as usize / DCT_N);
+                            (at, planes.get_mut(c).and_then(Option::take))
+                        })
+                        .collect();
+                    DetailPlane::from_tiles(cols, rows, tiles, budget)
+                })
+                .collect::<Result<_, _>>()?;
+            Ok(Detail {
+                planes,
                 steps,
-                classes: block_classes(&luma_cells, header.width, header.height),
-                field: match steps.field() {
-                    Some(_) => image_field(&details, cols, rows),
-                    None => Vec::new(),
-                },
-            }),
-            weights: header.weights,
-            field: None,
-        }
-    });
+                deblock: header.deblock,
+                lapping: header.lapping,
+                block_steps: header.adaptive.map(|steps| BlockSteps {
+                    steps,
+                    classes: block_classes(&luma_cells, header.width, header.height),
+                    field: match steps.field() {
+                        Some(_) => image_field(&details, cols, rows),
+                        None => Vec::new(),
+                    },
+                }),
+                weights: header.weights,
+                field: None,
+            })
+        });
+    let detail = detail.transpose()?;
     Ok(Decoded {
         luma_values: dequantise(&luma_values, &luma_steps, &luma_cells, header.level_steps()),
         chroma_values: dequantise(

@@ -3,7 +3,7 @@
 
 use crate::par::*;
 
-use super::parse::read_parsed;
+use super::parse::read_parsed_within;
 use super::region::Plan;
 use super::Decoded;
 use crate::bitstream::{self, Header};
@@ -137,7 +137,12 @@ pub(super) fn identity_with<O: Send, R>(
     let plan = Plan::new(header, opts, sample_bytes)?;
     let (grid, window) = (plan.grid, plan.window);
     let frame = Frame::new(header.width, header.height);
-    let (decoded, samples) = crate::par::join(|| read_parsed(parsed), || alloc(header, window));
+    let what = super::decoding(header, plan.out);
+    let budget = super::layer_budget(opts, plan.need, what.clone());
+    let (decoded, samples) = crate::par::join(
+        || read_parsed_within(parsed, &budget),
+        || alloc(header, window),
+    );
     let mut d = decoded?;
     let layer = d.detail.take();
     let to_f32 = |planes: Vec<Vec<f64>>| -> Vec<Vec<f32>> {
@@ -160,10 +165,16 @@ pub(super) fn identity_with<O: Send, R>(
                             .with_values(to_f32(d.chroma_values))
                     })
                 },
-                || layer.map(|dl| DetailEval::from_layer(dl, &grid)),
+                || {
+                    layer
+                        .map(|dl| DetailEval::from_layer_within(dl, &grid, &budget))
+                        .transpose()
+                },
             )
         },
     );
+    let detail = detail?;
+    super::record_peak(opts, plan.need, &budget, &what);
     let out = finish(
         header,
         &luma,

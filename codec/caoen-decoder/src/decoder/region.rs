@@ -34,6 +34,9 @@ pub(super) struct Plan {
     pub offset: (u32, u32),
     /// The output's size.
     pub out: (u32, u32),
+    /// The estimated memory of all but the detail layer's levels and coefficients,
+    /// checked.
+    pub need: u64,
 }
 
 impl Plan {
@@ -46,12 +49,13 @@ impl Plan {
     ) -> Result<Self, CodecError> {
         let frame = Frame::new(header.width, header.height);
         let Some(region) = opts.region else {
-            let (ow, oh) = output_size(header, opts, sample_bytes)?;
+            let ((ow, oh), need) = output_size(header, opts, sample_bytes)?;
             return Ok(Plan {
                 grid: Grid::pixel_centres(&frame, ow, oh),
                 window: (ow, oh),
                 offset: (0, 0),
                 out: (ow, oh),
+                need,
             });
         };
         let (dw, dh) = header.display_size();
@@ -82,6 +86,7 @@ impl Plan {
                     .min(u64::from(MAX_SIDE) * u64::from(MAX_SIDE)),
             });
         }
+        let need = decode_memory(header, window, None, sample_bytes);
         opts.limits.check(
             || {
                 format!(
@@ -89,7 +94,7 @@ impl Plan {
                     header.width, header.height, size.0, size.1, window.0, window.1
                 )
             },
-            decode_memory(header, window, None, sample_bytes),
+            need,
         )?;
         Ok(Plan {
             grid: Grid {
@@ -103,6 +108,7 @@ impl Plan {
             window,
             offset: ((x.start - wx.start) as u32, (y.start - wy.start) as u32),
             out: size,
+            need,
         })
     }
 

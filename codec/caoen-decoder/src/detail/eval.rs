@@ -2,12 +2,14 @@
 //! lapping.
 
 use super::adaptive::BlockSteps;
+use super::budget::{bytes_of, LayerBudget};
 use super::dct::{self, COEFFS, N};
 use super::deblock::{edge_basis, edge_weight, gate, Deblock};
 use super::lapping::Lapping;
 use super::weights::{self, WeightTable};
 use super::{Detail, DetailPlane, ZERO};
 use crate::keyset::Grid;
+use crate::CodecError;
 
 /// A chroma block's coefficients with luma factor `a` (eighths): its own (none: all
 /// zero) plus `a / 8` times its luma block's, the one rule of the scalar and grid paths.
@@ -185,7 +187,9 @@ impl PlaneEval {
         weights: &WeightTable,
         luma: Option<(&DetailPlane, f64, &WeightTable)>,
     ) -> Self {
-        let mut coeffs = vec![0.0f32; p.levels.len()];
+        let (n_coeffs, n_extents) = PlaneEval::sizes(p, luma.is_some());
+        let mut coeffs = Vec::with_capacity(n_coeffs);
+        coeffs.resize(p.levels.len(), 0.0f32);
         for (i, &k) in p.index.iter().enumerate() {
             if k != ZERO {
                 let (at, v1, u1) = p.spans[k as usize];
@@ -203,9 +207,11 @@ impl PlaneEval {
                 }
             }
         }
+        let mut extent = Vec::with_capacity(n_extents);
+        extent.extend_from_slice(&p.spans);
         let mut eval = PlaneEval {
             coeffs,
-            extent: p.spans.clone(),
+            extent,
             index: p.index.clone(),
             cols: p.cols,
         };
@@ -236,6 +242,26 @@ impl PlaneEval {
             }
         }
         eval
+    }
+
+    /// How many coefficients and extents the plane's evaluator holds at most: its
+    /// levels' and, appended, a whole block for each block of a merged group and, with
+    /// luma (`with_luma`), each block with a luma factor.
+    fn sizes(p: &DetailPlane, with_luma: bool) -> (usize, usize) {
+        let merged = p.merged.iter().filter(|&&g| g != 0).count();
+        let factors = if with_luma {
+            p.factors.iter().filter(|&&a| a != 0).count()
+        } else {
+            0
+        };
+        let appended = merged + factors;
+        (p.levels.len() + appended * COEFFS, p.spans.len() + appended)
+    }
+
+    /// The bytes [`PlaneEval::new`] allocates for `p`'s coefficients and extents.
+    fn bytes(p: &DetailPlane, with_luma: bool) -> u64 {
+        let (c, e) = PlaneEval::sizes(p, with_luma);
+        bytes_of::<f32>(c) + bytes_of::<(u32, u8, u8)>(e)
     }
 
     /// Block `i`'s coefficients become `c` (none: all zero), appended.
@@ -294,15 +320,27 @@ impl DetailEval {
     /// [`DetailEval::new`] taking the layer, each plane's levels freed as soon as its
     /// coefficients are made: the decoder's peak holds one plane's levels, not all.
     pub fn from_layer(detail: Detail, grid: &Grid) -> Self {
+        DetailEval::from_layer_within(detail, grid, &LayerBudget::unlimited())
+            .expect("an unlimited budget refuses nothing")
+    }
+
+    /// [`DetailEval::from_layer`] with each plane's coefficients taken from `budget`
+    /// before they are made and its levels given back as they are freed.
+    pub fn from_layer_within(
+        detail: Detail,
+        grid: &Grid,
+        budget: &LayerBudget,
+    ) -> Result<Self, CodecError> {
         let (cols, rows) = detail.planes.first().map_or((1, 1), |p| (p.cols, p.rows));
         let mut eval = DetailEval::geometry(cols, rows, grid, detail.deblock, detail.lapping);
         eval.thresholds = thresholds(&detail);
         let tables = weights::plane_tables(detail.weights, detail.planes.len());
         let mut planes = detail.planes.into_iter();
         let Some(luma) = planes.next() else {
-            return eval;
+            return Ok(eval);
         };
         let (steps, block_steps) = (detail.steps, detail.block_steps.as_ref());
+        budget.take(PlaneEval::bytes(&luma, false))?;
         eval.planes.push(PlaneEval::new(
             &luma,
             steps[0],
@@ -312,11 +350,16 @@ impl DetailEval {
         ));
         // Chroma's luma factors need the luma levels: those are freed last.
         for (pi, p) in planes.enumerate().map(|(k, p)| (k + 1, p)) {
+            budget.take(PlaneEval::bytes(&p, true))?;
             let l = Some((&luma, steps[0], &tables[0]));
             eval.planes
                 .push(PlaneEval::new(&p, steps[pi], block_steps, &tables[pi], l));
+            budget.free(p.levels);
+            budget.free(p.spans);
         }
-        eval
+        budget.free(luma.levels);
+        budget.free(luma.spans);
+        Ok(eval)
     }
 
     /// The evaluation geometry of `cols x rows` blocks on `grid`, without planes.

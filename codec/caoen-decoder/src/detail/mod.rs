@@ -15,6 +15,7 @@
 //! defined everywhere in its block, not a table of pixels.
 
 pub mod adaptive;
+pub mod budget;
 pub mod context_tables;
 pub mod dct;
 pub mod deblock;
@@ -29,6 +30,7 @@ pub use eval::DetailEval;
 pub use plane::{factor_context, luma_predicts, DetailPlane};
 
 use adaptive::BlockSteps;
+use budget::LayerBudget;
 use dct::{COEFFS, N};
 use deblock::Deblock;
 use field::ActivityField;
@@ -290,6 +292,22 @@ impl Detail {
         classes: &[u8],
         field_log2: Option<u8>,
     ) -> Result<(Self, [DetailContexts; 2]), CodecError> {
+        let unlimited = LayerBudget::unlimited();
+        Detail::read_within(
+            payload, width, height, steps, classes, field_log2, &unlimited,
+        )
+    }
+
+    /// [`Detail::read`] with the planes' levels taken from `budget` as they grow.
+    pub fn read_within(
+        payload: &[u8],
+        width: u32,
+        height: u32,
+        steps: Vec<f64>,
+        classes: &[u8],
+        field_log2: Option<u8>,
+        budget: &LayerBudget,
+    ) -> Result<(Self, [DetailContexts; 2]), CodecError> {
         let (cols, rows) = blocks(width, height);
         assert_eq!(classes.len(), cols * rows, "one class per block");
         let (n, used) = varint::read(payload, "the detail section's luma stream length", 0)?;
@@ -323,13 +341,13 @@ impl Detail {
             let planes = (0..planes)
                 .map(|c| {
                     DetailPlane::read(
-                        cols,
-                        rows,
+                        (cols, rows),
                         classes,
                         kind,
                         luma.map(|l| (l, c)),
                         &mut ctx,
                         &mut src,
+                        budget,
                     )
                 })
                 .collect::<Result<Vec<_>, _>>()?;
@@ -357,7 +375,8 @@ impl Detail {
         Ok((detail, [luma_ctx, chroma_ctx]))
     }
 
-    /// Bytes per pixel the decoder holds for the layer at most (levels and their
-    /// dequantised coefficients), for memory estimates.
-    pub const BYTES_PER_PIXEL: u64 = 2 * 4 + 2;
+    /// Bytes per block and plane the decoder holds besides levels and coefficients
+    /// (each block's index, group and factor, in a tile's plane, the image's and the
+    /// evaluator's), for memory estimates made before the layer is read.
+    pub const BYTES_PER_BLOCK: u64 = 3 * 4 + 2 * 2;
 }

@@ -1,6 +1,7 @@
 //! One channel's quantised blocks: their levels held compactly, gathered from tiles,
 //! read from a stream, and dequantised per block.
 
+use super::budget::{bytes_of, LayerBudget};
 use super::dct::{self, COEFFS, N};
 use super::syntax::{self, DetailContexts, FactorContext};
 use super::weights::WeightTable;
@@ -134,14 +135,22 @@ impl DetailPlane {
 
     /// The plane of a whole image, `cols x rows` blocks, from its tiles' planes, each
     /// placed at its first block `(bx, by)`; a tile without a plane has no coded block.
+    /// The whole plane's levels are taken from `budget` before they are gathered, and
+    /// each tile's given back as it is dropped.
     pub fn from_tiles(
         cols: usize,
         rows: usize,
-        tiles: impl IntoIterator<Item = ((usize, usize), Option<DetailPlane>)>,
-    ) -> Self {
+        tiles: Vec<((usize, usize), Option<DetailPlane>)>,
+        budget: &LayerBudget,
+    ) -> Result<Self, CodecError> {
+        let planes = || tiles.iter().filter_map(|(_, p)| p.as_ref());
+        let (n_levels, n_spans) =
+            planes().fold((0, 0), |(l, s), p| (l + p.levels.len(), s + p.spans.len()));
+        let whole = bytes_of::<i32>(n_levels) + bytes_of::<(u32, u8, u8)>(n_spans);
+        budget.take(whole)?;
         let mut index = vec![ZERO; cols * rows];
-        let mut spans = Vec::new();
-        let mut levels = Vec::new();
+        let mut spans = Vec::with_capacity(n_spans);
+        let mut levels = Vec::with_capacity(n_levels);
         let mut merged = vec![0; cols * rows];
         let mut factors = Vec::new();
         for ((bx0, by0), plane) in tiles {
@@ -165,8 +174,10 @@ impl DetailPlane {
                     }
                 }
             }
+            budget.free(p.levels);
+            budget.free(p.spans);
         }
-        DetailPlane {
+        Ok(DetailPlane {
             cols,
             rows,
             index,
@@ -174,7 +185,7 @@ impl DetailPlane {
             levels,
             merged,
             factors,
-        }
+        })
     }
 
     /// The levels of block `(bx, by)`, if it has a nonzero one (a merged group's are
@@ -236,15 +247,15 @@ impl DetailPlane {
 
     /// Reads a `cols x rows` plane whose blocks have cell-size classes `classes`; a
     /// chroma plane with its luma plane and its index among the chroma planes (0: C1),
-    /// for the luma factors.
+    /// for the luma factors. Its levels are taken from `budget` before they grow.
     pub fn read(
-        cols: usize,
-        rows: usize,
+        (cols, rows): (usize, usize),
         classes: &[u8],
         kind: usize,
         luma: Option<(&DetailPlane, usize)>,
         ctx: &mut DetailContexts,
         src: &mut AnsSource,
+        budget: &LayerBudget,
     ) -> Result<Self, CodecError> {
         let mut plane = DetailPlane::empty(cols, rows);
         let mut factors = vec![0i8; if luma.is_some() { cols * rows } else { 0 }];
@@ -279,6 +290,8 @@ impl DetailPlane {
             walk.done(&q);
             if coded {
                 // A coded block has a nonzero level (the syntax codes its last one).
+                budget.grow(&mut plane.levels, COEFFS)?;
+                budget.grow(&mut plane.spans, 1)?;
                 plane.push(&q);
             } else {
                 plane.index.push(ZERO);
