@@ -1,9 +1,8 @@
 //! Each pixel's class for the classified filters: the activity and direction of the
 //! luma's second differences around it.
 
-use super::{
-    lerp_at, lerp_table, lerp_taps, tap, whole_pixels, ACTIVITY_BOUNDS, DIRECTIONS, WINDOW,
-};
+use super::scaled::{lerp_row, lerp_table, lerp_taps, run_of, Table};
+use super::{whole_pixels, ACTIVITY_BOUNDS, DIRECTIONS, WINDOW};
 
 /// The class of each pixel of rows `rows` (`rows.len() * w` entries, in `0..CLASSES`)
 /// of a plane of `w x h` samples `spacing` coded pixels apart.
@@ -61,12 +60,16 @@ pub(super) fn classify_sampled(
         ((1, 1), (-1, -1)),
         ((-1, 1), (1, -1)),
     ];
-    let xs: Vec<Vec<(u32, u32, f32)>> = if native {
+    let xs: Vec<Table> = if native {
         Vec::new()
     } else {
         [-1.0, 0.0, 1.0]
             .iter()
-            .map(|&a| lerp_table(w, a / sx))
+            .map(|&a| {
+                let t = lerp_table(w, a / sx);
+                let run = run_of(&t);
+                (t, run)
+            })
             .collect()
     };
     // The second differences of one row: h, v, d1, d2, each `w` long.
@@ -92,22 +95,26 @@ pub(super) fn classify_sampled(
         }
         let py = y as f64;
         let ys = [-1.0, 0.0, 1.0].map(|a| lerp_taps(py + a / sy, h));
-        for x in 0..w {
-            let c = 2.0 * plane[y * w + x];
-            for (k, ((ax, ay), (bx, by))) in PAIRS.into_iter().enumerate() {
-                let a = lerp_at(
-                    plane,
-                    w,
-                    tap(xs[(ax + 1) as usize][x]),
-                    ys[(ay + 1) as usize],
-                );
-                let b = lerp_at(
-                    plane,
-                    w,
-                    tap(xs[(bx + 1) as usize][x]),
-                    ys[(by + 1) as usize],
-                );
-                d[k][x] = (c - a - b).abs();
+        let centre = &plane[y * w..(y + 1) * w];
+        // Whole rows of each pair's two samples, then the differences.
+        let (mut a, mut b) = (vec![0.0f32; w], vec![0.0f32; w]);
+        for (k, ((ax, ay), (bx, by))) in PAIRS.into_iter().enumerate() {
+            lerp_row(
+                plane,
+                w,
+                &xs[(ax + 1) as usize],
+                ys[(ay + 1) as usize],
+                &mut a,
+            );
+            lerp_row(
+                plane,
+                w,
+                &xs[(bx + 1) as usize],
+                ys[(by + 1) as usize],
+                &mut b,
+            );
+            for (((o, &c), &a), &b) in d[k].iter_mut().zip(centre).zip(&a).zip(&b) {
+                *o = (2.0 * c - a - b).abs();
             }
         }
         d

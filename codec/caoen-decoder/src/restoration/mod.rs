@@ -23,6 +23,9 @@
 
 mod classes;
 pub mod colour_map;
+mod scaled;
+
+use scaled::scaled_rows;
 pub mod syntax;
 #[cfg(test)]
 mod tests;
@@ -433,89 +436,4 @@ fn native_classified_rows(
 fn whole_pixels((px, py): (f64, f64)) -> Option<(usize, usize)> {
     let whole = |v: f64| (v.fract() == 0.0 && (1.0..=65536.0).contains(&v)).then_some(v as usize);
     Some((whole(px)?, whole(py)?))
-}
-
-/// One axis of the bilinear interpolation of `f` between output pixel centres at `v`
-/// (clamped to the image): the two samples and the second one's weight.
-#[inline]
-fn lerp_taps(v: f64, n: usize) -> (usize, usize, f32) {
-    let v = v.clamp(0.0, (n - 1) as f64);
-    let v0 = v.floor() as usize;
-    (v0, (v0 + 1).min(n - 1), (v - v0 as f64) as f32)
-}
-
-/// [`lerp_taps`] at `x + offset` for every `x` in `0..n`: an axis's taps depend on
-/// that axis alone, so rows of samples at a fixed offset share them. Stored in 12
-/// bytes (sides are at most 16384), read back by [`tap`].
-fn lerp_table(n: usize, offset: f64) -> Vec<(u32, u32, f32)> {
-    (0..n)
-        .map(|x| {
-            let (a, b, f) = lerp_taps(x as f64 + offset, n);
-            (a as u32, b as u32, f)
-        })
-        .collect()
-}
-
-/// A [`lerp_table`] entry as [`lerp_taps`] gives it.
-#[inline]
-fn tap((a, b, f): (u32, u32, f32)) -> (usize, usize, f32) {
-    (a as usize, b as usize, f)
-}
-
-/// `f` at the point whose two axes' taps are given: bilinear.
-#[inline]
-fn lerp_at(
-    plane: &[f32],
-    w: usize,
-    (x0, x1, fx): (usize, usize, f32),
-    (y0, y1, fy): (usize, usize, f32),
-) -> f32 {
-    let top = plane[y0 * w + x0] * (1.0 - fx) + plane[y0 * w + x1] * fx;
-    let bottom = plane[y1 * w + x0] * (1.0 - fx) + plane[y1 * w + x1] * fx;
-    top * (1.0 - fy) + bottom * fy
-}
-
-/// The filter at another size: offsets of `d / spacing` output pixels, sampled by
-/// bilinear interpolation, positions clamped to the image; `pick(i)` gives the
-/// weights of pixel `i` of the rows, if it is filtered. Each offset's column taps are
-/// tabulated once and its row taps once per row.
-fn scaled_rows<'a>(
-    plane: &[f32],
-    (w, h): (usize, usize),
-    (sx, sy): (f64, f64),
-    shape: &[(i32, i32)],
-    pick: &dyn Fn(usize) -> Option<&'a [f32]>,
-    rows: std::ops::Range<usize>,
-    out: &mut [f32],
-) {
-    // The offsets in output pixels, the same for every pixel.
-    let offsets: Vec<(f64, f64)> = shape
-        .iter()
-        .map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy))
-        .collect();
-    let plus: Vec<_> = offsets.iter().map(|&(ox, _)| lerp_table(w, ox)).collect();
-    let minus: Vec<_> = offsets.iter().map(|&(ox, _)| lerp_table(w, -ox)).collect();
-    for (j, y) in rows.enumerate() {
-        let py = y as f64;
-        let ys: Vec<_> = offsets
-            .iter()
-            .map(|&(_, oy)| (lerp_taps(py + oy, h), lerp_taps(py - oy, h)))
-            .collect();
-        for x in 0..w {
-            let c = plane[y * w + x];
-            let Some(wt) = pick(j * w + x) else {
-                out[j * w + x] = c;
-                continue;
-            };
-            let mut acc = 0.0f32;
-            for (k, &wk) in wt.iter().enumerate() {
-                let (up, down) = ys[k];
-                acc += wk
-                    * (lerp_at(plane, w, tap(plus[k][x]), up)
-                        + lerp_at(plane, w, tap(minus[k][x]), down)
-                        - 2.0 * c);
-            }
-            out[j * w + x] = c + acc;
-        }
-    }
 }

@@ -2,6 +2,7 @@
 //! pixels' classes against theirs.
 
 use super::classes::classify_sampled;
+use super::scaled::{scaled_rows, scaled_rows_reference};
 use super::*;
 use caoen_base::rng::Lcg;
 
@@ -440,6 +441,62 @@ fn the_classified_filter_is_each_pixels_class_filter_in_any_band() {
             let mut band = vec![0.0; (end - start) * w];
             luma_rows(&plane, (w, h), spacing, &pf, start..end, &mut band);
             assert_eq!(band, whole[start * w..end * w], "{spacing:?} from {start}");
+        }
+    }
+}
+
+#[test]
+fn the_row_wise_scaled_filter_equals_the_pixel_wise_reference_bit_for_bit() {
+    let mut seed = Lcg::new(5);
+    let twelve: Vec<f32> = weights(&(0..12).map(|k| 31 - 5 * k).collect::<Vec<_>>());
+    let other: Vec<f32> = weights(&(0..12).map(|k| 4 * k - 17).collect::<Vec<_>>());
+    let six: Vec<f32> = weights(&(0..6).map(|k| 9 - 2 * k).collect::<Vec<_>>());
+    for (w, h) in [(1, 1), (2, 3), (7, 5), (33, 19), (64, 9)] {
+        let plane = noise(w * h, &mut seed);
+        for spacing in [
+            (0.7, 0.7),
+            (0.8, 0.55),
+            (1.0 / 0.7, 1.3),
+            (2.5, 0.25),
+            (1.0, 1.0),
+        ] {
+            for (shape, class_weights) in [
+                (
+                    &LUMA_SHAPE[..],
+                    vec![Some(twelve.as_slice()), None, Some(other.as_slice())],
+                ),
+                (&CHROMA_SHAPE[..], vec![Some(six.as_slice()), None]),
+            ] {
+                let pick = |i: usize| class_weights[(i * 7 + i / 3) % class_weights.len()];
+                for rows in [0..h, h / 2..h] {
+                    let n = rows.len() * w;
+                    let (mut fast, mut reference) = (vec![0.0; n], vec![0.0; n]);
+                    scaled_rows(
+                        &plane,
+                        (w, h),
+                        spacing,
+                        shape,
+                        &pick,
+                        rows.clone(),
+                        &mut fast,
+                    );
+                    scaled_rows_reference(
+                        &plane,
+                        (w, h),
+                        spacing,
+                        shape,
+                        &pick,
+                        rows.clone(),
+                        &mut reference,
+                    );
+                    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(&fast),
+                        bits(&reference),
+                        "{w}x{h} {spacing:?} {rows:?}"
+                    );
+                }
+            }
         }
     }
 }
