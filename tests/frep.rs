@@ -3,7 +3,7 @@
 //! intersections, closed meshes with the right volume, bad models refused, and the CLI.
 
 mod common;
-use common::{assert_ok, caoen, caoen_ok, has_povray, s, Stream};
+use common::{assert_ok, caoen, caoen_ok, povray_dir, s, Stream};
 
 use std::path::{Path, PathBuf};
 
@@ -502,10 +502,9 @@ fn cli_render_mesh_and_errors() {
 /// both renderers, so the silhouettes are sampled at the same points.
 #[test]
 fn pov_ray_renders_the_exported_model() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("frep-pov") else {
         return;
-    }
-    let dir = tmpdir("pov");
+    };
     let bumps = dir.join("bumps.json");
     std::fs::write(
         &bumps,
@@ -618,10 +617,9 @@ fn pov_silhouettes(
 /// render of the export has the silhouette of caoen's (IoU at least 0.98 at 512x512).
 #[test]
 fn pov_ray_renders_the_new_nodes() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("frep-pov-new-nodes") else {
         return;
-    }
-    let dir = tmpdir("pov-new-nodes");
+    };
     let camera =
         json!({"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]});
     let models = [
@@ -1066,10 +1064,9 @@ fn polygon_patches_are_zero_outside_their_polygon() {
 /// patches (no image) agree to rounding.
 #[test]
 fn pov_ray_reads_pictures_as_caoen_does() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("frep-pov-values") else {
         return;
-    }
-    let dir = tmpdir("pov-values");
+    };
     let root = common::repo_path("examples");
     let (grey, colour) = (
         root.join("frep/lattice.png"),

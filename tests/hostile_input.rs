@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::hostile as bad;
+use common::{argv, hostile as bad};
 
 /// Far above the 10 s any of these takes alone: a guard against hangs, not a timing.
 const HANG_GUARD: Duration = Duration::from_secs(120);
@@ -66,24 +66,6 @@ fn run(args: &[&str]) -> Outcome {
         code: status.code().unwrap_or(-1),
         stderr,
     }
-}
-
-/// The arguments of the command `line`, split at white space, with each `@` standing
-/// for the next of `paths` (kept whole, spaces and all).
-fn argv<'a>(line: &'a str, paths: &[&'a str]) -> Vec<&'a str> {
-    let mut paths = paths.iter();
-    let args = line
-        .split_whitespace()
-        .map(|w| {
-            if w == "@" {
-                *paths.next().expect("a path per @")
-            } else {
-                w
-            }
-        })
-        .collect();
-    assert!(paths.next().is_none(), "more paths than @ in {line}");
-    args
 }
 
 /// Asserts a clean failure: `code`, one `error:` line containing `needle`, no panic.
