@@ -412,11 +412,10 @@ fn a_model_far_from_the_mesh_measures_badly() {
     // The deviation can fail: a ball against spot.
     let dir = tmpdir("ball");
     let model = dir.join("ball.json");
-    std::fs::write(
+    common::write_frep(
         &model,
-        r#"{"format": "caoen-frep/1", "model": {"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}}"#,
-    )
-    .unwrap();
+        serde_json::json!({"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}),
+    );
     let mesh = repo_path("tests/data/meshes/spot.obj");
     let d = deviation_json(&[s(&mesh), s(&model), "--size", "64"]);
     assert!(d["depth"]["mean"].as_f64().unwrap() > 0.05, "{d}");

@@ -58,6 +58,21 @@ pub fn argv<'a>(line: &'a str, paths: &[&'a str]) -> Vec<&'a str> {
     args
 }
 
+/// Writes the F-rep model file `path` holding `model` (a `caoen-frep/1` file).
+pub fn write_frep(path: &Path, model: serde_json::Value) {
+    let file = serde_json::json!({"format": "caoen-frep/1", "model": model});
+    std::fs::write(path, file.to_string()).unwrap();
+}
+
+/// The `name` of each entry of the JSON array `list`.
+pub fn names(list: &serde_json::Value) -> Vec<&str> {
+    let entries = list.as_array().expect("a JSON array");
+    entries
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect()
+}
+
 /// A run's stderr as text.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

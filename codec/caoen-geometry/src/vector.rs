@@ -10,6 +10,17 @@ pub fn bounds<'a>(points: impl IntoIterator<Item = &'a V3>) -> (V3, V3) {
     (b.lo, b.hi)
 }
 
+/// The gradient of `f` at `p` by central differences of step `h`: what an exact
+/// gradient is checked against.
+pub fn central_difference(f: impl Fn(V3) -> f64, p: V3, h: f64) -> V3 {
+    [0, 1, 2].map(|k| {
+        let (mut a, mut b) = (p, p);
+        a[k] += h;
+        b[k] -= h;
+        (f(a) - f(b)) / (2.0 * h)
+    })
+}
+
 /// `a + b`.
 #[inline]
 pub fn add(a: V3, b: V3) -> V3 {
