@@ -99,9 +99,10 @@ pub fn transfer(
 }
 
 /// A procedural solid (3-D) texture: a checkerboard of cubes of side `cell` in the
-/// two [`super::solid::DEFAULT_COLOURS`] (`Solid::Checker`; kept for callers).
+/// two [`super::solid::DEFAULT_COLOURS`] (`Pattern::Checker`; kept for callers).
 pub fn solid_checker(p: [f64; 3], cell: f64) -> [f32; 3] {
-    super::solid::Solid::Checker {
+    super::solid::Solid::Procedural {
+        pattern: super::solid::Pattern::Checker,
         scale: cell,
         colours: super::solid::DEFAULT_COLOURS,
     }
