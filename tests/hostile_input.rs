@@ -20,6 +20,13 @@ fn scratch(test: &str) -> PathBuf {
     dir
 }
 
+/// The scratch directory of `test` and the path of `name` in it, as an argument.
+fn scratch_file(test: &str, name: &str) -> (PathBuf, String) {
+    let dir = scratch(test);
+    let path = dir.join(name).display().to_string();
+    (dir, path)
+}
+
 struct Outcome {
     code: i32,
     stderr: String,
@@ -100,8 +107,7 @@ fn fails_cleanly(line: &str, paths: &[&str], code: i32, needle: &str) {
 
 #[test]
 fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() {
-    let dir = scratch("solids");
-    let out = dir.join("r.png").display().to_string();
+    let (dir, out) = scratch_file("solids", "r.png");
     for method in ["ray", "depth", "mesh"] {
         fails_cleanly(
             "surface render @ -o @ --method @",
@@ -110,19 +116,16 @@ fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() 
             "q = 1e19 is outside [",
         );
     }
-    fails_cleanly(
+    refused(
         "surface render @ -o @",
         &[&bad("R2-solid-q-1e-300.scene.json"), &out],
-        1,
         "q = 1e-300 is outside [",
     );
-    assert!(!Path::new(&out).exists());
 }
 
 #[test]
 fn tiny_files_declaring_huge_images_stay_within_the_budget() {
-    let dir = scratch("decode");
-    let exr = dir.join("z.exr").display().to_string();
+    let (dir, exr) = scratch_file("decode", "z.exr");
     fails_cleanly(
         "decode @ -o @",
         &[&bad("R3-86-byte-16384x4096-rgba-hdr.cae"), &exr],
@@ -155,8 +158,7 @@ fn tiny_files_declaring_huge_images_stay_within_the_budget() {
 
 #[test]
 fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
-    let dir = scratch("supersample");
-    let out = dir.join("s.png").display().to_string();
+    let (dir, out) = scratch_file("supersample", "s.png");
     let file = bad("small_q30.cae");
     fails_cleanly(
         "decode @ --size 8192x8192 --supersample 4 -o @",
@@ -178,24 +180,21 @@ fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
     // (192 MiB of 8-bit RGB) fits but not the encoder's own share.
     let dir = scratch("encode");
     let out = dir.join("b.cae");
-    fails_cleanly(
+    refused(
         "encode @ -o @ --max-memory 250M",
         &[
             &bad("R4-png-8192x8192-flat.png"),
             &out.display().to_string(),
         ],
-        1,
         "encoding 8192x8192 at quality 75 (the decoded input included) needs about",
     );
-    assert!(!out.exists());
 }
 
 /// A texture over the budget or the loader's pixel limit is refused from its header,
 /// before anything is decoded.
 #[test]
 fn textures_are_refused_from_their_headers() {
-    let dir = scratch("textures");
-    let out = dir.join("t.png").display().to_string();
+    let (dir, out) = scratch_file("textures", "t.png");
     fails_cleanly(
         "surface render @ -o @",
         &[&bad("R5-texture-bomb.json"), &out],
@@ -278,6 +277,15 @@ fn files_larger_than_the_budget_are_not_read() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Asserts a clean refusal (exit 1, [`fails_cleanly`]) that wrote nothing at the
+/// command's `-o` path.
+fn refused(line: &str, paths: &[&str], needle: &str) {
+    fails_cleanly(line, paths, 1, needle);
+    let args = argv(line, paths);
+    let out = args[args.iter().position(|a| *a == "-o").expect("an output") + 1];
+    assert!(!Path::new(out).exists(), "{out} written");
+}
+
 /// Runs `args`, which must succeed; returns its stderr.
 fn succeeds(line: &str, paths: &[&str]) -> String {
     let args = argv(line, paths);
@@ -307,8 +315,7 @@ fn bounded(line: &str, paths: &[&str], needle: &str) -> bool {
 /// Asserts that `caoen convert` refuses each `(file of tests/bad/hostile, needle)` of
 /// `cases` cleanly and writes nothing (in the scratch directory of `test`).
 fn convert_refuses(test: &str, cases: &[(&str, &str)]) {
-    let dir = scratch(test);
-    let out = dir.join("m.json").display().to_string();
+    let (dir, out) = scratch_file(test, "m.json");
     for (file, needle) in cases {
         fails_cleanly("convert @ -o @", &[&bad(file), &out], 1, needle);
     }
@@ -332,15 +339,12 @@ fn convert_refuses_meshes_whose_model_it_could_not_read_back() {
 
 #[test]
 fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
-    let dir = scratch("distort");
-    let out = dir.join("d.json").display().to_string();
-    fails_cleanly(
+    let (dir, out) = scratch_file("distort", "d.json");
+    refused(
         "distort builtin:blob --move 1,0,0:1e300,0,0 -o @",
         &[&out],
-        1,
         "reaches past 1e6",
     );
-    assert!(!Path::new(&out).exists());
     // A long move within the range: written and read back, or refused before writing.
     if bounded(
         "distort builtin:blob --move 1,0,0:9e5,0,0 -o @",
@@ -356,15 +360,12 @@ fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
 
 #[test]
 fn the_mesh_render_path_checks_the_polygonising_budget_first() {
-    let dir = scratch("mesh-render");
-    let out = dir.join("m.png").display().to_string();
-    fails_cleanly(
+    let (dir, out) = scratch_file("mesh-render", "m.png");
+    refused(
         "frep render @ -o @ --method mesh --cells 1024 --size 64x48",
         &[&bad("D3-D5-unnamed-sphere.frep.json"), &out],
-        1,
         "polygonising on 1024^3 cells needs about 16.1 GiB",
     );
-    assert!(!Path::new(&out).exists());
 }
 
 #[test]
@@ -458,13 +459,11 @@ fn carve_and_relief_refuse_to_write_a_model_render_would_refuse() {
     let (small, on) = (bad("small.png"), bad("D8-nest64.frep.json"));
     // The shell adds two levels: past the limit, refused before anything is written.
     let out = dir.join("carve.json").display().to_string();
-    fails_cleanly(
+    refused(
         "carve @ --on @ -o @ --shell 0.1",
         &[&small, &on, &out],
-        1,
         "nested deeper than 64 levels",
     );
-    assert!(!Path::new(&out).exists());
     // A relief adds one level, which fits: what is written renders.
     let out = dir.join("relief.json").display().to_string();
     if bounded(
@@ -587,8 +586,7 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
 
 #[test]
 fn a_whole_number_written_as_a_float_is_read_as_one() {
-    let dir = scratch("whole-float");
-    let out = dir.join("s.png").display().to_string();
+    let (dir, out) = scratch_file("whole-float", "s.png");
     let model = bad("third-M7-noise-seed-7.0.json");
     succeeds("frep render @ -o @ --size 32x24", &[&model, &out]);
     let png = image::open(&out).expect("the render reads back");
