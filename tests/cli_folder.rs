@@ -216,7 +216,7 @@ fn folder_usage_errors() {
 
 #[test]
 fn the_output_folder_inside_the_input_is_not_an_input() {
-    let (d, src) = tree("cli-folder-inside");
+    let (_, src) = tree("cli-folder-inside");
     let (out, png) = (src.join("encoded"), src.join("encoded/decoded"));
     encode_decode(&src, &out, &png, "40");
     // A second encode would take the decoded PNGs as inputs unless it skipped `encoded/`.

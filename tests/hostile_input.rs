@@ -107,7 +107,7 @@ fn fails_cleanly(line: &str, paths: &[&str], code: i32, needle: &str) {
 
 #[test]
 fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() {
-    let (dir, out) = scratch_file("solids", "r.png");
+    let (_, out) = scratch_file("solids", "r.png");
     for method in ["ray", "depth", "mesh"] {
         fails_cleanly(
             "surface render @ -o @ --method @",
@@ -158,7 +158,7 @@ fn tiny_files_declaring_huge_images_stay_within_the_budget() {
 
 #[test]
 fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
-    let (dir, out) = scratch_file("supersample", "s.png");
+    let (_, out) = scratch_file("supersample", "s.png");
     let file = bad("small_q30.cae");
     fails_cleanly(
         "decode @ --size 8192x8192 --supersample 4 -o @",
@@ -194,7 +194,7 @@ fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
 /// before anything is decoded.
 #[test]
 fn textures_are_refused_from_their_headers() {
-    let (dir, out) = scratch_file("textures", "t.png");
+    let (_, out) = scratch_file("textures", "t.png");
     fails_cleanly(
         "surface render @ -o @",
         &[&bad("R5-texture-bomb.json"), &out],
@@ -360,7 +360,7 @@ fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
 
 #[test]
 fn the_mesh_render_path_checks_the_polygonising_budget_first() {
-    let (dir, out) = scratch_file("mesh-render", "m.png");
+    let (_, out) = scratch_file("mesh-render", "m.png");
     refused(
         "frep render @ -o @ --method mesh --cells 1024 --size 64x48",
         &[&bad("D3-D5-unnamed-sphere.frep.json"), &out],
