@@ -32,10 +32,7 @@ impl Bounds {
 
     /// Grows the box to hold `p`.
     pub fn include(&mut self, p: V3) {
-        for k in 0..3 {
-            self.lo[k] = self.lo[k].min(p[k]);
-            self.hi[k] = self.hi[k].max(p[k]);
-        }
+        *self = self.union(Bounds { lo: p, hi: p });
     }
 
     /// The smallest box holding both.
