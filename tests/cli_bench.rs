@@ -172,13 +172,7 @@ fn check_tiny_run(name: &str, codecs: &str) {
     // Structure.
     assert_eq!(v["format"], "caoen-bench/1");
     assert_eq!(v["reference"], "jpeg");
-    let listed: Vec<&str> = v["codecs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["name"].as_str().unwrap())
-        .collect();
-    assert_eq!(listed, names);
+    assert_eq!(common::names(&v["codecs"]), names);
     let images = v["images"].as_array().unwrap();
     assert_eq!(images.len(), 2);
     assert_eq!(images[0]["class"], "natural"); // corpus order: natural before scene

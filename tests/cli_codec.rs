@@ -1,7 +1,7 @@
 //! End-to-end tests of `caoen encode|decode|info` and the demo.
 
 mod common;
-use common::{assert_ok, caoen, caoen_ok, s};
+use common::{argv, assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
@@ -104,18 +104,10 @@ fn target_size_keypoint_map_and_json() {
     let png = input_png(&d);
     let cae = d.join("t.cae");
     let map = d.join("map.png");
-    let out = caoen_ok(&[
-        "encode",
-        s(&png),
-        "-o",
-        s(&cae),
-        "--target-size",
-        "700",
-        "--keypoint-map",
-        s(&map),
-        "--json",
-        "--quiet",
-    ]);
+    let out = caoen_ok(&argv(
+        "encode @ -o @ --target-size 700 --keypoint-map @ --json --quiet",
+        &[s(&png), s(&cae), s(&map)],
+    ));
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let bytes = j["bytes"].as_f64().unwrap();
     assert!(
@@ -487,14 +479,10 @@ fn a_half_size_file_says_so_and_decodes_at_the_image_size() {
         "{j}"
     );
     for bad in ["0.75", "1.5", "0", "quarter"] {
-        let out = caoen(&[
-            "encode",
-            s(&png),
-            "-o",
-            s(&d.join("bad.cae")),
-            "--resampling",
-            bad,
-        ]);
+        let out = caoen(&argv(
+            "encode @ -o @ --resampling @",
+            &[s(&png), s(&d.join("bad.cae")), bad],
+        ));
         assert_eq!(out.status.code(), Some(2), "--resampling {bad}");
         assert!(
             String::from_utf8_lossy(&out.stderr).contains("tenths"),

@@ -6,6 +6,7 @@ mod common;
 use common::{caoen, caoen_ok, s, stderr};
 
 use std::path::{Path, PathBuf};
+use std::process::Output;
 
 /// The corpus scene of `seed`, `w x h`, written as `dir/name` (folders created).
 fn scene(dir: &Path, name: &str, w: u32, h: u32, seed: u64) -> PathBuf {
@@ -16,14 +17,31 @@ fn scene(dir: &Path, name: &str, w: u32, h: u32, seed: u64) -> PathBuf {
     p
 }
 
-/// A tree of three images (PNG and JPEG, one in a sub-folder) and a text file.
-fn tree(d: &Path) -> PathBuf {
+/// A fresh directory for the test `name` and, in it, a tree of three images (PNG and
+/// JPEG, one in a sub-folder) and a text file: (directory, tree).
+fn tree(name: &str) -> (PathBuf, PathBuf) {
+    let d = common::fresh_dir(name);
     let src = d.join("in");
     scene(&src, "a.png", 64, 48, 1);
     scene(&src, "sub/b.jpg", 48, 40, 2);
     scene(&src, "sub/deeper/c.png", 40, 40, 3);
     std::fs::write(src.join("notes.txt"), "not an image").unwrap();
-    src
+    (d, src)
+}
+
+/// Runs `caoen [global..] command from -o to [rest..]`, a folder run.
+fn run(global: &[&str], command: &str, from: &Path, to: &Path, rest: &[&str]) -> Output {
+    let mut args = global.to_vec();
+    args.extend([command, s(from), "-o", s(to)]);
+    args.extend(rest);
+    caoen(&args)
+}
+
+/// [`run`], asserting that it succeeded.
+fn run_ok(global: &[&str], command: &str, from: &Path, to: &Path, rest: &[&str]) -> Output {
+    let out = run(global, command, from, to, rest);
+    common::assert_ok(&out);
+    out
 }
 
 /// Every file under `root`, by its path below it.
@@ -49,6 +67,19 @@ fn json(out: &std::process::Output) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {}", stderr(out)))
 }
 
+/// Encodes the folder `src` to `cae` at quality `q`, then decodes that to `png`.
+fn encode_decode(src: &Path, cae: &Path, png: &Path, q: &str) {
+    run_ok(&["--quiet"], "encode", src, cae, &["-q", q]);
+    run_ok(&["--quiet"], "decode", cae, png, &[]);
+}
+
+/// The totals of `caoen command from -o to [rest..] --resume --json`, run again over
+/// outputs that are there already.
+fn resumed_totals(command: &str, from: &Path, to: &Path, rest: &[&str]) -> serde_json::Value {
+    let rest = [rest, &["--resume", "--json"]].concat();
+    json(&run_ok(&[], command, from, to, &rest))["totals"].clone()
+}
+
 /// `out` ended with exit code `code` and `needle` in its standard error.
 fn assert_fails_with(out: &std::process::Output, code: i32, needle: &str) {
     assert_eq!(out.status.code(), Some(code));
@@ -58,10 +89,9 @@ fn assert_fails_with(out: &std::process::Output, code: i32, needle: &str) {
 
 #[test]
 fn a_folder_encodes_to_the_single_file_bytes_in_the_same_layout() {
-    let d = common::fresh_dir("cli-folder-encode");
-    let src = tree(&d);
+    let (d, src) = tree("cli-folder-encode");
     let out = d.join("out");
-    let run = caoen_ok(&["encode", s(&src), "-o", s(&out), "-q", "60", "--json"]);
+    let result = run_ok(&[], "encode", &src, &out, &["-q", "60", "--json"]);
     let names: Vec<String> = files(&out).into_iter().map(|(n, _)| n).collect();
     assert_eq!(names, ["a.cae", "sub/b.cae", "sub/deeper/c.cae"]);
     for (rel, bytes) in files(&out) {
@@ -74,7 +104,7 @@ fn a_folder_encodes_to_the_single_file_bytes_in_the_same_layout() {
         caoen_ok(&["-f", "encode", s(&input), "-q", "60", "-o", s(&single)]);
         assert_eq!(bytes, std::fs::read(&single).unwrap(), "{rel}");
     }
-    let j = json(&run);
+    let j = json(&result);
     assert_eq!(j["totals"]["files"], 3);
     assert_eq!(j["totals"]["encoded"], 3);
     assert_eq!(j["totals"]["failed"], 0);
@@ -95,59 +125,39 @@ fn a_folder_encodes_to_the_single_file_bytes_in_the_same_layout() {
 
 #[test]
 fn resume_skips_complete_outputs_and_existing_ones_need_force() {
-    let d = common::fresh_dir("cli-folder-resume");
-    let src = tree(&d);
+    let (d, src) = tree("cli-folder-resume");
     let out = d.join("out");
-    caoen_ok(&["--quiet", "encode", s(&src), "-o", s(&out), "-q", "50"]);
+    run_ok(&["--quiet"], "encode", &src, &out, &["-q", "50"]);
     let before = files(&out);
     let stamp = |p: &Path| std::fs::metadata(p).unwrap().modified().unwrap();
     let t = stamp(&out.join("a.cae"));
     // A second run with --resume does nothing.
-    let again = caoen_ok(&[
-        "encode",
-        s(&src),
-        "-o",
-        s(&out),
-        "-q",
-        "50",
-        "--resume",
-        "--json",
-    ]);
-    assert_eq!(json(&again)["totals"]["skipped"], 3);
+    let totals = resumed_totals("encode", &src, &out, &["-q", "50"]);
+    assert_eq!(totals["skipped"], 3);
     assert_eq!(stamp(&out.join("a.cae")), t);
     // An output cut short is not complete: --resume does not skip it, and it is not
     // replaced without -f.
     let cut = &before[0].1[..before[0].1.len() / 2];
     std::fs::write(out.join("a.cae"), cut).unwrap();
-    let refused = caoen(&["encode", s(&src), "-o", s(&out), "-q", "50", "--resume"]);
+    let refused = run(&[], "encode", &src, &out, &["-q", "50", "--resume"]);
     assert_eq!(refused.status.code(), Some(1));
     assert!(stderr(&refused).contains("--force"), "{}", stderr(&refused));
     assert_eq!(std::fs::read(out.join("a.cae")).unwrap(), cut);
-    caoen_ok(&[
-        "-f",
-        "encode",
-        s(&src),
-        "-o",
-        s(&out),
-        "-q",
-        "50",
-        "--resume",
-    ]);
+    run_ok(&["-f"], "encode", &src, &out, &["-q", "50", "--resume"]);
     assert_eq!(files(&out), before);
     // Without --resume or -f every existing output is refused.
-    let all = caoen(&["encode", s(&src), "-o", s(&out), "-q", "50"]);
+    let all = run(&[], "encode", &src, &out, &["-q", "50"]);
     assert_fails_with(&all, 1, "3 of 3 files failed");
 }
 
 #[test]
 fn a_damaged_file_is_named_and_the_rest_are_encoded() {
-    let d = common::fresh_dir("cli-folder-damaged");
-    let src = tree(&d);
+    let (d, src) = tree("cli-folder-damaged");
     std::fs::write(src.join("sub/broken.png"), b"\x89PNG\r\n\x1a\nnot really").unwrap();
     let out = d.join("out");
-    let run = caoen(&["encode", s(&src), "-o", s(&out), "--json"]);
-    assert_eq!(run.status.code(), Some(1), "{}", stderr(&run));
-    let err = stderr(&run);
+    let result = run(&[], "encode", &src, &out, &["--json"]);
+    assert_eq!(result.status.code(), Some(1), "{}", stderr(&result));
+    let err = stderr(&result);
     assert!(err.contains("broken.png"), "{err}");
     assert!(err.contains("1 of 4 files failed"), "{err}");
     let names: Vec<String> = files(&out).into_iter().map(|(n, _)| n).collect();
@@ -156,7 +166,7 @@ fn a_damaged_file_is_named_and_the_rest_are_encoded() {
         ["a.cae", "sub/b.cae", "sub/deeper/c.cae"],
         "no half-written or temporary file"
     );
-    let j = json(&run);
+    let j = json(&result);
     assert_eq!(j["totals"]["failed"], 1);
     let failed: Vec<_> = j["files"]
         .as_array()
@@ -170,62 +180,46 @@ fn a_damaged_file_is_named_and_the_rest_are_encoded() {
 
 #[test]
 fn a_folder_decodes_to_the_single_file_images() {
-    let d = common::fresh_dir("cli-folder-decode");
-    let src = tree(&d);
-    let cae = d.join("cae");
-    caoen_ok(&["--quiet", "encode", s(&src), "-o", s(&cae), "-q", "70"]);
-    let png = d.join("png");
-    caoen_ok(&["--quiet", "decode", s(&cae), "-o", s(&png)]);
+    let (d, src) = tree("cli-folder-decode");
+    let (cae, png) = (d.join("cae"), d.join("png"));
+    encode_decode(&src, &cae, &png, "70");
     let decoded = files(&png);
     let names: Vec<&str> = decoded.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["a.png", "sub/b.png", "sub/deeper/c.png"]);
     for (rel, bytes) in &decoded {
         let single = d.join("single.png");
         let input = cae.join(rel).with_extension("cae");
-        caoen_ok(&["-f", "decode", s(&input), "-o", s(&single)]);
+        run_ok(&["-f"], "decode", &input, &single, &[]);
         assert_eq!(*bytes, std::fs::read(&single).unwrap(), "{rel}");
     }
-    let again = caoen_ok(&["decode", s(&cae), "-o", s(&png), "--resume", "--json"]);
-    assert_eq!(json(&again)["totals"]["skipped"], 3);
+    let totals = resumed_totals("decode", &cae, &png, &[]);
+    assert_eq!(totals["skipped"], 3);
 }
 
 #[test]
 fn folder_usage_errors() {
-    let d = common::fresh_dir("cli-folder-usage");
-    let src = tree(&d);
+    let (d, src) = tree("cli-folder-usage");
     let no_output = caoen(&["encode", s(&src)]);
     assert_eq!(no_output.status.code(), Some(2));
     assert!(stderr(&no_output).contains("-o OUT_DIR"));
     let file = src.join("a.png");
-    let onto_file = caoen(&["encode", s(&src), "-o", s(&file)]);
+    let onto_file = run(&[], "encode", &src, &file, &[]);
     assert_eq!(onto_file.status.code(), Some(2));
     let resume_file = caoen(&["encode", s(&file), "--resume"]);
     assert_eq!(resume_file.status.code(), Some(2));
     // Two inputs with one output: the first in name order has it, the other fails.
     scene(&src, "a.jpg", 32, 32, 4);
     let out = d.join("out");
-    let twice = caoen(&["encode", s(&src), "-o", s(&out)]);
+    let twice = run(&[], "encode", &src, &out, &[]);
     assert_fails_with(&twice, 1, "same output as");
 }
 
 #[test]
 fn the_output_folder_inside_the_input_is_not_an_input() {
-    let d = common::fresh_dir("cli-folder-inside");
-    let src = tree(&d);
-    let out = src.join("encoded");
-    caoen_ok(&["--quiet", "encode", s(&src), "-o", s(&out), "-q", "40"]);
-    let png = src.join("encoded/decoded");
-    caoen_ok(&["--quiet", "decode", s(&out), "-o", s(&png)]);
+    let (_, src) = tree("cli-folder-inside");
+    let (out, png) = (src.join("encoded"), src.join("encoded/decoded"));
+    encode_decode(&src, &out, &png, "40");
     // A second encode would take the decoded PNGs as inputs unless it skipped `encoded/`.
-    let again = caoen_ok(&[
-        "encode",
-        s(&src),
-        "-o",
-        s(&out),
-        "-q",
-        "40",
-        "--resume",
-        "--json",
-    ]);
-    assert_eq!(json(&again)["totals"]["files"], 3);
+    let totals = resumed_totals("encode", &src, &out, &["-q", "40"]);
+    assert_eq!(totals["files"], 3);
 }

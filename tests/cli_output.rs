@@ -3,7 +3,7 @@
 //! links followed, no temporary file left behind, and stdout write errors reported.
 
 mod common;
-use common::{assert_ok, caoen, caoen_ok, s, stderr};
+use common::{argv, assert_ok, caoen, caoen_ok, s, stderr};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -174,15 +174,10 @@ fn an_input_is_never_overwritten_even_with_force() {
     }
     // Two outputs of one command may not be the same file either.
     let both = d.join("both.png");
-    let out = caoen(&[
-        "surface",
-        "render",
-        "builtin:ring",
-        "-o",
-        s(&both),
-        "--depth-out",
-        s(&both),
-    ]);
+    let out = caoen(&argv(
+        "surface render builtin:ring -o @ --depth-out @",
+        &[s(&both), s(&both)],
+    ));
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(stderr(&out).contains("two outputs"), "{}", stderr(&out));
     assert!(!both.exists());
@@ -210,16 +205,10 @@ fn devices_and_fifos_are_written_in_place() {
     let dev = discarding_device();
     caoen_ok(&["decode", s(&cae), "-o", dev, "--quiet"]);
     caoen_ok(&["encode", s(&png), "-o", dev, "--quiet"]);
-    caoen_ok(&[
-        "surface",
-        "render",
-        "builtin:ring",
-        "-o",
-        dev,
-        "--size",
-        "16x12",
-        "--quiet",
-    ]);
+    caoen_ok(&argv(
+        "surface render builtin:ring -o @ --size 16x12 --quiet",
+        &[dev],
+    ));
     assert!(std::fs::metadata(dev).unwrap().file_type().is_char_device());
     // /dev/stdout is standard output, here a pipe, in the natural format.
     let out = caoen(&["decode", s(&cae), "-o", "/dev/stdout", "--quiet"]);

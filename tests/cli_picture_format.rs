@@ -22,11 +22,7 @@ fn sniff(path: &Path) -> image::ImageFormat {
 fn render_commands_write_the_format_the_extension_names() {
     let dir = tmpdir();
     let model = dir.join("ball.json");
-    std::fs::write(
-        &model,
-        r#"{"format": "caoen-frep/1", "model": {"sphere": {"radius": 1}}}"#,
-    )
-    .unwrap();
+    common::write_frep(&model, serde_json::json!({"sphere": {"radius": 1}}));
     for (name, want) in [
         ("a.jpg", image::ImageFormat::Jpeg),
         ("b.JPEG", image::ImageFormat::Jpeg),

@@ -1,7 +1,7 @@
 //! End-to-end tests of `caoen surface ...` and `caoen demo`.
 
 mod common;
-use common::{caoen, caoen_ok, s};
+use common::{argv, caoen, caoen_ok, s};
 
 use std::process::Command;
 
@@ -12,14 +12,10 @@ fn tmpdir(name: &str) -> std::path::PathBuf {
 #[test]
 fn eval_prints_the_golden_diagonal_point() {
     let s = 1.0 / 3f64.sqrt();
-    let out = caoen_ok(&[
-        "surface",
-        "eval",
-        "builtin:six-point",
-        "--at",
-        &format!("{s},{s},{s}"),
-        "--json",
-    ]);
+    let out = caoen_ok(&argv(
+        "surface eval builtin:six-point --at @ --json",
+        &[&format!("{s},{s},{s}")],
+    ));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // Exponential, q = 3: y = (e^{3(s-1)} - e^{3(-s-1)}) (1, 1, 1).
     let want = (3.0 * (s - 1.0)).exp() - (3.0 * (-s - 1.0)).exp();
@@ -45,15 +41,7 @@ fn export_then_info_round_trips_a_model_file() {
 fn mesh_writes_a_closed_obj() {
     let d = tmpdir("mesh");
     let f = d.join("blob.obj");
-    let out = caoen_ok(&[
-        "surface",
-        "mesh",
-        "builtin:blob",
-        "-o",
-        s(&f),
-        "--detail",
-        "3",
-    ]);
+    let out = caoen_ok(&argv("surface mesh builtin:blob -o @ --detail 3", &[s(&f)]));
     let text = std::fs::read_to_string(&f).unwrap();
     let verts = text.lines().filter(|l| l.starts_with("v ")).count();
     let faces = text.lines().filter(|l| l.starts_with("f ")).count();

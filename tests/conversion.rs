@@ -9,7 +9,7 @@ use caoen::conversion::deviation::vertex_deviation;
 use caoen::conversion::{
     convert, Conversion, ConvertOptions, ImplicitField, ImplicitModel, InUnitCube, PolygonMesh,
 };
-use common::{caoen, caoen_ok, repo_path, s};
+use common::{argv, caoen, caoen_ok, repo_path, s};
 
 fn tmpdir(name: &str) -> PathBuf {
     common::fresh_dir(&format!("conv-{name}"))
@@ -118,17 +118,10 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let dir = tmpdir("spot");
     let mesh = repo_path("tests/data/meshes/spot.obj");
     let model = dir.join("spot.json");
-    let out = caoen_ok(&[
-        "convert",
-        s(&mesh),
-        "-o",
-        s(&model),
-        "--json",
-        "--check-size",
-        "128",
-        "--target-depth",
-        "0.005",
-    ]);
+    let out = caoen_ok(&argv(
+        "convert @ -o @ --json --check-size 128 --target-depth 0.005",
+        &[s(&mesh), s(&model)],
+    ));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("level 0:"), "progress on stderr: {stderr}");
     let r: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
@@ -152,17 +145,10 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     let again = caoen(&["convert", s(&mesh), "-o", s(&model)]);
     assert_eq!(again.status.code(), Some(1));
     let picture = dir.join("dev.png");
-    let out = caoen_ok(&[
-        "--quiet",
-        "deviation",
-        s(&mesh),
-        s(&model),
-        "--size",
-        "128",
-        "--json",
-        "--picture",
-        s(&picture),
-    ]);
+    let out = caoen_ok(&argv(
+        "--quiet deviation @ @ --size 128 --json --picture @",
+        &[s(&mesh), s(&model), s(&picture)],
+    ));
     assert!(out.stderr.is_empty());
     let d: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let f = |path: &[&str]| path.iter().fold(&d, |v, k| &v[*k]).as_f64().unwrap();
@@ -426,11 +412,10 @@ fn a_model_far_from_the_mesh_measures_badly() {
     // The deviation can fail: a ball against spot.
     let dir = tmpdir("ball");
     let model = dir.join("ball.json");
-    std::fs::write(
+    common::write_frep(
         &model,
-        r#"{"format": "caoen-frep/1", "model": {"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}}"#,
-    )
-    .unwrap();
+        serde_json::json!({"sphere": {"centre": [0, 0, 0.4], "radius": 0.5}}),
+    );
     let mesh = repo_path("tests/data/meshes/spot.obj");
     let d = deviation_json(&[s(&mesh), s(&model), "--size", "64"]);
     assert!(d["depth"]["mean"].as_f64().unwrap() > 0.05, "{d}");

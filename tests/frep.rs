@@ -3,7 +3,7 @@
 //! intersections, closed meshes with the right volume, bad models refused, and the CLI.
 
 mod common;
-use common::{assert_ok, caoen, caoen_ok, has_povray, s, Stream};
+use common::{assert_ok, caoen, caoen_ok, povray_dir, s, Stream};
 
 use std::path::{Path, PathBuf};
 
@@ -11,6 +11,7 @@ use caoen::frep::interval::Aabb;
 use caoen::frep::raycast::{CastOptions, Caster};
 use caoen::frep::rfunction::{self, SetOp};
 use caoen::frep::Node;
+use caoen::geometry::vector::central_difference;
 use proptest::prelude::*;
 use serde_json::json;
 
@@ -148,12 +149,7 @@ fn check_gradient(
     if near_crease {
         return None;
     }
-    let fd = [0, 1, 2].map(|k| {
-        let (mut a, mut b) = (p, p);
-        a[k] += h;
-        b[k] -= h;
-        (n.value(a) - n.value(b)) / (2.0 * h)
-    });
+    let fd = central_difference(|q| n.value(q), p, h);
     let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
     Some(if (0..3).all(|k| (g[k] - fd[k]).abs() <= tol * scale) {
         Ok(())
@@ -502,10 +498,9 @@ fn cli_render_mesh_and_errors() {
 /// both renderers, so the silhouettes are sampled at the same points.
 #[test]
 fn pov_ray_renders_the_exported_model() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("frep-pov") else {
         return;
-    }
-    let dir = tmpdir("pov");
+    };
     let bumps = dir.join("bumps.json");
     std::fs::write(
         &bumps,
@@ -618,10 +613,9 @@ fn pov_silhouettes(
 /// render of the export has the silhouette of caoen's (IoU at least 0.98 at 512x512).
 #[test]
 fn pov_ray_renders_the_new_nodes() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("frep-pov-new-nodes") else {
         return;
-    }
-    let dir = tmpdir("pov-new-nodes");
+    };
     let camera =
         json!({"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.8]});
     let models = [
@@ -788,12 +782,14 @@ fn caoen_surface_inside_is_a_signed_distance() {
             continue;
         }
         assert!((dot(g, g).sqrt() - 1.0).abs() < 1e-9);
+        let fd = central_difference(|q| n.value(q), p, h);
         for i in 0..3 {
-            let (mut a, mut b) = (p, p);
-            a[i] += h;
-            b[i] -= h;
-            let fd = (n.value(a) - n.value(b)) / (2.0 * h);
-            assert!((g[i] - fd).abs() < 1e-6, "at {p:?}: {} vs {fd}", g[i]);
+            assert!(
+                (g[i] - fd[i]).abs() < 1e-6,
+                "at {p:?}: {} vs {}",
+                g[i],
+                fd[i]
+            );
         }
         checked += 1;
     }
@@ -1025,17 +1021,14 @@ fn polygon_patches_are_zero_outside_their_polygon() {
                 continue;
             }
             let (_, g) = m.value_gradient(p);
-            let h = 1e-6;
+            let fd = central_difference(|q| m.value(q), p, 1e-6);
+            let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
             for i in 0..3 {
-                let (mut a, mut b) = (p, p);
-                a[i] += h;
-                b[i] -= h;
-                let fd = (m.value(a) - m.value(b)) / (2.0 * h);
-                let scale = g.iter().map(|v| v.abs()).fold(1.0, f64::max);
                 assert!(
-                    (g[i] - fd).abs() <= 1e-6 * scale,
-                    "at {p:?}: {} vs {fd}",
-                    g[i]
+                    (g[i] - fd[i]).abs() <= 1e-6 * scale,
+                    "at {p:?}: {} vs {}",
+                    g[i],
+                    fd[i]
                 );
             }
             checked += 1;
@@ -1066,10 +1059,9 @@ fn polygon_patches_are_zero_outside_their_polygon() {
 /// patches (no image) agree to rounding.
 #[test]
 fn pov_ray_reads_pictures_as_caoen_does() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("frep-pov-values") else {
         return;
-    }
-    let dir = tmpdir("pov-values");
+    };
     let root = common::repo_path("examples");
     let (grey, colour) = (
         root.join("frep/lattice.png"),
@@ -1508,11 +1500,7 @@ fn cli_relief_and_carve() {
     }
     // A model without its optional name renders straight to a picture too.
     let unnamed = dir.join("unnamed.json");
-    std::fs::write(
-        &unnamed,
-        json!({"format": "caoen-frep/1", "model": {"sphere": {"radius": 1.0}}}).to_string(),
-    )
-    .unwrap();
+    common::write_frep(&unnamed, json!({"sphere": {"radius": 1.0}}));
     for cmd in ["relief", "carve"] {
         let png = dir.join(format!("unnamed-{cmd}.png"));
         caoen_ok(&[

@@ -419,12 +419,7 @@ fn every_photo_prints() {
 fn empty_meshes_are_refused() {
     let dir = tmpdir("empty");
     let model = dir.join("hair.json");
-    std::fs::write(
-        &model,
-        json!({"format": "caoen-frep/1", "model": {"box": {"size": [1e6, 1e-9, 1e-9]}}})
-            .to_string(),
-    )
-    .unwrap();
+    common::write_frep(&model, json!({"box": {"size": [1e6, 1e-9, 1e-9]}}));
     let out = dir.join("hair.stl");
     let o = caoen(&["frep", "mesh", s(&model), "-o", s(&out), "--cells", "16"]);
     assert!(!o.status.success());

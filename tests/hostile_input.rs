@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::hostile as bad;
+use common::{argv, hostile as bad};
 
 /// Far above the 10 s any of these takes alone: a guard against hangs, not a timing.
 const HANG_GUARD: Duration = Duration::from_secs(120);
@@ -18,6 +18,13 @@ fn scratch(test: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("caoen-hostile-{}-{test}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("scratch dir");
     dir
+}
+
+/// The scratch directory of `test` and the path of `name` in it, as an argument.
+fn scratch_file(test: &str, name: &str) -> (PathBuf, String) {
+    let dir = scratch(test);
+    let path = dir.join(name).display().to_string();
+    (dir, path)
 }
 
 struct Outcome {
@@ -69,8 +76,9 @@ fn run(args: &[&str]) -> Outcome {
 }
 
 /// Asserts a clean failure: `code`, one `error:` line containing `needle`, no panic.
-fn fails_cleanly(args: &[&str], code: i32, needle: &str) {
-    let o = run(args);
+fn fails_cleanly(line: &str, paths: &[&str], code: i32, needle: &str) {
+    let args = argv(line, paths);
+    let o = run(&args);
     assert!(
         !o.stderr.contains("panicked"),
         "{args:?} panicked:\n{}",
@@ -99,71 +107,48 @@ fn fails_cleanly(args: &[&str], code: i32, needle: &str) {
 
 #[test]
 fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() {
-    let dir = scratch("solids");
-    let out = dir.join("r.png").display().to_string();
+    let (_, out) = scratch_file("solids", "r.png");
     for method in ["ray", "depth", "mesh"] {
         fails_cleanly(
-            &[
-                "surface",
-                "render",
-                &bad("R1-solid-q-1e19.scene.json"),
-                "-o",
-                &out,
-                "--method",
-                method,
-            ],
+            "surface render @ -o @ --method @",
+            &[&bad("R1-solid-q-1e19.scene.json"), &out, method],
             1,
             "q = 1e19 is outside [",
         );
     }
-    fails_cleanly(
-        &[
-            "surface",
-            "render",
-            &bad("R2-solid-q-1e-300.scene.json"),
-            "-o",
-            &out,
-        ],
-        1,
+    refused(
+        "surface render @ -o @",
+        &[&bad("R2-solid-q-1e-300.scene.json"), &out],
         "q = 1e-300 is outside [",
     );
-    assert!(!Path::new(&out).exists());
 }
 
 #[test]
 fn tiny_files_declaring_huge_images_stay_within_the_budget() {
-    let dir = scratch("decode");
-    let exr = dir.join("z.exr").display().to_string();
+    let (dir, exr) = scratch_file("decode", "z.exr");
     fails_cleanly(
-        &[
-            "decode",
-            &bad("R3-86-byte-16384x4096-rgba-hdr.cae"),
-            "-o",
-            &exr,
-        ],
+        "decode @ -o @",
+        &[&bad("R3-86-byte-16384x4096-rgba-hdr.cae"), &exr],
         1,
         "over the memory budget of 2.0 GiB",
     );
     // The 8-bit file fits the budget: a bounded success.
     let png = dir.join("z.png");
-    let o = run(&[
-        "decode",
-        &bad("R3b-86-byte-16384x4096-rgba8.cae"),
-        "-o",
-        &png.display().to_string(),
-    ]);
+    let o = run(&argv(
+        "decode @ -o @",
+        &[
+            &bad("R3b-86-byte-16384x4096-rgba8.cae"),
+            &png.display().to_string(),
+        ],
+    ));
     assert_eq!(o.code, 0, "{}", o.stderr);
     assert!(png.metadata().expect("written").len() > 0);
     // A tighter budget refuses it before decoding.
     fails_cleanly(
+        "decode @ -o @ -f --max-memory 256M",
         &[
-            "decode",
             &bad("R3b-86-byte-16384x4096-rgba8.cae"),
-            "-o",
             &png.display().to_string(),
-            "-f",
-            "--max-memory",
-            "256M",
         ],
         1,
         "over the memory budget of 256.0 MiB",
@@ -173,36 +158,17 @@ fn tiny_files_declaring_huge_images_stay_within_the_budget() {
 
 #[test]
 fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
-    let dir = scratch("supersample");
-    let out = dir.join("s.png").display().to_string();
+    let (_, out) = scratch_file("supersample", "s.png");
     let file = bad("small_q30.cae");
     fails_cleanly(
-        &[
-            "decode",
-            &file,
-            "--size",
-            "8192x8192",
-            "--supersample",
-            "4",
-            "-o",
-            &out,
-        ],
+        "decode @ --size 8192x8192 --supersample 4 -o @",
+        &[&file, &out],
         1,
         "memory budget",
     );
     fails_cleanly(
-        &[
-            "decode",
-            &file,
-            "--size",
-            "8192x4096",
-            "--supersample",
-            "4",
-            "-o",
-            &out,
-            "--max-memory",
-            "64G",
-        ],
+        "decode @ --size 8192x4096 --supersample 4 -o @ --max-memory 64G",
+        &[&file, &out],
         1,
         "output samples (pixels x S^2) is 536870912, limit 268435456",
     );
@@ -214,50 +180,30 @@ fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
     // (192 MiB of 8-bit RGB) fits but not the encoder's own share.
     let dir = scratch("encode");
     let out = dir.join("b.cae");
-    fails_cleanly(
+    refused(
+        "encode @ -o @ --max-memory 250M",
         &[
-            "encode",
             &bad("R4-png-8192x8192-flat.png"),
-            "-o",
             &out.display().to_string(),
-            "--max-memory",
-            "250M",
         ],
-        1,
         "encoding 8192x8192 at quality 75 (the decoded input included) needs about",
     );
-    assert!(!out.exists());
 }
 
 /// A texture over the budget or the loader's pixel limit is refused from its header,
 /// before anything is decoded.
 #[test]
 fn textures_are_refused_from_their_headers() {
-    let dir = scratch("textures");
-    let out = dir.join("t.png").display().to_string();
+    let (_, out) = scratch_file("textures", "t.png");
     fails_cleanly(
-        &[
-            "surface",
-            "render",
-            &bad("R5-texture-bomb.json"),
-            "-o",
-            &out,
-        ],
+        "surface render @ -o @",
+        &[&bad("R5-texture-bomb.json"), &out],
         1,
         "16384x16384",
     );
     fails_cleanly(
-        &[
-            "transfer",
-            "--texture",
-            &bad("R5-grey-16384x16384.png"),
-            "--from",
-            "builtin:octahedron",
-            "--to",
-            "builtin:blob",
-            "-o",
-            &out,
-        ],
+        "transfer --texture @ --from builtin:octahedron --to builtin:blob -o @",
+        &[&bad("R5-grey-16384x16384.png"), &out],
         1,
         "16384x16384",
     );
@@ -266,18 +212,14 @@ fn textures_are_refused_from_their_headers() {
 #[test]
 fn grid_counts_are_checked_without_overflow() {
     fails_cleanly(
-        &[
-            "surface",
-            "eval",
-            "builtin:blob",
-            "--grid",
-            "4294967296x4294967296",
-        ],
+        "surface eval builtin:blob --grid 4294967296x4294967296",
+        &[],
         2,
         "each side must be in 1..=16000000",
     );
     fails_cleanly(
-        &["surface", "eval", "builtin:blob", "--grid", "65536x65536"],
+        "surface eval builtin:blob --grid 65536x65536",
+        &[],
         2,
         "at most 16000000 points",
     );
@@ -286,23 +228,24 @@ fn grid_counts_are_checked_without_overflow() {
 #[test]
 fn container_errors_are_specific_and_printable() {
     fails_cleanly(
-        &["info", &bad("R8-tag-0x1c-control-char.cae")],
+        "info @",
+        &[&bad("R8-tag-0x1c-control-char.cae")],
         1,
         "CRC mismatch in section 0x1c at byte 51: stored",
     );
     let dir = scratch("container");
     fails_cleanly(
+        "decode @ -o @",
         &[
-            "decode",
             &bad("R9-E-section-with-payload.cae"),
-            "-o",
             &dir.join("e.png").display().to_string(),
         ],
         1,
         "the end section at byte 53 carries 4 bytes; it must be empty",
     );
     fails_cleanly(
-        &["surface", "info", &bad("R10-surface-trailing-garbage.json")],
+        "surface info @",
+        &[&bad("R10-surface-trailing-garbage.json")],
         1,
         "trailing",
     );
@@ -326,16 +269,27 @@ fn files_larger_than_the_budget_are_not_read() {
         .and_then(|f| f.set_len(3 << 30))
         .expect("sparse file");
     fails_cleanly(
-        &["info", &big.display().to_string()],
+        "info @",
+        &[&big.display().to_string()],
         1,
         "reading the file needs about 3.0 GiB, over the memory budget of 2.0 GiB",
     );
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Asserts a clean refusal (exit 1, [`fails_cleanly`]) that wrote nothing at the
+/// command's `-o` path.
+fn refused(line: &str, paths: &[&str], needle: &str) {
+    fails_cleanly(line, paths, 1, needle);
+    let args = argv(line, paths);
+    let out = args[args.iter().position(|a| *a == "-o").expect("an output") + 1];
+    assert!(!Path::new(out).exists(), "{out} written");
+}
+
 /// Runs `args`, which must succeed; returns its stderr.
-fn succeeds(args: &[&str]) -> String {
-    let o = run(args);
+fn succeeds(line: &str, paths: &[&str]) -> String {
+    let args = argv(line, paths);
+    let o = run(&args);
     assert!(
         !o.stderr.contains("panicked"),
         "{args:?} panicked:\n{}",
@@ -348,64 +302,56 @@ fn succeeds(args: &[&str]) -> String {
 /// Asserts `args` either succeeds or fails cleanly (exit 1, one printable line
 /// naming `needle`): both are within the rules, the hostile part is what happens
 /// otherwise (a panic, an abort past the address space, a hang).
-fn bounded(args: &[&str], needle: &str) -> bool {
-    let o = run(args);
+fn bounded(line: &str, paths: &[&str], needle: &str) -> bool {
+    let o = run(&argv(line, paths));
     if o.code == 0 {
-        assert!(!o.stderr.contains("panicked"), "{args:?}: {}", o.stderr);
+        assert!(!o.stderr.contains("panicked"), "{line}: {}", o.stderr);
         return true;
     }
-    fails_cleanly(args, 1, needle);
+    fails_cleanly(line, paths, 1, needle);
     false
 }
 
-#[test]
-fn convert_refuses_meshes_whose_model_it_could_not_read_back() {
-    let dir = scratch("convert-range");
-    let out = dir.join("n.json").display().to_string();
-    fails_cleanly(
-        &["convert", &bad("D1-convert-needle-2e6.obj"), "-o", &out],
-        1,
-        "a mesh to convert must lie within +-4e5",
-    );
-    fails_cleanly(
-        &["convert", &bad("D1b-convert-offset-1e15.obj"), "-o", &out],
-        1,
-        "has coordinate 1e15",
-    );
+/// Asserts that `caoen convert` refuses each `(file of tests/bad/hostile, needle)` of
+/// `cases` cleanly and writes nothing (in the scratch directory of `test`).
+fn convert_refuses(test: &str, cases: &[(&str, &str)]) {
+    let (dir, out) = scratch_file(test, "m.json");
+    for (file, needle) in cases {
+        fails_cleanly("convert @ -o @", &[&bad(file), &out], 1, needle);
+    }
     assert!(!Path::new(&out).exists());
     std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
-fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
-    let dir = scratch("distort");
-    let out = dir.join("d.json").display().to_string();
-    fails_cleanly(
+fn convert_refuses_meshes_whose_model_it_could_not_read_back() {
+    convert_refuses(
+        "convert-range",
         &[
-            "distort",
-            "builtin:blob",
-            "--move",
-            "1,0,0:1e300,0,0",
-            "-o",
-            &out,
+            (
+                "D1-convert-needle-2e6.obj",
+                "a mesh to convert must lie within +-4e5",
+            ),
+            ("D1b-convert-offset-1e15.obj", "has coordinate 1e15"),
         ],
-        1,
+    );
+}
+
+#[test]
+fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
+    let (dir, out) = scratch_file("distort", "d.json");
+    refused(
+        "distort builtin:blob --move 1,0,0:1e300,0,0 -o @",
+        &[&out],
         "reaches past 1e6",
     );
-    assert!(!Path::new(&out).exists());
     // A long move within the range: written and read back, or refused before writing.
     if bounded(
-        &[
-            "distort",
-            "builtin:blob",
-            "--move",
-            "1,0,0:9e5,0,0",
-            "-o",
-            &out,
-        ],
+        "distort builtin:blob --move 1,0,0:9e5,0,0 -o @",
+        &[&out],
         "the largest coordinate a surface model holds",
     ) {
-        succeeds(&["surface", "info", &out]);
+        succeeds("surface info @", &[&out]);
     } else {
         assert!(!Path::new(&out).exists());
     }
@@ -414,26 +360,12 @@ fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
 
 #[test]
 fn the_mesh_render_path_checks_the_polygonising_budget_first() {
-    let dir = scratch("mesh-render");
-    let out = dir.join("m.png").display().to_string();
-    fails_cleanly(
-        &[
-            "frep",
-            "render",
-            &bad("D3-D5-unnamed-sphere.frep.json"),
-            "-o",
-            &out,
-            "--method",
-            "mesh",
-            "--cells",
-            "1024",
-            "--size",
-            "64x48",
-        ],
-        1,
+    let (_, out) = scratch_file("mesh-render", "m.png");
+    refused(
+        "frep render @ -o @ --method mesh --cells 1024 --size 64x48",
+        &[&bad("D3-D5-unnamed-sphere.frep.json"), &out],
         "polygonising on 1024^3 cells needs about 16.1 GiB",
     );
-    assert!(!Path::new(&out).exists());
 }
 
 #[test]
@@ -457,13 +389,10 @@ fn pov_export_of_a_ten_thousand_node_union_finishes() {
     )
     .expect("model");
     let out = dir.join("u.pov");
-    succeeds(&[
-        "frep",
-        "export-pov",
-        &model.display().to_string(),
-        "-o",
-        &out.display().to_string(),
-    ]);
+    succeeds(
+        "frep export-pov @ -o @",
+        &[&model.display().to_string(), &out.display().to_string()],
+    );
     let text = std::fs::read_to_string(&out).expect("written");
     // One function per node (`caoen_f<n>`), beside the shared helpers' declarations.
     let nodes = text
@@ -481,19 +410,13 @@ fn one_budget_counts_every_height_map_a_model_loads() {
     let dir = scratch("height-maps");
     let out = dir.join("d7.png");
     let o = out.display().to_string();
-    let args = [
-        "frep",
-        "render",
-        &bad("D7-heightmap-x3-bomb.json"),
-        "-o",
-        &o,
-        "--size",
-        "32x24",
-        "--samples",
-        "1",
-    ];
+    let d7 = bad("D7-heightmap-x3-bomb.json");
     // Within the 2 GiB address space: the three maps of one image share its samples.
-    if bounded(&args, "over the memory budget of 2.0 GiB") {
+    if bounded(
+        "frep render @ -o @ --size 32x24 --samples 1",
+        &[&d7, &o],
+        "over the memory budget of 2.0 GiB",
+    ) {
         assert!(out.exists());
     }
     // Twelve maps of twelve copies of one image cannot share: the budget counts them
@@ -519,16 +442,10 @@ fn one_budget_counts_every_height_map_a_model_loads() {
     )
     .expect("model");
     fails_cleanly(
+        "frep render @ -o @ --size 32x24 --max-memory 512M",
         &[
-            "frep",
-            "render",
             &model.display().to_string(),
-            "-o",
             &dir.join("d12.png").display().to_string(),
-            "--size",
-            "32x24",
-            "--max-memory",
-            "512M",
         ],
         1,
         "MiB already loaded) needs about",
@@ -542,29 +459,22 @@ fn carve_and_relief_refuse_to_write_a_model_render_would_refuse() {
     let (small, on) = (bad("small.png"), bad("D8-nest64.frep.json"));
     // The shell adds two levels: past the limit, refused before anything is written.
     let out = dir.join("carve.json").display().to_string();
-    fails_cleanly(
-        &["carve", &small, "--on", &on, "-o", &out, "--shell", "0.1"],
-        1,
+    refused(
+        "carve @ --on @ -o @ --shell 0.1",
+        &[&small, &on, &out],
         "nested deeper than 64 levels",
     );
-    assert!(!Path::new(&out).exists());
     // A relief adds one level, which fits: what is written renders.
     let out = dir.join("relief.json").display().to_string();
     if bounded(
-        &["relief", &small, "--on", &on, "-o", &out],
+        "relief @ --on @ -o @",
+        &[&small, &on, &out],
         "nested deeper than 64 levels",
     ) {
-        succeeds(&[
-            "frep",
-            "render",
-            &out,
-            "-o",
-            &dir.join("r.png").display().to_string(),
-            "--size",
-            "16x12",
-            "--samples",
-            "1",
-        ]);
+        succeeds(
+            "frep render @ -o @ --size 16x12 --samples 1",
+            &[&out, &dir.join("r.png").display().to_string()],
+        );
     } else {
         assert!(!Path::new(&out).exists());
     }
@@ -575,19 +485,10 @@ fn carve_and_relief_refuse_to_write_a_model_render_would_refuse() {
 fn transfer_bakes_a_bounded_grid_by_default() {
     let dir = scratch("transfer");
     let out = dir.join("t.png");
-    succeeds(&[
-        "transfer",
-        "--texture",
-        &bad("bomb8000.png"),
-        "--from",
-        "builtin:octahedron",
-        "--to",
-        "builtin:blob",
-        "-o",
-        &out.display().to_string(),
-        "--size",
-        "32x24",
-    ]);
+    succeeds(
+        "transfer --texture @ --from builtin:octahedron --to builtin:blob -o @ --size 32x24",
+        &[&bad("bomb8000.png"), &out.display().to_string()],
+    );
     let back = caoen::image_io::load(&out).expect("reads back");
     assert_eq!((back.width(), back.height()), (32, 24));
     std::fs::remove_dir_all(&dir).ok();
@@ -595,24 +496,19 @@ fn transfer_bakes_a_bounded_grid_by_default() {
 
 #[test]
 fn ply_files_must_hold_exactly_what_their_header_declares() {
-    let dir = scratch("ply");
-    let out = dir.join("m.json").display().to_string();
-    fails_cleanly(
+    convert_refuses(
+        "ply",
         &[
-            "convert",
-            &bad("M1-ply-declares-fewer-faces.ply"),
-            "-o",
-            &out,
+            (
+                "M1-ply-declares-fewer-faces.ply",
+                "after the 1837 elements the header declares",
+            ),
+            (
+                "M2-ply-ascii-extra-tokens.ply",
+                "vertex 0 has 2 more numbers than its properties take",
+            ),
         ],
-        1,
-        "after the 1837 elements the header declares",
     );
-    fails_cleanly(
-        &["convert", &bad("M2-ply-ascii-extra-tokens.ply"), "-o", &out],
-        1,
-        "vertex 0 has 2 more numbers than its properties take",
-    );
-    assert!(!Path::new(&out).exists());
 }
 
 /// The rest of the second round (`../shared/hostile/README.md`): an exact sphere
@@ -624,41 +520,28 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
     let dir = scratch("second-round");
     let o = |n: &str| dir.join(n).display().to_string();
     // D2: the base quadric alone, read back by the loader and by deviation.
-    succeeds(&[
-        "convert",
-        &bad("D2-convert-exact-sphere.obj"),
-        "-o",
-        &o("s.json"),
-    ]);
-    succeeds(&[
-        "frep",
-        "render",
-        &o("s.json"),
-        "-o",
-        &o("s.png"),
-        "--size",
-        "32x24",
-    ]);
-    succeeds(&[
-        "deviation",
-        &bad("D2-convert-exact-sphere.obj"),
-        &o("s.json"),
-    ]);
+    succeeds(
+        "convert @ -o @",
+        &[&bad("D2-convert-exact-sphere.obj"), &o("s.json")],
+    );
+    succeeds(
+        "frep render @ -o @ --size 32x24",
+        &[&o("s.json"), &o("s.png")],
+    );
+    succeeds(
+        "deviation @ @",
+        &[&bad("D2-convert-exact-sphere.obj"), &o("s.json")],
+    );
     // D3: relief and carve of a model without `name`, as a picture and as a model.
     for cmd in ["relief", "carve"] {
         let on = bad("D3-D5-unnamed-sphere.frep.json");
         let (png, json) = (o(&format!("{cmd}.png")), o(&format!("{cmd}.json")));
-        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &png]);
-        succeeds(&[cmd, &bad("small.png"), "--on", &on, "-o", &json]);
-        succeeds(&[
-            "frep",
-            "render",
-            &json,
-            "-o",
-            &o(&format!("{cmd}-back.png")),
-            "--size",
-            "32x24",
-        ]);
+        succeeds("@ @ --on @ -o @", &[cmd, &bad("small.png"), &on, &png]);
+        succeeds("@ @ --on @ -o @", &[cmd, &bad("small.png"), &on, &json]);
+        succeeds(
+            "frep render @ -o @ --size 32x24",
+            &[&json, &o(&format!("{cmd}-back.png"))],
+        );
     }
     // D4b: 9,990 overlapping bumps on one sphere, within the node limit.
     let bumps = vec![r#"{"bump": {"centre": [1, 0, 0], "radius": 0.3, "height": 1}}"#; 9990];
@@ -670,21 +553,14 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
         ),
     )
     .expect("model");
-    succeeds(&[
-        "frep",
-        "export-pov",
-        &o("bumps.frep.json"),
-        "-o",
-        &o("b.pov"),
-    ]);
+    succeeds(
+        "frep export-pov @ -o @",
+        &[&o("bumps.frep.json"), &o("b.pov")],
+    );
     // M3: collinear triangles only.
     fails_cleanly(
-        &[
-            "convert",
-            &bad("M3-all-zero-area-triangles.obj"),
-            "-o",
-            &o("m.json"),
-        ],
+        "convert @ -o @",
+        &[&bad("M3-all-zero-area-triangles.obj"), &o("m.json")],
         1,
         "no area",
     );
@@ -696,23 +572,23 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
     )
     .expect("model");
     fails_cleanly(
-        &["frep", "mesh", &o("thin.frep.json"), "-o", &o("thin.stl")],
+        "frep mesh @ -o @",
+        &[&o("thin.frep.json"), &o("thin.stl")],
         1,
         "the mesh is empty",
     );
     assert!(!Path::new(&o("thin.stl")).exists());
     // A wrong magic number is refused after its four bytes, not after reading 2 GiB.
-    fails_cleanly(&["info", "/dev/zero"], 1, "magic");
-    fails_cleanly(&["decode", "/dev/zero", "-o", &o("z.png")], 1, "magic");
+    fails_cleanly("info /dev/zero", &[], 1, "magic");
+    fails_cleanly("decode /dev/zero -o @", &[&o("z.png")], 1, "magic");
     std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn a_whole_number_written_as_a_float_is_read_as_one() {
-    let dir = scratch("whole-float");
-    let out = dir.join("s.png").display().to_string();
+    let (dir, out) = scratch_file("whole-float", "s.png");
     let model = bad("third-M7-noise-seed-7.0.json");
-    succeeds(&["frep", "render", &model, "-o", &out, "--size", "32x24"]);
+    succeeds("frep render @ -o @ --size 32x24", &[&model, &out]);
     let png = image::open(&out).expect("the render reads back");
     assert_eq!((png.width(), png.height()), (32, 24));
     std::fs::remove_dir_all(&dir).ok();

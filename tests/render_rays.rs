@@ -4,9 +4,9 @@
 //! example against POV-Ray.
 
 mod common;
-use common::{assert_ok, caoen, has_povray, s, Stream};
+use common::{assert_ok, caoen, povray_dir, s, Stream};
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use caoen::render::rays::{fresnel, reflect, refract, RayScene};
 use caoen::render::renderer::{render, Method, RenderOptions};
@@ -14,10 +14,6 @@ use caoen::render::Scene;
 use caoen::surface::normals::point_and_normal;
 use caoen::surface::tracer::RayMethod;
 use serde_json::json;
-
-fn tmpdir(name: &str) -> PathBuf {
-    common::kept_dir(&format!("rays-{name}"))
-}
 
 fn unit(v: [f64; 3]) -> [f64; 3] {
     let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
@@ -99,6 +95,18 @@ fn scene(v: serde_json::Value) -> Scene {
     Scene::from_json(&v.to_string(), Path::new("."), &caoen::Limits::default()).unwrap()
 }
 
+/// The fast ray tracer of the single-object scene `sc` of radius `radius`.
+fn fast_rays(sc: &Scene, radius: f64) -> RayScene<'_> {
+    RayScene::new(
+        sc,
+        vec![None],
+        RayMethod::Fast,
+        radius,
+        &caoen::Limits::default(),
+    )
+    .unwrap()
+}
+
 /// A shadow ray through a transmitting ball crosses two surfaces, each passing
 /// `transmit` of the light; an opaque ball stops it; beside the ball nothing does.
 #[test]
@@ -109,14 +117,7 @@ fn shadow_rays_pass_transmit_per_surface() {
             "objects": [{"frep": {"sphere": {"centre": [0, 0, 1], "radius": 0.5}},
                          "material": {"transmit": transmit, "ior": 1.5}}]
         }));
-        let rays = RayScene::new(
-            &sc,
-            vec![None],
-            RayMethod::Fast,
-            1.5,
-            &caoen::Limits::default(),
-        )
-        .unwrap();
+        let rays = fast_rays(&sc, 1.5);
         let below = rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
         assert!((below - want).abs() < 1e-6, "{transmit}: {below}");
         assert_eq!(rays.light_through([2.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 1.0);
@@ -133,14 +134,7 @@ fn mirror_and_glass_golden_values() {
         "objects": [{"frep": {"box": {"centre": [0, 0, -1], "size": [4, 4, 2]}},
                      "material": {"colour": [0, 0, 0], "reflect": 1.0, "specular": 0}}]
     }));
-    let rays = RayScene::new(
-        &mirror,
-        vec![None],
-        RayMethod::Fast,
-        3.0,
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let rays = fast_rays(&mirror, 3.0);
     let c = rays.trace([0.0, 0.0, 1.0], unit([0.3, 0.1, -1.0]), 1, 1.0, None);
     assert_eq!(c, mirror.background);
     let f = fresnel(1.0, 1.5);
@@ -150,14 +144,7 @@ fn mirror_and_glass_golden_values() {
         "objects": [{"frep": {"box": {"centre": [0, 0, 0], "size": [4, 4, 0.5]}},
                      "material": {"colour": [0, 0, 0], "reflect": 1.0, "transmit": 0.9, "ior": 1.5, "specular": 0}}]
     }));
-    let rays = RayScene::new(
-        &glass,
-        vec![None],
-        RayMethod::Fast,
-        3.0,
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let rays = fast_rays(&glass, 3.0);
     // Straight down: the reflected rays go back up to the white background too,
     // so the radiance is the sum of every path's weight (to the depth limit).
     let c = rays.trace([0.0, 0.0, 2.0], [0.0, 0.0, -1.0], 1, 1.0, None);
@@ -280,10 +267,9 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
 /// difference inside it of at most 8 grey levels. The times are printed, not asserted.
 #[test]
 fn mirror_glass_example_matches_povray() {
-    if !has_povray() {
+    let Some(dir) = povray_dir("rays-mirror-glass") else {
         return;
-    }
-    let dir = tmpdir("mirror-glass");
+    };
     let scene = common::repo_path("examples/frep/mirror-glass.json");
     let (iou, grey, ours, theirs) = against_povray(&dir, &scene, "2");
     println!(

@@ -2,7 +2,7 @@
 //! Jacobian sign, PNG vs .cae agreement, fold-over warning, CLI errors.
 
 mod common;
-use common::{assert_ok, caoen, caoen_ok, s};
+use common::{argv, assert_ok, caoen, caoen_ok, s};
 
 use std::path::{Path, PathBuf};
 
@@ -383,33 +383,19 @@ fn surface_3d_warp_fold_check() {
     // CLI: the warning on stderr for the crossing moves only, a model written in both.
     let dir = tmpdir("fold3");
     let out = dir.join("d.json");
-    let o = caoen_ok(&[
-        "distort",
-        "builtin:blob",
-        "-o",
-        s(&out),
-        "--move",
-        "1.3,0,0:1.7,0.3,-0.1",
-        "--move",
-        "0,0,1:0,0,1",
-    ]);
+    let o = caoen_ok(&argv(
+        "distort builtin:blob -o @ --move 1.3,0,0:1.7,0.3,-0.1 --move 0,0,1:0,0,1",
+        &[s(&out)],
+    ));
     assert!(
         !String::from_utf8_lossy(&o.stderr).contains("warning"),
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    let o = caoen_ok(&[
-        "distort",
-        "builtin:blob",
-        "-o",
-        s(&out),
-        "--force",
-        "--quiet",
-        "--move",
-        "-0.5,0,0:0.5,0,0",
-        "--move",
-        "0.5,0,0:-0.5,0,0",
-    ]);
+    let o = caoen_ok(&argv(
+        "distort builtin:blob -o @ --force --quiet --move -0.5,0,0:0.5,0,0 --move 0.5,0,0:-0.5,0,0",
+        &[s(&out)],
+    ));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("warning: inconsistent moves"), "{err}");
     assert!(caoen::surface::SurfaceModel::load(&out, &caoen::Limits::default()).is_ok());

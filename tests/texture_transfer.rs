@@ -17,6 +17,12 @@ fn tmpdir(name: &str) -> PathBuf {
     common::fresh_dir(&format!("transfer-{name}"))
 }
 
+/// The surface model `examples/{name}`.
+fn example(name: &str) -> caoen::surface::SurfaceModel {
+    let path = common::repo_path("examples").join(name);
+    caoen::surface::SurfaceModel::load(&path, &caoen::Limits::default()).unwrap()
+}
+
 fn checker() -> Texture {
     Texture::checker(
         256,
@@ -221,17 +227,7 @@ fn textured_morph_keeps_the_texture_attached() {
     // texture coordinates of its domain point, whatever the shape does.
     use caoen::render::mesh::{tessellate, NormalMode};
     use caoen::surface::{morph::morph, SurfaceModel};
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let a = SurfaceModel::load(
-        &root.join("examples/morph-a.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
-    let b = SurfaceModel::load(
-        &root.join("examples/morph-b.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let (a, b) = (example("morph-a.json"), example("morph-b.json"));
     for k in 0..5 {
         let u = k as f64 / 4.0;
         let net = morph(&a.network, &b.network, u).unwrap();
@@ -567,12 +563,7 @@ fn texture_control_example_steers_the_texture() {
     // vector (the paper's texture control). More of the domain, so more of the texture,
     // lands on the +x tip than on the plain blob.
     use caoen::surface::SurfaceModel;
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let model = SurfaceModel::load(
-        &root.join("examples/texture-control.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let model = example("texture-control.json");
     assert!(model.texture.is_some());
     let kps = model.network.key_points();
     let tip: Vec<_> = kps.iter().filter(|k| k.shape == [1.3, 0.0, 0.0]).collect();

@@ -97,13 +97,10 @@ fn the_viewer_draws_the_native_decode_of_what_it_shows() {
         "browser.mjs failed: {}\n{steps:#}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let names: Vec<&str> = steps["steps"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|st| st["name"].as_str().unwrap())
-        .collect();
-    assert_eq!(names, ["fit", "zoom4", "zoom32", "panned"]);
+    assert_eq!(
+        common::names(&steps["steps"]),
+        ["fit", "zoom4", "zoom32", "panned"]
+    );
     for step in steps["steps"].as_array().unwrap() {
         let name = step["name"].as_str().unwrap();
         assert_eq!(step["state"], "ready", "{name}: {steps:#}");

@@ -40,6 +40,39 @@ pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// The arguments of the command `line`, split at white space, with each `@` standing
+/// for the next of `paths` (kept whole, spaces and all): a command as typed.
+pub fn argv<'a>(line: &'a str, paths: &[&'a str]) -> Vec<&'a str> {
+    let mut paths = paths.iter();
+    let args = line
+        .split_whitespace()
+        .map(|w| {
+            if w == "@" {
+                *paths.next().expect("a path per @")
+            } else {
+                w
+            }
+        })
+        .collect();
+    assert!(paths.next().is_none(), "more paths than @ in {line}");
+    args
+}
+
+/// Writes the F-rep model file `path` holding `model` (a `caoen-frep/1` file).
+pub fn write_frep(path: &Path, model: serde_json::Value) {
+    let file = serde_json::json!({"format": "caoen-frep/1", "model": model});
+    std::fs::write(path, file.to_string()).unwrap();
+}
+
+/// The `name` of each entry of the JSON array `list`.
+pub fn names(list: &serde_json::Value) -> Vec<&str> {
+    let entries = list.as_array().expect("a JSON array");
+    entries
+        .iter()
+        .map(|e| e["name"].as_str().unwrap())
+        .collect()
+}
+
 /// A run's stderr as text.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
@@ -134,6 +167,12 @@ pub fn has_povray() -> bool {
         probe.is_ok_and(|o| o.status.success() || !o.stderr.is_empty()),
         "POV-Ray",
     )
+}
+
+/// A fresh directory `name` (see [`fresh_dir`]) for a test that compares with
+/// POV-Ray, or None when POV-Ray is not installed and the test is skipped.
+pub fn povray_dir(name: &str) -> Option<PathBuf> {
+    has_povray().then(|| fresh_dir(name))
 }
 
 /// Exports the model or scene `model` to the POV-Ray scene `pov` with `caoen frep

@@ -767,13 +767,13 @@ fn make_vectors() {
         .ok()
         .map(|s| s.split(',').map(str::to_string).collect());
     for r in make::recipes() {
-        if only.as_ref().is_some_and(|o| !o.contains(r.file)) {
+        if only.as_ref().is_some_and(|o| !o.contains(&r.file)) {
             continue;
         }
         let bytes = (r.make)();
         let d = describe(&bytes).expect("the encoder's file");
         eprintln!("{} ({} bytes): {d}", r.file, bytes.len());
-        std::fs::write(out.join(r.file), bytes).expect("write a vector");
+        std::fs::write(out.join(&r.file), bytes).expect("write a vector");
     }
 }
 
@@ -785,7 +785,7 @@ mod make {
 
     /// One vector: its file and how it is made.
     pub struct Recipe {
-        pub file: &'static str,
+        pub file: String,
         pub make: Box<dyn Fn() -> Vec<u8>>,
     }
 
@@ -999,13 +999,13 @@ mod make {
     pub fn recipes() -> Vec<Recipe> {
         use ChannelLayout::*;
         use SampleFormat::*;
-        let plain = |file: &'static str,
+        let plain = |file: &str,
                      picture: Picture,
                      size: (u32, u32),
                      layout: ChannelLayout,
                      format: SampleFormat,
                      q: f32| Recipe {
-            file,
+            file: file.to_string(),
             make: Box::new(move || {
                 encode(
                     &source(picture, size, layout, format),
@@ -1015,34 +1015,56 @@ mod make {
                 )
             }),
         };
-        vec![
-            // Every channel layout in every sample format.
-            plain("grey8-64x48.cae", scene, (64, 48), Grey, U8, 75.0),
-            plain("greyalpha8-61x45.cae", scene, (61, 45), GreyAlpha, U8, 70.0),
-            plain("rgb8-128x96.cae", scene, (128, 96), Rgb, U8, 75.0),
-            plain("rgba8-77x53.cae", scene, (77, 53), Rgba, U8, 65.0),
-            plain("grey16-64x48.cae", scene, (64, 48), Grey, U16, 85.0),
-            plain(
-                "greyalpha16-48x40.cae",
-                scene,
-                (48, 40),
-                GreyAlpha,
+        // Every channel layout in every sample format, named after both and the size:
+        // per format, the width, height and quality of grey, grey+alpha, RGB and RGBA.
+        let every = [
+            (
+                U8,
+                [
+                    (64, 48, 75.0),
+                    (61, 45, 70.0),
+                    (128, 96, 75.0),
+                    (77, 53, 65.0),
+                ],
+            ),
+            (
                 U16,
-                60.0,
+                [
+                    (64, 48, 85.0),
+                    (48, 40, 60.0),
+                    (96, 64, 60.0),
+                    (64, 48, 80.0),
+                ],
             ),
-            plain("rgb16-96x64.cae", scene, (96, 64), Rgb, U16, 60.0),
-            plain("rgba16-64x48.cae", scene, (64, 48), Rgba, U16, 80.0),
-            plain("greyfloat-48x32.cae", scene, (48, 32), Grey, F32, 75.0),
-            plain(
-                "greyalphafloat-40x32.cae",
-                scene,
-                (40, 32),
-                GreyAlpha,
+            (
                 F32,
-                70.0,
+                [
+                    (48, 32, 75.0),
+                    (40, 32, 70.0),
+                    (64, 48, 75.0),
+                    (48, 36, 60.0),
+                ],
             ),
-            plain("rgbfloat-64x48.cae", scene, (64, 48), Rgb, F32, 75.0),
-            plain("rgbafloat-48x36.cae", scene, (48, 36), Rgba, F32, 60.0),
+        ];
+        let layouts = [
+            (Grey, "grey"),
+            (GreyAlpha, "greyalpha"),
+            (Rgb, "rgb"),
+            (Rgba, "rgba"),
+        ];
+        let mut recipes = Vec::new();
+        for (format, sizes) in every {
+            let format_name = match format {
+                U8 => "8",
+                U16 => "16",
+                F32 => "float",
+            };
+            for ((layout, layout_name), (w, h, q)) in layouts.into_iter().zip(sizes) {
+                let file = format!("{layout_name}{format_name}-{w}x{h}.cae");
+                recipes.push(plain(&file, scene, (w, h), layout, format, q));
+            }
+        }
+        recipes.extend([
             // A smooth picture at a low quality: merged groups of 32x32 pixels.
             plain("rgb8-smooth-q10-48x32.cae", smooth, (48, 32), Rgb, U8, 10.0),
             // Detail steps adapted to the cells but no activity field (quality 40).
@@ -1050,7 +1072,7 @@ mod make {
             // Three tiles of 512 pixels (the encoder tiles images wider than 1024).
             plain("rgb8-tiles-1060x24.cae", scene, (1060, 24), Rgb, U8, 50.0),
             Recipe {
-                file: "rgb8-metadata-64x48.cae",
+                file: "rgb8-metadata-64x48.cae".to_string(),
                 make: Box::new(|| {
                     let md = Metadata {
                         icc: Some(icc()),
@@ -1061,14 +1083,14 @@ mod make {
                 }),
             },
             Recipe {
-                file: "rgb8-half-128x96.cae",
+                file: "rgb8-half-128x96.cae".to_string(),
                 make: Box::new(|| {
                     let src = source(scene, (128, 96), Rgb, U8);
                     encode(&src, 45.0, Resampling::At(Scale::HALF), Metadata::default())
                 }),
             },
             Recipe {
-                file: "rgba8-tenths7-100x70.cae",
+                file: "rgba8-tenths7-100x70.cae".to_string(),
                 make: Box::new(|| {
                     let src = source(scene, (100, 70), Rgba, U8);
                     let at = Resampling::At(Scale::new(7).expect("0.7"));
@@ -1079,7 +1101,7 @@ mod make {
                 // Quality 60's network steps on a finer tree (a fiftieth of the split
                 // threshold, cells down to 4 pixels), and detail steps so coarse that
                 // no block is coded: the encoder leaves the layer out.
-                file: "rgb8-nodetail-64x48.cae",
+                file: "rgb8-nodetail-64x48.cae".to_string(),
                 make: Box::new(|| {
                     let src = source(scene, (64, 48), Rgb, U8);
                     let mut s = rate_control::settings(60.0, 5, None).adapted_to(U8, false);
@@ -1098,7 +1120,7 @@ mod make {
                 // changed: grey basis, one step for every cell, chroma on the luma
                 // tree, 16-pixel roots down to 2-pixel cells, a wider footprint with
                 // weights falling with the cell, a plain detail layer.
-                file: "rgb8-options-80x60.cae",
+                file: "rgb8-options-80x60.cae".to_string(),
                 make: Box::new(|| {
                     let src = source(scene, (80, 60), Rgb, U8);
                     let mut s = rate_control::settings(70.0, 5, None).adapted_to(U8, false);
@@ -1119,6 +1141,7 @@ mod make {
                         .0
                 }),
             },
-        ]
+        ]);
+        recipes
     }
 }

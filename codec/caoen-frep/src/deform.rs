@@ -294,11 +294,7 @@ impl Noise {
     /// Bounds of `amplitude n(p / scale)` over a box: the value at the centre plus or
     /// minus the gradient bound times the half-diagonal, within the global bound.
     pub fn interval(&self, b: &Aabb) -> Interval {
-        let centre = [0, 1, 2].map(|k| 0.5 * (b.lo[k] + b.hi[k]));
-        let half = (0..3)
-            .map(|k| (0.5 * (b.hi[k] - b.lo[k])).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let (centre, half) = (b.centre(), b.half_diagonal());
         let a = self.amplitude.abs();
         let whole = Interval::new(-a * NOISE_BOUND, a * NOISE_BOUND);
         if !half.is_finite() || !centre.iter().all(|v| v.is_finite()) {

@@ -196,6 +196,19 @@ impl Aabb {
         }
     }
 
+    /// The centre.
+    pub fn centre(&self) -> [f64; 3] {
+        [0, 1, 2].map(|k| 0.5 * (self.lo[k] + self.hi[k]))
+    }
+
+    /// Half the length of the box's diagonal: how far its corners lie from the centre.
+    pub fn half_diagonal(&self) -> f64 {
+        (0..3)
+            .map(|k| (0.5 * (self.hi[k] - self.lo[k])).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
     /// The longest side.
     pub fn longest(&self) -> f64 {
         (0..3).map(|k| self.hi[k] - self.lo[k]).fold(0.0, f64::max)

@@ -6,6 +6,7 @@
 //! bound over a box is the value at the centre plus or minus the half-diagonal.
 
 use super::interval::{Aabb, Interval};
+use caoen_geometry::bounds::Bounds;
 use caoen_geometry::mesh::Mesh;
 use caoen_geometry::vector::{cross, dot, sub, unit};
 
@@ -15,8 +16,7 @@ pub const MAX_TRIANGLES: usize = 2_000_000;
 /// A node of the hierarchy: a box and either two children or a run of triangles.
 #[derive(Debug, Clone, PartialEq)]
 struct BvhNode {
-    lo: [f64; 3],
-    hi: [f64; 3],
+    bounds: Bounds,
     /// Children's indices, or `(first, count)` of `order` for a leaf (`leaf` true).
     a: usize,
     b: usize,
@@ -93,13 +93,6 @@ fn closest_on_triangle(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> ([
         [0, 1, 2].map(|k| a[k] + ab[k] * v + ac[k] * w),
         Feature::Face,
     )
-}
-
-/// The squared distance from `p` to the box `[lo, hi]`.
-fn box_distance2(p: [f64; 3], lo: [f64; 3], hi: [f64; 3]) -> f64 {
-    (0..3)
-        .map(|k| (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0).powi(2))
-        .sum()
 }
 
 /// Why a mesh has no inside to measure.
@@ -221,39 +214,20 @@ impl MeshField {
         };
         field.build(0, n);
         let root = &field.nodes[0];
-        field.bounds = Aabb::new(root.lo, root.hi);
+        field.bounds = Aabb::new(root.bounds.lo, root.bounds.hi);
         Ok(field)
-    }
-
-    fn triangle_box(&self, i: u32) -> ([f64; 3], [f64; 3]) {
-        let t = self.triangles[i as usize];
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for v in t {
-            let p = self.positions[v as usize];
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo, hi)
     }
 
     /// Builds the node over `order[first..first + count]`, returning its index.
     fn build(&mut self, first: usize, count: usize) -> usize {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for &i in &self.order[first..first + count] {
-            let (a, b) = self.triangle_box(i);
-            for k in 0..3 {
-                lo[k] = lo[k].min(a[k]);
-                hi[k] = hi[k].max(b[k]);
-            }
-        }
+        let corners = self.order[first..first + count]
+            .iter()
+            .flat_map(|&i| self.triangles[i as usize])
+            .map(|v| &self.positions[v as usize]);
+        let bounds = Bounds::of(corners);
         let at = self.nodes.len();
         self.nodes.push(BvhNode {
-            lo,
-            hi,
+            bounds,
             a: first,
             b: count,
             leaf: true,
@@ -262,9 +236,7 @@ impl MeshField {
             return at;
         }
         // Median split along the box's longest axis, by triangle centres.
-        let axis = (0..3)
-            .max_by(|&x, &y| (hi[x] - lo[x]).total_cmp(&(hi[y] - lo[y])))
-            .unwrap_or(0);
+        let axis = bounds.longest_axis();
         let centre = |m: &MeshField, i: u32| {
             let t = m.triangles[i as usize];
             t.iter()
@@ -278,8 +250,7 @@ impl MeshField {
         let left = self.build(first, half);
         let right = self.build(first + half, count - half);
         self.nodes[at] = BvhNode {
-            lo,
-            hi,
+            bounds,
             a: left,
             b: right,
             leaf: false,
@@ -293,7 +264,7 @@ impl MeshField {
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let node = &self.nodes[i];
-            if box_distance2(p, node.lo, node.hi) >= best.0 {
+            if node.bounds.distance2(p) >= best.0 {
                 continue;
             }
             if node.leaf {
@@ -309,7 +280,7 @@ impl MeshField {
                 continue;
             }
             let (l, r) = (&self.nodes[node.a], &self.nodes[node.b]);
-            let (dl, dr) = (box_distance2(p, l.lo, l.hi), box_distance2(p, r.lo, r.hi));
+            let (dl, dr) = (l.bounds.distance2(p), r.bounds.distance2(p));
             // The nearer child is popped first.
             if dl < dr {
                 stack.push(node.b);
@@ -357,11 +328,7 @@ impl MeshField {
 
     /// Bounds of the field over a box (Lipschitz 1 about the centre).
     pub fn interval(&self, b: &Aabb) -> Interval {
-        let c = [0, 1, 2].map(|k| 0.5 * (b.lo[k] + b.hi[k]));
-        let r = (0..3)
-            .map(|k| (0.5 * (b.hi[k] - b.lo[k])).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let (c, r) = (b.centre(), b.half_diagonal());
         let (v, _) = self.value_gradient(c);
         Interval::new(v - r, v + r)
     }

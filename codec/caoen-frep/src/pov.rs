@@ -51,13 +51,9 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             let (h, _) = picture(map, out, next);
             format!("{h} - {}", num(*level))
         }
-        Node::Relief {
-            base,
-            map,
-            depth,
-            ramp,
-        } => {
-            let f = declare(base, out, next);
+        Node::Relief(r) => {
+            let (map, depth, ramp) = (&r.map, &r.depth, &r.ramp);
+            let f = declare(&r.base, out, next);
             let (h, _) = picture(map, out, next);
             // The pushed height as its own function: the warp reads it up to three times.
             let push = format!("caoen_push{}", *next);
@@ -144,19 +140,7 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
                 num(normal[2]),
                 num(point[2])
             ),
-            Primitive::Quadric { coefficients: c } => format!(
-                "{}*x*x + {}*y*y + {}*z*z + {}*x*y + {}*y*z + {}*x*z + {}*x + {}*y + {}*z + {}",
-                num(c[0]),
-                num(c[1]),
-                num(c[2]),
-                num(c[3]),
-                num(c[4]),
-                num(c[5]),
-                num(c[6]),
-                num(c[7]),
-                num(c[8]),
-                num(c[9])
-            ),
+            Primitive::Quadric { coefficients: c } => quadric(c),
             Primitive::CaoEn(c) => {
                 use caoen_base::blend::COMPACT_SUPPORT_U;
                 use caoen_surface::Blend;
@@ -221,25 +205,20 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             }
             acc
         }
-        Node::Blend {
-            op,
-            a,
-            shape,
-            operands,
-        } => {
-            let f1 = declare(&operands[0], out, next);
-            let f2 = declare(&operands[1], out, next);
-            let (r_function, minus) = match op {
+        Node::Blend(b) => {
+            let f1 = declare(&b.operands[0], out, next);
+            let f2 = declare(&b.operands[1], out, next);
+            let (r_function, minus) = match b.op {
                 SetOp::Union => ("caoen_blend_union", ""),
                 SetOp::Intersection => ("caoen_blend_intersection", ""),
                 SetOp::Difference => ("caoen_blend_intersection", "0 - "),
             };
             format!(
                 "{r_function}({f1}(x, y, z), {minus}{f2}(x, y, z), {}, {}, {}, {})",
-                num(*a),
-                num(shape.a0),
-                num(shape.a1),
-                num(shape.a2)
+                num(b.a),
+                num(b.shape.a0),
+                num(b.shape.a1),
+                num(b.shape.a2)
             )
         }
         Node::Offset { by, operand } => {
@@ -284,12 +263,10 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
                 }
             }
         }
-        Node::Perturb {
-            base, terms, power, ..
-        } => {
-            let f = declare(base, out, next);
+        Node::Perturb(pt) => {
+            let (f, power) = (declare(&pt.base, out, next), pt.power);
             let mut expr = format!("{f}(x, y, z)");
-            for t in terms {
+            for t in &pt.terms {
                 let c = match &t.support {
                     Support::Polygon(s) => {
                         let q = polygon_support(s);
@@ -299,12 +276,8 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
                     Support::Quadric(Primitive::Quadric { coefficients: c }) => c,
                     Support::Quadric(_) => unreachable!("quadric patches are quadrics"),
                 };
-                let q = format!(
-                    "({}*x*x + {}*y*y + {}*z*z + {}*x*y + {}*y*z + {}*x*z + {}*x + {}*y + {}*z + {})",
-                    num(c[0]), num(c[1]), num(c[2]), num(c[3]), num(c[4]),
-                    num(c[5]), num(c[6]), num(c[7]), num(c[8]), num(c[9])
-                );
-                let _ = write!(expr, " + {} * pow(max({q}, 0), {power})", num(t.factor));
+                let q = quadric(c);
+                let _ = write!(expr, " + {} * pow(max(({q}), 0), {power})", num(t.factor));
             }
             expr
         }
@@ -328,23 +301,36 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
     name
 }
 
+/// The expression of the quadric with coefficients `c`, one term per monomial.
+fn quadric(c: &[f64; 10]) -> String {
+    const MONOMIALS: [&str; 10] = [
+        "*x*x", "*y*y", "*z*z", "*x*y", "*y*z", "*x*z", "*x", "*y", "*z", "",
+    ];
+    let terms: Vec<String> = c
+        .iter()
+        .zip(MONOMIALS)
+        .map(|(k, m)| format!("{}{m}", num(*k)))
+        .collect();
+    terms.join(" + ")
+}
+
+/// The expression of the signed distance (times `|n|`) from the plane through `p`
+/// with normal `n`.
+fn plane(n: [f64; 3], p: [f64; 3]) -> String {
+    let terms: Vec<String> = ["x", "y", "z"]
+        .iter()
+        .enumerate()
+        .map(|(k, a)| format!("{} * ({a} - {})", num(n[k]), num(p[k])))
+        .collect();
+    format!("({})", terms.join(" + "))
+}
+
 /// The expression of a polygon patch's `Q`: the band across its plane or sphere
 /// intersected with each edge's half-space by the `a = 0` R-function.
 fn polygon_support(s: &PolygonSupport) -> String {
     let (surface, vertices, depth) = s.parts();
     let across = match surface {
-        Surface::Plane { normal: n } => {
-            let v = vertices[0];
-            format!(
-                "({} * (x - {}) + {} * (y - {}) + {} * (z - {}))",
-                num(n[0]),
-                num(v[0]),
-                num(n[1]),
-                num(v[1]),
-                num(n[2]),
-                num(v[2])
-            )
-        }
+        Surface::Plane { normal: n } => plane(n, vertices[0]),
         Surface::Sphere { centre: c, radius } => format!(
             "(sqrt((x - {0})*(x - {0}) + (y - {1})*(y - {1}) + (z - {2})*(z - {2})) - {3})",
             num(c[0]),
@@ -359,16 +345,7 @@ fn polygon_support(s: &PolygonSupport) -> String {
         num(2.0 * depth)
     );
     for (n, p) in s.edge_planes() {
-        let e = format!(
-            "({} * (x - {}) + {} * (y - {}) + {} * (z - {}))",
-            num(n[0]),
-            num(p[0]),
-            num(n[1]),
-            num(p[1]),
-            num(n[2]),
-            num(p[2])
-        );
-        q = format!("caoen_intersection({q}, {e}, 0)");
+        q = format!("caoen_intersection({q}, {}, 0)", plane(*n, *p));
     }
     q
 }
@@ -606,11 +583,11 @@ pub fn unexportable(node: &Node) -> Option<Unexportable> {
     match node {
         Node::HeightMap(m) | Node::Pattern { map: m, .. } => map(m),
         Node::Surface(_) => Some(Unexportable::SurfaceInside),
-        Node::Relief { base, map: m, .. } => map(m).or_else(|| unexportable(base)),
+        Node::Relief(r) => map(&r.map).or_else(|| unexportable(&r.base)),
         Node::Primitive(_) => None,
         Node::SetOp { operands, .. } => operands.iter().find_map(unexportable),
-        Node::Blend { operands, .. } => operands.iter().find_map(unexportable),
-        Node::Perturb { base, .. } => unexportable(base),
+        Node::Blend(b) => b.operands.iter().find_map(unexportable),
+        Node::Perturb(pt) => unexportable(&pt.base),
         Node::Offset { operand, .. }
         | Node::Shell { operand, .. }
         | Node::Transform { operand, .. }

@@ -6,6 +6,7 @@
 // `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bounds;
 pub mod crease;
 pub mod mesh;
 pub mod mesh_file;

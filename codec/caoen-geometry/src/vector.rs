@@ -6,15 +6,19 @@ pub type V3 = [f64; 3];
 
 /// The bounding box `(lo, hi)` of `points` (inverted infinities when there are none).
 pub fn bounds<'a>(points: impl IntoIterator<Item = &'a V3>) -> (V3, V3) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
+    let b = super::bounds::Bounds::of(points);
+    (b.lo, b.hi)
+}
+
+/// The gradient of `f` at `p` by central differences of step `h`: what an exact
+/// gradient is checked against.
+pub fn central_difference(f: impl Fn(V3) -> f64, p: V3, h: f64) -> V3 {
+    [0, 1, 2].map(|k| {
+        let (mut a, mut b) = (p, p);
+        a[k] += h;
+        b[k] -= h;
+        (f(a) - f(b)) / (2.0 * h)
+    })
 }
 
 /// `a + b`.

@@ -12,6 +12,7 @@
 //! (measured by the test below), far inside the thresholds (0.25, 0.5, 0.75) the
 //! conversion asks of it.
 
+use super::bounds::Bounds;
 use super::polygon_mesh::PolygonMesh;
 use crate::vector::{add, cross, dot, norm, scale, sub};
 
@@ -71,17 +72,8 @@ impl<'a> WindingTree<'a> {
             if end - start <= LEAF {
                 continue;
             }
-            let mut lo = [f64::INFINITY; 3];
-            let mut hi = [f64::NEG_INFINITY; 3];
-            for &t in &order[start..end] {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(centroids[t as usize][k]);
-                    hi[k] = hi[k].max(centroids[t as usize][k]);
-                }
-            }
-            let axis = (0..3)
-                .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
-                .unwrap_or(0);
+            let spread = Bounds::of(order[start..end].iter().map(|&t| &centroids[t as usize]));
+            let axis = spread.longest_axis();
             let mid = (end - start) / 2;
             order[start..end].select_nth_unstable_by(mid, |&a, &b| {
                 centroids[a as usize][axis]

@@ -2,6 +2,7 @@
 //! secondary rays (shadows, reflection, refraction) meet where an object is drawn as a
 //! mesh, and the first guess of a ray's crossing with a Cao En surface.
 
+use caoen_geometry::bounds::Bounds;
 use caoen_geometry::mesh::Mesh;
 use caoen_geometry::vector::{cross, dot, sub};
 
@@ -10,8 +11,7 @@ const LEAF: usize = 4;
 
 #[derive(Debug, Clone, Copy)]
 struct Node {
-    lo: [f64; 3],
-    hi: [f64; 3],
+    bounds: Bounds,
     /// Inner node: index of the second child (the first follows the node).
     /// Leaf: first index into `order`.
     a: u32,
@@ -76,26 +76,16 @@ impl TriangleBvh {
     }
 
     fn build(&mut self, first: usize, count: usize, centroids: &[[f64; 3]]) -> usize {
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        let (mut clo, mut chi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        let (mut bounds, mut spread) = (Bounds::EMPTY, Bounds::EMPTY);
         for &t in &self.order[first..first + count] {
             for &v in &self.triangles[t as usize] {
-                let p = self.positions[v as usize];
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
+                bounds.include(self.positions[v as usize]);
             }
-            let c = centroids[t as usize];
-            for k in 0..3 {
-                clo[k] = clo[k].min(c[k]);
-                chi[k] = chi[k].max(c[k]);
-            }
+            spread.include(centroids[t as usize]);
         }
         let at = self.nodes.len();
         self.nodes.push(Node {
-            lo,
-            hi,
+            bounds,
             a: first as u32,
             count: count as u32,
             axis: 0,
@@ -103,9 +93,7 @@ impl TriangleBvh {
         if count <= LEAF {
             return at;
         }
-        let axis = (0..3)
-            .max_by(|&i, &j| (chi[i] - clo[i]).total_cmp(&(chi[j] - clo[j])))
-            .unwrap_or(0);
+        let axis = spread.longest_axis();
         let half = count / 2;
         self.order[first..first + count].select_nth_unstable_by(half, |&a, &b| {
             centroids[a as usize][axis].total_cmp(&centroids[b as usize][axis])
@@ -137,7 +125,7 @@ impl TriangleBvh {
         while top > 0 {
             top -= 1;
             let node = self.nodes[stack[top] as usize];
-            if !slab(&node, origin, inv, t_min, limit) {
+            if !node.bounds.meets_ray(origin, inv, t_min, limit) {
                 continue;
             }
             if node.count > 0 {
@@ -190,30 +178,6 @@ impl TriangleBvh {
         }
         Some((dot(e2, q) * inv, [u, v]))
     }
-}
-
-/// Whether the ray meets the node's box within `(t_min, t_max)`.
-fn slab(node: &Node, origin: [f64; 3], inv: [f64; 3], t_min: f64, t_max: f64) -> bool {
-    let (mut a, mut b) = (t_min, t_max);
-    for k in 0..3 {
-        if !inv[k].is_finite() {
-            // Parallel to the slab: inside it or not at all.
-            if origin[k] < node.lo[k] || origin[k] > node.hi[k] {
-                return false;
-            }
-            continue;
-        }
-        let t0 = (node.lo[k] - origin[k]) * inv[k];
-        let t1 = (node.hi[k] - origin[k]) * inv[k];
-        let (n, f) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-        if n > a {
-            a = n;
-        }
-        if f < b {
-            b = f;
-        }
-    }
-    a <= b
 }
 
 #[cfg(test)]

@@ -26,7 +26,7 @@ use std::cell::RefCell;
 use super::bvh::TriangleBvh;
 use super::csg::{first_span, CsgNode};
 use super::scene::{Scene, Shape};
-use super::shading::{shade_lit, Material};
+use super::shading::{shade_lit, Material, SurfacePoint};
 use super::texture::domain_uv;
 use caoen_frep::raycast::Caster;
 use caoen_geometry::mesh::Mesh;
@@ -427,21 +427,18 @@ impl<'a> RayScene<'a> {
         let above = add(p, scale(nf, 10.0 * self.eps));
         let below = sub(p, scale(nf, 10.0 * self.eps));
         let shadows = self.scene.shadows;
-        let mut out = shade_lit(
-            &self.scene.lighting,
-            m,
+        let at = SurfacePoint {
             albedo,
-            nf,
+            normal: nf,
             to_eye,
-            1.0 - m.transmit,
-            &|l| {
-                if shadows {
-                    self.light_through(above, l)
-                } else {
-                    1.0
-                }
-            },
-        );
+        };
+        let mut out = shade_lit(&self.scene.lighting, m, at, 1.0 - m.transmit, &|l| {
+            if shadows {
+                self.light_through(above, l)
+            } else {
+                1.0
+            }
+        });
         if (m.reflect <= 0.0 && m.transmit <= 0.0) || nf == [0.0; 3] {
             return out;
         }

@@ -114,19 +114,23 @@ impl Material {
     }
 }
 
-/// Linear radiance leaving a surface point with unit normal `normal`, seen along
-/// `to_eye` (unit, from the surface towards the eye), with base colour `albedo`.
+/// A surface point as shading sees it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// Base colour (linear light).
+    pub albedo: [f32; 3],
+    /// Unit normal.
+    pub normal: [f64; 3],
+    /// Unit direction from the surface towards the eye.
+    pub to_eye: [f64; 3],
+}
+
+/// Linear radiance leaving the surface point `at`.
 ///
 /// The normal is turned to face the viewer first: a Cao En map may orient its surface
 /// either way (and a zero normal, at a singular point, shades with ambient light only).
-pub fn shade(
-    lighting: &Lighting,
-    material: &Material,
-    albedo: [f32; 3],
-    normal: [f64; 3],
-    to_eye: [f64; 3],
-) -> [f32; 3] {
-    shade_lit(lighting, material, albedo, normal, to_eye, 1.0, &|_| 1.0)
+pub fn shade(lighting: &Lighting, material: &Material, at: SurfacePoint) -> [f32; 3] {
+    shade_lit(lighting, material, at, 1.0, &|_| 1.0)
 }
 
 /// [`shade`] with an opacity (the share of ambient and diffuse light the surface
@@ -136,12 +140,15 @@ pub fn shade(
 pub fn shade_lit(
     lighting: &Lighting,
     material: &Material,
-    albedo: [f32; 3],
-    normal: [f64; 3],
-    to_eye: [f64; 3],
+    at: SurfacePoint,
     opacity: f32,
     visible: &dyn Fn([f64; 3]) -> f32,
 ) -> [f32; 3] {
+    let SurfacePoint {
+        albedo,
+        normal,
+        to_eye,
+    } = at;
     let mut n = normal;
     if dot(n, to_eye) < 0.0 {
         n = n.map(|v| -v);
@@ -187,13 +194,17 @@ mod tests {
             specular: 0.0,
             ..Material::default()
         };
-        let a = [1.0f32; 3];
-        let head_on = shade(&lighting, &m, a, [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]);
+        let at = |normal| SurfacePoint {
+            albedo: [1.0; 3],
+            normal,
+            to_eye: [0.0, 0.0, 1.0],
+        };
+        let head_on = shade(&lighting, &m, at([0.0, 0.0, 1.0]));
         let s = 0.5f64.sqrt();
-        let tilted = shade(&lighting, &m, a, [s, 0.0, s], [0.0, 0.0, 1.0]);
+        let tilted = shade(&lighting, &m, at([s, 0.0, s]));
         assert!((tilted[0] / head_on[0] - s as f32).abs() < 1e-6);
         // Facing away from the viewer flips the normal, not the light.
-        let back = shade(&lighting, &m, a, [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]);
+        let back = shade(&lighting, &m, at([0.0, 0.0, -1.0]));
         assert_eq!(back, head_on);
     }
 }

@@ -18,36 +18,31 @@ pub const DEFAULT_COLOURS: [[f32; 3]; 2] = [[0.85, 0.8, 0.65], [0.06, 0.12, 0.35
 /// The procedural kinds, in the order `--help` lists them.
 pub const PROCEDURAL: [&str; 4] = ["checker", "stripes", "rings", "marble"];
 
+/// A procedural pattern of two colours.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pattern {
+    /// Cubes of side `scale` in alternating colours.
+    Checker,
+    /// Layers perpendicular to x, `scale` thick per colour, blended smoothly.
+    Stripes,
+    /// Wood: cylinders around the z axis, `scale` apart, rings wobbled by noise (early
+    /// wood, late wood).
+    Rings,
+    /// Marble: layers perpendicular to x, `scale` apart, displaced by fractal Perlin
+    /// noise (turbulence) into veins (stone, vein).
+    Marble,
+}
+
 /// A solid texture: a colour (linear light) at every point of 3-D texture space.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Solid {
-    /// Cubes of side `scale` in alternating colours.
-    Checker {
-        /// Cube side.
+    /// A procedural pattern.
+    Procedural {
+        /// Which pattern.
+        pattern: Pattern,
+        /// Its feature size: cube side, stripe period, ring or vein spacing.
         scale: f64,
         /// The two colours.
-        colours: [[f32; 3]; 2],
-    },
-    /// Layers perpendicular to x, `scale` thick per colour, blended smoothly.
-    Stripes {
-        /// Period of the two-colour pattern.
-        scale: f64,
-        /// The two colours.
-        colours: [[f32; 3]; 2],
-    },
-    /// Wood: cylinders around the z axis, `scale` apart, rings wobbled by noise.
-    Rings {
-        /// Ring spacing.
-        scale: f64,
-        /// Early wood, late wood.
-        colours: [[f32; 3]; 2],
-    },
-    /// Marble: layers perpendicular to x, `scale` apart, displaced by fractal Perlin
-    /// noise (turbulence) into veins.
-    Marble {
-        /// Vein spacing.
-        scale: f64,
-        /// Stone, vein.
         colours: [[f32; 3]; 2],
     },
     /// A voxel volume from data.
@@ -69,45 +64,57 @@ impl Solid {
                 allowed: "must be positive",
             });
         }
-        Ok(match kind {
-            "checker" => Solid::Checker { scale, colours },
-            "stripes" => Solid::Stripes { scale, colours },
-            "rings" => Solid::Rings { scale, colours },
-            "marble" => Solid::Marble { scale, colours },
+        let pattern = match kind {
+            "checker" => Pattern::Checker,
+            "stripes" => Pattern::Stripes,
+            "rings" => Pattern::Rings,
+            "marble" => Pattern::Marble,
             _ => {
                 return Err(TextureError::UnknownSolid {
                     name: kind.to_string(),
                 })
             }
+        };
+        Ok(Solid::Procedural {
+            pattern,
+            scale,
+            colours,
         })
     }
 
     /// The colour at `p`.
     pub fn sample(&self, p: [f64; 3]) -> [f32; 3] {
-        match self {
-            Solid::Checker { scale, colours } => {
+        let (pattern, scale, colours) = match self {
+            Solid::Procedural {
+                pattern,
+                scale,
+                colours,
+            } => (*pattern, *scale, colours),
+            Solid::Volume(v) => return v.sample(p),
+        };
+        match pattern {
+            Pattern::Checker => {
                 // Wrapping sum: the parity survives, and huge coordinates cannot overflow.
                 let k = p
                     .iter()
                     .fold(0i64, |a, v| a.wrapping_add((v / scale).floor() as i64));
                 colours[k.rem_euclid(2) as usize]
             }
-            Solid::Stripes { scale, colours } => mix(colours, wave(p[0] / scale)),
-            Solid::Rings { scale, colours } => {
+            Pattern::Stripes => mix(colours, wave(p[0] / scale)),
+            Pattern::Rings => {
                 let q = p.map(|v| v / scale);
                 let r = (q[0] * q[0] + q[1] * q[1]).sqrt();
                 // Rings slightly wobbled, and late wood (the thin dark band) sharpened.
                 let t = wave(r + 0.15 * perlin([q[0], q[1], 0.25 * q[2]]));
                 mix(colours, t * t * t)
             }
-            Solid::Marble { scale, colours } => {
+            Pattern::Marble => {
                 let q = p.map(|v| v / scale);
                 let t = wave(q[0] + 2.0 * turbulence(q, 5));
                 // Thin veins: the vein colour only near the wave's crest.
                 let v = t * t;
                 mix(colours, v * v)
             }
-            Solid::Volume(v) => v.sample(p),
         }
     }
 }

@@ -99,9 +99,10 @@ pub fn transfer(
 }
 
 /// A procedural solid (3-D) texture: a checkerboard of cubes of side `cell` in the
-/// two [`super::solid::DEFAULT_COLOURS`] (`Solid::Checker`; kept for callers).
+/// two [`super::solid::DEFAULT_COLOURS`] (`Pattern::Checker`; kept for callers).
 pub fn solid_checker(p: [f64; 3], cell: f64) -> [f32; 3] {
-    super::solid::Solid::Checker {
+    super::solid::Solid::Procedural {
+        pattern: super::solid::Pattern::Checker,
         scale: cell,
         colours: super::solid::DEFAULT_COLOURS,
     }
@@ -114,11 +115,31 @@ pub fn bake_memory(width: u32, height: u32) -> u64 {
     caoen_base::budget::bytes(u64::from(width), u64::from(height), 12 + 3 + 16)
 }
 
-/// The second method of the paper: `space` maps the shared domain into a 3-D texture
-/// space; the solid texture `solid` sampled at `space(x)` is baked onto `to`'s texture
-/// grid (`width x height` texels), so it is carried onto the shape wherever `to` puts
-/// the domain point `x`. Each texel is the mean of `samples x samples` points spread
-/// over it, so a sharp edge of the solid texture is an antialiased edge in the bake.
+/// What a bake lays on a surface's texture grid.
+pub enum BakeSource<'a> {
+    /// The second method of the paper: `space` maps the shared domain into a 3-D
+    /// texture space, and the solid texture `solid` sampled at `space(x)` is carried
+    /// onto the shape wherever it puts the domain point `x`.
+    Solid {
+        /// The texture-space model.
+        space: &'a SurfaceModel,
+        /// The solid texture.
+        solid: &'a (dyn Fn([f64; 3]) -> [f32; 3] + Sync),
+    },
+    /// A picture laid on surface `from` in its own space (`picture`, projected onto
+    /// `from`'s points) pulled back to the shared domain. Each lookup reads the picture
+    /// at the pyramid level of the distance between neighbouring points in picture
+    /// texels, so a picture larger than the grid is averaged, not point-sampled.
+    Projected {
+        /// The surface the picture is laid on.
+        from: &'a SurfaceModel,
+        /// The picture.
+        picture: &'a Projected,
+    },
+}
+
+/// [`BakeSource::Solid`] baked onto `to`'s texture grid of `width x height` texels,
+/// `samples x samples` points per texel (see [`bake`]).
 pub fn bake_texture_space(
     space: &SurfaceModel,
     to: &SurfaceModel,
@@ -127,52 +148,41 @@ pub fn bake_texture_space(
     height: u32,
     samples: u32,
 ) -> Result<RgbImage, TextureError> {
-    bake_texture_space_with(space, to, solid, width, height, samples, &|_, _| {})
+    let source = BakeSource::Solid { space, solid };
+    bake(&source, to, width, height, samples, &|_, _| {})
 }
 
-/// [`bake_texture_space`] reporting `(rows done, rows)` as it goes.
-pub fn bake_texture_space_with(
-    space: &SurfaceModel,
+/// `source` baked onto `to`'s texture grid (`width x height` texels), reporting
+/// `(rows done, rows)` as it goes. Each texel is the mean of `samples x samples` points
+/// spread over it, so a sharp edge of the source is an antialiased edge in the bake.
+pub fn bake(
+    source: &BakeSource<'_>,
     to: &SurfaceModel,
-    solid: &(dyn Fn([f64; 3]) -> [f32; 3] + Sync),
     width: u32,
     height: u32,
     samples: u32,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<RgbImage, TextureError> {
-    let colour = |points: &[[f64; 3]], _: usize| points.par_iter().map(|p| solid(*p)).collect();
-    bake(space, to, width, height, samples, &colour, progress)
+    match *source {
+        BakeSource::Solid { space, solid } => {
+            let colour =
+                |points: &[[f64; 3]], _: usize| points.par_iter().map(|p| solid(*p)).collect();
+            bake_grid(space, to, width, height, samples, &colour, progress)
+        }
+        BakeSource::Projected { from, picture } => {
+            let colour = projected_colours(picture);
+            bake_grid(from, to, width, height, samples, &colour, progress)
+        }
+    }
 }
 
-/// A picture laid on surface `from` in its own space (`picture`, projected onto
-/// `from`'s points) pulled back to the shared domain and baked onto `to`'s texture grid
-/// (`width x height` texels, `samples x samples` points per texel). Each lookup reads
-/// the picture at the pyramid level of the distance between neighbouring points in
-/// picture texels, so a picture larger than the grid is averaged, not point-sampled.
-pub fn bake_projected(
-    from: &SurfaceModel,
-    to: &SurfaceModel,
+/// The colours of [`BakeSource::Projected`] for a band of rows.
+fn projected_colours(
     picture: &Projected,
-    width: u32,
-    height: u32,
-    samples: u32,
-) -> Result<RgbImage, TextureError> {
-    bake_projected_with(from, to, picture, width, height, samples, &|_, _| {})
-}
-
-/// [`bake_projected`] reporting `(rows done, rows)` as it goes.
-pub fn bake_projected_with(
-    from: &SurfaceModel,
-    to: &SurfaceModel,
-    picture: &Projected,
-    width: u32,
-    height: u32,
-    samples: u32,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<RgbImage, TextureError> {
+) -> impl Fn(&[[f64; 3]], usize) -> Vec<[f32; 3]> + Sync + '_ {
     let (pw, ph) = picture.picture_size();
     let (pw, ph) = (f64::from(pw), f64::from(ph));
-    let colour = |points: &[[f64; 3]], grid_width: usize| -> Vec<[f32; 3]> {
+    move |points: &[[f64; 3]], grid_width: usize| -> Vec<[f32; 3]> {
         let uv: Vec<[f64; 2]> = points.par_iter().map(|p| picture.uv(*p)).collect();
         let rows = points.len() / grid_width;
         (0..points.len())
@@ -201,8 +211,7 @@ pub fn bake_projected_with(
                 picture.sample(points[i], fx.max(fy))
             })
             .collect()
-    };
-    bake(from, to, width, height, samples, &colour, progress)
+    }
 }
 
 /// Colours the 3-D points of a band of rows (a row-major grid of the given width).
@@ -211,7 +220,7 @@ type BandColours<'a> = dyn Fn(&[[f64; 3]], usize) -> Vec<[f32; 3]> + Sync + 'a;
 /// The shared part of the bakes: `to`'s texture grid, `samples x samples` domain points
 /// per texel mapped through `space`, coloured by `colour` (given the 3-D points of a
 /// band of rows as a row-major grid and the grid's width), and averaged per texel.
-fn bake(
+fn bake_grid(
     space: &SurfaceModel,
     to: &SurfaceModel,
     width: u32,

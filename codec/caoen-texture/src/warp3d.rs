@@ -29,8 +29,7 @@ pub const MAX_MOVES: usize = 256;
 pub struct Warp3 {
     lo: [f64; 3],
     hi: [f64; 3],
-    centre: [f64; 3],
-    inv_scale: f64,
+    embedding: Stereographic,
     net: Network,
     anchors: usize,
 }
@@ -83,7 +82,10 @@ impl Warp3 {
             .fold(0.0f64, f64::max)
             .max(1e-9);
         let centre = [0, 1, 2].map(|k| 0.5 * (lo[k] + hi[k]));
-        let inv_scale = 1.0 / size;
+        let embedding = Stereographic {
+            centre,
+            inv_scale: 1.0 / size,
+        };
         let cells = 4usize;
         let g = 1.5 * size / cells as f64;
         let mut kp: Vec<([f64; 3], [f64; 3], f64)> = Vec::new();
@@ -115,15 +117,12 @@ impl Warp3 {
                 }
             }
         }
-        let embed = |p: [f64; 3]| embed(centre, inv_scale, p);
-        let sources: Vec<[f64; 4]> = kp.iter().map(|k| embed(k.0)).collect();
+        let sources: Vec<[f64; 4]> = kp.iter().map(|k| embedding.point(k.0)).collect();
         let q: Vec<f64> = kp
             .iter()
             .map(|k| {
-                let r2: f64 = (0..3)
-                    .map(|c| ((k.0[c] - centre[c]) * inv_scale).powi(2))
-                    .sum();
-                ((1.0 + r2) / (2.0 * k.2 * inv_scale)).powi(2)
+                let r2: f64 = embedding.local(k.0).iter().map(|v| v.powi(2)).sum();
+                ((1.0 + r2) / (2.0 * k.2 * embedding.inv_scale)).powi(2)
             })
             .collect();
         let targets: Vec<f64> = kp.iter().flat_map(|k| k.1).collect();
@@ -139,8 +138,7 @@ impl Warp3 {
         Ok(Warp3 {
             lo,
             hi,
-            centre,
-            inv_scale,
+            embedding,
             net,
             anchors,
         })
@@ -153,10 +151,7 @@ impl Warp3 {
 
     /// Where `p` goes.
     pub fn map(&self, p: [f64; 3]) -> [f64; 3] {
-        let d = self
-            .net
-            .eval(&embed(self.centre, self.inv_scale, p))
-            .expect("4-D input");
+        let d = self.net.eval(&self.embedding.point(p)).expect("4-D input");
         [p[0] + d[0], p[1] + d[1], p[2] + d[2]]
     }
 
@@ -165,9 +160,9 @@ impl Warp3 {
     pub fn jacobian(&self, p: [f64; 3]) -> [[f64; 3]; 3] {
         let (_, jn) = self
             .net
-            .eval_with_jacobian(&embed(self.centre, self.inv_scale, p))
+            .eval_with_jacobian(&self.embedding.point(p))
             .expect("4-D input");
-        let e = embed_jacobian(self.centre, self.inv_scale, p);
+        let e = self.embedding.jacobian(p);
         let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         for (r, row) in j.iter_mut().enumerate() {
             for (c, v) in row.iter_mut().enumerate() {
@@ -225,35 +220,51 @@ impl Warp3 {
     }
 }
 
-fn embed(centre: [f64; 3], inv_scale: f64, p: [f64; 3]) -> [f64; 4] {
-    let u = [0, 1, 2].map(|k| (p[k] - centre[k]) * inv_scale);
-    let r2: f64 = u.iter().map(|v| v * v).sum();
-    let d = 1.0 / (1.0 + r2);
-    [
-        2.0 * u[0] * d,
-        2.0 * u[1] * d,
-        2.0 * u[2] * d,
-        (1.0 - r2) * d,
-    ]
+/// The inverse stereographic embedding of 3-D space, centred and scaled to the warp's
+/// box, into the unit 3-sphere the network's key points live on.
+#[derive(Debug, Clone, Copy)]
+struct Stereographic {
+    centre: [f64; 3],
+    inv_scale: f64,
 }
 
-/// `d embed / d p` (4 x 3) of the inverse stereographic embedding.
-fn embed_jacobian(centre: [f64; 3], inv_scale: f64, p: [f64; 3]) -> [[f64; 3]; 4] {
-    let u = [0, 1, 2].map(|k| (p[k] - centre[k]) * inv_scale);
-    let r2: f64 = u.iter().map(|v| v * v).sum();
-    let d = 1.0 + r2;
-    let d2 = d * d;
-    let mut e = [[0.0; 3]; 4];
-    for (k, row) in e.iter_mut().take(3).enumerate() {
-        for (l, v) in row.iter_mut().enumerate() {
-            let delta = if k == l { d } else { 0.0 };
-            *v = 2.0 * (delta - 2.0 * u[k] * u[l]) / d2 * inv_scale;
+impl Stereographic {
+    /// `p` relative to the centre, in units of the box size.
+    fn local(&self, p: [f64; 3]) -> [f64; 3] {
+        [0, 1, 2].map(|k| (p[k] - self.centre[k]) * self.inv_scale)
+    }
+
+    /// The point of the sphere `p` maps to.
+    fn point(&self, p: [f64; 3]) -> [f64; 4] {
+        let u = self.local(p);
+        let r2: f64 = u.iter().map(|v| v * v).sum();
+        let d = 1.0 / (1.0 + r2);
+        [
+            2.0 * u[0] * d,
+            2.0 * u[1] * d,
+            2.0 * u[2] * d,
+            (1.0 - r2) * d,
+        ]
+    }
+
+    /// `d point / d p` (4 x 3).
+    fn jacobian(&self, p: [f64; 3]) -> [[f64; 3]; 4] {
+        let u = self.local(p);
+        let r2: f64 = u.iter().map(|v| v * v).sum();
+        let d = 1.0 + r2;
+        let d2 = d * d;
+        let mut e = [[0.0; 3]; 4];
+        for (k, row) in e.iter_mut().take(3).enumerate() {
+            for (l, v) in row.iter_mut().enumerate() {
+                let delta = if k == l { d } else { 0.0 };
+                *v = 2.0 * (delta - 2.0 * u[k] * u[l]) / d2 * self.inv_scale;
+            }
         }
+        for (l, v) in e[3].iter_mut().enumerate() {
+            *v = -4.0 * u[l] / d2 * self.inv_scale;
+        }
+        e
     }
-    for (l, v) in e[3].iter_mut().enumerate() {
-        *v = -4.0 * u[l] / d2 * inv_scale;
-    }
-    e
 }
 
 fn det3(m: &[[f64; 3]; 3]) -> f64 {

@@ -134,12 +134,15 @@ fn limits_are_checked_with_the_values() {
     let dir = tmp_dir("limits");
     let path = dir.join("small.png");
     image_io::save(&ramp(8, 4, ChannelLayout::Rgb, SampleFormat::U8), &path).unwrap();
-    let limits = LoadLimits {
-        max_side: 16384,
-        max_pixels: 31,
-        ..LoadLimits::default()
+    let load = |path: &std::path::Path, max_side, max_pixels| {
+        let limits = LoadLimits {
+            max_side,
+            max_pixels,
+            ..LoadLimits::default()
+        };
+        image_io::load_with_limits(path, &limits)
     };
-    match image_io::load_with_limits(&path, &limits) {
+    match load(&path, 16384, 31) {
         Err(ImageIoError::TooLarge {
             width: 8,
             height: 4,
@@ -150,13 +153,8 @@ fn limits_are_checked_with_the_values() {
     }
     let exr = dir.join("small.exr");
     image_io::save(&ramp(8, 4, ChannelLayout::Rgb, SampleFormat::F32), &exr).unwrap();
-    let limits = LoadLimits {
-        max_side: 7,
-        max_pixels: 1000,
-        ..LoadLimits::default()
-    };
     assert!(matches!(
-        image_io::load_with_limits(&exr, &limits),
+        load(&exr, 7, 1000),
         Err(ImageIoError::TooLarge { width: 8, .. })
     ));
 }

@@ -109,11 +109,7 @@ fn depth_buffer_and_mesh_depth_maps_agree() {
     // passes in front of another inside a pixel, the depth buffer keeps the nearer
     // object's sample while the centre ray of the rasteriser sees the farther one, so
     // the many inner silhouettes of a compound scene cost about one percent here.
-    let scene = Scene::load(
-        &common::repo_path("examples/teapot/teapot.scene.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let scene = common::example_scene("teapot/teapot.scene.json");
     compare_depths(&scene, &scene.camera(W, H).unwrap(), "teapot", 0.98);
 }
 
@@ -225,11 +221,7 @@ fn ray_traced_silhouettes_match_the_polygonised_solids() {
         );
     }
     // The CSG example: a cube minus an icosahedron.
-    let scene = Scene::load(
-        &common::repo_path("examples/csg.scene.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let scene = common::example_scene("csg.scene.json");
     let Shape::Solid { solids, csg } = &scene.objects[0].shape else {
         panic!("a solid")
     };
@@ -238,16 +230,8 @@ fn ray_traced_silhouettes_match_the_polygonised_solids() {
 
 #[test]
 fn renders_do_not_depend_on_the_thread_count() {
-    let scene = Scene::load(
-        &common::repo_path("examples/csg.scene.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
-    let tex = Scene::load(
-        &common::repo_path("examples/textured.scene.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let scene = common::example_scene("csg.scene.json");
+    let tex = common::example_scene("textured.scene.json");
     for (s, m) in [
         (&scene, Method::Ray),
         (&scene, Method::Mesh),

@@ -302,12 +302,7 @@ fn csg_example_mesh_agrees_with_the_ray_tracer() {
     // tracing: with vertices on the rims and per-solid normals the two agree to 35 dB
     // and more (8-bit sRGB PSNR, as `caoen compare` measures).
     use caoen::render::renderer::{render, Method, RenderOptions};
-    use caoen::render::Scene;
-    let scene = Scene::load(
-        &common::repo_path("examples/csg.scene.json"),
-        &caoen::Limits::default(),
-    )
-    .unwrap();
+    let scene = common::example_scene("csg.scene.json");
     let shot = |method| {
         let opts = RenderOptions {
             width: 512,

@@ -12,7 +12,9 @@ use super::{
 use crate::assets::{self, Picture};
 use crate::deform::{Noise, Warp};
 use crate::height_map::Base;
-use crate::node::{bump_quadric, Node, Patch, Support, MAX_NODES, MIN_LENGTH, WORLD_LIMIT};
+use crate::node::{
+    bump_quadric, Blended, Node, Patch, Relief, Support, MAX_NODES, MIN_LENGTH, WORLD_LIMIT,
+};
 use crate::polygon_patch::PolygonSupport;
 use crate::primitive::{CaoEnSolid, Primitive};
 use crate::rfunction::BlendShape;
@@ -166,26 +168,19 @@ impl FileNode {
                     .try_into()
                     .expect("two operands, checked with the limits");
                 let p = &self.params;
-                return Ok(Node::Blend {
+                let field = |v: &Option<Num>, name: &str, lo: f64| {
+                    number(need(v, path, name)?, &format!("{path}.{name}"), lo, w)
+                };
+                return Ok(Node::Blend(Blended {
                     op: *op,
                     a,
                     shape: BlendShape {
-                        a0: number(need(&p.a0, path, "a0")?, &format!("{path}.a0"), -w, w)?,
-                        a1: number(
-                            need(&p.a1, path, "a1")?,
-                            &format!("{path}.a1"),
-                            MIN_LENGTH,
-                            w,
-                        )?,
-                        a2: number(
-                            need(&p.a2, path, "a2")?,
-                            &format!("{path}.a2"),
-                            MIN_LENGTH,
-                            w,
-                        )?,
+                        a0: field(&p.a0, "a0", -w)?,
+                        a1: field(&p.a1, "a1", MIN_LENGTH)?,
+                        a2: field(&p.a2, "a2", MIN_LENGTH)?,
                     },
                     operands: Box::new([x, y]),
-                });
+                }));
             }
             FileKind::Unary(u, operand) => return self.unary(*u, operand, path, base_dir, limits),
         };
@@ -260,12 +255,12 @@ impl FileNode {
                         );
                     }
                 }
-                Node::Relief {
+                Node::Relief(Relief {
                     base: Box::new(base),
                     map,
                     depth: d,
                     ramp,
-                }
+                })
             }
             Unary::Negate => Node::Negate(operand()?),
             Unary::Twist => {

@@ -10,13 +10,14 @@ use super::mesh_field::MeshField;
 use super::patch_index::PatchIndex;
 use super::polygon_patch::PolygonSupport;
 use super::primitive::Primitive;
-use super::rfunction::{self, BlendShape, SetOp};
+use super::rfunction::{self, SetOp};
 use caoen_geometry::transform::Affine;
 
+mod combined;
 mod relief;
 
-pub use relief::relief_warp;
-use relief::{relief_point, relief_warp_box};
+pub use combined::{Blended, Perturbation};
+pub use relief::{relief_warp, Relief};
 
 /// Deepest nesting a model may have.
 pub const MAX_DEPTH: usize = 64;
@@ -46,28 +47,9 @@ pub enum Node {
         operands: Vec<Node>,
     },
     /// A blending union or intersection of two operands.
-    Blend {
-        /// Union or intersection.
-        op: SetOp,
-        /// The R-function parameter.
-        a: f64,
-        /// The added term's height and fall-offs.
-        shape: BlendShape,
-        /// The two operands.
-        operands: Box<[Node; 2]>,
-    },
-    /// `f + sum_i factor_i max(Q_i, 0)^power`: the base perturbed by quadric patches
-    /// (power 2: C1 where a patch ends; power 3: C2).
-    Perturb {
-        /// The base.
-        base: Box<Node>,
-        /// The perturbing quadrics with their form factors.
-        terms: Vec<Patch>,
-        /// The exponent (2 or 3).
-        power: i32,
-        /// Which terms reach a point or a box (built by [`Node::perturb`]).
-        index: PatchIndex,
-    },
+    Blend(Blended),
+    /// A base perturbed by quadric patches.
+    Perturb(Perturbation),
     /// A picture swept through space along its projection: `h(u(p), v(p)) - level`
     /// (positive where the picture is brighter than `level`), for carving.
     Pattern {
@@ -76,21 +58,8 @@ pub enum Node {
         /// The grey level of the boundary.
         level: f64,
     },
-    /// Relief: the base's space pushed along the picture's projection by `depth` times
-    /// its grey level, `f(W(p))` ([`relief_warp`]): the surface moves by `depth h`
-    /// along the projection's rays (up for planar, away from the axis or the centre
-    /// otherwise), so the offset means the same length on every face.
-    Relief {
-        /// The base.
-        base: Box<Node>,
-        /// The picture and its projection.
-        map: HeightMap,
-        /// Height of white, in the model's units (negative engraves).
-        depth: f64,
-        /// Planar: the base's z range, over which the push fades in from nothing at
-        /// the bottom (so the bottom keeps its shape) to all of it at the top.
-        ramp: [f64; 2],
-    },
+    /// A base pushed along a picture's projection.
+    Relief(Relief),
     /// `-f`: the complement (outside becomes inside).
     Negate(Box<Node>),
     /// The operand read at a warped point (twist, taper, bend): `f(W(p))`.
@@ -270,12 +239,12 @@ impl Node {
     /// supports so that a point or box only visits the patches that reach it.
     pub fn perturb(base: Node, terms: Vec<Patch>, power: i32) -> Node {
         let supports: Vec<Option<Aabb>> = terms.iter().map(Patch::positive_box).collect();
-        Node::Perturb {
+        Node::Perturb(Perturbation {
             base: Box::new(base),
             index: PatchIndex::new(&supports),
             terms,
             power,
-        }
+        })
     }
 
     /// The function's value at `p`.
@@ -284,41 +253,16 @@ impl Node {
             Node::Primitive(q) => q.value_gradient(p).0,
             Node::HeightMap(h) => h.value(p),
             Node::Surface(m) => m.value_gradient(p).0,
-            Node::SetOp { op, a, operands } => {
-                let mut it = operands.iter();
-                let first = it.next().map_or(f64::NEG_INFINITY, |n| n.value(p));
-                it.fold(first, |acc, n| rfunction::apply(*op, acc, n.value(p), *a))
-            }
-            Node::Blend {
-                op,
-                a,
-                shape,
+            Node::SetOp { op, a, operands } => fold(
                 operands,
-            } => {
-                let (f1, f2) = (operands[0].value(p), operands[1].value(p));
-                rfunction::apply(*op, f1, f2, *a) + rfunction::blend_partials(f1, f2, *shape).0
-            }
-            Node::Perturb {
-                base,
-                terms,
-                power,
-                index,
-            } => {
-                // Added one by one, in the same order as value_gradient.
-                with_candidates(|near| {
-                    index.at_point(p, near);
-                    near.iter().fold(base.value(p), |v, &t| {
-                        v + terms[t as usize].value_gradient(p, *power).0
-                    })
-                })
-            }
+                f64::NEG_INFINITY,
+                |n| n.value(p),
+                |x, y| rfunction::apply(*op, x, y, *a),
+            ),
+            Node::Blend(n) => n.value(p),
+            Node::Perturb(n) => n.value(p),
             Node::Pattern { map, level } => map.perturbation_value(p) - level,
-            Node::Relief {
-                base,
-                map,
-                depth,
-                ramp,
-            } => base.value(relief_point(map, *depth, *ramp, p)),
+            Node::Relief(r) => r.value(p),
             Node::Shell { thickness, operand } => {
                 let f = operand.value(p);
                 f.min(thickness - f)
@@ -340,66 +284,24 @@ impl Node {
             Node::HeightMap(h) => h.value_gradient(p),
             Node::Surface(m) => m.value_gradient(p),
             Node::SetOp { op, a, operands } => {
-                let mut it = operands.iter();
-                let mut acc = it
-                    .next()
-                    .map_or((f64::NEG_INFINITY, [0.0; 3]), |n| n.value_gradient(p));
-                for n in it {
-                    let (v, g) = n.value_gradient(p);
-                    let (r, d1, d2) = rfunction::partials(*op, acc.0, v, *a);
-                    acc = (r, [0, 1, 2].map(|k| d1 * acc.1[k] + d2 * g[k]));
-                }
-                acc
-            }
-            Node::Blend {
-                op,
-                a,
-                shape,
-                operands,
-            } => {
-                let (f1, g1) = operands[0].value_gradient(p);
-                let (f2, g2) = operands[1].value_gradient(p);
-                let (r, d1, d2) = rfunction::partials(*op, f1, f2, *a);
-                let (b, e1, e2) = rfunction::blend_partials(f1, f2, *shape);
-                (
-                    r + b,
-                    [0, 1, 2].map(|k| (d1 + e1) * g1[k] + (d2 + e2) * g2[k]),
+                let empty = (f64::NEG_INFINITY, [0.0; 3]);
+                fold(
+                    operands,
+                    empty,
+                    |n| n.value_gradient(p),
+                    |(u, gu), (v, gv)| {
+                        let (r, d1, d2) = rfunction::partials(*op, u, v, *a);
+                        (r, [0, 1, 2].map(|k| d1 * gu[k] + d2 * gv[k]))
+                    },
                 )
             }
-            Node::Perturb {
-                base,
-                terms,
-                power,
-                index,
-            } => {
-                let (mut v, mut g) = base.value_gradient(p);
-                with_candidates(|near| {
-                    index.at_point(p, near);
-                    for &t in near.iter() {
-                        let (r, gr) = terms[t as usize].value_gradient(p, *power);
-                        v += r;
-                        for k in 0..3 {
-                            g[k] += gr[k];
-                        }
-                    }
-                });
-                (v, g)
-            }
+            Node::Blend(n) => n.value_gradient(p),
+            Node::Perturb(n) => n.value_gradient(p),
             Node::Pattern { map, level } => {
                 let (h, g) = map.perturbation(p);
                 (h - level, g)
             }
-            Node::Relief {
-                base,
-                map,
-                depth,
-                ramp,
-            } => {
-                let (w, j) = relief_warp(map, *depth, *ramp, p);
-                let (v, g) = base.value_gradient(w);
-                // The chain rule: grad_k = sum_i dW_i/dp_k g_i.
-                (v, [0, 1, 2].map(|k| (0..3).map(|i| j[i][k] * g[i]).sum()))
-            }
+            Node::Relief(r) => r.value_gradient(p),
             Node::Shell { thickness, operand } => {
                 let (v, g) = operand.value_gradient(p);
                 // The same branch as `min` in `value` (ties to the outer surface).
@@ -443,41 +345,18 @@ impl Node {
             Node::HeightMap(h) => h.interval(b),
             Node::Surface(m) => m.interval(b),
             Node::SetOp { op, a, operands } => {
-                let mut it = operands.iter();
-                let first = it
-                    .next()
-                    .map_or(Interval::point(f64::NEG_INFINITY), |n| n.interval(b));
-                it.fold(first, |acc, n| {
-                    rfunction::interval(*op, acc, n.interval(b), *a)
-                })
+                let empty = Interval::point(f64::NEG_INFINITY);
+                fold(
+                    operands,
+                    empty,
+                    |n| n.interval(b),
+                    |x, y| rfunction::interval(*op, x, y, *a),
+                )
             }
-            Node::Blend {
-                op,
-                a,
-                shape,
-                operands,
-            } => {
-                let (i1, i2) = (operands[0].interval(b), operands[1].interval(b));
-                rfunction::interval(*op, i1, i2, *a) + rfunction::blend_interval(i1, i2, *shape)
-            }
-            Node::Perturb {
-                base,
-                terms,
-                power,
-                index,
-            } => with_candidates(|near| {
-                index.in_box(b, near);
-                near.iter().fold(base.interval(b), |acc, &t| {
-                    acc + terms[t as usize].interval(b, *power)
-                })
-            }),
+            Node::Blend(n) => n.interval(b),
+            Node::Perturb(n) => n.interval(b),
             Node::Pattern { map, level } => map.perturbation_range(b) - Interval::point(*level),
-            Node::Relief {
-                base,
-                map,
-                depth,
-                ramp,
-            } => base.interval(&relief_warp_box(map, *depth, *ramp, b)),
+            Node::Relief(r) => r.interval(b),
             Node::Shell { thickness, operand } => shell_interval(operand.interval(b), *thickness),
             Node::Offset { by, operand } => operand.interval(b) + Interval::point(*by),
             Node::Transform {
@@ -510,45 +389,11 @@ impl Node {
                     .reduce(|a, b| a.intersection(&b).unwrap_or(Aabb::new(a.lo, a.lo))),
                 SetOp::Difference => operands.first().and_then(Node::bounds),
             },
-            Node::Blend {
-                op,
-                shape,
-                operands,
-                ..
-            } => {
-                let (b1, b2) = (operands[0].bounds(), operands[1].bounds());
-                let joined = match op {
-                    SetOp::Union => b1.zip(b2).map(|(x, y)| x.union(&y)),
-                    SetOp::Difference => b1,
-                    SetOp::Intersection => match (b1, b2) {
-                        (Some(x), Some(y)) => Some(x.intersection(&y).unwrap_or(x)),
-                        (x, y) => x.or(y),
-                    },
-                }?;
-                // The blend adds material only where both functions are within a few
-                // fall-off ranges of zero; a margin of a quarter of the box (at least
-                // the ranges) holds it for the usual scales.
-                Some(joined.padded(
-                    (0.25 * joined.longest()).max(shape.a1.max(shape.a2).min(joined.longest())),
-                ))
-            }
-            Node::Perturb { base, terms, .. } => {
-                let mut b = base.bounds()?;
-                for t in terms.iter().filter(|t| t.factor > 0.0) {
-                    b = b.union(&t.positive_box()?);
-                }
-                Some(b)
-            }
+            Node::Blend(n) => n.bounds(),
+            Node::Perturb(n) => n.bounds(),
             // A swept picture reaches infinity along its projection.
             Node::Pattern { .. } => None,
-            Node::Relief {
-                base, map, depth, ..
-            } => {
-                let b = base.bounds()?;
-                // Every point moves by at most |depth| max |h|.
-                let h = map.perturbation_range(&b);
-                Some(b.padded(depth.abs() * h.lo.abs().max(h.hi.abs())))
-            }
+            Node::Relief(r) => r.bounds(),
             // Inside the shell, f >= 0: inside the operand.
             Node::Shell { operand, .. } => operand.bounds(),
             Node::Offset { by, operand } => {
@@ -577,10 +422,10 @@ impl Node {
         1 + match self {
             Node::Primitive(_) | Node::HeightMap(_) | Node::Surface(_) => 0,
             Node::SetOp { operands, .. } => operands.iter().map(Node::count).sum(),
-            Node::Blend { operands, .. } => operands.iter().map(Node::count).sum(),
-            Node::Perturb { base, terms, .. } => base.count() + terms.len(),
+            Node::Blend(n) => n.operands.iter().map(Node::count).sum(),
+            Node::Perturb(n) => n.base.count() + n.terms.len(),
             Node::Pattern { .. } => 0,
-            Node::Relief { base, .. } => base.count(),
+            Node::Relief(r) => r.base.count(),
             Node::Offset { operand, .. }
             | Node::Shell { operand, .. }
             | Node::Transform { operand, .. }
@@ -589,6 +434,14 @@ impl Node {
             Node::Negate(n) => n.count(),
         }
     }
+}
+
+/// What `leaf` gives for each of `operands`, folded left to right by `join` (a set
+/// operation's value, gradient or interval); `empty` when there are none.
+fn fold<T>(operands: &[Node], empty: T, leaf: impl Fn(&Node) -> T, join: impl Fn(T, T) -> T) -> T {
+    let mut it = operands.iter();
+    let first = it.next().map_or(empty, &leaf);
+    it.fold(first, |acc, n| join(acc, leaf(n)))
 }
 
 /// The range of `min(x, t - x)` for `x` in `f`: the function rises to `t / 2` at

@@ -1,8 +1,56 @@
 //! The warp of a relief node: the point `W(p)` a relief reads its base at, its
 //! Jacobian, and a box holding the warped points of a box.
 
+use super::Node;
 use crate::height_map::HeightMap;
 use crate::interval::{Aabb, Interval};
+
+/// Relief: the base's space pushed along the picture's projection by `depth` times
+/// its grey level, `f(W(p))` ([`relief_warp`]): the surface moves by `depth h`
+/// along the projection's rays (up for planar, away from the axis or the centre
+/// otherwise), so the offset means the same length on every face.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Relief {
+    /// The base.
+    pub base: Box<Node>,
+    /// The picture and its projection.
+    pub map: HeightMap,
+    /// Height of white, in the model's units (negative engraves).
+    pub depth: f64,
+    /// Planar: the base's z range, over which the push fades in from nothing at
+    /// the bottom (so the bottom keeps its shape) to all of it at the top.
+    pub ramp: [f64; 2],
+}
+
+impl Relief {
+    /// The function's value at `p`.
+    pub fn value(&self, p: [f64; 3]) -> f64 {
+        self.base
+            .value(relief_point(&self.map, self.depth, self.ramp, p))
+    }
+
+    /// The function's value and exact gradient at `p`.
+    pub fn value_gradient(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let (w, j) = relief_warp(&self.map, self.depth, self.ramp, p);
+        let (v, g) = self.base.value_gradient(w);
+        // The chain rule: grad_k = sum_i dW_i/dp_k g_i.
+        (v, [0, 1, 2].map(|k| (0..3).map(|i| j[i][k] * g[i]).sum()))
+    }
+
+    /// Bounds of the function over the box `b`.
+    pub fn interval(&self, b: &Aabb) -> Interval {
+        self.base
+            .interval(&relief_warp_box(&self.map, self.depth, self.ramp, b))
+    }
+
+    /// A box holding the solid: the base's, grown by the furthest push.
+    pub fn bounds(&self) -> Option<Aabb> {
+        let b = self.base.bounds()?;
+        // Every point moves by at most |depth| max |h|.
+        let h = self.map.perturbation_range(&b);
+        Some(b.padded(self.depth.abs() * h.lo.abs().max(h.hi.abs())))
+    }
+}
 
 /// The fade of a planar relief's push over the base's z range `ramp`: 0 below, 1
 /// above, smoothstep between (C1, slope at most `1.5 / (z1 - z0)`), and its slope.
@@ -69,7 +117,7 @@ pub fn relief_warp(
 }
 
 /// `W(p)` of [`relief_warp`] alone, without the Jacobian (for point values).
-pub(super) fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64; 3]) -> [f64; 3] {
+fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64; 3]) -> [f64; 3] {
     let h = map.perturbation_value(p);
     match map.parts().0 {
         crate::height_map::Base::Plane => {
@@ -89,7 +137,7 @@ pub(super) fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64;
 }
 
 /// A box holding `W(p)` for every `p` in `b`.
-pub(super) fn relief_warp_box(map: &HeightMap, depth: f64, ramp: [f64; 2], b: &Aabb) -> Aabb {
+fn relief_warp_box(map: &HeightMap, depth: f64, ramp: [f64; 2], b: &Aabb) -> Aabb {
     let push = map.perturbation_range(b).scale(depth);
     match map.parts().0 {
         crate::height_map::Base::Plane => {

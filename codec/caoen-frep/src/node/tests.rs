@@ -1,6 +1,7 @@
 //! The model tree's nodes: the shell's value, gradient and bounds.
 
 use super::*;
+use caoen_geometry::vector::central_difference;
 
 fn ball() -> Node {
     Node::Primitive(Primitive::Sphere {
@@ -34,13 +35,9 @@ fn a_frep_shell_is_the_wall_between_the_surface_and_the_inner_level() {
         assert_eq!(v >= 0.0, (0.0..=t).contains(&fv), "{p:?}");
         // Away from the crease at f = t / 2 the gradient is the derivative.
         if (fv - 0.5 * t).abs() > 1e-3 {
-            let h = 1e-6;
+            let fd = central_difference(|q| shell.value(q), p, 1e-6);
             for k in 0..3 {
-                let (mut a, mut b) = (p, p);
-                a[k] += h;
-                b[k] -= h;
-                let fd = (shell.value(a) - shell.value(b)) / (2.0 * h);
-                assert!((fd - g[k]).abs() < 1e-6, "{p:?} {k}: {fd} {}", g[k]);
+                assert!((fd[k] - g[k]).abs() < 1e-6, "{p:?} {k}: {} {}", fd[k], g[k]);
             }
         }
         // The bound over a box around the point holds every value sampled in it.

@@ -26,6 +26,12 @@ pub fn repo_path(rel: &str) -> PathBuf {
     repo_root().join(rel)
 }
 
+/// The scene `examples/{name}`.
+pub fn example_scene(name: &str) -> caoen::render::Scene {
+    let path = repo_path("examples").join(name);
+    caoen::render::Scene::load(&path, &caoen::Limits::default()).unwrap()
+}
+
 /// `f` run in a pool of `threads` threads.
 pub fn with_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()

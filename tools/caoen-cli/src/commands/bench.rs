@@ -171,23 +171,18 @@ fn plan(global: &GlobalArgs, args: &BenchArgs) -> CliResult<Plan> {
 
 /// Runs `caoen bench`.
 pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
-    let Plan {
-        codecs,
-        names,
-        reference,
-        rates,
-        source,
-        classes,
-        existing_markdown,
-    } = plan(global, args)?;
+    let plan = plan(global, args)?;
 
     let started = Instant::now();
-    note(global, format!("loading images: {}", source.describe()));
-    let images = corpus::load(&source, &classes).map_err(CliError::Failed)?;
+    note(
+        global,
+        format!("loading images: {}", plan.source.describe()),
+    );
+    let images = corpus::load(&plan.source, &plan.classes).map_err(CliError::Failed)?;
     let corpus_files: Vec<std::path::PathBuf> = images
         .iter()
         .filter_map(|i| i.file.clone())
-        .chain(match &source {
+        .chain(match &plan.source {
             Source::Dir(dir) => Some(dir.join(caoen_corpus::manifest::MANIFEST_NAME)),
             Source::Generated { .. } => None,
         })
@@ -210,16 +205,17 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
         }
     }
     let total: u64 = images.len() as u64
-        * codecs
+        * plan
+            .codecs
             .iter()
-            .map(|c| harness::points_per_image(c.as_ref(), &rates) as u64)
+            .map(|c| harness::points_per_image(c.as_ref(), &plan.rates) as u64)
             .sum::<u64>();
     note(
         global,
         format!(
             "benchmarking {} images x {} ({total} points)",
             images.len(),
-            names.join(", ")
+            plan.names.join(", ")
         ),
     );
     let bar = if global.quiet {
@@ -236,8 +232,8 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
         b
     };
     let config = Config {
-        codecs,
-        rates,
+        codecs: plan.codecs,
+        rates: plan.rates,
         repeat: args.repeat as usize,
         keep: args.keep.clone(),
         keep_outputs: reading(true),
@@ -245,7 +241,14 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     let outcome = harness::run(&images, &config, &bar);
     bar.finish_and_clear();
 
-    let report = build_report(args, &source, reference, &config, &images, outcome);
+    let report = build_report(
+        args,
+        &plan.source,
+        plan.reference,
+        &config,
+        &images,
+        outcome,
+    );
     let markdown = report.to_markdown();
     print(&markdown)?;
     if let Some(path) = &args.report {
@@ -255,12 +258,12 @@ pub fn run(global: &GlobalArgs, args: &BenchArgs) -> CliResult {
     if let Some(path) = &args.markdown {
         outputs.write_path(
             path,
-            splice_markdown(&existing_markdown, &markdown).as_bytes(),
+            splice_markdown(&plan.existing_markdown, &markdown).as_bytes(),
         )?;
         note(global, format!("wrote {}", path.display()));
     }
     if let Some(base) = &args.plot {
-        for p in plot::write_plots(&outputs, base, &report.measurements, &names)
+        for p in plot::write_plots(&outputs, base, &report.measurements, &plan.names)
             .map_err(CliError::Failed)?
         {
             note(global, format!("wrote {}", p.display()));

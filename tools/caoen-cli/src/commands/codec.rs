@@ -181,16 +181,25 @@ pub fn encode_loaded(
     })
 }
 
-/// Encodes an image, writing `.cae`; a folder, each image in it
-/// ([`super::folder::encode`]).
-pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
-    if a.input.is_dir() {
-        return super::folder::encode(global, a);
+/// Whether `input` is a folder, to be encoded or decoded file by file; `--resume`
+/// (`resume`) only means something for a folder.
+fn folder_mode(input: &Path, resume: bool) -> CliResult<bool> {
+    if input.is_dir() {
+        return Ok(true);
     }
-    if a.resume {
+    if resume {
         return Err(CliError::Usage(
             "--resume is for folders: the input is a file".into(),
         ));
+    }
+    Ok(false)
+}
+
+/// Encodes an image, writing `.cae`; a folder, each image in it
+/// ([`super::folder::encode`]).
+pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
+    if folder_mode(&a.input, a.resume)? {
+        return super::folder::encode(global, a);
     }
     let loaded = load_for_encode(global, a, &a.input, &global.limits)?;
     let img = &loaded.img;
@@ -343,13 +352,8 @@ pub fn decode_request(
 /// Decodes (or, without `-o`, validates) a `.cae` file; a folder, each `.cae` file in
 /// it ([`super::folder::decode`]).
 pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
-    if a.input.is_dir() {
+    if folder_mode(&a.input, a.resume)? {
         return super::folder::decode(global, a);
-    }
-    if a.resume {
-        return Err(CliError::Usage(
-            "--resume is for folders: the input is a file".into(),
-        ));
     }
     // Options first: a usage error is reported before the file is read.
     decode_request(global, a, FormatChoice::Natural)?;

@@ -7,6 +7,7 @@ use std::time::Instant;
 use caoen::codec::decoder;
 use caoen::image_io;
 use caoen::texture::projected::{self, Projected, ProjectionKind};
+use caoen::texture::transfer::BakeSource;
 use caoen::texture::warp::{self, Move, Warp};
 use caoen::texture::TextureError;
 
@@ -386,10 +387,12 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
             let net = crate::commands::surface::load_model(space, &global.limits)?;
             let sample = |p: [f64; 3]| solid.sample(p);
             (
-                caoen::texture::transfer::bake_texture_space_with(
-                    &net,
+                caoen::texture::transfer::bake(
+                    &BakeSource::Solid {
+                        space: &net,
+                        solid: &sample,
+                    },
                     &to,
-                    &sample,
                     tw,
                     th,
                     a.bake_samples,
@@ -412,10 +415,12 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
                 Some(kind) => {
                     let (lo, hi) = projected::surface_box(&from).map_err(tex_err)?;
                     let picture = Projected::new(tex, kind, lo, hi).map_err(tex_err)?;
-                    caoen::texture::transfer::bake_projected_with(
-                        &from,
+                    caoen::texture::transfer::bake(
+                        &BakeSource::Projected {
+                            from: &from,
+                            picture: &picture,
+                        },
                         &to,
-                        &picture,
                         tw,
                         th,
                         a.bake_samples,
