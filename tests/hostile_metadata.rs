@@ -188,3 +188,32 @@ fn every_command_sees_a_photo_upright() {
     assert!((w / h - 64.0 / 96.0).abs() < 1e-9, "{rect}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn a_png_profile_whose_crc_is_wrong_is_left_out_and_the_pixels_encode() {
+    let dir = fresh_dir("hostile-iccp-crc");
+    let cae = dir.join("m4.cae");
+    let input = bad("third-M4-iccp-bad-crc.png");
+    let bytes = std::fs::read(&input).unwrap();
+    // Read strictly, the damaged chunk is an error; leniently, a dropped item.
+    assert!(read_container(&bytes).is_err());
+    let (meta, dropped) = caoen::metadata::read_container_lenient(&bytes).unwrap();
+    assert!(meta.icc.is_none());
+    assert_eq!(dropped.len(), 1, "{dropped:?}");
+    assert_eq!(dropped[0].item, caoen::metadata::Item::Icc);
+    assert!(dropped[0].reason.contains("CRC is wrong"), "{dropped:?}");
+    let err = stderr(&caoen_ok(&["encode", &input, "-o", s(&cae)]));
+    assert!(
+        err.contains("warning:") && err.contains("CRC is wrong"),
+        "{err}"
+    );
+    let info = caoen_ok(&["info", s(&cae), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert!(v["metadata"]["icc"].is_null(), "{v}");
+    // The pixels are all there.
+    let png = dir.join("m4.png");
+    caoen_ok(&["decode", s(&cae), "-o", s(&png)]);
+    let (a, b) = (image::open(&input).unwrap(), image::open(&png).unwrap());
+    assert_eq!((a.width(), a.height()), (b.width(), b.height()));
+    std::fs::remove_dir_all(&dir).ok();
+}
