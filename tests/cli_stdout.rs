@@ -316,6 +316,16 @@ fn encode_and_decode_write_their_files() {
         ],
     );
     png(&map, input.width(), input.height());
+    // The statistics as JSON would share standard output with the file.
+    for args in [
+        &["encode", &picture(), "-o", "-", "--json"][..],
+        &["decode", s(&d.join("in.cae")), "-o", "-", "--json"][..],
+    ] {
+        let (out, dir) = run_in("json", args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert!(out.stdout.is_empty(), "{args:?}");
+        assert_no_dash(&dir);
+    }
 }
 
 #[test]

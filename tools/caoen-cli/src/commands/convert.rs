@@ -202,7 +202,7 @@ fn convert_text(a: &ConvertArgs, r: &ConvertReport, seconds: f64) -> String {
     outln!(
         out,
         "wrote {}: {} of {} functions in {seconds:.1} s ({}), {}",
-        a.output.display(),
+        crate::output::shown(&a.output),
         r.functions,
         r.max_functions,
         r.stop_text(),
