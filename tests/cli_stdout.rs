@@ -70,7 +70,10 @@ fn picture() -> String {
 
 #[test]
 fn export_pov_writes_the_scene() {
-    let out = stdout_of("pov", &["frep", "export-pov", &plate(), "-o", "-", "-q"]);
+    let out = stdout_of(
+        "pov",
+        &["frep", "export-pov", &plate(), "-o", "-", "--quiet"],
+    );
     let text = String::from_utf8(out).unwrap();
     assert!(
         text.contains("camera") && text.contains("isosurface"),
@@ -115,7 +118,7 @@ fn deviation_writes_the_picture() {
             "32",
             "--views",
             "1",
-            "-q",
+            "--quiet",
         ],
     );
     assert!(out.starts_with(b"\x89PNG\r\n\x1a\n"));
@@ -276,7 +279,15 @@ fn distort_writes_the_picture_or_the_model() {
     let input = image::open(picture()).unwrap();
     let out = stdout_of(
         "distort",
-        &["distort", &picture(), "--move", "4,4:5,5", "-o", "-", "-q"],
+        &[
+            "distort",
+            &picture(),
+            "--move",
+            "4,4:5,5",
+            "-o",
+            "-",
+            "--quiet",
+        ],
     );
     png(&out, input.width(), input.height());
     let out = stdout_of(
@@ -288,7 +299,7 @@ fn distort_writes_the_picture_or_the_model() {
             "0,0,0:0.05,0,0",
             "-o",
             "-",
-            "-q",
+            "--quiet",
         ],
     );
     assert!(json(&out).is_object());
@@ -296,11 +307,14 @@ fn distort_writes_the_picture_or_the_model() {
 
 #[test]
 fn encode_and_decode_write_their_files() {
-    let cae = stdout_of("encode", &["encode", &picture(), "-o", "-", "-q"]);
+    let cae = stdout_of("encode", &["encode", &picture(), "-o", "-", "--quiet"]);
     assert!(cae.len() > 8);
-    let d = common::fresh_dir("cli-stdout-decode");
+    let d = common::fresh_dir("cli-stdout-encoded");
     std::fs::write(d.join("in.cae"), &cae).unwrap();
-    let out = stdout_of("decode", &["decode", s(&d.join("in.cae")), "-o", "-", "-q"]);
+    let out = stdout_of(
+        "decode",
+        &["decode", s(&d.join("in.cae")), "-o", "-", "--quiet"],
+    );
     let input = image::open(picture()).unwrap();
     png(&out, input.width(), input.height());
     let map = stdout_of(
@@ -312,7 +326,7 @@ fn encode_and_decode_write_their_files() {
             s(&d.join("k.cae")),
             "--keypoint-map",
             "-",
-            "-q",
+            "--quiet",
         ],
     );
     png(&map, input.width(), input.height());
@@ -375,7 +389,16 @@ fn a_write_error_fails_and_an_early_reader_does_not() {
         return;
     }
     let full = full.unwrap();
-    let mesh = ["frep", "mesh", &plate(), "-o", "-", "--cells", "24", "-q"];
+    let mesh = [
+        "frep",
+        "mesh",
+        &plate(),
+        "-o",
+        "-",
+        "--cells",
+        "24",
+        "--quiet",
+    ];
     let out = Command::new(env!("CARGO_BIN_EXE_caoen"))
         .args(mesh)
         .stdout(Stdio::from(full))

@@ -111,7 +111,7 @@ fn check_folders(cmd: &Command) -> CliResult {
             }
             if a.plot.as_deref().is_some_and(is_stdout) {
                 return Err(CliError::Usage(
-                    "--plot -: the plots are one file per class; name a file such as rd.png".into(),
+                    "--plot -: the plots are one file per class, not standard output; name a file such as rd.png".into(),
                 ));
             }
             if [&a.report, &a.markdown]
