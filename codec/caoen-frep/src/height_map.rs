@@ -639,10 +639,8 @@ impl HeightMap {
                         self.samples.at(i - 1 + x as i64, j - 1 + y as i64)
                     }))
                 });
-                for x in 0..4 {
-                    for c in bezier(std::array::from_fn(|y| rows[y][x])) {
-                        (lo, hi) = (lo.min(c), hi.max(c));
-                    }
+                for c in (0..4).flat_map(|x| bezier(rows.map(|r| r[x]))) {
+                    (lo, hi) = (lo.min(c), hi.max(c));
                 }
             }
         }
