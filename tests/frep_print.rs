@@ -4,7 +4,7 @@
 //! read back with the OBJ's volume, and empty meshes refused.
 
 mod common;
-use common::{assert_ok, caoen, repo_root, s, tool_present};
+use common::{assert_ok, caoen, hostile, repo_root, s, stderr, tool_present};
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -455,4 +455,40 @@ fn stl_round_trip() {
         "{v0}"
     );
     assert!(read_stl(&bytes[..100]).is_err());
+}
+
+#[test]
+fn the_documented_lithophane_command_works() {
+    let d = tmpdir("lithophane");
+    let stl = d.join("lithophane.stl");
+    // README and docs/frep.md (hostile third round D4), on a coarser grid.
+    let run = |depth: &str, out: &Path| {
+        let plate = hostile("third-D4-plate.json");
+        let picture = hostile("third-D4-input.png");
+        caoen(&[
+            "relief",
+            &picture,
+            "--on",
+            &plate,
+            "--projection",
+            "planar",
+            "--depth",
+            depth,
+            "-o",
+            s(out),
+            "--cells",
+            "40",
+        ])
+    };
+    let out = run("-0.06", &stl);
+    assert_ok(&out);
+    let mesh = read_stl(&std::fs::read(&stl).unwrap()).unwrap();
+    assert!(!mesh.triangles.is_empty());
+    // Past the limit, the refusal names what it checks.
+    let refused = d.join("refused.stl");
+    let out = run("-0.07", &refused);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("highest interpolated grey"), "{err}");
+    assert!(!refused.exists());
 }

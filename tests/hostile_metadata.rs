@@ -157,3 +157,63 @@ fn pixels_turned_upright_say_so_in_exif_and_xmp() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn every_command_sees_a_photo_upright() {
+    let dir = fresh_dir("hostile-orientation-loader");
+    let input = bad("third-M6-orientation-6.jpg");
+    // Stored 96x64 with EXIF orientation 6: upright it is 64 wide and 96 tall.
+    let stored = image::open(&input).unwrap();
+    assert_eq!((stored.width(), stored.height()), (96, 64));
+    // The shared loader (height maps, textures, patterns) turns it upright.
+    let r = caoen::image_io::load(std::path::Path::new(&input)).unwrap();
+    assert_eq!((r.width(), r.height()), (64, 96));
+    let bytes = std::fs::read(&input).unwrap();
+    let r = caoen::image_io::load_from_memory(&bytes, &Default::default()).unwrap();
+    assert_eq!((r.width(), r.height()), (64, 96));
+    // distort keeps the picture's size: the upright one.
+    let png = dir.join("d.png");
+    caoen_ok(&["distort", &input, "--move", "10,10:12,12", "-o", s(&png)]);
+    let out = image::open(&png).unwrap();
+    assert_eq!((out.width(), out.height()), (64, 96));
+    // heightfield spans the picture's shape: narrower than tall.
+    let model = dir.join("hf.json");
+    caoen_ok(&["heightfield", &input, "-o", s(&model)]);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
+    let rect = &v["model"]["intersection"][0]["height_map"]["rect"];
+    let (w, h) = (
+        rect[2].as_f64().unwrap() - rect[0].as_f64().unwrap(),
+        rect[3].as_f64().unwrap() - rect[1].as_f64().unwrap(),
+    );
+    assert!((w / h - 64.0 / 96.0).abs() < 1e-9, "{rect}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_png_profile_whose_crc_is_wrong_is_left_out_and_the_pixels_encode() {
+    let dir = fresh_dir("hostile-iccp-crc");
+    let cae = dir.join("m4.cae");
+    let input = bad("third-M4-iccp-bad-crc.png");
+    let bytes = std::fs::read(&input).unwrap();
+    // Read strictly, the damaged chunk is an error; leniently, a dropped item.
+    assert!(read_container(&bytes).is_err());
+    let (meta, dropped) = caoen::metadata::read_container_lenient(&bytes).unwrap();
+    assert!(meta.icc.is_none());
+    assert_eq!(dropped.len(), 1, "{dropped:?}");
+    assert_eq!(dropped[0].item, caoen::metadata::Item::Icc);
+    assert!(dropped[0].reason.contains("CRC is wrong"), "{dropped:?}");
+    let err = stderr(&caoen_ok(&["encode", &input, "-o", s(&cae)]));
+    assert!(
+        err.contains("warning:") && err.contains("CRC is wrong"),
+        "{err}"
+    );
+    let info = caoen_ok(&["info", s(&cae), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert!(v["metadata"]["icc"].is_null(), "{v}");
+    // The pixels are all there.
+    let png = dir.join("m4.png");
+    caoen_ok(&["decode", s(&cae), "-o", s(&png)]);
+    let (a, b) = (image::open(&input).unwrap(), image::open(&png).unwrap());
+    assert_eq!((a.width(), a.height()), (b.width(), b.height()));
+    std::fs::remove_dir_all(&dir).ok();
+}

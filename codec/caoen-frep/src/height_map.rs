@@ -595,6 +595,61 @@ impl HeightMap {
             Interp::Bilinear => (lo, hi),
             Interp::Bicubic => (lo - 0.25 * (hi - lo), hi + 0.25 * (hi - lo)),
         };
+        self.clipped(lo, hi, outside)
+    }
+
+    /// Bounds of the thresholded height over a box, as tight as the interpolation
+    /// allows: the samples for bilinear; for bicubic the extremes of each covered
+    /// cell's Bezier control net, which holds the patch (convex hull) and passes its
+    /// true extremes by far less than the worst case [`Self::perturbation_range`] adds.
+    pub fn interpolated_range(&self, b: &Aabb) -> Interval {
+        let [u0, v0, u1, v1] = self.rect;
+        let (w, h) = self.size();
+        // Past 16 M cells the cell-by-cell bound costs more than it is worth.
+        if self.interp == Interp::Bilinear || (w as u64) * (h as u64) > 1 << 24 {
+            return self.height_range(b);
+        }
+        let (ur, vr) = self
+            .param_range(b)
+            .unwrap_or((Interval::new(u0, u1), Interval::new(v0, v1)));
+        if ur.hi < u0 || ur.lo > u1 || vr.hi < v0 || vr.lo > v1 {
+            return Interval::point(0.0);
+        }
+        let outside = ur.lo < u0 || ur.hi > u1 || vr.lo < v0 || vr.hi > v1;
+        let cells = |a: f64, b: f64, n: usize| {
+            let last = (n as i64 - 2).max(0);
+            (a.floor() as i64).clamp(0, last)..=((b.ceil() as i64) - 1).clamp(0, last)
+        };
+        let gx = |u: f64| (u - u0) / (u1 - u0) * (w - 1) as f64;
+        let gy = |v: f64| (v1 - v) / (v1 - v0) * (h - 1) as f64;
+        // A Catmull-Rom segment's Bezier points from its four samples.
+        let bezier = |p: [f64; 4]| {
+            [
+                p[1],
+                p[1] + (p[2] - p[0]) / 6.0,
+                p[2] - (p[3] - p[1]) / 6.0,
+                p[2],
+            ]
+        };
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for j in cells(gy(vr.hi), gy(vr.lo), h) {
+            for i in cells(gx(ur.lo), gx(ur.hi), w) {
+                let rows: [[f64; 4]; 4] = std::array::from_fn(|y| {
+                    bezier(std::array::from_fn(|x| {
+                        self.samples.at(i - 1 + x as i64, j - 1 + y as i64)
+                    }))
+                });
+                for c in (0..4).flat_map(|x| bezier(rows.map(|r| r[x]))) {
+                    (lo, hi) = (lo.min(c), hi.max(c));
+                }
+            }
+        }
+        self.clipped(lo, hi, outside)
+    }
+
+    /// The threshold maps heights below it to 0; a box reaching outside the rectangle
+    /// also sees 0.
+    fn clipped(&self, lo: f64, hi: f64, outside: bool) -> Interval {
         if lo < self.threshold || outside {
             Interval::new(lo.min(0.0), hi.max(0.0))
         } else {

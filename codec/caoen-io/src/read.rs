@@ -13,25 +13,52 @@ use super::{exr, ImageIoError, LoadLimits, EXR_MAGIC};
 use caoen_base::metadata::{Dropped, Item, Metadata};
 use caoen_base::raster::Raster;
 
-/// Reads an image file with the default limits, its pixels as stored (no EXIF
-/// orientation applied: [`load_with_metadata`] turns them upright).
+/// Reads an image file with the default limits, upright by its EXIF orientation.
 pub fn load(path: &Path) -> Result<Raster, ImageIoError> {
     load_with_limits(path, &LoadLimits::default())
 }
 
-/// Reads an image file; the format comes from the file's magic bytes, or from its
-/// extension for formats that have none (TGA).
+/// Reads an image file upright by its EXIF orientation, as [`load_with_metadata`]
+/// does, so every command sees a photo the way the encoder does; the format comes from
+/// the file's magic bytes, or from its extension for formats that have none (TGA).
 pub fn load_with_limits(path: &Path, limits: &LoadLimits) -> Result<Raster, ImageIoError> {
     let io = |source| ImageIoError::Io {
         path: path.to_path_buf(),
         source,
     };
-    let mut file = BufReader::new(File::open(path).map_err(io)?);
-    let mut magic = [0u8; 4];
-    let got = read_up_to(&mut file, &mut magic).map_err(io)?;
-    file.rewind().map_err(io)?;
-    let by_ext = ImageFormat::from_path(path).ok();
-    decode_reader(file, path, &magic[..got], by_ext, limits, 1)
+    if !std::fs::metadata(path).map_err(io)?.is_file() {
+        // A stream cannot be read twice: its pixels as they come, without metadata.
+        let mut file = BufReader::new(File::open(path).map_err(io)?);
+        let mut magic = [0u8; 4];
+        let got = read_up_to(&mut file, &mut magic).map_err(io)?;
+        file.rewind().map_err(io)?;
+        let by_ext = ImageFormat::from_path(path).ok();
+        return decode_reader(file, path, &magic[..got], by_ext, limits, 1);
+    }
+    let bytes = limits.memory.read(path).map_err(io)?;
+    let head = &bytes[..bytes.len().min(4)];
+    decode_reader(
+        Cursor::new(&bytes),
+        path,
+        head,
+        ImageFormat::from_path(path).ok(),
+        limits,
+        exif_orientation(&bytes),
+    )
+}
+
+/// The EXIF orientation of an image held in memory, read as [`oriented`] reads it; 1
+/// (as stored) when there is none or the metadata is damaged: a plain load is for the
+/// pixels, and damaged metadata is reported by the commands that keep it.
+fn exif_orientation(bytes: &[u8]) -> u16 {
+    if bytes.starts_with(&EXR_MAGIC) {
+        return 1;
+    }
+    caoen_base::metadata::read_container_lenient(bytes)
+        .ok()
+        .and_then(|(meta, _)| meta.exif)
+        .and_then(|exif| caoen_base::metadata::orientation(&exif).ok().flatten())
+        .unwrap_or(1)
 }
 
 /// The metadata of an image file held in memory: JPEG, PNG and WebP as
@@ -160,7 +187,8 @@ fn oriented(
     Ok((image, meta, dropped))
 }
 
-/// Decodes an image held in memory (format from its magic bytes).
+/// Decodes an image held in memory (format from its magic bytes), upright by its EXIF
+/// orientation as [`load_with_limits`] reads a file.
 pub fn load_from_memory(bytes: &[u8], limits: &LoadLimits) -> Result<Raster, ImageIoError> {
     let head = &bytes[..bytes.len().min(4)];
     decode_reader(
@@ -169,7 +197,7 @@ pub fn load_from_memory(bytes: &[u8], limits: &LoadLimits) -> Result<Raster, Ima
         head,
         None,
         limits,
-        1,
+        exif_orientation(bytes),
     )
 }
 

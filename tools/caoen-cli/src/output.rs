@@ -1,8 +1,12 @@
 //! Writing outputs under one rule for every command.
 //!
 //! - `-` is standard output, and so is `/dev/stdout` (written as `-` is, through the
-//!   shell's redirection). A failed write there (closed, disk full) fails the command;
-//!   a reader that goes away (`caoen ... | head`) does not.
+//!   shell's redirection), for every output that is one file; the format is the one the
+//!   name's extension would give, or the command's stream format (PNG for pictures,
+//!   binary STL or OBJ for meshes, JSON for models) when there is none. An output that
+//!   is a folder refuses `-` with a usage error, and at most one output of a command
+//!   goes to standard output. A failed write there (closed, disk full) fails the
+//!   command; a reader that goes away (`caoen ... | head`) does not.
 //! - An existing regular file is never replaced unless `-f/--force` is given, whether
 //!   its name came from `-o` or was chosen by the command. Files are written whole: the
 //!   bytes go to a new temporary file beside the output (`.NAME.XXXXXX.caoen-tmp`,
@@ -50,7 +54,6 @@ impl Target {
     /// The target for an optional `-o` argument, falling back to `default`.
     pub fn from_arg(arg: Option<&Path>, default: impl FnOnce() -> PathBuf) -> Self {
         match arg {
-            Some(p) if p.as_os_str() == "-" => Target::Stdout,
             Some(p) => Target::file(p),
             None => Target::Default(default()),
         }
@@ -58,7 +61,7 @@ impl Target {
 
     /// The target for a file name the user gave (any output option).
     pub fn file(path: &Path) -> Self {
-        if is_stdout_alias(path) {
+        if is_stdout(path) {
             Target::Stdout
         } else {
             Target::Named(path.to_path_buf())
@@ -96,6 +99,8 @@ pub struct Outputs {
     force: bool,
     inputs: Vec<PathBuf>,
     claimed: Vec<PathBuf>,
+    /// What already goes to standard output, if anything.
+    stdout: Option<String>,
 }
 
 impl Outputs {
@@ -128,7 +133,7 @@ impl Outputs {
     /// output fails at once rather than after a long encode or render.
     pub fn check(&mut self, target: &Target) -> CliResult {
         let Some(path) = target.path() else {
-            return Ok(());
+            return self.claim_stdout("an output");
         };
         self.plan(path, matches!(target, Target::Default(_)))?;
         let id = identity(path);
@@ -139,6 +144,18 @@ impl Outputs {
             )));
         }
         self.claimed.push(id);
+        Ok(())
+    }
+
+    /// Claims standard output for `what` (an output, or a summary the command prints
+    /// there), refusing a second claim: two writers would mix their bytes.
+    fn claim_stdout(&mut self, what: &str) -> CliResult {
+        if let Some(first) = &self.stdout {
+            return Err(CliError::Usage(format!(
+                "{STDOUT}: {first} already goes there; give `-` to one output only"
+            )));
+        }
+        self.stdout = Some(what.to_string());
         Ok(())
     }
 
@@ -229,14 +246,40 @@ impl Outputs {
     }
 }
 
-/// Whether `path` names this process's standard output. It is written as `-` is, so
-/// that `-o /dev/stdout > file` writes through the shell's redirection instead of
-/// replacing the file it opened.
-fn is_stdout_alias(path: &Path) -> bool {
-    cfg!(unix)
-        && ["/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"]
-            .iter()
-            .any(|a| path == Path::new(a))
+/// Whether `path` names this process's standard output: `-`, or a name of it that is
+/// written as `-` is, so that `-o /dev/stdout > file` writes through the shell's
+/// redirection instead of replacing the file it opened.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+        || cfg!(unix)
+            && ["/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"]
+                .iter()
+                .any(|a| path == Path::new(a))
+}
+
+/// `path` for messages: `standard output` for `-` and its aliases.
+pub fn shown(path: &Path) -> String {
+    if is_stdout(path) {
+        STDOUT.to_string()
+    } else {
+        path.display().to_string()
+    }
+}
+
+/// The format extension of an output: its own (in lower case), or `stream` for
+/// standard output or an existing stream whose name has none.
+pub fn format_extension(path: &Path, stream: &str) -> Option<String> {
+    extension_lowercase(path).or_else(|| is_stream(path).then(|| stream.to_string()))
+}
+
+/// Refuses standard output for an output that is a folder (`what` names the command).
+pub fn folder_output(path: &Path, what: &str) -> CliResult {
+    if is_stdout(path) {
+        return Err(CliError::Usage(format!(
+            "{what} writes a folder of files: -o must name a folder, not standard output"
+        )));
+    }
+    Ok(())
 }
 
 /// `path`'s extension in lower case (none if it is missing or not UTF-8).
@@ -250,7 +293,7 @@ pub fn extension_lowercase(path: &Path) -> Option<String> {
 /// through links): written in place, and in a command's natural format whatever its
 /// name.
 pub fn is_stream(path: &Path) -> bool {
-    is_stdout_alias(path) || fs::metadata(path).is_ok_and(|m| matches!(Kind::of(&m), Kind::Stream))
+    is_stdout(path) || fs::metadata(path).is_ok_and(|m| matches!(Kind::of(&m), Kind::Stream))
 }
 
 /// Writes a file a command regenerates as its documented job (`caoen examples`,

@@ -225,18 +225,49 @@ fn read_png(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
             _ => None,
         }
         .is_some_and(|i| skip.contains(&i));
+        // The pixel decoder does not check the CRC of the chunks it skips: a damaged
+        // item would otherwise be kept as if it were whole.
+        let crc = b.get(start + len as usize..start + len as usize + 4);
+        let whole = |item: &'static str| match crc {
+            Some(c) if c != png_crc(&kind, data).to_be_bytes() => Err(corrupt(
+                item,
+                format!(
+                    "PNG {} chunk: the CRC is wrong (the chunk is damaged)",
+                    String::from_utf8_lossy(&kind)
+                ),
+            )),
+            _ => Ok(()),
+        };
         match &kind {
             b"IEND" => break,
             _ if skipped => {}
-            b"iCCP" if meta.icc.is_none() => meta.icc = Some(png_iccp(data)?),
-            b"eXIf" if meta.exif.is_none() => meta.exif = Some(strip_exif_prefix(data).to_vec()),
-            b"iTXt" if meta.xmp.is_none() => meta.xmp = png_xmp(data)?,
+            b"iCCP" if meta.icc.is_none() => {
+                whole("ICC profile")?;
+                meta.icc = Some(png_iccp(data)?);
+            }
+            b"eXIf" if meta.exif.is_none() => {
+                whole("EXIF")?;
+                meta.exif = Some(strip_exif_prefix(data).to_vec());
+            }
+            b"iTXt" if meta.xmp.is_none() => {
+                meta.xmp = png_xmp(data)?;
+                if meta.xmp.is_some() {
+                    whole("XMP packet")?;
+                }
+            }
             _ => {}
         }
-        // The chunk's CRC follows; the pixel decoder checks it.
         pos = start + len as usize + 4;
     }
     Ok(meta)
+}
+
+/// The CRC of a PNG chunk: over its type and data.
+fn png_crc(kind: &[u8; 4], data: &[u8]) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    h.update(kind);
+    h.update(data);
+    h.finalize()
 }
 
 fn png_iccp(data: &[u8]) -> Result<Vec<u8>, MetadataError> {

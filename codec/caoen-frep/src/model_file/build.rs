@@ -242,14 +242,16 @@ impl FileNode {
                 if map.parts().0 == Base::Plane {
                     // The push fades in over the base's height: steeper than the height
                     // allows, it would fold space over (W no longer one-to-one).
-                    let h = map.perturbation_range(&b);
-                    let most = d.abs() * h.lo.abs().max(h.hi.abs());
+                    let h = map.interpolated_range(&b);
+                    let top = h.lo.abs().max(h.hi.abs());
+                    let most = d.abs() * top;
                     if most.is_nan() || 1.5 * most >= ramp[1] - ramp[0] {
                         return err(
                             &at("depth"),
                             format!(
-                                "{d}: a planar relief's depth times the brightest grey must \
-                                 stay under 2/3 of the base's height {}",
+                                "{d}: a planar relief's depth times the picture's highest \
+                                 interpolated grey (at most {top:.4} here) must stay under \
+                                 2/3 of the base's height {}",
                                 ramp[1] - ramp[0]
                             ),
                         );

@@ -9,7 +9,9 @@ pub use surface::*;
 
 /// How every command treats its outputs, shown at the end of `caoen --help`.
 const OUTPUT_RULES: &str = "\
-Outputs: `-o -` is standard output. An existing file is not replaced without
+Outputs: `-o -` is standard output for every output that is one file (PNG for
+pictures, binary STL for meshes, JSON for models; the summary then goes to stderr);
+outputs that are folders refuse it (exit 2). An existing file is not replaced without
 -f/--force, whether named with -o or chosen by the command, and never when it is an
 input of the same command. Files are written whole through a temporary file beside
 them, renamed into place when complete. Devices and FIFOs (/dev/null, named pipes) are
@@ -107,7 +109,8 @@ pub enum Command {
 pub struct ConvertArgs {
     /// The mesh (.obj, .ply or .off).
     pub mesh: PathBuf,
-    /// The F-rep model file to write (.json).
+    /// The F-rep model file to write (.json; `-`: the model on standard output, the
+    /// summary on stderr).
     #[arg(short, long)]
     pub output: PathBuf,
     /// The most functions: the base quadric and the perturbations [default: 6000, or
@@ -181,7 +184,8 @@ pub struct DeviationArgs {
     /// Side of each depth buffer in pixels.
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=2048))]
     pub size: u32,
-    /// Write a picture: per view the mesh, the function and their depth difference.
+    /// Write a picture: per view the mesh, the function and their depth difference
+    /// (`-`: PNG on standard output, the summary on stderr).
     #[arg(long, value_name = "PNG")]
     pub picture: Option<PathBuf>,
     /// Print the result as JSON on stdout.
@@ -221,7 +225,7 @@ pub struct MorphArgs {
     #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u32).range(2..=1000))]
     pub frames: u32,
     /// Output: a folder (frame-000.png, ... and contact.png), anim.gif, or anim.png
-    /// (animated PNG).
+    /// (animated PNG); not `-` (standard output takes one file: a usage error).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Frame size WIDTHxHEIGHT.
@@ -250,7 +254,7 @@ pub struct PictureArgs {
     #[arg(long)]
     pub on: PathBuf,
     /// Output: .json (the new model, naming the image), .png (its render), or a mesh
-    /// to print (.stl, .obj, .ply).
+    /// to print (.stl, .obj, .ply); `-`: the render as PNG on standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Mesh output: grid cells along the longest side.
@@ -292,7 +296,8 @@ pub enum HeightBaseArg {
 pub struct HeightfieldArgs {
     /// Image whose grey levels (0..1) are the heights.
     pub image: PathBuf,
-    /// Output: .json (an F-rep model naming the image) or .png (its render).
+    /// Output: .json (an F-rep model naming the image) or .png (its render); `-`: the
+    /// render as PNG on standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Base solid.
@@ -341,7 +346,7 @@ pub struct FrepRenderArgs {
     /// F-rep model file (format "caoen-frep/1") or scene file with `frep` objects
     /// (docs/frep.md).
     pub model: PathBuf,
-    /// Output image (.png).
+    /// Output image (.png or .jpg; `-`: PNG on standard output).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Rendering method.
@@ -363,7 +368,8 @@ pub struct FrepRenderArgs {
 pub struct FrepMeshArgs {
     /// F-rep model file or scene file with one `frep` object.
     pub model: PathBuf,
-    /// Output mesh (.stl binary, .obj or .ply), closed and manifold.
+    /// Output mesh (.stl binary, .obj or .ply), closed and manifold; `-`: binary STL
+    /// on standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Grid cells along the longest side.
@@ -376,7 +382,7 @@ pub struct FrepMeshArgs {
 pub struct FrepExportArgs {
     /// F-rep model file or scene file with `frep` objects.
     pub model: PathBuf,
-    /// Output POV-Ray scene (.pov).
+    /// Output POV-Ray scene (.pov; `-`: standard output).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Image size WIDTHxHEIGHT the camera is framed for (render POV-Ray at this size,
@@ -434,7 +440,8 @@ pub struct TransferArgs {
     /// Surface B to carry it to (same domain).
     #[arg(long)]
     pub to: String,
-    /// Output: .png (a shaded render of B) or .obj (+ .mtl and -texture.png).
+    /// Output: .png (a shaded render of B) or .obj (+ .mtl and -texture.png); `-`: the
+    /// render as PNG on standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Render size WIDTHxHEIGHT (.png output).
@@ -454,7 +461,8 @@ pub struct DistortArgs {
     /// Input image (PNG, EXR, ...), caoen file (.cae), or surface model (.json or
     /// builtin:NAME; moves are then x,y,z:x2,y2,z2 and the output .json, .obj or .ply).
     pub input: PathBuf,
-    /// Output image: .png or .exr (`-` for PNG on stdout).
+    /// Output image: .png or .exr (`-`: standard output, PNG, or EXR for a float
+    /// image); for a surface model .json, .obj or .ply (`-`: the model's JSON).
     #[arg(short, long)]
     pub output: PathBuf,
     /// A control point move `x,y:x2,y2` in pixels (repeatable); `x,y,z:x2,y2,z2` for a
@@ -503,7 +511,8 @@ pub struct EncodeArgs {
     /// Number of luma key points to grow the tree to (overrides the quality's choice).
     #[arg(long, value_name = "N")]
     pub keypoints: Option<usize>,
-    /// Also write the analysis and the chosen key points over the image as a PNG.
+    /// Also write the analysis and the chosen key points over the image as a PNG
+    /// (`-`: standard output, then -o names a file).
     #[arg(long, value_name = "PNG")]
     pub keypoint_map: Option<PathBuf>,
     /// Metadata kept in the file: all (ICC profile, EXIF, XMP), icc (the colour

@@ -53,7 +53,7 @@ pub enum RayMethodArg {
 pub struct SurfaceRenderArgs {
     /// Surface file, builtin:NAME, or scene file (format "caoen-scene/1", see docs/rendering.md).
     pub model: String,
-    /// Output image (.png).
+    /// Output image (.png or .jpg; `-`: PNG on standard output).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Rendering method.
@@ -65,7 +65,8 @@ pub struct SurfaceRenderArgs {
     /// Supersampling: N x N samples per pixel.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub samples: u32,
-    /// Also write the depth map: 16-bit PNG (near bright, background 0) or .exr (raw depths).
+    /// Also write the depth map: 16-bit PNG (near bright, background 0) or .exr (raw
+    /// depths); `-`: the PNG on standard output (then -o names a file).
     #[arg(long, value_name = "FILE")]
     pub depth_out: Option<PathBuf>,
     /// Mesh tessellation level for --method mesh.
@@ -140,7 +141,7 @@ pub enum NormalsArg {
 pub struct SurfaceMeshArgs {
     /// Surface file (JSON, see docs/surface-format.md) or builtin:NAME (six-point, octahedron, blob, ring).
     pub model: String,
-    /// Output file: .obj or .ply.
+    /// Output file: .obj or .ply (`-`: OBJ on standard output, without a material).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Tessellation level (sphere: icosahedron subdivisions, 20*4^N triangles).

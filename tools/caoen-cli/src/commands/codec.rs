@@ -204,6 +204,7 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
     let loaded = load_for_encode(global, a, &a.input, &global.limits)?;
     let img = &loaded.img;
     let out = Target::from_arg(a.output.as_deref(), || default_output(&a.input, "cae"));
+    json_beside(a.json, &out)?;
     let mut outputs = Outputs::new(global.force).input(&a.input);
     outputs.check(&out)?;
     let map_format = match &a.keypoint_map {
@@ -267,6 +268,16 @@ pub fn encode(global: &GlobalArgs, a: &EncodeArgs) -> CliResult {
             stats.chroma_keypoints
         ),
     );
+    Ok(())
+}
+
+/// Refuses `--json` when the output itself goes to standard output: the two would mix.
+fn json_beside(json: bool, target: &Target) -> CliResult {
+    if json && *target == Target::Stdout {
+        return Err(CliError::Usage(
+            "-o - and --json: the output takes standard output; the JSON cannot".into(),
+        ));
+    }
     Ok(())
 }
 
@@ -362,6 +373,9 @@ pub fn decode(global: &GlobalArgs, a: &DecodeArgs) -> CliResult {
         .output
         .as_deref()
         .map(|o| Target::from_arg(Some(o), PathBuf::new));
+    if let Some(t) = &target {
+        json_beside(a.json, t)?;
+    }
     let format = match target.as_ref().and_then(Target::path) {
         None => FormatChoice::Natural,
         // The extension alone decides whether a format is written at all; a stream's

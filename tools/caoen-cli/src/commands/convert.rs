@@ -72,6 +72,11 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
     let start = Instant::now();
     let mut outputs = Outputs::new(global.force).input(&a.mesh);
     outputs.check_path(&a.output)?;
+    if a.json && crate::output::is_stdout(&a.output) {
+        return Err(CliError::Usage(
+            "-o - and --json: the model takes standard output; the summary cannot".into(),
+        ));
+    }
     let heartbeat = Heartbeat::start(global.quiet, start);
     let job = ConvertJob {
         max_functions: a.max_functions.map(|n| n as usize),
@@ -133,6 +138,10 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
     let seconds = start.elapsed().as_secs_f64();
     if a.json {
         crate::output::print(convert_json(a, &report, seconds).to_string() + "\n")
+    } else if crate::output::is_stdout(&a.output) {
+        // The model has standard output: the summary goes beside the other notes.
+        note(global, convert_text(a, &report, seconds).trim_end());
+        Ok(())
     } else {
         crate::output::print(convert_text(a, &report, seconds))
     }
@@ -193,7 +202,7 @@ fn convert_text(a: &ConvertArgs, r: &ConvertReport, seconds: f64) -> String {
     outln!(
         out,
         "wrote {}: {} of {} functions in {seconds:.1} s ({}), {}",
-        a.output.display(),
+        crate::output::shown(&a.output),
         r.functions,
         r.max_functions,
         r.stop_text(),
@@ -270,7 +279,14 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
         .input_opt(a.model.as_ref());
     if let Some(p) = &a.picture {
         outputs.check_path(p)?;
+        if a.json && crate::output::is_stdout(p) {
+            return Err(CliError::Usage(
+                "--picture - and --json: the picture takes standard output; the summary cannot"
+                    .into(),
+            ));
+        }
     }
+    let picture_on_stdout = a.picture.as_deref().is_some_and(crate::output::is_stdout);
     let mesh = read_mesh(&a.mesh, &global.limits)?;
     let frame = mesh.unit_frame();
     let unit = mesh.transformed(&frame);
@@ -324,7 +340,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
     };
     if let (Some(p), Some(bytes)) = (&a.picture, &picture) {
         outputs.write_path(p, bytes)?;
-        note(global, format!("wrote {}", p.display()));
+        note(global, format!("wrote {}", crate::output::shown(p)));
     }
     let seconds = start.elapsed().as_secs_f64();
     let v = &m.vertex;
@@ -403,7 +419,12 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
                 v.unconverged
             );
         }
-        crate::output::print(out)?;
+        if picture_on_stdout {
+            // The picture has standard output: the summary goes beside the other notes.
+            note(global, out.trim_end());
+        } else {
+            crate::output::print(out)?;
+        }
     }
     Ok(())
 }

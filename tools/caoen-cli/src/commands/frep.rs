@@ -16,7 +16,7 @@ use crate::cli::{
 use crate::commands::note;
 use crate::commands::render::{parse_size, picture_format, render_with_progress};
 use crate::failure::{CliError, CliResult};
-use crate::output::{extension_lowercase, Outputs};
+use crate::output::{extension_lowercase, format_extension, shown, Outputs};
 
 /// The format tag of an F-rep model file.
 pub const FREP_FORMAT: &str = "caoen-frep/1";
@@ -156,7 +156,7 @@ fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
         global,
         format!(
             "wrote {} ({width}x{height}, {s}x{s} samples, {:.2} s)",
-            a.output.display(),
+            shown(&a.output),
             start.elapsed().as_secs_f64(),
             s = a.samples
         ),
@@ -194,7 +194,7 @@ fn is_mesh_path(path: &Path) -> bool {
 }
 
 /// Writes the printable mesh of `node` (`frep::polygonise::solid_mesh`) to `output` in
-/// the format its extension names; fails, writing nothing, when the mesh is empty or
+/// the format its extension names (binary STL on a stream); fails, writing nothing, when the mesh is empty or
 /// not a closed manifold.
 fn write_solid_mesh(
     global: &GlobalArgs,
@@ -204,10 +204,10 @@ fn write_solid_mesh(
     cells: u32,
     output: &Path,
 ) -> CliResult {
-    let ext = extension_lowercase(output);
-    if !is_mesh_path(output) {
+    let ext = format_extension(output, "stl");
+    if !matches!(ext.as_deref(), Some("stl" | "obj" | "ply")) {
         return Err(CliError::Usage(format!(
-            "{}: mesh output must end in .stl, .obj or .ply",
+            "{}: mesh output must end in .stl, .obj or .ply (`-`: binary STL on standard output)",
             output.display()
         )));
     }
@@ -255,7 +255,7 @@ fn write_solid_mesh(
         global,
         format!(
             "wrote {}: {} vertices, {} triangles, closed and manifold, {} piece{}, volume {:.6}, Euler characteristic {}{}",
-            output.display(),
+            shown(output),
             m.positions.len(),
             m.triangles.len(),
             rep.pieces,
@@ -282,12 +282,17 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?;
     bar.finish_and_clear();
     outputs.write_path(&a.output, text.as_bytes())?;
+    // POV-Ray reads a scene from a file only: the hint names one for standard output.
+    let input = if crate::output::is_stdout(&a.output) {
+        "<scene>.pov".to_string()
+    } else {
+        a.output.display().to_string()
+    };
     note(
         global,
         format!(
-            "wrote {} (render with: povray +I{} +W{width} +H{height} +A0.1 +O<out>.png)",
-            a.output.display(),
-            a.output.display()
+            "wrote {} (render with: povray +I{input} +W{width} +H{height} +A0.1 +O<out>.png)",
+            shown(&a.output),
         ),
     );
     Ok(())
@@ -431,7 +436,7 @@ fn write_model(
         drop(scene);
         let text = serde_json::to_string_pretty(model).expect("json values serialise") + "\n";
         outputs.write_path(output, text.as_bytes())?;
-        note(global, format!("wrote {}", output.display()));
+        note(global, format!("wrote {}", shown(output)));
         return Ok(());
     };
     let (width, height) = parse_size(size)?;
@@ -446,7 +451,7 @@ fn write_model(
     outputs.write_path(output, &r.image.encode(format)?)?;
     note(
         global,
-        format!("wrote {} ({width}x{height})", output.display()),
+        format!("wrote {} ({width}x{height})", shown(output)),
     );
     Ok(())
 }

@@ -56,6 +56,7 @@ pub fn run(cli: Cli) -> CliResult {
 
 fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
     let global = global.clone();
+    check_folders(&cmd)?;
     match cmd {
         Command::Demo(args) => demo::run(&global, &args),
         Command::Encode(args) => codec::encode(&global, &args),
@@ -90,6 +91,42 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Carve(args) => frep::picture(&global, &args, frep::PictureUse::Carve),
         Command::Convert(args) => convert::convert(&global, &args),
         Command::Deviation(args) => convert::deviation(&global, &args),
+    }
+}
+
+/// Refuses `-` for outputs that are folders (or several files named after one), before
+/// any work: standard output takes one file.
+fn check_folders(cmd: &Command) -> CliResult {
+    use crate::output::{folder_output, is_stdout};
+    match cmd {
+        Command::Examples(a) => folder_output(&a.out, "caoen examples"),
+        Command::Demo(a) => folder_output(&a.out_dir, "caoen demo"),
+        Command::Corpus(a) => a
+            .out
+            .as_deref()
+            .map_or(Ok(()), |o| folder_output(o, "caoen corpus")),
+        Command::Bench(a) => {
+            if let Some(k) = &a.keep {
+                folder_output(k, "caoen bench --keep")?;
+            }
+            if a.plot.as_deref().is_some_and(is_stdout) {
+                return Err(CliError::Usage(
+                    "--plot -: the plots are one file per class, not standard output; name a file such as rd.png".into(),
+                ));
+            }
+            if [&a.report, &a.markdown]
+                .into_iter()
+                .flatten()
+                .any(|p| is_stdout(p))
+            {
+                return Err(CliError::Usage(
+                    "--report/--markdown -: standard output carries the report's tables; name a file"
+                        .into(),
+                ));
+            }
+            Ok(())
+        }
+        _ => Ok(()),
     }
 }
 

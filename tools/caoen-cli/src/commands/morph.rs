@@ -27,6 +27,12 @@ enum Output {
 
 /// `caoen morph`.
 pub fn run(global: &GlobalArgs, a: &MorphArgs) -> CliResult {
+    if crate::output::is_stdout(&a.output) {
+        return Err(CliError::Usage(format!(
+            "-o {}: morph writes a folder of frames, anim.gif or anim.png; not standard output",
+            a.output.display()
+        )));
+    }
     let ext = extension_lowercase(&a.output);
     let kind = match ext.as_deref() {
         Some("gif") => Output::Gif,

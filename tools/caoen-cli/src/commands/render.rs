@@ -18,7 +18,7 @@ use crate::cli::{
 use crate::commands::note;
 use crate::commands::surface::load_model;
 use crate::failure::{CliError, CliResult};
-use crate::output::{extension_lowercase, is_same_file, Outputs};
+use crate::output::{is_same_file, Outputs};
 
 impl From<RenderError> for CliError {
     fn from(e: RenderError) -> Self {
@@ -103,7 +103,7 @@ pub fn render_with_progress(
 
 /// Writes a depth map: 16-bit PNG, or OpenEXR (raw depths) for `.exr`.
 pub fn write_depth(outputs: &Outputs, r: &Rendered, path: &Path) -> CliResult {
-    let ext = extension_lowercase(path);
+    let ext = crate::output::format_extension(path, "png");
     let bytes = match ext.as_deref() {
         Some("png") => r.depth.encode_png16()?,
         Some("exr") => r.depth.encode_exr()?,
@@ -168,7 +168,7 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
     let opts = options(a)?;
     let format = picture_format(&a.output)?;
     if let Some(d) = &a.depth_out {
-        let e = extension_lowercase(d);
+        let e = crate::output::format_extension(d, "png");
         if !matches!(e.as_deref(), Some("png" | "exr")) {
             return Err(CliError::Usage(format!(
                 "{}: depth output must end in .png (16-bit) or .exr",
@@ -201,7 +201,7 @@ pub fn run(global: &GlobalArgs, a: &SurfaceRenderArgs) -> CliResult {
         global,
         format!(
             "wrote {} ({}x{}, {}x{} samples, {:.2} s; {} triangles, {} depth samples, {} rays)",
-            a.output.display(),
+            crate::output::shown(&a.output),
             opts.width,
             opts.height,
             opts.samples,

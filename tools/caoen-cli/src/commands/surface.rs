@@ -221,7 +221,8 @@ pub fn write_mesh(
 }
 
 /// Like [`write_mesh`]; with a `texture` file an OBJ also gets `<stem>.mtl` and the
-/// texture as `<stem>-texture.png`, referenced by its material.
+/// texture as `<stem>-texture.png`, referenced by its material. On a stream the mesh
+/// is an OBJ without a material (its files would need a name).
 pub fn write_mesh_textured(
     outputs: &Outputs,
     model: &SurfaceModel,
@@ -231,13 +232,14 @@ pub fn write_mesh_textured(
     texture: Option<&Path>,
     limits: &caoen::Limits,
 ) -> CliResult<String> {
-    let ext = extension_lowercase(path);
+    let ext = crate::output::format_extension(path, "obj");
     if !matches!(ext.as_deref(), Some("obj" | "ply")) {
         return Err(CliError::Usage(format!(
-            "{}: mesh output must end in .obj or .ply",
+            "{}: mesh output must end in .obj or .ply (`-`: OBJ on standard output)",
             path.display()
         )));
     }
+    let texture = texture.filter(|_| extension_lowercase(path).is_some());
     let mesh = tessellate(model, detail, normals, limits)?;
     let mut bytes = Vec::new();
     let mut extra = String::new();
@@ -255,7 +257,7 @@ pub fn write_mesh_textured(
     outputs.write_path(path, &bytes)?;
     Ok(format!(
         "{}{extra}: {} vertices, {} triangles, Euler characteristic {}",
-        path.display(),
+        crate::output::shown(path),
         mesh.positions.len(),
         mesh.triangles.len(),
         mesh.euler_characteristic()

@@ -92,10 +92,10 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
             "give at least one --move x,y,z:x2,y2,z2".into(),
         ));
     }
-    let ext = extension_lowercase(&a.output);
+    let ext = crate::output::format_extension(&a.output, "json");
     if !matches!(ext.as_deref(), Some("json" | "obj" | "ply")) {
         return Err(CliError::Usage(format!(
-            "{}: a distorted surface is written as .json (model) or .obj/.ply (mesh)",
+            "{}: a distorted surface is written as .json (model) or .obj/.ply (mesh); `-`: the model on standard output",
             a.output.display()
         )));
     }
@@ -139,7 +139,7 @@ fn distort_surface(global: &GlobalArgs, a: &DistortArgs) -> CliResult {
         global,
         format!(
             "{spec} -> {}: {} moves, {} anchors",
-            a.output.display(),
+            crate::output::shown(&a.output),
             moves.len(),
             warp.anchors()
         ),
@@ -471,7 +471,12 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
                 crate::commands::render::render_with_progress(global, &scene, &opts, "rendering")?;
             let format = picture.unwrap_or(caoen::render::framebuffer::PictureFormat::Png);
             outputs.write_path(&a.output, &r.image.encode(format).map_err(failed)?)?;
-            format!("{} ({}x{})", a.output.display(), size.0, size.1)
+            format!(
+                "{} ({}x{})",
+                crate::output::shown(&a.output),
+                size.0,
+                size.1
+            )
         }
     };
     note(
