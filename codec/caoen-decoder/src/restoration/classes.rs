@@ -1,7 +1,7 @@
 //! Each pixel's class for the classified filters: the activity and direction of the
 //! luma's second differences around it.
 
-use super::scaled::{lerp_row, lerp_table, lerp_taps, run_of, Table};
+use super::scaled::{lerp_row, lerp_taps, table, Table};
 use super::{whole_pixels, ACTIVITY_BOUNDS, DIRECTIONS, WINDOW};
 
 /// The class of each pixel of rows `rows` (`rows.len() * w` entries, in `0..CLASSES`)
@@ -63,14 +63,7 @@ pub(super) fn classify_sampled(
     let xs: Vec<Table> = if native {
         Vec::new()
     } else {
-        [-1.0, 0.0, 1.0]
-            .iter()
-            .map(|&a| {
-                let t = lerp_table(w, a / sx);
-                let run = run_of(&t);
-                (t, run)
-            })
-            .collect()
+        [-1.0, 0.0, 1.0].iter().map(|&a| table(w, a / sx)).collect()
     };
     // The second differences of one row: h, v, d1, d2, each `w` long.
     let diffs = |y: usize| -> [Vec<f32>; 4] {

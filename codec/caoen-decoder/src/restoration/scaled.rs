@@ -20,17 +20,7 @@ pub(super) fn scaled_rows<'a>(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let offsets: Vec<(f64, f64)> = shape
-        .iter()
-        .map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy))
-        .collect();
-    let table = |ox: f64| {
-        let t = lerp_table(w, ox);
-        let run = run_of(&t);
-        (t, run)
-    };
-    let plus: Vec<_> = offsets.iter().map(|&(ox, _)| table(ox)).collect();
-    let minus: Vec<_> = offsets.iter().map(|&(ox, _)| table(-ox)).collect();
+    let (offsets, plus, minus) = offset_tables(w, (sx, sy), shape);
     let mut picks: Vec<Option<&[f32]>> = vec![None; w];
     let (mut acc, mut wk) = (vec![0.0f32; w], vec![0.0f32; w]);
     let (mut up, mut down) = (vec![0.0f32; w], vec![0.0f32; w]);
@@ -66,9 +56,32 @@ pub(super) fn scaled_rows<'a>(
     }
 }
 
+/// The offsets of `shape` in output pixels (the same for every pixel) at spacing
+/// `(sx, sy)`, and each one's column tables to either side.
+fn offset_tables(
+    w: usize,
+    (sx, sy): (f64, f64),
+    shape: &[(i32, i32)],
+) -> (Vec<(f64, f64)>, Vec<Table>, Vec<Table>) {
+    let offsets: Vec<(f64, f64)> = shape
+        .iter()
+        .map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy))
+        .collect();
+    let plus = offsets.iter().map(|&(ox, _)| table(w, ox)).collect();
+    let minus = offsets.iter().map(|&(ox, _)| table(w, -ox)).collect();
+    (offsets, plus, minus)
+}
+
 /// A [`lerp_table`] and the columns `lo..hi` where it reads `x + d` and `x + d + 1`:
 /// `(lo, hi, d)`, from [`run_of`].
 pub(super) type Table = (Vec<(u32, u32, f32)>, (usize, usize, isize));
+
+/// The [`Table`] of a row of `n` samples at `x + offset`.
+pub(super) fn table(n: usize, offset: f64) -> Table {
+    let t = lerp_table(n, offset);
+    let run = run_of(&t);
+    (t, run)
+}
 
 /// The run of columns `lo..hi` around the middle where table `t` reads `x + d` and
 /// `x + d + 1` (an empty run where the middle does not).
@@ -181,13 +194,7 @@ pub(super) fn scaled_rows_reference<'a>(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    // The offsets in output pixels, the same for every pixel.
-    let offsets: Vec<(f64, f64)> = shape
-        .iter()
-        .map(|&(dx, dy)| (dx as f64 / sx, dy as f64 / sy))
-        .collect();
-    let plus: Vec<_> = offsets.iter().map(|&(ox, _)| lerp_table(w, ox)).collect();
-    let minus: Vec<_> = offsets.iter().map(|&(ox, _)| lerp_table(w, -ox)).collect();
+    let (offsets, plus, minus) = offset_tables(w, (sx, sy), shape);
     for (j, y) in rows.enumerate() {
         let py = y as f64;
         let ys: Vec<_> = offsets
@@ -204,8 +211,8 @@ pub(super) fn scaled_rows_reference<'a>(
             for (k, &wk) in wt.iter().enumerate() {
                 let (up, down) = ys[k];
                 acc += wk
-                    * (lerp_at(plane, w, tap(plus[k][x]), up)
-                        + lerp_at(plane, w, tap(minus[k][x]), down)
+                    * (lerp_at(plane, w, tap(plus[k].0[x]), up)
+                        + lerp_at(plane, w, tap(minus[k].0[x]), down)
                         - 2.0 * c);
             }
             out[j * w + x] = c + acc;
