@@ -1521,3 +1521,37 @@ fn cli_relief_and_carve() {
         );
     }
 }
+
+#[test]
+fn a_render_keeps_to_the_commands_memory_budget() {
+    let d = common::fresh_dir("frep-render-budget");
+    let model = d.join("s.frep.json");
+    common::write_frep(
+        &model,
+        json!({"sphere": {"centre": [0, 0, 0], "radius": 1}}),
+    );
+    let out = d.join("r.png");
+    // 3072x2304 samples need hundreds of MiB: refused under 16 MiB before any work.
+    let args = [
+        "frep",
+        "render",
+        s(&model),
+        "-o",
+        s(&out),
+        "--size",
+        "1024x768",
+    ];
+    let mut tight = args.to_vec();
+    tight.extend(["--samples", "3", "--max-memory", "16M"]);
+    let r = caoen(&tight);
+    let err = common::stderr(&r);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(err.contains("over the memory budget of 16.0 MiB"), "{err}");
+    assert!(!out.exists(), "nothing written when refused");
+    // The same render within the budget it asks for runs.
+    let mut small = args.to_vec();
+    small[6] = "64x48";
+    small.extend(["--max-memory", "64M"]);
+    assert_ok(&caoen(&small));
+    assert!(out.exists());
+}

@@ -93,6 +93,11 @@ pub fn render_with_progress(
     what: &str,
 ) -> CliResult<Rendered> {
     let bar = progress_bar(global, what);
+    // The command's budget (`--max-memory`), whatever limits `opts` was built with.
+    let opts = &RenderOptions {
+        limits: global.limits.clone(),
+        ..opts.clone()
+    };
     let result = render(scene, opts, &|done, total| {
         bar.set_length(total);
         bar.set_position(done);
