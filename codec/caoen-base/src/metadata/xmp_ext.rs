@@ -215,9 +215,13 @@ fn merge(
     main.insert_str(close, body);
     // Namespaces declared above the descriptions would otherwise be lost with the
     // extension's wrapper.
-    let declared = &main[main_open..open_end];
+    // Those the main packet declares on the way down to its rdf:RDF are in scope.
+    let declared = &main[..open_end];
     let missing: String = namespaces(&ext[..body_start])
-        .filter(|ns| !declared.contains(ns.split('=').next().unwrap_or(ns)))
+        .filter(|ns| {
+            let name = ns.split('=').next().unwrap_or(ns);
+            !declared.contains(&format!("{name}="))
+        })
         .map(|ns| format!(" {ns}"))
         .collect();
     let open_end = if main[..open_end].ends_with('/') {
@@ -338,6 +342,7 @@ mod tests {
         );
         assert!(merged.contains("GDepth:Data="), "{merged}");
         assert_eq!(merged.matches("xmlns:rdf=").count(), 1, "{merged}");
+        assert_eq!(merged.matches("xmlns:x=").count(), 1, "{merged}");
     }
 
     #[test]
