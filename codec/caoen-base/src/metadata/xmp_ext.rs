@@ -65,9 +65,12 @@ pub fn without_pointer(main: Option<Vec<u8>>) -> Option<Vec<u8>> {
 fn extended_pointer(xmp: &[u8]) -> Option<(String, std::ops::Range<usize>)> {
     let text = std::str::from_utf8(xmp).ok()?;
     let name = text.find(":HasExtendedXMP")?;
+    // The character before the prefix may be several bytes long.
     let prefix_start = text[..name]
-        .rfind(|c: char| !(c.is_alphanumeric() || c == '_' || c == '-' || c == '.'))
-        .map_or(0, |i| i + 1);
+        .char_indices()
+        .rev()
+        .find(|&(_, c)| !(c.is_alphanumeric() || c == '_' || c == '-' || c == '.'))
+        .map_or(0, |(i, c)| i + c.len_utf8());
     let after = name + ":HasExtendedXMP".len();
     let rest = &text[after..];
     let trimmed = rest.trim_start();
@@ -432,6 +435,18 @@ mod tests {
             "{main}"
         );
         assert_eq!(without_pointer(None), None);
+        // Any text around the name is read without a panic.
+        for text in [
+            "é:HasExtendedXMP=\"G\"",
+            "<é:HasExtendedXMP>G</é:HasExtendedXMP>",
+            "…:HasExtendedXMP",
+            ":HasExtendedXMP='",
+        ] {
+            let _ = without_pointer(Some(text.as_bytes().to_vec()));
+            let _ = join_extended(Some(text.as_bytes().to_vec()), &[]);
+        }
+        let cut = without_pointer(Some("«xmpNote:HasExtendedXMP=\"G\"»".as_bytes().to_vec()));
+        assert_eq!(cut.as_deref(), Some("«»".as_bytes()));
         assert_eq!(
             without_pointer(Some(b"\xff".to_vec())),
             Some(b"\xff".to_vec())
@@ -497,6 +512,14 @@ mod tests {
                 .collect();
             let _ = join(&main_packet(&g), &chunks);
             let _ = join(&main_packet(&g), &raw);
+        }
+
+        #[test]
+        fn any_text_around_the_pointer_is_read_without_a_panic(
+            text in "[<«a-z:=\"' >/é]{0,20}HasExtendedXMP[<«a-z:=\"' >/é0-9A-F]{0,40}",
+        ) {
+            let _ = without_pointer(Some(text.clone().into_bytes()));
+            let _ = join_extended(Some(text.into_bytes()), &[b"x"]);
         }
     }
 }
