@@ -217,3 +217,62 @@ fn a_png_profile_whose_crc_is_wrong_is_left_out_and_the_pixels_encode() {
     assert_eq!((a.width(), a.height()), (b.width(), b.height()));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn extended_xmp_is_joined_into_one_packet() {
+    let dir = fresh_dir("hostile-xmp-extended");
+    let (cae, png) = (dir.join("d7.cae"), dir.join("d7.png"));
+    let input = bad("third-D7-xmp-extended.jpg");
+    let err = stderr(&caoen_ok(&["encode", &input, "-o", s(&cae)]));
+    assert!(!err.contains("warning:"), "{err}");
+    caoen_ok(&["decode", s(&cae), "-o", s(&png)]);
+    let xmp = read_container(&std::fs::read(&png).unwrap())
+        .unwrap()
+        .xmp
+        .unwrap();
+    let xmp = String::from_utf8(xmp).unwrap();
+    // The depth map's properties travel in the extension, 120 KB over two segments.
+    for property in [
+        r#"GDepth:Format="RangeInverse""#,
+        r#"GDepth:Near="0.5""#,
+        r#"GDepth:Mime="image/png""#,
+        "GDepth:Data=\"R1hkjoKRiTlKhS",
+    ] {
+        assert!(xmp.contains(property), "{property} missing");
+    }
+    assert!(xmp.len() > 120_000, "{} bytes", xmp.len());
+    assert!(!xmp.contains("HasExtendedXMP"), "a pointer to nothing");
+    assert_eq!(xmp.matches("<rdf:RDF").count(), 1, "one packet");
+    // What caoen writes, caoen reads.
+    let again = dir.join("again.cae");
+    let err = stderr(&caoen_ok(&["encode", s(&png), "-o", s(&again)]));
+    assert!(!err.contains("warning:"), "{err}");
+
+    // One byte of the second chunk changed: its MD5 is no longer the GUID.
+    let mut bytes = std::fs::read(&input).unwrap();
+    let at = 65_500;
+    assert!(bytes[at].is_ascii_alphanumeric());
+    bytes[at] = if bytes[at] == b'A' { b'B' } else { b'A' };
+    let damaged = dir.join("damaged.jpg");
+    std::fs::write(&damaged, &bytes).unwrap();
+    let err = stderr(&caoen_ok(&["encode", s(&damaged), "-o", s(&cae), "-f"]));
+    assert!(
+        err.contains("warning:") && err.contains("extended XMP left out") && err.contains("MD5"),
+        "{err}"
+    );
+    caoen_ok(&["decode", s(&cae), "-o", s(&png), "-f"]);
+    let xmp = read_container(&std::fs::read(&png).unwrap())
+        .unwrap()
+        .xmp
+        .unwrap();
+    let xmp = String::from_utf8(xmp).unwrap();
+    assert!(
+        !xmp.contains("HasExtendedXMP") && !xmp.contains("GDepth"),
+        "{xmp}"
+    );
+    assert!(
+        xmp.contains("rdf:Description"),
+        "the main packet is kept: {xmp}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

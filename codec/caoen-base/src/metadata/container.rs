@@ -1,6 +1,7 @@
 //! The metadata items found in JPEG (APP1/APP2 segments), PNG (iCCP, eXIf, iTXt) and
 //! WebP (ICCP, EXIF, XMP chunks) files, every declared size checked before copying.
 
+use super::xmp_ext::{join_extended, without_pointer, EXTENSION_NAMESPACE};
 use super::{
     check_size, corrupt, strip_exif_prefix, Dropped, Item, Metadata, MetadataError, MAX_ITEM_BYTES,
 };
@@ -47,6 +48,7 @@ fn item_of(e: &MetadataError) -> Option<Item> {
             "ICC profile" => Some(Item::Icc),
             "EXIF" => Some(Item::Exif),
             "XMP packet" => Some(Item::Xmp),
+            "extended XMP" => Some(Item::XmpExtension),
             _ => None,
         },
         _ => Some(Item::Exif),
@@ -72,6 +74,9 @@ fn read_jpeg(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
     const XMP: &[u8] = b"http://ns.adobe.com/xap/1.0/\0";
     const ICC: &[u8] = b"ICC_PROFILE\0";
     let mut meta = Metadata::default();
+    // The payloads of the extended XMP's segments, borrowed until joined.
+    let mut extension: Vec<&[u8]> = Vec::new();
+    let keep_extension = !skip.contains(&Item::Xmp) && !skip.contains(&Item::XmpExtension);
     // (sequence number, chunk count, data) of each ICC chunk, borrowed until assembled.
     let mut icc: Vec<(u8, u8, &[u8])> = Vec::new();
     let mut icc_total = 0u64;
@@ -121,6 +126,9 @@ fn read_jpeg(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
             0xe1 if meta.xmp.is_none() && payload.starts_with(XMP) => {
                 meta.xmp = Some(payload[XMP.len()..].to_vec());
             }
+            0xe1 if keep_extension && payload.starts_with(EXTENSION_NAMESPACE) => {
+                extension.push(&payload[EXTENSION_NAMESPACE.len()..]);
+            }
             0xe2 if payload.starts_with(ICC) && payload.len() >= ICC.len() + 2 => {
                 let (seq, count) = (payload[ICC.len()], payload[ICC.len() + 1]);
                 let data = &payload[ICC.len() + 2..];
@@ -135,6 +143,11 @@ fn read_jpeg(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
             }
             _ => {}
         }
+    }
+    if keep_extension {
+        meta.xmp = join_extended(meta.xmp.take(), &extension)?;
+    } else if skip.contains(&Item::XmpExtension) {
+        meta.xmp = without_pointer(meta.xmp.take());
     }
     if !icc.is_empty() {
         icc.sort_by_key(|c| c.0);
@@ -177,7 +190,7 @@ fn inflate(item: Item, z: &[u8]) -> Result<Vec<u8>, MetadataError> {
             item: match item {
                 Item::Icc => "ICC profile",
                 Item::Exif => "EXIF",
-                Item::Xmp => "XMP packet",
+                Item::Xmp | Item::XmpExtension => "XMP packet",
             },
             reason: format!("damaged zlib stream ({status:?})"),
         },

@@ -4,12 +4,14 @@
 //! `exif` reads EXIF only as far as its orientation: a bounded walker over the TIFF
 //! structure that never follows an offset outside the block, never allocates by a
 //! declared count, and stops a directory chain that loops; `container` finds the items
-//! in JPEG, PNG and WebP files, `png` writes them as PNG chunks.
+//! in JPEG, PNG and WebP files, `xmp_ext` joins a JPEG's extended XMP into its main
+//! packet, `png` writes them as PNG chunks.
 
 mod container;
 mod exif;
 mod fit;
 mod png;
+mod xmp_ext;
 
 pub use container::{read_container, read_container_lenient};
 pub use exif::{ifd_chain, orientation, reset_orientation, with_orientation_one};
@@ -129,6 +131,8 @@ pub enum Item {
     Exif,
     /// The XMP packet.
     Xmp,
+    /// The extension of a JPEG's XMP packet (`xmpNote:HasExtendedXMP`), joined into it.
+    XmpExtension,
 }
 
 impl std::fmt::Display for Item {
@@ -137,6 +141,7 @@ impl std::fmt::Display for Item {
             Item::Icc => "ICC profile",
             Item::Exif => "EXIF",
             Item::Xmp => "XMP packet",
+            Item::XmpExtension => "extended XMP",
         })
     }
 }
