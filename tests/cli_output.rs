@@ -8,10 +8,6 @@ use common::{argv, assert_ok, caoen, caoen_ok, s, stderr};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-fn tmpdir(name: &str) -> PathBuf {
-    common::fresh_dir(&format!("cli-output-{name}"))
-}
-
 /// Exit code 1 and a single `error:` line, no panic.
 fn assert_fails(out: &Output, needle: &str) {
     let err = stderr(out);
@@ -23,14 +19,22 @@ fn assert_fails(out: &Output, needle: &str) {
     assert!(err.contains(needle), "{err}");
 }
 
-/// A small PNG and its `.cae`.
-fn inputs(d: &Path) -> (PathBuf, PathBuf) {
+/// A fresh directory for the test `name`, with a small PNG and its `.cae` in it.
+fn inputs(name: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let d = common::fresh_dir(&format!("cli-output-{name}"));
     let img = caoen_corpus::generate(caoen_corpus::Class::Scene, 48, 32, 1);
     let png = d.join("in.png");
     img.to_dynamic_image().save(&png).unwrap();
     let cae = d.join("in.cae");
     caoen_ok(&["encode", s(&png), "-o", s(&cae), "--quiet"]);
-    (png, cae)
+    (d, png, cae)
+}
+
+/// The file `name` in `d`, holding `old`: an output already there.
+fn old_file(d: &Path, name: &str) -> PathBuf {
+    let path = d.join(name);
+    std::fs::write(&path, b"old").unwrap();
+    path
 }
 
 /// No `.NAME.XXXXXX.caoen-tmp` file is left in `d`.
@@ -45,8 +49,7 @@ fn assert_no_temporaries(d: &Path) {
 
 #[test]
 fn an_existing_output_is_replaced_only_with_force() {
-    let d = tmpdir("force");
-    let (png, cae) = inputs(&d);
+    let (d, png, cae) = inputs("force");
     let back = d.join("back.png");
     let model = d.join("ring.json");
     let mesh = d.join("ring.obj");
@@ -106,10 +109,8 @@ fn an_existing_output_is_replaced_only_with_force() {
 #[cfg(unix)]
 fn a_replaced_file_keeps_its_permissions() {
     use std::os::unix::fs::PermissionsExt;
-    let d = tmpdir("perms");
-    let (_, cae) = inputs(&d);
-    let out = d.join("out.png");
-    std::fs::write(&out, b"old").unwrap();
+    let (d, _, cae) = inputs("perms");
+    let out = old_file(&d, "out.png");
     std::fs::set_permissions(&out, std::fs::Permissions::from_mode(0o640)).unwrap();
     caoen_ok(&["decode", s(&cae), "-o", s(&out), "-f", "--quiet"]);
     let meta = std::fs::metadata(&out).unwrap();
@@ -119,8 +120,7 @@ fn a_replaced_file_keeps_its_permissions() {
 
 #[test]
 fn an_input_is_never_overwritten_even_with_force() {
-    let d = tmpdir("input");
-    let (png, cae) = inputs(&d);
+    let (d, png, cae) = inputs("input");
     let png_bytes = std::fs::read(&png).unwrap();
     let cae_bytes = std::fs::read(&cae).unwrap();
     let model = d.join("ring.json");
@@ -199,8 +199,7 @@ fn discarding_device() -> &'static str {
 fn devices_and_fifos_are_written_in_place() {
     use std::io::Read;
     use std::os::unix::fs::FileTypeExt;
-    let d = tmpdir("devices");
-    let (png, cae) = inputs(&d);
+    let (d, png, cae) = inputs("devices");
     // A device: written without --force, and still a device afterwards.
     let dev = discarding_device();
     caoen_ok(&["decode", s(&cae), "-o", dev, "--quiet"]);
@@ -245,12 +244,10 @@ fn devices_and_fifos_are_written_in_place() {
 #[test]
 #[cfg(unix)]
 fn a_symbolic_link_output_writes_the_file_it_points_at() {
-    let d = tmpdir("symlink");
-    let (_, cae) = inputs(&d);
+    let (d, _, cae) = inputs("symlink");
     let sub = d.join("sub");
     std::fs::create_dir(&sub).unwrap();
-    let real = sub.join("real.png");
-    std::fs::write(&real, b"old").unwrap();
+    let real = old_file(&sub, "real.png");
     let link = d.join("link.png");
     std::os::unix::fs::symlink("sub/real.png", &link).unwrap();
     // The target exists: the rule asks for --force, then the target is replaced.
@@ -282,8 +279,7 @@ fn a_symbolic_link_output_writes_the_file_it_points_at() {
 
 #[test]
 fn directories_and_sockets_are_refused() {
-    let d = tmpdir("special");
-    let (_, cae) = inputs(&d);
+    let (d, _, cae) = inputs("special");
     let dir = d.join("dir.png");
     std::fs::create_dir(&dir).unwrap();
     assert_fails(
@@ -323,11 +319,9 @@ fn caoen_with_small_file_limit(args: &[&str]) -> Output {
 #[test]
 #[cfg(unix)]
 fn a_failed_write_leaves_no_temporary_and_keeps_the_old_file() {
-    let d = tmpdir("failed");
-    let (_, cae) = inputs(&d);
+    let (d, _, cae) = inputs("failed");
     let new = d.join("new.png");
-    let old = d.join("old.png");
-    std::fs::write(&old, b"old").unwrap();
+    let old = old_file(&d, "old.png");
     for (target, force) in [(&new, false), (&old, true)] {
         let mut args = vec![
             "decode",
@@ -357,8 +351,7 @@ fn a_failed_write_leaves_no_temporary_and_keeps_the_old_file() {
 #[test]
 #[cfg(unix)]
 fn a_stdout_write_error_fails_the_command() {
-    let d = tmpdir("stdout");
-    let (_, cae) = inputs(&d);
+    let (_, _, cae) = inputs("stdout");
     let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
     if !common::tool_present(full.is_ok(), "/dev/full") {
         return;

@@ -3,7 +3,7 @@
 //! with a usage error; no command leaves a file named `-` (hostile third round D3, M9).
 
 mod common;
-use common::{hostile, s, stderr};
+use common::{argv, hostile, s, stderr};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -70,10 +70,7 @@ fn picture() -> String {
 
 #[test]
 fn export_pov_writes_the_scene() {
-    let out = stdout_of(
-        "pov",
-        &["frep", "export-pov", &plate(), "-o", "-", "--quiet"],
-    );
+    let out = stdout_of("pov", &argv("frep export-pov @ -o - --quiet", &[&plate()]));
     let text = String::from_utf8(out).unwrap();
     assert!(
         text.contains("camera") && text.contains("isosurface"),
@@ -83,14 +80,8 @@ fn export_pov_writes_the_scene() {
 
 #[test]
 fn convert_writes_the_model_and_the_summary_on_stderr() {
-    let args = [
-        "convert",
-        &hostile("third-D3-octahedron.obj"),
-        "-o",
-        "-",
-        "--check-size",
-        "32",
-    ];
+    let model = hostile("third-D3-octahedron.obj");
+    let args = argv("convert @ -o - --check-size 32", &[&model]);
     let (out, d) = run_in("convert", &args);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_no_dash(&d);
@@ -105,61 +96,29 @@ fn convert_writes_the_model_and_the_summary_on_stderr() {
 
 #[test]
 fn deviation_writes_the_picture() {
-    let out = stdout_of(
-        "deviation",
-        &[
-            "deviation",
-            &hostile("third-D3-octahedron.obj"),
-            "--rbf",
-            "20",
-            "--picture",
-            "-",
-            "--size",
-            "32",
-            "--views",
-            "1",
-            "--quiet",
-        ],
-    );
+    let model = hostile("third-D3-octahedron.obj");
+    let line = "deviation @ --rbf 20 --picture - --size 32 --views 1 --quiet";
+    let out = stdout_of("deviation", &argv(line, &[&model]));
     assert!(out.starts_with(b"\x89PNG\r\n\x1a\n"));
     image::load_from_memory(&out).unwrap();
 }
 
+/// Runs the command `line` as typed (`@` standing for each of `paths`) with `-o - --size
+/// 32x24 --samples 1` after it; the 32x24 PNG it writes on standard output.
+fn render_of(name: &str, line: &str, paths: &[&str]) -> image::DynamicImage {
+    let line = format!("{line} -o - --size 32x24 --samples 1");
+    png(&stdout_of(name, &argv(&line, paths)), 32, 24)
+}
+
 #[test]
 fn frep_render_writes_png() {
-    let out = stdout_of(
-        "frep-render",
-        &[
-            "frep",
-            "render",
-            &plate(),
-            "-o",
-            "-",
-            "--size",
-            "32x24",
-            "--samples",
-            "1",
-        ],
-    );
-    png(&out, 32, 24);
+    render_of("frep-render", "frep render @", &[&plate()]);
 }
 
 #[test]
 fn surface_render_writes_png_and_the_depth_map_on_its_own() {
-    let args = [
-        "surface",
-        "render",
-        "builtin:blob",
-        "--size",
-        "32x24",
-        "--samples",
-        "1",
-    ];
-    png(
-        &stdout_of("surface-render", &[&args[..], &["-o", "-"]].concat()),
-        32,
-        24,
-    );
+    render_of("surface-render", "surface render builtin:blob", &[]);
+    let args = argv("surface render builtin:blob --size 32x24 --samples 1", &[]);
     let (out, d) = run_in(
         "surface-depth",
         &[&args[..], &["-o", "r.png", "--depth-out", "-"]].concat(),
@@ -183,22 +142,7 @@ fn surface_render_writes_png_and_the_depth_map_on_its_own() {
 #[test]
 fn relief_and_carve_write_their_render() {
     for what in ["relief", "carve"] {
-        let out = stdout_of(
-            what,
-            &[
-                what,
-                &picture(),
-                "--on",
-                &plate(),
-                "-o",
-                "-",
-                "--size",
-                "32x24",
-                "--samples",
-                "1",
-            ],
-        );
-        png(&out, 32, 24);
+        render_of(what, &format!("{what} @ --on @"), &[&picture(), &plate()]);
     }
 }
 
@@ -206,26 +150,15 @@ fn relief_and_carve_write_their_render() {
 fn frep_mesh_writes_binary_stl() {
     let out = stdout_of(
         "frep-mesh",
-        &["frep", "mesh", &plate(), "-o", "-", "--cells", "24"],
+        &argv("frep mesh @ -o - --cells 24", &[&plate()]),
     );
     assert_binary_stl(&out);
 }
 
 #[test]
 fn surface_mesh_writes_obj() {
-    let out = stdout_of(
-        "surface-mesh",
-        &[
-            "surface",
-            "mesh",
-            "builtin:blob",
-            "-o",
-            "-",
-            "--detail",
-            "2",
-        ],
-    );
-    let text = String::from_utf8(out).unwrap();
+    let args = argv("surface mesh builtin:blob -o - --detail 2", &[]);
+    let text = String::from_utf8(stdout_of("surface-mesh", &args)).unwrap();
     assert!(text.lines().any(|l| l.starts_with("v ")), "{text}");
     assert!(text.lines().any(|l| l.starts_with("f ")), "{text}");
     assert!(!text.contains("mtllib"), "no material without a file name");
@@ -233,109 +166,46 @@ fn surface_mesh_writes_obj() {
 
 #[test]
 fn transfer_writes_its_render() {
-    let out = stdout_of(
-        "transfer",
-        &[
-            "transfer",
-            "--texture",
-            &picture(),
-            "--from",
-            "builtin:blob",
-            "--to",
-            "builtin:blob",
-            "-o",
-            "-",
-            "--size",
-            "32x24",
-            "--samples",
-            "1",
-            "--bake-size",
-            "32x16",
-        ],
-    );
-    png(&out, 32, 24);
+    let line = "transfer --texture @ --from builtin:blob --to builtin:blob --bake-size 32x16";
+    render_of("transfer", line, &[&picture()]);
 }
 
 #[test]
 fn heightfield_writes_its_render() {
-    let out = stdout_of(
-        "heightfield",
-        &[
-            "heightfield",
-            &picture(),
-            "-o",
-            "-",
-            "--size",
-            "32x24",
-            "--samples",
-            "1",
-        ],
-    );
-    png(&out, 32, 24);
+    render_of("heightfield", "heightfield @", &[&picture()]);
 }
 
 #[test]
 fn distort_writes_the_picture_or_the_model() {
     let input = image::open(picture()).unwrap();
-    let out = stdout_of(
-        "distort",
-        &[
-            "distort",
-            &picture(),
-            "--move",
-            "4,4:5,5",
-            "-o",
-            "-",
-            "--quiet",
-        ],
-    );
+    let line = "distort @ --move 4,4:5,5 -o - --quiet";
+    let out = stdout_of("distort", &argv(line, &[&picture()]));
     png(&out, input.width(), input.height());
-    let out = stdout_of(
-        "distort-surface",
-        &[
-            "distort",
-            "builtin:blob",
-            "--move",
-            "0,0,0:0.05,0,0",
-            "-o",
-            "-",
-            "--quiet",
-        ],
-    );
+    let line = "distort builtin:blob --move 0,0,0:0.05,0,0 -o - --quiet";
+    let out = stdout_of("distort-surface", &argv(line, &[]));
     assert!(json(&out).is_object());
 }
 
 #[test]
 fn encode_and_decode_write_their_files() {
-    let cae = stdout_of("encode", &["encode", &picture(), "-o", "-", "--quiet"]);
+    let pic = picture();
+    let cae = stdout_of("encode", &argv("encode @ -o - --quiet", &[&pic]));
     assert!(cae.len() > 8);
     let d = common::fresh_dir("cli-stdout-encoded");
-    std::fs::write(d.join("in.cae"), &cae).unwrap();
-    let out = stdout_of(
-        "decode",
-        &["decode", s(&d.join("in.cae")), "-o", "-", "--quiet"],
-    );
-    let input = image::open(picture()).unwrap();
+    let (cae_path, map_path) = (d.join("in.cae"), d.join("k.cae"));
+    std::fs::write(&cae_path, &cae).unwrap();
+    let out = stdout_of("decode", &argv("decode @ -o - --quiet", &[s(&cae_path)]));
+    let input = image::open(&pic).unwrap();
     png(&out, input.width(), input.height());
-    let map = stdout_of(
-        "keypoint-map",
-        &[
-            "encode",
-            &picture(),
-            "-o",
-            s(&d.join("k.cae")),
-            "--keypoint-map",
-            "-",
-            "--quiet",
-        ],
-    );
+    let line = "encode @ -o @ --keypoint-map - --quiet";
+    let map = stdout_of("keypoint-map", &argv(line, &[&pic, s(&map_path)]));
     png(&map, input.width(), input.height());
     // The statistics as JSON would share standard output with the file.
     for args in [
-        &["encode", &picture(), "-o", "-", "--json"][..],
-        &["decode", s(&d.join("in.cae")), "-o", "-", "--json"][..],
+        argv("encode @ -o - --json", &[&pic]),
+        argv("decode @ -o - --json", &[s(&cae_path)]),
     ] {
-        let (out, dir) = run_in("json", args);
+        let (out, dir) = run_in("json", &args);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
         assert!(out.stdout.is_empty(), "{args:?}");
         assert_no_dash(&dir);
@@ -344,35 +214,25 @@ fn encode_and_decode_write_their_files() {
 
 #[test]
 fn surface_export_writes_the_model() {
-    let out = stdout_of(
-        "surface-export",
-        &["surface", "export", "builtin:blob", "-o", "-"],
-    );
-    assert!(json(&out).is_object());
+    let args = argv("surface export builtin:blob -o -", &[]);
+    assert!(json(&stdout_of("surface-export", &args)).is_object());
 }
 
 #[test]
 fn folder_outputs_refuse_standard_output() {
-    for (name, args) in [
+    for (name, line) in [
         (
             "morph",
-            &[
-                "morph",
-                "builtin:blob",
-                "builtin:six-point",
-                "--frames",
-                "2",
-                "-o",
-                "-",
-            ][..],
+            "morph builtin:blob builtin:six-point --frames 2 -o -",
         ),
-        ("examples", &["examples", "--out", "-"][..]),
-        ("demo", &["demo", "--out-dir", "-"][..]),
-        ("corpus", &["corpus", "--out", "-"][..]),
-        ("bench-keep", &["bench", "--keep", "-"][..]),
-        ("bench-plot", &["bench", "--plot", "-"][..]),
+        ("examples", "examples --out -"),
+        ("demo", "demo --out-dir -"),
+        ("corpus", "corpus --out -"),
+        ("bench-keep", "bench --keep -"),
+        ("bench-plot", "bench --plot -"),
     ] {
-        let (out, d) = run_in(name, args);
+        let args = argv(line, &[]);
+        let (out, d) = run_in(name, &args);
         let err = stderr(&out);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains("standard output"), "{args:?}: {err}");
@@ -389,18 +249,10 @@ fn a_write_error_fails_and_an_early_reader_does_not() {
         return;
     }
     let full = full.unwrap();
-    let mesh = [
-        "frep",
-        "mesh",
-        &plate(),
-        "-o",
-        "-",
-        "--cells",
-        "24",
-        "--quiet",
-    ];
+    let plate = plate();
+    let mesh = argv("frep mesh @ -o - --cells 24 --quiet", &[&plate]);
     let out = Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(mesh)
+        .args(&mesh)
         .stdout(Stdio::from(full))
         .stderr(Stdio::piped())
         .output()
@@ -409,12 +261,7 @@ fn a_write_error_fails_and_an_early_reader_does_not() {
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.starts_with("error: standard output: "), "{err}");
     // A reader that stops at once: the pipe breaks, which is not an error.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_caoen"))
-        .args(mesh)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = common::spawn_piped(&mesh);
     drop(child.stdout.take());
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", stderr(&out));

@@ -3,8 +3,6 @@
 mod common;
 use common::{argv, caoen, caoen_ok, s};
 
-use std::process::Command;
-
 fn tmpdir(name: &str) -> std::path::PathBuf {
     common::fresh_dir(&format!("test-{name}"))
 }
@@ -91,18 +89,12 @@ fn every_command_has_help() {
 #[test]
 fn a_closed_stdout_is_not_a_panic() {
     use std::io::Read;
-    use std::process::Stdio;
     // Both print far more than a pipe holds, so they meet the closed pipe mid-write.
     for args in [
         &["surface", "eval", "builtin:blob", "--grid", "400x400"][..],
         &["corpus", "--list", "--seeds", "5000"][..],
     ] {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_caoen"))
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
+        let mut child = common::spawn_piped(args);
         let mut first = [0u8; 64];
         child.stdout.take().unwrap().read_exact(&mut first).unwrap(); // then drop: the pipe closes
         let out = child.wait_with_output().unwrap();

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{argv, hostile as bad};
+use common::{argv, hostile as bad, s};
 
 /// Far above the 10 s any of these takes alone: a guard against hangs, not a timing.
 const HANG_GUARD: Duration = Duration::from_secs(120);
@@ -25,6 +25,17 @@ fn scratch_file(test: &str, name: &str) -> (PathBuf, String) {
     let dir = scratch(test);
     let path = dir.join(name).display().to_string();
     (dir, path)
+}
+
+/// The path of `name` in the scratch directory of `test`, as an argument.
+fn scratch_path(test: &str, name: &str) -> String {
+    scratch_file(test, name).1
+}
+
+/// Writes the F-rep model file `path` holding the model `model` (JSON text).
+fn write_model(path: impl AsRef<Path>, model: &str) {
+    let file = format!(r#"{{"format": "caoen-frep/1", "model": {model}}}"#);
+    std::fs::write(path, file).expect("model");
 }
 
 struct Outcome {
@@ -75,15 +86,25 @@ fn run(args: &[&str]) -> Outcome {
     }
 }
 
-/// Asserts a clean failure: `code`, one `error:` line containing `needle`, no panic.
-fn fails_cleanly(line: &str, paths: &[&str], code: i32, needle: &str) {
-    let args = argv(line, paths);
-    let o = run(&args);
+/// Asserts that the run of `args` did not panic.
+fn no_panic(args: &[&str], o: &Outcome) {
     assert!(
         !o.stderr.contains("panicked"),
         "{args:?} panicked:\n{}",
         o.stderr
     );
+}
+
+/// Asserts a clean failure with exit code 1 (see [`fails_cleanly_with`]).
+fn fails_cleanly(line: &str, paths: &[&str], needle: &str) {
+    fails_cleanly_with(line, paths, 1, needle);
+}
+
+/// Asserts a clean failure: `code`, one `error:` line containing `needle`, no panic.
+fn fails_cleanly_with(line: &str, paths: &[&str], code: i32, needle: &str) {
+    let args = argv(line, paths);
+    let o = run(&args);
+    no_panic(&args, &o);
     assert_eq!(o.code, code, "{args:?}: {}", o.stderr);
     let lines: Vec<&str> = o.stderr.lines().collect();
     assert_eq!(
@@ -112,7 +133,6 @@ fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() 
         fails_cleanly(
             "surface render @ -o @ --method @",
             &[&bad("R1-solid-q-1e19.scene.json"), &out, method],
-            1,
             "q = 1e19 is outside [",
         );
     }
@@ -125,32 +145,21 @@ fn solids_with_sharpness_where_the_field_overflows_are_refused_with_the_range() 
 
 #[test]
 fn tiny_files_declaring_huge_images_stay_within_the_budget() {
-    let (dir, exr) = scratch_file("decode", "z.exr");
+    let dir = scratch("decode");
+    let (exr, png) = (dir.join("z.exr"), dir.join("z.png"));
     fails_cleanly(
         "decode @ -o @",
-        &[&bad("R3-86-byte-16384x4096-rgba-hdr.cae"), &exr],
-        1,
+        &[&bad("R3-86-byte-16384x4096-rgba-hdr.cae"), s(&exr)],
         "over the memory budget of 2.0 GiB",
     );
     // The 8-bit file fits the budget: a bounded success.
-    let png = dir.join("z.png");
-    let o = run(&argv(
-        "decode @ -o @",
-        &[
-            &bad("R3b-86-byte-16384x4096-rgba8.cae"),
-            &png.display().to_string(),
-        ],
-    ));
-    assert_eq!(o.code, 0, "{}", o.stderr);
+    let rgba8 = bad("R3b-86-byte-16384x4096-rgba8.cae");
+    succeeds("decode @ -o @", &[&rgba8, s(&png)]);
     assert!(png.metadata().expect("written").len() > 0);
     // A tighter budget refuses it before decoding.
     fails_cleanly(
         "decode @ -o @ -f --max-memory 256M",
-        &[
-            &bad("R3b-86-byte-16384x4096-rgba8.cae"),
-            &png.display().to_string(),
-        ],
-        1,
+        &[&rgba8, s(&png)],
         "over the memory budget of 256.0 MiB",
     );
     std::fs::remove_dir_all(&dir).ok();
@@ -163,13 +172,11 @@ fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
     fails_cleanly(
         "decode @ --size 8192x8192 --supersample 4 -o @",
         &[&file, &out],
-        1,
         "memory budget",
     );
     fails_cleanly(
         "decode @ --size 8192x4096 --supersample 4 -o @ --max-memory 64G",
         &[&file, &out],
-        1,
         "output samples (pixels x S^2) is 536870912, limit 268435456",
     );
 }
@@ -178,13 +185,11 @@ fn supersampling_counts_in_the_pixel_limit_and_the_budget() {
 fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
     // With the default budget it encodes, tile by tile; with 250 MB the decoded input
     // (192 MiB of 8-bit RGB) fits but not the encoder's own share.
-    let dir = scratch("encode");
-    let out = dir.join("b.cae");
     refused(
         "encode @ -o @ --max-memory 250M",
         &[
             &bad("R4-png-8192x8192-flat.png"),
-            &out.display().to_string(),
+            &scratch_path("encode", "b.cae"),
         ],
         "encoding 8192x8192 at quality 75 (the decoded input included) needs about",
     );
@@ -194,30 +199,27 @@ fn encoding_a_huge_image_over_the_budget_is_refused_before_work_starts() {
 /// before anything is decoded.
 #[test]
 fn textures_are_refused_from_their_headers() {
-    let (_, out) = scratch_file("textures", "t.png");
-    fails_cleanly(
-        "surface render @ -o @",
-        &[&bad("R5-texture-bomb.json"), &out],
-        1,
-        "16384x16384",
-    );
-    fails_cleanly(
-        "transfer --texture @ --from builtin:octahedron --to builtin:blob -o @",
-        &[&bad("R5-grey-16384x16384.png"), &out],
-        1,
-        "16384x16384",
-    );
+    let out = scratch_path("textures", "t.png");
+    for (line, texture) in [
+        ("surface render @ -o @", "R5-texture-bomb.json"),
+        (
+            "transfer --texture @ --from builtin:octahedron --to builtin:blob -o @",
+            "R5-grey-16384x16384.png",
+        ),
+    ] {
+        fails_cleanly(line, &[&bad(texture), &out], "16384x16384");
+    }
 }
 
 #[test]
 fn grid_counts_are_checked_without_overflow() {
-    fails_cleanly(
+    fails_cleanly_with(
         "surface eval builtin:blob --grid 4294967296x4294967296",
         &[],
         2,
         "each side must be in 1..=16000000",
     );
-    fails_cleanly(
+    fails_cleanly_with(
         "surface eval builtin:blob --grid 65536x65536",
         &[],
         2,
@@ -230,23 +232,17 @@ fn container_errors_are_specific_and_printable() {
     fails_cleanly(
         "info @",
         &[&bad("R8-tag-0x1c-control-char.cae")],
-        1,
         "CRC mismatch in section 0x1c at byte 51: stored",
     );
     let dir = scratch("container");
     fails_cleanly(
         "decode @ -o @",
-        &[
-            &bad("R9-E-section-with-payload.cae"),
-            &dir.join("e.png").display().to_string(),
-        ],
-        1,
+        &[&bad("R9-E-section-with-payload.cae"), s(&dir.join("e.png"))],
         "the end section at byte 53 carries 4 bytes; it must be empty",
     );
     fails_cleanly(
         "surface info @",
         &[&bad("R10-surface-trailing-garbage.json")],
-        1,
         "trailing",
     );
 }
@@ -262,16 +258,14 @@ fn memory_budget_sizes_are_validated() {
 
 #[test]
 fn files_larger_than_the_budget_are_not_read() {
-    let dir = scratch("big");
-    let big = dir.join("big.cae");
+    let (dir, big) = scratch_file("big", "big.cae");
     // Sparse: no disk is spent on the 3 GiB.
     std::fs::File::create(&big)
         .and_then(|f| f.set_len(3 << 30))
         .expect("sparse file");
     fails_cleanly(
         "info @",
-        &[&big.display().to_string()],
-        1,
+        &[&big],
         "reading the file needs about 3.0 GiB, over the memory budget of 2.0 GiB",
     );
     std::fs::remove_dir_all(&dir).ok();
@@ -280,7 +274,7 @@ fn files_larger_than_the_budget_are_not_read() {
 /// Asserts a clean refusal (exit 1, [`fails_cleanly`]) that wrote nothing at the
 /// command's `-o` path.
 fn refused(line: &str, paths: &[&str], needle: &str) {
-    fails_cleanly(line, paths, 1, needle);
+    fails_cleanly(line, paths, needle);
     let args = argv(line, paths);
     let out = args[args.iter().position(|a| *a == "-o").expect("an output") + 1];
     assert!(!Path::new(out).exists(), "{out} written");
@@ -290,11 +284,7 @@ fn refused(line: &str, paths: &[&str], needle: &str) {
 fn succeeds(line: &str, paths: &[&str]) -> String {
     let args = argv(line, paths);
     let o = run(&args);
-    assert!(
-        !o.stderr.contains("panicked"),
-        "{args:?} panicked:\n{}",
-        o.stderr
-    );
+    no_panic(&args, &o);
     assert_eq!(o.code, 0, "{args:?}: {}", o.stderr);
     o.stderr
 }
@@ -308,7 +298,7 @@ fn bounded(line: &str, paths: &[&str], needle: &str) -> bool {
         assert!(!o.stderr.contains("panicked"), "{line}: {}", o.stderr);
         return true;
     }
-    fails_cleanly(line, paths, 1, needle);
+    fails_cleanly(line, paths, needle);
     false
 }
 
@@ -317,9 +307,8 @@ fn bounded(line: &str, paths: &[&str], needle: &str) -> bool {
 fn convert_refuses(test: &str, cases: &[(&str, &str)]) {
     let (dir, out) = scratch_file(test, "m.json");
     for (file, needle) in cases {
-        fails_cleanly("convert @ -o @", &[&bad(file), &out], 1, needle);
+        refused("convert @ -o @", &[&bad(file), &out], needle);
     }
-    assert!(!Path::new(&out).exists());
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -360,10 +349,12 @@ fn distort_refuses_moves_past_what_a_surface_holds_and_its_output_reads_back() {
 
 #[test]
 fn the_mesh_render_path_checks_the_polygonising_budget_first() {
-    let (_, out) = scratch_file("mesh-render", "m.png");
     refused(
         "frep render @ -o @ --method mesh --cells 1024 --size 64x48",
-        &[&bad("D3-D5-unnamed-sphere.frep.json"), &out],
+        &[
+            &bad("D3-D5-unnamed-sphere.frep.json"),
+            &scratch_path("mesh-render", "m.png"),
+        ],
         "polygonising on 1024^3 cells needs about 16.1 GiB",
     );
 }
@@ -380,19 +371,9 @@ fn pov_export_of_a_ten_thousand_node_union_finishes() {
             )
         })
         .collect();
-    std::fs::write(
-        &model,
-        format!(
-            r#"{{"format": "caoen-frep/1", "model": {{"union": [{}]}}}}"#,
-            spheres.join(", ")
-        ),
-    )
-    .expect("model");
+    write_model(&model, &format!(r#"{{"union": [{}]}}"#, spheres.join(", ")));
     let out = dir.join("u.pov");
-    succeeds(
-        "frep export-pov @ -o @",
-        &[&model.display().to_string(), &out.display().to_string()],
-    );
+    succeeds("frep export-pov @ -o @", &[s(&model), s(&out)]);
     let text = std::fs::read_to_string(&out).expect("written");
     // One function per node (`caoen_f<n>`), beside the shared helpers' declarations.
     let nodes = text
@@ -407,9 +388,7 @@ fn pov_export_of_a_ten_thousand_node_union_finishes() {
 
 #[test]
 fn one_budget_counts_every_height_map_a_model_loads() {
-    let dir = scratch("height-maps");
-    let out = dir.join("d7.png");
-    let o = out.display().to_string();
+    let (dir, o) = scratch_file("height-maps", "d7.png");
     let d7 = bad("D7-heightmap-x3-bomb.json");
     // Within the 2 GiB address space: the three maps of one image share its samples.
     if bounded(
@@ -417,7 +396,7 @@ fn one_budget_counts_every_height_map_a_model_loads() {
         &[&d7, &o],
         "over the memory budget of 2.0 GiB",
     ) {
-        assert!(out.exists());
+        assert!(Path::new(&o).exists());
     }
     // Twelve maps of twelve copies of one image cannot share: the budget counts them
     // together and refuses the one that does not fit.
@@ -433,21 +412,10 @@ fn one_budget_counts_every_height_map_a_model_loads() {
         })
         .collect();
     let model = dir.join("d7x12.json");
-    std::fs::write(
-        &model,
-        format!(
-            r#"{{"format": "caoen-frep/1", "model": {{"union": [{}]}}}}"#,
-            copies.join(", ")
-        ),
-    )
-    .expect("model");
+    write_model(&model, &format!(r#"{{"union": [{}]}}"#, copies.join(", ")));
     fails_cleanly(
         "frep render @ -o @ --size 32x24 --max-memory 512M",
-        &[
-            &model.display().to_string(),
-            &dir.join("d12.png").display().to_string(),
-        ],
-        1,
+        &[s(&model), s(&dir.join("d12.png"))],
         "MiB already loaded) needs about",
     );
     std::fs::remove_dir_all(&dir).ok();
@@ -473,7 +441,7 @@ fn carve_and_relief_refuse_to_write_a_model_render_would_refuse() {
     ) {
         succeeds(
             "frep render @ -o @ --size 16x12 --samples 1",
-            &[&out, &dir.join("r.png").display().to_string()],
+            &[&out, s(&dir.join("r.png"))],
         );
     } else {
         assert!(!Path::new(&out).exists());
@@ -487,7 +455,7 @@ fn transfer_bakes_a_bounded_grid_by_default() {
     let out = dir.join("t.png");
     succeeds(
         "transfer --texture @ --from builtin:octahedron --to builtin:blob -o @ --size 32x24",
-        &[&bad("bomb8000.png"), &out.display().to_string()],
+        &[&bad("bomb8000.png"), s(&out)],
     );
     let back = caoen::image_io::load(&out).expect("reads back");
     assert_eq!((back.width(), back.height()), (32, 24));
@@ -520,18 +488,10 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
     let dir = scratch("second-round");
     let o = |n: &str| dir.join(n).display().to_string();
     // D2: the base quadric alone, read back by the loader and by deviation.
-    succeeds(
-        "convert @ -o @",
-        &[&bad("D2-convert-exact-sphere.obj"), &o("s.json")],
-    );
-    succeeds(
-        "frep render @ -o @ --size 32x24",
-        &[&o("s.json"), &o("s.png")],
-    );
-    succeeds(
-        "deviation @ @",
-        &[&bad("D2-convert-exact-sphere.obj"), &o("s.json")],
-    );
+    let (sphere, model) = (bad("D2-convert-exact-sphere.obj"), o("s.json"));
+    succeeds("convert @ -o @", &[&sphere, &model]);
+    succeeds("frep render @ -o @ --size 32x24", &[&model, &o("s.png")]);
+    succeeds("deviation @ @", &[&sphere, &model]);
     // D3: relief and carve of a model without `name`, as a picture and as a model.
     for cmd in ["relief", "carve"] {
         let on = bad("D3-D5-unnamed-sphere.frep.json");
@@ -545,42 +505,34 @@ fn second_round_reproducers_end_cleanly_and_what_they_write_reads_back() {
     }
     // D4b: 9,990 overlapping bumps on one sphere, within the node limit.
     let bumps = vec![r#"{"bump": {"centre": [1, 0, 0], "radius": 0.3, "height": 1}}"#; 9990];
-    std::fs::write(
+    let patches = bumps.join(", ");
+    write_model(
         o("bumps.frep.json"),
-        format!(
-            r#"{{"format": "caoen-frep/1", "model": {{"perturb": {{"sphere": {{"radius": 1.0}}}}, "patches": [{}]}}}}"#,
-            bumps.join(", ")
-        ),
-    )
-    .expect("model");
+        &format!(r#"{{"perturb": {{"sphere": {{"radius": 1.0}}}}, "patches": [{patches}]}}"#),
+    );
     succeeds(
         "frep export-pov @ -o @",
         &[&o("bumps.frep.json"), &o("b.pov")],
     );
     // M3: collinear triangles only.
-    fails_cleanly(
+    refused(
         "convert @ -o @",
         &[&bad("M3-all-zero-area-triangles.obj"), &o("m.json")],
-        1,
         "no area",
     );
-    assert!(!Path::new(&o("m.json")).exists());
     // A box 1e6 x 1e-9 x 1e-9: no grid point inside, so no mesh.
-    std::fs::write(
+    write_model(
         o("thin.frep.json"),
-        r#"{"format": "caoen-frep/1", "model": {"box": {"size": [1e6, 1e-9, 1e-9]}}}"#,
-    )
-    .expect("model");
-    fails_cleanly(
+        r#"{"box": {"size": [1e6, 1e-9, 1e-9]}}"#,
+    );
+    refused(
         "frep mesh @ -o @",
         &[&o("thin.frep.json"), &o("thin.stl")],
-        1,
         "the mesh is empty",
     );
-    assert!(!Path::new(&o("thin.stl")).exists());
     // A wrong magic number is refused after its four bytes, not after reading 2 GiB.
-    fails_cleanly("info /dev/zero", &[], 1, "magic");
-    fails_cleanly("decode /dev/zero -o @", &[&o("z.png")], 1, "magic");
+    fails_cleanly("info /dev/zero", &[], "magic");
+    fails_cleanly("decode /dev/zero -o @", &[&o("z.png")], "magic");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -243,3 +243,13 @@ pub fn hostile(name: &str) -> String {
         .display()
         .to_string()
 }
+
+/// Starts `caoen` with `args`, its standard output and error piped, without waiting.
+pub fn spawn_piped(args: &[&str]) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_caoen"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run caoen")
+}

@@ -83,13 +83,18 @@ fn explicit_png_depth_and_clamping() {
 #[test]
 fn corpus_files_load_as_generated() {
     let dir = tmp_dir("corpus");
-    // 8-bit RGB, 16-bit grey, RGBA, grey+alpha, float.
-    for (class, seed) in [
-        (Class::Scene, 0),
-        (Class::Texture, 4),
-        (Class::EdgeCases, 3),
-        (Class::EdgeCases, 5),
-        (Class::Hdr, 0),
+    // One file of each layout, in 8-bit, 16-bit and float samples.
+    for (class, seed, layout, format) in [
+        (Class::Scene, 0, ChannelLayout::Rgb, SampleFormat::U8),
+        (Class::Texture, 4, ChannelLayout::Grey, SampleFormat::U16),
+        (Class::EdgeCases, 3, ChannelLayout::Rgba, SampleFormat::U8),
+        (
+            Class::EdgeCases,
+            5,
+            ChannelLayout::GreyAlpha,
+            SampleFormat::U8,
+        ),
+        (Class::Hdr, 0, ChannelLayout::Rgb, SampleFormat::F32),
     ] {
         let img = generate(class, 24, 17, seed);
         let path = dir.join(format!(
@@ -99,6 +104,7 @@ fn corpus_files_load_as_generated() {
         img.save(&path).unwrap();
         let r = image_io::load(&path).unwrap();
         assert_eq!((r.width(), r.height()), (24, 17));
+        assert_eq!((r.layout(), r.format()), (layout, format), "{class} {seed}");
         assert_eq!(r.layout().channels(), img.channels() as usize);
         let n = r.pixel_count();
         for c in 0..img.channels() {
