@@ -379,66 +379,7 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         bar.set_length(total);
         bar.set_position(done);
     };
-    let (moved, what) = match (&a.texture_space, &a.texture, &a.from) {
-        (Some(space), _, _) => {
-            let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
-            check_bake(tw, th, &global.limits)?;
-            let solid = solid_texture(a, &global.limits)?;
-            let net = crate::commands::surface::load_model(space, &global.limits)?;
-            let sample = |p: [f64; 3]| solid.sample(p);
-            (
-                caoen::texture::transfer::bake(
-                    &BakeSource::Solid {
-                        space: &net,
-                        solid: &sample,
-                    },
-                    &to,
-                    tw,
-                    th,
-                    a.bake_samples,
-                    &report,
-                )
-                .map_err(tex_err)?,
-                format!("solid {} through {space}", a.solid),
-            )
-        }
-        (None, Some(texture), Some(from_spec)) => {
-            let from = crate::commands::surface::load_model(from_spec, &global.limits)?;
-            let tex = load_texture(texture, &global.limits)?;
-            let (tw, th) = match &a.bake_size {
-                Some(s) => crate::commands::render::parse_size(s)?,
-                None => default_bake(tex.image().width, tex.image().height, size),
-            };
-            check_bake(tw, th, &global.limits)?;
-            let moved = match ProjectionKind::parse(&a.project) {
-                None => caoen::texture::transfer::transfer(&from, &to, &tex, tw, th),
-                Some(kind) => {
-                    let (lo, hi) = projected::surface_box(&from).map_err(tex_err)?;
-                    let picture = Projected::new(tex, kind, lo, hi).map_err(tex_err)?;
-                    caoen::texture::transfer::bake(
-                        &BakeSource::Projected {
-                            from: &from,
-                            picture: &picture,
-                        },
-                        &to,
-                        tw,
-                        th,
-                        a.bake_samples,
-                        &report,
-                    )
-                }
-            };
-            (
-                moved.map_err(tex_err)?,
-                format!("{} ({}) on {from_spec}", texture.display(), a.project),
-            )
-        }
-        _ => {
-            return Err(CliError::Usage(
-                "give --texture IMG --from A, or --texture-space NET".into(),
-            ))
-        }
-    };
+    let (moved, what) = baked(global, a, &to, size, &report)?;
     bar.finish_and_clear();
     {
         use std::io::Write as _;
@@ -488,4 +429,75 @@ pub fn transfer(global: &GlobalArgs, a: &crate::cli::TransferArgs) -> CliResult 
         ),
     );
     Ok(())
+}
+
+/// The texture moved onto `to` for `transfer`, baked at its texture size, and what it
+/// was moved from (for the note).
+fn baked(
+    global: &GlobalArgs,
+    a: &crate::cli::TransferArgs,
+    to: &caoen::surface::SurfaceModel,
+    size: (u32, u32),
+    report: &(dyn Fn(u64, u64) + Sync),
+) -> CliResult<(caoen::render::framebuffer::RgbImage, String)> {
+    Ok(match (&a.texture_space, &a.texture, &a.from) {
+        (Some(space), _, _) => {
+            let (tw, th) = crate::commands::render::parse_size(&a.texture_size)?;
+            check_bake(tw, th, &global.limits)?;
+            let solid = solid_texture(a, &global.limits)?;
+            let net = crate::commands::surface::load_model(space, &global.limits)?;
+            let sample = |p: [f64; 3]| solid.sample(p);
+            (
+                caoen::texture::transfer::bake(
+                    &BakeSource::Solid {
+                        space: &net,
+                        solid: &sample,
+                    },
+                    to,
+                    tw,
+                    th,
+                    a.bake_samples,
+                    report,
+                )
+                .map_err(tex_err)?,
+                format!("solid {} through {space}", a.solid),
+            )
+        }
+        (None, Some(texture), Some(from_spec)) => {
+            let from = crate::commands::surface::load_model(from_spec, &global.limits)?;
+            let tex = load_texture(texture, &global.limits)?;
+            let (tw, th) = match &a.bake_size {
+                Some(s) => crate::commands::render::parse_size(s)?,
+                None => default_bake(tex.image().width, tex.image().height, size),
+            };
+            check_bake(tw, th, &global.limits)?;
+            let moved = match ProjectionKind::parse(&a.project) {
+                None => caoen::texture::transfer::transfer(&from, to, &tex, tw, th),
+                Some(kind) => {
+                    let (lo, hi) = projected::surface_box(&from).map_err(tex_err)?;
+                    let picture = Projected::new(tex, kind, lo, hi).map_err(tex_err)?;
+                    caoen::texture::transfer::bake(
+                        &BakeSource::Projected {
+                            from: &from,
+                            picture: &picture,
+                        },
+                        to,
+                        tw,
+                        th,
+                        a.bake_samples,
+                        report,
+                    )
+                }
+            };
+            (
+                moved.map_err(tex_err)?,
+                format!("{} ({}) on {from_spec}", texture.display(), a.project),
+            )
+        }
+        _ => {
+            return Err(CliError::Usage(
+                "give --texture IMG --from A, or --texture-space NET".into(),
+            ))
+        }
+    })
 }

@@ -76,8 +76,18 @@ fn torus_model(
 
 /// Writes the surface examples into `dir` with `n x n` samples per pixel.
 pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
-    // 1. The six-point family (figures 2 and 3): q = 1..6, exponential on top, the
-    //    normalised exponential below.
+    six_point_family(global, dir, n)?;
+    torus_ring(global, dir, n)?;
+    morph_strip(global, dir, n)?;
+    convex_solids(global, dir, n)?;
+    teapot(global, dir, n)?;
+    textured_blob(global, dir, n)?;
+    Ok(())
+}
+
+/// The six-point family (figures 2 and 3): q = 1..6, exponential on top, the
+/// normalised exponential below.
+fn six_point_family(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     let sub = dir.join("six-point");
     let mut family = Vec::new();
     for normalised in [false, true] {
@@ -98,9 +108,12 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         "six-point-family.png",
         &tile_grid(&family, 6, 80, n, 2.6, &global.limits)?,
     )?;
+    Ok(())
+}
 
-    // 2. A freeform surface on the torus domain: a ring that twists its cross-section
-    //    into a rounded triangle and swells on one side.
+/// A freeform surface on the torus domain: a ring that twists its cross-section
+/// into a rounded triangle and swells on one side.
+fn torus_ring(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     let torus = torus_model("twisted ring", 10.0, 12, 8, |t, f| {
         let swell = 1.0 + 0.35 * t.cos();
         let minor = 0.32 * swell * (1.0 + 0.25 * (3.0 * f + 2.0 * t).cos());
@@ -125,9 +138,12 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         &dir.join("torus-freeform-depth.png"),
         &r.depth.encode_png16()?,
     )?;
+    Ok(())
+}
 
-    // 3. A morph between models of 6 and 14 key points (the smaller is padded with
-    //    empty key points), five frames.
+/// A morph between models of 6 and 14 key points (the smaller is padded with
+/// empty key points), five frames.
+fn morph_strip(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     let a_model = gallery::six_point(Blend::Exponential, 5.0, true)?;
     let b_model = fourteen_point("star", 5.0, |d| {
         let diag = d.iter().all(|v| v.abs() > 0.1);
@@ -171,8 +187,11 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
             json: false,
         },
     )?;
+    Ok(())
+}
 
-    // 4. Convex implicit solids from polyhedra, ray traced: one alone, and a CSG of two.
+/// Convex implicit solids from polyhedra, ray traced: one alone, and a CSG of two.
+fn convex_solids(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     scene_example(
         global,
         (dir, dir),
@@ -213,9 +232,12 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         }
     }
     save_png(global, dir, "csg-rim.png", &crops)?;
+    Ok(())
+}
 
-    // 5. A compound teapot-like model: body, lid with knob, spout (sphere domains) and
-    //    handle (torus domain), placed by transforms.
+/// A compound teapot-like model: body, lid with knob, spout (sphere domains) and
+/// handle (torus domain), placed by transforms.
+fn teapot(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     let tea = dir.join("teapot");
     let body = fourteen_point("teapot body", 3.0, |d| {
         let z = if d[2] > 0.0 { 0.75 } else { 0.62 };
@@ -273,8 +295,11 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         ),
         &opts(384, 288, n, Method::Mesh),
     )?;
+    Ok(())
+}
 
-    // 6. A textured surface: a checker texture on the sphere domain of the blob.
+/// A textured surface: a checker texture on the sphere domain of the blob.
+fn textured_blob(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     let tex = Texture::checker(
         256,
         128,
@@ -298,6 +323,5 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
         ),
         &opts(320, 240, n, Method::Depth),
     )?;
-
     Ok(())
 }
