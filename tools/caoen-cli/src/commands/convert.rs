@@ -268,46 +268,53 @@ fn measure_png(
     let limit = global.max_work.unwrap_or(crate::cli::DEVIATION_MAX_WORK);
     let per_eval = measure::evaluation_seconds(field);
     let vertices = unit.positions.len();
-    let cpu =
-        |size: usize| measure::measure_evaluations(size, opts.views, vertices) * per_eval;
-    let asked = opts.size;
-    // The views shrink by quarters: each step about halves the evaluations.
-    while cpu(opts.size) > limit && opts.size > 16 {
-        opts.size = (opts.size * 3 / 4).max(16);
+    let cpu = |o: &MeasureOptions| measure::measure_evaluations(o, vertices) * per_eval;
+    let asked = opts;
+    // The views shrink by quarters, then the lattice by halves (65, 33, 17): each step
+    // about halves the evaluations.
+    while cpu(&opts) > limit && (opts.size > 16 || opts.grid > 17) {
+        if opts.size > 16 {
+            opts.size = (opts.size * 3 / 4).max(16);
+            opts.grid = measure::grid_side(opts.size);
+        } else {
+            opts.grid = opts.grid / 2 + 1;
+        }
     }
     let cost = format!(
-        "the field costs {:.1} us an evaluation; at --size {asked} the measurement needs \
+        "the field costs {:.1} us an evaluation; at --size {} the measurement needs \
          about {} of CPU time",
         per_eval * 1e6,
-        show_duration(cpu(asked))
+        asked.size,
+        show_duration(cpu(&asked))
     );
-    if cpu(opts.size) > limit {
+    if cpu(&opts) > limit {
         return Err(CliError::Failed(format!(
-            "{cost}, and about {} even at --size 16; the limit is {}: raise it with \
-             --max-work {}",
-            show_duration(cpu(opts.size)),
+            "{cost}, and about {} even at --size 16 on a {}^3 grid; the limit is {}: raise \
+             it with --max-work {}",
+            show_duration(cpu(&opts)),
+            opts.grid,
             show_duration(limit),
-            show_duration(cpu(asked).max(1.0) * 1.05)
+            show_duration(cpu(&asked).max(1.0) * 1.05)
         )));
     }
-    if opts.size < asked {
+    let n = opts.grid;
+    if opts != asked {
         note(
             global,
             format!(
-                "{cost}: measuring at --size {} instead, about {} (the limit is {}; raise \
-                 --max-work to measure at the asked size)",
+                "{cost}: measuring at --size {} on a {n}^3 grid instead, about {} (the \
+                 limit is {}; raise --max-work to measure as asked)",
                 opts.size,
-                show_duration(cpu(opts.size)),
+                show_duration(cpu(&opts)),
                 show_duration(limit)
             ),
         );
     }
-    let n = conversion::measure::grid_side(opts.size);
     note(
         global,
         format!(
             "sampling the field on a {n}^3 grid (about {} of CPU time)",
-            show_duration(cpu(opts.size))
+            show_duration(cpu(&opts))
         ),
     );
     // Nothing else is printed while the field is sampled: a line every few seconds
@@ -345,6 +352,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
         size: a.size as usize,
         views: a.views as usize,
         picture: a.picture.is_some(),
+        grid: conversion::measure::grid_side(a.size as usize),
     };
     let (what, numbers, (m, picture, size)) = match (&a.model, a.rbf) {
         (Some(path), _) => {
