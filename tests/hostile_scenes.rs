@@ -30,7 +30,12 @@ fn costly_scenes_are_refused_with_their_estimate() {
             let err = stderr(&run);
             assert_eq!(run.status.code(), Some(1), "{args:?}: {err}");
             assert!(start.elapsed().as_secs_f64() < 10.0, "{args:?} took long");
-            for part in ["of CPU time", "ray-object tests", "the limit is 2.0m", "--max-work"] {
+            for part in [
+                "of CPU time",
+                "ray-object tests",
+                "the limit is 2.0m",
+                "--max-work",
+            ] {
                 assert!(err.contains(part), "{args:?}: no `{part}` in {err}");
             }
             assert!(!err.contains("panicked"), "{err}");
@@ -68,7 +73,15 @@ fn costly_scenes_render_small_with_a_raised_limit() {
 fn max_work_is_checked_as_a_time() {
     let file = bad(SCENES[0]);
     for bad_time in ["0", "-1s", "ten", "5x", "1e12h"] {
-        let run = caoen(&["frep", "render", &file, "-o", "x.png", "--max-work", bad_time]);
+        let run = caoen(&[
+            "frep",
+            "render",
+            &file,
+            "-o",
+            "x.png",
+            "--max-work",
+            bad_time,
+        ]);
         assert_eq!(run.status.code(), Some(2), "{bad_time}: {}", stderr(&run));
     }
 }

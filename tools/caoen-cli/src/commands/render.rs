@@ -13,7 +13,8 @@ use caoen::render::{render, Method, Projection, RenderError, RenderOptions, Rend
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::cli::{
-    show_duration, GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg, SurfaceRenderArgs,
+    show_duration, GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg,
+    SurfaceRenderArgs,
 };
 use crate::commands::note;
 use crate::commands::surface::load_model;
