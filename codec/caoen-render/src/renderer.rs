@@ -621,7 +621,7 @@ fn shade_buffer(
         .inspect(|_| {
             // Reporting every sample would contend on the bar's lock.
             let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            if d % 1024 == 0 {
+            if d.is_multiple_of(1024) {
                 progress(d, total);
             }
         })
