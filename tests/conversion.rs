@@ -322,7 +322,8 @@ fn a_holed_mesh_converts_with_an_opening_the_view_into_it_sees_through() {
     let (c, o) = (view_depth(&closed, "+z"), view_depth(&open, "+z"));
     assert!((o - c).abs() < 1e-9, "+z: open {o} closed {c}");
     // What was written is what was measured.
-    let d = deviation_json(&[s(&mesh), s(&open_model), "--size", "64"]);
+    // Equal to convert's own measure only at the same size: no bound may shrink it.
+    let d = deviation_json(&[s(&mesh), s(&open_model), "--size", "64", "--max-work", "1h"]);
     let written = d["depth"]["mean_all_pixels"].as_f64().unwrap();
     assert!(
         (written - all(&open)).abs() < 1e-12,

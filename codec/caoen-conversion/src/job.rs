@@ -314,6 +314,7 @@ pub fn convert_mesh(
         size: job.check_size,
         views: 6,
         picture: false,
+        grid: crate::measure::grid_side(job.check_size),
     };
     // A solid with holes may be written as a shell with openings instead: measured
     // like the closed model, on the model file itself.

@@ -32,6 +32,9 @@ pub struct MeasureOptions {
     pub views: usize,
     /// Whether to draw the picture of the views.
     pub picture: bool,
+    /// The side of the field lattice, at least 2 ([`grid_side`] of `size` unless a
+    /// costly field asks for a coarser one).
+    pub grid: usize,
 }
 
 /// The side of the field grid the depth buffers of `size` pixels are cast through.
@@ -39,10 +42,40 @@ pub fn grid_side(size: usize) -> usize {
     (size / 2 + 1).clamp(65, 257)
 }
 
+/// Field evaluations [`measure`] makes at most, about: the grid, then per view and
+/// pixel the steps near the surface and the root search (24), and per vertex its
+/// projection onto the surface (20).
+pub fn measure_evaluations(opts: &MeasureOptions, vertices: usize) -> f64 {
+    let (size, views) = (opts.size, opts.views);
+    (opts.grid as f64).powi(3) + (views * size * size) as f64 * 24.0 + vertices as f64 * 20.0
+}
+
+/// Seconds of one core per evaluation of `field`, timed on points spread over the box
+/// the grid covers (for at most about 50 ms, so a costly field is timed on fewer).
+pub fn evaluation_seconds(field: &dyn ImplicitField) -> f64 {
+    let start = std::time::Instant::now();
+    let mut count = 0u32;
+    let mut sink = 0.0;
+    'outer: for z in 0..8 {
+        for y in 0..8 {
+            for x in 0..8 {
+                let c = |i: i32| -0.6 + 1.2 * f64::from(i) / 7.0;
+                sink += field.value([c(x), c(y), c(z)]);
+                count += 1;
+                if count >= 8 && start.elapsed().as_secs_f64() > 0.05 {
+                    break 'outer;
+                }
+            }
+        }
+    }
+    std::hint::black_box(sink);
+    start.elapsed().as_secs_f64() / f64::from(count)
+}
+
 /// Bytes [`measure`] holds: the grid's values (8 bytes a point), then per cell its top
 /// value and step (16) and its flag while the flags are made, and the views' buffers.
-pub fn measure_memory(size: usize) -> u64 {
-    (grid_side(size) as u64)
+pub fn measure_memory(size: usize, grid: usize) -> u64 {
+    (grid as u64)
         .pow(3)
         .saturating_mul(25)
         .saturating_add((size * size * 64 * 6) as u64)
@@ -58,8 +91,8 @@ pub fn measure(
     limits: &Limits,
 ) -> Result<(Measured, Option<Raster>), OverBudget> {
     let size = opts.size;
-    let n = grid_side(size);
-    limits.check(|| format!("a {n}^3 field grid"), measure_memory(size))?;
+    let n = opts.grid.max(2);
+    limits.check(|| format!("a {n}^3 field grid"), measure_memory(size, n))?;
     let normals = unit.outward_normals();
     let vertex = deviation::vertex_deviation(field, unit, &normals);
     let grid = FieldGrid::new(field, n);

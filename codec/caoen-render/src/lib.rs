@@ -19,6 +19,7 @@ pub mod scene;
 pub mod scene_file;
 pub mod shading;
 pub mod texture;
+pub mod work;
 
 pub use camera::{Camera, Projection, Ray};
 /// Mesh files (OBJ with its material library, PLY, STL), read and written where the

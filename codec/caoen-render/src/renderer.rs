@@ -194,8 +194,13 @@ pub fn render(
     let camera = scene
         .camera(opts.width, opts.height)?
         .with_size(opts.width * n, opts.height * n);
+    // Shading weighs in the bar as its share of the estimated ray tests, so that the
+    // time left holds when shadow rays to many lights or deep mirrors dominate.
+    let draw_units = scene.objects.len() as u64 * UNITS;
+    let shade_units = (draw_units as f64 * crate::work::estimate(scene, opts).shading_ratio())
+        .clamp(UNITS as f64, 1e15) as u64;
     let prog = Progress {
-        total: (scene.objects.len() as u64 + 1) * UNITS,
+        total: draw_units + shade_units,
         stage: AtomicU64::new(0),
         report: progress,
     };
@@ -203,8 +208,12 @@ pub fn render(
     let (buf, stats, meshes, _held) = draw(scene, &camera, opts, &prog)?;
     let radius = scene.bounds()?.1;
     let rays = RayScene::new(scene, meshes, opts.ray_method, radius, &opts.limits)?;
-    let image = shade_buffer(scene, &camera, &buf, &rays).downsample(n);
-    prog.next();
+    let shaded = |done: u64, of: u64| {
+        let part = (done as f64 / of.max(1) as f64 * shade_units as f64) as u64;
+        progress(draw_units + part, draw_units + shade_units);
+    };
+    let image = shade_buffer(scene, &camera, &buf, &rays, &shaded).downsample(n);
+    progress(draw_units + shade_units, draw_units + shade_units);
     Ok(Rendered {
         image,
         depth: buf.depth_map(n),
@@ -595,12 +604,27 @@ pub fn trace_field(
 }
 
 /// Shades every subpixel of `buf`, with shadow, reflected and refracted rays.
-fn shade_buffer(scene: &Scene, camera: &Camera, buf: &GBuffer, rays: &RayScene) -> RgbImage {
+fn shade_buffer(
+    scene: &Scene,
+    camera: &Camera,
+    buf: &GBuffer,
+    rays: &RayScene,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> RgbImage {
     let w = buf.width as usize;
+    let total = buf.hits.len() as u64;
+    let done = AtomicU64::new(0);
     let pixels = buf
         .hits
         .par_iter()
         .enumerate()
+        .inspect(|_| {
+            // Reporting every sample would contend on the bar's lock.
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            if d.is_multiple_of(1024) {
+                progress(d, total);
+            }
+        })
         .map(|(i, h)| match h {
             None => scene.background,
             Some(h) => {

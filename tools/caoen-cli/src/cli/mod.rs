@@ -44,6 +44,13 @@ pub struct GlobalArgs {
     /// is refused before it starts, with the need and the budget in the message.
     #[arg(long, global = true, value_name = "SIZE", default_value = "2G", value_parser = caoen::budget::parse_size)]
     pub max_memory: u64,
+    /// Longest estimated CPU time of a render or of `deviation`'s field sampling (e.g.
+    /// 90s, 10m, 2h; a bare number is seconds): a render estimated to need more is
+    /// refused before it starts, with the estimate and the limit in the message;
+    /// `deviation` measures on a coarser grid that fits [default: 2m for a render, 10s
+    /// for deviation].
+    #[arg(long, global = true, value_name = "TIME", value_parser = parse_duration)]
+    pub max_work: Option<f64>,
     /// Replace existing output files, named with -o or not. Never an input of the same
     /// command; devices and FIFOs (/dev/null, pipes) are written in place without it.
     #[arg(short = 'f', long, global = true)]
@@ -571,6 +578,39 @@ impl MetadataArg {
             (false, MetadataArg::Icc) => P::Icc,
             (false, MetadataArg::All) => P::All,
         }
+    }
+}
+
+/// Parses a duration in seconds: a number with an optional unit `s`, `m` or `h`.
+pub fn parse_duration(s: &str) -> Result<f64, String> {
+    let t = s.trim();
+    let (num, unit) = match t.char_indices().last() {
+        Some((i, 's')) => (&t[..i], 1.0),
+        Some((i, 'm')) => (&t[..i], 60.0),
+        Some((i, 'h')) => (&t[..i], 3600.0),
+        _ => (t, 1.0),
+    };
+    match num.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v * unit <= 1e9 => Ok(v * unit),
+        _ => Err(format!(
+            "`{s}`: expected a time above 0 and at most 1e9 s, like 90s, 10m or 2h"
+        )),
+    }
+}
+
+/// The default `--max-work` of a render: generous enough for every example scene.
+pub const RENDER_MAX_WORK: f64 = 120.0;
+/// The default `--max-work` of `deviation`'s sampling.
+pub const DEVIATION_MAX_WORK: f64 = 10.0;
+
+/// Shows `seconds` the way `--max-work` reads it back.
+pub fn show_duration(seconds: f64) -> String {
+    if seconds >= 5400.0 {
+        format!("{:.1}h", seconds / 3600.0)
+    } else if seconds >= 90.0 {
+        format!("{:.1}m", seconds / 60.0)
+    } else {
+        format!("{seconds:.1}s")
     }
 }
 

@@ -9,7 +9,7 @@ use caoen::conversion::{self, measure, InUnitCube, MeasureOptions, Measured, Pol
 use caoen::render::scene::Shape;
 use serde_json::json;
 
-use crate::cli::{ConvertArgs, DeviationArgs, GlobalArgs, HolesArg};
+use crate::cli::{show_duration, ConvertArgs, DeviationArgs, GlobalArgs, HolesArg};
 use crate::commands::note;
 use crate::failure::{CliError, CliResult};
 use crate::output::Outputs;
@@ -256,20 +256,77 @@ fn convert_text(a: &ConvertArgs, r: &ConvertReport, seconds: f64) -> String {
     out
 }
 
-/// Measures `field` against `unit` as `caoen deviation` asks, the picture as PNG bytes.
+/// Measures `field` against `unit` as `caoen deviation` asks, the picture as PNG bytes,
+/// and the side of the views it measured with: smaller than asked when the field is so
+/// costly that the asked one would take longer than `--max-work`.
 fn measure_png(
     global: &GlobalArgs,
     field: &dyn conversion::ImplicitField,
     unit: &PolygonMesh,
-    opts: MeasureOptions,
-) -> CliResult<(Measured, Option<Vec<u8>>)> {
-    let n = conversion::measure::grid_side(opts.size);
-    note(global, format!("sampling the field on a {n}^3 grid"));
+    mut opts: MeasureOptions,
+) -> CliResult<(Measured, Option<Vec<u8>>, usize)> {
+    let limit = global.max_work.unwrap_or(crate::cli::DEVIATION_MAX_WORK);
+    let per_eval = measure::evaluation_seconds(field);
+    let vertices = unit.positions.len();
+    let cpu = |o: &MeasureOptions| measure::measure_evaluations(o, vertices) * per_eval;
+    let asked = opts;
+    // The views shrink by quarters, then the lattice by halves (65, 33, 17): each step
+    // about halves the evaluations.
+    while cpu(&opts) > limit && (opts.size > 16 || opts.grid > 17) {
+        if opts.size > 16 {
+            opts.size = (opts.size * 3 / 4).max(16);
+            opts.grid = measure::grid_side(opts.size);
+        } else {
+            opts.grid = opts.grid / 2 + 1;
+        }
+    }
+    let cost = format!(
+        "the field costs {:.1} us an evaluation; at --size {} the measurement needs \
+         about {} of CPU time",
+        per_eval * 1e6,
+        asked.size,
+        show_duration(cpu(&asked))
+    );
+    if cpu(&opts) > limit {
+        return Err(CliError::Failed(format!(
+            "{cost}, and about {} even at --size 16 on a {}^3 grid; the limit is {}: raise \
+             it with --max-work {}",
+            show_duration(cpu(&opts)),
+            opts.grid,
+            show_duration(limit),
+            show_duration(cpu(&asked).max(1.0) * 1.05)
+        )));
+    }
+    let n = opts.grid;
+    if opts != asked {
+        note(
+            global,
+            format!(
+                "{cost}: measuring at --size {} on a {n}^3 grid instead, about {} (the \
+                 limit is {}; raise --max-work to measure as asked)",
+                opts.size,
+                show_duration(cpu(&opts)),
+                show_duration(limit)
+            ),
+        );
+    }
+    note(
+        global,
+        format!(
+            "sampling the field on a {n}^3 grid (about {} of CPU time)",
+            show_duration(cpu(&opts))
+        ),
+    );
+    // Nothing else is printed while the field is sampled: a line every few seconds
+    // shows the work goes on.
+    let heartbeat = Heartbeat::start(global.quiet, Instant::now());
+    heartbeat.phase(&format!("sampling the field on a {n}^3 grid"), true);
     let (m, picture) = measure(field, unit, opts, &global.limits.clone())?;
+    drop(heartbeat);
     let png = picture
         .map(|p| caoen::image_io::encode(&p, caoen::image_io::OutputFormat::Png8))
         .transpose()?;
-    Ok((m, png))
+    Ok((m, png, opts.size))
 }
 
 /// `caoen deviation MESH MODEL.json` or `caoen deviation MESH --rbf N`.
@@ -295,8 +352,9 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
         size: a.size as usize,
         views: a.views as usize,
         picture: a.picture.is_some(),
+        grid: conversion::measure::grid_side(a.size as usize),
     };
-    let (what, numbers, (m, picture)) = match (&a.model, a.rbf) {
+    let (what, numbers, (m, picture, size)) = match (&a.model, a.rbf) {
         (Some(path), _) => {
             let scene = crate::commands::frep::load(path, &global.limits)?;
             let fields: Vec<_> = scene
@@ -367,6 +425,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
                 "unconverged_vertices": v.unconverged,
                 "depth": {"mean": m.mean_depth, "mean_all_pixels": m.mean_all,
                           "mean_both_cover": m.mean_both, "views": views},
+                "view_size": size,
                 "seconds": seconds,
             })
             .to_string()
@@ -401,7 +460,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
             m.mean_both,
             m.mean_all,
             m.depth.len(),
-            a.size
+            size
         );
         for (name, d) in &m.depth {
             outln!(

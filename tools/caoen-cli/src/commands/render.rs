@@ -13,7 +13,8 @@ use caoen::render::{render, Method, Projection, RenderError, RenderOptions, Rend
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use crate::cli::{
-    GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg, SurfaceRenderArgs,
+    show_duration, GlobalArgs, MethodArg, NormalsArg, ProjectionArg, RayMethodArg,
+    SurfaceRenderArgs,
 };
 use crate::commands::note;
 use crate::commands::surface::load_model;
@@ -92,6 +93,7 @@ pub fn render_with_progress(
     opts: &RenderOptions,
     what: &str,
 ) -> CliResult<Rendered> {
+    check_work(global, scene, opts)?;
     let bar = progress_bar(global, what);
     // The command's budget (`--max-memory`), whatever limits `opts` was built with.
     let opts = &RenderOptions {
@@ -104,6 +106,54 @@ pub fn render_with_progress(
     });
     bar.finish_and_clear();
     Ok(result?)
+}
+
+/// Estimates a render's work and refuses one over `--max-work`; a long one is
+/// announced with its estimate, since its bar is the only sign of life for a while.
+pub fn check_work(global: &GlobalArgs, scene: &Scene, opts: &RenderOptions) -> CliResult {
+    let est = caoen::render::work::estimate(scene, opts);
+    let cpu = est.cpu_seconds();
+    let threads = rayon::current_num_threads().max(1) as f64;
+    let lights = if scene.shadows {
+        scene.lighting.lights.len()
+    } else {
+        0
+    };
+    let what = format!(
+        "{:.2e} ray-object tests: {}x{} pixels, {}x{} samples, up to {:.0} rays a sample \
+         (max_depth {}), {} objects, {} shadowing lights",
+        est.tests,
+        opts.width,
+        opts.height,
+        opts.samples,
+        opts.samples,
+        est.rays_per_sample,
+        scene.max_depth,
+        scene.objects.len(),
+        lights
+    );
+    let limit = global.max_work.unwrap_or(crate::cli::RENDER_MAX_WORK);
+    if cpu > limit {
+        return Err(CliError::Failed(format!(
+            "the render needs up to about {} of CPU time ({what}); the limit is {}: \
+             raise it with --max-work {}, or render fewer pixels or samples (--size, --samples)",
+            show_duration(cpu),
+            show_duration(limit),
+            show_duration(cpu.max(1.0) * 1.05),
+        )));
+    }
+    if cpu / threads > 3.0 {
+        note(
+            global,
+            format!(
+                "estimated up to {} of CPU time, {} on {} threads ({what})",
+                show_duration(cpu),
+                show_duration(cpu / threads),
+                threads
+            ),
+        );
+    }
+    Ok(())
 }
 
 /// Writes a depth map: 16-bit PNG, or OpenEXR (raw depths) for `.exr`.
