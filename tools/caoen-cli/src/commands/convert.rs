@@ -432,52 +432,7 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
                 + "\n",
         )?;
     } else {
-        let mut out = String::new();
-        outln!(
-            out,
-            "mesh:            {} ({})",
-            a.mesh.display(),
-            job::topology_text(&mesh)
-        );
-        outln!(out, "model:           {what} ({numbers} nodes or numbers)");
-        outln!(
-            out,
-            "vertex distance: mean {:.5}, max {:.5} (unit cube)",
-            v.mean_distance,
-            v.max_distance
-        );
-        outln!(
-            out,
-            "normal angle:    mean {:.2}, max {:.2} degrees",
-            v.mean_angle_deg,
-            v.max_angle_deg
-        );
-        outln!(
-            out,
-            "depth buffers:   mean {:.5} where either sees the model, {:.5} where both do, \
-             {:.5} over all pixels; {} views of {} px",
-            m.mean_depth,
-            m.mean_both,
-            m.mean_all,
-            m.depth.len(),
-            size
-        );
-        for (name, d) in &m.depth {
-            outln!(
-                out,
-                "  {name}: mean {:.5}, {} pixels covered, {} silhouette mismatches",
-                d.mean,
-                d.covered,
-                d.silhouette_mismatch
-            );
-        }
-        if v.unconverged > 0 {
-            outln!(
-                out,
-                "{} vertices did not reach the surface along the gradient",
-                v.unconverged
-            );
-        }
+        let out = summary_text(a, &mesh, &what, numbers, &m, size);
         if picture_on_stdout {
             // The picture has standard output: the summary goes beside the other notes.
             note(global, out.trim_end());
@@ -486,4 +441,64 @@ pub fn deviation(global: &GlobalArgs, a: &DeviationArgs) -> CliResult {
         }
     }
     Ok(())
+}
+
+/// The text summary of a deviation measurement: the mesh, the model, the distances and
+/// angles at the vertices and the depth buffers' differences, view by view.
+fn summary_text(
+    a: &DeviationArgs,
+    mesh: &PolygonMesh,
+    what: &str,
+    numbers: usize,
+    m: &Measured,
+    size: usize,
+) -> String {
+    let v = &m.vertex;
+    let mut out = String::new();
+    outln!(
+        out,
+        "mesh:            {} ({})",
+        a.mesh.display(),
+        job::topology_text(mesh)
+    );
+    outln!(out, "model:           {what} ({numbers} nodes or numbers)");
+    outln!(
+        out,
+        "vertex distance: mean {:.5}, max {:.5} (unit cube)",
+        v.mean_distance,
+        v.max_distance
+    );
+    outln!(
+        out,
+        "normal angle:    mean {:.2}, max {:.2} degrees",
+        v.mean_angle_deg,
+        v.max_angle_deg
+    );
+    outln!(
+        out,
+        "depth buffers:   mean {:.5} where either sees the model, {:.5} where both do, \
+         {:.5} over all pixels; {} views of {} px",
+        m.mean_depth,
+        m.mean_both,
+        m.mean_all,
+        m.depth.len(),
+        size
+    );
+    for (name, d) in &m.depth {
+        outln!(
+            out,
+            "  {name}: mean {:.5}, {} pixels covered, {} silhouette mismatches",
+            d.mean,
+            d.covered,
+            d.silhouette_mismatch
+        );
+    }
+    if v.unconverged > 0 {
+        outln!(
+            out,
+            "{} vertices did not reach the surface along the gradient",
+            v.unconverged
+        );
+    }
+    out
 }
