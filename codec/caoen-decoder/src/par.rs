@@ -11,6 +11,14 @@ pub use rayon::prelude::*;
 #[cfg(not(feature = "parallel"))]
 pub use sequential::*;
 
+/// Threads the parallel loops may run at once: each holds its own task buffers.
+pub fn workers() -> usize {
+    #[cfg(feature = "parallel")]
+    return rayon::current_num_threads();
+    #[cfg(not(feature = "parallel"))]
+    return 1;
+}
+
 #[cfg(not(feature = "parallel"))]
 mod sequential {
     /// Runs `a`, then `b`.

@@ -162,8 +162,16 @@ pub fn decode_memory(
     };
     let blocks =
         caoen_base::budget::bytes(cols as u64 * rows as u64, planes, Detail::BYTES_PER_BLOCK);
+    // Each task of the restoration off the coded size keeps interpolated rows.
+    let rows_kept = if restored {
+        crate::restoration::interpolated_bytes(ow as usize)
+            .saturating_mul(crate::par::workers() as u64)
+    } else {
+        0
+    };
     keys.saturating_add(caoen_base::budget::bytes(ow.into(), oh.into(), per_pixel))
         .saturating_add(blocks)
+        .saturating_add(rows_kept)
         .saturating_add(16 << 20)
 }
 

@@ -1,7 +1,7 @@
 //! Each pixel's class for the classified filters: the activity and direction of the
 //! luma's second differences around it.
 
-use super::scaled::{lerp_row, lerp_taps, table, Table};
+use super::scaled::{lerp_taps, Interpolated};
 use super::{whole_pixels, ACTIVITY_BOUNDS, DIRECTIONS, WINDOW};
 
 /// The class of each pixel of rows `rows` (`rows.len() * w` entries, in `0..CLASSES`)
@@ -60,13 +60,10 @@ pub(super) fn classify_sampled(
         ((1, 1), (-1, -1)),
         ((-1, 1), (1, -1)),
     ];
-    let xs: Vec<Table> = if native {
-        Vec::new()
-    } else {
-        [-1.0, 0.0, 1.0].iter().map(|&a| table(w, a / sx)).collect()
-    };
-    // The second differences of one row: h, v, d1, d2, each `w` long.
-    let diffs = |y: usize| -> [Vec<f32>; 4] {
+    // Off the coded size, rows interpolated at -1, 0 and 1 coded pixel across, kept
+    // while the next rows' differences need them.
+    let mut rows_at = (!native).then(|| Interpolated::new(w, sx, -1..=1, 1.0 / sy));
+    let mut diffs = |y: usize| -> [Vec<f32>; 4] {
         let mut d: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
         if let Some((mx, my)) = whole {
             let row = |y: isize| &plane[clamp(y, h) * w..][..w];
@@ -91,21 +88,17 @@ pub(super) fn classify_sampled(
         let centre = &plane[y * w..(y + 1) * w];
         // Whole rows of each pair's two samples, then the differences.
         let (mut a, mut b) = (vec![0.0f32; w], vec![0.0f32; w]);
+        let rows_at = rows_at.as_mut().expect("made off the coded size");
         for (k, ((ax, ay), (bx, by))) in PAIRS.into_iter().enumerate() {
-            lerp_row(
-                plane,
-                w,
-                &xs[(ax + 1) as usize],
-                ys[(ay + 1) as usize],
-                &mut a,
-            );
-            lerp_row(
-                plane,
-                w,
-                &xs[(bx + 1) as usize],
-                ys[(by + 1) as usize],
-                &mut b,
-            );
+            let (ya, yb) = (ys[(ay + 1) as usize], ys[(by + 1) as usize]);
+            let [a0, a1, b0, b1] =
+                rows_at.rows(plane, [(ax, ya.0), (ax, ya.1), (bx, yb.0), (bx, yb.1)]);
+            for ((o, &t), &u) in a.iter_mut().zip(a0).zip(a1) {
+                *o = t * (1.0 - ya.2) + u * ya.2;
+            }
+            for ((o, &t), &u) in b.iter_mut().zip(b0).zip(b1) {
+                *o = t * (1.0 - yb.2) + u * yb.2;
+            }
             for (((o, &c), &a), &b) in d[k].iter_mut().zip(centre).zip(&a).zip(&b) {
                 *o = (2.0 * c - a - b).abs();
             }

@@ -25,7 +25,8 @@ mod classes;
 pub mod colour_map;
 mod scaled;
 
-use scaled::scaled_rows;
+pub use scaled::interpolated_bytes;
+use scaled::{scaled_rows, scaled_rows_kept, Interpolated};
 pub mod syntax;
 #[cfg(test)]
 mod tests;
@@ -317,6 +318,10 @@ fn filter_rows(
                 .flatten()
         })
         .collect();
+    // Kept from chunk to chunk: the rows a chunk reads past its end, the next reads.
+    let mut rows_at = whole
+        .is_none()
+        .then(|| Interpolated::for_shape(w, spacing, shape));
     let mut start = rows.start;
     while start < rows.end {
         let end = (start + CLASS_CHUNK).min(rows.end);
@@ -333,7 +338,8 @@ fn filter_rows(
         if let Some(shape) = whole {
             native_classified_rows(plane, (w, h), shape, &classes, &by_class, start..end, o);
         } else {
-            scaled_rows(plane, (w, h), spacing, shape, &pick, start..end, o);
+            let rows_at = rows_at.as_mut().expect("made off the coded size");
+            scaled_rows_kept(plane, (w, h), spacing, shape, &pick, start..end, o, rows_at);
         }
         start = end;
     }

@@ -3,14 +3,14 @@
 
 /// The filter at another size: offsets of `d / spacing` output pixels, sampled by
 /// bilinear interpolation, positions clamped to the image; `pick(i)` gives the
-/// weights of pixel `i` of the rows, if it is filtered. Each offset's column taps are
-/// tabulated once and its row taps once per row.
+/// weights of pixel `i` of the rows, if it is filtered.
 ///
-/// Offset by offset along whole rows rather than pixel by pixel: away from the image's
-/// sides an offset's column taps are `x + d` and `x + d + 1`, so its samples are four
-/// shifted slices of two rows, which the compiler vectorises. Each pixel's sum takes
-/// its terms in the same order with the same operations as
-/// [`scaled_rows_reference`], so the two agree bit for bit.
+/// Offset by offset along whole rows rather than pixel by pixel. A bilinear sample is
+/// the vertical blend of two rows each interpolated along x, and a row interpolated at
+/// a column offset `dx / sx` serves every offset with that `dx`, on this output row and
+/// the next ones: [`Interpolated`] keeps them, so each is made once rather than twice
+/// per offset and row. Each pixel's sum takes its terms in the same order with the same
+/// operations as [`scaled_rows_reference`], so the two agree bit for bit.
 pub(super) fn scaled_rows<'a>(
     plane: &[f32],
     (w, h): (usize, usize),
@@ -20,44 +20,188 @@ pub(super) fn scaled_rows<'a>(
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let (offsets, plus, minus) = offset_tables(w, (sx, sy), shape);
-    let mut picks: Vec<Option<&[f32]>> = vec![None; w];
-    let (mut acc, mut wk) = (vec![0.0f32; w], vec![0.0f32; w]);
-    let (mut up, mut down) = (vec![0.0f32; w], vec![0.0f32; w]);
+    let mut rows_at = Interpolated::for_shape(w, (sx, sy), shape);
+    scaled_rows_kept(
+        plane,
+        (w, h),
+        (sx, sy),
+        shape,
+        pick,
+        rows,
+        out,
+        &mut rows_at,
+    );
+}
+
+/// [`scaled_rows`] with the interpolated rows kept from the rows before
+/// (`rows_at`, from [`Interpolated::for_shape`] of the same plane, size and shape).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn scaled_rows_kept<'a>(
+    plane: &[f32],
+    (w, h): (usize, usize),
+    (_, sy): (f64, f64),
+    shape: &[(i32, i32)],
+    pick: &dyn Fn(usize) -> Option<&'a [f32]>,
+    rows: std::ops::Range<usize>,
+    out: &mut [f32],
+    rows_at: &mut Interpolated,
+) {
+    let offsets: Vec<(i32, f64)> = shape.iter().map(|&(dx, dy)| (dx, dy as f64 / sy)).collect();
+    // Each offset's terms `f(p + d) + f(p - d) - 2 f(p)` along the row, then each
+    // pixel's weighted sum of them, as at the coded size.
+    let mut terms = vec![0.0f32; offsets.len() * w];
     for (j, y) in rows.enumerate() {
         let py = y as f64;
         let centre = &plane[y * w..(y + 1) * w];
-        for (x, p) in picks.iter_mut().enumerate() {
-            *p = pick(j * w + x);
-        }
-        acc.fill(0.0);
-        for (k, &(_, oy)) in offsets.iter().enumerate() {
-            if !picks.iter().any(|p| p.is_some_and(|t| k < t.len())) {
-                continue;
-            }
-            for (v, p) in wk.iter_mut().zip(&picks) {
-                *v = p.and_then(|t| t.get(k)).copied().unwrap_or(0.0);
-            }
-            lerp_row(plane, w, &plus[k], lerp_taps(py + oy, h), &mut up);
-            lerp_row(plane, w, &minus[k], lerp_taps(py - oy, h), &mut down);
-            for ((((a, &wx), &u), &d), &c) in
-                acc.iter_mut().zip(&wk).zip(&up).zip(&down).zip(centre)
-            {
-                *a += wx * (u + d - 2.0 * c);
+        for (&(dx, oy), t) in offsets.iter().zip(terms.chunks_exact_mut(w)) {
+            let (u0, u1, fu) = lerp_taps(py + oy, h);
+            let (d0, d1, fd) = lerp_taps(py - oy, h);
+            let [ua, ub, da, db] = rows_at.rows(plane, [(dx, u0), (dx, u1), (-dx, d0), (-dx, d1)]);
+            let rows = ua.iter().zip(ub).zip(da.iter().zip(db));
+            for ((t, &c), ((&ua, &ub), (&da, &db))) in t.iter_mut().zip(centre).zip(rows) {
+                let u = ua * (1.0 - fu) + ub * fu;
+                let d = da * (1.0 - fd) + db * fd;
+                *t = u + d - 2.0 * c;
             }
         }
         for (x, o) in out[j * w..(j + 1) * w].iter_mut().enumerate() {
-            *o = if picks[x].is_some() {
-                centre[x] + acc[x]
-            } else {
-                centre[x]
+            let c = centre[x];
+            *o = match pick(j * w + x) {
+                Some(wt) => {
+                    let mut acc = 0.0f32;
+                    for (k, &wk) in wt.iter().enumerate() {
+                        acc += wk * terms[k * w + x];
+                    }
+                    c + acc
+                }
+                None => c,
             };
         }
     }
 }
 
+/// Fewest rows [`Interpolated`] may keep of each column offset, whatever the width.
+const MIN_KEPT_ROWS: usize = 16;
+
+/// Bytes [`Interpolated`] may keep beyond [`MIN_KEPT_ROWS`] rows per offset: the rows
+/// a near zoom reads (twice the filter's reach in output rows) at common widths.
+const KEPT_BYTES: usize = 4 << 20;
+
+/// Most column offsets [`Interpolated`] keeps rows of: `-3..=3` coded pixels.
+pub(super) const KEPT_OFFSETS: usize = 7;
+
+/// Most rows [`Interpolated`] keeps of each column offset for rows `w` long.
+fn kept_rows(w: usize) -> usize {
+    (KEPT_BYTES / (KEPT_OFFSETS * 4 * w.max(1))).max(MIN_KEPT_ROWS)
+}
+
+/// Bytes a task of the filter off the coded size holds at most for an output `w`
+/// pixels wide: the rows [`Interpolated`] keeps, and a row of terms per offset (12).
+pub fn interpolated_bytes(w: usize) -> u64 {
+    ((kept_rows(w) * KEPT_OFFSETS + 12) * (w * 4 + 32)) as u64
+}
+
+/// Rows of a plane interpolated along x at whole coded-pixel column offsets `dx`
+/// (`dx / sx` output pixels): row `r` at `dx` is the upper (or lower) half of every
+/// bilinear sample of that column offset between rows `r` and `r + 1`, made once while
+/// the rows near the current one need it: an output row's offsets read rows up to the
+/// filter's reach away, which the output rows within that reach read again. Each
+/// offset keeps up to [`kept_rows`] rows, the least recently read giving way: all the
+/// rows read within twice the reach where they fit, which is every scale but the
+/// nearest zooms of the widest images.
+pub(super) struct Interpolated {
+    w: usize,
+    /// Calls so far: when each slot was last read.
+    now: u64,
+    by_dx: Vec<Kept>,
+}
+
+/// One column offset's kept rows.
+struct Kept {
+    dx: i32,
+    taps: Table,
+    /// The row each slot holds (`usize::MAX` none) and when it was last read.
+    rows: Vec<(usize, u64)>,
+    samples: Vec<f32>,
+}
+
+impl Interpolated {
+    /// The rows the filter of `shape` reads at spacing `(sx, sy)` on rows `w` long.
+    pub(super) fn for_shape(w: usize, (sx, sy): (f64, f64), shape: &[(i32, i32)]) -> Self {
+        let reach = shape
+            .iter()
+            .map(|&(_, dy)| dy.unsigned_abs())
+            .max()
+            .unwrap_or(0);
+        let dxs = shape.iter().flat_map(|&(dx, _)| [dx, -dx]);
+        Interpolated::new(w, sx, dxs, f64::from(reach) / sy)
+    }
+
+    /// Rows `w` long at the column offsets `dxs` (repeats ignored), spacing `sx`,
+    /// for output rows that read `reach` output pixels up and down.
+    pub(super) fn new(w: usize, sx: f64, dxs: impl Iterator<Item = i32>, reach: f64) -> Self {
+        let mut keys: Vec<i32> = dxs.collect();
+        keys.sort_unstable();
+        keys.dedup();
+        debug_assert!(keys.len() <= KEPT_OFFSETS);
+        // Output row y reads rows floor(y - reach) ..= floor(y + reach) + 1, and the
+        // rows within the reach read them again: 2 reach + 2 rows back and forth; at
+        // least the four of one call.
+        let most = kept_rows(w);
+        let window = 4 * (reach.ceil().min(most as f64) as usize) + 4;
+        let slots = window.clamp(4, most);
+        let by_dx = keys
+            .into_iter()
+            .map(|dx| Kept {
+                dx,
+                taps: table(w, dx as f64 / sx),
+                rows: vec![(usize::MAX, 0); slots],
+                samples: vec![0.0f32; slots * w],
+            })
+            .collect();
+        Interpolated { w, now: 0, by_dx }
+    }
+
+    /// Rows `r` of `plane` interpolated at column offsets `dx` (each one of those
+    /// given to [`Interpolated::new`]).
+    pub(super) fn rows(&mut self, plane: &[f32], wants: [(i32, usize); 4]) -> [&[f32]; 4] {
+        self.now += 1;
+        let (w, now) = (self.w, self.now);
+        let kept = |by_dx: &[Kept], dx: i32| {
+            by_dx
+                .iter()
+                .position(|k| k.dx == dx)
+                .expect("a column offset given to `new`")
+        };
+        let mut slot = [0usize; 4];
+        for (&(dx, r), s) in wants.iter().zip(&mut slot) {
+            let i = kept(&self.by_dx, dx);
+            let k = &mut self.by_dx[i];
+            *s = match k.rows.iter().position(|&(held, _)| held == r) {
+                Some(s) => s,
+                None => {
+                    // The least recently read; never one read in this call (stamped
+                    // `now`), as there are at least four slots.
+                    let s = (0..k.rows.len())
+                        .min_by_key(|&s| k.rows[s].1)
+                        .expect("slots");
+                    interpolate_row(&plane[r * w..][..w], &k.taps, &mut k.samples[s * w..][..w]);
+                    k.rows[s].0 = r;
+                    s
+                }
+            };
+            k.rows[*s].1 = now;
+        }
+        std::array::from_fn(|i| {
+            let k = &self.by_dx[kept(&self.by_dx, wants[i].0)];
+            &k.samples[slot[i] * w..][..w]
+        })
+    }
+}
+
 /// The offsets of `shape` in output pixels (the same for every pixel) at spacing
 /// `(sx, sy)`, and each one's column tables to either side.
+#[cfg(test)]
 fn offset_tables(
     w: usize,
     (sx, sy): (f64, f64),
@@ -111,34 +255,26 @@ pub(super) fn run_of(t: &[(u32, u32, f32)]) -> (usize, usize, isize) {
     (lo, hi, d)
 }
 
-/// `out[x] = lerp_at(plane, w, tap(t[x]), ys)` for every column of a row of `w`: the
-/// run where the taps are `x + d`, `x + d + 1` as shifted slices (vectorised), the
-/// rest one by one; the same operations in the same order, so the same values.
-pub(super) fn lerp_row(
-    plane: &[f32],
-    w: usize,
-    (t, (lo, hi, d)): &Table,
-    ys: (usize, usize, f32),
-    out: &mut [f32],
-) {
-    for x in (0..*lo).chain(*hi..w) {
-        out[x] = lerp_at(plane, w, tap(t[x]), ys);
+/// `row` interpolated along x by table `t`: each value is the upper half of
+/// [`lerp_at`], `row[x0] * (1 - fx) + row[x1] * fx`; the run where the taps are
+/// `x + d`, `x + d + 1` as shifted slices (vectorised).
+fn interpolate_row(row: &[f32], (t, (lo, hi, d)): &Table, out: &mut [f32]) {
+    for x in (0..*lo).chain(*hi..row.len()) {
+        let (a, b, f) = tap(t[x]);
+        out[x] = row[a] * (1.0 - f) + row[b] * f;
     }
     if lo >= hi {
         return;
     }
-    let (y0, y1, fy) = ys;
+    let s = (*lo as isize + d) as usize;
     let n = hi - lo;
-    let at = |y: usize| {
-        let s = ((y * w + lo) as isize + d) as usize;
-        (&plane[s..s + n], &plane[s + 1..s + n + 1])
-    };
-    let ((a0, b0), (a1, b1)) = (at(y0), at(y1));
-    for (i, o) in out[*lo..*hi].iter_mut().enumerate() {
-        let fx = t[lo + i].2;
-        let top = a0[i] * (1.0 - fx) + b0[i] * fx;
-        let bottom = a1[i] * (1.0 - fx) + b1[i] * fx;
-        *o = top * (1.0 - fy) + bottom * fy;
+    let (a, b) = (&row[s..s + n], &row[s + 1..s + n + 1]);
+    for ((o, &(_, _, f)), (&a, &b)) in out[*lo..*hi]
+        .iter_mut()
+        .zip(&t[*lo..*hi])
+        .zip(a.iter().zip(b))
+    {
+        *o = a * (1.0 - f) + b * f;
     }
 }
 
@@ -170,6 +306,7 @@ pub(super) fn tap((a, b, f): (u32, u32, f32)) -> (usize, usize, f32) {
 }
 
 /// `f` at the point whose two axes' taps are given: bilinear.
+#[cfg(test)]
 #[inline]
 pub(super) fn lerp_at(
     plane: &[f32],
