@@ -107,7 +107,12 @@ fn every_target_is_replayed() {
             "frep",
             "obj",
             "ply",
-            "scene_frep"
+            "scene_frep",
+            "jpeg_meta",
+            "png_meta",
+            "exif",
+            "icc",
+            "xmp"
         ],
         "a target without a replay test below"
     );
@@ -161,4 +166,29 @@ fn ply() {
 #[test]
 fn scene_frep() {
     replay("scene_frep");
+}
+
+#[test]
+fn jpeg_meta() {
+    replay("jpeg_meta");
+}
+
+#[test]
+fn png_meta() {
+    replay("png_meta");
+}
+
+#[test]
+fn exif() {
+    replay("exif");
+}
+
+#[test]
+fn icc() {
+    replay("icc");
+}
+
+#[test]
+fn xmp() {
+    replay("xmp");
 }
