@@ -89,9 +89,50 @@ fn bad_scene_files_name_the_field() {
     ));
 }
 
+/// Bad light fields are refused naming the field, a huge area light's grid before
+/// anything is allocated.
+#[test]
+fn bad_light_fields_name_the_field() {
+    let area = |a: &str| format!(r#"{{"position": [0, 0, 3], "area_light": {a}}}"#);
+    let cases = [
+        (r#"{"position": [0, 0, 3], "fade_distance": 1, "fade_power": -2}"#.to_string(), "lights[0].fade_power"),
+        (r#"{"position": [0, 0, 3], "fade_distance": 0, "fade_power": 2}"#.to_string(), "lights[0].fade_distance"),
+        (r#"{"position": [0, 0, 3], "fade_power": 2}"#.to_string(), "lights[0].fade_distance"),
+        (r#"{"direction": [0, 0, 1], "fade_distance": 1, "fade_power": 2}"#.to_string(), "lights[0].fade_distance"),
+        (r#"{"direction": [0, 0, 1], "position": [0, 0, 1]}"#.to_string(), "lights[0]"),
+        (r#"{"position": [0, 0, 3], "fade": 2}"#.to_string(), "fade"),
+        (r#"{"position": [0, 0, 3], "radius": 20}"#.to_string(), "lights[0].radius"),
+        (r#"{"position": [0, 0, 3], "point_at": [0, 0, 3]}"#.to_string(), "lights[0].point_at"),
+        (r#"{"position": [0, 0, 3], "point_at": [0, 0, 0], "radius": 30, "falloff": 20}"#.to_string(), "lights[0].falloff"),
+        (r#"{"position": [0, 0, 3], "point_at": [0, 0, 0], "tightness": -1}"#.to_string(), "lights[0].tightness"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 0, "size2": 4}"#), "lights[0].area_light.size1"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 1000000, "size2": 1000000}"#), "lights[0].area_light.size1"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 256, "size2": 257}"#), "lights[0].area_light.size2"),
+        (area(r#"{"axis1": [0, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4}"#), "lights[0].area_light.axis1"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 1, "size2": 1}"#), "lights[0].area_light"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4, "adaptive": 99}"#), "lights[0].area_light.adaptive"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4, "jiter": true}"#), "jiter"),
+        (r#"{"direction": [0, 0, 1], "area_light": {"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4}}"#.to_string(), "lights[0].area_light"),
+    ];
+    for (light, field) in cases {
+        let e = scene_err(&format!(
+            r#"{{"format": "caoen-scene/1", "lights": [{light}], "objects": [{{"frep": {{"sphere": {{"radius": 1}}}}}}]}}"#
+        ));
+        assert!(e.contains(field), "expected `{field}` in: {e}");
+    }
+}
+
 #[test]
 fn every_example_scene_loads() {
-    for f in ["solid", "csg", "textured", "torus-freeform"] {
+    for f in [
+        "solid",
+        "csg",
+        "textured",
+        "torus-freeform",
+        "lights-point",
+        "lights-spot",
+        "lights-area",
+    ] {
         Scene::load(
             format!("examples/{f}.scene.json").as_ref(),
             &caoen::Limits::default(),

@@ -4,7 +4,8 @@
 //!
 //! The unit is one ray-object test: every ray (primary, reflected, refracted) is tested
 //! against every object, since the scene keeps no hierarchy over its objects, and every
-//! surface a ray meets sends a shadow ray per light, which again meets every object
+//! surface a ray meets sends a shadow ray per light (an area light one per sample of
+//! its grid), which again meets every object
 //! (and, through transmitting ones, does so once per crossing). Reflection and
 //! refraction branch: a ray tree has at most `b^k` rays at depth `k` (`b` the most
 //! rays a material spawns) and, since a traced ray weighs at least 1/255 and a
@@ -92,8 +93,10 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> WorkEstimate {
         tree *= f64::from(branch);
         weight *= share;
     }
+    // An area light's every sample may be tested (adaptive sampling often needs
+    // fewer, never more).
     let lights = if scene.shadows {
-        scene.lighting.lights.len() as f64
+        scene.lighting.shadow_samples() as f64
     } else {
         0.0
     };
