@@ -121,9 +121,15 @@ fn shadow_rays_pass_transmit_per_surface() {
         let inf = f64::INFINITY;
         let below = rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], inf);
         assert!((below - want).abs() < 1e-6, "{transmit}: {below}");
-        assert_eq!(rays.light_through([2.0, 0.0, 0.0], [0.0, 0.0, 1.0], inf), 1.0);
+        assert_eq!(
+            rays.light_through([2.0, 0.0, 0.0], [0.0, 0.0, 1.0], inf),
+            1.0
+        );
         // A point light between the point and the ball is not shadowed by it.
-        assert_eq!(rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.3), 1.0);
+        assert_eq!(
+            rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.3),
+            1.0
+        );
     }
 }
 

@@ -298,8 +298,7 @@ impl Block<'_, '_> {
             self.corner(u2, v2),
         ];
         if u2 - u1 > 1 || v2 - v1 > 1 {
-            let differ =
-                |a: f32, b: f32| f64::from((a - b).abs()) * self.weight > 0.1;
+            let differ = |a: f32, b: f32| f64::from((a - b).abs()) * self.weight > 0.1;
             let split = self.area.adaptive.is_none_or(|a| level < a)
                 || differ(c[0], c[1])
                 || differ(c[1], c[3])

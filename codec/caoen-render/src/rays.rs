@@ -25,8 +25,8 @@ use std::cell::RefCell;
 
 use super::bvh::TriangleBvh;
 use super::csg::{first_span, CsgNode};
-use super::scene::{Scene, Shape};
 use super::lights::{area_share, jitter};
+use super::scene::{Scene, Shape};
 use super::shading::{shade_lit, Incidence, Material, SurfacePoint};
 use super::texture::domain_uv;
 use caoen_frep::raycast::Caster;

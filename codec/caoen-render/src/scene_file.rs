@@ -12,11 +12,11 @@ use super::camera::Projection;
 use super::csg::CsgNode;
 use super::error::{RenderError, Result};
 use super::framebuffer::srgb_to_linear;
+use super::light_file::FileLight;
 use super::scene::{
     texture_wrap, CameraSpec, Scene, SceneObject, Shape, DEFAULT_MAX_DEPTH, MAX_MAX_DEPTH,
     SCENE_FORMAT_TAG,
 };
-use super::light_file::FileLight;
 use super::shading::{Lighting, Material};
 use super::texture::Texture;
 use caoen_frep::convex_solid::{scale_of, FileSolid, ScaleSpec, SCALE_RANGE};

@@ -23,8 +23,10 @@ pub(super) fn write(dir: &Path) -> CliResult {
 
 /// What the three scenes share: camera, background, ambient light and a slab.
 fn scene(name: &str, lights: Value, objects: Value) -> Value {
-    let mut all = vec![json!({"name": "slab", "frep": {"box": {"centre": [0, 0, -0.55], "size": [3.0, 2.4, 0.1]}},
-        "material": {"colour": [0.82, 0.8, 0.74], "specular": 0.0}})];
+    let mut all = vec![
+        json!({"name": "slab", "frep": {"box": {"centre": [0, 0, -0.55], "size": [3.0, 2.4, 0.1]}},
+        "material": {"colour": [0.82, 0.8, 0.74], "specular": 0.0}}),
+    ];
     all.extend(objects.as_array().into_iter().flatten().cloned());
     json!({
         "format": "caoen-scene/1",
