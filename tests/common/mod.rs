@@ -216,6 +216,8 @@ pub fn povray(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str)
 
 /// Runs `cmd` to its end, its output discarded; whether it succeeded, what it wrote
 /// to standard error, and the CPU seconds (user and system, every thread) it used.
+// The child is reaped by wait4, which clippy does not see.
+#[allow(clippy::zombie_processes)]
 pub fn run_cpu(cmd: &mut Command) -> (bool, String, f64) {
     let err = tempfile_path("stderr");
     let child = cmd
