@@ -109,3 +109,30 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> WorkEstimate {
         per_ray,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An area light counts one shadow ray per sample of its grid.
+    #[test]
+    fn area_lights_count_their_samples() {
+        let per_ray = |light: &str| {
+            let text = format!(
+                r#"{{"format": "caoen-scene/1", "lights": [{light}], "objects": [{{"frep": {{"sphere": {{"radius": 1}}}}}}]}}"#
+            );
+            let scene = Scene::from_json(
+                &text,
+                std::path::Path::new("."),
+                &caoen_base::budget::Limits::default(),
+            )
+            .unwrap();
+            estimate(&scene, &RenderOptions::default()).per_ray
+        };
+        let point = per_ray(r#"{"position": [0, 0, 3]}"#);
+        let area = per_ray(
+            r#"{"position": [0, 0, 3], "area_light": {"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 9, "size2": 5, "adaptive": 0}}"#,
+        );
+        assert_eq!(area / point, (1.0 + 45.0) / 2.0);
+    }
+}
