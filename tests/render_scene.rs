@@ -259,3 +259,56 @@ fn cli_render_rejects_bad_usage_with_exit_code_2() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("objects[0].solid.q"));
     std::fs::remove_file(&bad).ok();
 }
+
+/// An F-rep model file's lights reach its render and its POV-Ray export; a bad one is
+/// refused naming the field.
+#[test]
+fn frep_models_take_every_kind_of_light() {
+    let dir = common::fresh_dir("render-frep-lights");
+    let model = dir.join("lit.json");
+    let lights = serde_json::json!([
+        {"position": [1, -1, 2], "fade_distance": 1.5, "fade_power": 2},
+        {"position": [-1, -1, 2], "point_at": [0, 0, 0], "radius": 20, "falloff": 30, "tightness": 4},
+        {"position": [0, -2, 2], "area_light": {"axis1": [0.5, 0, 0], "axis2": [0, 0, 0.5], "size1": 3, "size2": 3, "jitter": true}}
+    ]);
+    let write = |lights: &serde_json::Value| {
+        let m = serde_json::json!({"format": "caoen-frep/1", "model": {"sphere": {"radius": 0.8}}, "lights": lights});
+        std::fs::write(&model, m.to_string()).unwrap();
+    };
+    write(&lights);
+    let (png, pov) = (dir.join("lit.png"), dir.join("lit.pov"));
+    let m = model.to_string_lossy().to_string();
+    caoen_ok(&[
+        "frep",
+        "render",
+        &m,
+        "-o",
+        &png.to_string_lossy(),
+        "--size",
+        "48x36",
+    ]);
+    caoen_ok(&[
+        "frep",
+        "export-pov",
+        &m,
+        "-o",
+        &pov.to_string_lossy(),
+        "--size",
+        "48x36",
+    ]);
+    let text = std::fs::read_to_string(&pov).unwrap();
+    for part in [
+        "fade_distance 1.5 fade_power 2.0",
+        "spotlight point_at",
+        "radius 20.0 falloff 30.0 tightness 4.0",
+        "area_light <0.5, 0.0, 0.0>, <0.0, 0.5, 0.0>, 3, 3 jitter }",
+    ] {
+        assert!(text.contains(part), "no `{part}` in {text}");
+    }
+    write(&serde_json::json!([{"position": [0, 0, 2], "fade_distance": 1, "fade_power": -1}]));
+    let bad = dir.join("bad.png");
+    let o = caoen(&["frep", "render", &m, "-o", &bad.to_string_lossy()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("lights[0].fade_power"), "{err}");
+}

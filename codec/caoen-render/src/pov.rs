@@ -184,8 +184,8 @@ fn light_source(l: &Light, shadows: bool) -> String {
             c[1],
             c[2],
             v3([0, 1, 2].map(|k| position[k] + axis[k])),
-            num(cos_radius.clamp(-1.0, 1.0).acos().to_degrees()),
-            num(cos_falloff.clamp(-1.0, 1.0).acos().to_degrees()),
+            num(degrees(cos_radius)),
+            num(degrees(cos_falloff)),
             num(tightness)
         ),
     };
@@ -216,6 +216,12 @@ fn light_source(l: &Light, shadows: bool) -> String {
     }
     s.push_str(" }");
     s
+}
+
+/// The angle in degrees of cosine `c`, rounded to 1e-9 so that the scene file's
+/// angles come back as written (24, not 24.000000000000004).
+fn degrees(c: f64) -> f64 {
+    (c.clamp(-1.0, 1.0).acos().to_degrees() * 1e9).round() / 1e9
 }
 
 /// The finish's reflection: constant for an opaque mirror; for a transmitting material
