@@ -1,5 +1,5 @@
 //! Scenes and models that ask for hours of work (`tests/bad/hostile/third-D8*`,
-//! `third-M8*`): a render is refused before it starts, naming its estimate, the limit
+//! `lights-D8e*` (area lights' samples), `third-M8*`): a render is refused before it starts, naming its estimate, the limit
 //! and the option that raises it, and renders with the limit raised; `deviation`
 //! measures a costly model on a grid that fits its limit and says so.
 
@@ -9,11 +9,12 @@ use std::time::Instant;
 
 use common::{caoen, caoen_ok, fresh_dir, hostile as bad, s, stderr};
 
-const SCENES: [&str; 4] = [
+const SCENES: [&str; 5] = [
     "third-D8-1000-lights.scene.json",
     "third-D8b-1000-mirrors.scene.json",
     "third-D8c-10-nested-glass.scene.json",
     "third-D8d-1000-glass-balls.scene.json",
+    "lights-D8e-area-256x256.scene.json",
 ];
 
 #[test]

@@ -4,7 +4,7 @@
 //! example against POV-Ray.
 
 mod common;
-use common::{assert_ok, caoen, povray_dir, s, Stream};
+use common::{povray_dir, s, Stream};
 
 use std::path::Path;
 
@@ -118,9 +118,18 @@ fn shadow_rays_pass_transmit_per_surface() {
                          "material": {"transmit": transmit, "ior": 1.5}}]
         }));
         let rays = fast_rays(&sc, 1.5);
-        let below = rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        let inf = f64::INFINITY;
+        let below = rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], inf);
         assert!((below - want).abs() < 1e-6, "{transmit}: {below}");
-        assert_eq!(rays.light_through([2.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 1.0);
+        assert_eq!(
+            rays.light_through([2.0, 0.0, 0.0], [0.0, 0.0, 1.0], inf),
+            1.0
+        );
+        // A point light between the point and the ball is not shadowed by it.
+        assert_eq!(
+            rays.light_through([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.3),
+            1.0
+        );
     }
 }
 
@@ -216,11 +225,55 @@ fn secondary_rays_do_not_depend_on_thread_count() {
     assert_eq!(run(1), run(3));
 }
 
-/// Whether `povray` runs (`.ci/run` installs it); the POV-Ray tests skip without it.
-/// Renders `scene` at 512x512 in caoen and, exported, in POV-Ray; returns the
-/// silhouette IoU, the mean absolute difference in grey levels (8-bit, over the three
-/// channels) inside both silhouettes, and both render times in seconds.
-fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f64) {
+/// Point, spot and jittered area lights render the same on one thread and on three.
+#[test]
+fn lights_do_not_depend_on_thread_count() {
+    let sc = scene(json!({
+        "format": "caoen-scene/1",
+        "lights": [
+            {"position": [0.5, -0.5, 1.0], "fade_distance": 1.0, "fade_power": 2},
+            {"position": [-0.5, -0.5, 1.2], "point_at": [0, 0, -0.5], "radius": 15, "falloff": 25, "tightness": 5},
+            {"position": [0, -0.8, 1.5], "area_light": {"axis1": [0.5, 0, 0], "axis2": [0, 0.5, 0], "size1": 5, "size2": 5, "jitter": true, "adaptive": 1}}
+        ],
+        "objects": [
+            {"frep": {"box": {"centre": [0, 0, -0.6], "size": [3, 3, 0.1]}}},
+            {"frep": {"sphere": {"centre": [-0.3, 0, 0], "radius": 0.4}}},
+            {"frep": {"sphere": {"centre": [0.5, 0.2, -0.2], "radius": 0.25}}, "material": {"transmit": 0.8, "ior": 1.5}}
+        ]
+    }));
+    let opts = RenderOptions {
+        width: 64,
+        height: 48,
+        samples: 1,
+        method: Method::Ray,
+        ..RenderOptions::default()
+    };
+    let run = |threads| {
+        common::with_threads(threads, || {
+            render(&sc, &opts, &|_, _| {}).unwrap().image.pixels
+        })
+    };
+    assert_eq!(run(1), run(3));
+}
+
+/// How caoen's render of a scene and POV-Ray's render of its export agree.
+struct Agreement {
+    /// Silhouette intersection over union.
+    iou: f64,
+    /// Mean absolute difference in grey levels (8-bit, over the three channels) inside
+    /// both silhouettes.
+    grey: f64,
+    /// RGB PSNR of the whole pictures (8-bit, peak 255).
+    psnr: f64,
+    /// CPU seconds of caoen's render (every thread).
+    ours: f64,
+    /// CPU seconds of POV-Ray's.
+    theirs: f64,
+}
+
+/// Renders `scene` at 512x512 in caoen (`samples` x `samples` a pixel) and, exported,
+/// in POV-Ray (`+A0.1`), both written to `dir`; how they agree.
+fn against_povray(dir: &Path, scene: &Path, samples: &str) -> Agreement {
     let stem = scene.file_stem().unwrap().to_string_lossy().to_string();
     let (pov, ours, theirs) = (
         dir.join(format!("{stem}.pov")),
@@ -228,21 +281,21 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
         dir.join(format!("{stem}-povray.png")),
     );
     common::export_pov(scene, &pov, 512);
-    let started = std::time::Instant::now();
-    let o = caoen(&[
-        "frep",
-        "render",
-        s(scene),
-        "-o",
-        s(&ours),
-        "--size",
-        "512x512",
-        "--samples",
-        samples,
-    ]);
-    let ours_s = started.elapsed().as_secs_f64();
-    assert_ok(&o);
-    let theirs_s = common::povray(&pov, &theirs, 512, "+A0.1");
+    let (ok, err, ours_s) = common::run_cpu(
+        std::process::Command::new(env!("CARGO_BIN_EXE_caoen")).args([
+            "frep",
+            "render",
+            s(scene),
+            "-o",
+            s(&ours),
+            "--size",
+            "512x512",
+            "--samples",
+            samples,
+        ]),
+    );
+    assert!(ok, "caoen: {err}");
+    let theirs_s = common::povray_cpu(&pov, &theirs, 512, "+A0.1");
     let (a, b) = (
         image::open(&ours).unwrap().to_rgb8(),
         image::open(&theirs).unwrap().to_rgb8(),
@@ -259,7 +312,26 @@ fn against_povray(dir: &Path, scene: &Path, samples: &str) -> (f64, f64, f64, f6
                 / 3.0;
         }
     }
-    (iou, sum / inter.max(1) as f64, ours_s, theirs_s)
+    Agreement {
+        iou,
+        grey: sum / inter.max(1) as f64,
+        psnr: common::psnr_rgb8(&a, &b),
+        ours: ours_s,
+        theirs: theirs_s,
+    }
+}
+
+/// Prints how `name` agrees with POV-Ray.
+fn report(name: &str, g: &Agreement) {
+    println!(
+        "{name} 512x512: IoU {:.4}, {:.2} dB, mean difference {:.2} grey levels, CPU caoen {:.2} s, POV-Ray {:.2} s, ratio {:.3}",
+        g.iou,
+        g.psnr,
+        g.grey,
+        g.ours,
+        g.theirs,
+        g.ours / g.theirs
+    );
 }
 
 /// The mirror-and-glass example (shadows, a mirror ball, a glass Cao En solid) agrees
@@ -271,11 +343,31 @@ fn mirror_glass_example_matches_povray() {
         return;
     };
     let scene = common::repo_path("examples/frep/mirror-glass.json");
-    let (iou, grey, ours, theirs) = against_povray(&dir, &scene, "2");
-    println!(
-        "mirror-glass 512x512: IoU {iou:.4}, mean difference {grey:.2} grey levels, caoen {ours:.2} s, POV-Ray {theirs:.2} s, ratio {:.3}",
-        ours / theirs
-    );
-    assert!(iou >= 0.98, "IoU {iou:.4}");
-    assert!(grey <= 8.0, "{grey:.2} grey levels");
+    let g = against_povray(&dir, &scene, "2");
+    report("mirror-glass", &g);
+    assert!(g.iou >= 0.98, "IoU {:.4}", g.iou);
+    assert!(g.grey <= 8.0, "{:.2} grey levels", g.grey);
+}
+
+/// The light examples (a point light fading with distance, a spot light, an area
+/// light's soft shadows through glass) agree with POV-Ray's renders of their exports:
+/// silhouette IoU >= 0.99 and PSNR >= 35 dB, in no more CPU time than POV-Ray's.
+#[test]
+fn light_examples_match_povray() {
+    let Some(dir) = povray_dir("rays-lights") else {
+        return;
+    };
+    for name in ["point", "spot", "area"] {
+        let scene = common::repo_path(&format!("examples/lights-{name}.scene.json"));
+        let g = against_povray(&dir, &scene, "2");
+        report(&format!("lights-{name}"), &g);
+        assert!(g.iou >= 0.99, "{name}: IoU {:.4}", g.iou);
+        assert!(g.psnr >= 35.0, "{name}: {:.2} dB", g.psnr);
+        assert!(
+            g.ours <= g.theirs,
+            "{name}: CPU caoen {:.2} s, POV-Ray {:.2} s",
+            g.ours,
+            g.theirs
+        );
+    }
 }

@@ -89,9 +89,50 @@ fn bad_scene_files_name_the_field() {
     ));
 }
 
+/// Bad light fields are refused naming the field, a huge area light's grid before
+/// anything is allocated.
+#[test]
+fn bad_light_fields_name_the_field() {
+    let area = |a: &str| format!(r#"{{"position": [0, 0, 3], "area_light": {a}}}"#);
+    let cases = [
+        (r#"{"position": [0, 0, 3], "fade_distance": 1, "fade_power": -2}"#.to_string(), "lights[0].fade_power"),
+        (r#"{"position": [0, 0, 3], "fade_distance": 0, "fade_power": 2}"#.to_string(), "lights[0].fade_distance"),
+        (r#"{"position": [0, 0, 3], "fade_power": 2}"#.to_string(), "lights[0].fade_distance"),
+        (r#"{"direction": [0, 0, 1], "fade_distance": 1, "fade_power": 2}"#.to_string(), "lights[0].fade_distance"),
+        (r#"{"direction": [0, 0, 1], "position": [0, 0, 1]}"#.to_string(), "lights[0]"),
+        (r#"{"position": [0, 0, 3], "fade": 2}"#.to_string(), "fade"),
+        (r#"{"position": [0, 0, 3], "radius": 20}"#.to_string(), "lights[0].radius"),
+        (r#"{"position": [0, 0, 3], "point_at": [0, 0, 3]}"#.to_string(), "lights[0].point_at"),
+        (r#"{"position": [0, 0, 3], "point_at": [0, 0, 0], "radius": 30, "falloff": 20}"#.to_string(), "lights[0].falloff"),
+        (r#"{"position": [0, 0, 3], "point_at": [0, 0, 0], "tightness": -1}"#.to_string(), "lights[0].tightness"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 0, "size2": 4}"#), "lights[0].area_light.size1"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 1000000, "size2": 1000000}"#), "lights[0].area_light.size1"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 256, "size2": 257}"#), "lights[0].area_light.size2"),
+        (area(r#"{"axis1": [0, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4}"#), "lights[0].area_light.axis1"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 1, "size2": 1}"#), "lights[0].area_light"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4, "adaptive": 99}"#), "lights[0].area_light.adaptive"),
+        (area(r#"{"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4, "jiter": true}"#), "jiter"),
+        (r#"{"direction": [0, 0, 1], "area_light": {"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 4, "size2": 4}}"#.to_string(), "lights[0].area_light"),
+    ];
+    for (light, field) in cases {
+        let e = scene_err(&format!(
+            r#"{{"format": "caoen-scene/1", "lights": [{light}], "objects": [{{"frep": {{"sphere": {{"radius": 1}}}}}}]}}"#
+        ));
+        assert!(e.contains(field), "expected `{field}` in: {e}");
+    }
+}
+
 #[test]
 fn every_example_scene_loads() {
-    for f in ["solid", "csg", "textured", "torus-freeform"] {
+    for f in [
+        "solid",
+        "csg",
+        "textured",
+        "torus-freeform",
+        "lights-point",
+        "lights-spot",
+        "lights-area",
+    ] {
         Scene::load(
             format!("examples/{f}.scene.json").as_ref(),
             &caoen::Limits::default(),
@@ -217,4 +258,57 @@ fn cli_render_rejects_bad_usage_with_exit_code_2() {
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("objects[0].solid.q"));
     std::fs::remove_file(&bad).ok();
+}
+
+/// An F-rep model file's lights reach its render and its POV-Ray export; a bad one is
+/// refused naming the field.
+#[test]
+fn frep_models_take_every_kind_of_light() {
+    let dir = common::fresh_dir("render-frep-lights");
+    let model = dir.join("lit.json");
+    let lights = serde_json::json!([
+        {"position": [1, -1, 2], "fade_distance": 1.5, "fade_power": 2},
+        {"position": [-1, -1, 2], "point_at": [0, 0, 0], "radius": 20, "falloff": 30, "tightness": 4},
+        {"position": [0, -2, 2], "area_light": {"axis1": [0.5, 0, 0], "axis2": [0, 0, 0.5], "size1": 3, "size2": 3, "jitter": true}}
+    ]);
+    let write = |lights: &serde_json::Value| {
+        let m = serde_json::json!({"format": "caoen-frep/1", "model": {"sphere": {"radius": 0.8}}, "lights": lights});
+        std::fs::write(&model, m.to_string()).unwrap();
+    };
+    write(&lights);
+    let (png, pov) = (dir.join("lit.png"), dir.join("lit.pov"));
+    let m = model.to_string_lossy().to_string();
+    caoen_ok(&[
+        "frep",
+        "render",
+        &m,
+        "-o",
+        &png.to_string_lossy(),
+        "--size",
+        "48x36",
+    ]);
+    caoen_ok(&[
+        "frep",
+        "export-pov",
+        &m,
+        "-o",
+        &pov.to_string_lossy(),
+        "--size",
+        "48x36",
+    ]);
+    let text = std::fs::read_to_string(&pov).unwrap();
+    for part in [
+        "fade_distance 1.5 fade_power 2.0",
+        "spotlight point_at",
+        "radius 20.0 falloff 30.0 tightness 4.0",
+        "area_light <0.5, 0.0, 0.0>, <0.0, 0.5, 0.0>, 3, 3 jitter }",
+    ] {
+        assert!(text.contains(part), "no `{part}` in {text}");
+    }
+    write(&serde_json::json!([{"position": [0, 0, 2], "fade_distance": 1, "fade_power": -1}]));
+    let bad = dir.join("bad.png");
+    let o = caoen(&["frep", "render", &m, "-o", &bad.to_string_lossy()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("lights[0].fade_power"), "{err}");
 }

@@ -214,6 +214,54 @@ pub fn povray(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str)
     seconds
 }
 
+/// Runs `cmd` to its end, its output discarded; whether it succeeded, what it wrote
+/// to standard error, and the CPU seconds (user and system, every thread) it used.
+// The child is reaped by wait4, which clippy does not see.
+#[allow(clippy::zombie_processes)]
+pub fn run_cpu(cmd: &mut Command) -> (bool, String, f64) {
+    let err = tempfile_path("stderr");
+    let child = cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::fs::File::create(&err).unwrap())
+        .spawn()
+        .expect("run the command");
+    let (mut status, mut usage) = (0, unsafe { std::mem::zeroed::<libc::rusage>() });
+    // wait4 reports the child's own usage, where getrusage would add every other
+    // test's children too.
+    let pid = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as i32, "wait4");
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    let text = std::fs::read_to_string(&err).unwrap_or_default();
+    let _ = std::fs::remove_file(&err);
+    (
+        libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        text,
+        secs(usage.ru_utime) + secs(usage.ru_stime),
+    )
+}
+
+/// A path for a scratch file of this process, unique to the call.
+fn tempfile_path(what: &str) -> PathBuf {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    std::env::temp_dir().join(format!("caoen-{what}-{}-{n}", std::process::id()))
+}
+
+/// [`povray`] timed by CPU: the seconds of every thread POV-Ray used.
+pub fn povray_cpu(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str) -> f64 {
+    let (ok, err, cpu) = run_cpu(Command::new("povray").args([
+        &format!("+I{}", pov.display()),
+        &format!("+W{side}"),
+        &format!("+H{side}"),
+        aa,
+        "-D",
+        "+FN",
+        &format!("+O{}", out.display()),
+    ]));
+    assert!(ok, "povray: {err}");
+    cpu
+}
+
 /// A render's silhouette: the pixels whose colour differs from the top-left corner's
 /// (the background) by more than 24 levels summed over the channels.
 pub fn silhouette(img: &image::RgbImage) -> Vec<bool> {

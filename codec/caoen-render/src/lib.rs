@@ -10,6 +10,8 @@ pub mod csg;
 pub mod depth_buffer;
 pub mod error;
 pub mod framebuffer;
+mod light_file;
+pub mod lights;
 pub mod mesh;
 pub mod pov;
 pub mod raster;

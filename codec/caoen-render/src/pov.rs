@@ -3,13 +3,15 @@
 //! Every F-rep object is an `isosurface` of the negated model function (POV-Ray's
 //! inside is below the threshold, F-rep's is `f >= 0`), its function declared by
 //! `frep::pov`. The camera is caoen's resolved camera (same eye, direction, up and
-//! field of view), the lights are parallel lights along the same directions, shadows
-//! as the scene has them. Materials map to POV-Ray's finish, pigment transmit and
-//! interior so that its reflection, refraction and shadows are `render::rays`'s.
+//! field of view), the lights are POV-Ray's light sources of the same kind (directional
+//! lights as parallel ones), shadows as the scene has them. Materials map to POV-Ray's
+//! finish, pigment transmit and interior so that its reflection, refraction and
+//! shadows are `render::rays`'s.
 
 use std::fmt::Write as _;
 
 use super::camera::{Camera, Projection};
+use super::lights::{Light, LightKind};
 use super::scene::{Scene, Shape};
 use caoen_frep::pov::{
     declare, max_gradient_with, num, unexportable, v3, Unexportable, R_FUNCTIONS,
@@ -100,16 +102,7 @@ pub fn export_with(
         amb[0], amb[1], amb[2], scene.max_depth
     );
     for l in &scene.lighting.lights {
-        let far = l.direction.map(|v| v * 1e4);
-        let _ = writeln!(
-            out,
-            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0>{} }}",
-            v3(far),
-            l.radiance[0],
-            l.radiance[1],
-            l.radiance[2],
-            if scene.shadows { "" } else { " shadowless" }
-        );
+        let _ = writeln!(out, "{}", light_source(l, scene.shadows));
     }
     out.push_str(R_FUNCTIONS);
     let mut next = 0;
@@ -155,6 +148,80 @@ pub fn export_with(
         );
     }
     Ok(out)
+}
+
+/// A `light_source` block for `l`: a directional light as a `parallel` light far
+/// along its direction, a point or spot light where it is, with its fade and area
+/// light as POV-Ray's own keywords (an area light samples its whole grid unless it
+/// gives `adaptive`, POV-Ray's default).
+fn light_source(l: &Light, shadows: bool) -> String {
+    let c = l.radiance;
+    let mut s = match l.kind {
+        LightKind::Directional { direction } => format!(
+            "light_source {{ {} color rgb <{}, {}, {}> parallel point_at <0, 0, 0>",
+            v3(direction.map(|v| v * 1e4)),
+            c[0],
+            c[1],
+            c[2]
+        ),
+        LightKind::Point { position } => format!(
+            "light_source {{ {} color rgb <{}, {}, {}>",
+            v3(position),
+            c[0],
+            c[1],
+            c[2]
+        ),
+        LightKind::Spot {
+            position,
+            axis,
+            cos_radius,
+            cos_falloff,
+            tightness,
+        } => format!(
+            "light_source {{ {} color rgb <{}, {}, {}> spotlight point_at {} radius {} falloff {} tightness {}",
+            v3(position),
+            c[0],
+            c[1],
+            c[2],
+            v3([0, 1, 2].map(|k| position[k] + axis[k])),
+            num(degrees(cos_radius)),
+            num(degrees(cos_falloff)),
+            num(tightness)
+        ),
+    };
+    if let Some(f) = l.fade {
+        let _ = write!(
+            s,
+            " fade_distance {} fade_power {}",
+            num(f.distance),
+            num(f.power)
+        );
+    }
+    if let Some(a) = l.area {
+        let _ = write!(
+            s,
+            " area_light {}, {}, {}, {}{}",
+            v3(a.axis1),
+            v3(a.axis2),
+            a.size1,
+            a.size2,
+            if a.jitter { " jitter" } else { "" }
+        );
+        if let Some(level) = a.adaptive {
+            let _ = write!(s, " adaptive {level}");
+        }
+    }
+    if !shadows {
+        s.push_str(" shadowless");
+    }
+    s.push_str(" }");
+    s
+}
+
+/// The angle in degrees of cosine `c`, rounded to 1e-9 so that the scene file's
+/// angles come back as written (24, not 24.000000000000004).
+fn degrees(c: f64) -> f64 {
+    (c.clamp(-1.0, 1.0).acos().to_degrees() * 1e9).round() / 1e9
 }
 
 /// The finish's reflection: constant for an opaque mirror; for a transmitting material

@@ -25,8 +25,9 @@ use std::cell::RefCell;
 
 use super::bvh::TriangleBvh;
 use super::csg::{first_span, CsgNode};
+use super::lights::{area_share, jitter};
 use super::scene::{Scene, Shape};
-use super::shading::{shade_lit, Material, SurfacePoint};
+use super::shading::{shade_lit, Incidence, Material, SurfacePoint};
 use super::texture::domain_uv;
 use caoen_frep::raycast::Caster;
 use caoen_geometry::mesh::Mesh;
@@ -93,6 +94,8 @@ pub struct RayScene<'a> {
 
 thread_local! {
     static SCRATCH: RefCell<Vec<[f64; 2]>> = const { RefCell::new(Vec::new()) };
+    /// An area light's samples at the point being shaded.
+    static AREA_GRID: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
 }
 
 impl<'a> RayScene<'a> {
@@ -336,29 +339,40 @@ impl<'a> RayScene<'a> {
         }
     }
 
-    /// How much of a directional light reaches `p` along `to_light`: 0 behind an opaque
-    /// surface, scaled by `transmit` at every crossing of a transmitting one.
-    pub fn light_through(&self, p: [f64; 3], to_light: [f64; 3]) -> f32 {
+    /// How much of a light reaches `p` along the unit direction `to_light` from
+    /// `distance` away (infinite for a directional light): 0 behind an opaque surface,
+    /// scaled by `transmit` at every crossing of a transmitting one; surfaces beyond
+    /// the light do not count.
+    pub fn light_through(&self, p: [f64; 3], to_light: [f64; 3], distance: f64) -> f32 {
         let transmits = |i: usize| self.scene.objects[i].material.transmit > 0.0;
+        // POV-Ray's shadow tolerance: a surface within it of the light does not shadow.
+        let reach = if distance.is_finite() {
+            distance - self.eps
+        } else {
+            f64::INFINITY
+        };
         // Any opaque surface on the way blocks the light, whichever is nearest.
         for (i, target) in self.targets.iter().enumerate() {
             if !transmits(i)
                 && self
-                    .hit_target(target, i as u32, p, to_light, f64::INFINITY)
-                    .is_some()
+                    .hit_target(target, i as u32, p, to_light, reach)
+                    .is_some_and(|h| h.t < reach)
             {
                 return 0.0;
             }
         }
         let mut through = 1.0f32;
         let mut origin = p;
+        let mut left = reach;
         for _ in 0..MAX_SHADOW_CROSSINGS {
             let mut next: Option<SurfaceHit> = None;
             for (i, target) in self.targets.iter().enumerate() {
-                let limit = next.map_or(f64::INFINITY, |b| b.t);
+                let limit = next.map_or(left, |b| b.t);
                 if transmits(i) {
                     if let Some(h) = self.hit_target(target, i as u32, origin, to_light, limit) {
-                        next = Some(h);
+                        if h.t < limit {
+                            next = Some(h);
+                        }
                     }
                 }
             }
@@ -371,8 +385,38 @@ impl<'a> RayScene<'a> {
                 return 0.0;
             }
             origin = add(origin, scale(to_light, h.t));
+            left -= h.t;
         }
         0.0
+    }
+
+    /// The share of light `index` reaching `p` (unshadowed incidence `inc`): one
+    /// shadow ray, or an area light's grid of them.
+    fn light_share(&self, p: [f64; 3], index: usize, inc: &Incidence) -> f32 {
+        let light = &self.scene.lighting.lights[index];
+        let (Some(area), Some(centre)) = (light.area, light.position()) else {
+            return self.light_through(p, inc.direction, inc.distance);
+        };
+        let weight: f64 = light
+            .radiance
+            .iter()
+            .map(|c| f64::from(*c) * inc.strength)
+            .sum();
+        AREA_GRID.with(|g| {
+            area_share(&area, weight, &mut g.borrow_mut(), &mut |u, v| {
+                let j = if area.jitter {
+                    jitter(p, index, u, v)
+                } else {
+                    [0.0; 2]
+                };
+                let to = sub(add(centre, area.offset(u, v, j)), p);
+                let d = dot(to, to).sqrt();
+                if !(d > 0.0) {
+                    return 1.0;
+                }
+                self.light_through(p, scale(to, 1.0 / d), d)
+            })
+        })
     }
 
     /// Linear radiance arriving along `dir` at `origin`; `depth` counts the rays in
@@ -431,10 +475,11 @@ impl<'a> RayScene<'a> {
             albedo,
             normal: nf,
             to_eye,
+            position: p,
         };
-        let mut out = shade_lit(&self.scene.lighting, m, at, 1.0 - m.transmit, &|l| {
+        let mut out = shade_lit(&self.scene.lighting, m, at, 1.0 - m.transmit, &|i, inc| {
             if shadows {
-                self.light_through(above, l)
+                self.light_share(above, i, inc)
             } else {
                 1.0
             }

@@ -12,11 +12,12 @@ use super::camera::Projection;
 use super::csg::CsgNode;
 use super::error::{RenderError, Result};
 use super::framebuffer::srgb_to_linear;
+use super::light_file::FileLight;
 use super::scene::{
     texture_wrap, CameraSpec, Scene, SceneObject, Shape, DEFAULT_MAX_DEPTH, MAX_MAX_DEPTH,
     SCENE_FORMAT_TAG,
 };
-use super::shading::{Light, Lighting, Material};
+use super::shading::{Lighting, Material};
 use super::texture::Texture;
 use caoen_frep::convex_solid::{scale_of, FileSolid, ScaleSpec, SCALE_RANGE};
 use caoen_geometry::transform::Affine;
@@ -24,7 +25,7 @@ use caoen_surface::json::FieldError;
 use caoen_surface::{gallery, ConvexSolid, SurfaceModel};
 
 /// A field error of the scene file: `reason` about the value at `field`.
-fn bad(field: impl Into<String>, reason: impl Into<String>) -> RenderError {
+pub(crate) fn bad(field: impl Into<String>, reason: impl Into<String>) -> RenderError {
     RenderError::Field(FieldError::from_reason(field, reason))
 }
 
@@ -132,17 +133,17 @@ impl Scene {
 
 /// Largest colour component or light and material coefficient: far above white, far
 /// below where shading sums overflow.
-const MAX_COEFFICIENT: f64 = 1e3;
+pub(crate) const MAX_COEFFICIENT: f64 = 1e3;
 /// Largest shininess exponent.
 const MAX_SHININESS: f64 = 1e4;
 /// Largest index of refraction (well above any real material's).
 const MAX_IOR: f64 = 10.0;
 
-fn check_number(what: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
+pub(crate) fn check_number(what: &str, v: f64, lo: f64, hi: f64) -> Result<f64> {
     Ok(caoen_surface::json::check_number(what, v, lo, hi)?)
 }
 
-fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
+pub(crate) fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
     if c.iter().all(|v| (0.0..=MAX_COEFFICIENT).contains(v)) {
         Ok(srgb_to_linear(c))
     } else {
@@ -156,7 +157,7 @@ fn check_colour(what: &str, c: [f64; 3]) -> Result<[f32; 3]> {
 
 /// Checks a position or direction: coordinates within the world the renderers keep
 /// precision in (the same bound as solids' centres).
-fn check_vec(what: &str, v: [f64; 3]) -> Result<[f64; 3]> {
+pub(crate) fn check_vec(what: &str, v: [f64; 3]) -> Result<[f64; 3]> {
     let limit = caoen_surface::implicit::WORLD_LIMIT;
     if v.iter().all(|x| x.abs() <= limit) {
         Ok(v)
@@ -192,10 +193,6 @@ struct FileScene {
     #[serde(default)]
     max_depth: Option<u64>,
     objects: Vec<FileObject>,
-}
-
-fn white() -> [f64; 3] {
-    [1.0; 3]
 }
 
 /// Background colour (sRGB) when a scene gives none.
@@ -269,40 +266,6 @@ impl FileCamera {
             view_from: check_vec("camera.view_from", self.view_from.unwrap_or(d.view_from))?,
             projection,
         })
-    }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct FileLight {
-    direction: [f64; 3],
-    #[serde(default = "white")]
-    colour: [f64; 3],
-    #[serde(default = "one")]
-    intensity: f64,
-}
-
-fn one() -> f64 {
-    1.0
-}
-
-impl FileLight {
-    fn resolve(&self, path: &str) -> Result<Light> {
-        let d = check_vec(&format!("{path}.direction"), self.direction)?;
-        if d == [0.0; 3] {
-            return Err(bad(format!("{path}.direction"), "must be non-zero"));
-        }
-        check_number(
-            &format!("{path}.intensity"),
-            self.intensity,
-            0.0,
-            MAX_COEFFICIENT,
-        )?;
-        Ok(Light::new(
-            d,
-            check_colour(&format!("{path}.colour"), self.colour)?,
-            self.intensity as f32,
-        ))
     }
 }
 

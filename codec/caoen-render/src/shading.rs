@@ -1,52 +1,12 @@
 //! Shading (paper section 7): Lambert's cosine law with an ambient term and any number
-//! of directional lights, plus an optional Blinn-Phong highlight. All arithmetic is in
+//! of lights (`lights`), plus an optional Blinn-Phong highlight. All arithmetic is in
 //! linear light; gamma encoding happens once, when the image is written.
 
 use std::sync::Arc;
 
+pub use super::lights::{Incidence, Light, Lighting};
 use super::texture::{Texture, Wrap};
 use caoen_geometry::vector::{add, dot, unit};
-
-/// A directional light.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Light {
-    /// Unit direction from the surface towards the light.
-    pub direction: [f64; 3],
-    /// Linear colour times intensity.
-    pub radiance: [f32; 3],
-}
-
-impl Light {
-    /// A light shining from `towards_light` with linear colour `colour` scaled by `intensity`.
-    pub fn new(towards_light: [f64; 3], colour: [f32; 3], intensity: f32) -> Self {
-        Light {
-            direction: unit(towards_light),
-            radiance: colour.map(|c| c * intensity),
-        }
-    }
-}
-
-/// The scene's lights.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Lighting {
-    /// Linear ambient light colour.
-    pub ambient: [f32; 3],
-    /// Directional lights.
-    pub lights: Vec<Light>,
-}
-
-impl Default for Lighting {
-    /// A key light from the upper left front, a dimmer fill from the right, soft ambient.
-    fn default() -> Self {
-        Lighting {
-            ambient: [0.06; 3],
-            lights: vec![
-                Light::new([-1.0, -0.5, 1.0], [1.0, 0.96, 0.9], 1.0),
-                Light::new([1.0, -0.3, 0.2], [0.7, 0.8, 1.0], 0.25),
-            ],
-        }
-    }
-}
 
 /// How a surface reflects light.
 #[derive(Debug, Clone)]
@@ -123,6 +83,8 @@ pub struct SurfacePoint {
     pub normal: [f64; 3],
     /// Unit direction from the surface towards the eye.
     pub to_eye: [f64; 3],
+    /// Where the point is (positioned lights depend on it).
+    pub position: [f64; 3],
 }
 
 /// Linear radiance leaving the surface point `at`.
@@ -130,24 +92,25 @@ pub struct SurfacePoint {
 /// The normal is turned to face the viewer first: a Cao En map may orient its surface
 /// either way (and a zero normal, at a singular point, shades with ambient light only).
 pub fn shade(lighting: &Lighting, material: &Material, at: SurfacePoint) -> [f32; 3] {
-    shade_lit(lighting, material, at, 1.0, &|_| 1.0)
+    shade_lit(lighting, material, at, 1.0, &|_, _| 1.0)
 }
 
 /// [`shade`] with an opacity (the share of ambient and diffuse light the surface
 /// keeps, `1 - transmit`; the highlight is not scaled, as in POV-Ray) and the share of
-/// each light that reaches the point, `visible(direction towards the light)` (asked
-/// only of lights in front of the surface).
+/// each light that reaches the point, `visible(light index, how it meets the point)`
+/// (asked only of lights in front of the surface that reach it at all).
 pub fn shade_lit(
     lighting: &Lighting,
     material: &Material,
     at: SurfacePoint,
     opacity: f32,
-    visible: &dyn Fn([f64; 3]) -> f32,
+    visible: &dyn Fn(usize, &Incidence) -> f32,
 ) -> [f32; 3] {
     let SurfacePoint {
         albedo,
         normal,
         to_eye,
+        position,
     } = at;
     let mut n = normal;
     if dot(n, to_eye) < 0.0 {
@@ -157,19 +120,26 @@ pub fn shade_lit(
     for k in 0..3 {
         out[k] = lighting.ambient[k] * material.ambient * albedo[k] * opacity;
     }
-    for light in &lighting.lights {
-        let cos = dot(n, light.direction);
+    for (i, light) in lighting.lights.iter().enumerate() {
+        let Some(inc) = light.incidence(position) else {
+            continue;
+        };
+        // POV-Ray skips a light whose colour at the point is below its epsilon.
+        if !(inc.strength > 1e-10) {
+            continue;
+        }
+        let cos = dot(n, inc.direction);
         if cos <= 0.0 {
             continue;
         }
-        let seen = visible(light.direction);
+        let seen = visible(i, &inc) * inc.strength as f32;
         if seen <= 0.0 {
             continue;
         }
         let diffuse = material.diffuse * cos as f32 * opacity;
         let mut spec = 0.0f32;
         if material.specular > 0.0 {
-            let h = unit(add(light.direction, to_eye));
+            let h = unit(add(inc.direction, to_eye));
             let c = dot(n, h).max(0.0) as f32;
             spec = material.specular * c.powf(material.shininess);
         }
@@ -198,6 +168,7 @@ mod tests {
             albedo: [1.0; 3],
             normal,
             to_eye: [0.0, 0.0, 1.0],
+            position: [0.0; 3],
         };
         let head_on = shade(&lighting, &m, at([0.0, 0.0, 1.0]));
         let s = 0.5f64.sqrt();

@@ -4,7 +4,8 @@
 //!
 //! The unit is one ray-object test: every ray (primary, reflected, refracted) is tested
 //! against every object, since the scene keeps no hierarchy over its objects, and every
-//! surface a ray meets sends a shadow ray per light, which again meets every object
+//! surface a ray meets sends a shadow ray per light (an area light one per sample of
+//! its grid), which again meets every object
 //! (and, through transmitting ones, does so once per crossing). Reflection and
 //! refraction branch: a ray tree has at most `b^k` rays at depth `k` (`b` the most
 //! rays a material spawns) and, since a traced ray weighs at least 1/255 and a
@@ -92,8 +93,10 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> WorkEstimate {
         tree *= f64::from(branch);
         weight *= share;
     }
+    // An area light's every sample may be tested (adaptive sampling often needs
+    // fewer, never more).
     let lights = if scene.shadows {
-        scene.lighting.lights.len() as f64
+        scene.lighting.shadow_samples() as f64
     } else {
         0.0
     };
@@ -104,5 +107,32 @@ pub fn estimate(scene: &Scene, opts: &RenderOptions) -> WorkEstimate {
         rays_per_sample,
         object_cost,
         per_ray,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An area light counts one shadow ray per sample of its grid.
+    #[test]
+    fn area_lights_count_their_samples() {
+        let per_ray = |light: &str| {
+            let text = format!(
+                r#"{{"format": "caoen-scene/1", "lights": [{light}], "objects": [{{"frep": {{"sphere": {{"radius": 1}}}}}}]}}"#
+            );
+            let scene = Scene::from_json(
+                &text,
+                std::path::Path::new("."),
+                &caoen_base::budget::Limits::default(),
+            )
+            .unwrap();
+            estimate(&scene, &RenderOptions::default()).per_ray
+        };
+        let point = per_ray(r#"{"position": [0, 0, 3]}"#);
+        let area = per_ray(
+            r#"{"position": [0, 0, 3], "area_light": {"axis1": [1, 0, 0], "axis2": [0, 1, 0], "size1": 9, "size2": 5, "adaptive": 0}}"#,
+        );
+        assert_eq!(area / point, (1.0 + 45.0) / 2.0);
     }
 }

@@ -114,14 +114,14 @@ pub fn check_work(global: &GlobalArgs, scene: &Scene, opts: &RenderOptions) -> C
     let est = caoen::render::work::estimate(scene, opts);
     let cpu = est.cpu_seconds();
     let threads = rayon::current_num_threads().max(1) as f64;
-    let lights = if scene.shadows {
-        scene.lighting.lights.len()
+    let shadow_rays = if scene.shadows {
+        scene.lighting.shadow_samples()
     } else {
         0
     };
     let what = format!(
         "{:.2e} ray-object tests: {}x{} pixels, {}x{} samples, up to {:.0} rays a sample \
-         (max_depth {}), {} objects, {} shadowing lights",
+         (max_depth {}), {} objects, {} shadow rays a hit (area lights' samples each)",
         est.tests,
         opts.width,
         opts.height,
@@ -130,7 +130,7 @@ pub fn check_work(global: &GlobalArgs, scene: &Scene, opts: &RenderOptions) -> C
         est.rays_per_sample,
         scene.max_depth,
         scene.objects.len(),
-        lights
+        shadow_rays
     );
     let limit = global.max_work.unwrap_or(crate::cli::RENDER_MAX_WORK);
     if cpu > limit {

@@ -8,6 +8,7 @@
 
 mod conversion;
 mod frep;
+mod lights;
 mod surfaces;
 mod texture;
 
@@ -111,6 +112,7 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
     surfaces::write(global, dir, a.samples)?;
     texture::write(global, dir, a.samples)?;
     frep::write(global, dir, a.samples)?;
+    lights::write(dir)?;
     conversion::write(global, dir)?;
     note(
         global,
