@@ -273,7 +273,7 @@ pub struct PictureArgs {
     #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(4..=1024))]
     pub cells: u32,
     /// Mesh output: multiply the model's coordinates by S.
-    #[arg(long, value_name = "S", value_parser = scale_factor)]
+    #[arg(long, value_name = "S", value_parser = scale_factor, allow_hyphen_values = true)]
     pub scale: Option<f64>,
     /// Mesh output: unit and STL form of the file.
     #[command(flatten)]
@@ -396,10 +396,10 @@ pub struct FrepMeshArgs {
     pub cells: u32,
     /// Scale the model so its largest extent is this long: 150mm, 15cm, 6in (a bare
     /// number is in --units).
-    #[arg(long, value_parser = length, conflicts_with = "scale")]
+    #[arg(long, value_parser = length, conflicts_with = "scale", allow_hyphen_values = true)]
     pub size: Option<Length>,
     /// Multiply the model's coordinates by S [default: 1, one model unit is one --units].
-    #[arg(long, value_name = "S", value_parser = scale_factor)]
+    #[arg(long, value_name = "S", value_parser = scale_factor, allow_hyphen_values = true)]
     pub scale: Option<f64>,
     /// Unit and STL form of the file.
     #[command(flatten)]

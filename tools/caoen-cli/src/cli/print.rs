@@ -42,11 +42,11 @@ pub fn length(s: &str) -> Result<Length, String> {
     }
 }
 
-/// Parses a positive, finite scale factor.
+/// Parses a positive, finite number (a scale factor, an absorption coefficient).
 pub fn scale_factor(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v <= 1e6 => Ok(v),
-        _ => Err(format!("`{s}`: expected a scale above 0 and at most 1e6")),
+        _ => Err(format!("`{s}`: expected a number above 0 and at most 1e6")),
     }
 }
 
@@ -89,24 +89,24 @@ pub struct LithophaneArgs {
     pub output: Vec<PathBuf>,
     /// The plate's width (along x, the picture's rows), frame included: 150mm, 15cm,
     /// 6in.
-    #[arg(long, default_value = "100mm", value_parser = length)]
+    #[arg(long, default_value = "100mm", value_parser = length, allow_hyphen_values = true)]
     pub width: Length,
     /// The thickness where the picture is white (the most light through).
-    #[arg(long, default_value = "0.8mm", value_parser = length)]
+    #[arg(long, default_value = "0.8mm", value_parser = length, allow_hyphen_values = true)]
     pub thinnest: Length,
     /// The thickness where the picture is black, and of the frame.
-    #[arg(long, default_value = "3mm", value_parser = length)]
+    #[arg(long, default_value = "3mm", value_parser = length, allow_hyphen_values = true)]
     pub thickest: Length,
     /// How grey becomes thickness.
     #[arg(long, value_enum, default_value_t = CurveArg::Linear)]
     pub curve: CurveArg,
     /// Beer-Lambert: the material's absorption coefficient mu per millimetre (white
     /// PLA is about 1 to 2).
-    #[arg(long, default_value_t = 1.5, value_parser = scale_factor)]
+    #[arg(long, default_value_t = 1.5, value_parser = scale_factor, allow_hyphen_values = true)]
     pub absorption: f64,
     /// A frame this wide around the picture at the thickest thickness (rounded to
     /// whole pixels of the picture).
-    #[arg(long, value_parser = length)]
+    #[arg(long, value_parser = length, allow_hyphen_values = true)]
     pub frame: Option<Length>,
     /// Grid cells along the width (the mesh's resolution).
     #[arg(long, default_value_t = 300, value_parser = clap::value_parser!(u32).range(4..=1024))]
