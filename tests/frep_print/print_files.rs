@@ -41,7 +41,7 @@ fn documented_lithophane() -> String {
     let docs = std::fs::read_to_string(repo_root().join("docs/frep.md")).unwrap();
     let line = docs
         .lines()
-        .find(|l| l.starts_with("caoen lithophane ") && l.contains(".3mf"))
+        .find(|l| l.starts_with("caoen lithophane ") && l.contains(".png") && l.contains(".3mf"))
         .expect("docs/frep.md gives a lithophane command writing 3MF")
         .to_string();
     let readme = std::fs::read_to_string(repo_root().join("README.md")).unwrap();
