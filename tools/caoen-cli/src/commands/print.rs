@@ -258,20 +258,23 @@ pub fn lithophane(global: &GlobalArgs, a: &LithophaneArgs) -> CliResult {
     check_cells(a.cells, &global.limits)?;
     let (w, h, grey) = caoen::frep::assets::grey_levels(&a.image, "image", 1.0, &global.limits)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.image.display())))?;
-    let node = lithophane_node(a, (w, h, &grey), (width, frame), (thin, thick), global)?;
-    let bounds = node.bounds().expect("a relief on a box is bounded");
+    let (node, height) = lithophane_node(a, (w, h, &grey), (width, frame), (thin, thick), global)?;
+    // The plate's own box: the engraving only lowers its top, and a grid on this box
+    // has the plate's ends on its planes (the relief's box is padded by the depth).
+    let bounds = caoen::frep::Aabb::new([0.0; 3], [width, height, thick]);
     write_solid_mesh(global, &outputs, (&node, &bounds), a.cells, &paths, &file)
 }
 
-/// The lithophane's solid in millimetres: a box `thick` high engraved by the samples'
-/// depths below its top, framed by `frame` of samples at the full thickness.
+/// The lithophane's solid in millimetres and the plate's height (along y): a box
+/// `thick` high engraved by the samples' depths below its top, framed by `frame` of
+/// samples at the full thickness.
 fn lithophane_node(
     a: &LithophaneArgs,
     (w, h, grey): (usize, usize, &[f64]),
     (width, frame): (f64, f64),
     (thin, thick): (f64, f64),
     global: &GlobalArgs,
-) -> CliResult<caoen::frep::Node> {
+) -> CliResult<(caoen::frep::Node, f64)> {
     use caoen::frep::height_map::{Base, HeightMap, Interp};
     let failed = |e: String| CliError::Failed(format!("{}: {e}", a.image.display()));
     // Samples sit on the plate's corners and edges (HeightMap::sample_uv): a picture
@@ -305,10 +308,11 @@ fn lithophane_node(
     }});
     let base = caoen::frep::Node::from_json(&plate, "plate", Path::new("."), &global.limits)
         .map_err(|e| failed(e.to_string()))?;
-    Ok(caoen::frep::Node::Relief(caoen::frep::node::Relief {
+    let node = caoen::frep::Node::Relief(caoen::frep::node::Relief {
         base: Box::new(base),
         map,
         depth: -span,
         ramp: [0.0, thick],
-    }))
+    });
+    Ok((node, height))
 }
