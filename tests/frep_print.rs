@@ -4,6 +4,8 @@
 //! read back with the OBJ's volume, and empty meshes refused.
 
 mod common;
+#[path = "frep_print/print_files.rs"]
+mod print_files;
 use common::{assert_ok, caoen, hostile, repo_root, s, stderr, tool_present};
 
 use std::path::{Path, PathBuf};
@@ -484,11 +486,13 @@ fn the_documented_lithophane_command_works() {
     assert_ok(&out);
     let mesh = read_stl(&std::fs::read(&stl).unwrap()).unwrap();
     assert!(!mesh.triangles.is_empty());
-    // Past the limit, the refusal names what it checks.
+    // Deeper than before (2/3 of the plate) and up to its floor.
+    assert_ok(&run("-0.09", &d.join("deep.stl")));
+    // Through the plate, the refusal names what it checks.
     let refused = d.join("refused.stl");
-    let out = run("-0.07", &refused);
+    let out = run("-0.1", &refused);
     let err = stderr(&out);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("highest interpolated grey"), "{err}");
+    assert!(err.contains("must leave a floor"), "{err}");
     assert!(!refused.exists());
 }

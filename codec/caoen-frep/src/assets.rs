@@ -192,8 +192,9 @@ pub(super) fn picture(
     )
 }
 
-/// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`.
-fn grey_levels(
+/// An image's grey levels (the mean of its colour channels, in [0, 1]) times `scale`:
+/// width, height and the levels row by row (`at` names the image in errors).
+pub fn grey_levels(
     path: &std::path::Path,
     at: &str,
     scale: f64,

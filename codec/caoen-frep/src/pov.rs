@@ -65,12 +65,11 @@ pub fn declare(node: &Node, out: &mut String, next: &mut usize) -> String {
             );
             match map.parts().0 {
                 Base::Plane => {
-                    let t = format!(
-                        "min(max((z - {}) / {}, 0), 1)",
-                        num(ramp[0]),
-                        num(ramp[1] - ramp[0])
-                    );
-                    format!("{f}(x, y, z - {push}(x, y, z) * {t} * {t} * (3 - 2 * {t}))")
+                    // The column stretch of `relief_warp`: z0 + (z - z0) H / (H + push).
+                    let (z0, span) = (num(ramp[0]), num(ramp[1] - ramp[0]));
+                    format!(
+                        "{f}(x, y, {z0} + (z - {z0}) * {span} / max({span} + {push}(x, y, z), 1e-300))"
+                    )
                 }
                 Base::Cylinder(_) => {
                     let c = "(1 - {push}(x, y, z) / max(sqrt(x*x + y*y), 1e-300))"

@@ -13,7 +13,8 @@ use crate::assets::{self, Picture};
 use crate::deform::{Noise, Warp};
 use crate::height_map::Base;
 use crate::node::{
-    bump_quadric, Blended, Node, Patch, Relief, Support, MAX_NODES, MIN_LENGTH, WORLD_LIMIT,
+    bump_quadric, Blended, Node, Patch, Relief, Support, MAX_NODES, MIN_FLOOR, MIN_LENGTH,
+    WORLD_LIMIT,
 };
 use crate::polygon_patch::PolygonSupport;
 use crate::primitive::{CaoEnSolid, Primitive};
@@ -240,19 +241,19 @@ impl FileNode {
                 let map = assets::picture(&picture, path, base_dir, limits, Some(&b))?;
                 let ramp = [b.lo[2], b.hi[2]];
                 if map.parts().0 == Base::Plane {
-                    // The push fades in over the base's height: steeper than the height
-                    // allows, it would fold space over (W no longer one-to-one).
+                    // Each column is stretched by H / (H + push): a push reaching the
+                    // bottom would leave no floor and fold space (W not one-to-one).
                     let h = map.interpolated_range(&b);
-                    let top = h.lo.abs().max(h.hi.abs());
-                    let most = d.abs() * top;
-                    if most.is_nan() || 1.5 * most >= ramp[1] - ramp[0] {
+                    let span = ramp[1] - ramp[0];
+                    let deepest = (d * h.lo).min(d * h.hi);
+                    if deepest.is_nan() || span + deepest <= MIN_FLOOR * span {
                         return err(
                             &at("depth"),
                             format!(
-                                "{d}: a planar relief's depth times the picture's highest \
-                                 interpolated grey (at most {top:.4} here) must stay under \
-                                 2/3 of the base's height {}",
-                                ramp[1] - ramp[0]
+                                "{d}: a planar relief must leave a floor: depth times the \
+                                 picture's interpolated grey (from {:.4} to {:.4} here) \
+                                 must stay above minus the base's height {span}",
+                                h.lo, h.hi
                             ),
                         );
                     }

@@ -17,7 +17,7 @@ mod combined;
 mod relief;
 
 pub use combined::{Blended, Perturbation};
-pub use relief::{relief_warp, Relief};
+pub use relief::{relief_warp, Relief, MIN_FLOOR};
 
 /// Deepest nesting a model may have.
 pub const MAX_DEPTH: usize = 64;

@@ -5,6 +5,9 @@ use super::Node;
 use crate::height_map::HeightMap;
 use crate::interval::{Aabb, Interval};
 
+/// The thinnest floor a planar relief may leave, as a fraction of its base's height.
+pub const MIN_FLOOR: f64 = 1e-3;
+
 /// Relief: the base's space pushed along the picture's projection by `depth` times
 /// its grey level, `f(W(p))` ([`relief_warp`]): the surface moves by `depth h`
 /// along the projection's rays (up for planar, away from the axis or the centre
@@ -17,8 +20,8 @@ pub struct Relief {
     pub map: HeightMap,
     /// Height of white, in the model's units (negative engraves).
     pub depth: f64,
-    /// Planar: the base's z range, over which the push fades in from nothing at
-    /// the bottom (so the bottom keeps its shape) to all of it at the top.
+    /// Planar: the base's z range `[z0, z1]`; each column is stretched so `z1` moves
+    /// by the push and `z0` stays (the bottom keeps its shape).
     pub ramp: [f64; 2],
 }
 
@@ -52,18 +55,14 @@ impl Relief {
     }
 }
 
-/// The fade of a planar relief's push over the base's z range `ramp`: 0 below, 1
-/// above, smoothstep between (C1, slope at most `1.5 / (z1 - z0)`), and its slope.
-fn ramp_of(ramp: [f64; 2], z: f64) -> (f64, f64) {
+/// The planar stretch over the base's z range `ramp` under a push `d h`: `W_z = z0 +
+/// (z - z0) k` with `k = H / (H + d h)`, `H = z1 - z0`, so `z1 + d h` reads the base at
+/// `z1` and `z0` at `z0`. Returns `k` and `dk / d(d h)`; `None` where `H + d h <= 0`
+/// (the push would reach through the bottom; the model reader refuses such depths).
+fn stretch(ramp: [f64; 2], push: f64) -> Option<(f64, f64)> {
     let span = ramp[1] - ramp[0];
-    let t = (z - ramp[0]) / span;
-    if t.is_nan() || t <= 0.0 {
-        (0.0, 0.0)
-    } else if t >= 1.0 {
-        (1.0, 0.0)
-    } else {
-        (t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t) / span)
-    }
+    let q = span + push;
+    (q > 0.0).then(|| (span / q, -span / (q * q)))
 }
 
 /// The push direction of a cylindrical or spherical relief at `p`: the mask `m` of the
@@ -79,7 +78,7 @@ fn radial(base: crate::height_map::Base, p: [f64; 3]) -> ([f64; 3], [f64; 3], f6
 }
 
 /// The point a relief reads its base at, `W(p)`, and the Jacobian `dW_i / dp_k`.
-/// Planar: `W = p - depth h s(z) e_z` (`s` the ramp); cylindrical and spherical:
+/// Planar: `W_z = z0 + (z - z0) H / (H + depth h)` ([`stretch`]); cylindrical and spherical:
 /// `W = p - depth h q / |q|` with `q` the part of `p` off the z axis or all of it.
 pub fn relief_warp(
     map: &HeightMap,
@@ -91,12 +90,15 @@ pub fn relief_warp(
     let mut j = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     match map.parts().0 {
         crate::height_map::Base::Plane => {
-            let (s, ds) = ramp_of(ramp, p[2]);
-            for k in 0..3 {
-                j[2][k] -= depth * gh[k] * s;
+            let Some((k, dk)) = stretch(ramp, depth * h) else {
+                return ([p[0], p[1], f64::INFINITY], j);
+            };
+            let rise = p[2] - ramp[0];
+            for c in 0..3 {
+                j[2][c] = rise * dk * depth * gh[c];
             }
-            j[2][2] -= depth * h * ds;
-            ([p[0], p[1], p[2] - depth * h * s], j)
+            j[2][2] += k;
+            ([p[0], p[1], ramp[0] + rise * k], j)
         }
         base => {
             let (m, q, r) = radial(base, p);
@@ -120,10 +122,10 @@ pub fn relief_warp(
 fn relief_point(map: &HeightMap, depth: f64, ramp: [f64; 2], p: [f64; 3]) -> [f64; 3] {
     let h = map.perturbation_value(p);
     match map.parts().0 {
-        crate::height_map::Base::Plane => {
-            let (s, _) = ramp_of(ramp, p[2]);
-            [p[0], p[1], p[2] - depth * h * s]
-        }
+        crate::height_map::Base::Plane => match stretch(ramp, depth * h) {
+            Some((k, _)) => [p[0], p[1], ramp[0] + (p[2] - ramp[0]) * k],
+            None => [p[0], p[1], f64::INFINITY],
+        },
         base => {
             let (_, q, r) = radial(base, p);
             // No push: the point itself (where relief_warp also moves it by zero).
@@ -141,9 +143,14 @@ fn relief_warp_box(map: &HeightMap, depth: f64, ramp: [f64; 2], b: &Aabb) -> Aab
     let push = map.perturbation_range(b).scale(depth);
     match map.parts().0 {
         crate::height_map::Base::Plane => {
-            // s is increasing in z, in [0, 1].
-            let s = Interval::new(ramp_of(ramp, b.lo[2]).0, ramp_of(ramp, b.hi[2]).0);
-            let z = Interval::new(b.lo[2], b.hi[2]) - push * s;
+            // k = H / (H + push) is decreasing in the push, positive while H + push is.
+            let z = match (stretch(ramp, push.hi), stretch(ramp, push.lo)) {
+                (Some((k0, _)), Some((k1, _))) => {
+                    let rise = Interval::new(b.lo[2] - ramp[0], b.hi[2] - ramp[0]);
+                    Interval::point(ramp[0]) + rise * Interval::new(k0, k1)
+                }
+                _ => Interval::new(f64::NEG_INFINITY, f64::INFINITY),
+            };
             Aabb {
                 lo: [b.lo[0], b.lo[1], z.lo],
                 hi: [b.hi[0], b.hi[1], z.hi],

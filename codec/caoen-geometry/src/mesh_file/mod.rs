@@ -1,13 +1,15 @@
 //! Mesh files: reading polygon meshes from Wavefront OBJ (through `tobj`), PLY, ASCII or
 //! binary, and OFF (both read here, strictly), and writing triangle meshes as OBJ (with
-//! a material library), binary PLY and binary STL. Counts a PLY or OFF header declares
-//! are checked against the bytes that follow it and against the memory budget before
-//! the parser allocates anything.
+//! a material library), binary PLY, binary and ASCII STL, and 3MF with its unit. Counts
+//! a PLY or OFF header declares are checked against the bytes that follow it and
+//! against the memory budget before the parser allocates anything.
 
 mod obj;
 mod off;
 mod ply;
 mod stl;
+mod threemf;
+mod zip;
 
 use std::path::Path;
 
@@ -21,7 +23,8 @@ use super::polygon_mesh::PolygonMesh;
 pub use obj::{read_obj, write_mtl, write_obj};
 pub use off::read_off;
 pub use ply::{read_ply, write_ply};
-pub use stl::{read_stl, write_stl};
+pub use stl::{read_stl, write_stl, write_stl_ascii};
+pub use threemf::{three_mf_model, write_3mf, LengthUnit};
 
 /// The most vertices or triangles a mesh may have (2^31: indices stay in `u32`
 /// arithmetic with room to spare).

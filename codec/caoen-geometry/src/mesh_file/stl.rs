@@ -1,5 +1,5 @@
-//! Binary STL: written from a triangle mesh and read back (corners with the same
-//! coordinates joined).
+//! STL: binary and ASCII written from a triangle mesh, binary read back (corners with
+//! the same coordinates joined).
 
 use std::io::{self, Write};
 
@@ -26,6 +26,32 @@ pub fn write_stl(mesh: &Mesh, out: &mut impl Write) -> io::Result<()> {
         buf.extend_from_slice(&0u16.to_le_bytes());
     }
     out.write_all(&buf)
+}
+
+/// Writes `mesh` as ASCII STL: `solid caoen`, per triangle its unit normal and three
+/// corners, each number as the 32-bit float binary STL holds (shortest round-trip form).
+pub fn write_stl_ascii(mesh: &Mesh, out: &mut impl Write) -> io::Result<()> {
+    use std::fmt::Write as _;
+    let mut text = String::with_capacity(64 + 260 * mesh.triangles.len());
+    text.push_str("solid caoen\n");
+    let v3 = |text: &mut String, v: [f64; 3]| {
+        let [x, y, z] = v.map(|c| c as f32);
+        let _ = write!(text, " {x:e} {y:e} {z:e}");
+    };
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+        text.push_str("  facet normal");
+        v3(&mut text, normalise(cross(sub(b, a), sub(c, a))));
+        text.push_str("\n    outer loop\n");
+        for p in [a, b, c] {
+            text.push_str("      vertex");
+            v3(&mut text, p);
+            text.push('\n');
+        }
+        text.push_str("    endloop\n  endfacet\n");
+    }
+    text.push_str("endsolid caoen\n");
+    out.write_all(text.as_bytes())
 }
 
 /// Reads a binary STL: corners with the same 32-bit coordinates become one vertex

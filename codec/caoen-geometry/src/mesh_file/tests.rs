@@ -168,3 +168,74 @@ fn a_ply_header_cannot_declare_more_than_the_file_holds() {
         Err(MeshError::BadIndex { index: 7, .. })
     ));
 }
+
+/// A tetrahedron, wound outwards.
+fn tetrahedron() -> crate::mesh::Mesh {
+    crate::mesh::Mesh {
+        positions: vec![
+            [0.0; 3],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.5e-7],
+        ],
+        normals: vec![[0.0; 3]; 4],
+        triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]],
+        ..Default::default()
+    }
+}
+
+#[test]
+fn ascii_stl_holds_every_corner_as_the_binary_does() {
+    let m = tetrahedron();
+    let mut text = Vec::new();
+    write_stl_ascii(&m, &mut text).unwrap();
+    let text = String::from_utf8(text).unwrap();
+    assert!(text.starts_with("solid caoen\n") && text.ends_with("endsolid caoen\n"));
+    assert_eq!(text.matches("facet normal").count(), 4);
+    let corners: Vec<[f32; 3]> = text
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("vertex "))
+        .map(|l| {
+            let v: Vec<f32> = l.split_whitespace().map(|w| w.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect();
+    let mut bin = Vec::new();
+    write_stl(&m, &mut bin).unwrap();
+    let back = read_stl(&bin).unwrap();
+    let expect: Vec<[f32; 3]> = back
+        .triangles
+        .iter()
+        .flat_map(|t| t.map(|i| back.positions[i as usize].map(|v| v as f32)))
+        .collect();
+    assert_eq!(corners, expect);
+}
+
+#[test]
+fn three_mf_names_its_unit_and_zips_three_parts() {
+    let m = tetrahedron();
+    let x = three_mf_model(&m, LengthUnit::Inch, "a <b>", Some([1.0, 0.0, 0.5]));
+    assert!(x.contains("<model unit=\"inch\""), "{x}");
+    assert!(x.contains("name=\"a &lt;b&gt;\""));
+    assert!(x.contains("displaycolor=\"#FF00BC\""), "{x}");
+    // Decimal numbers without exponents (ST_Number), 1.5e-7 included.
+    assert!(x.contains("z=\"0.00000015\""), "{x}");
+    assert_eq!(x.matches("<triangle ").count(), 4);
+    let mut zip = Vec::new();
+    write_3mf(&m, LengthUnit::Millimetre, "t", None, &mut zip).unwrap();
+    assert_eq!(&zip[..4], b"PK\x03\x04");
+    // The end of central directory record: three entries.
+    let end = zip.len() - 22;
+    assert_eq!(&zip[end..end + 4], b"PK\x05\x06");
+    assert_eq!(u16::from_le_bytes([zip[end + 10], zip[end + 11]]), 3);
+    for name in ["[Content_Types].xml", "_rels/.rels", "3D/3dmodel.model"] {
+        assert_eq!(
+            zip.windows(name.len())
+                .filter(|w| *w == name.as_bytes())
+                .count(),
+            2
+        );
+    }
+    assert_eq!(LengthUnit::from_symbol("cm"), Some(LengthUnit::Centimetre));
+    assert_eq!(LengthUnit::from_symbol("ft"), None);
+}

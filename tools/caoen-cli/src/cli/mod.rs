@@ -4,7 +4,9 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+mod print;
 mod surface;
+pub use print::*;
 pub use surface::*;
 
 /// How every command treats its outputs, shown at the end of `caoen --help`.
@@ -103,6 +105,9 @@ pub enum Command {
     Relief(PictureArgs),
     /// Carve an F-rep model with an image's pattern swept through it (lattice carving).
     Carve(PictureArgs),
+    /// A lithophane of a picture to print: a plate thinnest where the picture is white,
+    /// as 3MF (with its unit), STL, OBJ or PLY.
+    Lithophane(LithophaneArgs),
     /// Convert a polygon mesh (OBJ, PLY) into an implicit model: a base quadric plus
     /// local cubic perturbations (an F-rep model file).
     Convert(ConvertArgs),
@@ -261,12 +266,18 @@ pub struct PictureArgs {
     #[arg(long)]
     pub on: PathBuf,
     /// Output: .json (the new model, naming the image), .png (its render), or a mesh
-    /// to print (.stl, .obj, .ply); `-`: the render as PNG on standard output.
+    /// to print (.stl, .3mf, .obj, .ply); `-`: the render as PNG on standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Mesh output: grid cells along the longest side.
     #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(4..=1024))]
     pub cells: u32,
+    /// Mesh output: multiply the model's coordinates by S.
+    #[arg(long, value_name = "S", value_parser = scale_factor, allow_hyphen_values = true)]
+    pub scale: Option<f64>,
+    /// Mesh output: unit and STL form of the file.
+    #[command(flatten)]
+    pub file: MeshFileArgs,
     /// How the image lies on the model: along z, around the z axis, or around the origin.
     #[arg(long, value_parser = ["planar", "cylindrical", "spherical"], default_value = "spherical")]
     pub projection: String,
@@ -279,9 +290,10 @@ pub struct PictureArgs {
     /// Carve: hollow the model first, leaving a wall this thick (lattice carving).
     #[arg(long)]
     pub shell: Option<f64>,
-    /// Render size WIDTHxHEIGHT (.png output).
-    #[arg(long, default_value = "512x384")]
-    pub size: String,
+    /// Render size WIDTHxHEIGHT (.png output) [default: 512x384]; for a mesh output,
+    /// the model's largest extent (150mm, 15cm, 6in), the model scaled to it.
+    #[arg(long, conflicts_with = "scale")]
+    pub size: Option<String>,
     /// Supersampling of the render: N x N samples per pixel.
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=8))]
     pub samples: u32,
@@ -332,7 +344,7 @@ pub struct HeightfieldArgs {
 pub enum FrepCommand {
     /// Render an F-rep model or scene to a PNG (interval ray casting or its mesh).
     Render(FrepRenderArgs),
-    /// Polygonise an F-rep model into a mesh (.obj or .ply).
+    /// Polygonise an F-rep model into a mesh to print (.stl, .3mf, .obj or .ply).
     Mesh(FrepMeshArgs),
     /// Write a POV-Ray scene (.pov) that renders as the same model.
     ExportPov(FrepExportArgs),
@@ -375,13 +387,23 @@ pub struct FrepRenderArgs {
 pub struct FrepMeshArgs {
     /// F-rep model file or scene file with one `frep` object.
     pub model: PathBuf,
-    /// Output mesh (.stl binary, .obj or .ply), closed and manifold; `-`: binary STL
-    /// on standard output.
+    /// Output mesh (.stl, .3mf, .obj or .ply), closed and manifold; `-`: binary STL
+    /// (ASCII with --ascii) on standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Grid cells along the longest side.
     #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(4..=1024))]
     pub cells: u32,
+    /// Scale the model so its largest extent is this long: 150mm, 15cm, 6in (a bare
+    /// number is in --units).
+    #[arg(long, value_parser = length, conflicts_with = "scale", allow_hyphen_values = true)]
+    pub size: Option<Length>,
+    /// Multiply the model's coordinates by S [default: 1, one model unit is one --units].
+    #[arg(long, value_name = "S", value_parser = scale_factor, allow_hyphen_values = true)]
+    pub scale: Option<f64>,
+    /// Unit and STL form of the file.
+    #[command(flatten)]
+    pub file: MeshFileArgs,
 }
 
 /// `caoen frep export-pov`.

@@ -5,7 +5,6 @@ use std::path::Path;
 use serde::{Deserialize, Deserializer};
 
 use caoen::json::FieldError;
-use caoen::render::mesh_io::{write_obj, write_ply, write_stl};
 use caoen::render::scene::Shape;
 use caoen::render::{Method, RenderOptions, Scene};
 
@@ -14,9 +13,10 @@ use crate::cli::{
     HeightBaseArg, HeightfieldArgs, PictureArgs,
 };
 use crate::commands::note;
+use crate::commands::print::{is_mesh_path, mesh_format, write_solid_mesh, MeshFile};
 use crate::commands::render::{parse_size, picture_format, render_with_progress};
 use crate::failure::{CliError, CliResult};
-use crate::output::{extension_lowercase, format_extension, shown, Outputs};
+use crate::output::{extension_lowercase, shown, Outputs};
 
 /// The format tag of an F-rep model file.
 pub const FREP_FORMAT: &str = "caoen-frep/1";
@@ -166,106 +166,37 @@ fn render(global: &GlobalArgs, a: &FrepRenderArgs) -> CliResult {
 
 fn mesh(global: &GlobalArgs, a: &FrepMeshArgs) -> CliResult {
     let mut outputs = Outputs::new(global.force).input(&a.model);
+    mesh_format(&a.output, &MeshFile::from_args(&a.file, a.size, a.scale))?;
     outputs.check_path(&a.output)?;
     let scene = load(&a.model, &global.limits)?;
     let fields: Vec<_> = scene
         .objects
         .iter()
         .filter_map(|o| match &o.shape {
-            Shape::Field { node, bounds } => Some((node, bounds)),
+            Shape::Field { node, bounds } => Some((node, bounds, o)),
             _ => None,
         })
         .collect();
-    let [(node, bounds)] = fields[..] else {
+    let [(node, bounds, object)] = fields[..] else {
         return Err(CliError::Failed(format!(
             "{}: holds {} F-rep objects; mesh takes exactly one",
             a.model.display(),
             fields.len()
         )));
     };
-    check_cells(a.cells, &global.limits)?;
-    write_solid_mesh(global, &outputs, node, bounds, a.cells, &a.output)
-}
-
-/// Whether `path` names a mesh file (.stl, .obj, .ply).
-fn is_mesh_path(path: &Path) -> bool {
-    let ext = extension_lowercase(path);
-    matches!(ext.as_deref(), Some("stl" | "obj" | "ply"))
-}
-
-/// Writes the printable mesh of `node` (`frep::polygonise::solid_mesh`) to `output` in
-/// the format its extension names (binary STL on a stream); fails, writing nothing, when the mesh is empty or
-/// not a closed manifold.
-fn write_solid_mesh(
-    global: &GlobalArgs,
-    outputs: &Outputs,
-    node: &caoen::frep::Node,
-    bounds: &caoen::frep::Aabb,
-    cells: u32,
-    output: &Path,
-) -> CliResult {
-    let ext = format_extension(output, "stl");
-    if !matches!(ext.as_deref(), Some("stl" | "obj" | "ply")) {
-        return Err(CliError::Usage(format!(
-            "{}: mesh output must end in .stl, .obj or .ply (`-`: binary STL on standard output)",
-            output.display()
-        )));
-    }
-    check_cells(cells, &global.limits)?;
-    let (m, rep) = caoen::frep::polygonise::solid_mesh(node, bounds, cells as usize)
-        .map_err(|e| CliError::Failed(format!("{}: {e}", output.display())))?;
-    let mut bytes = Vec::new();
-    match ext.as_deref() {
-        Some("obj") => write_obj(&m, &mut bytes, None),
-        Some("ply") => write_ply(&m, &mut bytes),
-        _ => write_stl(&m, &mut bytes),
-    }
-    .map_err(|e| CliError::io(output, e))?;
-    outputs.write_path(output, &bytes)?;
-    let mut notes = Vec::new();
-    if rep.pieces_dropped > 0 {
-        notes.push(format!(
-            "dropped {} specks (pieces under {} of the largest's volume)",
-            rep.pieces_dropped,
-            caoen::frep::polygonise::SPECK_FRACTION
-        ));
-    }
-    if rep.collapsed > 0 {
-        notes.push(format!(
-            "collapsed {} zero-area triangles' edges",
-            rep.collapsed
-        ));
-    }
-    if rep.cells != cells as usize {
-        notes.push(format!(
-            "meshed on {} cells: the grid of {cells} folded a triangle flat",
-            rep.cells
-        ));
-    }
-    if rep.separated > 0 {
-        notes.push(format!(
-            "{} vertices moved off a touching sheet",
-            rep.separated
-        ));
-    }
-    if rep.clamped > 0 {
-        notes.push(format!("{} vertices clamped into the bounds", rep.clamped));
-    }
-    note(
+    let file = MeshFile {
+        name: object.name.clone(),
+        colour: Some(object.material.colour.map(f64::from)),
+        ..MeshFile::from_args(&a.file, a.size, a.scale)
+    };
+    write_solid_mesh(
         global,
-        format!(
-            "wrote {}: {} vertices, {} triangles, closed and manifold, {} piece{}, volume {:.6}, Euler characteristic {}{}",
-            shown(output),
-            m.positions.len(),
-            m.triangles.len(),
-            rep.pieces,
-            if rep.pieces == 1 { "" } else { "s" },
-            rep.volume,
-            m.euler_characteristic(),
-            notes.iter().map(|n| format!("; {n}")).collect::<String>()
-        ),
-    );
-    Ok(())
+        &outputs,
+        (node, bounds),
+        a.cells,
+        &[&a.output],
+        &file,
+    )
 }
 
 fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
@@ -484,6 +415,7 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
     {
         return Err(CliError::Usage("--shell: a thickness in (0, 1000]".into()));
     }
+    let file = picture_mesh_file(a)?;
     let mut outputs = Outputs::new(global.force).input(&a.image).input(&a.on);
     outputs.check_path(&a.output)?;
     let text = global
@@ -563,12 +495,48 @@ pub fn picture(global: &GlobalArgs, a: &PictureArgs, what: PictureUse) -> CliRes
             Some(b) => b,
             None => *bounds,
         };
-        check_cells(a.cells, &global.limits)?;
-        return write_solid_mesh(global, &outputs, &node, &bounds, a.cells, &a.output);
+        let file = MeshFile {
+            name: model["name"].as_str().unwrap_or("model").into(),
+            colour: scene
+                .objects
+                .first()
+                .map(|o| o.material.colour.map(f64::from)),
+            ..file.expect("a mesh output has its file")
+        };
+        return write_solid_mesh(
+            global,
+            &outputs,
+            (&node, &bounds),
+            a.cells,
+            &[&a.output],
+            &file,
+        );
     }
     // The base model's assets are loaded again with the new model: not twice at once.
     drop(scene);
+    let size = a.size.as_deref().unwrap_or("512x384");
     write_model(
-        global, &outputs, &model, &a.output, &a.size, a.samples, &base_dir,
+        global, &outputs, &model, &a.output, size, a.samples, &base_dir,
     )
+}
+
+/// How `relief` and `carve` write a mesh output (`--size` its largest extent), or None
+/// for a model or a render (which take no mesh options).
+fn picture_mesh_file(a: &PictureArgs) -> CliResult<Option<MeshFile>> {
+    if !is_mesh_path(&a.output) {
+        if a.scale.is_some() || a.file.ascii {
+            return Err(CliError::Usage(format!(
+                "{}: --scale and --ascii are for mesh outputs (.stl, .3mf, .obj, .ply)",
+                a.output.display()
+            )));
+        }
+        return Ok(None);
+    }
+    let size = match &a.size {
+        Some(s) => Some(crate::cli::length(s).map_err(CliError::Usage)?),
+        None => None,
+    };
+    let file = MeshFile::from_args(&a.file, size, a.scale);
+    mesh_format(&a.output, &file)?;
+    Ok(Some(file))
 }

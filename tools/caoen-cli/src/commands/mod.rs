@@ -19,6 +19,7 @@ pub mod examples;
 pub mod folder;
 pub mod frep;
 pub mod morph;
+pub mod print;
 pub mod render;
 pub mod surface;
 pub mod texture;
@@ -89,6 +90,7 @@ fn run_command(global: &crate::cli::GlobalArgs, cmd: Command) -> CliResult {
         Command::Morph(args) => morph::run(&global, &args),
         Command::Relief(args) => frep::picture(&global, &args, frep::PictureUse::Relief),
         Command::Carve(args) => frep::picture(&global, &args, frep::PictureUse::Carve),
+        Command::Lithophane(args) => print::lithophane(&global, &args),
         Command::Convert(args) => convert::convert(&global, &args),
         Command::Deviation(args) => convert::deviation(&global, &args),
     }
