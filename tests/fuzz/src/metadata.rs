@@ -108,6 +108,17 @@ fn assert_written_reads_back(meta: &Metadata) {
     for d in &unfit {
         message(d);
     }
+    if fitted.check_sizes().is_err() {
+        let pixel = Raster::new(1, 1, ChannelLayout::Rgb, SampleFormat::U8, vec![0.5; 3]);
+        let written = image_io::encode_with_metadata(
+            &pixel.expect("a 1x1 raster"),
+            image_io::OutputFormat::Png8,
+            image_io::PngCompression::Fast,
+            &fitted,
+        );
+        assert!(written.is_err(), "an item over its limit was written");
+        return;
+    }
     let pixel = Raster::new(1, 1, ChannelLayout::Rgb, SampleFormat::U8, vec![0.5; 3])
         .expect("a 1x1 raster");
     let png = image_io::encode_with_metadata(

@@ -213,7 +213,7 @@ fn chunk_data<'a>(
             format,
             format!(
                 "chunk {} at offset {pos} declares {len} bytes, {remain} remain",
-                String::from_utf8_lossy(kind)
+                crate::printable(&String::from_utf8_lossy(kind))
             ),
         ));
     }
@@ -246,7 +246,7 @@ fn read_png(b: &[u8], skip: &[Item]) -> Result<Metadata, MetadataError> {
                 item,
                 format!(
                     "PNG {} chunk: the CRC is wrong (the chunk is damaged)",
-                    String::from_utf8_lossy(&kind)
+                    crate::printable(&String::from_utf8_lossy(&kind))
                 ),
             )),
             _ => Ok(()),

@@ -31,6 +31,15 @@ pub fn icc_colour_space(icc: &[u8]) -> Result<[u8; 4], String> {
             icc.len()
         ));
     }
+    // A PNG reader checks this size before inflating the profile: one declaring more
+    // than an item may hold would not read back from the PNG it is written to.
+    let declared = u32::from_be_bytes([icc[0], icc[1], icc[2], icc[3]]);
+    if declared as usize > super::MAX_ITEM_BYTES {
+        return Err(format!(
+            "its header declares {declared} bytes, over the limit of {}",
+            super::MAX_ITEM_BYTES
+        ));
+    }
     if &icc[36..40] != b"acsp" {
         return Err(format!(
             "no profile signature `acsp` at byte 36 (found {:02x?})",
@@ -93,7 +102,7 @@ impl Metadata {
                         Item::Icc,
                         format!(
                             "its colour space is `{}`, the pixels' is `{}`",
-                            String::from_utf8_lossy(&space).trim_end(),
+                            crate::printable(String::from_utf8_lossy(&space).trim_end()),
                             String::from_utf8_lossy(want).trim_end()
                         ),
                     );

@@ -136,7 +136,8 @@ fn assemble(guid: &str, chunks: &[&[u8]]) -> Result<Vec<u8>, MetadataError> {
     }
     let Some(full) = full else {
         return bad(format!(
-            "the main packet names extension {guid}, no segment carries it (found {others:?})"
+            "the main packet names extension {}, no segment carries it (found {others:?})",
+            crate::printable(guid)
         ));
     };
     check_size(Item::XmpExtension, full.into())?;
