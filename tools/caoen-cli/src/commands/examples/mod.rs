@@ -10,6 +10,7 @@ mod conversion;
 mod frep;
 mod surfaces;
 mod texture;
+mod textured;
 
 pub use texture::volume_slices;
 
