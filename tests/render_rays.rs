@@ -367,5 +367,10 @@ fn textured_example_matches_povray() {
     );
     assert!(c.iou >= 0.99, "IoU {:.4}", c.iou);
     assert!(c.psnr >= 35.0, "PSNR {:.1} dB", c.psnr);
-    assert!(c.ours <= c.theirs, "caoen {:.2} s of CPU, POV-Ray {:.2} s", c.ours, c.theirs);
+    assert!(
+        c.ours <= c.theirs,
+        "caoen {:.2} s of CPU, POV-Ray {:.2} s",
+        c.ours,
+        c.theirs
+    );
 }

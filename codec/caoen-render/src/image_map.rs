@@ -166,8 +166,8 @@ impl ImageMap {
                     cols.push(caoen_frep::pov::num(m[s[r]][s[c]]));
                 }
             }
-            for r in 0..3 {
-                cols.push(caoen_frep::pov::num(self.transform.t[s[r]]));
+            for k in s {
+                cols.push(caoen_frep::pov::num(self.transform.t[k]));
             }
             let _ = write!(out, " matrix <{}>", cols.join(", "));
         }
