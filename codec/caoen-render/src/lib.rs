@@ -10,6 +10,7 @@ pub mod csg;
 pub mod depth_buffer;
 pub mod error;
 pub mod framebuffer;
+pub mod image_map;
 mod light_file;
 pub mod lights;
 pub mod mesh;

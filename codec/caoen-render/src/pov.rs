@@ -126,15 +126,12 @@ pub fn export_with(
         let m = &obj.material;
         let _ = writeln!(
             out,
-            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  pigment {{ rgbt <{}, {}, {}, {}> }}\n  finish {{ ambient {} diffuse {} specular {} roughness {}{} }}{}\n}}",
+            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  {}\n  finish {{ ambient {} diffuse {} specular {} roughness {}{} }}{}\n}}",
             v3(b.lo),
             v3(b.hi),
             num(1e-5 * b.longest()),
             num(max_gradient_with(node, &b, 6, progress)),
-            m.colour[0],
-            m.colour[1],
-            m.colour[2],
-            m.transmit,
+            pigment(m),
             m.ambient,
             m.diffuse,
             m.specular,
@@ -222,6 +219,17 @@ fn light_source(l: &Light, shadows: bool) -> String {
 /// angles come back as written (24, not 24.000000000000004).
 fn degrees(c: f64) -> f64 {
     (c.clamp(-1.0, 1.0).acos().to_degrees() * 1e9).round() / 1e9
+}
+
+/// The pigment: the image map if there is one, else the colour (with `transmit`).
+fn pigment(m: &super::shading::Material) -> String {
+    match &m.image_map {
+        Some(map) => map.pov_pigment(m.transmit),
+        None => format!(
+            "pigment {{ rgbt <{}, {}, {}, {}> }}",
+            m.colour[0], m.colour[1], m.colour[2], m.transmit
+        ),
+    }
 }
 
 /// The finish's reflection: constant for an opaque mirror; for a transmitting material

@@ -437,8 +437,8 @@ impl<'a> RayScene<'a> {
             None => self.scene.background,
             Some(h) => {
                 let material = &self.scene.objects[h.object as usize].material;
-                let albedo = material.albedo(h.uv);
                 let p = add(origin, scale(dir, h.t));
+                let albedo = material.albedo_at(h.uv, p);
                 self.shade(p, dir, h.normal, h.object, albedo, depth, weight, inside)
             }
         }

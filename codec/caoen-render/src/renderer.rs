@@ -630,15 +630,16 @@ fn shade_buffer(
             Some(h) => {
                 let obj = &scene.objects[h.object as usize];
                 let ray = camera.ray((i % w) as f64 + 0.5, (i / w) as f64 + 0.5);
-                let albedo = match &obj.material.texture {
-                    Some((_, wrap)) => obj
-                        .material
-                        .albedo_filtered(h.uv, uv_steps(buf, i, h, *wrap)),
-                    None => obj.material.colour,
-                };
                 // The hit point from its depth along the viewing direction.
                 let along = dot(ray.dir, camera.forward);
                 let t = (h.depth - dot(sub(ray.origin, camera.eye), camera.forward)) / along;
+                let albedo = match (&obj.material.image_map, &obj.material.texture) {
+                    (Some(m), _) => m.colour(ray.at(t)),
+                    (None, Some((_, wrap))) => obj
+                        .material
+                        .albedo_filtered(h.uv, uv_steps(buf, i, h, *wrap)),
+                    (None, None) => obj.material.colour,
+                };
                 rays.shade(
                     ray.at(t),
                     ray.dir,

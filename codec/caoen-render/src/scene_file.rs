@@ -12,6 +12,7 @@ use super::camera::Projection;
 use super::csg::CsgNode;
 use super::error::{RenderError, Result};
 use super::framebuffer::srgb_to_linear;
+use super::image_map::{ImageMap, MapType};
 use super::light_file::FileLight;
 use super::scene::{
     texture_wrap, CameraSpec, Scene, SceneObject, Shape, DEFAULT_MAX_DEPTH, MAX_MAX_DEPTH,
@@ -285,11 +286,88 @@ struct FileMaterial {
     #[serde(default)]
     texture: Option<String>,
     #[serde(default)]
+    image_map: Option<FileImageMap>,
+    #[serde(default)]
     reflect: Option<f64>,
     #[serde(default)]
     transmit: Option<f64>,
     #[serde(default)]
     ior: Option<f64>,
+}
+
+/// `material.image_map`: an image projected onto the object (POV-Ray's `image_map`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileImageMap {
+    image: String,
+    #[serde(default)]
+    map_type: Option<serde_json::Value>,
+    #[serde(default)]
+    interpolate: Option<u32>,
+    #[serde(default)]
+    scale: Option<ScaleSpec>,
+    #[serde(default)]
+    rotate_deg: Option<[f64; 3]>,
+    #[serde(default)]
+    translate: Option<[f64; 3]>,
+}
+
+impl FileImageMap {
+    fn resolve(&self, path: &str, base: &Path, limits: &Limits) -> Result<ImageMap> {
+        let map = match &self.map_type {
+            None => MapType::Planar,
+            Some(v) => MapType::parse(v).ok_or_else(|| {
+                bad(
+                    format!("{path}.map_type"),
+                    format!("{v} is not 0 (planar), 1 (spherical) or 2 (cylindrical)"),
+                )
+            })?,
+        };
+        let bilinear = match self.interpolate {
+            None | Some(2) => true,
+            Some(0) => false,
+            Some(n) => {
+                return Err(bad(
+                    format!("{path}.interpolate"),
+                    format!("{n} is not 0 (nearest texel) or 2 (bilinear)"),
+                ))
+            }
+        };
+        let transform = Affine::from_parts(
+            scale_of(path, &self.scale)?,
+            check_vec(
+                &format!("{path}.rotate_deg"),
+                self.rotate_deg.unwrap_or([0.0; 3]),
+            )?,
+            check_vec(
+                &format!("{path}.translate"),
+                self.translate.unwrap_or([0.0; 3]),
+            )?,
+        );
+        if !(transform.det().abs() > 1e-300) {
+            return Err(bad(
+                path,
+                "the texture transform is singular (a zero scale)",
+            ));
+        }
+        let file = base.join(&self.image);
+        // Absolute, so an exported `.pov` finds the image from any directory.
+        let file = std::fs::canonicalize(&file).map_err(|e| {
+            bad(
+                format!("{path}.image"),
+                format!("cannot open {}: {e}", file.display()),
+            )
+        })?;
+        if file.to_string_lossy().contains('"') {
+            return Err(bad(
+                format!("{path}.image"),
+                "a file name with `\"` cannot be exported",
+            ));
+        }
+        let tex = Texture::load(&file, limits).map_err(field(&format!("{path}.image")))?;
+        ImageMap::new(Arc::new(tex), file, map, bilinear, transform)
+            .ok_or_else(|| bad(path, "the texture transform is singular"))
+    }
 }
 
 #[derive(Deserialize, Default)]
@@ -472,11 +550,22 @@ impl FileObject {
         if self.surface.is_none() && (self.transform.is_some() || self.detail.is_some()) {
             return Err(bad(path, "`transform` and `detail` apply to surfaces (solids take centre, scale, rotate_deg)"));
         }
+        if let Some(im) = &fm.image_map {
+            if fm.colour.is_some() || fm.texture.is_some() {
+                return Err(bad(
+                    format!("{mp}.image_map"),
+                    "gives the colour: leave out `colour` and `texture`",
+                ));
+            }
+            let m = im.resolve(&format!("{mp}.image_map"), base, limits)?;
+            material.image_map = Some(Arc::new(m));
+            material.colour = [1.0; 3];
+        }
         let shape = if let Some(v) = &self.frep {
             if fm.texture.is_some() {
                 return Err(bad(
                     format!("{mp}.texture"),
-                    "F-rep solids have no domain to carry a texture",
+                    "F-rep solids have no domain to carry a texture; project one with `image_map`",
                 ));
             }
             if self.transform.is_some() || self.detail.is_some() {
@@ -544,7 +633,7 @@ impl FileObject {
             if fm.texture.is_some() {
                 return Err(bad(
                     format!("{mp}.texture"),
-                    "solids have no domain to carry a texture",
+                    "solids have no domain to carry a texture; project one with `image_map`",
                 ));
             }
             let mut solids = Vec::new();

@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 
+use super::image_map::ImageMap;
 pub use super::lights::{Incidence, Light, Lighting};
 use super::texture::{Texture, Wrap};
 use caoen_geometry::vector::{add, dot, unit};
@@ -23,6 +24,8 @@ pub struct Material {
     pub shininess: f32,
     /// Texture on the domain, with its wrap mode.
     pub texture: Option<(Arc<Texture>, Wrap)>,
+    /// An image projected onto the object in world space; it gives the base colour.
+    pub image_map: Option<Arc<ImageMap>>,
     /// Mirror reflectance in [0, 1] (times the Fresnel reflectance when transmitting).
     pub reflect: f32,
     /// Share of light passing through the surface, in [0, 1].
@@ -40,6 +43,7 @@ impl Default for Material {
             specular: 0.25,
             shininess: 40.0,
             texture: None,
+            image_map: None,
             reflect: 0.0,
             transmit: 0.0,
             ior: 1.0,
@@ -48,6 +52,15 @@ impl Default for Material {
 }
 
 impl Material {
+    /// The base colour at world point `p` with texture coordinates `uv`: the image
+    /// map's colour there if there is one, else [`Material::albedo`].
+    pub fn albedo_at(&self, uv: [f32; 2], p: [f64; 3]) -> [f32; 3] {
+        match &self.image_map {
+            Some(m) => m.colour(p),
+            None => self.albedo(uv),
+        }
+    }
+
     /// The base colour at texture coordinates `uv` (NaN: untextured point), unfiltered.
     pub fn albedo(&self, uv: [f32; 2]) -> [f32; 3] {
         self.albedo_filtered(uv, [[0.0; 2]; 2])

@@ -112,6 +112,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path, n: u32) -> CliResult {
     }
     save_png(global, &sub, "carving.png", &pair)?;
     write_mirror_glass(global, &sub, n)?;
+    super::textured::write(global, &sub, n)?;
     lithophane(&sub, &global.limits)
 }
 

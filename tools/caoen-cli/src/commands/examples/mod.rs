@@ -11,6 +11,7 @@ mod frep;
 mod lights;
 mod surfaces;
 mod texture;
+mod textured;
 
 pub use texture::volume_slices;
 
