@@ -96,7 +96,7 @@ fn kept_rows(w: usize) -> usize {
 }
 
 /// Bytes a task of the filter off the coded size holds at most for an output `w`
-/// pixels wide: the rows [`Interpolated`] keeps, and a row of terms per offset (12).
+/// pixels wide: the interpolated rows kept, and a row of terms per offset (12).
 pub fn interpolated_bytes(w: usize) -> u64 {
     ((kept_rows(w) * KEPT_OFFSETS + 12) * (w * 4 + 32)) as u64
 }

@@ -78,7 +78,7 @@ fn radial(base: crate::height_map::Base, p: [f64; 3]) -> ([f64; 3], [f64; 3], f6
 }
 
 /// The point a relief reads its base at, `W(p)`, and the Jacobian `dW_i / dp_k`.
-/// Planar: `W_z = z0 + (z - z0) H / (H + depth h)` ([`stretch`]); cylindrical and spherical:
+/// Planar: `W_z = z0 + (z - z0) H / (H + depth h)`; cylindrical and spherical:
 /// `W = p - depth h q / |q|` with `q` the part of `p` off the z axis or all of it.
 pub fn relief_warp(
     map: &HeightMap,
