@@ -15,8 +15,12 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path) -> CliResult {
     let sub = dir.join("conversion");
     std::fs::create_dir_all(&sub).map_err(|e| CliError::io(&sub, e))?;
     // The commands run with --force: replacing their own earlier output is the job.
+    // `deviation` fits its views to --max-work by the field's measured speed; the
+    // example's picture keeps its asked size whatever the machine's load, so its bytes
+    // do not depend on it.
     let forced = GlobalArgs {
         force: true,
+        max_work: Some(global.max_work.unwrap_or(0.0).max(3600.0)),
         ..global.clone()
     };
     // A fixed file name: the model file is named after the mesh.
