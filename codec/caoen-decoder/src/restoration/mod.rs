@@ -27,6 +27,7 @@ mod scaled;
 
 pub use scaled::interpolated_bytes;
 use scaled::{scaled_rows, scaled_rows_kept, Interpolated};
+
 pub mod syntax;
 #[cfg(test)]
 mod tests;
@@ -422,19 +423,32 @@ fn native_classified_rows(
             offset_terms(plane, (w, h), y, d, t);
         }
         let centre = &plane[y * w..(y + 1) * w];
-        for x in 0..w {
-            let c = centre[x];
-            out[j * w + x] = match by_class[classes[j * w + x] as usize] {
-                Some(wt) => {
-                    let mut acc = 0.0f32;
-                    for (k, &wk) in wt.iter().enumerate() {
-                        acc += wk * terms[k * w + x];
-                    }
-                    c + acc
+        let pick = |x: usize| by_class[classes[j * w + x] as usize];
+        filtered_row(centre, &terms, pick, &mut out[j * w..(j + 1) * w]);
+    }
+}
+
+/// One row filtered from its terms (`terms[k * w + x]`, offset `k`'s at pixel `x`):
+/// `c + sum_k wt[k] terms[k]` with the weights `pick(x)` gives, taken in order, or
+/// the centre `c` where a pixel is not filtered.
+fn filtered_row<'a>(
+    centre: &[f32],
+    terms: &[f32],
+    pick: impl Fn(usize) -> Option<&'a [f32]>,
+    out: &mut [f32],
+) {
+    let w = centre.len();
+    for (x, (o, &c)) in out.iter_mut().zip(centre).enumerate() {
+        *o = match pick(x) {
+            Some(wt) => {
+                let mut acc = 0.0f32;
+                for (k, &wk) in wt.iter().enumerate() {
+                    acc += wk * terms[k * w + x];
                 }
-                None => c,
-            };
-        }
+                c + acc
+            }
+            None => c,
+        };
     }
 }
 

@@ -64,19 +64,8 @@ pub(super) fn scaled_rows_kept<'a>(
                 *t = u + d - 2.0 * c;
             }
         }
-        for (x, o) in out[j * w..(j + 1) * w].iter_mut().enumerate() {
-            let c = centre[x];
-            *o = match pick(j * w + x) {
-                Some(wt) => {
-                    let mut acc = 0.0f32;
-                    for (k, &wk) in wt.iter().enumerate() {
-                        acc += wk * terms[k * w + x];
-                    }
-                    c + acc
-                }
-                None => c,
-            };
-        }
+        let row_pick = |x: usize| pick(j * w + x);
+        super::filtered_row(centre, &terms, row_pick, &mut out[j * w..(j + 1) * w]);
     }
 }
 
