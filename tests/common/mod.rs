@@ -189,20 +189,27 @@ pub fn export_pov(model: &Path, pov: &Path, side: u32) {
     ]);
 }
 
+/// POV-Ray rendering `pov` to the PNG `out`, `side` pixels square, antialiasing `aa`,
+/// without a display.
+fn povray_command(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str) -> Command {
+    let mut c = Command::new("povray");
+    c.args([
+        &format!("+I{}", pov.display()),
+        &format!("+W{side}"),
+        &format!("+H{side}"),
+        aa,
+        "-D",
+        "+FN",
+        &format!("+O{}", out.display()),
+    ]);
+    c
+}
+
 /// Renders the POV-Ray scene `pov` to the PNG `out`, `side` pixels square, with the
 /// antialiasing switch `aa` (e.g. `+A0.1`); the seconds POV-Ray took.
 pub fn povray(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str) -> f64 {
     let started = std::time::Instant::now();
-    let o = Command::new("povray")
-        .args([
-            &format!("+I{}", pov.display()),
-            &format!("+W{side}"),
-            &format!("+H{side}"),
-            aa,
-            "-D",
-            "+FN",
-            &format!("+O{}", out.display()),
-        ])
+    let o = povray_command(pov, out, side, aa)
         .output()
         .expect("run povray");
     let seconds = started.elapsed().as_secs_f64();
@@ -249,15 +256,7 @@ fn tempfile_path(what: &str) -> PathBuf {
 
 /// [`povray`] timed by CPU: the seconds of every thread POV-Ray used.
 pub fn povray_cpu(pov: &std::path::Path, out: &std::path::Path, side: u32, aa: &str) -> f64 {
-    let (ok, err, cpu) = run_cpu(Command::new("povray").args([
-        &format!("+I{}", pov.display()),
-        &format!("+W{side}"),
-        &format!("+H{side}"),
-        aa,
-        "-D",
-        "+FN",
-        &format!("+O{}", out.display()),
-    ]));
+    let (ok, err, cpu) = run_cpu(&mut povray_command(pov, out, side, aa));
     assert!(ok, "povray: {err}");
     cpu
 }
