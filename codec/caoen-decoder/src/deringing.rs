@@ -194,6 +194,26 @@ impl Deringing {
             return;
         }
         let dirs = directions(window[0], (w, h), y0, scale, rows.clone());
+        self.filter_rows_directed(window, &dirs, (w, h), y0, (scale, steps), rows, out);
+    }
+
+    /// [`Deringing::filter_rows`] with the directions `dirs` of the blocks of rows
+    /// `rows` known (as [`directions`] gives them): `window` then needs only the rows
+    /// the taps read, `rows` and [`Deringing::tap_rows`] either side.
+    #[allow(clippy::too_many_arguments)]
+    pub fn filter_rows_directed(
+        &self,
+        window: &[&[f32]],
+        dirs: &[u8],
+        (w, h): (usize, usize),
+        y0: usize,
+        (scale, steps): ((usize, usize), [f32; 2]),
+        rows: Range<usize>,
+        out: &mut [&mut [f32]],
+    ) {
+        if rows.is_empty() || w == 0 {
+            return;
+        }
         for (c, (plane, out)) in window.iter().zip(out.iter_mut()).enumerate() {
             self.filter_plane(
                 c,
@@ -201,11 +221,16 @@ impl Deringing {
                 (w, h),
                 y0,
                 (scale, steps),
-                &dirs,
+                dirs,
                 rows.clone(),
                 out,
             );
         }
+    }
+
+    /// Output rows the taps read either side of a row at `scale`: two coded pixels.
+    pub fn tap_rows(scale: (usize, usize)) -> usize {
+        2 * scale.1
     }
 
     /// Rows `rows` of colour plane `c` (its rows from `y0` on in `plane`) into `out`,

@@ -136,7 +136,19 @@ const KEY_POINT_BYTES: u64 = 256;
 /// budget leaves as it makes them ([`LayerBudget`]).
 pub fn decode_memory(
     header: &Header,
+    size: (u32, u32),
+    supersample: Option<u32>,
+    sample_bytes: u64,
+) -> u64 {
+    decode_memory_at(header, size, None, supersample, sample_bytes)
+}
+
+/// [`decode_memory`] of `ow x oh` pixels `spacing` coded pixels apart (a region's
+/// window; `None`, the whole image's).
+pub(super) fn decode_memory_at(
+    header: &Header,
     (ow, oh): (u32, u32),
+    spacing: Option<(f64, f64)>,
     supersample: Option<u32>,
     sample_bytes: u64,
 ) -> u64 {
@@ -162,16 +174,25 @@ pub fn decode_memory(
     };
     let blocks =
         caoen_base::budget::bytes(cols as u64 * rows as u64, planes, Detail::BYTES_PER_BLOCK);
-    // Each task of the restoration off the coded size keeps interpolated rows.
-    let rows_kept = if restored {
-        crate::restoration::interpolated_bytes(ow as usize)
-            .saturating_mul(crate::par::workers() as u64)
+    // The post-filters' tasks hold their windows of rows.
+    let tasks = if restored {
+        let spacing = spacing.unwrap_or((
+            f64::from(header.width) / f64::from(ow),
+            f64::from(header.height) / f64::from(oh),
+        ));
+        let colour = header.layout.colour_channels();
+        let planes = colour + usize::from(header.layout.has_alpha());
+        reconstruct::post_task_bytes(
+            (ow as usize, oh as usize),
+            spacing,
+            (colour, planes, header.layout.channels()),
+        )
     } else {
         0
     };
     keys.saturating_add(caoen_base::budget::bytes(ow.into(), oh.into(), per_pixel))
         .saturating_add(blocks)
-        .saturating_add(rows_kept)
+        .saturating_add(tasks)
         .saturating_add(16 << 20)
 }
 

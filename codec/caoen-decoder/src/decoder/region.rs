@@ -11,7 +11,7 @@
 //! work stays within the output plus those margins (a few coded pixels at the
 //! output's scale), however large the virtual decode.
 
-use super::{decode_memory, output_size};
+use super::{decode_memory_at, output_size};
 use crate::bitstream::Header;
 use crate::deringing;
 use crate::geometry::Frame;
@@ -86,7 +86,7 @@ impl Plan {
                     .min(u64::from(MAX_SIDE) * u64::from(MAX_SIDE)),
             });
         }
-        let need = decode_memory(header, window, None, sample_bytes);
+        let need = decode_memory_at(header, window, Some((x.dx, y.dx)), None, sample_bytes);
         opts.limits.check(
             || {
                 format!(

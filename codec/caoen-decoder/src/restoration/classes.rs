@@ -62,7 +62,7 @@ pub(super) fn classify_sampled(
     ];
     // Off the coded size, rows interpolated at -1, 0 and 1 coded pixel across, kept
     // while the next rows' differences need them.
-    let mut rows_at = (!native).then(|| Interpolated::new(w, sx, -1..=1, 1.0 / sy));
+    let mut rows_at = (!native).then(|| Interpolated::new((w, h), sx, -1..=1, 1.0 / sy));
     let mut diffs = |y: usize| -> [Vec<f32>; 4] {
         let mut d: [Vec<f32>; 4] = std::array::from_fn(|_| vec![0.0f32; w]);
         if let Some((mx, my)) = whole {

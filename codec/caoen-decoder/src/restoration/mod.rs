@@ -25,8 +25,7 @@ mod classes;
 pub mod colour_map;
 mod scaled;
 
-pub use scaled::interpolated_bytes;
-use scaled::{scaled_rows, scaled_rows_kept, Interpolated};
+use scaled::{interpolated_bytes, scaled_rows, KEPT_OFFSETS};
 
 pub mod syntax;
 #[cfg(test)]
@@ -250,16 +249,24 @@ impl Restoration {
     }
 }
 
+/// Bytes the filters of one range of rows hold at most beside their input and output,
+/// on planes of `w x h` samples `spacing` coded pixels apart: a row of terms per
+/// offset, and the rows interpolated off the coded size, the classifier's (with its
+/// rows of differences) or, after it, the filter's.
+pub fn filter_bytes((w, h): (usize, usize), (_, sy): (f64, f64)) -> u64 {
+    let row = w as u64 * 4 + 32;
+    let filter = interpolated_bytes(w, h, RADIUS as f64 / sy, KEPT_OFFSETS);
+    let classifier =
+        interpolated_bytes(w, h, 1.0 / sy, 3) + ((2 * WINDOW as u64 + 1) * 4 + 6) * row;
+    filter.max(classifier).saturating_add(14 * row)
+}
+
 /// Taps as weights.
 fn weights(taps: &[i32]) -> Vec<f32> {
     taps.iter()
         .map(|&t| t as f32 / (1u32 << TAP_LOG2) as f32)
         .collect()
 }
-
-/// Rows the classified filter handles at once: its class and difference buffers are
-/// this many rows and the window's, whatever the band.
-const CLASS_CHUNK: usize = 32;
 
 /// The offsets of `shape` in output pixels, if every one is a whole number of them:
 /// read directly, their samples are the interpolation's values exactly.
@@ -298,15 +305,8 @@ fn filter_rows(
         if let Some(shape) = whole {
             native_rows(plane, (w, h), shape, &wt, rows, out);
         } else {
-            scaled_rows(
-                plane,
-                (w, h),
-                spacing,
-                shape,
-                &|_| Some(wt.as_slice()),
-                rows,
-                out,
-            );
+            let every = Weights::every(&wt);
+            scaled_rows(plane, (w, h), spacing, shape, &every, rows, out);
         }
         return;
     };
@@ -319,32 +319,39 @@ fn filter_rows(
                 .flatten()
         })
         .collect();
-    // Kept from chunk to chunk: the rows a chunk reads past its end, the next reads.
-    let mut rows_at = whole
-        .is_none()
-        .then(|| Interpolated::for_shape(w, spacing, shape));
+    let classes = |r: std::ops::Range<usize>| match classes_of {
+        (_, Some(known)) => {
+            std::borrow::Cow::Borrowed(&known[(r.start - rows.start) * w..(r.end - rows.start) * w])
+        }
+        (luma, None) => std::borrow::Cow::Owned(classify_rows(luma, (w, h), spacing, r)),
+    };
+    let Some(offsets) = whole else {
+        // The classes of every row at once: off the coded size the classifier
+        // interpolates the rows it reads, once for the whole range.
+        let classes = classes(rows.clone());
+        let each = Weights::Each(|i: usize| by_class[classes[i] as usize]);
+        return scaled_rows(plane, (w, h), spacing, shape, &each, rows, out);
+    };
+    // At the coded size, a few rows at a time, while their samples are in cache.
     let mut start = rows.start;
     while start < rows.end {
         let end = (start + CLASS_CHUNK).min(rows.end);
-        let classes = match classes_of {
-            (_, Some(known)) => {
-                std::borrow::Cow::Borrowed(&known[(start - rows.start) * w..(end - rows.start) * w])
-            }
-            (luma, None) => {
-                std::borrow::Cow::Owned(classify_rows(luma, (w, h), spacing, start..end))
-            }
-        };
-        let pick = |i: usize| by_class[classes[i] as usize];
         let o = &mut out[(start - rows.start) * w..(end - rows.start) * w];
-        if let Some(shape) = whole {
-            native_classified_rows(plane, (w, h), shape, &classes, &by_class, start..end, o);
-        } else {
-            let rows_at = rows_at.as_mut().expect("made off the coded size");
-            scaled_rows_kept(plane, (w, h), spacing, shape, &pick, start..end, o, rows_at);
-        }
+        native_classified_rows(
+            plane,
+            (w, h),
+            offsets,
+            &classes(start..end),
+            &by_class,
+            start..end,
+            o,
+        );
         start = end;
     }
 }
+
+/// Rows the classified filter at the coded size handles at once.
+const CLASS_CHUNK: usize = 32;
 
 /// Row `y`'s terms `f(p + d) + f(p - d) - 2 f(p)` for offset `(dx, dy)` into `t`,
 /// positions clamped to the plane.
@@ -418,37 +425,76 @@ fn native_classified_rows(
     out: &mut [f32],
 ) {
     let mut terms = vec![0.0f32; shape.len() * w];
+    let weights = Weights::Each(|i: usize| by_class[classes[i] as usize]);
     for (j, y) in rows.clone().enumerate() {
         for (&d, t) in shape.iter().zip(terms.chunks_exact_mut(w)) {
             offset_terms(plane, (w, h), y, d, t);
         }
         let centre = &plane[y * w..(y + 1) * w];
-        let pick = |x: usize| by_class[classes[j * w + x] as usize];
-        filtered_row(centre, &terms, pick, &mut out[j * w..(j + 1) * w]);
+        let o = &mut out[j * w..(j + 1) * w];
+        filtered_row(centre, &terms, (&weights, j), o);
     }
 }
 
-/// One row filtered from its terms (`terms[k * w + x]`, offset `k`'s at pixel `x`):
-/// `c + sum_k wt[k] terms[k]` with the weights `pick(x)` gives, taken in order, or
-/// the centre `c` where a pixel is not filtered.
-fn filtered_row<'a>(
+/// The weights of a row's pixels: one filter's for every pixel, or each pixel's own
+/// (by its class; `None` where it is not filtered).
+pub(super) enum Weights<'a, F: Fn(usize) -> Option<&'a [f32]>> {
+    /// The same weights for every pixel.
+    Every(&'a [f32]),
+    /// Pixel `i`'s weights (`i` counted from the first row's first pixel).
+    Each(F),
+}
+
+impl<'a> Weights<'a, fn(usize) -> Option<&'a [f32]>> {
+    /// The same weights `wt` for every pixel.
+    pub(super) fn every(wt: &'a [f32]) -> Self {
+        Weights::Every(wt)
+    }
+}
+
+/// Row `j` (of the rows `weights` counts from) filtered from its terms
+/// (`terms[k * w + x]`, offset `k`'s at pixel `x`): `c + sum_k wt[k] terms[k]` with
+/// the pixel's weights taken in order, or the centre `c` where a pixel is not
+/// filtered. With one filter for every pixel, each offset's products are added across
+/// the row (in the same order for each pixel, so the same bits), vectorised for the
+/// widest unit `pulp` finds.
+fn filtered_row<'a, F: Fn(usize) -> Option<&'a [f32]>>(
     centre: &[f32],
     terms: &[f32],
-    pick: impl Fn(usize) -> Option<&'a [f32]>,
+    (weights, j): (&Weights<'a, F>, usize),
     out: &mut [f32],
 ) {
     let w = centre.len();
-    for (x, (o, &c)) in out.iter_mut().zip(centre).enumerate() {
-        *o = match pick(x) {
-            Some(wt) => {
-                let mut acc = 0.0f32;
-                for (k, &wk) in wt.iter().enumerate() {
-                    acc += wk * terms[k * w + x];
+    let arch = pulp::Arch::new();
+    match weights {
+        Weights::Every(wt) => arch.dispatch(|| {
+            out.fill(0.0);
+            for (&wk, t) in wt.iter().zip(terms.chunks_exact(w)) {
+                for (o, &t) in out.iter_mut().zip(t) {
+                    *o += wk * t;
                 }
-                c + acc
             }
-            None => c,
-        };
+            for (o, &c) in out.iter_mut().zip(centre) {
+                *o += c;
+            }
+        }),
+        // Vectorised across the row, each pixel's weights would first be gathered
+        // into rows: as slow as the sums themselves, which out-of-order execution
+        // already overlaps from pixel to pixel.
+        Weights::Each(pick) => {
+            for (x, (o, &c)) in out.iter_mut().zip(centre).enumerate() {
+                *o = match pick(j * w + x) {
+                    Some(wt) => {
+                        let mut acc = 0.0f32;
+                        for (k, &wk) in wt.iter().enumerate() {
+                            acc += wk * terms[k * w + x];
+                        }
+                        c + acc
+                    }
+                    None => c,
+                };
+            }
+        }
     }
 }
 

@@ -2,8 +2,7 @@
 //! pixels, sampled by bilinear interpolation between pixel centres.
 
 /// The filter at another size: offsets of `d / spacing` output pixels, sampled by
-/// bilinear interpolation, positions clamped to the image; `pick(i)` gives the
-/// weights of pixel `i` of the rows, if it is filtered.
+/// bilinear interpolation, positions clamped to the image, with the pixels' `weights`.
 ///
 /// Offset by offset along whole rows rather than pixel by pixel. A bilinear sample is
 /// the vertical blend of two rows each interpolated along x, and a row interpolated at
@@ -11,45 +10,21 @@
 /// the next ones: [`Interpolated`] keeps them, so each is made once rather than twice
 /// per offset and row. Each pixel's sum takes its terms in the same order with the same
 /// operations as [`scaled_rows_reference`], so the two agree bit for bit.
-pub(super) fn scaled_rows<'a>(
+pub(super) fn scaled_rows<'a, F: Fn(usize) -> Option<&'a [f32]>>(
     plane: &[f32],
     (w, h): (usize, usize),
     (sx, sy): (f64, f64),
     shape: &[(i32, i32)],
-    pick: &dyn Fn(usize) -> Option<&'a [f32]>,
+    weights: &super::Weights<'a, F>,
     rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
-    let mut rows_at = Interpolated::for_shape(w, (sx, sy), shape);
-    scaled_rows_kept(
-        plane,
-        (w, h),
-        (sx, sy),
-        shape,
-        pick,
-        rows,
-        out,
-        &mut rows_at,
-    );
-}
-
-/// [`scaled_rows`] with the interpolated rows kept from the rows before
-/// (`rows_at`, from [`Interpolated::for_shape`] of the same plane, size and shape).
-#[allow(clippy::too_many_arguments)]
-pub(super) fn scaled_rows_kept<'a>(
-    plane: &[f32],
-    (w, h): (usize, usize),
-    (_, sy): (f64, f64),
-    shape: &[(i32, i32)],
-    pick: &dyn Fn(usize) -> Option<&'a [f32]>,
-    rows: std::ops::Range<usize>,
-    out: &mut [f32],
-    rows_at: &mut Interpolated,
-) {
+    let mut rows_at = Interpolated::for_shape((w, h), (sx, sy), shape);
     let offsets: Vec<(i32, f64)> = shape.iter().map(|&(dx, dy)| (dx, dy as f64 / sy)).collect();
     // Each offset's terms `f(p + d) + f(p - d) - 2 f(p)` along the row, then each
     // pixel's weighted sum of them, as at the coded size.
     let mut terms = vec![0.0f32; offsets.len() * w];
+    let arch = pulp::Arch::new();
     for (j, y) in rows.enumerate() {
         let py = y as f64;
         let centre = &plane[y * w..(y + 1) * w];
@@ -58,50 +33,47 @@ pub(super) fn scaled_rows_kept<'a>(
             let (d0, d1, fd) = lerp_taps(py - oy, h);
             let [ua, ub, da, db] = rows_at.rows(plane, [(dx, u0), (dx, u1), (-dx, d0), (-dx, d1)]);
             let rows = ua.iter().zip(ub).zip(da.iter().zip(db));
-            for ((t, &c), ((&ua, &ub), (&da, &db))) in t.iter_mut().zip(centre).zip(rows) {
-                let u = ua * (1.0 - fu) + ub * fu;
-                let d = da * (1.0 - fd) + db * fd;
-                *t = u + d - 2.0 * c;
-            }
+            arch.dispatch(|| {
+                for ((t, &c), ((&ua, &ub), (&da, &db))) in t.iter_mut().zip(centre).zip(rows) {
+                    let u = ua * (1.0 - fu) + ub * fu;
+                    let d = da * (1.0 - fd) + db * fd;
+                    *t = u + d - 2.0 * c;
+                }
+            });
         }
-        let row_pick = |x: usize| pick(j * w + x);
-        super::filtered_row(centre, &terms, row_pick, &mut out[j * w..(j + 1) * w]);
+        let o = &mut out[j * w..(j + 1) * w];
+        super::filtered_row(centre, &terms, (weights, j), o);
     }
 }
-
-/// Fewest rows [`Interpolated`] may keep of each column offset, whatever the width.
-const MIN_KEPT_ROWS: usize = 16;
-
-/// Bytes [`Interpolated`] may keep beyond [`MIN_KEPT_ROWS`] rows per offset: the rows
-/// a near zoom reads (twice the filter's reach in output rows) at common widths.
-const KEPT_BYTES: usize = 4 << 20;
 
 /// Most column offsets [`Interpolated`] keeps rows of: `-3..=3` coded pixels.
 pub(super) const KEPT_OFFSETS: usize = 7;
 
-/// Most rows [`Interpolated`] keeps of each column offset for rows `w` long.
-fn kept_rows(w: usize) -> usize {
-    (KEPT_BYTES / (KEPT_OFFSETS * 4 * w.max(1))).max(MIN_KEPT_ROWS)
+/// Rows [`Interpolated`] keeps of each column offset for output rows that read `reach`
+/// output rows up and down, in an image `h` rows high: every row an output row reads
+/// (`floor(y - reach) ..= floor(y + reach) + 1`) and one more, so that a row is made
+/// once on a pass down the image; never more than the image's rows.
+fn kept_rows(reach: f64, h: usize) -> usize {
+    let span = 2 * (reach.max(0.0).ceil().min(h as f64) as usize) + 4;
+    span.min(h.max(1))
 }
 
-/// Bytes a task of the filter off the coded size holds at most for an output `w`
-/// pixels wide: the interpolated rows kept, and a row of terms per offset (12).
-pub fn interpolated_bytes(w: usize) -> u64 {
-    ((kept_rows(w) * KEPT_OFFSETS + 12) * (w * 4 + 32)) as u64
+/// Bytes an [`Interpolated`] of `offsets` column offsets holds for rows `w` long in an
+/// image `h` rows high, whose output rows read `reach` output rows up and down.
+pub fn interpolated_bytes(w: usize, h: usize, reach: f64, offsets: usize) -> u64 {
+    (kept_rows(reach, h) as u64 * offsets as u64 + 1).saturating_mul(w as u64 * 4 + 32)
 }
 
 /// Rows of a plane interpolated along x at whole coded-pixel column offsets `dx`
 /// (`dx / sx` output pixels): row `r` at `dx` is the upper (or lower) half of every
 /// bilinear sample of that column offset between rows `r` and `r + 1`, made once while
 /// the rows near the current one need it: an output row's offsets read rows up to the
-/// filter's reach away, which the output rows within that reach read again. Each
-/// offset keeps up to [`kept_rows`] rows, the least recently read giving way: all the
-/// rows read within twice the reach where they fit, which is every scale but the
-/// nearest zooms of the widest images.
+/// filter's reach away, which the output rows within that reach read again. Row `r`
+/// lives in slot `r % slots` of a ring of [`kept_rows`] slots: on a pass down the
+/// image a row gives way only once no later output row reads it, and the rows of one
+/// call never share a slot.
 pub(super) struct Interpolated {
     w: usize,
-    /// Calls so far: when each slot was last read.
-    now: u64,
     by_dx: Vec<Kept>,
 }
 
@@ -109,81 +81,79 @@ pub(super) struct Interpolated {
 struct Kept {
     dx: i32,
     taps: Table,
-    /// The row each slot holds (`usize::MAX` none) and when it was last read.
-    rows: Vec<(usize, u64)>,
+    /// The row each slot holds (`usize::MAX` none).
+    rows: Vec<usize>,
     samples: Vec<f32>,
 }
 
 impl Interpolated {
-    /// The rows the filter of `shape` reads at spacing `(sx, sy)` on rows `w` long.
-    pub(super) fn for_shape(w: usize, (sx, sy): (f64, f64), shape: &[(i32, i32)]) -> Self {
+    /// The rows the filter of `shape` reads at spacing `(sx, sy)` on rows `w` long of
+    /// an image `h` rows high.
+    pub(super) fn for_shape(
+        (w, h): (usize, usize),
+        (sx, sy): (f64, f64),
+        shape: &[(i32, i32)],
+    ) -> Self {
         let reach = shape
             .iter()
             .map(|&(_, dy)| dy.unsigned_abs())
             .max()
             .unwrap_or(0);
         let dxs = shape.iter().flat_map(|&(dx, _)| [dx, -dx]);
-        Interpolated::new(w, sx, dxs, f64::from(reach) / sy)
+        Interpolated::new((w, h), sx, dxs, f64::from(reach) / sy)
     }
 
-    /// Rows `w` long at the column offsets `dxs` (repeats ignored), spacing `sx`,
-    /// for output rows that read `reach` output pixels up and down.
-    pub(super) fn new(w: usize, sx: f64, dxs: impl Iterator<Item = i32>, reach: f64) -> Self {
+    /// Rows `w` long of an image `h` rows high at the column offsets `dxs` (repeats
+    /// ignored), spacing `sx`, for output rows that read `reach` output pixels up and
+    /// down.
+    pub(super) fn new(
+        (w, h): (usize, usize),
+        sx: f64,
+        dxs: impl Iterator<Item = i32>,
+        reach: f64,
+    ) -> Self {
         let mut keys: Vec<i32> = dxs.collect();
         keys.sort_unstable();
         keys.dedup();
         debug_assert!(keys.len() <= KEPT_OFFSETS);
-        // Output row y reads rows floor(y - reach) ..= floor(y + reach) + 1, and the
-        // rows within the reach read them again: 2 reach + 2 rows back and forth; at
-        // least the four of one call.
-        let most = kept_rows(w);
-        let window = 4 * (reach.ceil().min(most as f64) as usize) + 4;
-        let slots = window.clamp(4, most);
+        let slots = kept_rows(reach, h);
         let by_dx = keys
             .into_iter()
             .map(|dx| Kept {
                 dx,
                 taps: table(w, dx as f64 / sx),
-                rows: vec![(usize::MAX, 0); slots],
+                rows: vec![usize::MAX; slots],
                 samples: vec![0.0f32; slots * w],
             })
             .collect();
-        Interpolated { w, now: 0, by_dx }
+        Interpolated { w, by_dx }
     }
 
     /// Rows `r` of `plane` interpolated at column offsets `dx` (each one of those
-    /// given to [`Interpolated::new`]).
+    /// given to [`Interpolated::new`]); the rows are within the reach given there of
+    /// one output row.
     pub(super) fn rows(&mut self, plane: &[f32], wants: [(i32, usize); 4]) -> [&[f32]; 4] {
-        self.now += 1;
-        let (w, now) = (self.w, self.now);
+        let w = self.w;
         let kept = |by_dx: &[Kept], dx: i32| {
             by_dx
                 .iter()
                 .position(|k| k.dx == dx)
                 .expect("a column offset given to `new`")
         };
-        let mut slot = [0usize; 4];
-        for (&(dx, r), s) in wants.iter().zip(&mut slot) {
+        let mut at = [(0usize, 0usize); 4];
+        for (&(dx, r), a) in wants.iter().zip(&mut at) {
             let i = kept(&self.by_dx, dx);
             let k = &mut self.by_dx[i];
-            *s = match k.rows.iter().position(|&(held, _)| held == r) {
-                Some(s) => s,
-                None => {
-                    // The least recently read; never one read in this call (stamped
-                    // `now`), as there are at least four slots.
-                    let s = (0..k.rows.len())
-                        .min_by_key(|&s| k.rows[s].1)
-                        .expect("slots");
-                    interpolate_row(&plane[r * w..][..w], &k.taps, &mut k.samples[s * w..][..w]);
-                    k.rows[s].0 = r;
-                    s
-                }
-            };
-            k.rows[*s].1 = now;
+            let s = r % k.rows.len();
+            if k.rows[s] != r {
+                interpolate_row(&plane[r * w..][..w], &k.taps, &mut k.samples[s * w..][..w]);
+                k.rows[s] = r;
+            }
+            *a = (i, s);
         }
-        std::array::from_fn(|i| {
-            let k = &self.by_dx[kept(&self.by_dx, wants[i].0)];
-            &k.samples[slot[i] * w..][..w]
+        std::array::from_fn(|j| {
+            let (i, s) = at[j];
+            &self.by_dx[i].samples[s * w..][..w]
         })
     }
 }
@@ -205,15 +175,21 @@ fn offset_tables(
     (offsets, plus, minus)
 }
 
-/// A [`lerp_table`] and the columns `lo..hi` where it reads `x + d` and `x + d + 1`:
-/// `(lo, hi, d)`, from [`run_of`].
-pub(super) type Table = (Vec<(u32, u32, f32)>, (usize, usize, isize));
+/// A [`lerp_table`], the columns `lo..hi` where it reads `x + d` and `x + d + 1`
+/// (`(lo, hi, d)`, from [`run_of`]) and those columns' weights of `x + d + 1` apart,
+/// so that the run reads them as a plain slice.
+pub(super) struct Table {
+    taps: Vec<(u32, u32, f32)>,
+    run: (usize, usize, isize),
+    weights: Vec<f32>,
+}
 
 /// The [`Table`] of a row of `n` samples at `x + offset`.
 pub(super) fn table(n: usize, offset: f64) -> Table {
-    let t = lerp_table(n, offset);
-    let run = run_of(&t);
-    (t, run)
+    let taps = lerp_table(n, offset);
+    let run = run_of(&taps);
+    let weights = taps[run.0..run.1].iter().map(|t| t.2).collect();
+    Table { taps, run, weights }
 }
 
 /// The run of columns `lo..hi` around the middle where table `t` reads `x + d` and
@@ -247,24 +223,27 @@ pub(super) fn run_of(t: &[(u32, u32, f32)]) -> (usize, usize, isize) {
 /// `row` interpolated along x by table `t`: each value is the upper half of
 /// [`lerp_at`], `row[x0] * (1 - fx) + row[x1] * fx`; the run where the taps are
 /// `x + d`, `x + d + 1` as shifted slices (vectorised).
-fn interpolate_row(row: &[f32], (t, (lo, hi, d)): &Table, out: &mut [f32]) {
-    for x in (0..*lo).chain(*hi..row.len()) {
-        let (a, b, f) = tap(t[x]);
+fn interpolate_row(row: &[f32], table: &Table, out: &mut [f32]) {
+    let (lo, hi, d) = table.run;
+    for x in (0..lo).chain(hi..row.len()) {
+        let (a, b, f) = tap(table.taps[x]);
         out[x] = row[a] * (1.0 - f) + row[b] * f;
     }
     if lo >= hi {
         return;
     }
-    let s = (*lo as isize + d) as usize;
+    let s = (lo as isize + d) as usize;
     let n = hi - lo;
     let (a, b) = (&row[s..s + n], &row[s + 1..s + n + 1]);
-    for ((o, &(_, _, f)), (&a, &b)) in out[*lo..*hi]
-        .iter_mut()
-        .zip(&t[*lo..*hi])
-        .zip(a.iter().zip(b))
-    {
-        *o = a * (1.0 - f) + b * f;
-    }
+    pulp::Arch::new().dispatch(|| {
+        for ((o, &f), (&a, &b)) in out[lo..hi]
+            .iter_mut()
+            .zip(&table.weights)
+            .zip(a.iter().zip(b))
+        {
+            *o = a * (1.0 - f) + b * f;
+        }
+    });
 }
 
 /// One axis of the bilinear interpolation of `f` between output pixel centres at `v`
@@ -337,8 +316,8 @@ pub(super) fn scaled_rows_reference<'a>(
             for (k, &wk) in wt.iter().enumerate() {
                 let (up, down) = ys[k];
                 acc += wk
-                    * (lerp_at(plane, w, tap(plus[k].0[x]), up)
-                        + lerp_at(plane, w, tap(minus[k].0[x]), down)
+                    * (lerp_at(plane, w, tap(plus[k].taps[x]), up)
+                        + lerp_at(plane, w, tap(minus[k].taps[x]), down)
                         - 2.0 * c);
             }
             out[j * w + x] = c + acc;

@@ -122,7 +122,7 @@ fn scaled_sampling_at_unit_spacing_equals_the_native_filter() {
         (w, h),
         (1.0, 1.0),
         &LUMA_SHAPE,
-        &|_| Some(wt.as_slice()),
+        &Weights::every(&wt),
         0..h,
         &mut scaled,
     );
@@ -174,7 +174,7 @@ fn whole_pixel_offsets_read_directly_equal_the_interpolated_samples() {
                 (w, h),
                 spacing,
                 &LUMA_SHAPE,
-                &pick,
+                &Weights::Each(pick),
                 0..h,
                 &mut lerped,
             );
@@ -470,18 +470,35 @@ fn the_row_wise_scaled_filter_equals_the_pixel_wise_reference_bit_for_bit() {
                 (&CHROMA_SHAPE[..], vec![Some(six.as_slice()), None]),
             ] {
                 let pick = |i: usize| class_weights[(i * 7 + i / 3) % class_weights.len()];
-                for rows in [0..h, h / 2..h] {
+                let first = class_weights[0].expect("weights");
+                // Each pixel's weights, and one filter for every pixel.
+                for (rows, every) in [(0..h, false), (h / 2..h, false), (0..h, true)] {
                     let n = rows.len() * w;
                     let (mut fast, mut reference) = (vec![0.0; n], vec![0.0; n]);
-                    scaled_rows(
-                        &plane,
-                        (w, h),
-                        spacing,
-                        shape,
-                        &pick,
-                        rows.clone(),
-                        &mut fast,
-                    );
+                    let pick = |i: usize| if every { Some(first) } else { pick(i) };
+                    if every {
+                        let weights = Weights::every(first);
+                        scaled_rows(
+                            &plane,
+                            (w, h),
+                            spacing,
+                            shape,
+                            &weights,
+                            rows.clone(),
+                            &mut fast,
+                        );
+                    } else {
+                        let weights = Weights::Each(pick);
+                        scaled_rows(
+                            &plane,
+                            (w, h),
+                            spacing,
+                            shape,
+                            &weights,
+                            rows.clone(),
+                            &mut fast,
+                        );
+                    }
                     scaled_rows_reference(
                         &plane,
                         (w, h),
