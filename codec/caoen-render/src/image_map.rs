@@ -177,7 +177,7 @@ impl ImageMap {
 }
 
 /// POV-Ray's image format keyword of `file` by its extension (PNG otherwise).
-fn pov_format(file: &std::path::Path) -> &'static str {
+pub(crate) fn pov_format(file: &std::path::Path) -> &'static str {
     let ext = file
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())

@@ -15,6 +15,7 @@ mod light_file;
 pub mod lights;
 pub mod mesh;
 pub mod pov;
+pub mod pov_mesh;
 pub mod raster;
 pub mod rays;
 pub mod renderer;
