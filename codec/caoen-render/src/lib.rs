@@ -14,6 +14,7 @@ pub mod image_map;
 mod light_file;
 pub mod lights;
 pub mod mesh;
+pub mod pattern;
 pub mod pov;
 pub mod pov_mesh;
 pub mod raster;

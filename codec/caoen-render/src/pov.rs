@@ -272,8 +272,12 @@ fn finish(m: &super::shading::Material) -> String {
     )
 }
 
-/// The pigment: the image map if there is one, else the colour (with `transmit`).
+/// The pigment: the checker or the image map if there is one, else the colour (with
+/// `transmit`).
 pub(crate) fn pigment(m: &super::shading::Material) -> String {
+    if let Some(c) = &m.checker {
+        return c.pov_pigment(m.transmit);
+    }
     match &m.image_map {
         Some(map) => map.pov_pigment(m.transmit),
         None => format!(

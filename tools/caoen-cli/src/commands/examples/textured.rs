@@ -50,9 +50,39 @@ pub fn textured_scene() -> serde_json::Value {
     })
 }
 
-/// Writes `dir/textured-surface.scene.json` (its image is `frep/globe.png`).
+/// Writes `dir/textured-surface.scene.json` (its image is `frep/globe.png`) and
+/// `dir/checker.scene.json`.
 pub(super) fn write_surface(dir: &Path) -> CliResult {
-    save_json(dir, "textured-surface.scene.json", &surface_scene())
+    save_json(dir, "textured-surface.scene.json", &surface_scene())?;
+    save_json(dir, "checker.scene.json", &checker_scene())
+}
+
+/// The scene of `examples/checker.scene.json`: POV-Ray's `checker` pigment on a slab,
+/// a ball and a Cao En solid, each with its own cube size (and the ball's turned).
+pub fn checker_scene() -> serde_json::Value {
+    serde_json::json!({
+        "format": "caoen-scene/1",
+        "name": "checker pigments",
+        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [0.35, -1.6, 0.9]},
+        "background": [0.75, 0.8, 0.88],
+        "ambient": [0.25, 0.25, 0.25],
+        "lights": [
+            {"direction": [-0.8, -1.0, 1.2], "colour": [1.0, 0.97, 0.92], "intensity": 1.0},
+            {"direction": [1.0, -0.4, 0.6], "colour": [0.75, 0.82, 1.0], "intensity": 0.3}
+        ],
+        "objects": [
+            {"name": "slab", "frep": {"box": {"centre": [0.0, 0.1, -0.55], "size": [2.4, 1.8, 0.1]}},
+             "material": {"checker": {"colours": [[0.85, 0.82, 0.75], [0.3, 0.32, 0.38]], "scale": 0.3},
+                          "specular": 0.0}},
+            {"name": "ball", "frep": {"sphere": {"centre": [-0.45, 0.25, -0.15], "radius": 0.35}},
+             "material": {"checker": {"colours": [[0.9, 0.2, 0.15], [0.95, 0.92, 0.85]], "scale": 0.14,
+                          "rotate_deg": [0.0, 0.0, 30.0]}, "specular": 0.3}},
+            {"name": "Cao En solid", "frep": {"cao_en_solid": {"centre": [0.45, -0.1, -0.2], "level": 2.0,
+                "polyhedron": "dodecahedron", "q": 12.0, "radius": 0.3}},
+             "material": {"checker": {"colours": [[0.2, 0.5, 0.3], [0.9, 0.85, 0.3]], "scale": 0.1},
+                          "specular": 0.4, "shininess": 60}}
+        ]
+    })
 }
 
 /// The scene of `examples/textured-surface.scene.json`: the blob (sphere domain) and
