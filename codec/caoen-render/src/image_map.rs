@@ -156,28 +156,33 @@ impl ImageMap {
             let _ = write!(out, " transmit all {transmit}");
         }
         out.push_str(" }");
-        if !self.transform.is_identity() {
-            // The same map with y and z swapped on both sides.
-            let s = [0, 2, 1];
-            let m = &self.transform.m;
-            let mut cols = Vec::with_capacity(12);
-            for c in 0..3 {
-                for r in 0..3 {
-                    cols.push(caoen_frep::pov::num(m[s[r]][s[c]]));
-                }
-            }
-            for k in s {
-                cols.push(caoen_frep::pov::num(self.transform.t[k]));
-            }
-            let _ = write!(out, " matrix <{}>", cols.join(", "));
-        }
+        out.push_str(&pov_matrix(&self.transform));
         out.push_str(" }");
         out
     }
 }
 
+/// A texture transform as POV-Ray's ` matrix <...>`: the same map with y and z
+/// swapped on both sides; nothing for the identity.
+pub(crate) fn pov_matrix(t: &Affine) -> String {
+    if t.is_identity() {
+        return String::new();
+    }
+    let s = [0, 2, 1];
+    let mut cols = Vec::with_capacity(12);
+    for c in 0..3 {
+        for r in 0..3 {
+            cols.push(caoen_frep::pov::num(t.m[s[r]][s[c]]));
+        }
+    }
+    for k in s {
+        cols.push(caoen_frep::pov::num(t.t[k]));
+    }
+    format!(" matrix <{}>", cols.join(", "))
+}
+
 /// POV-Ray's image format keyword of `file` by its extension (PNG otherwise).
-fn pov_format(file: &std::path::Path) -> &'static str {
+pub(crate) fn pov_format(file: &std::path::Path) -> &'static str {
     let ext = file
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())

@@ -2,11 +2,13 @@
 //!
 //! Every F-rep object is an `isosurface` of the negated model function (POV-Ray's
 //! inside is below the threshold, F-rep's is `f >= 0`), its function declared by
-//! `frep::pov`. The camera is caoen's resolved camera (same eye, direction, up and
-//! field of view), the lights are POV-Ray's light sources of the same kind (directional
-//! lights as parallel ones), shadows as the scene has them. Materials map to POV-Ray's
-//! finish, pigment transmit and interior so that its reflection, refraction and
-//! shadows are `render::rays`'s.
+//! `frep::pov`; every Cao En surface a `mesh2` with the network's exact normals and its
+//! texture by `uv_mapping` (`pov_mesh`). The camera is caoen's resolved camera (same
+//! eye, direction, up and field of view), the lights are POV-Ray's light sources of
+//! the same kind (directional lights as parallel ones), shadows as the scene has them.
+//! Materials map to POV-Ray's finish, pigment transmit and interior so that its
+//! reflection, refraction and shadows are `render::rays`'s. Convex solids and their
+//! CSG are not exported.
 
 use std::fmt::Write as _;
 
@@ -20,8 +22,8 @@ use caoen_frep::pov::{
 /// Why a scene cannot be exported.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum PovError {
-    /// An object that is not an F-rep solid.
-    #[error("object {index} (`{name}`) is not an F-rep solid; only F-rep objects are exported")]
+    /// A convex solid or a CSG expression of them.
+    #[error("object {index} (`{name}`) is a convex solid or CSG of them, which is not exported (F-rep objects and Cao En surfaces are); write it as an F-rep model (`cao_en_solid`, `union`, ...)")]
     NotFrep {
         /// The object's position in the scene.
         index: usize,
@@ -38,19 +40,37 @@ pub enum PovError {
         /// What cannot be drawn.
         why: Unexportable,
     },
+    /// A Cao En surface that cannot be written as a mesh.
+    #[error("object {index} (`{name}`), a Cao En surface: {why}")]
+    Surface {
+        /// The object's position in the scene.
+        index: usize,
+        /// The object's name.
+        name: String,
+        /// Why.
+        why: String,
+    },
 }
 
-/// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface;
-/// surfaces and convex solids are not exported (an error names the first).
+/// The POV-Ray scene of `scene` seen by `camera`: every F-rep object as an isosurface,
+/// every Cao En surface as a mesh; convex solids are not exported (an error names the
+/// first).
 pub fn export(scene: &Scene, camera: &Camera) -> Result<String, PovError> {
-    export_with(scene, camera, &|_, _| {})
+    export_with(
+        scene,
+        camera,
+        &caoen_base::budget::Limits::default(),
+        &|_, _| {},
+    )
 }
 
-/// [`export`], calling `progress(done, total)` while the objects' `max_gradient` is
-/// measured (most of the time a large model takes).
+/// [`export`] with the surfaces' meshes made within `limits`, calling
+/// `progress(done, total)` while the objects' `max_gradient` is measured (most of the
+/// time a large model takes).
 pub fn export_with(
     scene: &Scene,
     camera: &Camera,
+    limits: &caoen_base::budget::Limits,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<String, PovError> {
     let mut out = String::new();
@@ -107,11 +127,34 @@ pub fn export_with(
     out.push_str(R_FUNCTIONS);
     let mut next = 0;
     for (i, obj) in scene.objects.iter().enumerate() {
-        let Shape::Field { node, bounds } = &obj.shape else {
-            return Err(PovError::NotFrep {
-                index: i,
-                name: obj.name.clone(),
-            });
+        let (node, bounds) = match &obj.shape {
+            Shape::Field { node, bounds } => (node, bounds),
+            Shape::Surface {
+                model,
+                place,
+                detail,
+            } => {
+                super::pov_mesh::write_mesh2(
+                    &mut out,
+                    model,
+                    (place, *detail),
+                    &obj.material,
+                    &finish(&obj.material),
+                    limits,
+                )
+                .map_err(|why| PovError::Surface {
+                    index: i,
+                    name: obj.name.clone(),
+                    why,
+                })?;
+                continue;
+            }
+            Shape::Solid { .. } => {
+                return Err(PovError::NotFrep {
+                    index: i,
+                    name: obj.name.clone(),
+                })
+            }
         };
         if let Some(why) = unexportable(node) {
             return Err(PovError::Unexportable {
@@ -126,22 +169,13 @@ pub fn export_with(
         let m = &obj.material;
         let _ = writeln!(
             out,
-            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  {}\n  finish {{ ambient {} diffuse {} specular {} roughness {}{} }}{}\n}}",
+            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  {}\n  {}\n}}",
             v3(b.lo),
             v3(b.hi),
             num(1e-5 * b.longest()),
             num(max_gradient_with(node, &b, 6, progress)),
             pigment(m),
-            m.ambient,
-            m.diffuse,
-            m.specular,
-            num(1.0 / m.shininess.max(1.0) as f64),
-            reflection(m),
-            if m.transmit > 0.0 {
-                format!("\n  interior {{ ior {} }}", num(m.ior))
-            } else {
-                String::new()
-            }
+            finish(m),
         );
     }
     Ok(out)
@@ -221,8 +255,29 @@ fn degrees(c: f64) -> f64 {
     (c.clamp(-1.0, 1.0).acos().to_degrees() * 1e9).round() / 1e9
 }
 
-/// The pigment: the image map if there is one, else the colour (with `transmit`).
-fn pigment(m: &super::shading::Material) -> String {
+/// The finish (and the interior of a transmitting material) of `m`.
+fn finish(m: &super::shading::Material) -> String {
+    format!(
+        "finish {{ ambient {} diffuse {} specular {} roughness {}{} }}{}",
+        m.ambient,
+        m.diffuse,
+        m.specular,
+        num(1.0 / m.shininess.max(1.0) as f64),
+        reflection(m),
+        if m.transmit > 0.0 {
+            format!("\n  interior {{ ior {} }}", num(m.ior))
+        } else {
+            String::new()
+        }
+    )
+}
+
+/// The pigment: the checker or the image map if there is one, else the colour (with
+/// `transmit`).
+pub(crate) fn pigment(m: &super::shading::Material) -> String {
+    if let Some(c) = &m.checker {
+        return c.pov_pigment(m.transmit);
+    }
     match &m.image_map {
         Some(map) => map.pov_pigment(m.transmit),
         None => format!(

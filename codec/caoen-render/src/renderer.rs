@@ -634,6 +634,7 @@ fn shade_buffer(
                 let along = dot(ray.dir, camera.forward);
                 let t = (h.depth - dot(sub(ray.origin, camera.eye), camera.forward)) / along;
                 let albedo = match (&obj.material.image_map, &obj.material.texture) {
+                    _ if obj.material.checker.is_some() => obj.material.albedo_at(h.uv, ray.at(t)),
                     (Some(m), _) => m.colour(ray.at(t)),
                     (None, Some((_, wrap))) => obj
                         .material

@@ -14,6 +14,7 @@ use super::error::{RenderError, Result};
 use super::framebuffer::srgb_to_linear;
 use super::image_map::{ImageMap, MapType};
 use super::light_file::FileLight;
+use super::pattern::Checker;
 use super::scene::{
     texture_wrap, CameraSpec, Scene, SceneObject, Shape, DEFAULT_MAX_DEPTH, MAX_MAX_DEPTH,
     SCENE_FORMAT_TAG,
@@ -288,11 +289,47 @@ struct FileMaterial {
     #[serde(default)]
     image_map: Option<FileImageMap>,
     #[serde(default)]
+    checker: Option<FileChecker>,
+    #[serde(default)]
     reflect: Option<f64>,
     #[serde(default)]
     transmit: Option<f64>,
     #[serde(default)]
     ior: Option<f64>,
+}
+
+/// `material.checker`: POV-Ray's `checker` pigment of two colours, with its transform.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileChecker {
+    colours: [[f64; 3]; 2],
+    #[serde(default)]
+    scale: Option<ScaleSpec>,
+    #[serde(default)]
+    rotate_deg: Option<[f64; 3]>,
+    #[serde(default)]
+    translate: Option<[f64; 3]>,
+}
+
+impl FileChecker {
+    fn resolve(&self, path: &str) -> Result<Checker> {
+        let colours =
+            [0, 1].map(|k| check_colour(&format!("{path}.colours[{k}]"), self.colours[k]));
+        let [a, b] = colours;
+        let transform = Affine::from_parts(
+            scale_of(path, &self.scale)?,
+            check_vec(
+                &format!("{path}.rotate_deg"),
+                self.rotate_deg.unwrap_or([0.0; 3]),
+            )?,
+            check_vec(
+                &format!("{path}.translate"),
+                self.translate.unwrap_or([0.0; 3]),
+            )?,
+        );
+        Checker::new([a?, b?], transform)
+            .ok_or_else(|| bad(path, "the texture transform is singular (a zero scale)"))
+    }
 }
 
 /// `material.image_map`: an image projected onto the object (POV-Ray's `image_map`).
@@ -549,6 +586,16 @@ impl FileObject {
         }
         if self.surface.is_none() && (self.transform.is_some() || self.detail.is_some()) {
             return Err(bad(path, "`transform` and `detail` apply to surfaces (solids take centre, scale, rotate_deg)"));
+        }
+        if let Some(c) = &fm.checker {
+            if fm.colour.is_some() || fm.texture.is_some() || fm.image_map.is_some() {
+                return Err(bad(
+                    format!("{mp}.checker"),
+                    "gives the colour: leave out `colour`, `texture` and `image_map`",
+                ));
+            }
+            material.checker = Some(Arc::new(c.resolve(&format!("{mp}.checker"))?));
+            material.colour = [1.0; 3];
         }
         if let Some(im) = &fm.image_map {
             if fm.colour.is_some() || fm.texture.is_some() {

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use super::image_map::ImageMap;
 pub use super::lights::{Incidence, Light, Lighting};
+use super::pattern::Checker;
 use super::texture::{Texture, Wrap};
 use caoen_geometry::vector::{add, dot, unit};
 
@@ -26,6 +27,8 @@ pub struct Material {
     pub texture: Option<(Arc<Texture>, Wrap)>,
     /// An image projected onto the object in world space; it gives the base colour.
     pub image_map: Option<Arc<ImageMap>>,
+    /// A checker in world space (POV-Ray's `checker`); it gives the base colour.
+    pub checker: Option<Arc<Checker>>,
     /// Mirror reflectance in [0, 1] (times the Fresnel reflectance when transmitting).
     pub reflect: f32,
     /// Share of light passing through the surface, in [0, 1].
@@ -44,6 +47,7 @@ impl Default for Material {
             shininess: 40.0,
             texture: None,
             image_map: None,
+            checker: None,
             reflect: 0.0,
             transmit: 0.0,
             ior: 1.0,
@@ -52,12 +56,14 @@ impl Default for Material {
 }
 
 impl Material {
-    /// The base colour at world point `p` with texture coordinates `uv`: the image
-    /// map's colour there if there is one, else [`Material::albedo`].
+    /// The base colour at world point `p` with texture coordinates `uv`: the
+    /// checker's or the image map's colour there if there is one, else
+    /// [`Material::albedo`].
     pub fn albedo_at(&self, uv: [f32; 2], p: [f64; 3]) -> [f32; 3] {
-        match &self.image_map {
-            Some(m) => m.colour(p),
-            None => self.albedo(uv),
+        match (&self.checker, &self.image_map) {
+            (Some(c), _) => c.colour(p),
+            (None, Some(m)) => m.colour(p),
+            (None, None) => self.albedo(uv),
         }
     }
 

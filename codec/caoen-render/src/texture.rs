@@ -56,6 +56,8 @@ pub struct Texture {
     /// The memory budget's count of the levels while the texture lives (clones share
     /// the image's count).
     held: std::sync::Arc<caoen_base::budget::Reservation>,
+    /// The image file it was loaded from (absolute where it can be), for `export-pov`.
+    file: Option<std::path::PathBuf>,
 }
 
 /// One pyramid level from the level below: each texel the mean of (up to) 2x2 texels.
@@ -182,6 +184,7 @@ impl Texture {
         Ok(Texture {
             levels,
             held: std::sync::Arc::new(held),
+            file: None,
         })
     }
 
@@ -195,7 +198,15 @@ impl Texture {
             .and_then(|r| r.into_dimensions().ok())
             .map(|(w, h)| Texture::reserve(u64::from(w), u64::from(h), limits))
             .transpose()?;
-        Texture::with_reservation(RgbImage::load(path, limits)?, held, limits)
+        let mut tex = Texture::with_reservation(RgbImage::load(path, limits)?, held, limits)?;
+        // Absolute, so an exported `.pov` finds the image from any directory.
+        tex.file = Some(std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf()));
+        Ok(tex)
+    }
+
+    /// The image file the texture was loaded from; None for one made in memory.
+    pub fn file(&self) -> Option<&Path> {
+        self.file.as_deref()
     }
 
     /// The texture image.

@@ -409,7 +409,7 @@ pub struct FrepMeshArgs {
 /// `caoen frep export-pov`.
 #[derive(Debug, Args)]
 pub struct FrepExportArgs {
-    /// F-rep model file or scene file with `frep` objects.
+    /// F-rep model file or scene file with `frep` objects and Cao En surfaces.
     pub model: PathBuf,
     /// Output POV-Ray scene (.pov; `-`: standard output).
     #[arg(short, long)]

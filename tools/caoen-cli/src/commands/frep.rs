@@ -206,7 +206,7 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     let (width, height) = parse_size(&a.size)?;
     let camera = scene.camera(width, height)?;
     let bar = crate::commands::render::progress_bar(global, "measuring max_gradient");
-    let text = caoen::render::pov::export_with(&scene, &camera, &|done, total| {
+    let text = caoen::render::pov::export_with(&scene, &camera, &global.limits, &|done, total| {
         bar.set_length(total);
         bar.set_position(done);
     })

@@ -114,6 +114,7 @@ pub fn run(global: &GlobalArgs, a: &ExamplesArgs) -> CliResult {
     texture::write(global, dir, a.samples)?;
     frep::write(global, dir, a.samples)?;
     lights::write(dir)?;
+    textured::write_surface(dir)?;
     conversion::write(global, dir)?;
     note(
         global,
