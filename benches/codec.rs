@@ -1,7 +1,9 @@
 //! Codec throughput on a 768x512 corpus scene: encode at the default quality and
 //! effort, decode by the identity fast path and by forward mapping with S = 1 and
 //! S = 2, each in pixels/s, beside a JPEG decode of the same image (the `image` crate's
-//! decoder, at a similar file size) measured in the same run as a plain baseline.
+//! decoder, at a similar file size) measured in the same run as a plain baseline; and
+//! the same scene coded at full size, 0.5, 0.7 and 0.8 per side (`-q 20`), each decoded
+//! at its image's size, at twice it and stretched 16 times down, beside each other.
 
 use std::hint::black_box;
 
@@ -55,5 +57,37 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// Decodes of files coded at a fraction of their size: the fractions that are not a
+/// whole number of output pixels per coded pixel (0.7, 0.8) beside the ones that are.
+fn resampled(c: &mut Criterion) {
+    let corpus = caoen_corpus::generate(caoen_corpus::Class::Scene, 768, 512, 4);
+    let img = caoen::image_io::from_dynamic(corpus.to_dynamic_image()).unwrap();
+    let mut g = c.benchmark_group("decode_resampled_768x512");
+    g.sample_size(10);
+    for (name, tenths) in [("full", 10), ("0.5", 5), ("0.7", 7), ("0.8", 8)] {
+        let scale = caoen::codec::Scale::new(tenths).expect("a size in tenths");
+        let opts = EncodeOptions {
+            quality: 20.0,
+            resampling: caoen::codec::Resampling::At(scale),
+            ..EncodeOptions::default()
+        };
+        let bytes = encode(&img, &opts).unwrap();
+        for (size, out) in [
+            ("own", None),
+            ("2x", Some((1536, 1024))),
+            ("tall", Some((768, 8192))),
+        ] {
+            let opts = DecodeOptions {
+                size: out,
+                ..Default::default()
+            };
+            g.bench_function(format!("{name}_{size}"), |b| {
+                b.iter(|| black_box(decode(black_box(&bytes), &opts).unwrap()))
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, resampled);
 criterion_main!(benches);

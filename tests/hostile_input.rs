@@ -545,3 +545,27 @@ fn a_whole_number_written_as_a_float_is_read_as_one() {
     assert_eq!((png.width(), png.height()), (32, 24));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A file coded at 0.7 of its size (third round, M5) decoded stretched 11 times down
+/// and as a region at 64 times its size: the post-filters' tasks take rows by their
+/// margins and by the worker count, and the output is the same bytes on one thread
+/// and on three, within the default budget.
+#[test]
+fn a_file_coded_at_0_7_decodes_stretched_and_zoomed_the_same_on_any_thread_count() {
+    let file = bad("third-M5-resampled-0.7.cae");
+    let decoded = |how: &str, threads: &str| {
+        let out = scratch_path("m5-replay", &format!("{how}-{threads}.png"));
+        let sizes = match how {
+            "tall" => "--size 1500x8192",
+            _ => "--region 700,500,704,504 --size 256x256",
+        };
+        let line = format!("decode @ {sizes} -j {threads} -f -o @");
+        succeeds(&line, &[&file, &out]);
+        std::fs::read(&out).unwrap()
+    };
+    for how in ["tall", "zoomed"] {
+        let one = decoded(how, "1");
+        assert!(one.starts_with(b"\x89PNG"), "{how}");
+        assert!(one == decoded(how, "3"), "{how}: -j 1 and -j 3 differ");
+    }
+}

@@ -781,8 +781,15 @@ mod tests {
             let both = [deringed(&plain), deringed(&restored)];
             for bytes in [plain, restored].into_iter().chain(both) {
                 let d = read(&bytes, u64::MAX).unwrap();
-                // Coded size, then up- and downscaled: bands of every height, the last short.
-                for (ow, oh) in [(w, h), (2 * w + 3, 17), (11, 3 * h + 1), (1, 1)] {
+                // Coded size, then up- and downscaled: bands of every height, the last short;
+                // at 9x down, tasks whose deringing blocks (72 rows) cross their ends.
+                for (ow, oh) in [
+                    (w, h),
+                    (2 * w + 3, 17),
+                    (11, 3 * h + 1),
+                    (20, 9 * h),
+                    (1, 1),
+                ] {
                     let fused = render_identity_raster(&d, ow, oh).unwrap();
                     let reference = to_raster(&d.header, render_identity(&d, ow, oh), ow, oh);
                     assert_eq!(
