@@ -104,7 +104,7 @@ impl PartialOrd for Candidate {
 /// The least twice-area over squared longest edge of a new triangle (0.5 for a grid's
 /// right triangle), unless the triangles it replaces were worse: below it a collapse
 /// makes a sliver and is refused.
-const MIN_SHAPE: f64 = 0.01;
+const MIN_SHAPE: f64 = 2e-3;
 
 /// The least cosine between a triangle's normal before and after a collapse: a larger
 /// turn would fold the surface over itself or across an edge.
@@ -114,6 +114,9 @@ const MIN_TURN_COS: f64 = 0.5;
 /// `decimate`): a collapse along a flat face costs this times the area times the
 /// squared edge length.
 const LENGTH_WEIGHT: f64 = 1e-4;
+
+/// Below this shape (see [`MIN_SHAPE`]) a triangle's normal is not trusted.
+const SLIVER: f64 = 1e-4;
 
 fn normal(p: [V3; 3]) -> V3 {
     cross(sub(p[1], p[0]), sub(p[2], p[0]))
@@ -342,6 +345,10 @@ pub fn decimate(
             .iter()
             .map(|&(t, _)| shape(tris[t as usize].expect("present").map(|v| pos[v as usize])))
             .fold(f64::INFINITY, f64::min);
+        let ring_normal = moved.iter().fold([0.0; 3], |acc, &(t, _)| {
+            let nr = normal(tris[t as usize].expect("present").map(|v| pos[v as usize]));
+            [0, 1, 2].map(|k| acc[k] + nr[k])
+        });
         let mut worst = 0.0f64;
         let ok = moved.iter().all(|&(t, s)| {
             let old = tris[t as usize].expect("present").map(|v| pos[v as usize]);
@@ -351,6 +358,12 @@ pub fn decimate(
             if !(l1 > 0.0) || shape(new) < MIN_SHAPE.min(ring_shape) {
                 return false;
             }
+            // A sliver's normal is rounding noise: its ring's stands in for it.
+            let (n0, l0) = if shape(old) < SLIVER {
+                (ring_normal, norm(ring_normal))
+            } else {
+                (n0, l0)
+            };
             if l0 > 0.0 && dot(n0, n1) < MIN_TURN_COS * l0 * l1 {
                 return false;
             }

@@ -18,13 +18,14 @@ fn orient(a: V3, b: V3, c: V3, d: V3) -> f64 {
     dot(cross(sub(b, a), sub(c, a)), sub(d, a))
 }
 
-/// Whether segment `pq` meets triangle `abc` (touching counts; a segment in the
-/// triangle's plane does not). The crossing point is taken on the segment and tested
+/// Whether segment `pq` passes through triangle `abc`. Touching does not count: a
+/// crease's vertices lie on one line, and the triangles on either side of it touch
+/// along that line without crossing. The crossing point is taken on the segment and tested
 /// against the triangle's edges in its plane, so nearly coplanar triangles, whose
 /// orientation signs are rounding noise, are not reported unless they overlap.
 fn segment_meets_triangle(p: V3, q: V3, [a, b, c]: [V3; 3]) -> bool {
     let (sp, sq) = (orient(a, b, c, p), orient(a, b, c, q));
-    if (sp > 0.0 && sq > 0.0) || (sp < 0.0 && sq < 0.0) || (sp == 0.0 && sq == 0.0) {
+    if !((sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0)) {
         return false;
     }
     let s = sp / (sp - sq);
@@ -32,7 +33,7 @@ fn segment_meets_triangle(p: V3, q: V3, [a, b, c]: [V3; 3]) -> bool {
     let n = cross(sub(b, a), sub(c, a));
     [(a, b), (b, c), (c, a)]
         .iter()
-        .all(|&(u, v)| dot(cross(sub(v, u), sub(x, u)), n) >= 0.0)
+        .all(|&(u, v)| dot(cross(sub(v, u), sub(x, u)), n) > 0.0)
 }
 
 /// Whether two triangles cross: an edge of one meets the other (coplanar overlaps are
