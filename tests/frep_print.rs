@@ -4,6 +4,8 @@
 //! read back with the OBJ's volume, and empty meshes refused.
 
 mod common;
+#[path = "frep_print/mesh_quality.rs"]
+mod mesh_quality;
 #[path = "frep_print/print_files.rs"]
 mod print_files;
 use common::{assert_ok, caoen, hostile, repo_root, s, stderr, tool_present};

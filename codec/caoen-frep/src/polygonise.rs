@@ -10,9 +10,11 @@ use super::node::Node;
 use super::primitive::Primitive;
 use super::rfunction::SetOp;
 use caoen_geometry::crease::{sharpen_with, Leaves};
+use caoen_geometry::decimate::decimate;
 use caoen_geometry::mesh::Mesh;
 use caoen_geometry::polygonise::{polygonise, polygonise_closed};
 use caoen_geometry::printable::{make_printable, Repair};
+use caoen_geometry::untangle::{crossing_pairs, untangle};
 
 /// One smooth piece of a field below its sharp set operations.
 #[derive(Debug, Clone, Copy)]
@@ -235,10 +237,27 @@ pub fn solid_mesh(
     bounds: &Aabb,
     cells: usize,
 ) -> Result<(Mesh, Repair), SolidMeshError> {
+    solid_mesh_with(node, bounds, cells, true)
+}
+
+/// Farthest a decimated triangle's checked points may be from the surface, in cells
+/// (by `|f| / |grad f|`): about what the grid mesh's own triangles are off a gently
+/// curved surface, so decimation keeps the grid's accuracy.
+pub const DECIMATION_DEVIATION: f64 = 0.02;
+
+/// As [`solid_mesh`]; with `adaptive` the mesh is decimated by quadric error
+/// (`geometry::decimate`) within [`DECIMATION_DEVIATION`] of a cell of the surface,
+/// without it every grid cell the surface crosses keeps its triangles.
+pub fn solid_mesh_with(
+    node: &Node,
+    bounds: &Aabb,
+    cells: usize,
+    adaptive: bool,
+) -> Result<(Mesh, Repair), SolidMeshError> {
     let cells = cells.max(1);
     let mut first = None;
     for c in cells..cells + 3 {
-        match solid_mesh_on(node, bounds, c) {
+        match solid_mesh_on(node, bounds, c, adaptive) {
             Ok((m, mut rep)) => {
                 rep.cells = c;
                 return Ok((m, rep));
@@ -256,6 +275,7 @@ fn solid_mesh_on(
     node: &Node,
     bounds: &Aabb,
     cells: usize,
+    adaptive: bool,
 ) -> Result<(Mesh, Repair), SolidMeshError> {
     let pad = bounds.longest() / cells as f64;
     let b = bounds.padded(pad);
@@ -264,12 +284,16 @@ fn solid_mesh_on(
     if m.triangles.is_empty() {
         return Err(SolidMeshError::Empty { cells, cell });
     }
+    // The grid's own placement cannot cross itself (see `untangle`): the way back.
+    let mut rest = m.positions.clone();
     project(node, &mut m, pad, &on_cut);
     let mut pieces = Vec::new();
     collect(node, 1.0, &mut pieces);
     if pieces.len() >= 2 {
+        rest = first_use_order(&m.triangles, &rest);
         m = sharpen_with(m, &FieldLeaves { root: node, pieces }, cell, false);
     }
+    let untangled = untangle(&mut m.positions, &rest, &m.triangles);
     // Thinner than a hundred-thousandth of a cell: zero area to any slicer.
     let (m, rep) = make_printable(m, bounds.lo, bounds.hi, 1e-5 * cell, SPECK_FRACTION);
     if m.triangles.is_empty() {
@@ -283,7 +307,44 @@ fn solid_mesh_on(
     if rep.degenerate_left > 0 {
         return Err(SolidMeshError::Degenerate(rep.degenerate_left));
     }
+    let mut rep = rep;
+    rep.untangled = untangled.moved;
+    let m = if adaptive {
+        let (lo, hi) = (bounds.lo, bounds.hi);
+        // A cut face lies on the box: its distance is to the box's nearest face.
+        let distance = |p: [f64; 3]| {
+            let (f, g) = node.value_gradient(p);
+            let len = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+            let to_surface = if len > 0.0 {
+                f.abs() / len
+            } else {
+                f64::INFINITY
+            };
+            let to_box = (0..3)
+                .map(|k| (p[k] - lo[k]).abs().min((hi[k] - p[k]).abs()))
+                .fold(f64::INFINITY, f64::min);
+            to_surface.min(to_box)
+        };
+        let (d, _) = decimate(m, &distance, DECIMATION_DEVIATION * cell, &[]);
+        d
+    } else {
+        m
+    };
+    rep.crossings = crossing_pairs(&m.positions, &m.triangles).len();
     Ok((m, rep))
+}
+
+/// `values` renumbered as `sharpen_with` renumbers vertices when it does not split
+/// them: in the order the triangles first use them.
+fn first_use_order(tris: &[[u32; 3]], values: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut seen = vec![false; values.len()];
+    let mut out = Vec::with_capacity(values.len());
+    for &v in tris.iter().flatten() {
+        if !std::mem::replace(&mut seen[v as usize], true) {
+            out.push(values[v as usize]);
+        }
+    }
+    out
 }
 
 /// The mesh without sharpened creases: every vertex projected onto the surface, with

@@ -8,6 +8,7 @@
 
 pub mod bounds;
 pub mod crease;
+pub mod decimate;
 pub mod mesh;
 pub mod mesh_file;
 pub mod polygon_mesh;
@@ -15,5 +16,6 @@ pub mod polygonise;
 pub mod printable;
 pub mod ray;
 pub mod transform;
+pub mod untangle;
 pub mod vector;
 pub mod winding;

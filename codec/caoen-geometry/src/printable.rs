@@ -34,6 +34,10 @@ pub struct Repair {
     pub volume: f64,
     /// Grid cells along the longest side of the mesh this came from (set by the mesher).
     pub cells: usize,
+    /// Vertices moved back off the surface to undo a fold (set by the mesher).
+    pub untangled: usize,
+    /// Pairs of triangles without a common vertex that cross (set by the mesher).
+    pub crossings: usize,
 }
 
 /// A triangle's height over its longest edge: zero for a cap or a needle.

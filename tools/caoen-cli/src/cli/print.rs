@@ -60,6 +60,10 @@ pub struct MeshFileArgs {
     /// STL as text (ASCII STL) rather than binary; for .stl outputs and `-`.
     #[arg(long)]
     pub ascii: bool,
+    /// Keep every grid cell's triangles: no quadric-error decimation of flat and
+    /// gently curved parts (the mesh is then as fine everywhere as the grid).
+    #[arg(long)]
+    pub no_decimate: bool,
 }
 
 impl MeshFileArgs {

@@ -36,6 +36,8 @@ pub struct MeshFile {
     pub name: String,
     /// The object's colour, linear RGB (3MF).
     pub colour: Option<[f64; 3]>,
+    /// Decimated by quadric error (`frep::polygonise::solid_mesh_with`).
+    pub adaptive: bool,
 }
 
 impl MeshFile {
@@ -51,6 +53,7 @@ impl MeshFile {
             ascii: a.ascii,
             name: "model".into(),
             colour: None,
+            adaptive: !a.no_decimate,
         }
     }
 }
@@ -142,8 +145,9 @@ pub fn write_solid_mesh(
         .collect::<CliResult<Vec<_>>>()?;
     check_cells(cells, &global.limits)?;
     let first = paths.first().map(|p| p.display().to_string());
-    let (mut m, rep) = caoen::frep::polygonise::solid_mesh(node, bounds, cells as usize)
-        .map_err(|e| CliError::Failed(format!("{}: {e}", first.unwrap_or_default())))?;
+    let (mut m, rep) =
+        caoen::frep::polygonise::solid_mesh_with(node, bounds, cells as usize, file.adaptive)
+            .map_err(|e| CliError::Failed(format!("{}: {e}", first.unwrap_or_default())))?;
     let k = factor(file, extents(&m).into_iter().fold(0.0, f64::max));
     for p in &mut m.positions {
         *p = p.map(|v| v * k);
@@ -180,6 +184,18 @@ pub fn write_solid_mesh(
     }
     if rep.clamped > 0 {
         notes.push(format!("{} vertices clamped into the bounds", rep.clamped));
+    }
+    if rep.untangled > 0 {
+        notes.push(format!(
+            "{} vertices moved back off the surface to undo folds",
+            rep.untangled
+        ));
+    }
+    if rep.crossings > 0 {
+        notes.push(format!(
+            "{} pairs of triangles cross (a slicer may need to repair them)",
+            rep.crossings
+        ));
     }
     let [x, y, z] = extents(&m);
     let u = file.unit.symbol();
@@ -246,6 +262,7 @@ pub fn lithophane(global: &GlobalArgs, a: &LithophaneArgs) -> CliResult {
         ascii: a.file.ascii,
         name: "lithophane".into(),
         colour: None,
+        adaptive: !a.file.no_decimate,
     };
     let paths: Vec<&Path> = a.output.iter().map(PathBuf::as_path).collect();
     for p in &paths {
