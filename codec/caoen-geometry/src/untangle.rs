@@ -149,7 +149,7 @@ const HALVINGS: usize = 6;
 /// Removes crossings from a mesh whose vertices moved from `rest` (a placement without
 /// crossings, same numbering) to `pos`: each round, the vertices of crossing
 /// triangles and their neighbours come half the remaining way back towards `rest`;
-/// after [`HALVINGS`] rounds they go back all the way.
+/// after `HALVINGS` rounds they go back all the way.
 pub fn untangle(pos: &mut [V3], rest: &[V3], tris: &[[u32; 3]]) -> Untangled {
     let target: Vec<V3> = pos.to_vec();
     let mut t = vec![1.0f64; pos.len()];
