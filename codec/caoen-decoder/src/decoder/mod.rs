@@ -19,6 +19,7 @@
 
 mod forward;
 mod parse;
+mod post;
 mod reconstruct;
 mod region;
 
@@ -182,7 +183,7 @@ pub(super) fn decode_memory_at(
         ));
         let colour = header.layout.colour_channels();
         let planes = colour + usize::from(header.layout.has_alpha());
-        reconstruct::post_task_bytes(
+        post::post_task_bytes(
             (ow as usize, oh as usize),
             spacing,
             (colour, planes, header.layout.channels()),
