@@ -1,4 +1,4 @@
-//! Slicer checks of the printable meshes (issue 70): `caoen frep mesh` of a box, the
+//! Slicer checks of the printable meshes: `caoen frep mesh` of a box, the
 //! lithophane example, the blended CSG part of `docs/frep.md` and a spherical
 //! lithophane shell, read by `mesh_check.py` (Open3D's self-intersecting triangle
 //! pairs, trimesh's watertightness, winding and Euler characteristic, admesh's

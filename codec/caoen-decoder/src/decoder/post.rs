@@ -143,25 +143,25 @@ fn deringed_rows(
     };
     let scale = deringing::scale(r.spacing);
     let steps = h.deringing_steps();
-    if !sparse_directions(scale) {
-        let reach = Deringing::reach(rows.clone(), hh, scale);
-        let len = reach.len() * w;
-        // Every value is overwritten by the restoration: no need to clear.
-        scratch.resize(src.len() * len, 0.0);
-        let mut parts: Vec<&mut [f32]> = scratch.chunks_exact_mut(len).collect();
-        restore(reach.clone(), &mut parts);
-        let window: Vec<&[f32]> = scratch.chunks_exact(len).collect();
-        return d.filter_rows(&window, (w, hh), reach.start, scale, steps, rows, dst);
-    }
-    // The taps' rows restored, and of each block only the eight rows its direction
-    // reads: a block is `8 x scale` rows, far more than the taps reach when zoomed.
-    let taps = Deringing::tap_rows(scale);
-    let reach = rows.start.saturating_sub(taps)..(rows.end + taps).min(hh);
+    // Zoomed, the taps' rows are restored, and of each block only the eight rows its
+    // direction reads (below): a block is `8 x scale` rows, far more than the taps
+    // reach.
+    let sparse = sparse_directions(scale);
+    let reach = if sparse {
+        let taps = Deringing::tap_rows(scale);
+        rows.start.saturating_sub(taps)..(rows.end + taps).min(hh)
+    } else {
+        Deringing::reach(rows.clone(), hh, scale)
+    };
     let len = reach.len() * w;
+    // Every value is overwritten by the restoration: no need to clear.
     scratch.resize(src.len() * len, 0.0);
     let mut parts: Vec<&mut [f32]> = scratch.chunks_exact_mut(len).collect();
     restore(reach.clone(), &mut parts);
     let window: Vec<&[f32]> = scratch.chunks_exact(len).collect();
+    if !sparse {
+        return d.filter_rows(&window, (w, hh), reach.start, scale, steps, rows, dst);
+    }
     let (sx, sy) = (deringing::BLOCK * scale.0, deringing::BLOCK * scale.1);
     let mut one = vec![0.0f32; src.len() * w];
     let mut luma = vec![0.0f32; deringing::BLOCK * w];
