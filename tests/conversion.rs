@@ -141,6 +141,11 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
         "spot meets these targets: {r}"
     );
     assert!(r["advice"].is_null(), "{r}");
+    // A clean conversion: one part, matched to the mesh.
+    let c = &r["components"];
+    assert_eq!((c["parts"].as_u64(), c["spurious"].as_array().map(Vec::len)), (Some(1), Some(0)), "{r}");
+    assert_eq!(c["removed"], serde_json::json!([]), "{r}");
+    assert!(stderr.contains("connected parts"), "{stderr}");
     // No overwrite without -f.
     let again = caoen(&["convert", s(&mesh), "-o", s(&model)]);
     assert_eq!(again.status.code(), Some(1));
@@ -529,4 +534,131 @@ fn a_rotated_box_is_cut_to_its_faces_exactly() {
             }
         }
     }
+}
+
+/// `mesh` as OBJ text.
+fn obj_text(mesh: &PolygonMesh) -> String {
+    let mut s = String::new();
+    for p in &mesh.positions {
+        s += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for t in &mesh.triangles {
+        s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    s
+}
+
+/// `part` moved by `at` and appended to `mesh`, without the triangles whose centre
+/// `cut` picks (a small opening).
+fn add_part(mesh: &mut PolygonMesh, part: &PolygonMesh, at: [f64; 3], cut: &dyn Fn([f64; 3]) -> bool) {
+    let base = mesh.positions.len() as u32;
+    let moved: Vec<[f64; 3]> = part
+        .positions
+        .iter()
+        .map(|p| [p[0] + at[0], p[1] + at[1], p[2] + at[2]])
+        .collect();
+    for t in &part.triangles {
+        let c = [0, 1, 2].map(|k| t.iter().map(|&v| moved[v as usize][k]).sum::<f64>() / 3.0);
+        if !cut(c) {
+            mesh.triangles.push(t.map(|v| v + base));
+        }
+    }
+    mesh.positions.extend(moved);
+}
+
+/// A teapot-like mesh: a body with a small opening at the top, a lid resting in it,
+/// a spout with a small hole at its tip and a handle, the last two reaching into the
+/// body; each part a solid by itself, the whole an open sheet by its winding numbers.
+fn teapot_like() -> PolygonMesh {
+    let mut mesh = PolygonMesh::default();
+    let body = PolygonMesh::ellipsoid([0.5, 0.5, 0.4], 3);
+    add_part(&mut mesh, &body, [0.0; 3], &|c| c[2] > 0.385);
+    let lid = PolygonMesh::ellipsoid([0.2, 0.2, 0.1], 3);
+    add_part(&mut mesh, &lid, [0.0, 0.0, 0.39], &|_| false);
+    let spout = PolygonMesh::ellipsoid([0.35, 0.08, 0.08], 3);
+    add_part(&mut mesh, &spout, [0.6, 0.0, 0.1], &|c| c[0] > 0.93);
+    let handle = PolygonMesh::ellipsoid([0.25, 0.06, 0.2], 3);
+    add_part(&mut mesh, &handle, [-0.55, 0.0, 0.0], &|_| false);
+    mesh
+}
+
+#[test]
+fn a_teapot_like_mesh_of_parts_converts_by_default_part_by_part() {
+    let dir = tmpdir("teapot");
+    let mesh = dir.join("teapot.obj");
+    let teapot = teapot_like();
+    let open = teapot.openness();
+    assert!(open.is_sheet() && open.boundary_edges > 0, "{open:?}");
+    std::fs::write(&mesh, obj_text(&teapot)).unwrap();
+    let r = convert_json(&mesh, &dir.join("teapot.json"), &[]);
+    assert_eq!(r["open"]["parts"], 4, "{r}");
+    assert_eq!(r["open"]["sheet"], false, "{r}");
+    assert_eq!(r["components"]["spurious"], serde_json::json!([]), "{r}");
+    assert_eq!(r["components"]["parts"], 1, "{r}");
+    let angle = r["deviation"]["normal_angle_deg"]["mean"].as_f64().unwrap();
+    let depth = r["deviation"]["depth"]["mean_all_pixels"].as_f64().unwrap();
+    assert!(angle <= 3.0 && depth <= 0.002, "{r}");
+    assert_eq!(r["met_target"], true, "{r}");
+}
+
+/// A square sheet of side 1 bent into a dome 0.2 high, `n` quads a side.
+fn curved_patch(n: usize) -> PolygonMesh {
+    let mut sheet = PolygonMesh::default();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64);
+            let z = 0.2 * (std::f64::consts::PI * x).sin() * (std::f64::consts::PI * y).sin();
+            sheet.positions.push([x, y, z]);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = (j * (n + 1) + i) as u32;
+            let (b, c, d) = (a + 1, a + n as u32 + 1, a + n as u32 + 2);
+            sheet.triangles.extend([[a, b, d], [a, d, c]]);
+        }
+    }
+    sheet
+}
+
+#[test]
+fn a_thickened_sheet_is_the_solid_within_the_thickness() {
+    let dir = tmpdir("thicken");
+    let mesh = dir.join("patch.obj");
+    let sheet = curved_patch(12);
+    std::fs::write(&mesh, obj_text(&sheet)).unwrap();
+    let model = dir.join("patch.json");
+    let t = 0.05;
+    let r = convert_json(&mesh, &model, &["--thicken", "0.05", "--max-functions", "1500"]);
+    assert_eq!(r["open"]["thickness"], t, "{r}");
+    assert!(r["open"]["handled_as"].as_str().unwrap().contains("--thicken"), "{r}");
+    assert_eq!(r["components"]["spurious"], serde_json::json!([]), "{r}");
+    // The model's surface, polygonised, lies at the thickness from the sheet.
+    let surface = dir.join("surface.obj");
+    caoen_ok(&["--quiet", "frep", "mesh", s(&model), "-o", s(&surface), "-f", "--cells", "96"]);
+    let polygonised = caoen::conversion::read(&surface, &caoen::Limits::default()).unwrap();
+    let tree = caoen::conversion::distance::SurfaceDistance::new(&sheet);
+    let off: Vec<f64> = polygonised
+        .positions
+        .iter()
+        .map(|p| (tree.distance(*p) - t).abs())
+        .collect();
+    let mean = off.iter().sum::<f64>() / off.len() as f64;
+    let within = off.iter().filter(|d| **d <= 0.2 * t).count() as f64 / off.len() as f64;
+    eprintln!("thickened: mean |distance - T| {mean:.5}, {:.1}% within 0.2 T", 100.0 * within);
+    assert!(mean <= 0.1 * t && within >= 0.95, "mean {mean}, within {within}");
+    // Thicknesses out of range are refused with the values.
+    for (bad, says) in [
+        ("0", "above 0"),
+        ("-1", "above 0"),
+        ("nan", "above 0"),
+        ("1e9", "expected a thickness from"),
+        ("0.001", "from 1.0000e-2 to 2.5000e-1"),
+    ] {
+        let out = caoen(&["convert", s(&mesh), "-o", s(&model), "-f", "--thicken", bad]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(says), "{bad}: {err}");
+    }
+    let out = caoen(&["convert", s(&mesh), "-o", s(&model), "-f", "--thicken", "0.05", "--fill-open"]);
+    assert!(!out.status.success());
 }

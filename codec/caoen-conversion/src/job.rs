@@ -11,11 +11,14 @@ use caoen_base::budget::{Limits, OverBudget};
 use serde_json::Value;
 use thiserror::Error;
 
+use crate::choice::{choose_model, Chosen};
+use crate::components::{self, Part};
 use crate::fit::{self, LevelReport, Progress, Stop};
 use crate::measure::{measure, MeasureOptions, Measured};
 use crate::mesh_file::{self, MeshError};
 use crate::polygon_mesh::Openness;
-use crate::{openings, InUnitCube, PolygonMesh};
+use crate::thicken::{self, ThicknessError};
+use crate::{openings, parts, InUnitCube, PolygonMesh};
 
 /// What to do with a solid's holes (boundary loops).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -46,6 +49,9 @@ pub struct ConvertJob {
     pub max_angle_deg: f64,
     /// Whether an open sheet is converted as the solid its winding number encloses.
     pub fill_open: bool,
+    /// Convert the solid within this distance (mesh units) of the mesh's triangles
+    /// instead of the mesh ([`thicken`]).
+    pub thicken: Option<f64>,
     /// What to do with a solid's holes.
     pub holes: Holes,
     /// Sweeps of the local descent after the fit.
@@ -64,6 +70,7 @@ impl Default for ConvertJob {
             target: 0.001,
             max_angle_deg: 10.0,
             fill_open: false,
+            thicken: None,
             holes: Holes::Auto,
             descent_sweeps: 8,
             limits: Limits::default(),
@@ -79,6 +86,8 @@ pub enum Event<'a> {
     Working(&'a str),
     /// A line worth showing: what was found or what starts now.
     Note(&'a str),
+    /// A line to show even when notes are not: something is wrong with the result.
+    Warning(&'a str),
     /// A step of the fit starts.
     Phase(&'a str),
     /// A level of the fit is done.
@@ -103,18 +112,27 @@ pub enum ConvertError {
     /// The conversion would need more memory than its limit.
     #[error(transparent)]
     Memory(#[from] OverBudget),
+    /// The converted model's own file cannot be loaded back.
+    #[error("the converted model cannot be loaded back: {0}")]
+    Model(String),
+    /// The `thicken` thickness is out of range.
+    #[error(transparent)]
+    Thickness(#[from] ThicknessError),
     /// The mesh is an open sheet and `fill_open` was not asked for.
     #[error(
         "{}: an open sheet, not the surface of a solid: {}. Converting it would model a \
-         different, closed solid; close the mesh (or give it thickness) first, or pass \
-         --fill-open to convert the solid its winding number encloses",
-        .mesh.display(), openness_text(.openness)
+         different, closed solid; close the mesh first, pass --thicken T to convert the \
+         solid within T of it, or --fill-open to convert the solid its winding number \
+         encloses{}",
+        .mesh.display(), openness_text(.openness), parts_text(.parts)
     )]
     OpenSheet {
         /// The mesh file.
         mesh: PathBuf,
         /// How open it is.
         openness: Openness,
+        /// Its connected parts, and of them the sheets (each a sheet by itself).
+        parts: (usize, usize),
     },
 }
 
@@ -151,6 +169,16 @@ pub struct ConvertReport {
     pub shell_depth: Option<f64>,
     /// How the mesh was modelled, in words.
     pub handled_as: &'static str,
+    /// The mesh's connected parts converted one by one and united (0: converted whole).
+    pub parts: usize,
+    /// The thickness (mesh units) the mesh was given, if it was thickened.
+    pub thickness: Option<f64>,
+    /// The written model's connected parts (0 where they could not be counted).
+    pub model_parts: usize,
+    /// Parts of the fitted model that match nothing in the mesh, cut out of the model.
+    pub removed: Vec<Part>,
+    /// Parts of the written model that match nothing in the mesh and could not be cut.
+    pub spurious: Vec<Part>,
     /// Whether the mean normal angle met its target.
     pub angle_met: bool,
     /// Whether the depth error met its target.
@@ -160,9 +188,9 @@ pub struct ConvertReport {
 }
 
 impl ConvertReport {
-    /// Whether both targets were met.
+    /// Whether both targets were met and the model has no part the mesh lacks.
     pub fn met(&self) -> bool {
-        self.angle_met && self.depth_met
+        self.angle_met && self.depth_met && self.spurious.is_empty()
     }
 
     /// Why the fit stopped, in words.
@@ -175,10 +203,6 @@ impl ConvertReport {
         }
     }
 }
-
-/// Nodes a model with openings adds around the fitted function and the cutters: the
-/// transform, the box and its intersection, the shell and the difference.
-const SHELL_WRAPPER_NODES: usize = 5;
 
 /// The default function budget: 6000, or 3 per vertex on a mesh with more detail, up
 /// to 9000 (a model file holds at most 10,000 nodes).
@@ -208,6 +232,17 @@ pub fn topology_text(mesh: &PolygonMesh) -> String {
         t.boundary_edges,
         t.euler_characteristic()
     )
+}
+
+fn parts_text(&(parts, sheets): &(usize, usize)) -> String {
+    match parts {
+        0 | 1 => String::new(),
+        n if n > parts::MAX_PARTS => format!(
+            " (its {n} connected parts are more than the {} converted one by one)",
+            parts::MAX_PARTS
+        ),
+        n => format!(" ({sheets} of its {n} connected parts are open sheets by themselves)"),
+    }
 }
 
 fn openness_text(open: &Openness) -> String {
@@ -245,26 +280,47 @@ pub fn convert_mesh(
     job: &ConvertJob,
     events: &mut dyn FnMut(Event<'_>),
 ) -> Result<ConvertReport, ConvertError> {
+    if let Some(thickness) = job.thicken {
+        return convert_thickened(mesh, path, job, thickness, events);
+    }
     events(Event::Working(
         "checking which side is inside (winding numbers)",
     ));
     let open = mesh.openness();
-    let sheet = open.is_sheet();
-    if sheet && !job.fill_open {
-        return Err(ConvertError::OpenSheet {
-            mesh: path.to_path_buf(),
-            openness: open,
-        });
-    }
-    let kind = if sheet {
-        "an open sheet, filled (--fill-open)"
-    } else if open.boundary_edges > 0 {
-        "a solid with holes"
+    let sheet = open.is_sheet() && job.fill_open;
+    // A sheet as a whole may be parts that each enclose a solid, their small
+    // openings summed over one area.
+    let split = if open.is_sheet() && !job.fill_open {
+        events(Event::Working("classifying the mesh's connected parts"));
+        match parts::solid_parts(mesh) {
+            Ok(p) => p,
+            Err(counts) => {
+                return Err(ConvertError::OpenSheet {
+                    mesh: path.to_path_buf(),
+                    openness: open,
+                    parts: counts,
+                })
+            }
+        }
     } else {
-        "a closed surface"
+        Vec::new()
+    };
+    let kind = if sheet {
+        "an open sheet, filled (--fill-open)".to_string()
+    } else if !split.is_empty() {
+        format!(
+            "{} connected parts, each a solid by itself, converted one by one",
+            split.len()
+        )
+    } else if open.boundary_edges > 0 {
+        "a solid with holes".to_string()
+    } else {
+        "a closed surface".to_string()
     };
     events(Event::Note(&format!("{kind}: {}", openness_text(&open))));
-    let estimate = conversion_memory(mesh);
+    let estimate = conversion_memory(mesh)
+        + components::components_memory(mesh.triangles.len())
+        + if split.is_empty() { 0 } else { parts::parts_memory(mesh) };
     job.limits
         .check(|| "the conversion's conditions".into(), estimate)?;
     events(Event::Note(&format!(
@@ -274,6 +330,216 @@ pub fn convert_mesh(
     let max_functions = job
         .max_functions
         .unwrap_or_else(|| default_max_functions(mesh));
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "mesh".into());
+    let title = format!("{name} (converted)");
+    let frame = mesh.unit_frame();
+    let unit = mesh.transformed(&frame);
+    let measure_opts = MeasureOptions {
+        size: job.check_size,
+        views: 6,
+        picture: false,
+        grid: crate::measure::grid_side(job.check_size),
+    };
+    // The mesh the model is measured and its parts matched against: for parts
+    // converted one by one, without the triangles hidden inside other parts.
+    let mut seen = unit.clone();
+    let fit_start = Instant::now();
+    // The parts are counted on the closed model: a shell's wall is thinner than the
+    // check's grid, which would break it into grains.
+    let (fitted, mut chosen, closed) = if split.is_empty() {
+        let result = run_fit(mesh, job, max_functions, events);
+        let fit_seconds = fit_start.elapsed().as_secs_f64();
+        let chosen = choose_model(mesh, &unit, &open, sheet, &result, &title, job, events)?;
+        let closed = result.model.to_frep_json(&title, mesh.bounds());
+        (FitSummary::of(&[result], fit_seconds), chosen, closed)
+    } else {
+        let (union, results) = parts::fit_parts(&split, job, max_functions, &title, events);
+        let fit_seconds = fit_start.elapsed().as_secs_f64();
+        events(Event::Note(
+            "measuring the united parts on the triangles no other part hides",
+        ));
+        seen = parts::visible(&split).transformed(&frame);
+        let measured = measure_file(&union, &seen, frame, measure_opts, &job.limits)?;
+        let chosen = Chosen {
+            measured,
+            model: union.clone(),
+            openings: 0,
+            closed_depth: None,
+            shell_depth: None,
+            boundary_loops: 0,
+            handled_as: "parts converted one by one and united",
+        };
+        (FitSummary::of(&results, fit_seconds), chosen, union)
+    };
+    // Every part of the model must match a part of the mesh: a spurious one is cut
+    // out where it can be, else reported.
+    events(Event::Note(&format!(
+        "checking the model's connected parts against the mesh ({}^3 grid)",
+        components::GRID
+    )));
+    let found = components::of_file(&closed, &seen, frame, &job.limits);
+    let (mut removed, mut spurious) = (Vec::new(), Vec::new());
+    let mut model_parts = found.as_ref().map_or(0, |f| f.parts.len());
+    if let Some(found) = found.filter(|f| !f.spurious().is_empty()) {
+        let boxes = components::cut_boxes(&found, &seen, &frame);
+        let again = boxes.as_ref().and_then(|b| {
+            components::of_file(&components::without(&closed, b), &seen, frame, &job.limits)
+        });
+        let bad: Vec<Part> = found.spurious().into_iter().cloned().collect();
+        match (boxes, again) {
+            (Some(boxes), Some(again)) if again.spurious().is_empty() => {
+                let cut = components::without(&chosen.model, &boxes);
+                for p in &bad {
+                    events(Event::Note(&format!(
+                        "cut out a spurious part: {}",
+                        components::part_text(p)
+                    )));
+                }
+                events(Event::Note("measuring the model without them"));
+                chosen.measured = measure_file(&cut, &seen, frame, measure_opts, &job.limits)?;
+                chosen.model = cut;
+                model_parts = again.parts.len();
+                removed = bad;
+            }
+            _ => {
+                for p in &bad {
+                    events(Event::Warning(&format!(
+                        "the model has a part the mesh lacks, which could not be cut out: {}",
+                        components::part_text(p)
+                    )));
+                }
+                spurious = bad;
+            }
+        }
+    }
+    let measured = chosen.measured;
+    let mut report = ConvertReport {
+        model: chosen.model,
+        angle_met: measured.vertex.mean_angle_deg <= job.target_angle_deg,
+        depth_met: measured.mean_all <= job.target_depth,
+        measured,
+        functions: fitted.functions,
+        max_functions,
+        stop: fitted.stop,
+        levels: fitted.levels,
+        over_target: fitted.over_target,
+        fit_seconds: fitted.fit_seconds,
+        openness: open,
+        sheet,
+        boundary_loops: chosen.boundary_loops,
+        openings: chosen.openings,
+        closed_depth: chosen.closed_depth,
+        shell_depth: chosen.shell_depth,
+        handled_as: chosen.handled_as,
+        parts: split.len(),
+        thickness: None,
+        model_parts,
+        removed,
+        spurious,
+        advice: None,
+    };
+    report.advice = advice(&report, job, (fitted.mean_angle_deg, fitted.mean_distance));
+    Ok(report)
+}
+
+/// The solid within `thickness` of `mesh`'s triangles, converted.
+fn convert_thickened(
+    mesh: &PolygonMesh,
+    path: &Path,
+    job: &ConvertJob,
+    thickness: f64,
+    events: &mut dyn FnMut(Event<'_>),
+) -> Result<ConvertReport, ConvertError> {
+    let t = thicken::relative(mesh, thickness)?;
+    let estimate = thicken::thicken_memory(mesh, t);
+    job.limits
+        .check(|| "thickening the mesh".into(), estimate)?;
+    events(Event::Note(&format!(
+        "thickening: the solid within {thickness} of the mesh's triangles ({:.4} of the \
+         box), polygonised and decimated (memory estimate {})",
+        t,
+        caoen_base::budget::human(estimate)
+    )));
+    let thick = thicken::thickened(mesh, t);
+    events(Event::Note(&format!("thickened: {}", topology_text(&thick))));
+    let inner = ConvertJob {
+        thicken: None,
+        fill_open: false,
+        ..job.clone()
+    };
+    let mut report = convert_mesh(&thick, path, &inner, events)?;
+    report.thickness = Some(thickness);
+    report.handled_as = "the solid within the thickness of the mesh (--thicken)";
+    Ok(report)
+}
+
+/// The model file `file` measured against the unit-cube mesh `unit`.
+fn measure_file(
+    file: &Value,
+    unit: &PolygonMesh,
+    frame: crate::UnitFrame,
+    opts: MeasureOptions,
+    limits: &Limits,
+) -> Result<Measured, ConvertError> {
+    let node = caoen_frep::Node::from_json(&file["model"], "model", Path::new("."), limits)
+        .map_err(|e| ConvertError::Model(e.to_string()))?;
+    let field = InUnitCube {
+        field: &node,
+        frame,
+    };
+    Ok(measure(&field, unit, opts, limits)?.0)
+}
+
+/// What the fit or fits of a conversion came to.
+struct FitSummary {
+    functions: usize,
+    stop: Stop,
+    levels: usize,
+    over_target: usize,
+    fit_seconds: f64,
+    mean_angle_deg: f64,
+    mean_distance: f64,
+}
+
+impl FitSummary {
+    /// The fits of a mesh's parts (or its one fit) together: the largest part's stop
+    /// unless a budget was spent, means weighted by functions.
+    fn of(results: &[fit::Conversion], fit_seconds: f64) -> FitSummary {
+        let functions: usize = results.iter().map(|r| r.model.functions()).sum();
+        let mean = |f: &dyn Fn(&fit::Conversion) -> f64| {
+            results
+                .iter()
+                .map(|r| f(r) * r.model.functions() as f64)
+                .sum::<f64>()
+                / functions.max(1) as f64
+        };
+        let stop = if results.iter().any(|r| r.stop == Stop::Budget) {
+            Stop::Budget
+        } else {
+            results.first().map_or(Stop::Met, |r| r.stop)
+        };
+        FitSummary {
+            functions,
+            stop,
+            levels: results.iter().map(|r| r.levels.len()).max().unwrap_or(0),
+            over_target: results.iter().map(|r| r.over_target).sum(),
+            fit_seconds,
+            mean_angle_deg: mean(&|r| r.mean_angle_deg),
+            mean_distance: mean(&|r| r.mean_distance),
+        }
+    }
+}
+
+/// The fit of `mesh` with `max_functions`, its progress as events.
+pub(crate) fn run_fit(
+    mesh: &PolygonMesh,
+    job: &ConvertJob,
+    max_functions: usize,
+    events: &mut dyn FnMut(Event<'_>),
+) -> fit::Conversion {
     let opts = fit::ConvertOptions {
         max_functions,
         target: job.target,
@@ -282,8 +548,7 @@ pub fn convert_mesh(
         fit_angle_deg: 0.8 * job.target_angle_deg,
         ..Default::default()
     };
-    let fit_start = Instant::now();
-    let result = fit::convert(mesh, &opts, &mut |p| match p {
+    fit::convert(mesh, &opts, &mut |p| match p {
         Progress::Phase(what) => events(Event::Phase(what)),
         Progress::Level(level, functions, report) => events(Event::Level {
             level,
@@ -291,127 +556,23 @@ pub fn convert_mesh(
             max_functions,
             report,
         }),
-    });
-    let fit_seconds = fit_start.elapsed().as_secs_f64();
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "mesh".into());
-    let title = format!("{name} (converted)");
-    events(Event::Note(&format!(
-        "measuring the model: {} px depth buffers, 6 views",
-        job.check_size
-    )));
-    let frame = mesh.unit_frame();
-    let unit = mesh.transformed(&frame);
-    let holed = !sheet && open.boundary_edges > 0;
-    let loops = if holed {
-        unit.boundary_loops()
-    } else {
-        Vec::new()
-    };
-    let measure_opts = MeasureOptions {
-        size: job.check_size,
-        views: 6,
-        picture: false,
-        grid: crate::measure::grid_side(job.check_size),
-    };
-    // A solid with holes may be written as a shell with openings instead: measured
-    // like the closed model, on the model file itself.
-    let mut shell = None;
-    if holed && job.holes != Holes::Close {
-        events(Event::Note(&format!(
-            "measuring the model with openings at {} boundary loops",
-            loops.len()
-        )));
-        let room = caoen_frep::node::MAX_NODES
-            .saturating_sub(result.model.fitted_nodes() + SHELL_WRAPPER_NODES);
-        let cuts = openings::openings(&unit, &result.model, &loops, room);
-        if !cuts.is_empty() {
-            let unit_model = openings::shell_with_openings(
-                result.model.fitted_json(),
-                &cuts,
-                openings::SHELL_THICKNESS,
-            );
-            let json = result
-                .model
-                .to_frep_json_of(unit_model, &title, mesh.bounds());
-            // A cutter the model file refuses (a patch its checks find degenerate)
-            // leaves the closed model rather than failing the fit.
-            match caoen_frep::Node::from_json(&json["model"], "model", Path::new("."), &job.limits)
-            {
-                Ok(node) => {
-                    let field = InUnitCube {
-                        field: &node,
-                        frame,
-                    };
-                    let (m, _) = measure(&field, &unit, measure_opts, &job.limits)?;
-                    shell = Some((m, json, cuts.len()));
-                }
-                Err(e) => events(Event::Note(&format!("no shell with openings: {e}"))),
-            }
-        }
-    }
-    let shell_depth = shell.as_ref().map(|s| s.0.mean_all);
-    // The closed model is measured unless the shell was asked for and built.
-    let closed = if job.holes == Holes::Open && shell.is_some() {
-        None
-    } else {
-        if holed {
-            events(Event::Note("measuring the closed model"));
-        }
-        Some(measure(&result.model, &unit, measure_opts, &job.limits)?.0)
-    };
-    let closed_depth = closed.as_ref().map(|m| m.mean_all).filter(|_| holed);
-    let use_shell = match (&closed, &shell) {
-        (None, Some(_)) => true,
-        (Some(c), Some((m, _, _))) => job.holes == Holes::Auto && m.mean_all < c.mean_all,
-        _ => false,
-    };
-    let (measured, model, cut) = match (shell, closed) {
-        (_, Some(closed)) if !use_shell => {
-            (closed, result.model.to_frep_json(&title, mesh.bounds()), 0)
-        }
-        (Some((m, json, cut)), _) => (m, json, cut),
-        (None, _) => unreachable!("the shell is used only when it was built"),
-    };
-    let handled_as = if sheet {
-        "filled solid (--fill-open)"
-    } else if use_shell {
-        "shell with openings"
-    } else if holed {
-        "solid, holes closed"
-    } else {
-        "solid"
-    };
-    let mut report = ConvertReport {
-        model,
-        angle_met: measured.vertex.mean_angle_deg <= job.target_angle_deg,
-        depth_met: measured.mean_all <= job.target_depth,
-        measured,
-        functions: result.model.functions(),
-        max_functions,
-        stop: result.stop,
-        levels: result.levels.len(),
-        over_target: result.over_target,
-        fit_seconds,
-        openness: open,
-        sheet,
-        boundary_loops: loops.len(),
-        openings: cut,
-        closed_depth,
-        shell_depth,
-        handled_as,
-        advice: None,
-    };
-    report.advice = advice(&report, job, (result.mean_angle_deg, result.mean_distance));
-    Ok(report)
+    })
 }
 
 /// Advice that matches why a target was missed, and never what was done already.
 fn advice(r: &ConvertReport, job: &ConvertJob, (angle, distance): (f64, f64)) -> Option<String> {
     if r.met() {
         return None;
+    }
+    if let Some(p) = r.spurious.first() {
+        return Some(format!(
+            "the model has {} part(s) that match nothing in the mesh and reach too near \
+             it to be cut out with a box, the largest {}: the fit left surface between its \
+             conditions there; a `difference` with a solid over that place in the model \
+             file removes it",
+            r.spurious.len(),
+            components::part_text(p)
+        ));
     }
     let m = &r.measured;
     let holed = !r.sheet && r.openness.boundary_edges > 0;

@@ -3,16 +3,21 @@
 //! that measures the result against the mesh, and a radial-basis-function baseline
 //! (`docs/conversion.md`).
 
+mod choice;
+pub mod components;
 pub mod deviation;
+pub mod distance;
 pub mod fit;
 pub mod job;
 pub mod measure;
 pub mod mesh_file;
 pub mod model;
 pub mod openings;
+pub mod parts;
 pub mod quadric;
 pub mod rbf_baseline;
 pub mod support;
+pub mod thicken;
 
 /// The mesh the conversion reads, with the geometry it asks of it.
 pub use caoen_geometry::{polygon_mesh, winding};

@@ -149,10 +149,17 @@ pub struct ConvertArgs {
     /// is larger than this.
     #[arg(long, default_value_t = 10.0, value_parser = angle)]
     pub max_angle: f64,
-    /// Convert an open sheet (a mesh that encloses no solid) anyway, as the solid its
-    /// winding number closes; without it such a mesh is refused.
-    #[arg(long)]
+    /// Convert an open sheet anyway, as the solid its winding number closes. A sheet:
+    /// a boundary over 2.5 sqrt(area) long, or inside told from outside at under 80% of
+    /// probed vertices; a mesh of 2 to 32 parts, none a sheet alone, converts part by
+    /// part and is united; other sheets are refused without this or --thicken.
+    #[arg(long, conflicts_with = "thicken")]
     pub fill_open: bool,
+    /// Convert the solid within T (the mesh's units) of the mesh's triangles, by their
+    /// unsigned distance: a sheet given a thickness. T is from 0.01 to 0.25 of the
+    /// box's longest side.
+    #[arg(long, value_name = "T", value_parser = thickness)]
+    pub thicken: Option<f64>,
     /// A solid with holes (boundary loops, not a sheet): `close` models the closed
     /// solid; `open` a thin shell of it with an opening cut at each loop, so views into
     /// the holes see inside as the mesh does; `auto` measures both and writes the one
@@ -214,6 +221,13 @@ fn positive_fraction(s: &str) -> Result<f64, String> {
         _ => Err(format!(
             "`{s}`: expected a number between 0 and 1 (exclusive)"
         )),
+    }
+}
+
+fn thickness(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("`{s}`: expected a thickness above 0")),
     }
 }
 

@@ -86,6 +86,7 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         target: a.target,
         max_angle_deg: a.max_angle,
         fill_open: a.fill_open,
+        thicken: a.thicken,
         holes: match a.holes {
             HolesArg::Auto => Holes::Auto,
             HolesArg::Open => Holes::Open,
@@ -98,6 +99,10 @@ pub fn convert(global: &GlobalArgs, a: &ConvertArgs) -> CliResult {
         Event::Working(what) => heartbeat.phase(what, false),
         Event::Note(line) => {
             note(global, line);
+            heartbeat.phase(line, true);
+        }
+        Event::Warning(line) => {
+            eprintln!("warning: {line}");
             heartbeat.phase(line, true);
         }
         Event::Phase(what) => {
@@ -178,7 +183,12 @@ fn convert_json(a: &ConvertArgs, r: &ConvertReport, seconds: f64) -> serde_json:
                  "sheet": r.sheet,
                  "boundary_loops": r.boundary_loops,
                  "openings": r.openings,
-                 "handled_as": r.handled_as},
+                 "handled_as": r.handled_as,
+                 "parts": r.parts,
+                 "thickness": r.thickness},
+        "components": {"parts": r.model_parts,
+                       "removed": r.removed.iter().map(part_json).collect::<Vec<_>>(),
+                       "spurious": r.spurious.iter().map(part_json).collect::<Vec<_>>()},
         "holes": {"mode": format!("{:?}", a.holes).to_lowercase(),
                   "closed_depth_mean_all_pixels": r.closed_depth,
                   "open_depth_mean_all_pixels": r.shell_depth},
@@ -193,6 +203,11 @@ fn convert_json(a: &ConvertArgs, r: &ConvertReport, seconds: f64) -> serde_json:
         "mean_distance": v.mean_distance,
         "max_distance": v.max_distance,
     })
+}
+
+/// A part of a model that matches nothing in the mesh, for `--json`.
+fn part_json(p: &caoen::conversion::components::Part) -> serde_json::Value {
+    json!({"volume": p.volume, "lo": p.lo, "hi": p.hi, "near_fraction": p.near_fraction})
 }
 
 /// `caoen convert`'s summary as text.
@@ -250,6 +265,15 @@ fn convert_text(a: &ConvertArgs, r: &ConvertReport, seconds: f64) -> String {
         100.0 * m.mean_depth,
         a.check_size
     );
+    for (what, list) in [("cut out", &r.removed), ("NOT cut out", &r.spurious)] {
+        for p in list.iter() {
+            outln!(
+                out,
+                "spurious part {what}: {}",
+                conversion::components::part_text(p)
+            );
+        }
+    }
     if let Some(advice) = &r.advice {
         outln!(out, "targets not met: {advice}");
     }

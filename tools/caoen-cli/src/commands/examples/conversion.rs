@@ -43,6 +43,7 @@ pub(super) fn write(global: &GlobalArgs, dir: &Path) -> CliResult {
             target: 0.001,
             max_angle: 10.0,
             fill_open: false,
+            thicken: None,
             holes: crate::cli::HolesArg::Auto,
             descent: 8,
             json: false,
