@@ -143,7 +143,11 @@ fn spot_converts_and_measures_within_the_targets_through_the_cli() {
     assert!(r["advice"].is_null(), "{r}");
     // A clean conversion: one part, matched to the mesh.
     let c = &r["components"];
-    assert_eq!((c["parts"].as_u64(), c["spurious"].as_array().map(Vec::len)), (Some(1), Some(0)), "{r}");
+    assert_eq!(
+        (c["parts"].as_u64(), c["spurious"].as_array().map(Vec::len)),
+        (Some(1), Some(0)),
+        "{r}"
+    );
     assert_eq!(c["removed"], serde_json::json!([]), "{r}");
     assert!(stderr.contains("connected parts"), "{stderr}");
     // No overwrite without -f.
@@ -550,7 +554,12 @@ fn obj_text(mesh: &PolygonMesh) -> String {
 
 /// `part` moved by `at` and appended to `mesh`, without the triangles whose centre
 /// `cut` picks (a small opening).
-fn add_part(mesh: &mut PolygonMesh, part: &PolygonMesh, at: [f64; 3], cut: &dyn Fn([f64; 3]) -> bool) {
+fn add_part(
+    mesh: &mut PolygonMesh,
+    part: &PolygonMesh,
+    at: [f64; 3],
+    cut: &dyn Fn([f64; 3]) -> bool,
+) {
     let base = mesh.positions.len() as u32;
     let moved: Vec<[f64; 3]> = part
         .positions
@@ -597,6 +606,12 @@ fn a_teapot_like_mesh_of_parts_converts_by_default_part_by_part() {
     assert_eq!(r["components"]["parts"], 1, "{r}");
     let angle = r["deviation"]["normal_angle_deg"]["mean"].as_f64().unwrap();
     let depth = r["deviation"]["depth"]["mean_all_pixels"].as_f64().unwrap();
+    eprintln!(
+        "teapot-like: {angle:.2} degrees, depth {:.4}%, {} functions, {:.1} s",
+        100.0 * depth,
+        r["functions"],
+        r["seconds"].as_f64().unwrap()
+    );
     assert!(angle <= 3.0 && depth <= 0.002, "{r}");
     assert_eq!(r["met_target"], true, "{r}");
 }
@@ -629,13 +644,33 @@ fn a_thickened_sheet_is_the_solid_within_the_thickness() {
     std::fs::write(&mesh, obj_text(&sheet)).unwrap();
     let model = dir.join("patch.json");
     let t = 0.05;
-    let r = convert_json(&mesh, &model, &["--thicken", "0.05", "--max-functions", "1500"]);
+    let r = convert_json(
+        &mesh,
+        &model,
+        &["--thicken", "0.05", "--max-functions", "1500"],
+    );
     assert_eq!(r["open"]["thickness"], t, "{r}");
-    assert!(r["open"]["handled_as"].as_str().unwrap().contains("--thicken"), "{r}");
+    assert!(
+        r["open"]["handled_as"]
+            .as_str()
+            .unwrap()
+            .contains("--thicken"),
+        "{r}"
+    );
     assert_eq!(r["components"]["spurious"], serde_json::json!([]), "{r}");
     // The model's surface, polygonised, lies at the thickness from the sheet.
     let surface = dir.join("surface.obj");
-    caoen_ok(&["--quiet", "frep", "mesh", s(&model), "-o", s(&surface), "-f", "--cells", "96"]);
+    caoen_ok(&[
+        "--quiet",
+        "frep",
+        "mesh",
+        s(&model),
+        "-o",
+        s(&surface),
+        "-f",
+        "--cells",
+        "96",
+    ]);
     let polygonised = caoen::conversion::read(&surface, &caoen::Limits::default()).unwrap();
     let tree = caoen::conversion::distance::SurfaceDistance::new(&sheet);
     let off: Vec<f64> = polygonised
@@ -645,8 +680,14 @@ fn a_thickened_sheet_is_the_solid_within_the_thickness() {
         .collect();
     let mean = off.iter().sum::<f64>() / off.len() as f64;
     let within = off.iter().filter(|d| **d <= 0.2 * t).count() as f64 / off.len() as f64;
-    eprintln!("thickened: mean |distance - T| {mean:.5}, {:.1}% within 0.2 T", 100.0 * within);
-    assert!(mean <= 0.1 * t && within >= 0.95, "mean {mean}, within {within}");
+    eprintln!(
+        "thickened: mean |distance - T| {mean:.5}, {:.1}% within 0.2 T",
+        100.0 * within
+    );
+    assert!(
+        mean <= 0.1 * t && within >= 0.95,
+        "mean {mean}, within {within}"
+    );
     // Thicknesses out of range are refused with the values.
     for (bad, says) in [
         ("0", "above 0"),
@@ -655,10 +696,20 @@ fn a_thickened_sheet_is_the_solid_within_the_thickness() {
         ("1e9", "expected a thickness from"),
         ("0.001", "from 1.0000e-2 to 2.5000e-1"),
     ] {
-        let out = caoen(&["convert", s(&mesh), "-o", s(&model), "-f", "--thicken", bad]);
+        let flag = format!("--thicken={bad}");
+        let out = caoen(&["convert", s(&mesh), "-o", s(&model), "-f", &flag]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(says), "{bad}: {err}");
     }
-    let out = caoen(&["convert", s(&mesh), "-o", s(&model), "-f", "--thicken", "0.05", "--fill-open"]);
+    let out = caoen(&[
+        "convert",
+        s(&mesh),
+        "-o",
+        s(&model),
+        "-f",
+        "--thicken",
+        "0.05",
+        "--fill-open",
+    ]);
     assert!(!out.status.success());
 }

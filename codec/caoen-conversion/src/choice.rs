@@ -135,4 +135,3 @@ pub(crate) fn choose_model(
         handled_as,
     })
 }
-

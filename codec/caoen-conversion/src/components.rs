@@ -155,7 +155,7 @@ pub fn components(field: &dyn ImplicitField, unit: &PolygonMesh, frame: &UnitFra
             matched: near_fraction >= MATCHED_FRACTION,
         });
     }
-    parts.sort_by(|a, b| b.points.cmp(&a.points));
+    parts.sort_by_key(|p| std::cmp::Reverse(p.points));
     Components {
         parts,
         cell: cell / frame.scale,
@@ -181,10 +181,7 @@ pub fn cut_boxes(found: &Components, unit: &PolygonMesh, frame: &UnitFrame) -> O
         let size = [0, 1, 2].map(|k| hi[k] - lo[k]);
         let half_diagonal = 0.5 * size.iter().map(|s| s * s).sum::<f64>().sqrt();
         let reaches_mesh = tree.distance(frame.to_unit(centre)) <= half_diagonal * frame.scale;
-        let reaches_part = found
-            .parts
-            .iter()
-            .any(|q| q.matched && overlaps(q, lo, hi));
+        let reaches_part = found.parts.iter().any(|q| q.matched && overlaps(q, lo, hi));
         if reaches_mesh || reaches_part {
             return None;
         }
@@ -197,7 +194,9 @@ pub fn cut_boxes(found: &Components, unit: &PolygonMesh, frame: &UnitFrame) -> O
 pub fn without(file: &Value, boxes: &[Value]) -> Value {
     let mut out = file.clone();
     let model = out["model"].take();
-    let operands: Vec<Value> = std::iter::once(model).chain(boxes.iter().cloned()).collect();
+    let operands: Vec<Value> = std::iter::once(model)
+        .chain(boxes.iter().cloned())
+        .collect();
     out["model"] = json!({"difference": operands, "a": 1});
     out
 }
@@ -211,7 +210,10 @@ pub fn of_file(
     limits: &Limits,
 ) -> Option<Components> {
     let node = caoen_frep::Node::from_json(&file["model"], "model", Path::new("."), limits).ok()?;
-    let field = InUnitCube { field: &node, frame };
+    let field = InUnitCube {
+        field: &node,
+        frame,
+    };
     Some(components(&field, unit, &frame))
 }
 
@@ -243,7 +245,10 @@ mod tests {
             .extend(right.triangles.iter().map(|t| t.map(|v| v + n)));
         let ball = |x: f64, r: f64| json!({"sphere": {"centre": [x, 0.0, 0.0], "radius": r}});
         let model = json!({"union": [ball(-0.6, 0.3), ball(0.6, 0.3)], "a": 1});
-        (mesh, json!({"format": "caoen-frep/1", "name": "two", "model": model}))
+        (
+            mesh,
+            json!({"format": "caoen-frep/1", "name": "two", "model": model}),
+        )
     }
 
     #[test]
@@ -268,7 +273,11 @@ mod tests {
         assert!(p.near_fraction < 0.1, "{p:?}");
         assert!((0..3).all(|k| p.lo[k] > -0.15 && p.hi[k] < 0.2), "{p:?}");
         let volume = 4.0 / 3.0 * std::f64::consts::PI * 1e-3;
-        assert!((p.volume / volume - 1.0).abs() < 0.5, "{} {volume}", p.volume);
+        assert!(
+            (p.volume / volume - 1.0).abs() < 0.5,
+            "{} {volume}",
+            p.volume
+        );
         assert!(part_text(p).contains("volume"));
         let cut = without(&file, &cut_boxes(&found, &unit, &frame).expect("boxes"));
         let again = of_file(&cut, &unit, frame, &limits).unwrap();

@@ -170,7 +170,11 @@ mod tests {
         let tree = SurfaceDistance::new(&mesh);
         for i in 0..200 {
             let f = i as f64;
-            let p = [(f * 0.37).sin(), (f * 0.51).cos() * 0.7, (f * 0.13).sin() * 0.5];
+            let p = [
+                (f * 0.37).sin(),
+                (f * 0.51).cos() * 0.7,
+                (f * 0.13).sin() * 0.5,
+            ];
             let brute = mesh
                 .triangles
                 .iter()

@@ -320,7 +320,11 @@ pub fn convert_mesh(
     events(Event::Note(&format!("{kind}: {}", openness_text(&open))));
     let estimate = conversion_memory(mesh)
         + components::components_memory(mesh.triangles.len())
-        + if split.is_empty() { 0 } else { parts::parts_memory(mesh) };
+        + if split.is_empty() {
+            0
+        } else {
+            parts::parts_memory(mesh)
+        };
     job.limits
         .check(|| "the conversion's conditions".into(), estimate)?;
     events(Event::Note(&format!(
@@ -464,7 +468,10 @@ fn convert_thickened(
         caoen_base::budget::human(estimate)
     )));
     let thick = thicken::thickened(mesh, t);
-    events(Event::Note(&format!("thickened: {}", topology_text(&thick))));
+    events(Event::Note(&format!(
+        "thickened: {}",
+        topology_text(&thick)
+    )));
     let inner = ConvertJob {
         thicken: None,
         fill_open: false,

@@ -68,7 +68,7 @@ pub fn connected_parts(mesh: &PolygonMesh) -> Vec<PolygonMesh> {
         });
         part.triangles.push(tri);
     }
-    parts.sort_by(|a, b| b.triangles.len().cmp(&a.triangles.len()));
+    parts.sort_by_key(|p| std::cmp::Reverse(p.triangles.len()));
     parts
 }
 
@@ -110,7 +110,10 @@ pub fn visible(parts: &[(PolygonMesh, Openness)]) -> PolygonMesh {
             .par_iter()
             .filter(|t| {
                 let c = [0, 1, 2].map(|k| {
-                    t.iter().map(|&v| part.positions[v as usize][k]).sum::<f64>() / 3.0
+                    t.iter()
+                        .map(|&v| part.positions[v as usize][k])
+                        .sum::<f64>()
+                        / 3.0
                 });
                 trees
                     .iter()

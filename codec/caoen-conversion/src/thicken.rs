@@ -126,7 +126,9 @@ mod tests {
         let mut sheet = PolygonMesh::default();
         for j in 0..=n {
             for i in 0..=n {
-                sheet.positions.push([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+                sheet
+                    .positions
+                    .push([i as f64 / n as f64, j as f64 / n as f64, 0.0]);
             }
         }
         for j in 0..n {
@@ -145,11 +147,22 @@ mod tests {
         let slab = thickened(&sheet, t);
         assert!(slab.topology().is_closed(), "{:?}", slab.topology());
         let tree = SurfaceDistance::new(&sheet);
-        for p in &slab.positions {
-            assert!((tree.distance(*p) - 0.05).abs() < 0.002, "{p:?}");
-        }
-        // The slab's two sides: twice the square's area and a little more at the rim.
+        // Within a tenth of the thickness everywhere (the rounded rim's corners sag
+        // between grid edges), within a fiftieth on average.
+        let off: Vec<f64> = slab
+            .positions
+            .iter()
+            .map(|p| (tree.distance(*p) - 0.05).abs())
+            .collect();
+        assert!(
+            off.iter().all(|d| *d < 0.005),
+            "{:?}",
+            off.iter().cloned().fold(0.0, f64::max)
+        );
+        assert!(off.iter().sum::<f64>() / (off.len() as f64) < 0.001);
+        // Twice the square's area and the rim, a half cylinder of radius T along the
+        // four sides (4 pi T = 0.63).
         let area = slab.area();
-        assert!(area > 2.0 && area < 2.6, "{area}");
+        assert!((area - 2.63).abs() < 0.05, "{area}");
     }
 }
