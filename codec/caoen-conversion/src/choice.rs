@@ -7,9 +7,9 @@ use std::path::Path;
 use serde_json::Value;
 
 use crate::fit;
-use crate::job::{ConvertError, ConvertJob, Event, Holes};
 use crate::measure::{measure, MeasureOptions, Measured};
 use crate::polygon_mesh::Openness;
+use crate::settings::{ConvertError, ConvertJob, Event, Holes};
 use crate::{openings, InUnitCube, PolygonMesh};
 
 /// Nodes a model with openings adds around the fitted function and the cutters: the

@@ -16,6 +16,7 @@ pub mod openings;
 pub mod parts;
 pub mod quadric;
 pub mod rbf_baseline;
+mod settings;
 pub mod support;
 pub mod thicken;
 

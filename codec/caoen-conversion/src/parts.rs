@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 
 use crate::fit::Conversion;
-use crate::job::{run_fit, ConvertJob, Event};
 use crate::polygon_mesh::Openness;
+use crate::settings::{run_fit, ConvertJob, Event};
 use crate::{PolygonMesh, WindingTree};
 
 /// Most parts a mesh is converted as; more, and the mesh is classified whole.
