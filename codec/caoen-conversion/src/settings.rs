@@ -24,10 +24,10 @@ pub enum Holes {
     Close,
 }
 
-/// The settings of [`crate::convert_file`] and [`crate::convert_mesh`].
+/// The settings of a whole conversion (`convert_file`, `convert_mesh`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConvertJob {
-    /// The most functions; `None` for [`crate::job::default_max_functions`].
+    /// The most functions; `None` for the default budget (`job::default_max_functions`).
     pub max_functions: Option<usize>,
     /// The mean normal angle (degrees) the model must reach.
     pub target_angle_deg: f64,
