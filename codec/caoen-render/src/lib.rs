@@ -4,6 +4,7 @@
 // `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bump;
 pub mod bvh;
 pub mod camera;
 pub mod csg;
@@ -14,6 +15,7 @@ pub mod image_map;
 mod light_file;
 pub mod lights;
 pub mod mesh;
+pub mod noise;
 pub mod pattern;
 pub mod pov;
 pub mod pov_mesh;

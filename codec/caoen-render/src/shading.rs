@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 
+use super::bump::Bumps;
 use super::image_map::ImageMap;
 pub use super::lights::{Incidence, Light, Lighting};
 use super::pattern::Checker;
@@ -29,6 +30,8 @@ pub struct Material {
     pub image_map: Option<Arc<ImageMap>>,
     /// A checker in world space (POV-Ray's `checker`); it gives the base colour.
     pub checker: Option<Arc<Checker>>,
+    /// A bump pattern (POV-Ray's `normal { bumps .. }`) displacing the normal.
+    pub normal: Option<Arc<Bumps>>,
     /// Mirror reflectance in [0, 1] (times the Fresnel reflectance when transmitting).
     pub reflect: f32,
     /// Share of light passing through the surface, in [0, 1].
@@ -48,6 +51,7 @@ impl Default for Material {
             texture: None,
             image_map: None,
             checker: None,
+            normal: None,
             reflect: 0.0,
             transmit: 0.0,
             ior: 1.0,
