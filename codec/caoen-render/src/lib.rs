@@ -6,6 +6,7 @@
 
 pub mod bump;
 pub mod bvh;
+pub mod cae_texture;
 pub mod camera;
 pub mod csg;
 pub mod depth_buffer;

@@ -194,6 +194,10 @@ pub fn render(
     let camera = scene
         .camera(opts.width, opts.height)?
         .with_size(opts.width * n, opts.height * n);
+    // `.cae` image maps decoded at this camera's footprint (checked against the budget
+    // before they are decoded); the other objects are shared with `scene`.
+    let prepared = super::cae_texture::with_footprint_textures(scene, &camera, &opts.limits)?;
+    let scene = prepared.as_ref().unwrap_or(scene);
     // Shading weighs in the bar as its share of the estimated ray tests, so that the
     // time left holds when shadow rays to many lights or deep mirrors dominate.
     let draw_units = scene.objects.len() as u64 * UNITS;
