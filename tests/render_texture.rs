@@ -116,7 +116,15 @@ fn cae_and_pngs(dir: &Path, big: u32) -> (PathBuf, PathBuf, PathBuf) {
     let (own, large) = (dir.join("own.png"), dir.join("large.png"));
     caoen_ok(&["decode", s(&cae), "-o", s(&own), "--quiet"]);
     let size = format!("{big}x{big}");
-    caoen_ok(&["decode", s(&cae), "-o", s(&large), "--size", &size, "--quiet"]);
+    caoen_ok(&[
+        "decode",
+        s(&cae),
+        "-o",
+        s(&large),
+        "--size",
+        &size,
+        "--quiet",
+    ]);
     (cae, own, large)
 }
 
@@ -144,7 +152,10 @@ fn cae_texture_has_no_staircase_close_up() {
         s_cae.0, s_cae.1, s_small.0, s_small.1, s_smooth.0, s_smooth.1
     );
     assert!(psnr_big >= 35.0, "{psnr_big:.2} dB against the large PNG");
-    assert!(psnr_small < psnr_big, "the 64 PNG is as close as the large one");
+    assert!(
+        psnr_small < psnr_big,
+        "the 64 PNG is as close as the large one"
+    );
     assert!(
         s_cae.0 * 3.0 < s_small.0,
         "second difference .cae {:.3}, PNG {:.3}",
@@ -279,5 +290,8 @@ fn bumps_example_matches_povray() {
     );
     assert!(iou >= 0.99, "IoU {iou:.4}");
     assert!(psnr >= 35.0, "{psnr:.2} dB");
-    assert!(ours <= theirs, "CPU caoen {ours:.2} s, POV-Ray {theirs:.2} s");
+    assert!(
+        ours <= theirs,
+        "CPU caoen {ours:.2} s, POV-Ray {theirs:.2} s"
+    );
 }

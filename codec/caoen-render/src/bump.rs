@@ -198,13 +198,17 @@ mod tests {
     fn bumps_displace_by_pov_rays_noise() {
         let b = Bumps::new(BumpKind::Bumps, 0.5, Affine::IDENTITY).unwrap();
         let p = [0.5, 0.125, 0.25];
-        // POV-Ray's DNoise at <0.5, 0.25, 0.125> (the golden value in `noise`).
-        let d = [-0.24159461781921387, -0.29977857340240477, -0.30524941456298837];
+        // POV-Ray's point is <x, z, y> (its DNoise there is a golden value in `noise`).
+        let d = dnoise([0.5, 0.25, 0.125]);
         let n = b.perturb(p, [0.0, 0.0, 1.0]);
         let want = normalised([0.5 * d[0], 0.5 * d[2], 1.0 + 0.5 * d[1]]);
         assert!((0..3).all(|k| (n[k] - want[k]).abs() < 1e-12), "{n:?}");
         // A uniform scale only stretches the pattern.
-        let s = Bumps::new(BumpKind::Bumps, 0.5, Affine::from_parts([0.1; 3], [0.0; 3], [0.0; 3]));
+        let s = Bumps::new(
+            BumpKind::Bumps,
+            0.5,
+            Affine::from_parts([0.1; 3], [0.0; 3], [0.0; 3]),
+        );
         let m = s.unwrap().perturb(p.map(|v| v * 0.1), [0.0, 0.0, 1.0]);
         assert!((0..3).all(|k| (m[k] - want[k]).abs() < 1e-12), "{m:?}");
         assert_eq!(

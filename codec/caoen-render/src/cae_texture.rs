@@ -175,7 +175,8 @@ fn period_lengths(map: &ImageMap, (lo, hi): ([f64; 3], [f64; 3])) -> [f64; 2] {
     let mut reach: f64 = 0.0;
     for corner in 0..8 {
         let p = [0, 1, 2].map(|k| if corner >> k & 1 == 1 { hi[k] } else { lo[k] });
-        reach = reach.max(((p[0] - o[0]).powi(2) + (p[1] - o[1]).powi(2) + (p[2] - o[2]).powi(2)).sqrt());
+        reach = reach
+            .max(((p[0] - o[0]).powi(2) + (p[1] - o[1]).powi(2) + (p[2] - o[2]).powi(2)).sqrt());
     }
     let tau = std::f64::consts::TAU;
     match map.map {
