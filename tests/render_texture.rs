@@ -295,3 +295,40 @@ fn bumps_example_matches_povray() {
         "CPU caoen {ours:.2} s, POV-Ray {theirs:.2} s"
     );
 }
+
+/// The `.cae` texture's decode is counted with the render's buffers before either is
+/// allocated: under a budget too small for the footprint's size the decode is made
+/// smaller and the render runs; under one too small for the render at all it is refused
+/// with the budget's error, exit code 1, nothing written.
+#[test]
+fn cae_texture_fits_the_memory_budget() {
+    let dir = common::fresh_dir("cae-texture-budget");
+    cae_and_pngs(&dir, 64);
+    let scene = close_up(&dir, "cae", "pic.cae", 2);
+    let run = |budget: &str, out: &Path| {
+        caoen(&[
+            "frep",
+            "render",
+            s(&scene),
+            "-o",
+            s(out),
+            "--size",
+            "256x256",
+            "--samples",
+            "2",
+            "--max-memory",
+            budget,
+        ])
+    };
+    let fits = dir.join("fits.png");
+    let r = run("64M", &fits);
+    assert!(r.status.success(), "{}", common::stderr(&r));
+    assert!(fits.exists());
+    let refused = dir.join("refused.png");
+    let r = run("24M", &refused);
+    let err = common::stderr(&r);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(err.contains("memory budget"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!refused.exists());
+}

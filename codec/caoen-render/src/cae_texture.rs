@@ -7,9 +7,9 @@
 //! projection says how much world one period of the image covers (the transform's
 //! axes for a planar map, the longitude's full circle at the box's farthest point for
 //! the others). The image is decoded so that a texel is no larger than that sample,
-//! at most [`MAX_TEXTURE_SIDE`] a side, and halved until the decode and the texture
-//! fit what the memory budget leaves; the estimate is checked before anything is
-//! allocated. The result is a function of the scene, the camera and the budget only.
+//! at most [`MAX_TEXTURE_SIDE`] a side, and halved until the decode, the texture and
+//! the render's own buffers fit what the memory budget leaves; that estimate is checked
+//! before anything is allocated. The result is a function of the scene, the camera and the budget only.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -82,8 +82,8 @@ impl CaeSource {
     }
 
     /// The image decoded at `size` as a texture, within `limits` (checked before the
-    /// decode allocates).
-    pub fn texture(&self, size: (u32, u32), limits: &Limits) -> Result<Texture> {
+    /// decode allocates, with `beside` bytes the caller will need after it).
+    pub fn texture(&self, size: (u32, u32), beside: u64, limits: &Limits) -> Result<Texture> {
         limits.check(
             || {
                 format!(
@@ -93,7 +93,7 @@ impl CaeSource {
                     size.1
                 )
             },
-            self.memory(size),
+            self.memory(size).saturating_add(beside),
         )?;
         let opts = DecodeOptions {
             size: Some(size),
@@ -206,12 +206,14 @@ pub fn footprint_size(
 }
 
 /// `scene` with every `.cae` image map decoded for `camera` (at its own, supersampled
-/// size), or None when it has none. Each size is halved until its decode fits what
-/// `limits` leaves (down to the image's own size or 64 a side, whichever is smaller;
-/// below that the budget's error is returned).
+/// size), or None when it has none. Each size is halved until its decode, with
+/// `beside` bytes the render needs after it, fits what `limits` leaves (down to the
+/// image's own size or 64 a side, whichever is smaller; below that the budget's error
+/// is returned).
 pub fn with_footprint_textures(
     scene: &Scene,
     camera: &Camera,
+    beside: u64,
     limits: &Limits,
 ) -> Result<Option<Scene>> {
     if !scene.objects.iter().any(|o| {
@@ -235,10 +237,10 @@ pub fn with_footprint_textures(
         let own = source.size();
         let floor = (own.0.max(own.1)).min(64);
         let free = limits.max_memory.saturating_sub(limits.held());
-        while source.memory(size) > free && size.0.max(size.1) / 2 >= floor {
+        while source.memory(size).saturating_add(beside) > free && size.0.max(size.1) / 2 >= floor {
             size = ((size.0 / 2).max(1), (size.1 / 2).max(1));
         }
-        let tex = source.texture(size, limits)?;
+        let tex = source.texture(size, beside, limits)?;
         let mut m = (*map).clone();
         m.texture = Arc::new(tex);
         obj.material.image_map = Some(Arc::new(m));
@@ -267,7 +269,7 @@ pub fn export_textures(
     pov: &Path,
     limits: &Limits,
 ) -> Result<Option<(Scene, Vec<ExportedTexture>)>> {
-    let Some(mut out) = with_footprint_textures(scene, camera, limits)? else {
+    let Some(mut out) = with_footprint_textures(scene, camera, 0, limits)? else {
         return Ok(None);
     };
     let dir = match pov.parent() {

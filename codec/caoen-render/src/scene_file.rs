@@ -409,7 +409,7 @@ impl FileImageMap {
             // Decoded at its own size here, so a damaged file is refused with the scene;
             // a render decodes it again at the size its footprint asks for.
             let src = CaeSource::load(&file, limits).map_err(field(&image))?;
-            let tex = src.texture(src.size(), limits).map_err(field(&image))?;
+            let tex = src.texture(src.size(), 0, limits).map_err(field(&image))?;
             (tex, Some(Arc::new(src)))
         } else {
             (Texture::load(&file, limits).map_err(field(&image))?, None)
