@@ -332,3 +332,37 @@ fn cae_texture_fits_the_memory_budget() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(!refused.exists());
 }
+
+/// A `.cae` domain texture (the blob's sphere domain) is decoded at the
+/// render's footprint too: the render equals the one textured by a 2048x2048 PNG decode
+/// of the file (PSNR >= 35 dB) and is farther from the one textured by the 64x64 decode.
+#[test]
+fn cae_domain_texture_follows_the_footprint() {
+    let dir = common::fresh_dir("cae-domain-texture");
+    let (_, own, large) = cae_and_pngs(&dir, 2048);
+    let scene = |name: &str, texture: &str| {
+        let v = serde_json::json!({
+            "format": "caoen-scene/1",
+            "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [1.0, -1.6, 0.9]},
+            "objects": [{"surface": "builtin:blob", "material": {"texture": texture, "specular": 0.0}}]
+        });
+        let path = dir.join(format!("{name}.scene.json"));
+        std::fs::write(&path, v.to_string()).unwrap();
+        path
+    };
+    let (cae, _) = render(&scene("cae", "pic.cae"), 256);
+    let (big, _) = render(&scene("large", s(&large)), 256);
+    let (small, _) = render(&scene("own", s(&own)), 256);
+    let (near, far) = (
+        common::psnr_rgb8(&cae, &big),
+        common::psnr_rgb8(&cae, &small),
+    );
+    println!(
+        "domain texture: .cae against the 2048 PNG {near:.2} dB, against the 64 PNG {far:.2} dB"
+    );
+    assert!(near >= 35.0, "{near:.2} dB");
+    assert!(
+        far < near,
+        "{far:.2} dB against the 64 PNG, {near:.2} dB against the large one"
+    );
+}

@@ -163,8 +163,9 @@ fn finest_sample(camera: &Camera, (lo, hi): ([f64; 3], [f64; 3])) -> f64 {
     }
 }
 
-/// The world length one period of the image spans along its u and v.
-fn period_lengths(map: &ImageMap, (lo, hi): ([f64; 3], [f64; 3])) -> [f64; 2] {
+/// The world length one period of an image map spans along its u and v, on an object
+/// in the box `(lo, hi)`.
+pub fn period_lengths(map: &ImageMap, (lo, hi): ([f64; 3], [f64; 3])) -> [f64; 2] {
     let axis = |c: usize| {
         let m = &map.transform.m;
         (m[0][c] * m[0][c] + m[1][c] * m[1][c] + m[2][c] * m[2][c]).sqrt()
@@ -186,23 +187,34 @@ fn period_lengths(map: &ImageMap, (lo, hi): ([f64; 3], [f64; 3])) -> [f64; 2] {
     }
 }
 
-/// The size to decode `source` at for `map` on an object in `bbox` seen by `camera`,
-/// before the memory budget: texels no larger than the finest sample, the image's
-/// aspect kept, at most [`MAX_TEXTURE_SIDE`] a side.
+/// The size to decode `source` at when one period of the image spans `[pu, pv]` of
+/// the world on an object in `bbox` seen by `camera`, before the memory budget: texels
+/// no larger than the finest sample, the image's aspect kept, at most
+/// [`MAX_TEXTURE_SIDE`] a side.
 pub fn footprint_size(
     source: &CaeSource,
-    map: &ImageMap,
+    [pu, pv]: [f64; 2],
     bbox: ([f64; 3], [f64; 3]),
     camera: &Camera,
 ) -> (u32, u32) {
     let (w, h) = source.size();
     let sample = finest_sample(camera, bbox);
-    let [pu, pv] = period_lengths(map, bbox);
     let need = (pu / sample / f64::from(w)).max(pv / sample / f64::from(h));
     let cap = f64::from(MAX_TEXTURE_SIDE) / f64::from(w.max(h));
     let k = if need.is_finite() { need.min(cap) } else { cap };
     let side = |n: u32| ((f64::from(n) * k).ceil() as u32).clamp(1, MAX_TEXTURE_SIDE);
     (side(w), side(h))
+}
+
+/// Whether an object of `scene` has a `.cae` image map or domain texture.
+pub fn has_cae(scene: &Scene) -> bool {
+    scene.objects.iter().any(|o| {
+        o.material.texture_cae.is_some()
+            || o.material
+                .image_map
+                .as_ref()
+                .is_some_and(|m| m.cae.is_some())
+    })
 }
 
 /// `scene` with every `.cae` image map decoded for `camera` (at its own, supersampled
@@ -216,34 +228,45 @@ pub fn with_footprint_textures(
     beside: u64,
     limits: &Limits,
 ) -> Result<Option<Scene>> {
-    if !scene.objects.iter().any(|o| {
-        o.material
-            .image_map
-            .as_ref()
-            .is_some_and(|m| m.cae.is_some())
-    }) {
+    if !has_cae(scene) {
         return Ok(None);
     }
     let mut out = scene.clone();
-    for obj in &mut out.objects {
-        let Some(map) = obj.material.image_map.clone() else {
-            continue;
-        };
-        let Some(source) = map.cae.clone() else {
-            continue;
-        };
-        let bbox = object_box(scene, &obj.shape)?;
-        let mut size = footprint_size(&source, &map, bbox, camera);
+    // Halves `size` until its decode and `beside` fit what the budget leaves, then decodes.
+    let fit = |source: &CaeSource, mut size: (u32, u32)| {
         let own = source.size();
         let floor = (own.0.max(own.1)).min(64);
         let free = limits.max_memory.saturating_sub(limits.held());
         while source.memory(size).saturating_add(beside) > free && size.0.max(size.1) / 2 >= floor {
             size = ((size.0 / 2).max(1), (size.1 / 2).max(1));
         }
-        let tex = source.texture(size, beside, limits)?;
-        let mut m = (*map).clone();
-        m.texture = Arc::new(tex);
-        obj.material.image_map = Some(Arc::new(m));
+        source.texture(size, beside, limits)
+    };
+    for obj in &mut out.objects {
+        let bbox = object_box(scene, &obj.shape)?;
+        if let Some(map) = obj.material.image_map.clone() {
+            if let Some(source) = map.cae.clone() {
+                let size = footprint_size(&source, period_lengths(&map, bbox), bbox, camera);
+                let mut m = (*map).clone();
+                m.texture = Arc::new(fit(&source, size)?);
+                obj.material.image_map = Some(Arc::new(m));
+            }
+        }
+        if let (Some(source), Some((_, wrap))) = (
+            obj.material.texture_cae.clone(),
+            obj.material.texture.clone(),
+        ) {
+            // A domain texture spans the whole object both ways: at most the
+            // circumference of the object's box's bounding sphere.
+            let radius = 0.5
+                * (0..3)
+                    .map(|k| (bbox.1[k] - bbox.0[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+            let circle = std::f64::consts::TAU * radius;
+            let size = footprint_size(&source, [circle, circle], bbox, camera);
+            obj.material.texture = Some((Arc::new(fit(&source, size)?), wrap));
+        }
     }
     Ok(Some(out))
 }
@@ -282,29 +305,35 @@ pub fn export_textures(
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".into());
     let mut files = Vec::new();
-    for (i, obj) in out.objects.iter_mut().enumerate() {
-        let Some(map) = obj.material.image_map.clone() else {
-            continue;
-        };
-        if map.cae.is_none() {
-            continue;
-        }
-        let path = dir.join(format!("{stem}-texture-{i}.png"));
+    let mut exported = |name: String, tex: &Texture| -> Result<PathBuf> {
+        let path = dir.join(name);
         if path.to_string_lossy().contains('"') {
             return Err(RenderError::parameter(
                 "export",
                 "a file name with `\"` cannot be written into a .pov",
             ));
         }
-        let img = map.texture.image();
+        let img = tex.image();
         files.push(ExportedTexture {
             path: path.clone(),
             png: img.encode_png()?,
             size: (img.width, img.height),
         });
-        let mut m = (*map).clone();
-        m.file = path;
-        obj.material.image_map = Some(Arc::new(m));
+        Ok(path)
+    };
+    for (i, obj) in out.objects.iter_mut().enumerate() {
+        if let Some(map) = obj.material.image_map.clone().filter(|m| m.cae.is_some()) {
+            let mut m = (*map).clone();
+            m.file = exported(format!("{stem}-texture-{i}.png"), &m.texture)?;
+            obj.material.image_map = Some(Arc::new(m));
+        }
+        if let (Some(_), Some((tex, wrap))) =
+            (&obj.material.texture_cae, obj.material.texture.clone())
+        {
+            let path = exported(format!("{stem}-domain-texture-{i}.png"), &tex)?;
+            let named = (*tex).clone().named(path);
+            obj.material.texture = Some((Arc::new(named), wrap));
+        }
     }
     Ok(Some((out, files)))
 }

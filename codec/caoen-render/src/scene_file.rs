@@ -667,7 +667,15 @@ impl FileObject {
             };
             if let Some(t) = texture {
                 let wrap = texture_wrap(&model).map_err(field(&format!("{mp}.texture")))?;
-                let tex = Texture::load(&t, limits).map_err(field(&format!("{mp}.texture")))?;
+                let what = format!("{mp}.texture");
+                let tex = if super::cae_texture::is_cae(&t) {
+                    let src = CaeSource::load(&t, limits).map_err(field(&what))?;
+                    let tex = src.texture(src.size(), 0, limits).map_err(field(&what))?;
+                    material.texture_cae = Some(Arc::new(src));
+                    tex
+                } else {
+                    Texture::load(&t, limits).map_err(field(&what))?
+                };
                 material.texture = Some((Arc::new(tex), wrap));
                 if fm.colour.is_none() {
                     material.colour = [1.0; 3];

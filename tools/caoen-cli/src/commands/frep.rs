@@ -217,12 +217,7 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
         Some((s, t)) => (s, t),
         None => (scene, Vec::new()),
     };
-    if scene.objects.iter().any(|o| {
-        o.material
-            .image_map
-            .as_ref()
-            .is_some_and(|m| caoen::render::cae_texture::is_cae(&m.file))
-    }) {
+    if textures.is_empty() && caoen::render::cae_texture::has_cae(&scene) {
         return Err(CliError::Usage(
             "a .cae texture is exported as a PNG beside the .pov: give -o a file".into(),
         ));
