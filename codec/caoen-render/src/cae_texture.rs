@@ -1,15 +1,18 @@
-//! A `.cae` file as a resolution-free image map: the file is decoded anew for each
-//! render at the size its finest footprint asks for, so a close-up shows the codec's
-//! continuous image instead of enlarged texels.
+//! A `.cae` file as a resolution-free texture (an image map or a surface's domain
+//! texture): the file is decoded anew for each render at the size its finest footprint
+//! asks for, so a close-up shows the codec's continuous image instead of enlarged
+//! texels.
 //!
 //! The size comes from the camera and the object's box: the nearest point of the box
 //! along the view sets the smallest world distance one sample spans, and the map's
 //! projection says how much world one period of the image covers (the transform's
 //! axes for a planar map, the longitude's full circle at the box's farthest point for
-//! the others). The image is decoded so that a texel is no larger than that sample,
-//! at most [`MAX_TEXTURE_SIDE`] a side, and halved until the decode, the texture and
-//! the render's own buffers fit what the memory budget leaves; that estimate is checked
-//! before anything is allocated. The result is a function of the scene, the camera and the budget only.
+//! the others, the circumference of the box's bounding sphere for a domain texture).
+//! The image is decoded so that a texel is no larger than that sample, at most
+//! [`MAX_TEXTURE_SIDE`] a side, and halved until the decode, the texture and the
+//! render's own buffers fit what the memory budget leaves; that estimate is checked
+//! before anything is allocated. The result depends on the scene, the camera and the
+//! budget only.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
