@@ -18,4 +18,5 @@ pub mod ray;
 pub mod transform;
 pub mod untangle;
 pub mod vector;
+pub mod vertex_queue;
 pub mod winding;
