@@ -12,6 +12,7 @@ use super::rfunction::SetOp;
 use caoen_base::budget::{Limits, OverBudget};
 use caoen_geometry::crease::{sharpen_with, Leaves};
 use caoen_geometry::decimate::decimate;
+use caoen_geometry::flat::snap_flat_faces;
 use caoen_geometry::mesh::Mesh;
 use caoen_geometry::polygonise::{grid_points, polygonise, polygonise_closed_admitted, MeshSize};
 use caoen_geometry::printable::{make_printable, Repair};
@@ -370,6 +371,9 @@ fn solid_mesh_on(
     }
     let mut rep = rep;
     rep.untangled = untangled.moved;
+    // Within rounding of a plane is not on it, to a slicer's crossing test.
+    let mut m = m;
+    snap_flat_faces(&mut m.positions, &m.triangles, 1e-7 * cell);
     let m = if adaptive {
         let (lo, hi) = (bounds.lo, bounds.hi);
         // A cut face lies on the box: its distance is to the box's nearest face.

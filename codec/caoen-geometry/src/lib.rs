@@ -9,6 +9,7 @@
 pub mod bounds;
 pub mod crease;
 pub mod decimate;
+pub mod flat;
 pub mod mesh;
 pub mod mesh_file;
 pub mod polygon_mesh;
