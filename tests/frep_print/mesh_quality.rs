@@ -81,7 +81,7 @@ fn print_meshes_pass_the_slicer_checks() {
         "model": {"relief": {"shell": {"sphere": {"radius": 1.0}}, "thickness": 0.2},
             "image": picture(), "projection": "spherical", "depth": -0.06, "interp": "bilinear"}});
     // (name, model, Euler characteristic: a ball's 2, the blend's hole 0, two spheres
-    // 4; crossing pairs allowed). Issue 70 asks for none; the lithophane at 64 cells
+    // 4; crossing pairs allowed). None is the goal; the lithophane at 64 cells
     // keeps one pair the repair does not reach (measured), so a regression still fails.
     let models = [
         ("box", boxed, 2, 0),

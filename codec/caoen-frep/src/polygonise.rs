@@ -9,10 +9,12 @@ use super::interval::Aabb;
 use super::node::Node;
 use super::primitive::Primitive;
 use super::rfunction::SetOp;
+use caoen_base::budget::{Limits, OverBudget};
 use caoen_geometry::crease::{sharpen_with, Leaves};
 use caoen_geometry::decimate::decimate;
+use caoen_geometry::flat::snap_flat_faces;
 use caoen_geometry::mesh::Mesh;
-use caoen_geometry::polygonise::{polygonise, polygonise_closed};
+use caoen_geometry::polygonise::{grid_points, polygonise, polygonise_closed_admitted, MeshSize};
 use caoen_geometry::printable::{make_printable, Repair};
 use caoen_geometry::untangle::{crossing_pairs, untangle};
 
@@ -211,6 +213,9 @@ pub enum SolidMeshError {
     /// Zero-area triangles no collapse could remove.
     #[error("{0} zero-area triangles could not be removed without breaking the surface")]
     Degenerate(usize),
+    /// The mesh, counted once the field was sampled, needs more memory than allowed.
+    #[error(transparent)]
+    OverBudget(#[from] OverBudget),
 }
 
 /// Pieces smaller than this fraction of the largest piece's volume are specks of the
@@ -222,6 +227,44 @@ pub const SPECK_FRACTION: f64 = 1e-3;
 /// area. 16 bytes a corner bound the peak measured (874 MiB for 400 cells).
 pub fn polygonise_memory(cells: u32) -> u64 {
     (u64::from(cells) + 2).pow(3).saturating_mul(16)
+}
+
+/// Bytes per grid point while a mesh is built: the field's value, whether the point was
+/// forced outside, and the vector's growth while it is collected.
+const GRID_POINT_BYTES: u64 = 16;
+
+/// Bytes per counted triangle while the grid mesh is built beside the grid: its
+/// positions, the map from grid edges to vertices and the triangles, each as a vector
+/// that may have doubled.
+const BUILD_TRIANGLE_BYTES: u64 = 160;
+
+/// Bytes per counted triangle from the grid mesh to the file, once the grid is gone:
+/// normals, the sharpening, untangling, cleaning and decimation's bookkeeping. The
+/// most measured is 360 (a carved lattice, 421k triangles, decimated; a lithophane, a
+/// spherical shell and a ball between 310 and 340).
+const MESH_TRIANGLE_BYTES: u64 = 440;
+
+/// The process and the model around the mesh (the executable, the field's tables).
+const MESH_BASE_BYTES: u64 = 24 << 20;
+
+/// Upper bound of the memory [`solid_mesh_with`] needs before it samples the field:
+/// the grid of the largest of its tries (`cells` + 2), on `bounds` as it pads them.
+pub fn solid_mesh_grid_memory(bounds: &Aabb, cells: usize) -> u64 {
+    let cells = cells.max(1) + 2;
+    let b = bounds.padded(bounds.longest() / cells as f64);
+    grid_points(b.lo, b.hi, cells).saturating_mul(GRID_POINT_BYTES)
+}
+
+/// Upper bound of the memory a printable mesh of `size` (as counted from the sampled
+/// grid) needs from then on: the grid while the mesh is built, then the mesh through
+/// every stage to the file.
+pub fn solid_mesh_memory(size: MeshSize) -> u64 {
+    let grid = (size.grid_points as u64).saturating_mul(GRID_POINT_BYTES);
+    let t = size.triangles as u64;
+    let building = grid.saturating_add(t.saturating_mul(BUILD_TRIANGLE_BYTES));
+    building
+        .max(t.saturating_mul(MESH_TRIANGLE_BYTES))
+        .saturating_add(MESH_BASE_BYTES)
 }
 
 /// A mesh to print: as [`mesh`] on a grid whose outer layer is outside (closed even
@@ -237,7 +280,7 @@ pub fn solid_mesh(
     bounds: &Aabb,
     cells: usize,
 ) -> Result<(Mesh, Repair), SolidMeshError> {
-    solid_mesh_with(node, bounds, cells, true)
+    solid_mesh_with(node, bounds, cells, true, &Limits::new(u64::MAX))
 }
 
 /// Farthest a decimated triangle's checked points may be from the surface, in cells
@@ -247,22 +290,27 @@ pub const DECIMATION_DEVIATION: f64 = 0.02;
 
 /// As [`solid_mesh`]; with `adaptive` the mesh is decimated by quadric error
 /// (`geometry::decimate`) within [`DECIMATION_DEVIATION`] of a cell of the surface,
-/// without it every grid cell the surface crosses keeps its triangles.
+/// without it every grid cell the surface crosses keeps its triangles. Once the field
+/// is sampled, the mesh's memory ([`solid_mesh_memory`]) is checked against `limits`
+/// before it is built.
 pub fn solid_mesh_with(
     node: &Node,
     bounds: &Aabb,
     cells: usize,
     adaptive: bool,
+    limits: &Limits,
 ) -> Result<(Mesh, Repair), SolidMeshError> {
     let cells = cells.max(1);
     let mut first = None;
     for c in cells..cells + 3 {
-        match solid_mesh_on(node, bounds, c, adaptive) {
+        match solid_mesh_on(node, bounds, c, adaptive, limits) {
             Ok((m, mut rep)) => {
                 rep.cells = c;
                 return Ok((m, rep));
             }
-            Err(e @ SolidMeshError::Empty { .. }) => return Err(e),
+            Err(e @ (SolidMeshError::Empty { .. } | SolidMeshError::OverBudget(_))) => {
+                return Err(e)
+            }
             Err(e) => {
                 first.get_or_insert(e);
             }
@@ -276,10 +324,24 @@ fn solid_mesh_on(
     bounds: &Aabb,
     cells: usize,
     adaptive: bool,
+    limits: &Limits,
 ) -> Result<(Mesh, Repair), SolidMeshError> {
     let pad = bounds.longest() / cells as f64;
     let b = bounds.padded(pad);
-    let (mut m, on_cut) = polygonise_closed(&|p| -node.value(p), b.lo, b.hi, cells);
+    let refused = std::cell::Cell::new(None);
+    let admit = |size: MeshSize| {
+        let need = solid_mesh_memory(size);
+        let what = || format!("a mesh of {} triangles on {cells} cells", size.triangles);
+        limits
+            .check(what, need)
+            .map_err(|e| refused.set(Some(e)))
+            .is_ok()
+    };
+    let Some((mut m, on_cut)) =
+        polygonise_closed_admitted(&|p| -node.value(p), b.lo, b.hi, cells, &admit)
+    else {
+        return Err(refused.take().expect("refused by the budget").into());
+    };
     let cell = b.longest() / cells as f64;
     if m.triangles.is_empty() {
         return Err(SolidMeshError::Empty { cells, cell });
@@ -309,6 +371,9 @@ fn solid_mesh_on(
     }
     let mut rep = rep;
     rep.untangled = untangled.moved;
+    // Within rounding of a plane is not on it, to a slicer's crossing test.
+    let mut m = m;
+    snap_flat_faces(&mut m.positions, &m.triangles, 1e-7 * cell);
     let m = if adaptive {
         let (lo, hi) = (bounds.lo, bounds.hi);
         // A cut face lies on the box: its distance is to the box's nearest face.

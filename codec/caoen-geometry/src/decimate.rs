@@ -7,12 +7,12 @@
 //! new triangle crosses another, and the new triangles stay within a distance of the
 //! surface measured by the caller's distance estimate.
 
-use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::{HashMap, HashSet};
 
 use super::mesh::Mesh;
 use super::untangle::triangles_cross;
 use super::vector::{cross, dot, norm, sub};
+use super::vertex_queue::VertexQueue;
 
 type V3 = [f64; 3];
 
@@ -74,33 +74,6 @@ pub struct Decimated {
     pub deviation: f64,
 }
 
-/// A candidate collapse of `from` onto `onto`, cheapest first (ties by vertex ids, so
-/// the order and the result do not depend on anything but the mesh).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Candidate {
-    cost: f64,
-    from: u32,
-    onto: u32,
-    stamp: (u32, u32),
-}
-
-impl Eq for Candidate {}
-
-impl Ord for Candidate {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.cost
-            .total_cmp(&self.cost)
-            .then(o.from.cmp(&self.from))
-            .then(o.onto.cmp(&self.onto))
-    }
-}
-
-impl PartialOrd for Candidate {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-
 /// The least twice-area over squared longest edge of a new triangle (0.5 for a grid's
 /// right triangle), unless the triangles it replaces were worse: below it a collapse
 /// makes a sliver and is refused.
@@ -151,16 +124,30 @@ impl Grid {
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
-                    let list = self.cells.entry([x, y, z]).or_default();
-                    if !list.contains(&t) {
-                        list.push(t);
+                    self.cells.entry([x, y, z]).or_default().push(t);
+                }
+            }
+        }
+    }
+
+    /// Takes `t`, whose corners were `p`, out of its cells: lists of only the triangles
+    /// there keep the crossing checks short as the triangles grow.
+    fn remove(&mut self, t: u32, p: [V3; 3]) {
+        let (lo, hi) = self.span(p);
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    if let Some(list) = self.cells.get_mut(&[x, y, z]) {
+                        if let Some(i) = list.iter().position(|&o| o == t) {
+                            list.swap_remove(i);
+                        }
                     }
                 }
             }
         }
     }
 
-    /// Triangles listed in the cells `p`'s box meets (some perhaps no longer there).
+    /// Triangles listed in the cells `p`'s box meets, a triangle once per cell.
     fn near(&self, p: [V3; 3], out: &mut Vec<u32>) {
         let (lo, hi) = self.span(p);
         for x in lo[0]..=hi[0] {
@@ -261,7 +248,6 @@ pub fn decimate(
         let t = t.expect("all present");
         grid.insert(i as u32, t.map(|v| pos[v as usize]));
     }
-    let mut stamp = vec![0u32; n];
     let mut alive = vec![true; n];
     let neighbours = |around: &[Vec<u32>], tris: &[Option<[u32; 3]>], v: u32| {
         let mut s: Vec<u32> = around[v as usize]
@@ -274,33 +260,78 @@ pub fn decimate(
         s.dedup();
         s
     };
-    let cost = |q: &[Quadric], a: u32, b: u32| {
-        let mut s = q[a as usize];
-        s.add(&q[b as usize]);
-        s.at(pos[b as usize]).max(0.0)
+    let free = |v: u32| !keep.get(v as usize).copied().unwrap_or(false);
+    // The cheapest collapse of `v` not refused as things stand.
+    let best = |around: &[Vec<u32>],
+                tris: &[Option<[u32; 3]>],
+                q: &[Quadric],
+                refused: &HashSet<(u32, u32)>,
+                refused_at: &[Vec<(u32, u32)>],
+                v: u32| {
+        let mut found: Option<(f64, u32)> = None;
+        // A pair refused is listed at its ends: most vertices have none.
+        let listed = &refused_at[v as usize];
+        // Each neighbour is met twice or more; the ties by id keep the choice independent
+        // of the order.
+        for &t in &around[v as usize] {
+            let Some(t) = tris[t as usize] else { continue };
+            for w in t {
+                if w == v || (!listed.is_empty() && refused.contains(&(v, w))) {
+                    continue;
+                }
+                let mut s = q[v as usize];
+                s.add(&q[w as usize]);
+                let c = s.at(pos[w as usize]).max(0.0);
+                if found.is_none_or(|(f, fw)| c < f || (c == f && w < fw)) {
+                    found = Some((c, w));
+                }
+            }
+        }
+        found
     };
-    let mut heap = BinaryHeap::new();
-    for a in 0..n as u32 {
-        if keep.get(a as usize).copied().unwrap_or(false) {
-            continue;
-        }
-        for b in neighbours(&around, &tris, a) {
-            heap.push(Candidate {
-                cost: cost(&quadric, a, b),
-                from: a,
-                onto: b,
-                stamp: (0, 0),
-            });
-        }
+    // Candidates refused as things stood, listed at both their ends: a collapse nearby
+    // may make them possible, and only then are they tried again.
+    let mut refused: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+    let mut refused_pairs: HashSet<(u32, u32)> = HashSet::new();
+    // Each vertex's cheapest collapse, cheapest first (ties by vertex id, so the order
+    // and the result depend on nothing but the mesh).
+    let mut queue = VertexQueue::new(n);
+    let mut onto = vec![0u32; n];
+    macro_rules! enqueue {
+        ($v:expr) => {{
+            let v: u32 = $v;
+            if free(v) {
+                let found = best(&around, &tris, &quadric, &refused_pairs, &refused, v);
+                if let Some((_, w)) = found {
+                    onto[v as usize] = w;
+                }
+                queue.set(v, found.map(|(c, _)| c));
+            }
+        }};
+    }
+    for v in 0..n as u32 {
+        enqueue!(v);
     }
     let mut near = Vec::new();
-    while let Some(c) = heap.pop() {
-        let (a, b) = (c.from, c.onto);
-        if !alive[a as usize]
-            || !alive[b as usize]
-            || (stamp[a as usize], stamp[b as usize]) != c.stamp
-        {
+    let mut seen = vec![0u32; tris.len()];
+    let mut check = 0u32;
+    while let Some((_, a)) = queue.pop() {
+        let b = onto[a as usize];
+        if !alive[a as usize] {
             continue;
+        }
+        if !alive[b as usize] {
+            enqueue!(a);
+            continue;
+        }
+        macro_rules! refuse {
+            () => {{
+                if refused_pairs.insert((a, b)) {
+                    refused[a as usize].push((a, b));
+                    refused[b as usize].push((a, b));
+                }
+                enqueue!(a);
+            }};
         }
         // The link condition: the ends' common neighbours are the edge's two apexes.
         let on_edge: Vec<u32> = around[a as usize]
@@ -309,29 +340,7 @@ pub fn decimate(
             .filter(|&t| tris[t as usize].is_some_and(|s| s.contains(&b)))
             .collect();
         if on_edge.len() != 2 {
-            continue;
-        }
-        let na = neighbours(&around, &tris, a);
-        let nb = neighbours(&around, &tris, b);
-        let common: Vec<u32> = na
-            .iter()
-            .filter(|v| nb.binary_search(v).is_ok())
-            .copied()
-            .collect();
-        let mut apexes: Vec<u32> = on_edge
-            .iter()
-            .flat_map(|&t| tris[t as usize].expect("present"))
-            .filter(|&v| v != a && v != b)
-            .collect();
-        apexes.sort_unstable();
-        if common != apexes || apexes.len() != 2 || apexes[0] == apexes[1] {
-            continue;
-        }
-        // An apex left with two neighbours would leave two triangles back to back.
-        if apexes
-            .iter()
-            .any(|&v| neighbours(&around, &tris, v).len() <= 3)
-        {
+            refuse!();
             continue;
         }
         // The triangles that change, as they would be.
@@ -349,8 +358,8 @@ pub fn decimate(
             let nr = normal(tris[t as usize].expect("present").map(|v| pos[v as usize]));
             [0, 1, 2].map(|k| acc[k] + nr[k])
         });
-        let mut worst = 0.0f64;
-        let ok = moved.iter().all(|&(t, s)| {
+        // The shapes first: they are cheap, and most refusals are made by the distance.
+        let shaped = moved.iter().all(|&(t, s)| {
             let old = tris[t as usize].expect("present").map(|v| pos[v as usize]);
             let new = s.map(|v| pos[v as usize]);
             let (n0, n1) = (normal(old), normal(new));
@@ -364,18 +373,47 @@ pub fn decimate(
             } else {
                 (n0, l0)
             };
-            if l0 > 0.0 && dot(n0, n1) < MIN_TURN_COS * l0 * l1 {
-                return false;
-            }
-            let centre = [0, 1, 2].map(|k| (new[0][k] + new[1][k] + new[2][k]) / 3.0);
-            let mid = |i: usize, j: usize| [0, 1, 2].map(|k| 0.5 * (new[i][k] + new[j][k]));
-            [centre, mid(0, 1), mid(1, 2), mid(2, 0)].iter().all(|&p| {
-                let d = distance(p).abs();
-                worst = worst.max(d);
-                d <= max_distance
-            })
+            !(l0 > 0.0 && dot(n0, n1) < MIN_TURN_COS * l0 * l1)
         });
+        let mut worst = 0.0f64;
+        let ok = shaped
+            && moved.iter().all(|&(_, s)| {
+                let new = s.map(|v| pos[v as usize]);
+                let centre = [0, 1, 2].map(|k| (new[0][k] + new[1][k] + new[2][k]) / 3.0);
+                let mid = |i: usize, j: usize| [0, 1, 2].map(|k| 0.5 * (new[i][k] + new[j][k]));
+                [centre, mid(0, 1), mid(1, 2), mid(2, 0)].iter().all(|&p| {
+                    let d = distance(p).abs();
+                    worst = worst.max(d);
+                    d <= max_distance
+                })
+            });
         if !ok {
+            refuse!();
+            continue;
+        }
+        let na = neighbours(&around, &tris, a);
+        let nb = neighbours(&around, &tris, b);
+        let common: Vec<u32> = na
+            .iter()
+            .filter(|v| nb.binary_search(v).is_ok())
+            .copied()
+            .collect();
+        let mut apexes: Vec<u32> = on_edge
+            .iter()
+            .flat_map(|&t| tris[t as usize].expect("present"))
+            .filter(|&v| v != a && v != b)
+            .collect();
+        apexes.sort_unstable();
+        if common != apexes || apexes.len() != 2 || apexes[0] == apexes[1] {
+            refuse!();
+            continue;
+        }
+        // An apex left with two neighbours would leave two triangles back to back.
+        if apexes
+            .iter()
+            .any(|&v| neighbours(&around, &tris, v).len() <= 3)
+        {
+            refuse!();
             continue;
         }
         // No new triangle may cross a triangle it shares no vertex with.
@@ -383,9 +421,17 @@ pub fn decimate(
             let new = s.map(|v| pos[v as usize]);
             near.clear();
             grid.near(new, &mut near);
-            near.sort_unstable();
-            near.dedup();
+            check = check.wrapping_add(1);
+            if check == 0 {
+                seen.fill(0);
+                check = 1;
+            }
             near.iter().any(|&o| {
+                // A triangle in several cells is checked once.
+                if seen[o as usize] == check {
+                    return false;
+                }
+                seen[o as usize] = check;
                 if o == t || on_edge.contains(&o) {
                     return false;
                 }
@@ -403,9 +449,14 @@ pub fn decimate(
             })
         });
         if crosses {
+            refuse!();
             continue;
         }
         // Collapse.
+        for &t in on_edge.iter().chain(moved.iter().map(|(t, _)| t)) {
+            let old = tris[t as usize].expect("present");
+            grid.remove(t, old.map(|v| pos[v as usize]));
+        }
         for &t in &on_edge {
             tris[t as usize] = None;
         }
@@ -424,33 +475,21 @@ pub fn decimate(
         quadric[b as usize].add(&qa);
         out.collapses += 1;
         out.deviation = out.deviation.max(worst);
-        let ring = neighbours(&around, &tris, b);
-        stamp[b as usize] += 1;
-        for &v in &ring {
-            stamp[v as usize] += 1;
-        }
-        for &v in ring.iter().chain(std::iter::once(&b)) {
-            let kept = keep.get(v as usize).copied().unwrap_or(false);
-            for w in neighbours(&around, &tris, v) {
-                let s = (stamp[v as usize], stamp[w as usize]);
-                if !kept {
-                    heap.push(Candidate {
-                        cost: cost(&quadric, v, w),
-                        from: v,
-                        onto: w,
-                        stamp: s,
-                    });
-                }
-                // The new stamps made the candidates onto the ring stale too.
-                if !keep.get(w as usize).copied().unwrap_or(false) {
-                    heap.push(Candidate {
-                        cost: cost(&quadric, w, v),
-                        from: w,
-                        onto: v,
-                        stamp: (s.1, s.0),
-                    });
+        // The costs of the edges at `b` changed (its quadric grew), so its ring's best
+        // collapses may have; those refused around the collapse are tried again.
+        let mut again = neighbours(&around, &tris, b);
+        again.push(b);
+        for r in again.clone() {
+            for (v, w) in std::mem::take(&mut refused[r as usize]) {
+                if refused_pairs.remove(&(v, w)) {
+                    again.push(v);
                 }
             }
+        }
+        again.sort_unstable();
+        again.dedup();
+        for v in again {
+            enqueue!(v);
         }
     }
     // Kept vertices renumbered in their first use order.

@@ -9,6 +9,7 @@
 pub mod bounds;
 pub mod crease;
 pub mod decimate;
+pub mod flat;
 pub mod mesh;
 pub mod mesh_file;
 pub mod polygon_mesh;
@@ -18,4 +19,5 @@ pub mod ray;
 pub mod transform;
 pub mod untangle;
 pub mod vector;
+pub mod vertex_queue;
 pub mod winding;

@@ -33,7 +33,9 @@ pub fn polygonise(
     hi: [f64; 3],
     cells: usize,
 ) -> Mesh {
-    polygonise_grid(field, lo, hi, cells, false).0
+    polygonise_grid(field, lo, hi, cells, false, &|_| true)
+        .expect("admitted")
+        .0
 }
 
 /// As [`polygonise`], with the grid's outer layer of points taken as outside, so the
@@ -46,7 +48,97 @@ pub fn polygonise_closed(
     hi: [f64; 3],
     cells: usize,
 ) -> (Mesh, Vec<bool>) {
-    polygonise_grid(field, lo, hi, cells, true)
+    polygonise_closed_admitted(field, lo, hi, cells, &|_| true).expect("admitted")
+}
+
+/// The size of a mesh before it is built: its vertices and triangles, exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshSize {
+    /// Grid points sampled (the field's values held while the mesh is built).
+    pub grid_points: usize,
+    /// Vertices: one per grid or tetrahedron edge whose ends differ in sign.
+    pub vertices: usize,
+    /// Triangles, before any that fold to zero area are dropped.
+    pub triangles: usize,
+}
+
+/// As [`polygonise_closed`], asking `admit` before the mesh is built, once the field
+/// has been sampled and the mesh's size counted: `None` if it says no. A mesh follows
+/// the surface's area, which only the samples tell, so a memory budget can be checked
+/// here and not before.
+pub fn polygonise_closed_admitted(
+    field: &(dyn Fn([f64; 3]) -> f64 + Sync),
+    lo: [f64; 3],
+    hi: [f64; 3],
+    cells: usize,
+    admit: &dyn Fn(MeshSize) -> bool,
+) -> Option<(Mesh, Vec<bool>)> {
+    polygonise_grid(field, lo, hi, cells, true, admit)
+}
+
+/// Grid points of the grid [`polygonise`] samples for the box `[lo, hi]` at `cells`
+/// cubes along its longest side: a flat model's grid is flat.
+pub fn grid_points(lo: [f64; 3], hi: [f64; 3], cells: usize) -> u64 {
+    let ext = sub(hi, lo);
+    let longest = ext.iter().cloned().fold(0.0f64, f64::max);
+    if !(longest > 0.0) || cells == 0 {
+        return 0;
+    }
+    let h = longest / cells as f64;
+    ext.iter()
+        .map(|&e| ((e / h).ceil() as u64).max(1) + 1)
+        .product()
+}
+
+/// The vertices and triangles marching tetrahedra makes from `values` on an `n`-cube
+/// grid (x fastest): every edge of the cubes' tetrahedra whose ends differ in sign is
+/// a vertex, every tetrahedron with one or three corners inside a triangle and with two
+/// a quad.
+fn count_mesh(values: &[f64], n: [usize; 3]) -> (usize, usize) {
+    let (sx, sy) = (n[0] + 1, n[1] + 1);
+    let inside = |i: usize, j: usize, k: usize| values[(k * sy + j) * sx + i] < 0.0;
+    (0..=n[2])
+        .into_par_iter()
+        .map(|k| {
+            let (mut vertices, mut triangles) = (0usize, 0usize);
+            for j in 0..sy {
+                for i in 0..sx {
+                    let here = inside(i, j, k);
+                    // The edges from this point in the positive directions: the cube
+                    // edges and the face and main diagonals the tetrahedra share.
+                    for d in [
+                        [1, 0, 0],
+                        [0, 1, 0],
+                        [0, 0, 1],
+                        [1, 1, 0],
+                        [1, 0, 1],
+                        [0, 1, 1],
+                        [1, 1, 1],
+                    ] {
+                        let (a, b, c) = (i + d[0], j + d[1], k + d[2]);
+                        if a <= n[0] && b <= n[1] && c <= n[2] && inside(a, b, c) != here {
+                            vertices += 1;
+                        }
+                    }
+                    if i == n[0] || j == n[1] || k == n[2] {
+                        continue;
+                    }
+                    for tet in TETS {
+                        let ins = tet
+                            .iter()
+                            .filter(|&&c| inside(i + (c & 1), j + (c >> 1 & 1), k + (c >> 2 & 1)))
+                            .count();
+                        triangles += match ins {
+                            1 | 3 => 1,
+                            2 => 2,
+                            _ => 0,
+                        };
+                    }
+                }
+            }
+            (vertices, triangles)
+        })
+        .reduce(|| (0, 0), |x, y| (x.0 + y.0, x.1 + y.1))
 }
 
 fn polygonise_grid(
@@ -55,11 +147,12 @@ fn polygonise_grid(
     hi: [f64; 3],
     cells: usize,
     closed: bool,
-) -> (Mesh, Vec<bool>) {
+    admit: &dyn Fn(MeshSize) -> bool,
+) -> Option<(Mesh, Vec<bool>)> {
     let ext = sub(hi, lo);
     let longest = ext.iter().cloned().fold(0.0f64, f64::max);
     if !(longest > 0.0) || cells == 0 {
-        return (Mesh::default(), Vec::new());
+        return Some((Mesh::default(), Vec::new()));
     }
     let h = longest / cells as f64;
     let n = ext.map(|e| ((e / h).ceil() as usize).max(1));
@@ -93,6 +186,14 @@ fn polygonise_grid(
                 }
             }
         }
+    }
+    let (vertices, triangles) = count_mesh(&values, n);
+    if !admit(MeshSize {
+        grid_points: values.len(),
+        vertices,
+        triangles,
+    }) {
+        return None;
     }
     let id = |i: usize, j: usize, k: usize| (k * sy + j) * sx + i;
     let mut positions: Vec<[f64; 3]> = Vec::new();
@@ -186,7 +287,7 @@ fn polygonise_grid(
         triangles,
         corner_uvs: Vec::new(),
     };
-    (mesh, on_cut)
+    Some((mesh, on_cut))
 }
 
 fn grid_point(lo: [f64; 3], h: f64, g: usize, sx: usize, sy: usize) -> [f64; 3] {
@@ -196,4 +297,35 @@ fn grid_point(lo: [f64; 3], h: f64, g: usize, sx: usize, sy: usize) -> [f64; 3] 
         lo[1] + j as f64 * h,
         lo[2] + k as f64 * h,
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The count a budget is checked against is the mesh that is then built: every
+    /// vertex, and every triangle but those that fold to zero area.
+    #[test]
+    fn the_counted_size_is_the_built_size() {
+        for (cells, r) in [(7, 0.6), (24, 0.83), (40, 0.5)] {
+            let ball = |p: [f64; 3]| (p[0] * p[0] + p[1] * p[1] + 0.5 * p[2] * p[2]).sqrt() - r;
+            let seen = std::cell::Cell::new(None);
+            let (m, _) =
+                polygonise_closed_admitted(&ball, [-1.0; 3], [1.0, 0.9, 1.0], cells, &|s| {
+                    seen.set(Some(s));
+                    true
+                })
+                .expect("admitted");
+            let s = seen.get().expect("asked");
+            assert_eq!(s.vertices, m.positions.len());
+            assert!(s.triangles >= m.triangles.len());
+            assert!(s.triangles <= m.triangles.len() + m.triangles.len() / 50);
+            assert_eq!(
+                s.grid_points as u64,
+                grid_points([-1.0; 3], [1.0, 0.9, 1.0], cells)
+            );
+            let refused = polygonise_closed_admitted(&ball, [-1.0; 3], [1.0; 3], cells, &|_| false);
+            assert!(refused.is_none());
+        }
+    }
 }

@@ -23,8 +23,8 @@ fn orient(a: V3, b: V3, c: V3, d: V3) -> f64 {
 /// along that line without crossing. The crossing point is taken on the segment and tested
 /// against the triangle's edges in its plane, so nearly coplanar triangles, whose
 /// orientation signs are rounding noise, are not reported unless they overlap.
-fn segment_meets_triangle(p: V3, q: V3, [a, b, c]: [V3; 3]) -> bool {
-    let (sp, sq) = (orient(a, b, c, p), orient(a, b, c, q));
+/// `sp` and `sq` are the orientations of `p` and `q` against the triangle.
+fn crossing_inside(p: V3, q: V3, sp: f64, sq: f64, [a, b, c]: [V3; 3]) -> bool {
     if !((sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0)) {
         return false;
     }
@@ -37,10 +37,18 @@ fn segment_meets_triangle(p: V3, q: V3, [a, b, c]: [V3; 3]) -> bool {
 }
 
 /// Whether two triangles cross: an edge of one meets the other (coplanar overlaps are
-/// not counted; a closed surface's flat faces do not overlap).
+/// not counted; a closed surface's flat faces do not overlap). Each corner's side of
+/// the other triangle's plane is found once: when all of one triangle's corners are on
+/// one side, none of its edges can pass through the other, and most pairs end there.
 pub fn triangles_cross(s: [V3; 3], t: [V3; 3]) -> bool {
-    (0..3).any(|k| segment_meets_triangle(s[k], s[(k + 1) % 3], t))
-        || (0..3).any(|k| segment_meets_triangle(t[k], t[(k + 1) % 3], s))
+    let edges_through = |s: [V3; 3], t: [V3; 3]| {
+        let side = s.map(|p| orient(t[0], t[1], t[2], p));
+        if (side.iter().all(|&x| x >= 0.0)) || side.iter().all(|&x| x <= 0.0) {
+            return false;
+        }
+        (0..3).any(|k| crossing_inside(s[k], s[(k + 1) % 3], side[k], side[(k + 1) % 3], t))
+    };
+    edges_through(s, t) || edges_through(t, s)
 }
 
 /// The pairs of triangles with no vertex in common that cross (as Open3D's

@@ -15,6 +15,7 @@ use std::sync::Arc;
 
 use caoen_geometry::transform::Affine;
 
+use super::cae_texture::CaeSource;
 use super::texture::{Texture, Wrap};
 
 /// How an image is projected onto a solid (POV-Ray's `map_type`).
@@ -63,6 +64,9 @@ pub struct ImageMap {
     /// The texture transform (scale, then rotate, then translate) from pattern space to
     /// the world; must be invertible.
     pub transform: Affine,
+    /// The `.cae` file the image was decoded from, which a render decodes again at
+    /// the size its footprint asks for (`cae_texture`); None for other images.
+    pub cae: Option<Arc<CaeSource>>,
     /// World to pattern space.
     to_pattern: Affine,
 }
@@ -86,6 +90,7 @@ impl ImageMap {
             bilinear,
             to_pattern: transform.inverse()?,
             transform,
+            cae: None,
         })
     }
 

@@ -4,7 +4,9 @@
 // `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bump;
 pub mod bvh;
+pub mod cae_texture;
 pub mod camera;
 pub mod csg;
 pub mod depth_buffer;
@@ -14,6 +16,7 @@ pub mod image_map;
 mod light_file;
 pub mod lights;
 pub mod mesh;
+pub mod noise;
 pub mod pattern;
 pub mod pov;
 pub mod pov_mesh;

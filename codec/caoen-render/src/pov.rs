@@ -169,12 +169,13 @@ pub fn export_with(
         let m = &obj.material;
         let _ = writeln!(
             out,
-            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  {}\n  {}\n}}",
+            "isosurface {{\n  function {{ -{top}(x, z, y) }}\n  contained_by {{ box {{ {}, {} }} }}\n  threshold 0\n  accuracy {}\n  max_gradient {}\n  {}{}\n  {}\n}}",
             v3(b.lo),
             v3(b.hi),
             num(1e-5 * b.longest()),
             num(max_gradient_with(node, &b, 6, progress)),
             pigment(m),
+            normal(m),
             finish(m),
         );
     }
@@ -285,6 +286,14 @@ pub(crate) fn pigment(m: &super::shading::Material) -> String {
             m.colour[0], m.colour[1], m.colour[2], m.transmit
         ),
     }
+}
+
+/// The bump pattern's `normal` block on a line of its own, if the material has one.
+pub(crate) fn normal(m: &super::shading::Material) -> String {
+    m.normal
+        .as_ref()
+        .map(|b| format!("\n  {}", b.pov_normal()))
+        .unwrap_or_default()
 }
 
 /// The finish's reflection: constant for an opaque mirror; for a transmitting material

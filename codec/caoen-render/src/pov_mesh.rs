@@ -85,7 +85,11 @@ pub fn write_mesh2(
         // Refraction needs an inside: the sphere's and the torus's meshes are closed.
         out.push_str("  inside_vector <0, 0, 1>\n");
     }
-    let _ = writeln!(out, "  {pigment}\n  {finish}\n}}");
+    let _ = writeln!(
+        out,
+        "  {pigment}{}\n  {finish}\n}}",
+        super::pov::normal(material)
+    );
     Ok(())
 }
 

@@ -460,6 +460,10 @@ impl<'a> RayScene<'a> {
     ) -> [f32; 3] {
         let m: &Material = &self.scene.objects[object as usize].material;
         let to_eye = scale(dir, -1.0);
+        let normal = match &m.normal {
+            Some(b) => b.perturb(p, normal),
+            None => normal,
+        };
         // The normal facing the incoming ray.
         let nf = if dot(normal, to_eye) < 0.0 {
             scale(normal, -1.0)

@@ -194,6 +194,12 @@ pub fn render(
     let camera = scene
         .camera(opts.width, opts.height)?
         .with_size(opts.width * n, opts.height * n);
+    // `.cae` image maps decoded at this camera's footprint, their estimate checked
+    // with the render's own buffers before they are decoded.
+    let buffers = buffers_memory(&camera);
+    let prepared =
+        super::cae_texture::with_footprint_textures(scene, &camera, buffers, &opts.limits)?;
+    let scene = prepared.as_ref().unwrap_or(scene);
     // Shading weighs in the bar as its share of the estimated ray tests, so that the
     // time left holds when shadow rays to many lights or deep mirrors dominate.
     let draw_units = scene.objects.len() as u64 * UNITS;
@@ -240,6 +246,13 @@ pub fn render_gbuffer(
     draw(scene, camera, opts, &prog).map(|(buf, stats, _, _)| (buf, stats))
 }
 
+/// The buffers of a render by `camera` (at its supersampled size): per sample the hit
+/// buffer, a surface's depth-buffer image, the shaded colour and the depth map.
+fn buffers_memory(camera: &Camera) -> u64 {
+    let per_sample = std::mem::size_of::<Option<super::framebuffer::Hit>>() as u64 + 48 + 12 + 8;
+    caoen_base::budget::bytes(camera.width.into(), camera.height.into(), per_sample)
+}
+
 /// What [`draw`] makes: the hit buffer, its statistics, each object's mesh when it was
 /// drawn as one, and the budget reservations of those meshes.
 type Drawn = (
@@ -252,12 +265,9 @@ type Drawn = (
 /// Draws every object into a nearest-hit buffer; also returns each object's mesh when
 /// it was drawn as one, for the secondary rays to meet the same geometry.
 fn draw(scene: &Scene, camera: &Camera, opts: &RenderOptions, prog: &Progress) -> Result<Drawn> {
-    // Per sample: the hit buffer, a surface's depth-buffer image, the shaded colour and
-    // the depth map.
-    let per_sample = std::mem::size_of::<Option<super::framebuffer::Hit>>() as u64 + 48 + 12 + 8;
     opts.limits.check(
         || format!("rendering {}x{} samples", camera.width, camera.height),
-        caoen_base::budget::bytes(camera.width.into(), camera.height.into(), per_sample),
+        buffers_memory(camera),
     )?;
     let mut buf = GBuffer::new(camera.width, camera.height);
     let mut stats = RenderStats::default();

@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use serde::Deserialize;
 
+use super::cae_texture::CaeSource;
 use super::camera::Projection;
 use super::csg::CsgNode;
 use super::error::{RenderError, Result};
@@ -291,6 +292,8 @@ struct FileMaterial {
     #[serde(default)]
     checker: Option<FileChecker>,
     #[serde(default)]
+    normal: Option<super::bump::FileNormal>,
+    #[serde(default)]
     reflect: Option<f64>,
     #[serde(default)]
     transmit: Option<f64>,
@@ -401,9 +404,20 @@ impl FileImageMap {
                 "a file name with `\"` cannot be exported",
             ));
         }
-        let tex = Texture::load(&file, limits).map_err(field(&format!("{path}.image")))?;
-        ImageMap::new(Arc::new(tex), file, map, bilinear, transform)
-            .ok_or_else(|| bad(path, "the texture transform is singular"))
+        let image = format!("{path}.image");
+        let (tex, cae) = if super::cae_texture::is_cae(&file) {
+            // Decoded at its own size here, so a damaged file is refused with the scene;
+            // a render decodes it again at the size its footprint asks for.
+            let src = CaeSource::load(&file, limits).map_err(field(&image))?;
+            let tex = src.texture(src.size(), 0, limits).map_err(field(&image))?;
+            (tex, Some(Arc::new(src)))
+        } else {
+            (Texture::load(&file, limits).map_err(field(&image))?, None)
+        };
+        let mut m = ImageMap::new(Arc::new(tex), file, map, bilinear, transform)
+            .ok_or_else(|| bad(path, "the texture transform is singular"))?;
+        m.cae = cae;
+        Ok(m)
     }
 }
 
@@ -597,6 +611,9 @@ impl FileObject {
             material.checker = Some(Arc::new(c.resolve(&format!("{mp}.checker"))?));
             material.colour = [1.0; 3];
         }
+        if let Some(n) = &fm.normal {
+            material.normal = Some(Arc::new(n.resolve(&format!("{mp}.normal"))?));
+        }
         if let Some(im) = &fm.image_map {
             if fm.colour.is_some() || fm.texture.is_some() {
                 return Err(bad(
@@ -650,7 +667,15 @@ impl FileObject {
             };
             if let Some(t) = texture {
                 let wrap = texture_wrap(&model).map_err(field(&format!("{mp}.texture")))?;
-                let tex = Texture::load(&t, limits).map_err(field(&format!("{mp}.texture")))?;
+                let what = format!("{mp}.texture");
+                let tex = if super::cae_texture::is_cae(&t) {
+                    let src = CaeSource::load(&t, limits).map_err(field(&what))?;
+                    let tex = src.texture(src.size(), 0, limits).map_err(field(&what))?;
+                    material.texture_cae = Some(Arc::new(src));
+                    tex
+                } else {
+                    Texture::load(&t, limits).map_err(field(&what))?
+                };
                 material.texture = Some((Arc::new(tex), wrap));
                 if fm.colour.is_none() {
                     material.colour = [1.0; 3];

@@ -4,6 +4,8 @@
 
 use std::sync::Arc;
 
+use super::bump::Bumps;
+use super::cae_texture::CaeSource;
 use super::image_map::ImageMap;
 pub use super::lights::{Incidence, Light, Lighting};
 use super::pattern::Checker;
@@ -25,10 +27,15 @@ pub struct Material {
     pub shininess: f32,
     /// Texture on the domain, with its wrap mode.
     pub texture: Option<(Arc<Texture>, Wrap)>,
+    /// The `.cae` file the domain texture was decoded from, which a render decodes
+    /// again at the size its footprint asks for; None for other images.
+    pub texture_cae: Option<Arc<CaeSource>>,
     /// An image projected onto the object in world space; it gives the base colour.
     pub image_map: Option<Arc<ImageMap>>,
     /// A checker in world space (POV-Ray's `checker`); it gives the base colour.
     pub checker: Option<Arc<Checker>>,
+    /// A bump pattern (POV-Ray's `normal { bumps .. }`) displacing the normal.
+    pub normal: Option<Arc<Bumps>>,
     /// Mirror reflectance in [0, 1] (times the Fresnel reflectance when transmitting).
     pub reflect: f32,
     /// Share of light passing through the surface, in [0, 1].
@@ -46,8 +53,10 @@ impl Default for Material {
             specular: 0.25,
             shininess: 40.0,
             texture: None,
+            texture_cae: None,
             image_map: None,
             checker: None,
+            normal: None,
             reflect: 0.0,
             transmit: 0.0,
             ior: 1.0,

@@ -204,6 +204,12 @@ impl Texture {
         Ok(tex)
     }
 
+    /// The texture named as loaded from `file` (for `export-pov`, which names the file).
+    pub fn named(mut self, file: std::path::PathBuf) -> Texture {
+        self.file = Some(file);
+        self
+    }
+
     /// The image file the texture was loaded from; None for one made in memory.
     pub fn file(&self) -> Option<&Path> {
         self.file.as_deref()

@@ -205,6 +205,26 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     let scene = load(&a.model, &global.limits)?;
     let (width, height) = parse_size(&a.size)?;
     let camera = scene.camera(width, height)?;
+    // POV-Ray cannot read `.cae`: each such image map goes beside the `.pov` as a PNG
+    // decoded at the size a render of this size would use.
+    let textures = if crate::output::is_stdout(&a.output) {
+        None
+    } else {
+        caoen::render::cae_texture::export_textures(&scene, &camera, &a.output, &global.limits)
+            .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?
+    };
+    let (scene, textures) = match textures {
+        Some((s, t)) => (s, t),
+        None => (scene, Vec::new()),
+    };
+    if textures.is_empty() && caoen::render::cae_texture::has_cae(&scene) {
+        return Err(CliError::Usage(
+            "a .cae texture is exported as a PNG beside the .pov: give -o a file".into(),
+        ));
+    }
+    for t in &textures {
+        outputs.check_path(&t.path)?;
+    }
     let bar = crate::commands::render::progress_bar(global, "measuring max_gradient");
     let text = caoen::render::pov::export_with(&scene, &camera, &global.limits, &|done, total| {
         bar.set_length(total);
@@ -212,6 +232,18 @@ fn export_pov(global: &GlobalArgs, a: &FrepExportArgs) -> CliResult {
     })
     .map_err(|e| CliError::Failed(format!("{}: {e}", a.model.display())))?;
     bar.finish_and_clear();
+    for t in &textures {
+        outputs.write_path(&t.path, &t.png)?;
+        note(
+            global,
+            format!(
+                "wrote {} (the .cae texture decoded at {}x{})",
+                t.path.display(),
+                t.size.0,
+                t.size.1
+            ),
+        );
+    }
     outputs.write_path(&a.output, text.as_bytes())?;
     // POV-Ray reads a scene from a file only: the hint names one for standard output.
     let input = if crate::output::is_stdout(&a.output) {

@@ -118,12 +118,28 @@ pub fn encode(m: &Mesh, format: &str, file: &MeshFile) -> std::io::Result<Vec<u8
     Ok(bytes)
 }
 
-/// Checks `--cells` against the memory budget (see `frep::check_cells`).
-fn check_cells(cells: u32, limits: &caoen::Limits) -> CliResult {
+/// Upper bound of the memory writing `m` as `format` takes: the mesh, and the file's
+/// bytes built in memory (a number printed takes at most 25 characters; a 3MF holds
+/// its XML, the deflated part and the archive at once).
+fn file_memory(m: &Mesh, format: &str, file: &MeshFile) -> u64 {
+    let (v, t) = (m.positions.len() as u64, m.triangles.len() as u64);
+    let bytes = match format {
+        "obj" => 160 * v + 80 * t,
+        "ply" => 80 * v + 40 * t,
+        "3mf" => 3 * (100 * v + 50 * t + 4096),
+        _ if file.ascii => 400 * t,
+        _ => 50 * t,
+    };
+    (48 * v + 12 * t + bytes + 4096).saturating_add(24 << 20)
+}
+
+/// Checks the grid of `--cells` on `bounds` against the memory budget; the mesh is
+/// checked once the grid tells its size (`frep::polygonise::solid_mesh_with`).
+fn check_grid(bounds: &caoen::frep::Aabb, cells: u32, limits: &caoen::Limits) -> CliResult {
     limits
         .check(
-            || format!("polygonising on {cells}^3 cells"),
-            caoen::frep::polygonise::polygonise_memory(cells),
+            || format!("sampling the model on {cells} cells along its longest side"),
+            caoen::frep::polygonise::solid_mesh_grid_memory(bounds, cells as usize),
         )
         .map_err(|e| CliError::Failed(e.to_string()))
 }
@@ -143,16 +159,34 @@ pub fn write_solid_mesh(
         .iter()
         .map(|p| mesh_format(p, file))
         .collect::<CliResult<Vec<_>>>()?;
-    check_cells(cells, &global.limits)?;
+    check_grid(bounds, cells, &global.limits)?;
     let first = paths.first().map(|p| p.display().to_string());
-    let (mut m, rep) =
-        caoen::frep::polygonise::solid_mesh_with(node, bounds, cells as usize, file.adaptive)
-            .map_err(|e| CliError::Failed(format!("{}: {e}", first.unwrap_or_default())))?;
+    let (mut m, rep) = caoen::frep::polygonise::solid_mesh_with(
+        node,
+        bounds,
+        cells as usize,
+        file.adaptive,
+        &global.limits,
+    )
+    .map_err(|e| CliError::Failed(format!("{}: {e}", first.unwrap_or_default())))?;
     let k = factor(file, extents(&m).into_iter().fold(0.0, f64::max));
     for p in &mut m.positions {
         *p = p.map(|v| v * k);
     }
     for (path, format) in paths.iter().zip(&formats) {
+        global
+            .limits
+            .check(
+                || {
+                    format!(
+                        "writing {} ({} triangles)",
+                        path.display(),
+                        m.triangles.len()
+                    )
+                },
+                file_memory(&m, format, file),
+            )
+            .map_err(|e| CliError::Failed(e.to_string()))?;
         let bytes = encode(&m, format, file).map_err(|e| CliError::io(path, e))?;
         outputs.write_path(path, &bytes)?;
     }
@@ -272,7 +306,6 @@ pub fn lithophane(global: &GlobalArgs, a: &LithophaneArgs) -> CliResult {
     for p in &paths {
         outputs.check_path(p)?;
     }
-    check_cells(a.cells, &global.limits)?;
     let (w, h, grey) = caoen::frep::assets::grey_levels(&a.image, "image", 1.0, &global.limits)
         .map_err(|e| CliError::Failed(format!("{}: {e}", a.image.display())))?;
     let (node, height) = lithophane_node(a, (w, h, &grey), (width, frame), (thin, thick), global)?;

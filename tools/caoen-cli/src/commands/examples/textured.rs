@@ -50,11 +50,40 @@ pub fn textured_scene() -> serde_json::Value {
     })
 }
 
-/// Writes `dir/textured-surface.scene.json` (its image is `frep/globe.png`) and
-/// `dir/checker.scene.json`.
+/// Writes `dir/textured-surface.scene.json` (its image is `frep/globe.png`),
+/// `dir/checker.scene.json` and `dir/bumps.scene.json`.
 pub(super) fn write_surface(dir: &Path) -> CliResult {
     save_json(dir, "textured-surface.scene.json", &surface_scene())?;
-    save_json(dir, "checker.scene.json", &checker_scene())
+    save_json(dir, "checker.scene.json", &checker_scene())?;
+    save_json(dir, "bumps.scene.json", &bumps_scene())
+}
+
+/// The scene of `examples/bumps.scene.json`: POV-Ray's `bumps`, `dents` and
+/// `wrinkles` normal patterns on a slab, a ball and a Cao En solid.
+pub fn bumps_scene() -> serde_json::Value {
+    serde_json::json!({
+        "format": "caoen-scene/1",
+        "name": "bump patterns",
+        "camera": {"projection": "perspective", "fov_deg": 30.0, "view_from": [0.35, -1.6, 0.9]},
+        "background": [0.75, 0.8, 0.88],
+        "ambient": [0.25, 0.25, 0.25],
+        "lights": [
+            {"direction": [-0.8, -1.0, 1.2], "colour": [1.0, 0.97, 0.92], "intensity": 1.0},
+            {"direction": [1.0, -0.4, 0.6], "colour": [0.75, 0.82, 1.0], "intensity": 0.3}
+        ],
+        "objects": [
+            {"name": "slab", "frep": {"box": {"centre": [0.0, 0.1, -0.55], "size": [2.4, 1.8, 0.1]}},
+             "material": {"colour": [0.85, 0.82, 0.75], "specular": 0.0,
+                          "normal": {"bumps": 0.6, "scale": 0.15}}},
+            {"name": "ball", "frep": {"sphere": {"centre": [-0.45, 0.25, -0.15], "radius": 0.35}},
+             "material": {"colour": [0.9, 0.3, 0.2], "specular": 0.3,
+                          "normal": {"dents": 3.0, "scale": 0.12}}},
+            {"name": "Cao En solid", "frep": {"cao_en_solid": {"centre": [0.45, -0.1, -0.2], "level": 2.0,
+                "polyhedron": "dodecahedron", "q": 12.0, "radius": 0.3}},
+             "material": {"colour": [0.3, 0.6, 0.4], "specular": 0.4, "shininess": 60,
+                          "normal": {"wrinkles": 0.3, "scale": 0.25}}}
+        ]
+    })
 }
 
 /// The scene of `examples/checker.scene.json`: POV-Ray's `checker` pigment on a slab,
