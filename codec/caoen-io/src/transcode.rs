@@ -155,12 +155,12 @@ pub fn decode_to_image_memory(
     let need = match format.and_then(|f| direct_depth(header, opts, f)) {
         Some(d) => {
             let b = if d == Depth::Eight { 1 } else { 2 };
-            // The samples, the file (counted at their size) and, for 16 bits, the
-            // samples as bytes.
+            // The samples, the file as it is made and, for 16 bits, the samples as
+            // bytes.
             decoder::decode_memory(header, (ow, oh), None, b).saturating_add(budget::bytes(
                 u64::from(ow) * u64::from(oh),
                 channels,
-                2 * b - 1,
+                write::png_file_bytes_per_sample(b) + 2 * (b - 1),
             ))
         }
         None => decoder::decode_memory(header, (ow, oh), opts.supersample, 4).saturating_add(
