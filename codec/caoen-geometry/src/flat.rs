@@ -13,7 +13,7 @@ type V3 = [f64; 3];
 /// plane: the patch's median coordinate. Returns the vertices moved.
 pub fn snap_flat_faces(pos: &mut [V3], tris: &[[u32; 3]], tolerance: f64) -> usize {
     let mut moved = 0;
-    for axis in 0..3 {
+    for axis in [0usize, 1, 2] {
         // Flat triangles, grouped by their vertices into patches (union-find).
         let mut parent: HashMap<u32, u32> = HashMap::new();
         fn root(parent: &mut HashMap<u32, u32>, v: u32) -> u32 {

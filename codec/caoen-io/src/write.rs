@@ -64,7 +64,7 @@ pub fn png_file_bytes_per_sample(bytes_per_sample: u64) -> u64 {
 
 /// Estimated memory of [`encode`] beside the raster itself, in bytes: the interleaved
 /// samples (twice for 16-bit, which is built through a temporary) and the file as it
-/// is made ([`png_file_bytes_per_sample`]; an EXR at its uncompressed size).
+/// is made (`png_file_bytes_per_sample`; an EXR at its uncompressed size).
 pub fn encode_memory(width: u32, height: u32, channels: usize, format: OutputFormat) -> u64 {
     let per_sample = match format {
         OutputFormat::Png8 => 1 + png_file_bytes_per_sample(1),
